@@ -1,0 +1,229 @@
+"""The derived dynamic model: D(Q), Christoffel C, g, τ and the state-space form (Madill 3.9).
+
+:func:`derive` runs the derivation once, in intermediate symbols (see
+:mod:`symbolic.subexpressions`), and returns a :class:`DynamicModel`. The contract attributes of
+DESIGN.md (``.D``, ``.christoffel``, ``.coriolis_vector``, ``.gravity``, ``.stiffness``) are the fully
+expanded SymPy forms in coordinate and parameter symbols, computed on first access; the compact
+forms used for code generation stay in :attr:`DynamicModel.reduced`.
+
+Equations of motion (3.82): D(Q)Q̈ + (I_N⊗Q̇ᵀ)C(Q)Q̇ + g(Q) = τ − J(Q)ᵀF_ext.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import sympy as sp
+
+from symbolic import christoffel as ch
+from symbolic.gravity import potential_energy
+from symbolic.inertia import composite_inertias, inertia_matrix
+from symbolic.kinematics import Kinematics
+from symbolic.newton_euler import inverse_dynamics
+from symbolic.spec import Robot, acceleration_symbol, velocity_symbol
+from symbolic.subexpressions import Subexpressions
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class ReducedForms:
+    """Derived quantities as short expressions in the intermediates of :attr:`DynamicModel.sub`.
+
+    Attributes
+    ----------
+    D
+        Inertia matrix D(Q), N×N.
+    dD
+        [∂D/∂Q_1, …, ∂D/∂Q_N].
+    christoffel
+        Symmetric Christoffel matrix, N²×N (block k holds c_ijk).
+    coriolis
+        (I_N⊗Q̇ᵀ)CQ̇ from the Christoffel symbols (3.82).
+    coriolis_matrix
+        C(Q,Q̇) with C(Q,Q̇)Q̇ = coriolis and Ḋ − 2C(Q,Q̇) skew-symmetric.
+    gravity
+        g(Q) = ∂V_g/∂Qᵀ (Newton–Euler with Q̇ = Q̈ = 0).
+    potential
+        V_g(Q).
+    tau
+        τ = DQ̈ + (I⊗Q̇ᵀ)CQ̇ + g by Newton–Euler.
+    """
+
+    D: sp.Matrix
+    dD: list[sp.Matrix]
+    christoffel: sp.Matrix
+    coriolis: sp.Matrix
+    coriolis_matrix: sp.Matrix
+    gravity: sp.Matrix
+    potential: sp.Expr
+    tau: sp.Matrix
+
+
+@dataclass
+class DynamicModel:
+    """A robot's derived dynamics. Build with :func:`derive`."""
+
+    robot: Robot
+    sub: Subexpressions
+    kinematics: Kinematics
+    reduced: ReducedForms
+    timings: dict[str, float] = field(default_factory=dict)
+
+    # -- symbols -------------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return self.robot.name
+
+    @property
+    def coordinates(self) -> tuple[sp.Symbol, ...]:
+        """Generalized coordinates Q (N)."""
+        return self.robot.coordinate_symbols
+
+    @property
+    def velocities(self) -> tuple[sp.Symbol, ...]:
+        return tuple(velocity_symbol(c) for c in self.robot.coordinates)
+
+    @property
+    def accelerations(self) -> tuple[sp.Symbol, ...]:
+        return tuple(acceleration_symbol(c) for c in self.robot.coordinates)
+
+    @property
+    def parameters(self) -> dict[sp.Symbol, float]:
+        """Parameter symbols with their nominal values, in model-file order."""
+        return self.robot.parameter_values
+
+    @property
+    def parameter_symbols(self) -> tuple[sp.Symbol, ...]:
+        return self.robot.parameter_symbols
+
+    @property
+    def n(self) -> int:
+        return len(self.robot.coordinates)
+
+    # -- expanded contract attributes ------------------------------------------------------
+    def expand(self, expr: sp.Expr | sp.Matrix) -> sp.Expr | sp.Matrix:
+        """Replace intermediates by their definitions: a SymPy object in Q, Q̇, Q̈ and parameters."""
+        if isinstance(expr, sp.MatrixBase):
+            return expr.applyfunc(self.sub.expand)
+        return self.sub.expand(expr)
+
+    @cached_property
+    def D(self) -> sp.Matrix:
+        """D(Q), N×N, symmetric."""
+        return self.expand(self.reduced.D)
+
+    @cached_property
+    def christoffel(self) -> sp.Matrix:
+        """N²×N: blocks C_1 … C_N of Christoffel symbols c_ijk (Madill (3.81), symmetric form)."""
+        return self.expand(self.reduced.christoffel)
+
+    @cached_property
+    def coriolis_vector(self) -> sp.Matrix:
+        """(I_N⊗Q̇ᵀ)C(Q)Q̇ of (3.82)."""
+        return self.expand(self.reduced.coriolis)
+
+    @cached_property
+    def coriolis_matrix(self) -> sp.Matrix:
+        """C(Q,Q̇) with C(Q,Q̇)Q̇ = coriolis_vector and Ḋ − 2C(Q,Q̇) skew-symmetric."""
+        return self.expand(self.reduced.coriolis_matrix)
+
+    @cached_property
+    def gravity(self) -> sp.Matrix:
+        """g(Q) = ∂V_g/∂Qᵀ."""
+        return self.expand(self.reduced.gravity)
+
+    @cached_property
+    def potential_energy(self) -> sp.Expr:
+        """V_g(Q)."""
+        return self.expand(self.reduced.potential)
+
+    @cached_property
+    def stiffness(self) -> sp.Matrix:
+        """∂V_strain/∂Qᵀ: zero for rigid models."""
+        return sp.zeros(self.n, 1)
+
+    @cached_property
+    def inverse_dynamics(self) -> sp.Matrix:
+        """τ = D Q̈ + (I⊗Q̇ᵀ)CQ̇ + g (Newton–Euler form)."""
+        return self.expand(self.reduced.tau)
+
+    def christoffel_literal(self) -> sp.Matrix:
+        """C = Z·∂D/∂Qᵀ exactly as printed in Madill (3.81), expanded (blocks not symmetric)."""
+        return self.expand(ch.christoffel_literal(self.reduced.dD))
+
+    def jacobian(self) -> sp.Matrix:
+        """End-effector Jacobian J(Q) (3.57), expanded."""
+        return self.expand(self.kinematics.end_effector_jacobian())
+
+    # -- numbers -------------------------------------------------------------------------
+    @cached_property
+    def numeric(self):
+        """Numerical functions of this model (:class:`symbolic.simulation.NumericModel`)."""
+        from symbolic.statespace import NumericModel
+
+        return NumericModel(self)
+
+    def operation_counts(self) -> dict[str, int]:
+        """Operations of the straight-line programs for each output (``count_ops`` of definitions)."""
+        r = self.reduced
+        return {
+            "D": self.sub.count_ops(list(r.D.upper_triangular())),
+            "christoffel": self.sub.count_ops(list(r.christoffel)),
+            "coriolis": self.sub.count_ops(list(r.coriolis)),
+            "coriolis_matrix": self.sub.count_ops(list(r.coriolis_matrix)),
+            "gravity": self.sub.count_ops(list(r.gravity)),
+            "tau": self.sub.count_ops(list(r.tau)),
+        }
+
+    def summary(self) -> str:
+        """A short human-readable description of the derived model."""
+        ops = self.operation_counts()
+        lines = [
+            f"model {self.name}: {self.robot.description}".rstrip(": "),
+            f"  coordinates ({self.n}): {', '.join(self.robot.coordinates)}",
+            f"  parameters ({len(self.robot.parameters)}): {', '.join(p.name for p in self.robot.parameters)}",
+            f"  frames {len(self.robot.frames)}, bodies {len(self.robot.bodies)}, constraints {len(self.robot.constraints)}",
+            f"  intermediates {len(self.sub)}; derivation {sum(self.timings.values()):.2f} s",
+            "  operations: " + ", ".join(f"{k} {v}" for k, v in ops.items()),
+        ]
+        return "\n".join(lines)
+
+
+def derive(robot: Robot) -> DynamicModel:
+    """Derive D(Q), the Christoffel matrix, Coriolis terms, g and τ for ``robot``.
+
+    Progress is logged at INFO level (``logging.getLogger("symbolic")``).
+    """
+    timings: dict[str, float] = {}
+    q = robot.coordinate_symbols
+    qd = tuple(velocity_symbol(c) for c in robot.coordinates)
+    qdd = tuple(acceleration_symbol(c) for c in robot.coordinates)
+    sub = Subexpressions(q + qd + qdd)
+
+    def step(name: str, func):
+        start = time.perf_counter()
+        result = func()
+        timings[name] = time.perf_counter() - start
+        log.info("%s: %s done in %.2f s (%d intermediates)", robot.name, name, timings[name], len(sub))
+        return result
+
+    kin = step("kinematics", lambda: Kinematics(robot, sub))
+    composite = step("composite inertias", lambda: composite_inertias(kin))
+    D = step("inertia matrix", lambda: inertia_matrix(kin, composite))
+    dD = step("dD/dQ", lambda: ch.inertia_derivatives(D, q, sub))
+    C = step("christoffel", lambda: ch.christoffel_symbols(dD, sub))
+    coriolis = step("coriolis", lambda: ch.coriolis_vector(C, qd))
+    cmat = step("coriolis matrix", lambda: ch.coriolis_matrix(C, qd))
+    zero = {x: sp.Integer(0) for x in q}
+    gravity = step("gravity", lambda: inverse_dynamics(kin, zero, zero, gravity=True))
+    potential = step("potential", lambda: potential_energy(kin))
+    tau = step(
+        "newton-euler",
+        lambda: inverse_dynamics(kin, dict(zip(q, qd)), dict(zip(q, qdd)), gravity=True),
+    )
+    reduced = ReducedForms(D, dD, C, coriolis, cmat, gravity, potential, tau)
+    return DynamicModel(robot, sub, kin, reduced, timings)

@@ -1,0 +1,132 @@
+"""The inertia matrix D(Q) from the bodies' kinetic energy (Madill 3.7, 3.9.1).
+
+K = ½ Q̇ᵀ D(Q) Q̇ with K = Σ_b ½ V_bᵀ M_b V_b, V_b = J_b Q̇ the body's spatial velocity and M_b its
+spatial inertia at its frame's origin. Grouping the bodies of each subtree into a composite
+inertia I^c_f (as in the composite-rigid-body algorithm) gives
+
+    D = Σ_f [ S_fᵀ I^c_f S_f + S_fᵀ I^c_f Jp_f + Jp_fᵀ I^c_f S_f ],
+
+where S_f is frame f's own joint motion (6×N, columns of the coordinates in its DH row) and
+Jp_f = J_f − S_f the part of its Jacobian inherited from the parent. Each pair is summed once into
+the upper triangle, so D = Dᵀ holds by construction, not by simplification.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from symbolic.kinematics import FrameKinematics, Kinematics, cross
+from symbolic.spec import BASE, Body
+from symbolic.subexpressions import Subexpressions
+
+
+@dataclass
+class SpatialInertia:
+    """Mass m, first moment h = m·c and rotational inertia I_o about the frame origin (frame axes)."""
+
+    mass: sp.Expr
+    moment: sp.Matrix
+    rotational: sp.Matrix
+
+    @staticmethod
+    def zero() -> SpatialInertia:
+        return SpatialInertia(sp.Integer(0), sp.zeros(3, 1), sp.zeros(3, 3))
+
+    @staticmethod
+    def of_body(body: Body) -> SpatialInertia:
+        """Parallel-axis theorem: I_o = I_c + m (cᵀc E − c cᵀ)."""
+        c = sp.Matrix(body.com)
+        i = body.inertia
+        inertia_c = sp.Matrix([[i["xx"], i["xy"], i["xz"]], [i["xy"], i["yy"], i["yz"]], [i["xz"], i["yz"], i["zz"]]])
+        m = body.mass
+        return SpatialInertia(m, m * c, inertia_c + m * ((c.T * c)[0] * sp.eye(3) - c * c.T))
+
+    def __add__(self, other: SpatialInertia) -> SpatialInertia:
+        return SpatialInertia(self.mass + other.mass, self.moment + other.moment, self.rotational + other.rotational)
+
+    def is_zero(self) -> bool:
+        return self.mass == 0 and self.moment.is_zero_matrix and self.rotational.is_zero_matrix
+
+    def registered(self, sub: Subexpressions) -> SpatialInertia:
+        rot = self.rotational.applyfunc(sub.add)
+        return SpatialInertia(sub.add(self.mass), self.moment.applyfunc(sub.add), rot)
+
+    def apply(self, w: sp.Matrix, v: sp.Matrix) -> tuple[sp.Matrix, sp.Matrix]:
+        """Momentum of velocity (ω, v): (I_o ω + h × v, m v + ω × h)."""
+        return self.rotational * w + cross(self.moment, v), self.mass * v + cross(w, self.moment)
+
+    def to_parent(self, fk: FrameKinematics) -> SpatialInertia:
+        """The same inertia about the parent's origin, in the parent's axes.
+
+        Shift by p (child coordinates): h' = h + m p,
+        I' = I_o + m(pᵀp E − p pᵀ) + 2(pᵀh) E − p hᵀ − h pᵀ; then rotate by R.
+        """
+        p, h, m = fk.p_child, self.moment, self.mass
+        shifted = (
+            self.rotational
+            + m * ((p.T * p)[0] * sp.eye(3) - p * p.T)
+            + 2 * (p.T * h)[0] * sp.eye(3)
+            - p * h.T
+            - h * p.T
+        )
+        rotation = fk.local_rotation()
+        return SpatialInertia(m, rotation * (h + m * p), rotation * shifted * rotation.T)
+
+
+def composite_inertias(kin: Kinematics) -> dict[str, SpatialInertia]:
+    """I^c_f: inertia of every body in the subtree of frame f, at f's origin in f's axes."""
+    sub = kin.sub
+    own: dict[str, SpatialInertia] = {name: SpatialInertia.zero() for name in kin.frames}
+    own[BASE] = SpatialInertia.zero()
+    for body in kin.robot.bodies:
+        own[body.frame] = own[body.frame] + SpatialInertia.of_body(body)
+    composite = {name: own[name] for name in kin.frames}
+    for name in reversed(list(kin.frames)):
+        fk = kin.frames[name]
+        composite[name] = composite[name].registered(sub)
+        if fk.parent != BASE and not composite[name].is_zero():
+            composite[fk.parent] = composite[fk.parent] + composite[name].to_parent(fk)
+    return composite
+
+
+def inertia_matrix(kin: Kinematics, composite: dict[str, SpatialInertia] | None = None) -> sp.Matrix:
+    """D(Q) (N×N, symmetric by construction) in intermediates of ``kin.sub``."""
+    composite = composite if composite is not None else composite_inertias(kin)
+    coords = list(kin.coordinates)
+    index = {q: i for i, q in enumerate(coords)}
+    terms: dict[tuple[int, int], list[sp.Expr]] = {}
+    sub = kin.sub
+
+    def accumulate(i: int, j: int, value: sp.Expr) -> None:
+        terms.setdefault((min(i, j), max(i, j)), []).append(value)
+
+    for name, fk in kin.frames.items():
+        inertia = composite[name]
+        if inertia.is_zero() or not fk.coordinates:
+            continue
+        parent = kin.parent(fk)
+        momenta = {}
+        for q in fk.coordinates:
+            w, v = fk.joint_twist(q)
+            n, f = inertia.apply(w, v)
+            momenta[q] = (n.applyfunc(sub.add), f.applyfunc(sub.add))
+        own = fk.coordinates
+        for a, qa in enumerate(own):
+            n, f = momenta[qa]
+            for qb in own[a:]:
+                w, v = fk.joint_twist(qb)
+                accumulate(index[qa], index[qb], sub.add((n.T * w + f.T * v)[0]))
+            if parent is None:
+                continue
+            for qj, w_parent in parent.JO.items():
+                w = fk.to_child(w_parent).applyfunc(sub.add)
+                v = (fk.to_child(parent.JL[qj]) + cross(w, fk.p_child)).applyfunc(sub.add)
+                value = sub.add((n.T * w + f.T * v)[0])
+                accumulate(index[qa], index[qj], 2 * value if qa == qj else value)
+    n = len(coords)
+    D = sp.zeros(n, n)
+    for (i, j), parts in terms.items():
+        D[i, j] = D[j, i] = sp.Add(*parts)
+    return D

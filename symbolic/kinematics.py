@@ -1,0 +1,277 @@
+"""Frame kinematics: DH transforms, R and d per frame, J^v and J^Ω (Madill 3.4–3.6).
+
+Each frame's motion relative to its parent is the DH joint: a rotation θ about and a
+translation d along the joint axis, whose rates are linear in Q̇ because θ and d are expressions
+of the coordinates (θ̇ = Σ_k ∂θ/∂Q_k Q̇_k). Jacobians are accumulated recursively in each
+frame's own coordinates — the body-frame angular Jacobian is exactly Madill's J^Ω of (3.52),
+Ω = Rᵀω = J^Ω Q̇, and J^v = ∂d/∂Q of (3.53) is R times the body-frame linear Jacobian — so no
+product of rotation matrices is ever differentiated and sin² + cos² never needs simplifying.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from symbolic.spec import BASE, Robot, coordinate_symbol
+from symbolic.subexpressions import Subexpressions
+
+Vec = sp.Matrix
+ZERO3 = sp.ImmutableMatrix.zeros(3, 1)
+E_X = sp.ImmutableMatrix([1, 0, 0])
+E_Z = sp.ImmutableMatrix([0, 0, 1])
+
+
+def dh_transform(convention: str, theta: sp.Expr, d: sp.Expr, a: sp.Expr, alpha: sp.Expr) -> sp.Matrix:
+    """Homogeneous transform of one DH row.
+
+    Standard: ``A(θ,d,a,α) = Rz(θ)·Tz(d)·Tx(a)·Rx(α)`` (Madill's A, section 3.13).
+    Modified (Khalil–Kleinfinger, Craig): ``Rx(α)·Tx(a)·Rz(θ)·Tz(d)`` (Janot Table 1).
+    """
+    ct, st, ca, sa = sp.cos(theta), sp.sin(theta), sp.cos(alpha), sp.sin(alpha)
+    if convention == "standard":
+        return sp.Matrix(
+            [[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0, sa, ca, d], [0, 0, 0, 1]]
+        )
+    if convention == "modified":
+        return sp.Matrix([[ct, -st, 0, a], [ca * st, ca * ct, -sa, -sa * d], [sa * st, sa * ct, ca, ca * d], [0, 0, 0, 1]])
+    raise ValueError(f"unknown DH convention {convention!r}")
+
+
+def skew(v: sp.Matrix) -> sp.Matrix:
+    """S(v) with S(v)x = v × x (Madill Appendix D)."""
+    return sp.Matrix([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+
+
+def unskew(m: sp.Matrix) -> sp.Matrix:
+    """S⁻¹(A) = [a32, a13, a21]ᵀ for a skew-symmetric A (Madill (3.51))."""
+    return sp.Matrix([m[2, 1], m[0, 2], m[1, 0]])
+
+
+def cross(u: sp.Matrix, v: sp.Matrix) -> sp.Matrix:
+    return sp.Matrix([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]])
+
+
+def _rz(c: sp.Expr, s: sp.Expr, x: sp.Matrix) -> sp.Matrix:
+    return sp.Matrix([c * x[0] - s * x[1], s * x[0] + c * x[1], x[2]])
+
+
+def _rx(c: sp.Expr, s: sp.Expr, x: sp.Matrix) -> sp.Matrix:
+    return sp.Matrix([x[0], c * x[1] - s * x[2], s * x[1] + c * x[2]])
+
+
+@dataclass
+class FrameKinematics:
+    """Kinematic quantities of one frame, in intermediates of a shared :class:`Subexpressions`.
+
+    Attributes
+    ----------
+    theta_rate, d_rate
+        ∂θ/∂Q_k and ∂d/∂Q_k for the coordinates the frame's DH row depends on.
+    theta_twist, d_twist
+        (angular, linear) velocity of the frame relative to its parent, in frame coordinates,
+        per unit θ̇ and per unit ḋ.
+    p_child
+        Vector from the parent's origin to this origin, in this frame's coordinates.
+    JO, JL
+        Body-frame angular (Madill's J^Ω, (3.52)) and origin-velocity Jacobians, by coordinate.
+    R, origin
+        Orientation and origin in the base frame (Madill's R and d, (3.42)).
+    """
+
+    name: str
+    parent: str
+    convention: str
+    theta: sp.Expr
+    d: sp.Expr
+    a: sp.Expr
+    alpha: sp.Expr
+    cos_theta: sp.Expr
+    sin_theta: sp.Expr
+    cos_alpha: sp.Expr
+    sin_alpha: sp.Expr
+    theta_rate: dict[sp.Symbol, sp.Expr] = field(default_factory=dict)
+    d_rate: dict[sp.Symbol, sp.Expr] = field(default_factory=dict)
+    theta_twist: tuple[sp.Matrix, sp.Matrix] = (ZERO3, ZERO3)
+    d_twist: tuple[sp.Matrix, sp.Matrix] = (ZERO3, ZERO3)
+    theta_sq_accel: sp.Matrix = field(default=ZERO3)
+    p_child: sp.Matrix = field(default=ZERO3)
+    p_parent: sp.Matrix = field(default=ZERO3)
+    JO: dict[sp.Symbol, sp.Matrix] = field(default_factory=dict)
+    JL: dict[sp.Symbol, sp.Matrix] = field(default_factory=dict)
+    R: sp.Matrix = field(default_factory=lambda: sp.eye(3))
+    origin: sp.Matrix = field(default=ZERO3)
+
+    @property
+    def coordinates(self) -> list[sp.Symbol]:
+        """Coordinates moving this frame relative to its parent, in a stable order."""
+        return sorted(set(self.theta_rate) | set(self.d_rate), key=sp.default_sort_key)
+
+    def to_child(self, x: sp.Matrix) -> sp.Matrix:
+        """Rᵀx: a parent-frame vector in this frame's coordinates."""
+        if self.convention == "standard":
+            return _rx(self.cos_alpha, -self.sin_alpha, _rz(self.cos_theta, -self.sin_theta, x))
+        return _rz(self.cos_theta, -self.sin_theta, _rx(self.cos_alpha, -self.sin_alpha, x))
+
+    def to_parent(self, x: sp.Matrix) -> sp.Matrix:
+        """Rx: a vector in this frame's coordinates in the parent's."""
+        if self.convention == "standard":
+            return _rz(self.cos_theta, self.sin_theta, _rx(self.cos_alpha, self.sin_alpha, x))
+        return _rx(self.cos_alpha, self.sin_alpha, _rz(self.cos_theta, self.sin_theta, x))
+
+    def local_rotation(self) -> sp.Matrix:
+        cols = [self.to_parent(sp.Matrix([int(i == j) for j in range(3)])) for i in range(3)]
+        return sp.Matrix.hstack(*cols)
+
+    def joint_twist(self, q: sp.Symbol) -> tuple[sp.Matrix, sp.Matrix]:
+        """(angular, linear) relative velocity per unit Q̇_q, in this frame's coordinates."""
+        wt, vt = self.theta_twist
+        wd, vd = self.d_twist
+        kt, kd = self.theta_rate.get(q, 0), self.d_rate.get(q, 0)
+        return wt * kt + wd * kd, vt * kt + vd * kd
+
+
+class Kinematics:
+    """Kinematics of all frames of a robot, with constraint expressions substituted.
+
+    Parameters
+    ----------
+    robot
+        The validated robot.
+    sub
+        Registry receiving the intermediate expressions.
+    """
+
+    def __init__(self, robot: Robot, sub: Subexpressions) -> None:
+        self.robot = robot
+        self.sub = sub
+        self.coordinates = robot.coordinate_symbols
+        self.frames: dict[str, FrameKinematics] = {}
+        constraint = robot.constraint_substitution
+        for f in robot.frames:
+            values = {k: getattr(f, k).xreplace(constraint) for k in ("theta", "d", "a", "alpha")}
+            self.frames[f.name] = self._frame(f.name, f.parent, **values)
+
+    def _frame(self, name: str, parent: str, theta: sp.Expr, d: sp.Expr, a: sp.Expr, alpha: sp.Expr) -> FrameKinematics:
+        add = self.sub.add
+        fk = FrameKinematics(
+            name=name,
+            parent=parent,
+            convention=self.robot.convention,
+            theta=theta,
+            d=d,
+            a=a,
+            alpha=alpha,
+            cos_theta=add(sp.cos(theta)),
+            sin_theta=add(sp.sin(theta)),
+            cos_alpha=add(sp.cos(alpha)),
+            sin_alpha=add(sp.sin(alpha)),
+        )
+        for q in self.coordinates:
+            if theta.has(q):
+                fk.theta_rate[q] = add(sp.diff(theta, q))
+            if d.has(q):
+                fk.d_rate[q] = add(sp.diff(d, q))
+        ca, sa, ct, st = fk.cos_alpha, fk.sin_alpha, fk.cos_theta, fk.sin_theta
+        if fk.convention == "standard":
+            u = sp.Matrix([0, sa, ca])
+            w = sp.Matrix([0, ca, -sa])
+            fk.theta_twist = (u, w * a)
+            fk.d_twist = (ZERO3, u)
+            fk.theta_sq_accel = -a * E_X
+            fk.p_child = sp.Matrix([a, d * sa, d * ca]).applyfunc(add)
+            fk.p_parent = sp.Matrix([a * ct, a * st, d]).applyfunc(add)
+        else:
+            fk.theta_twist = (E_Z, ZERO3)
+            fk.d_twist = (ZERO3, E_Z)
+            fk.p_child = sp.Matrix([a * ct, -a * st, d]).applyfunc(add)
+            fk.p_parent = sp.Matrix([a, -sa * d, ca * d]).applyfunc(add)
+        self._jacobians(fk)
+        self._placement(fk)
+        return fk
+
+    def parent(self, fk: FrameKinematics) -> FrameKinematics | None:
+        return None if fk.parent == BASE else self.frames[fk.parent]
+
+    def _jacobians(self, fk: FrameKinematics) -> None:
+        """Body Jacobians by recursion: J_f = X_{f←p} J_p + S_f (columns by coordinate)."""
+        parent = self.parent(fk)
+        add = self.sub.add
+        columns = set(fk.coordinates) | (set(parent.JO) if parent else set())
+        for q in sorted(columns, key=sp.default_sort_key):
+            w_rel, v_rel = fk.joint_twist(q)
+            if parent is not None and q in parent.JO:
+                w_p = fk.to_child(parent.JO[q]).applyfunc(add)
+                v_p = (fk.to_child(parent.JL[q]) + cross(w_p, fk.p_child)).applyfunc(add)
+            else:
+                w_p, v_p = ZERO3, ZERO3
+            fk.JO[q] = (w_p + w_rel).applyfunc(add)
+            fk.JL[q] = (v_p + v_rel).applyfunc(add)
+
+    def _placement(self, fk: FrameKinematics) -> None:
+        parent = self.parent(fk)
+        add = self.sub.add
+        local = fk.local_rotation()
+        if parent is None:
+            fk.R = local.applyfunc(add)
+            fk.origin = fk.p_parent
+        else:
+            fk.R = (parent.R * local).applyfunc(add)
+            fk.origin = (parent.origin + parent.R * fk.p_parent).applyfunc(add)
+
+    # -- public quantities ---------------------------------------------------------------
+    def rotation(self, frame: str) -> sp.Matrix:
+        """R of (3.42): orientation of ``frame`` in the base frame."""
+        return sp.eye(3) if frame == BASE else self.frames[frame].R
+
+    def translation(self, frame: str) -> sp.Matrix:
+        """d of (3.42): origin of ``frame`` in the base frame."""
+        return sp.zeros(3, 1) if frame == BASE else self.frames[frame].origin
+
+    def transform(self, frame: str) -> sp.Matrix:
+        """The homogeneous transform H_0^frame of (3.42)."""
+        return sp.Matrix.vstack(sp.Matrix.hstack(self.rotation(frame), self.translation(frame)), sp.Matrix([[0, 0, 0, 1]]))
+
+    def _columns(self, table: dict[sp.Symbol, sp.Matrix]) -> sp.Matrix:
+        return sp.Matrix.hstack(*[table.get(q, ZERO3) for q in self.coordinates])
+
+    def jacobian_omega(self, frame: str) -> sp.Matrix:
+        """J^Ω of (3.52): Ω = Rᵀω = J^Ω Q̇, angular velocity in frame coordinates (3×N)."""
+        if frame == BASE:
+            return sp.zeros(3, len(self.coordinates))
+        return self._columns(self.frames[frame].JO)
+
+    def jacobian_linear_body(self, frame: str) -> sp.Matrix:
+        """Rᵀ ḋ = (Rᵀ J^v) Q̇: velocity of the frame origin in frame coordinates (3×N)."""
+        if frame == BASE:
+            return sp.zeros(3, len(self.coordinates))
+        return self._columns(self.frames[frame].JL)
+
+    def jacobian_v(self, frame: str) -> sp.Matrix:
+        """J^v = ∂d/∂Q of (3.53), in base coordinates (3×N)."""
+        return (self.rotation(frame) * self.jacobian_linear_body(frame)).applyfunc(self.sub.add)
+
+    def point_jacobian(self, frame: str, point: sp.Matrix) -> sp.Matrix:
+        """J = J^v − R S(p) J^Ω of (3.56) for a point p fixed in ``frame`` (rigid: no modes)."""
+        body = self.jacobian_linear_body(frame) - skew(point) * self.jacobian_omega(frame)
+        return (self.rotation(frame) * body).applyfunc(self.sub.add)
+
+    def point_position(self, frame: str, point: sp.Matrix) -> sp.Matrix:
+        """p₀ = R p + d of (3.43) for a point p fixed in ``frame``."""
+        return (self.rotation(frame) * point + self.translation(frame)).applyfunc(self.sub.add)
+
+    def end_effector_jacobian(self) -> sp.Matrix:
+        """Jacobian of the model's end-effector point (3.57); τ = JᵀF maps a base-frame force (3.58)."""
+        ee = self.robot.end_effector
+        if ee is None:
+            raise ValueError(f"model {self.robot.name!r} declares no end_effector")
+        return self.point_jacobian(ee.frame, sp.Matrix(ee.point))
+
+    def generalized_force(self, force: sp.Matrix) -> sp.Matrix:
+        """τ = JᵀF of (3.58) for a base-frame force F at the end-effector point."""
+        return self.end_effector_jacobian().T * force
+
+
+def coordinate_symbols(robot: Robot) -> tuple[sp.Symbol, ...]:
+    return tuple(coordinate_symbol(c) for c in robot.coordinates)

@@ -1,0 +1,158 @@
+"""Read TOML model files (the contract in DESIGN.md, "Model file") into :class:`~symbolic.spec.Robot`.
+
+Parsing uses the standard library's :mod:`tomllib`; expressions are parsed by
+:mod:`symbolic.expressions`. Unknown keys are refused so that a typo does not silently drop a body.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from symbolic.errors import ModelError
+from symbolic.spec import DH_KEYS, INERTIA_KEYS, Body, Constraint, EndEffector, Frame, Parameter, Robot
+
+TOP_KEYS = {
+    "name",
+    "description",
+    "convention",
+    "coordinates",
+    "gravity",
+    "parameters",
+    "frame",
+    "body",
+    "constraint",
+    "end_effector",
+    "beam",
+    "friction",
+}
+SUPPORTED_LATER = {"beam", "friction"}
+
+
+def load(path: str | Path) -> Robot:
+    """Load and validate a model file.
+
+    Raises
+    ------
+    ModelError
+        Naming the file, the key and the problem, for any invalid content.
+    """
+    path = Path(path)
+    source = str(path)
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except OSError as exc:
+        raise ModelError(source, "file", f"cannot read model file: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise ModelError(source, "file", "model file is not UTF-8 text") from None
+    return loads(text, source)
+
+
+def loads(text: str, source: str = "<string>") -> Robot:
+    """Parse model-file text; ``source`` names it in error messages."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ModelError(source, "TOML syntax", str(exc)) from None
+    return _Reader(data, source).robot()
+
+
+class _Reader:
+    def __init__(self, data: Mapping[str, Any], source: str) -> None:
+        self.data = data
+        self.source = source
+
+    def fail(self, key: str, problem: str) -> ModelError:
+        return ModelError(self.source, key, problem)
+
+    def table(self, value: Any, key: str, allowed: set[str], required: set[str] = frozenset()) -> Mapping[str, Any]:
+        if not isinstance(value, Mapping):
+            raise self.fail(key, f"expected a table, got {type(value).__name__}")
+        extra = set(value) - allowed
+        if extra:
+            raise self.fail(key, f"unknown key(s) {sorted(extra)} (allowed: {', '.join(sorted(allowed))})")
+        missing = set(required) - set(value)
+        if missing:
+            raise self.fail(key, f"missing key(s) {sorted(missing)}")
+        return value
+
+    def array(self, value: Any, key: str) -> list[Any]:
+        if not isinstance(value, list):
+            raise self.fail(key, f"expected an array, got {type(value).__name__}")
+        return value
+
+    def string(self, value: Any, key: str) -> str:
+        if not isinstance(value, str):
+            raise self.fail(key, f"expected a string, got {type(value).__name__}")
+        return value
+
+    def robot(self) -> Robot:
+        d = self.table(self.data, "top level", TOP_KEYS, {"name", "coordinates"})
+        for key in SUPPORTED_LATER & set(d):
+            raise self.fail(f"[[{key}]]", f"'{key}' entries are part of the model format but not supported by this version yet")
+        return Robot(
+            name=self.string(d["name"], "name"),
+            description=self.string(d.get("description", ""), "description"),
+            convention=self.string(d.get("convention", "standard"), "convention"),
+            coordinates=tuple(self.string(c, "coordinates") for c in self.array(d["coordinates"], "coordinates")),
+            gravity=tuple(self.array(d.get("gravity", [0, 0, "-9.81"]), "gravity")),
+            parameters=self.parameters(d.get("parameters", {})),
+            frames=tuple(self.frame(f, i) for i, f in enumerate(self.array(d.get("frame", []), "[[frame]]"))),
+            bodies=tuple(self.body(b, i) for i, b in enumerate(self.array(d.get("body", []), "[[body]]"))),
+            constraints=tuple(
+                self.constraint(c, i) for i, c in enumerate(self.array(d.get("constraint", []), "[[constraint]]"))
+            ),
+            end_effector=self.end_effector(d.get("end_effector")),
+            source=self.source,
+        )
+
+    def parameters(self, table: Any) -> tuple[Parameter, ...]:
+        if not isinstance(table, Mapping):
+            raise self.fail("[parameters]", "expected a table of name = value")
+        out = []
+        for name, value in table.items():
+            key = f"[parameters] {name}"
+            if isinstance(value, Mapping):
+                v = self.table(value, key, {"value", "unit", "description"}, {"value"})
+                number, unit, text = v["value"], v.get("unit", ""), v.get("description", "")
+            else:
+                number, unit, text = value, "", ""
+            if isinstance(number, bool) or not isinstance(number, (int, float)):
+                raise self.fail(key, f"nominal value must be a number, got {number!r}")
+            out.append(Parameter(name, float(number), self.string(unit, f"{key} unit"), self.string(text, f"{key} description")))
+        return tuple(out)
+
+    def frame(self, value: Any, index: int) -> Frame:
+        key = f"[[frame]] #{index + 1}"
+        f = self.table(value, key, {"name", "parent", "dh"}, {"name", "parent", "dh"})
+        name = self.string(f["name"], f"{key} name")
+        dh = self.table(f["dh"], f"[[frame]] {name!r} dh", set(DH_KEYS), set(DH_KEYS))
+        return Frame(name=name, parent=self.string(f["parent"], f"[[frame]] {name!r} parent"), **{k: dh[k] for k in DH_KEYS})
+
+    def body(self, value: Any, index: int) -> Body:
+        key = f"[[body]] #{index + 1}"
+        b = self.table(value, key, {"name", "frame", "mass", "com", "inertia"}, {"name", "frame", "mass"})
+        name = self.string(b["name"], f"{key} name")
+        inertia = b.get("inertia")
+        if inertia is not None:
+            inertia = self.table(inertia, f"[[body]] {name!r} inertia", set(INERTIA_KEYS))
+        return Body(
+            name=name,
+            frame=self.string(b["frame"], f"[[body]] {name!r} frame"),
+            mass=b["mass"],
+            com=tuple(self.array(b.get("com", [0, 0, 0]), f"[[body]] {name!r} com")),
+            inertia=inertia,
+        )
+
+    def constraint(self, value: Any, index: int) -> Constraint:
+        key = f"[[constraint]] #{index + 1}"
+        c = self.table(value, key, {"coordinate", "expression"}, {"coordinate", "expression"})
+        return Constraint(self.string(c["coordinate"], f"{key} coordinate"), c["expression"])
+
+    def end_effector(self, value: Any) -> EndEffector | None:
+        if value is None:
+            return None
+        e = self.table(value, "end_effector", {"frame", "point"}, {"frame"})
+        return EndEffector(self.string(e["frame"], "end_effector frame"), tuple(self.array(e.get("point", [0, 0, 0]), "end_effector point")))

@@ -1,0 +1,38 @@
+"""Numerical evaluation of derived expressions (for tests, simulation and linearisation).
+
+Expressions in intermediate symbols are turned into Python functions by :func:`sympy.lambdify`,
+passing the intermediate definitions as its common-subexpression list, so evaluation follows the
+same straight-line program the code generators print.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import sympy as sp
+
+from symbolic.subexpressions import Subexpressions
+
+
+def compile_function(
+    sub: Subexpressions,
+    arguments: Sequence[Sequence[sp.Symbol]],
+    outputs: sp.Matrix | Sequence[sp.Expr],
+) -> Callable[..., np.ndarray]:
+    """A function of array arguments (one per group of symbols) returning ``outputs`` as an array.
+
+    The returned array has the shape of ``outputs`` (a matrix gives a 2-D array).
+    """
+    matrix = sp.Matrix(outputs)
+    shape = matrix.shape
+    flat = list(matrix)
+    program = sub.program(flat)
+    symbols = [list(group) for group in arguments]
+    raw = sp.lambdify(symbols, flat, modules="math", cse=lambda exprs: (program, exprs))
+
+    def function(*values: Sequence[float]) -> np.ndarray:
+        result = raw(*[list(map(float, np.ravel(v))) for v in values])
+        return np.array(result, dtype=float).reshape(shape if shape[1] != 1 else (shape[0],))
+
+    return function

@@ -1,0 +1,169 @@
+"""State-space form (Madill (3.114)) and its linearisation (Madill 3.9.4), evaluated numerically.
+
+X = [Qᵀ Q̇ᵀ]ᵀ, U = [τᵀ F_extᵀ]ᵀ (F_ext only when the model declares an end effector):
+
+    Ẋ = [ X₂ ; D(X₁)⁻¹( [I −Jᵀ] U − (I⊗X₂ᵀ)C X₂ − g ) ].
+
+The linearisation A = ∂F/∂X, B = ∂F/∂U is computed from exact symbolic derivatives
+(∂D/∂Q, ∂P/∂Q, ∂P/∂Q̇ with P = (I⊗Q̇ᵀ)CQ̇ + g, ∂(JᵀF)/∂Q), not by finite differences:
+
+    ∂Q̈/∂Q_k = −D⁻¹( ∂D/∂Q_k Q̈ + ∂P/∂Q_k − ∂(JᵀF)/∂Q_k ),   ∂Q̈/∂Q̇ = −D⁻¹ ∂P/∂Q̇,   B = [0; D⁻¹[I −Jᵀ]].
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+from typing import TYPE_CHECKING
+
+import numpy as np
+import sympy as sp
+
+from symbolic.numeric import compile_function
+
+if TYPE_CHECKING:
+    from symbolic.dynamics import DynamicModel
+
+
+class NumericModel:
+    """Numerical functions of a :class:`~symbolic.dynamics.DynamicModel`.
+
+    All functions take the parameter vector ``p`` last, in ``model.robot.parameters`` order;
+    :attr:`p0` holds the nominal values.
+    """
+
+    def __init__(self, model: DynamicModel) -> None:
+        self.model = model
+        self.sub = model.sub
+        self.q = list(model.coordinates)
+        self.qd = list(model.velocities)
+        self.qdd = list(model.accelerations)
+        self.p = list(model.parameter_symbols)
+        self.p0 = np.array([v for v in model.parameters.values()], dtype=float)
+        self.n = model.n
+        self.has_force = model.robot.end_effector is not None
+        self.force = sp.symbols("_F0:3", real=True)
+
+    def _fn(self, args, outputs):
+        return compile_function(self.sub, args, outputs)
+
+    @cached_property
+    def _inertia(self):
+        return self._fn([self.q, self.p], self.model.reduced.D)
+
+    @cached_property
+    def _coriolis(self):
+        return self._fn([self.q, self.qd, self.p], self.model.reduced.coriolis)
+
+    @cached_property
+    def _coriolis_matrix(self):
+        return self._fn([self.q, self.qd, self.p], self.model.reduced.coriolis_matrix)
+
+    @cached_property
+    def _gravity(self):
+        return self._fn([self.q, self.p], self.model.reduced.gravity)
+
+    @cached_property
+    def _potential(self):
+        return self._fn([self.q, self.p], [self.model.reduced.potential])
+
+    @cached_property
+    def _tau(self):
+        return self._fn([self.q, self.qd, self.qdd, self.p], self.model.reduced.tau)
+
+    @cached_property
+    def _dD(self):
+        return self._fn([self.q, self.p], sp.Matrix.vstack(*self.model.reduced.dD))
+
+    @cached_property
+    def _jacobian(self):
+        return self._fn([self.q, self.p], self.model.kinematics.end_effector_jacobian())
+
+    def params(self, p=None) -> np.ndarray:
+        return self.p0 if p is None else np.asarray(p, dtype=float)
+
+    def inertia(self, q, p=None) -> np.ndarray:
+        return self._inertia(q, self.params(p))
+
+    def coriolis(self, q, qd, p=None) -> np.ndarray:
+        return self._coriolis(q, qd, self.params(p))
+
+    def coriolis_matrix(self, q, qd, p=None) -> np.ndarray:
+        return self._coriolis_matrix(q, qd, self.params(p))
+
+    def gravity(self, q, p=None) -> np.ndarray:
+        return self._gravity(q, self.params(p))
+
+    def potential(self, q, p=None) -> float:
+        return float(self._potential(q, self.params(p))[0])
+
+    def inverse_dynamics(self, q, qd, qdd, p=None) -> np.ndarray:
+        return self._tau(q, qd, qdd, self.params(p))
+
+    def inertia_derivatives(self, q, p=None) -> np.ndarray:
+        """∂D/∂Q_k stacked: shape (N, N, N), index [k, i, j]."""
+        return self._dD(q, self.params(p)).reshape(self.n, self.n, self.n)
+
+    def inertia_rate(self, q, qd, p=None) -> np.ndarray:
+        return np.einsum("kij,k->ij", self.inertia_derivatives(q, p), np.asarray(qd, float))
+
+    def jacobian(self, q, p=None) -> np.ndarray:
+        return self._jacobian(q, self.params(p))
+
+    def forward_dynamics(self, q, qd, tau, p=None, force=None) -> np.ndarray:
+        """Q̈ = D⁻¹(τ − J ᵀF − (I⊗Q̇ᵀ)CQ̇ − g) (3.114), by Cholesky; raises if D is not positive definite."""
+        rhs = np.asarray(tau, float) - self.coriolis(q, qd, p) - self.gravity(q, p)
+        if force is not None:
+            rhs = rhs - self.jacobian(q, p).T @ np.asarray(force, float)
+        factor = np.linalg.cholesky(self.inertia(q, p))
+        return np.linalg.solve(factor.T, np.linalg.solve(factor, rhs))
+
+    def state_derivative(self, x, u, p=None) -> np.ndarray:
+        """F(X, U) of (3.114)."""
+        x = np.asarray(x, float)
+        u = np.asarray(u, float)
+        q, qd = x[: self.n], x[self.n :]
+        force = u[self.n :] if self.has_force and u.size > self.n else None
+        return np.concatenate([qd, self.forward_dynamics(q, qd, u[: self.n], p, force)])
+
+    # -- linearisation ---------------------------------------------------------------------
+    @cached_property
+    def _linear_terms(self):
+        """∂P/∂Q (N×N), ∂P/∂Q̇ (N×N), ∂(JᵀF)/∂Q (N×N) as compiled functions."""
+        m = self.model
+        sub = self.sub
+        P = m.reduced.coriolis + m.reduced.gravity
+        dP_dq = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(P[i], self.q[k])))
+        dP_dqd = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(P[i], self.qd[k])))
+        funcs = {
+            "dP_dq": self._fn([self.q, self.qd, self.p], dP_dq),
+            "dP_dqd": self._fn([self.q, self.qd, self.p], dP_dqd),
+        }
+        if self.has_force:
+            JtF = m.kinematics.end_effector_jacobian().T * sp.Matrix(self.force)
+            dJtF = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(JtF[i], self.q[k])))
+            funcs["dJtF_dq"] = self._fn([self.q, self.force, self.p], dJtF)
+        return funcs
+
+    def linearize(self, x0, u0, p=None) -> tuple[np.ndarray, np.ndarray]:
+        """A = ∂F/∂X, B = ∂F/∂U at (X⁰, U⁰) (Madill 3.9.4), from exact derivatives."""
+        n = self.n
+        x0 = np.asarray(x0, float)
+        u0 = np.asarray(u0, float)
+        q, qd = x0[:n], x0[n:]
+        force = u0[n:] if self.has_force and u0.size > n else np.zeros(3)
+        D = self.inertia(q, p)
+        qdd = self.forward_dynamics(q, qd, u0[:n], p, force if self.has_force else None)
+        terms = self._linear_terms
+        dD = self.inertia_derivatives(q, p)
+        dP_dq = terms["dP_dq"](q, qd, self.params(p))
+        lhs = np.einsum("kij,j->ik", dD, qdd) + dP_dq
+        if self.has_force:
+            lhs -= terms["dJtF_dq"](q, force, self.params(p))
+        A = np.zeros((2 * n, 2 * n))
+        A[:n, n:] = np.eye(n)
+        A[n:, :n] = -np.linalg.solve(D, lhs)
+        A[n:, n:] = -np.linalg.solve(D, terms["dP_dqd"](q, qd, self.params(p)))
+        inputs = np.eye(n) if not self.has_force else np.hstack([np.eye(n), -self.jacobian(q, p).T])
+        B = np.zeros((2 * n, inputs.shape[1]))
+        B[n:, :] = np.linalg.solve(D, inputs)
+        return A, B

@@ -1,0 +1,152 @@
+"""Named intermediate expressions with chain-rule differentiation.
+
+Deriving dynamics by expanding everything makes expressions explode (a plain Lagrangian of a
+7-DOF arm has tens of thousands of operations). Instead every non-trivial quantity built during
+the derivation — a rotated vector component, a composite-inertia entry, a Jacobian column — is
+registered here under a fresh symbol ``_x<n>`` together with its (small) definition. Outputs are
+then short expressions in these symbols, the definitions form a straight-line program that code
+generators print directly, and identical definitions are shared automatically.
+
+Derivatives with respect to coordinates and velocities are taken by the chain rule through the
+definitions (forward mode), memoized per (symbol, variable) and registered in turn, so ∂D/∂Q for
+the Christoffel symbols costs a small multiple of D itself.
+
+The fully expanded SymPy form of any result is available through :meth:`Subexpressions.expand`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import sympy as sp
+
+
+def _is_trivial(expr: sp.Expr) -> bool:
+    """Cheap enough to repeat inline: numbers, symbols and number·symbol."""
+    if expr.is_Atom:
+        return True
+    if expr.is_Mul and len(expr.args) == 2 and expr.args[0].is_Number and expr.args[1].is_Atom:
+        return True
+    return False
+
+
+class Subexpressions:
+    """An ordered registry of intermediate symbols and their definitions.
+
+    Parameters
+    ----------
+    variables
+        Symbols that derivatives may be taken with respect to (coordinates and velocities).
+    prefix
+        Name prefix of the intermediate symbols; it cannot clash with user names, which must
+        start with a letter.
+    """
+
+    def __init__(self, variables: Iterable[sp.Symbol], prefix: str = "_x") -> None:
+        self.variables = frozenset(variables)
+        self.prefix = prefix
+        self.symbols: list[sp.Symbol] = []
+        self.definition: dict[sp.Symbol, sp.Expr] = {}
+        self.depends: dict[sp.Symbol, frozenset[sp.Symbol]] = {}
+        self._index: dict[sp.Expr, sp.Symbol] = {}
+        self._derivatives: dict[tuple[sp.Symbol, sp.Symbol], sp.Expr] = {}
+        self._expanded: dict[sp.Symbol, sp.Expr] = {}
+
+    def __len__(self) -> int:
+        return len(self.symbols)
+
+    def __contains__(self, symbol: object) -> bool:
+        return symbol in self.definition
+
+    # -- registration --------------------------------------------------------------------
+    def add(self, expr: sp.Expr | float | int) -> sp.Expr:
+        """Return a symbol standing for ``expr`` (or ``expr`` itself when it is trivial)."""
+        expr = sp.sympify(expr)
+        if _is_trivial(expr):
+            return expr
+        existing = self._index.get(expr)
+        if existing is not None:
+            return existing
+        symbol = sp.Symbol(f"{self.prefix}{len(self.symbols)}", real=True)
+        self.symbols.append(symbol)
+        self.definition[symbol] = expr
+        self.depends[symbol] = self.dependencies(expr)
+        self._index[expr] = symbol
+        return symbol
+
+    def add_all(self, exprs: Iterable[sp.Expr]) -> list[sp.Expr]:
+        return [self.add(e) for e in exprs]
+
+    def add_matrix(self, matrix: sp.Matrix) -> sp.Matrix:
+        return matrix.applyfunc(self.add)
+
+    def dependencies(self, expr: sp.Expr) -> frozenset[sp.Symbol]:
+        """The variables ``expr`` depends on, through intermediates."""
+        out: set[sp.Symbol] = set()
+        for s in expr.free_symbols:
+            if s in self.variables:
+                out.add(s)
+            elif s in self.depends:
+                out |= self.depends[s]
+        return frozenset(out)
+
+    # -- differentiation -----------------------------------------------------------------
+    def diff(self, expr: sp.Expr, variable: sp.Symbol) -> sp.Expr:
+        """∂expr/∂variable by the chain rule through intermediate definitions."""
+        expr = sp.sympify(expr)
+        terms = []
+        for s in sorted(expr.free_symbols, key=sp.default_sort_key):
+            if s == variable:
+                ds: sp.Expr = sp.Integer(1)
+            elif s in self.definition:
+                ds = self.derivative(s, variable)
+            else:
+                continue
+            if ds != 0:
+                terms.append(expr.diff(s) * ds)
+        return sp.Add(*terms)
+
+    def derivative(self, symbol: sp.Symbol, variable: sp.Symbol) -> sp.Expr:
+        """∂symbol/∂variable for an intermediate ``symbol`` (memoized and registered)."""
+        if variable not in self.depends[symbol]:
+            return sp.Integer(0)
+        key = (symbol, variable)
+        if key not in self._derivatives:
+            self._derivatives[key] = self.add(self.diff(self.definition[symbol], variable))
+        return self._derivatives[key]
+
+    # -- expansion and programs ----------------------------------------------------------
+    def expand(self, expr: sp.Expr) -> sp.Expr:
+        """Substitute all intermediates in ``expr`` by their full definitions."""
+        expr = sp.sympify(expr)
+        pending = [s for s in expr.free_symbols if s in self.definition and s not in self._expanded]
+        if pending:
+            for s in self.program_symbols(pending):
+                if s not in self._expanded:
+                    d = self.definition[s]
+                    self._expanded[s] = d.xreplace({t: self._expanded[t] for t in d.free_symbols if t in self.definition})
+        return expr.xreplace({s: self._expanded[s] for s in expr.free_symbols if s in self.definition})
+
+    def program_symbols(self, roots: Iterable[sp.Symbol]) -> list[sp.Symbol]:
+        """The intermediates needed to compute ``roots``, in definition order."""
+        needed: set[sp.Symbol] = set()
+        stack = [s for s in roots if s in self.definition]
+        while stack:
+            s = stack.pop()
+            if s in needed:
+                continue
+            needed.add(s)
+            stack.extend(t for t in self.definition[s].free_symbols if t in self.definition and t not in needed)
+        return sorted(needed, key=lambda s: int(s.name[len(self.prefix):]))
+
+    def program(self, outputs: Sequence[sp.Expr]) -> list[tuple[sp.Symbol, sp.Expr]]:
+        """The (symbol, definition) pairs needed to evaluate ``outputs``, in order."""
+        roots: set[sp.Symbol] = set()
+        for e in outputs:
+            roots |= sp.sympify(e).free_symbols
+        return [(s, self.definition[s]) for s in self.program_symbols(roots)]
+
+    def count_ops(self, outputs: Sequence[sp.Expr]) -> int:
+        """Arithmetic operations (SymPy's ``count_ops``) of the program computing ``outputs``."""
+        total = sum(sp.count_ops(d) for _, d in self.program(outputs))
+        return int(total + sum(sp.count_ops(e) for e in outputs))

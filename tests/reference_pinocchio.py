@@ -1,0 +1,87 @@
+"""Build a Pinocchio model from a serial DH robot spec, independently of symbolic's derivation.
+
+Only the spec's numbers are shared (DH rows, masses, centres of mass, inertias, gravity); the
+kinematics and dynamics come from Pinocchio's SE3 algebra and algorithms (crba, rnea,
+computeGeneralizedGravity, computeCoriolisMatrix).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import sympy as sp
+
+from symbolic.spec import Robot
+
+
+def _rot_x(alpha: float) -> pin.SE3:
+    return pin.SE3(pin.utils.rotate("x", alpha), np.zeros(3))
+
+
+def _rot_z(theta: float) -> pin.SE3:
+    return pin.SE3(pin.utils.rotate("z", theta), np.zeros(3))
+
+
+def _trans(x: float, y: float, z: float) -> pin.SE3:
+    return pin.SE3(np.eye(3), np.array([x, y, z]))
+
+
+def _value(expr: sp.Expr, values) -> float:
+    return float(expr.xreplace(values))
+
+
+def build(robot: Robot) -> pin.Model:
+    """A Pinocchio model with one revolute-z joint per frame (θ = q + constant, everything else fixed)."""
+    values = robot.parameter_values
+    coords = robot.coordinate_symbols
+    model = pin.Model()
+    model.gravity.linear = np.array([_value(g, values) for g in robot.gravity])
+    joint_of: dict[str, int] = {"base": 0}
+    post_of: dict[str, pin.SE3] = {"base": pin.SE3.Identity()}
+    for index, frame in enumerate(robot.frames):
+        (q,) = [c for c in coords if frame.theta.has(c)]
+        offset = _value(frame.theta - q, values)
+        assert not any(getattr(frame, k).has(*coords) for k in ("d", "a", "alpha"))
+        d, a, alpha = (_value(getattr(frame, k), values) for k in ("d", "a", "alpha"))
+        if robot.convention == "standard":
+            pre, post = _rot_z(offset), _trans(0, 0, d) * _trans(a, 0, 0) * _rot_x(alpha)
+        else:
+            pre, post = _rot_x(alpha) * _trans(a, 0, 0) * _rot_z(offset), _trans(0, 0, d)
+        placement = post_of[frame.parent] * pre
+        assert coords.index(q) == index, "reference builder expects frames in coordinate order"
+        joint_of[frame.name] = model.addJoint(joint_of[frame.parent], pin.JointModelRZ(), placement, f"j_{frame.name}")
+        post_of[frame.name] = post
+    for body in robot.bodies:
+        i = body.inertia
+        inertia = np.array(
+            [[i["xx"], i["xy"], i["xz"]], [i["xy"], i["yy"], i["yz"]], [i["xz"], i["yz"], i["zz"]]], dtype=object
+        )
+        inertia = np.vectorize(lambda e: _value(sp.sympify(e), values))(inertia).astype(float)
+        com = np.array([_value(c, values) for c in body.com])
+        Y = pin.Inertia(_value(body.mass, values), com, inertia)
+        model.appendBodyToJoint(joint_of[body.frame], Y, post_of[body.frame])
+    return model
+
+
+class Reference:
+    """Pinocchio's answers for a robot at a state."""
+
+    def __init__(self, robot: Robot) -> None:
+        self.model = build(robot)
+        self.data = self.model.createData()
+
+    def inertia(self, q) -> np.ndarray:
+        M = pin.crba(self.model, self.data, np.asarray(q, float)).copy()
+        return np.triu(M) + np.triu(M, 1).T
+
+    def gravity(self, q) -> np.ndarray:
+        return pin.computeGeneralizedGravity(self.model, self.data, np.asarray(q, float)).copy()
+
+    def rnea(self, q, qd, qdd) -> np.ndarray:
+        return pin.rnea(self.model, self.data, *(np.asarray(x, float) for x in (q, qd, qdd))).copy()
+
+    def coriolis_vector(self, q, qd) -> np.ndarray:
+        return self.rnea(q, qd, np.zeros(len(q))) - self.gravity(q)
+
+    def coriolis_matrix(self, q, qd) -> np.ndarray:
+        return pin.computeCoriolisMatrix(self.model, self.data, np.asarray(q, float), np.asarray(qd, float)).copy()
