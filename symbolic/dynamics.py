@@ -208,7 +208,8 @@ def derive(robot: Robot) -> DynamicModel:
         start = time.perf_counter()
         result = func()
         timings[name] = time.perf_counter() - start
-        log.info("%s: %s done in %.2f s (%d intermediates)", robot.name, name, timings[name], len(sub))
+        level = logging.INFO if timings[name] > 0.5 else logging.DEBUG  # progress only where it is felt
+        log.log(level, "%s: %s done in %.2f s (%d intermediates)", robot.name, name, timings[name], len(sub))
         return result
 
     kin = step("kinematics", lambda: Kinematics(robot, sub))

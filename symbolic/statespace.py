@@ -7,7 +7,7 @@ X = [Qᵀ Q̇ᵀ]ᵀ, U = [τᵀ F_extᵀ]ᵀ (F_ext only when the model declare
 The linearisation A = ∂F/∂X, B = ∂F/∂U is computed from exact symbolic derivatives
 (∂D/∂Q, ∂P/∂Q, ∂P/∂Q̇ with P = (I⊗Q̇ᵀ)CQ̇ + g, ∂(JᵀF)/∂Q), not by finite differences:
 
-    ∂Q̈/∂Q_k = −D⁻¹( ∂D/∂Q_k Q̈ + ∂P/∂Q_k − ∂(JᵀF)/∂Q_k ),   ∂Q̈/∂Q̇ = −D⁻¹ ∂P/∂Q̇,   B = [0; D⁻¹[I −Jᵀ]].
+    ∂Q̈/∂Q_k = −D⁻¹( ∂D/∂Q_k Q̈ + ∂P/∂Q_k + ∂(JᵀF)/∂Q_k ),   ∂Q̈/∂Q̇ = −D⁻¹ ∂P/∂Q̇,   B = [0; D⁻¹[I −Jᵀ]].
 """
 
 from __future__ import annotations
@@ -158,7 +158,7 @@ class NumericModel:
         dP_dq = terms["dP_dq"](q, qd, self.params(p))
         lhs = np.einsum("kij,j->ik", dD, qdd) + dP_dq
         if self.has_force:
-            lhs -= terms["dJtF_dq"](q, force, self.params(p))
+            lhs += terms["dJtF_dq"](q, force, self.params(p))
         A = np.zeros((2 * n, 2 * n))
         A[:n, n:] = np.eye(n)
         A[n:, :n] = -np.linalg.solve(D, lhs)

@@ -1,0 +1,29 @@
+# symbolic — common tasks. PYTHON may point at a virtualenv's interpreter.
+PYTHON ?= python3
+ROBOTS := fivebar puma560 panda janot_branch omni
+
+.PHONY: install test test-fast generate check-generated bench clean
+
+install:
+	$(PYTHON) -m pip install -e '.[dev]'
+
+test:
+	$(PYTHON) -m pytest -n 2 -q
+
+test-fast:
+	$(PYTHON) -m pytest -q -m "not slow"
+
+# Regenerate generated/ from the built-in robots (byte-identical from run to run).
+generate:
+	$(PYTHON) -m symbolic.builtin_outputs generated
+
+# Fails when the committed generated/ differs from a fresh generation.
+check-generated: generate
+	@git diff --exit-code --stat -- generated/ || (echo "generated/ is stale: run 'make generate' and commit" >&2; exit 1)
+	@test -z "$$(git status --porcelain --untracked-files=all -- generated/)" || (git status --short -- generated/; echo "generated/ has untracked files: run 'make generate' and commit" >&2; exit 1)
+
+bench:
+	$(PYTHON) bench/derivation.py --out bench/results/derivation.md
+
+clean:
+	rm -rf build dist *.egg-info .pytest_cache .hypothesis

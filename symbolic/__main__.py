@@ -1,0 +1,5 @@
+import sys
+
+from symbolic.cli import main
+
+sys.exit(main())

@@ -1,0 +1,86 @@
+"""Command line: ``symbolic derive MODEL`` (and ``python -m symbolic``).
+
+MODEL is a model file path or the name of a built-in robot (``symbolic list``). User mistakes are
+reported on stderr with exit code 2 and no traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import warnings
+from pathlib import Path
+
+import sympy as sp
+
+from symbolic import robots
+from symbolic.dynamics import derive
+from symbolic.errors import ModelError, ModelWarning
+from symbolic.modelfile import load
+from symbolic.simplify import compact
+from symbolic.spec import Robot
+
+
+def resolve(model: str) -> Robot:
+    """A model file path, or a built-in robot name."""
+    path = Path(model)
+    if path.suffix == ".toml" or path.exists():
+        return load(path)
+    if model in robots.names():
+        return robots.load(model)
+    raise ModelError(model, "file", f"no such model file or built-in robot (built-in: {', '.join(robots.names())})")
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    for name in robots.names():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ModelWarning)
+            robot = robots.load(name)
+        print(f"{name:14s} {len(robot.coordinates)} DOF  {robot.description}")
+    return 0
+
+
+def cmd_derive(args: argparse.Namespace) -> int:
+    robot = resolve(args.model)
+    model = derive(robot)
+    print(model.summary())
+    if args.show or (args.show is None and model.n <= 3):
+        q = model.coordinates
+        print("\nD(Q) (compact, upper triangle):")
+        for i in range(model.n):
+            for j in range(i, model.n):
+                print(f"  D[{i},{j}] = {sp.sstr(compact(model.D[i, j], q))}")
+        print("\nV_g(Q) =", sp.sstr(compact(model.potential_energy, q)))
+    return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="symbolic", description=__doc__.splitlines()[0])
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
+    sub = p.add_subparsers(dest="command", required=True)
+    d = sub.add_parser("derive", help="derive D(Q), Christoffel C, g and τ and print a summary")
+    d.add_argument("model", help="model file (.toml) or built-in robot name")
+    d.add_argument("--show", dest="show", action="store_true", default=None, help="print D(Q) and V(Q) in compact form")
+    d.add_argument("--no-show", dest="show", action="store_false", help="summary only")
+    d.set_defaults(func=cmd_derive)
+    ls = sub.add_parser("list", help="list the built-in robots")
+    ls.set_defaults(func=cmd_list)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    if not args.quiet:
+        logging.basicConfig(level=logging.INFO, format="symbolic: %(message)s", stream=sys.stderr)
+    warnings.simplefilter("default", ModelWarning)
+    warnings.formatwarning = lambda message, category, *rest: f"warning: {message}\n"
+    try:
+        return args.func(args)
+    except ModelError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
