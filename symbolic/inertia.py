@@ -57,22 +57,26 @@ class SpatialInertia:
         """Momentum of velocity (ω, v): (I_o ω + h × v, m v + ω × h)."""
         return self.rotational * w + cross(self.moment, v), self.mass * v + cross(w, self.moment)
 
-    def to_parent(self, fk: FrameKinematics) -> SpatialInertia:
-        """The same inertia about the parent's origin, in the parent's axes.
+    def shifted(self, p: sp.Matrix, add) -> SpatialInertia:
+        """The same bodies about the point −p (a frame whose origin is at −p from ours): same axes.
 
-        Shift by p (child coordinates): h' = h + m p,
-        I' = I_o + m(pᵀp E − p pᵀ) + 2(pᵀh) E − p hᵀ − h pᵀ; then rotate by R.
+        With r' = p + r: h' = h + m p, I' = I_o + m(pᵀp E − p pᵀ) + 2(pᵀh) E − p hᵀ − h pᵀ.
         """
-        p, h, m = fk.p_child, self.moment, self.mass
-        shifted = (
-            self.rotational
-            + m * ((p.T * p)[0] * sp.eye(3) - p * p.T)
-            + 2 * (p.T * h)[0] * sp.eye(3)
-            - p * h.T
-            - h * p.T
-        )
-        rotation = fk.local_rotation()
-        return SpatialInertia(m, rotation * (h + m * p), rotation * shifted * rotation.T)
+        h, m = self.moment, self.mass
+        pp = add((p.T * p)[0])
+        ph = add((p.T * h)[0])
+        rotational = self.rotational + (m * pp + 2 * ph) * sp.eye(3) - m * p * p.T - p * h.T - h * p.T
+        return SpatialInertia(m, (h + m * p).applyfunc(add), rotational.applyfunc(add))
+
+    def rotated(self, fk: FrameKinematics, add) -> SpatialInertia:
+        """The same inertia in the parent's axes (about the same point)."""
+        return SpatialInertia(self.mass, fk.to_parent(self.moment).applyfunc(add), fk.rotate_symmetric_to_parent(self.rotational, add))
+
+    def to_parent(self, fk: FrameKinematics, add) -> SpatialInertia:
+        """The same inertia about the parent's origin, in the parent's axes (shift where the offset is constant)."""
+        if fk.shift_in_child:
+            return self.shifted(fk.p_child, add).rotated(fk, add)
+        return self.rotated(fk, add).shifted(fk.p_parent, add)
 
 
 def composite_inertias(kin: Kinematics) -> dict[str, SpatialInertia]:
@@ -87,46 +91,48 @@ def composite_inertias(kin: Kinematics) -> dict[str, SpatialInertia]:
         fk = kin.frames[name]
         composite[name] = composite[name].registered(sub)
         if fk.parent != BASE and not composite[name].is_zero():
-            composite[fk.parent] = composite[fk.parent] + composite[name].to_parent(fk)
+            composite[fk.parent] = composite[fk.parent] + composite[name].to_parent(fk, sub.add)
     return composite
 
 
 def inertia_matrix(kin: Kinematics, composite: dict[str, SpatialInertia] | None = None) -> sp.Matrix:
-    """D(Q) (N×N, symmetric by construction) in intermediates of ``kin.sub``."""
+    """D(Q) (N×N, symmetric by construction) in intermediates of ``kin.sub``.
+
+    Composite-rigid-body form: for each frame f and coordinate k moving it, the momentum
+    F = I^c_f S_f[:,k] is carried to every ancestor g by force transforms, and S_g[:,l]ᵀF adds to
+    d_kl (Featherstone's CRBA, generalised to DH rows driven by several coordinates).
+    """
     composite = composite if composite is not None else composite_inertias(kin)
     coords = list(kin.coordinates)
     index = {q: i for i, q in enumerate(coords)}
     terms: dict[tuple[int, int], list[sp.Expr]] = {}
-    sub = kin.sub
+    add = kin.sub.add
 
     def accumulate(i: int, j: int, value: sp.Expr) -> None:
         terms.setdefault((min(i, j), max(i, j)), []).append(value)
 
+    def project(fk: FrameKinematics, q: sp.Symbol, n: sp.Matrix, f: sp.Matrix) -> sp.Expr:
+        w, v = fk.joint_twist(q)
+        return add((w.T * n + v.T * f)[0])
+
     for name, fk in kin.frames.items():
         inertia = composite[name]
-        if inertia.is_zero() or not fk.coordinates:
+        if inertia.is_zero():
             continue
-        parent = kin.parent(fk)
-        momenta = {}
-        for q in fk.coordinates:
-            w, v = fk.joint_twist(q)
-            n, f = inertia.apply(w, v)
-            momenta[q] = (n.applyfunc(sub.add), f.applyfunc(sub.add))
         own = fk.coordinates
         for a, qa in enumerate(own):
-            n, f = momenta[qa]
+            n, f = (x.applyfunc(add) for x in inertia.apply(*fk.joint_twist(qa)))
             for qb in own[a:]:
-                w, v = fk.joint_twist(qb)
-                accumulate(index[qa], index[qb], sub.add((n.T * w + f.T * v)[0]))
-            if parent is None:
-                continue
-            for qj, w_parent in parent.JO.items():
-                w = fk.to_child(w_parent).applyfunc(sub.add)
-                v = (fk.to_child(parent.JL[qj]) + cross(w, fk.p_child)).applyfunc(sub.add)
-                value = sub.add((n.T * w + f.T * v)[0])
-                accumulate(index[qa], index[qj], 2 * value if qa == qj else value)
-    n = len(coords)
-    D = sp.zeros(n, n)
+                accumulate(index[qa], index[qb], project(fk, qb, n, f))
+            child = fk
+            while child.parent != BASE:
+                n, f = child.force_to_parent(n, f, add)
+                child = kin.frames[child.parent]
+                for qj in child.coordinates:
+                    value = project(child, qj, n, f)
+                    accumulate(index[qa], index[qj], 2 * value if qa == qj else value)
+    size = len(coords)
+    D = sp.zeros(size, size)
     for (i, j), parts in terms.items():
         D[i, j] = D[j, i] = sp.Add(*parts)
     return D

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.inertia import SpatialInertia
 from symbolic.kinematics import ZERO3, Kinematics, cross
 from symbolic.spec import BASE
 
@@ -34,17 +33,17 @@ def inverse_dynamics(
     """
     sub = kin.sub
     add = sub.add
-    state: dict[str, tuple[sp.Matrix, sp.Matrix, sp.Matrix, sp.Matrix]] = {}
+    state: dict[str, tuple[sp.Matrix, sp.Matrix, sp.Matrix]] = {}
     g0 = -sp.Matrix(kin.robot.gravity) if gravity else ZERO3
-    base = (ZERO3, ZERO3, ZERO3, g0)  # ω, ω̇, v, a of the base: a = −gravity models gravity
+    base = (ZERO3, ZERO3, g0)  # ω, ω̇, a of the base: a = −gravity models gravity
     wrench: dict[str, tuple[sp.Matrix, sp.Matrix]] = {}
-    inertia: dict[str, SpatialInertia] = {name: SpatialInertia.zero() for name in kin.frames}
+    bodies: dict[str, list] = {name: [] for name in kin.frames}
     for body in kin.robot.bodies:
         if body.frame != BASE:
-            inertia[body.frame] = inertia[body.frame] + SpatialInertia.of_body(body)
+            bodies[body.frame].append(body)
 
     for name, fk in kin.frames.items():
-        w_p, dw_p, v_p, a_p = base if fk.parent == BASE else state[fk.parent]
+        w_p, dw_p, a_p = base if fk.parent == BASE else state[fk.parent]
         th_d = add(_rate(fk.theta_rate, qd))
         d_d = add(_rate(fk.d_rate, qd))
         th_dd = add(_rate(fk.theta_rate, qdd) + _second_order(sub, fk.theta_rate, qd))
@@ -54,20 +53,12 @@ def inverse_dynamics(
         v_rel = l_t * th_d + l_d * d_d
         w_pc = fk.to_child(w_p).applyfunc(add)
         dw_pc = fk.to_child(dw_p).applyfunc(add)
+        a_pc = _transported_acceleration(fk, w_p, w_pc, dw_p, dw_pc, a_p, add)
         w = (w_pc + w_rel).applyfunc(add)
         dw = (dw_pc + cross(w_pc, w_rel) + u_t * th_dd + u_d * d_dd).applyfunc(add)
-        v = (fk.to_child(v_p) + cross(w_pc, fk.p_child) + v_rel).applyfunc(add)
-        a = (
-            fk.to_child(a_p)
-            + cross(dw_pc, fk.p_child)
-            + cross(w_pc, cross(w_pc, fk.p_child).applyfunc(add))
-            + 2 * cross(w_pc, v_rel)
-            + l_t * th_dd
-            + l_d * d_dd
-            + fk.theta_sq_accel * th_d**2
-        ).applyfunc(add)
-        state[name] = (w, dw, v, a)
-        wrench[name] = _body_wrench(inertia[name], w, dw, a, add)
+        a = (a_pc + 2 * cross(w_pc, v_rel) + l_t * th_dd + l_d * d_dd + fk.theta_sq_accel * th_d**2).applyfunc(add)
+        state[name] = (w, dw, a)
+        wrench[name] = _bodies_wrench(bodies[name], w, dw, a, add)
 
     tau = {q: [] for q in kin.coordinates}
     for name in reversed(list(kin.frames)):
@@ -76,12 +67,24 @@ def inverse_dynamics(
         for q in fk.coordinates:
             w_unit, v_unit = fk.joint_twist(q)
             tau[q].append((w_unit.T * n + v_unit.T * f)[0])
-        if fk.parent != BASE:
-            f_parent = fk.to_parent(f).applyfunc(add)
-            n_parent = fk.to_parent(n).applyfunc(add) + cross(fk.p_parent, f_parent)
+        if fk.parent != BASE and not (n.is_zero_matrix and f.is_zero_matrix):
+            n_parent, f_parent = fk.force_to_parent(n, f, add)
             pn, pf = wrench[fk.parent]
             wrench[fk.parent] = (pn + n_parent, pf + f_parent)
     return sp.Matrix([sp.Add(*tau[q]) for q in kin.coordinates])
+
+
+def _transported_acceleration(fk, w_p, w_pc, dw_p, dw_pc, a_p, add) -> sp.Matrix:
+    """Rᵀ(a_p + ω̇_p × p + ω_p × (ω_p × p)): the parent's acceleration field at this origin.
+
+    Evaluated in whichever frame the offset p is constant (see ``FrameKinematics.shift_in_child``).
+    """
+    if fk.shift_in_child:
+        p = fk.p_child
+        return (fk.to_child(a_p) + cross(dw_pc, p) + cross(w_pc, cross(w_pc, p).applyfunc(add))).applyfunc(add)
+    p = fk.p_parent
+    in_parent = (a_p + cross(dw_p, p) + cross(w_p, cross(w_p, p).applyfunc(add))).applyfunc(add)
+    return fk.to_child(in_parent).applyfunc(add)
 
 
 def _second_order(sub, rates: dict[sp.Symbol, sp.Expr], qd: dict[sp.Symbol, sp.Expr]) -> sp.Expr:
@@ -95,18 +98,22 @@ def _second_order(sub, rates: dict[sp.Symbol, sp.Expr], qd: dict[sp.Symbol, sp.E
     return sp.Add(*terms)
 
 
-def _body_wrench(inertia: SpatialInertia, w, dw, a, add) -> tuple[sp.Matrix, sp.Matrix]:
-    """Wrench (moment about the origin, force) needed to move the bodies of one frame.
+def _bodies_wrench(bodies, w, dw, a, add) -> tuple[sp.Matrix, sp.Matrix]:
+    """Wrench (moment about the frame origin, force) needed to move the bodies of one frame.
 
-    With first moment h = m c: f = m a + ω̇ × h + ω × (ω × h),
-    n = I_o ω̇ + ω × I_o ω + h × a (all about the frame origin, frame axes).
+    Per body, at its centre of mass c: a_c = a + ω̇ × c + ω × (ω × c), f = m a_c,
+    n = I_c ω̇ + ω × I_c ω + c × f (Euler's equation about the centre of mass, moved to the origin).
+    Working at the centre of mass avoids the parallel-axis conversion of the inertia.
     """
-    if inertia.is_zero():
-        return ZERO3, ZERO3
-    h = inertia.moment.applyfunc(add)
-    i_o = inertia.rotational.applyfunc(add)
-    m = add(inertia.mass)
-    f = m * a + cross(dw, h) + cross(w, cross(w, h).applyfunc(add))
-    i_w = (i_o * w).applyfunc(add)
-    n = i_o * dw + cross(w, i_w) + cross(h, a)
-    return n, f
+    n_total, f_total = sp.Matrix(ZERO3), sp.Matrix(ZERO3)
+    for body in bodies:
+        c = sp.Matrix(body.com)
+        i = body.inertia
+        inertia = sp.Matrix([[i["xx"], i["xy"], i["xz"]], [i["xy"], i["yy"], i["yz"]], [i["xz"], i["yz"], i["zz"]]])
+        a_c = (a + cross(dw, c) + cross(w, cross(w, c).applyfunc(add))).applyfunc(add)
+        f = (body.mass * a_c).applyfunc(add)
+        i_w = (inertia * w).applyfunc(add)
+        n = inertia * dw + cross(w, i_w) + cross(c, f)
+        n_total += n
+        f_total += f
+    return n_total, f_total

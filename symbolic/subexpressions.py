@@ -64,6 +64,9 @@ class Subexpressions:
         expr = sp.sympify(expr)
         if _is_trivial(expr):
             return expr
+        if expr.could_extract_minus_sign():
+            # store −a·b as a·b used negated: the sign folds into the sums that use it for free
+            return -self.add(-expr)
         existing = self._index.get(expr)
         if existing is not None:
             return existing
