@@ -151,6 +151,10 @@ class DynamicModel:
         """τ = D Q̈ + (I⊗Q̇ᵀ)CQ̇ + g (Newton–Euler form)."""
         return self.expand(self.reduced.tau)
 
+    def christoffel_symbol(self, i: int, j: int, k: int) -> sp.Expr:
+        """c_ijk = ½(∂d_kj/∂Q_i + ∂d_ki/∂Q_j − ∂d_ij/∂Q_k), the (i, j) entry of block C_k (0-based)."""
+        return self.christoffel[k * self.n + i, j]
+
     def christoffel_literal(self) -> sp.Matrix:
         """C = Z·∂D/∂Qᵀ exactly as printed in Madill (3.81), expanded (blocks not symmetric)."""
         return self.expand(ch.christoffel_literal(self.reduced.dD))

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
-from symbolic.spec import BASE, Robot, coordinate_symbol
+from symbolic.spec import BASE, Robot
 from symbolic.subexpressions import Subexpressions
 
 Vec = sp.Matrix
@@ -327,6 +327,3 @@ class Kinematics:
         """τ = JᵀF of (3.58) for a base-frame force F at the end-effector point."""
         return self.end_effector_jacobian().T * force
 
-
-def coordinate_symbols(robot: Robot) -> tuple[sp.Symbol, ...]:
-    return tuple(coordinate_symbol(c) for c in robot.coordinates)

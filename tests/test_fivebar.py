@@ -144,3 +144,13 @@ def test_literal_381_has_same_quadratic_form(fivebar) -> None:
         assert trig_zero((qd.T * (Lk - Ck) * qd)[0])
         asymmetric |= not all(trig_zero(e) for e in (Lk - Lk.T))
     assert asymmetric, "the literal (3.81) blocks were expected to be non-symmetric for this robot"
+
+
+def test_christoffel_symbol_formula(fivebar) -> None:
+    """c_ijk of Madill 3.9.1 from (4.10) directly, e.g. c_011 = ½ ∂d_10/∂q0 + ... ; all 27 symbols."""
+    q = [q0, q1, q2]
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                expected = (sp.diff(D_410[k, j], q[i]) + sp.diff(D_410[k, i], q[j]) - sp.diff(D_410[i, j], q[k])) / 2
+                assert trig_zero(fivebar.christoffel_symbol(i, j, k) - expected)
