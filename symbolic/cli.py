@@ -55,6 +55,27 @@ def cmd_derive(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_generate(args: argparse.Namespace) -> int:
+    from symbolic import export
+
+    targets = [t.strip() for t in args.targets.split(",") if t.strip()]
+    unknown = set(targets) - set(export.TARGETS)
+    if unknown or not targets:
+        print(f"error: --targets: unknown target(s) {sorted(unknown)} (allowed: {', '.join(export.TARGETS)})", file=sys.stderr)
+        return 2
+    robot = resolve(args.model)
+    model = derive(robot)
+    command = f"symbolic generate {args.model} --out {args.out}" + (f" --targets {args.targets}" if args.targets != ",".join(export.TARGETS) else "")
+    try:
+        written = export.generate(model, args.out, targets, command=command)
+    except export.ExportError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    for path in written:
+        print(path)
+    return 0
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="symbolic", description=__doc__.splitlines()[0])
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
@@ -64,6 +85,11 @@ def parser() -> argparse.ArgumentParser:
     d.add_argument("--show", dest="show", action="store_true", default=None, help="print D(Q) and V(Q) in compact form")
     d.add_argument("--no-show", dest="show", action="store_false", help="summary only")
     d.set_defaults(func=cmd_derive)
+    g = sub.add_parser("generate", help="write C, CasADi and Markdown for a model")
+    g.add_argument("model", help="model file (.toml) or built-in robot name")
+    g.add_argument("--out", required=True, help="output directory (created if missing)")
+    g.add_argument("--targets", default="c,casadi,report", help="comma-separated subset of c,casadi,report (default: all)")
+    g.set_defaults(func=cmd_generate)
     ls = sub.add_parser("list", help="list the built-in robots")
     ls.set_defaults(func=cmd_list)
     return p

@@ -51,6 +51,8 @@ class ReducedForms:
         V_g(Q).
     tau
         τ = DQ̈ + (I⊗Q̇ᵀ)CQ̇ + g by Newton–Euler.
+    coriolis_ne
+        (I⊗Q̇ᵀ)CQ̇ by Newton–Euler (Q̈ = 0, no gravity): the same vector as ``coriolis``, cheaper.
     """
 
     D: sp.Matrix
@@ -61,6 +63,7 @@ class ReducedForms:
     gravity: sp.Matrix
     potential: sp.Expr
     tau: sp.Matrix
+    coriolis_ne: sp.Matrix
 
 
 @dataclass
@@ -230,5 +233,6 @@ def derive(robot: Robot) -> DynamicModel:
         "newton-euler",
         lambda: inverse_dynamics(kin, dict(zip(q, qd)), dict(zip(q, qdd)), gravity=True),
     )
-    reduced = ReducedForms(D, dD, C, coriolis, cmat, gravity, potential, tau)
+    coriolis_ne = step("newton-euler coriolis", lambda: inverse_dynamics(kin, dict(zip(q, qd)), zero, gravity=False))
+    reduced = ReducedForms(D, dD, C, coriolis, cmat, gravity, potential, tau, coriolis_ne)
     return DynamicModel(robot, sub, kin, reduced, timings)

@@ -30,3 +30,12 @@ def puma() -> symbolic.DynamicModel:
 @pytest.fixture(scope="session")
 def panda() -> symbolic.DynamicModel:
     return derived("panda")
+
+
+def pytest_addoption(parser) -> None:
+    parser.addoption("--update-golden", action="store_true", help="rewrite tests/golden/ from the current templates")
+
+
+@pytest.fixture
+def update_golden(request) -> bool:
+    return request.config.getoption("--update-golden")

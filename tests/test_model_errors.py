@@ -87,8 +87,13 @@ def test_triangle_inequality_only_warns(tmp_path: Path) -> None:
 
 
 def test_puma_link1_warns() -> None:
-    with pytest.warns(ModelWarning, match="'link1' inertia"):
+    """Corke's PUMA 560: link 1 (0, 0.35, 0) and link 3 (0.066, 0.086, 0.0125) violate the triangle inequality."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         symbolic.robots.load("puma560")
+    messages = [str(w.message) for w in caught if issubclass(w.category, ModelWarning)]
+    assert len(messages) == 2
+    assert "'link1' inertia" in messages[0] and "'link3' inertia" in messages[1]
 
 
 def test_missing_parent(tmp_path: Path) -> None:

@@ -1,0 +1,70 @@
+"""Generated C (DESIGN.md, "Generated C"): ``NAME.h`` and ``NAME.c``, C99, no allocation, only <math.h>."""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from symbolic.dynamics import DynamicModel
+from symbolic.export.c_printer import CPrinter, c_double
+from symbolic.export.functions import function_specs, input_symbols, programs
+from symbolic.export.naming import check_c_name, comment_text
+from symbolic.export.templates import render
+
+
+def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
+    """{file name: text} of the C header and source."""
+    name = check_c_name(model.name, model.robot.source)
+    symbols = input_symbols(model)
+    slots = {s: f"{array}[{i}]" for array, group in symbols.items() for i, s in enumerate(group)}
+    printer = CPrinter(slots)
+    functions = []
+    built = programs(model)
+    for spec in function_specs(model):
+        program = built[spec.name]
+        used = set()
+        for _, e in program.statements:
+            used |= e.free_symbols
+        for e in program.outputs:
+            used |= e.free_symbols
+        unused = [a for a in spec.inputs if not used & set(symbols[a])]
+        functions.append(
+            {
+                "name": spec.name,
+                "doc": spec.doc,
+                "signature": ", ".join(f"const double *{a}" for a in spec.inputs) + f", double *{spec.output}",
+                "layout": ", ".join(_layout(a, model) for a in spec.inputs) + f"; output {spec.output}[{spec.rows * spec.cols}]",
+                "operations": program.operations,
+                "trig": program.trig_calls,
+                "unused": unused,
+                "statements": [{"name": str(s), "value": printer.doprint(e)} for s, e in program.statements],
+                "outputs": [{"name": f"{spec.output}[{i}]", "value": printer.doprint(e)} for i, e in enumerate(program.outputs)],
+            }
+        )
+    context = {
+        "banner": banner,
+        "name": name,
+        "guard": f"{name.upper()}_H",
+        "description": comment_text(model.robot.description or model.name),
+        "nq": model.n,
+        "np": len(model.robot.parameters),
+        "coordinates": [{"index": i, "name": c} for i, c in enumerate(model.robot.coordinates)],
+        "parameters": [
+            {
+                "index": i,
+                "name": p.name,
+                "value": repr(p.value),
+                "literal": c_double(sp.Rational(repr(p.value))),
+                "unit": comment_text(p.unit),
+                "description": comment_text(p.description),
+            }
+            for i, p in enumerate(model.robot.parameters)
+        ],
+        "functions": functions,
+    }
+    return {f"{name}.h": render("model.h.j2", **context), f"{name}.c": render("model.c.j2", **context)}
+
+
+def _layout(array: str, model: DynamicModel) -> str:
+    if array == "p":
+        return f"p[{len(model.robot.parameters)}] (see {model.name}_parameter_names)"
+    return f"{array}[{model.n}] ({', '.join(model.robot.coordinates)})"

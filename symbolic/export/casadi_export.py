@@ -1,0 +1,70 @@
+"""Generated CasADi (DESIGN.md, "Generated CasADi"): one ``NAME_<function>.casadi`` per function.
+
+Expressions are translated into ``casadi.SX`` by evaluating the same straight-line program as the
+C code (SymPy's lambdify with CasADi's functions as the numeric module), so both targets share one
+source. Inputs are named q, qd, qdd, tau, p; outputs as in the C ABI. Forward dynamics solves
+D q̈ = τ − h − g − k − f; the linearisation A = ∂ẋ/∂x, B = ∂ẋ/∂τ (x = [q; q̇], Madill 3.9.4) is
+CasADi's exact algorithmic derivative of that.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import sympy as sp
+
+from symbolic.dynamics import DynamicModel
+from symbolic.export.functions import FunctionSpec, function_specs, input_symbols, programs
+
+CASADI_MODULE = {
+    "sin": ca.sin,
+    "cos": ca.cos,
+    "tan": ca.tan,
+    "asin": ca.asin,
+    "acos": ca.acos,
+    "atan": ca.atan,
+    "atan2": ca.atan2,
+    "sinh": ca.sinh,
+    "cosh": ca.cosh,
+    "tanh": ca.tanh,
+    "sqrt": ca.sqrt,
+    "exp": ca.exp,
+    "log": ca.log,
+    "Abs": ca.fabs,
+    "sign": ca.sign,
+    "pi": ca.pi,
+}
+
+
+def _to_sx(model: DynamicModel, spec: FunctionSpec, inputs: dict[str, ca.SX]) -> ca.SX:
+    symbols = input_symbols(model)
+    program = programs(model)[spec.name]
+    args = [list(symbols[a]) for a in spec.inputs]
+    flat = list(program.outputs)
+    fn = sp.lambdify(args, flat, modules=[CASADI_MODULE], cse=lambda exprs: (list(program.statements), exprs))
+    values = fn(*[[inputs[a][i] for i in range(inputs[a].shape[0])] for a in spec.inputs])
+    out = ca.SX(spec.rows, spec.cols)
+    for k, v in enumerate(values):
+        out[k // spec.cols, k % spec.cols] = v
+    return out
+
+
+def casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
+    """{function name: casadi.Function} for every function of the C ABI plus A and B."""
+    n, n_p = model.n, len(model.robot.parameters)
+    inputs = {name: ca.SX.sym(name, n) for name in ("q", "qd", "qdd", "tau")}
+    inputs["p"] = ca.SX.sym("p", n_p)
+    out: dict[str, ca.Function] = {}
+    values: dict[str, ca.SX] = {}
+    for spec in function_specs(model):
+        values[spec.name] = _to_sx(model, spec, inputs)
+        args = [inputs[a] for a in spec.inputs]
+        out[spec.name] = ca.Function(spec.name, args, [values[spec.name]], list(spec.inputs), [spec.output])
+    q, qd, tau, p = inputs["q"], inputs["qd"], inputs["tau"], inputs["p"]
+    bias = ca.substitute(values["inverse_dynamics"], inputs["qdd"], ca.SX.zeros(n))
+    qdd = ca.solve(values["inertia"], tau - bias)
+    out["forward_dynamics"] = ca.Function("forward_dynamics", [q, qd, tau, p], [qdd], ["q", "qd", "tau", "p"], ["qdd"])
+    x = ca.vertcat(q, qd)
+    xdot = ca.vertcat(qd, qdd)
+    out["A"] = ca.Function("A", [q, qd, tau, p], [ca.jacobian(xdot, x)], ["q", "qd", "tau", "p"], ["A"])
+    out["B"] = ca.Function("B", [q, qd, tau, p], [ca.jacobian(xdot, tau)], ["q", "qd", "tau", "p"], ["B"])
+    return out

@@ -1,0 +1,68 @@
+"""The functions every export target provides (DESIGN.md, "Generated C" / "Generated CasADi").
+
+Each entry names the function, its inputs (q, qd, qdd, tau, p) and its outputs as expressions in
+the model's intermediate symbols; the C printer and the CasADi translator both start from here, so
+the two targets compute the same thing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from symbolic.dynamics import DynamicModel
+
+
+@dataclass(frozen=True)
+class FunctionSpec:
+    name: str
+    inputs: tuple[str, ...]
+    output: str
+    rows: int
+    cols: int
+    expressions: tuple[sp.Expr, ...]  # row-major
+    doc: str
+
+
+def input_symbols(model: DynamicModel) -> dict[str, tuple[sp.Symbol, ...]]:
+    """Symbols of each input array, in slot order."""
+    n = model.n
+    return {
+        "q": model.coordinates,
+        "qd": model.velocities,
+        "qdd": model.accelerations,
+        "tau": tuple(sp.Symbol(f"_tau{i}", real=True) for i in range(n)),
+        "p": model.parameter_symbols,
+    }
+
+
+def function_specs(model: DynamicModel) -> list[FunctionSpec]:
+    """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, inverse_dynamics."""
+    r = model.reduced
+    n = model.n
+    stiffness = model.stiffness
+    friction = sp.zeros(n, 1)  # [[friction]] entries are not supported yet: f = 0
+    tau = r.tau + stiffness + friction
+    return [
+        FunctionSpec("inertia", ("q", "p"), "D", n, n, tuple(r.D), "D(q), N*N row-major, symmetric positive definite"),
+        FunctionSpec("coriolis", ("q", "qd", "p"), "h", n, 1, tuple(r.coriolis_ne), "(I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)"),
+        FunctionSpec("coriolis_matrix", ("q", "qd", "p"), "C", n, n, tuple(r.coriolis_matrix),
+                     "C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric"),
+        FunctionSpec("gravity", ("q", "p"), "g", n, 1, tuple(r.gravity), "g(q) = dV_gravity/dq"),
+        FunctionSpec("stiffness", ("q", "p"), "k", n, 1, tuple(stiffness), "k(q) = dV_strain/dq (zero for rigid models)"),
+        FunctionSpec("friction", ("q", "qd", "p"), "f", n, 1, tuple(friction), "friction and offset torques (none in this model)"),
+        FunctionSpec("inverse_dynamics", ("q", "qd", "qdd", "p"), "tau", n, 1, tuple(tau),
+                     "tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)"),
+    ]
+
+
+def programs(model: DynamicModel) -> dict[str, "Program"]:
+    """Straight-line programs of every function spec, built once per model (CSE is the slow part)."""
+    from symbolic.export.program import build_program
+
+    cache = model.__dict__.get("_export_programs")
+    if cache is None:
+        cache = {spec.name: build_program(model.sub, spec.expressions) for spec in function_specs(model)}
+        model.__dict__["_export_programs"] = cache
+    return cache

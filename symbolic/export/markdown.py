@@ -1,0 +1,81 @@
+"""The reviewer's report ``NAME.md`` (DESIGN.md, "Generated report"): Markdown with LaTeX that GitHub renders.
+
+Entries are shown in the compact form of :mod:`symbolic.simplify` (Madill (4.10) style) when they
+are short enough to read; longer ones are summarised by their operation count in the generated C.
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from symbolic.dynamics import DynamicModel
+from symbolic.export.templates import render
+from symbolic.simplify import compact
+
+MAX_INTERMEDIATES = 24
+"""Entries needing more intermediate definitions than this are not expanded for the report
+(expanding and collecting them takes seconds each and the result is too long to read)."""
+MAX_OPERATIONS = 150
+SMALL_MODEL = 3
+"""Models with at most this many coordinates get every entry compacted (fast, and what reviewers check)."""
+
+
+def _latex_names(model: DynamicModel) -> dict[sp.Symbol, str]:
+    names = {}
+    for c, qd, qdd in zip(model.robot.coordinates, model.velocities, model.accelerations):
+        base = sp.latex(sp.Symbol(c))
+        names[qd] = rf"\dot{{{base}}}"
+        names[qdd] = rf"\ddot{{{base}}}"
+    return names
+
+
+def _entry(model: DynamicModel, expr: sp.Expr, variables, names) -> str | None:
+    """LaTeX of the compact form, or None when the entry is too long to review by eye."""
+    if model.n > SMALL_MODEL and len(model.sub.program([expr])) > MAX_INTERMEDIATES:
+        return None
+    form = compact(model.sub.expand(expr), variables)
+    if sp.count_ops(form) > MAX_OPERATIONS:
+        return None
+    return sp.latex(form, symbol_names=names)
+
+
+def report_markdown(model: DynamicModel, banner: str, operations: dict[str, tuple[int, int]], version: str) -> str:
+    r = model.reduced
+    names = _latex_names(model)
+    q = list(model.coordinates)
+    n = model.n
+    inertia = [
+        {"i": i, "j": j, "latex": _entry(model, r.D[i, j], q, names)} for i in range(n) for j in range(i, n)
+    ]
+    qv = q + list(model.velocities)
+    coriolis = [{"k": k, "latex": _entry(model, r.coriolis[k], qv, names)} for k in range(n)]
+    christoffel = []
+    for k in range(n):
+        for i in range(n):
+            for j in range(i, n):
+                e = r.christoffel[k * n + i, j]
+                if e != 0 and n <= SMALL_MODEL:
+                    latex = _entry(model, e, q, names)
+                    if latex != "0":
+                        christoffel.append({"i": i, "j": j, "k": k, "latex": latex})
+    gravity = [{"k": k, "latex": _entry(model, r.gravity[k], q, names)} for k in range(n)]
+    context = {
+        "banner": banner,
+        "version": version,
+        "robot": model.robot,
+        "n": n,
+        "coordinates": [{"index": i, "name": c, "latex": sp.latex(sp.Symbol(c))} for i, c in enumerate(model.robot.coordinates)],
+        "parameters": [
+            {"name": p.name, "latex": sp.latex(sp.Symbol(p.name)), "value": repr(p.value), "unit": p.unit, "description": p.description}
+            for p in model.robot.parameters
+        ],
+        "inertia": inertia,
+        "coriolis": coriolis,
+        "christoffel": christoffel,
+        "christoffel_count": sum(1 for e in r.christoffel if e != 0),
+        "gravity": gravity,
+        "potential": _entry(model, r.potential, q, names),
+        "operations": [{"name": k, "ops": v[0], "trig": v[1]} for k, v in operations.items()],
+        "constraints": [{"coordinate": c.coordinate, "latex": sp.latex(c.expression)} for c in model.robot.constraints],
+    }
+    return render("report.md.j2", **context)

@@ -1,0 +1,118 @@
+"""Straight-line programs for code generation.
+
+A generated function evaluates a list of output expressions written in intermediate symbols
+(:class:`symbolic.subexpressions.Subexpressions`). This module gathers the definitions they need,
+runs SymPy's common-subexpression elimination once over all of them (catching sharing the
+derivation did not see), and orders the statements so that each comes after what it uses.
+Local names are renumbered ``v0, v1, …`` in emission order, so the text is deterministic.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import sympy as sp
+
+from symbolic.subexpressions import Subexpressions
+
+
+@dataclass(frozen=True)
+class Program:
+    """Statements ``(local, expression)`` in evaluation order and the output expressions."""
+
+    statements: tuple[tuple[sp.Symbol, sp.Expr], ...]
+    outputs: tuple[sp.Expr, ...]
+
+    @property
+    def operations(self) -> int:
+        """SymPy ``count_ops`` of all statements and outputs."""
+        return int(sum(sp.count_ops(e) for _, e in self.statements) + sum(sp.count_ops(e) for e in self.outputs))
+
+    @property
+    def trig_calls(self) -> int:
+        """Number of sin/cos/tan evaluations."""
+        exprs = [e for _, e in self.statements] + list(self.outputs)
+        return sum(len(e.atoms(sp.sin, sp.cos, sp.tan)) for e in exprs)
+
+
+def build_program(sub: Subexpressions, outputs: Sequence[sp.Expr], local_prefix: str = "v") -> Program:
+    """Definitions needed by ``outputs``, CSE'd and scheduled, with locals renamed ``v0, v1, …``."""
+    outputs = [sp.sympify(e) for e in outputs]
+    definitions = sub.program(outputs)
+    exprs = [d for _, d in definitions] + outputs
+    temporaries = sp.numbered_symbols("_cse", real=True)
+    replacements, reduced = sp.cse(exprs, symbols=temporaries, optimizations="basic")
+    statements: dict[sp.Symbol, sp.Expr] = dict(replacements)
+    order: list[sp.Symbol] = [s for s, _ in replacements]
+    for (symbol, _), expr in zip(definitions, reduced[: len(definitions)]):
+        statements[symbol] = expr
+        order.append(symbol)
+    reduced_outputs = list(reduced[len(definitions) :])
+    statements, order, reduced_outputs = _inline_aliases(statements, order, reduced_outputs)
+
+    position = {s: k for k, s in enumerate(order)}
+    needed: set[sp.Symbol] = set()
+    stack = [t for e in reduced_outputs for t in e.free_symbols if t in statements]
+    while stack:
+        s = stack.pop()
+        if s not in needed:
+            needed.add(s)
+            stack.extend(t for t in statements[s].free_symbols if t in statements)
+
+    emitted: list[sp.Symbol] = []
+    done: set[sp.Symbol] = set()
+
+    def emit(root: sp.Symbol) -> None:
+        todo = [(root, False)]
+        while todo:
+            s, ready = todo.pop()
+            if s in done:
+                continue
+            if ready:
+                done.add(s)
+                emitted.append(s)
+                continue
+            todo.append((s, True))
+            deps = [t for t in statements[s].free_symbols if t in statements and t not in done]
+            todo.extend((t, False) for t in sorted(deps, key=position.__getitem__, reverse=True))
+
+    for s in order:  # the derivation's order where dependencies allow
+        if s in needed:
+            emit(s)
+    rename = {s: sp.Symbol(f"{local_prefix}{k}", real=True) for k, s in enumerate(emitted)}
+    final = tuple((rename[s], statements[s].xreplace(rename)) for s in emitted)
+    return Program(final, tuple(e.xreplace(rename) for e in reduced_outputs))
+
+
+def _inline_aliases(statements: dict, order: list, outputs: list) -> tuple[dict, list, list]:
+    """Substitute statements that are a bare symbol or number (CSE leaves such copies behind)."""
+    alias: dict[sp.Symbol, sp.Expr] = {}
+    kept: dict[sp.Symbol, sp.Expr] = {}
+    for s in _topological(statements, order):
+        expr = statements[s].xreplace(alias)
+        if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1 and expr.args[1].is_Atom):
+            alias[s] = expr
+        else:
+            kept[s] = expr
+    new_order = [s for s in order if s in kept]
+    return kept, new_order, [e.xreplace(alias) for e in outputs]
+
+
+def _topological(statements: dict, order: list) -> list:
+    position = {s: k for k, s in enumerate(order)}
+    out, done = [], set()
+    for root in order:
+        todo = [(root, False)]
+        while todo:
+            s, ready = todo.pop()
+            if s in done:
+                continue
+            if ready:
+                done.add(s)
+                out.append(s)
+                continue
+            todo.append((s, True))
+            deps = [t for t in statements[s].free_symbols if t in statements and t not in done]
+            todo.extend((t, False) for t in sorted(deps, key=position.__getitem__, reverse=True))
+    return out
