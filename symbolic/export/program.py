@@ -51,7 +51,6 @@ def build_program(sub: Subexpressions, outputs: Sequence[sp.Expr], local_prefix:
     reduced_outputs = list(reduced[len(definitions) :])
     statements, order, reduced_outputs = _inline_aliases(statements, order, reduced_outputs)
 
-    position = {s: k for k, s in enumerate(order)}
     needed: set[sp.Symbol] = set()
     stack = [t for e in reduced_outputs for t in e.free_symbols if t in statements]
     while stack:
@@ -60,26 +59,8 @@ def build_program(sub: Subexpressions, outputs: Sequence[sp.Expr], local_prefix:
             needed.add(s)
             stack.extend(t for t in statements[s].free_symbols if t in statements)
 
-    emitted: list[sp.Symbol] = []
-    done: set[sp.Symbol] = set()
-
-    def emit(root: sp.Symbol) -> None:
-        todo = [(root, False)]
-        while todo:
-            s, ready = todo.pop()
-            if s in done:
-                continue
-            if ready:
-                done.add(s)
-                emitted.append(s)
-                continue
-            todo.append((s, True))
-            deps = [t for t in statements[s].free_symbols if t in statements and t not in done]
-            todo.extend((t, False) for t in sorted(deps, key=position.__getitem__, reverse=True))
-
-    for s in order:  # the derivation's order where dependencies allow
-        if s in needed:
-            emit(s)
+    # the derivation's order where dependencies allow
+    emitted = [s for s in _topological(statements, order) if s in needed]
     rename = {s: sp.Symbol(f"{local_prefix}{k}", real=True) for k, s in enumerate(emitted)}
     final = tuple((rename[s], statements[s].xreplace(rename)) for s in emitted)
     return Program(final, tuple(e.xreplace(rename) for e in reduced_outputs))
