@@ -23,7 +23,10 @@ check-generated: generate
 	@test -z "$$(git status --porcelain --untracked-files=all -- generated/)" || (git status --short -- generated/; echo "generated/ has untracked files: run 'make generate' and commit" >&2; exit 1)
 
 bench:
+	$(PYTHON) -m pip install --quiet -e '.[bench]'
 	$(PYTHON) bench/derivation.py --out bench/results/derivation.md
+	$(PYTHON) bench/runtime.py --out bench/results/runtime.md
+	$(PYTHON) bench/export.py --out bench/results/export.md
 
 clean:
 	rm -rf build dist *.egg-info .pytest_cache .hypothesis
