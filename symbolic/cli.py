@@ -76,6 +76,34 @@ def cmd_generate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_analyze(args: argparse.Namespace) -> int:
+    import json
+
+    from symbolic.analysis import KINDS, counterbalance, decoupling
+
+    kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
+    unknown = set(kinds) - set(KINDS)
+    if unknown or not kinds:
+        print(f"error: --kinds: unknown kind(s) {sorted(unknown)} (allowed: {', '.join(KINDS)})", file=sys.stderr)
+        return 2
+    model = derive(resolve(args.model))
+    if args.design:
+        free = [f.strip() for f in args.design.split(",") if f.strip()]
+        try:
+            design = counterbalance(model, free)
+        except ValueError as error:
+            print(f"error: --design: {error}", file=sys.stderr)
+            return 2
+        print(design.summary())
+        return 0
+    analysis = decoupling(model, kinds=kinds)
+    if args.json:
+        print(json.dumps(analysis.to_dict(), indent=2))
+    else:
+        print(analysis.summary())
+    return 0
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="symbolic", description=__doc__.splitlines()[0])
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
@@ -90,6 +118,13 @@ def parser() -> argparse.ArgumentParser:
     g.add_argument("--out", required=True, help="output directory (created if missing)")
     g.add_argument("--targets", default="c,casadi,report", help="comma-separated subset of c,casadi,report (default: all)")
     g.set_defaults(func=cmd_generate)
+    a = sub.add_parser("analyze", help="decoupling and gravity-balancing conditions (Madill 4.2)")
+    a.add_argument("model", help="model file (.toml) or built-in robot name")
+    a.add_argument("--json", action="store_true", help="machine-readable list of conditions")
+    a.add_argument("--kinds", default="decoupling,constant_inertia,coriolis,balancing",
+                   help="comma-separated families: decoupling, constant_inertia, coriolis, balancing")
+    a.add_argument("--design", metavar="PARAMS", help="solve the balancing and decoupling conditions for these free parameters")
+    a.set_defaults(func=cmd_analyze)
     ls = sub.add_parser("list", help="list the built-in robots")
     ls.set_defaults(func=cmd_list)
     return p

@@ -39,6 +39,23 @@ def _entry(model: DynamicModel, expr: sp.Expr, variables, names) -> str | None:
     return sp.latex(form, symbol_names=names)
 
 
+def _conditions(model: DynamicModel, names) -> list[dict]:
+    from symbolic.analysis import decoupling
+
+    analysis = decoupling(model, kinds=["decoupling", "constant_inertia", "balancing"])
+    out = []
+    for c in analysis.conditions:
+        check = c.check(analysis.values)
+        if check.holds:
+            status = "holds"
+        else:
+            status = f"fails by {check.value:.4g} {c.unit}".rstrip()
+            if c.feasible is False:
+                status += " (cannot vanish with the nominal parameter signs)"
+        out.append({"kind": c.kind, "name": c.name, "latex": sp.latex(c.expression, symbol_names=names), "status": status})
+    return out
+
+
 def report_markdown(model: DynamicModel, banner: str, operations: dict[str, tuple[int, int]], version: str) -> str:
     r = model.reduced
     names = _latex_names(model)
@@ -76,6 +93,7 @@ def report_markdown(model: DynamicModel, banner: str, operations: dict[str, tupl
         "gravity": gravity,
         "potential": _entry(model, r.potential, q, names),
         "operations": [{"name": k, "ops": v[0], "trig": v[1]} for k, v in operations.items()],
+        "conditions": _conditions(model, names) if n <= SMALL_MODEL else None,
         "constraints": [{"coordinate": c.coordinate, "latex": sp.latex(c.expression)} for c in model.robot.constraints],
     }
     return render("report.md.j2", **context)

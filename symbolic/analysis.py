@@ -1,0 +1,363 @@
+"""Decoupling and gravity-balancing conditions, and counterbalance design (Madill 4.2.1–4.2.4).
+
+Every configuration-dependent quantity is brought to the canonical trigonometric form of
+:func:`symbolic.simplify.reduce_pythagoras` (sin/cos of sums expanded, each sine at most linear),
+in which distinct monomials in sin qᵢ, cos qᵢ (and powers of other coordinates and of velocities)
+are linearly independent functions. A quantity vanishes identically exactly when the coefficient of
+every monomial — a combination of parameters — vanishes; those combinations are the conditions:
+
+* ``decoupling``: off-diagonal entries of D(Q) vanish (Madill 4.2.2, (4.6)/(4.9): α₃ = 0);
+* ``constant_inertia``: a diagonal entry of D(Q) does not depend on Q;
+* ``coriolis``: row k of (I⊗Q̇ᵀ)CQ̇ does not depend on Q_j or Q̇_j (4.2.3: "no coupling between q₁
+  and q₂ even in the Coriolis and centripetal terms");
+* ``balancing``: V_g(Q) does not depend on Q, i.e. g ≡ 0 (4.2.1, (4.2)/(4.3)).
+
+A factor that is a single parameter (g, a length) is set aside as "assumed non-zero": g = 0 is no
+design. Each condition is checked numerically for a parameter set: its value, the size of its terms
+and whether it holds to a relative tolerance of 1e-9.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from symbolic.dynamics import DynamicModel
+from symbolic.simplify import collect_monomials, reduce_pythagoras
+
+KINDS = ("decoupling", "constant_inertia", "coriolis", "balancing")
+RELATIVE_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class Check:
+    """A condition evaluated for one parameter set."""
+
+    value: float
+    scale: float  # Σ|terms|: the size the value is compared with
+    holds: bool | None
+
+    @property
+    def relative(self) -> float:
+        return abs(self.value) / self.scale if self.scale else 0.0
+
+
+@dataclass(frozen=True)
+class Condition:
+    """A parameter combination that must vanish, with what it multiplies in the model."""
+
+    name: str
+    kind: str
+    expression: sp.Expr
+    functions: tuple[sp.Expr, ...]
+    assuming_nonzero: tuple[sp.Symbol, ...] = ()
+    unit: str = ""
+    feasible: bool | None = None  # False: cannot vanish while every parameter keeps its nominal sign
+
+    @property
+    def equation(self) -> sp.Eq:
+        return sp.Eq(self.expression, 0)
+
+    def readable(self) -> str:
+        return f"{sp.sstr(self.expression)} = 0"
+
+    def check(self, values: Mapping[sp.Symbol, float]) -> Check:
+        terms = sp.Add.make_args(sp.expand(self.expression))
+        try:
+            numbers = [float(t.xreplace(values)) for t in terms]
+        except TypeError:
+            return Check(float("nan"), float("nan"), None)
+        value, scale = sum(numbers), sum(abs(x) for x in numbers)
+        return Check(value, scale, abs(value) <= RELATIVE_TOLERANCE * scale)
+
+
+@dataclass
+class Analysis:
+    """All conditions of a model, with checks at a parameter set (nominal by default)."""
+
+    model: DynamicModel
+    conditions: list[Condition]
+    values: dict[sp.Symbol, float] = field(default_factory=dict)
+
+    def of_kind(self, kind: str) -> list[Condition]:
+        return [c for c in self.conditions if c.kind == kind]
+
+    def holds(self, kind: str) -> bool:
+        return all(c.check(self.values).holds for c in self.of_kind(kind))
+
+    def offending(self, kind: str) -> list[Condition]:
+        """Conditions of ``kind`` that fail at the analysed parameters."""
+        return [c for c in self.of_kind(kind) if not c.check(self.values).holds]
+
+    def infeasible(self, kind: str) -> list[Condition]:
+        """Conditions of ``kind`` that no parameter set with the nominal signs can satisfy."""
+        return [c for c in self.of_kind(kind) if c.feasible is False]
+
+    def to_dict(self) -> dict:
+        out = []
+        for c in self.conditions:
+            check = c.check(self.values)
+            out.append(
+                {
+                    "name": c.name,
+                    "kind": c.kind,
+                    "expression": str(c.expression),
+                    "holds": check.holds,
+                    "value": check.value,
+                    "relative": check.relative,
+                    "unit": c.unit,
+                    "multiplies": [str(f) for f in c.functions],
+                    "assuming_nonzero": [str(s) for s in c.assuming_nonzero],
+                    "feasible": c.feasible,
+                }
+            )
+        return {"model": self.model.name, "conditions": out}
+
+    def summary(self) -> str:
+        lines = [f"model {self.model.name}: {len(self.conditions)} conditions"]
+        for kind in KINDS:
+            conditions = self.of_kind(kind)
+            if not conditions:
+                continue
+            lines.append(f"\n{kind}: {'holds' if self.holds(kind) else 'does not hold'} at the given parameters")
+            for c in conditions:
+                check = c.check(self.values)
+                state = "holds" if check.holds else f"fails by {check.value:.4g} {c.unit}".rstrip() + f" ({check.relative:.2g} of its terms)"
+                extra = "" if c.feasible is not False else "  [cannot vanish with the nominal parameter signs]"
+                lines.append(f"  {c.name}: {c.readable()}  -> {state}{extra}")
+        return "\n".join(lines)
+
+
+# -- building conditions ---------------------------------------------------------------------
+
+
+def _units(model: DynamicModel) -> dict[sp.Symbol, sp.Expr]:
+    """Parameter -> its unit as a SymPy product of unit symbols (from strings like 'kg*m^2', 'm/s^2')."""
+    out = {}
+    for p in model.robot.parameters:
+        unit = sp.Integer(1)
+        text = p.unit.replace(" ", "")
+        if text:
+            sign = 1
+            for token in re.split(r"([*/])", text):
+                if token == "*":
+                    sign = 1
+                elif token == "/":
+                    sign = -1
+                elif token:
+                    base, _, exponent = token.partition("^")
+                    try:
+                        power = int(exponent) if exponent else 1
+                    except ValueError:
+                        power = 1
+                    unit *= sp.Symbol(base) ** (sign * power)
+        out[p.symbol] = unit
+    return out
+
+
+def _unit_of(expr: sp.Expr, units: Mapping[sp.Symbol, sp.Expr]) -> str:
+    first = sp.Add.make_args(sp.expand(expr))[0]
+    coefficient, rest = first.as_coeff_Mul()
+    unit = rest.xreplace({s: units.get(s, 1) for s in rest.free_symbols})
+    return "" if unit == 1 else sp.sstr(unit).replace("**", "^")
+
+
+def _primitive(expr: sp.Expr) -> tuple[sp.Expr, tuple[sp.Symbol, ...]]:
+    """Split off numeric content and single-symbol factors of a sum; normalise the sign.
+
+    g·(m₁l_c1 + m₃l_c3 + m_r l₁) gives (m₁l_c1 + m₃l_c3 + m_r l₁, (g,)). A plain product of symbols
+    (e.g. I_zz6 or m₆r_z6) is kept whole: then the condition is that product vanishing.
+    """
+    expr = sp.factor_terms(sp.expand(expr))
+    _, expr = expr.as_coeff_Mul()
+    kept, dropped = [], []
+    for factor in sp.Mul.make_args(expr):
+        base, _ = factor.as_base_exp()
+        if base.is_Symbol:
+            dropped.append(base)
+        elif not base.is_Number:
+            kept.append(factor)
+    if not kept:  # a monomial: nothing to set aside
+        kept, dropped = [expr], []
+    core = sp.expand(sp.Mul(*kept))
+    if core.could_extract_minus_sign():
+        core = sp.expand(-core)
+    return core, tuple(sorted(set(dropped), key=sp.default_sort_key))
+
+
+def _feasible(expr: sp.Expr, values: Mapping[sp.Symbol, float]) -> bool | None:
+    """False when expr has a definite sign once every parameter keeps its nominal sign."""
+    signed = {}
+    for s in expr.free_symbols:
+        v = values.get(s)
+        if v is None:
+            return None
+        signed[s] = sp.Symbol(s.name, positive=True) if v > 0 else (-sp.Symbol(s.name, positive=True) if v < 0 else sp.Integer(0))
+    e = sp.expand(expr.xreplace(signed))
+    if e == 0:
+        return True
+    if e.is_positive or e.is_negative:
+        return False
+    return None
+
+
+def decoupling(
+    model: DynamicModel,
+    parameters: Mapping[str, float] | None = None,
+    kinds: Iterable[str] = KINDS,
+) -> Analysis:
+    """The decoupling and balancing conditions of ``model`` (Madill 4.2), checked at ``parameters``.
+
+    Parameters
+    ----------
+    model
+        A derived model.
+    parameters
+        Values by parameter name overriding the nominal ones for the numeric checks.
+    kinds
+        Which families to compute (the constant-inertia and Coriolis families expand the diagonal of
+        D and the Coriolis vector, which takes time for six or more coordinates).
+    """
+    kinds = list(kinds)
+    unknown = set(kinds) - set(KINDS)
+    if unknown:
+        raise ValueError(f"unknown condition kind(s) {sorted(unknown)} (allowed: {', '.join(KINDS)})")
+    values = dict(model.parameters)
+    for name, value in (parameters or {}).items():
+        values[sp.Symbol(name, real=True)] = float(value)
+    q, qd = list(model.coordinates), list(model.velocities)
+    names = model.robot.coordinates
+    units = _units(model)
+    conditions: list[Condition] = []
+
+    def add(kind: str, label: str, expr: sp.Expr, variables, keep_constant: bool = True) -> None:
+        canonical = reduce_pythagoras(expr)
+        groups: dict[sp.Expr, list[sp.Expr]] = {}
+        dropped_of: dict[sp.Expr, tuple] = {}
+        for function, coefficient in collect_monomials(canonical, variables).items():
+            if function == 1 and not keep_constant:
+                continue
+            core, dropped = _primitive(coefficient)
+            groups.setdefault(core, []).append(function)
+            dropped_of[core] = tuple(sorted(set(dropped_of.get(core, ())) | set(dropped), key=sp.default_sort_key))
+        for k, (core, functions) in enumerate(sorted(groups.items(), key=lambda kv: sp.default_sort_key(kv[0]))):
+            suffix = f" #{k + 1}" if len(groups) > 1 else ""
+            conditions.append(
+                Condition(
+                    name=f"{label}{suffix}",
+                    kind=kind,
+                    expression=core,
+                    functions=tuple(functions),
+                    assuming_nonzero=dropped_of[core],
+                    unit=_unit_of(core, units),
+                    feasible=_feasible(core, values),
+                )
+            )
+
+    D = model.D
+    n = model.n
+    if "decoupling" in kinds:
+        for i in range(n):
+            for j in range(i + 1, n):
+                add("decoupling", f"D[{names[i]},{names[j]}] = 0", D[i, j], q)
+    if "constant_inertia" in kinds:
+        for i in range(n):
+            add("constant_inertia", f"D[{names[i]},{names[i]}] constant", D[i, i], q, keep_constant=False)
+    if "coriolis" in kinds:
+        h = model.coriolis_vector
+        for k in range(n):
+            for j in range(n):
+                if j == k:
+                    continue
+                for variable, what in ((q[j], names[j]), (qd[j], f"{names[j]}_dot")):
+                    derivative = sp.diff(h[k], variable)
+                    if derivative != 0:
+                        add("coriolis", f"coriolis row {names[k]} free of {what}", derivative, q + qd)
+    if "balancing" in kinds:
+        add("balancing", "V independent of Q", model.potential_energy, q, keep_constant=False)
+    return Analysis(model, conditions, values)
+
+
+# -- counterbalance design -------------------------------------------------------------------
+
+
+@dataclass
+class Design:
+    """Result of :func:`counterbalance`: values of the free parameters and what is left unmet."""
+
+    solution: dict[sp.Symbol, sp.Expr]
+    values: dict[str, float]
+    unmet: list[Condition]
+    analysis: Analysis
+
+    @property
+    def feasible(self) -> bool:
+        return not self.unmet
+
+    def summary(self) -> str:
+        lines = [f"{k} = {v:.6g}" for k, v in self.values.items()]
+        if self.unmet:
+            lines.append("cannot be met:")
+            lines += [f"  {c.name}: {c.readable()}" for c in self.unmet]
+        return "\n".join(lines)
+
+
+def counterbalance(
+    model: DynamicModel,
+    free: Sequence[str],
+    kinds: Sequence[str] = ("balancing", "decoupling"),
+    parameters: Mapping[str, float] | None = None,
+) -> Design:
+    """Solve the ``kinds`` conditions for the ``free`` parameters (Madill 4.2.4).
+
+    The conditions are solved in the order that uses each free parameter once, as Madill adjusts the
+    counterbalances: a condition with a single free parameter first, its solution substituted into
+    the rest. Conditions that cannot be met with the free parameters are returned in ``unmet``.
+    """
+    analysis = decoupling(model, parameters, kinds)
+    symbols = [sp.Symbol(name, real=True) for name in free]
+    known = set(model.parameter_symbols)
+    missing = [s.name for s in symbols if s not in known]
+    if missing:
+        raise ValueError(f"unknown free parameter(s) {missing} (parameters: {', '.join(p.name for p in model.robot.parameters)})")
+    pending = [c for c in analysis.conditions if c.expression.free_symbols & set(symbols)]
+    unmet = [c for c in analysis.conditions if not c.expression.free_symbols & set(symbols) and not c.check(analysis.values).holds]
+    solution: dict[sp.Symbol, sp.Expr] = {}
+    progress = True
+    while pending and progress:
+        progress = False
+        for c in list(pending):
+            expr = sp.expand(c.expression.xreplace(solution))
+            unknowns = [s for s in symbols if s in expr.free_symbols and s not in solution]
+            if len(unknowns) == 1:
+                roots = sp.solve(expr, unknowns[0], dict=False)
+                if roots:
+                    solution[unknowns[0]] = sp.simplify(roots[0])
+                    pending.remove(c)
+                    progress = True
+            elif not unknowns:
+                pending.remove(c)
+                if not Condition(c.name, c.kind, expr, c.functions).check(analysis.values).holds:
+                    unmet.append(c)
+                progress = True
+    if pending:  # coupled conditions: solve them together
+        exprs = [sp.expand(c.expression.xreplace(solution)) for c in pending]
+        unknowns = [s for s in symbols if s not in solution]
+        found = sp.solve(exprs, unknowns, dict=True)
+        if found:
+            solution.update({k: sp.simplify(v) for k, v in found[0].items()})
+        else:
+            unmet += pending
+    for s in list(solution):
+        solution[s] = sp.simplify(solution[s].xreplace(solution))
+    values = {}
+    for s, expr in solution.items():
+        number = expr.xreplace(analysis.values)
+        if number.free_symbols:
+            values[s.name] = float("nan")
+        else:
+            values[s.name] = float(number)
+    return Design(solution, values, unmet, analysis)
