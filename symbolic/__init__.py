@@ -15,13 +15,14 @@ from symbolic import robots
 from symbolic.dynamics import DynamicModel, derive
 from symbolic.errors import ModelError, ModelWarning
 from symbolic.modelfile import load, loads
-from symbolic.spec import Body, Constraint, EndEffector, Frame, Parameter, Robot
+from symbolic.spec import Beam, Body, Constraint, EndEffector, Frame, Parameter, Robot
 
 __version__ = "0.1.0"
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 __all__ = [
+    "Beam",
     "Body",
     "Constraint",
     "DynamicModel",

@@ -229,7 +229,7 @@ def decoupling(
     for name, value in (parameters or {}).items():
         values[sp.Symbol(name, real=True)] = float(value)
     q, qd = list(model.coordinates), list(model.velocities)
-    names = model.robot.coordinates
+    names = model.robot.generalized_coordinates
     units = _units(model)
     conditions: list[Condition] = []
 

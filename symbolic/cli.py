@@ -37,7 +37,7 @@ def cmd_list(args: argparse.Namespace) -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ModelWarning)
             robot = robots.load(name)
-        print(f"{name:14s} {len(robot.coordinates)} DOF  {robot.description}")
+        print(f"{name:14s} {len(robot.generalized_coordinates)} DOF  {robot.description}")
     return 0
 
 

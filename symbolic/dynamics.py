@@ -23,7 +23,7 @@ from symbolic.gravity import potential_energy
 from symbolic.inertia import composite_inertias, inertia_matrix
 from symbolic.kinematics import Kinematics
 from symbolic.newton_euler import inverse_dynamics
-from symbolic.spec import Robot, acceleration_symbol, velocity_symbol
+from symbolic.spec import Robot, acceleration_symbol, coordinate_symbol, velocity_symbol
 from symbolic.subexpressions import Subexpressions
 
 log = logging.getLogger(__name__)
@@ -50,9 +50,11 @@ class ReducedForms:
     potential
         V_g(Q).
     tau
-        τ = DQ̈ + (I⊗Q̇ᵀ)CQ̇ + g by Newton–Euler.
+        τ = DQ̈ + (I⊗Q̇ᵀ)CQ̇ + g + k (Newton–Euler for rigid models).
     coriolis_ne
         (I⊗Q̇ᵀ)CQ̇ by Newton–Euler (Q̈ = 0, no gravity): the same vector as ``coriolis``, cheaper.
+    stiffness, strain
+        k = ∂V_strain/∂Qᵀ and V_strain (Madill (3.80)); zero for rigid models.
     """
 
     D: sp.Matrix
@@ -64,6 +66,8 @@ class ReducedForms:
     potential: sp.Expr
     tau: sp.Matrix
     coriolis_ne: sp.Matrix
+    stiffness: sp.Matrix
+    strain: sp.Expr
 
 
 @dataclass
@@ -84,15 +88,15 @@ class DynamicModel:
     @property
     def coordinates(self) -> tuple[sp.Symbol, ...]:
         """Generalized coordinates Q (N)."""
-        return self.robot.coordinate_symbols
+        return tuple(coordinate_symbol(c) for c in self.robot.generalized_coordinates)
 
     @property
     def velocities(self) -> tuple[sp.Symbol, ...]:
-        return tuple(velocity_symbol(c) for c in self.robot.coordinates)
+        return tuple(velocity_symbol(c) for c in self.robot.generalized_coordinates)
 
     @property
     def accelerations(self) -> tuple[sp.Symbol, ...]:
-        return tuple(acceleration_symbol(c) for c in self.robot.coordinates)
+        return tuple(acceleration_symbol(c) for c in self.robot.generalized_coordinates)
 
     @property
     def parameters(self) -> dict[sp.Symbol, float]:
@@ -105,7 +109,7 @@ class DynamicModel:
 
     @property
     def n(self) -> int:
-        return len(self.robot.coordinates)
+        return len(self.robot.generalized_coordinates)
 
     # -- expanded contract attributes ------------------------------------------------------
     def expand(self, expr: sp.Expr | sp.Matrix) -> sp.Expr | sp.Matrix:
@@ -146,12 +150,17 @@ class DynamicModel:
 
     @cached_property
     def stiffness(self) -> sp.Matrix:
-        """∂V_strain/∂Qᵀ: zero for rigid models."""
-        return sp.zeros(self.n, 1)
+        """∂V_strain/∂Qᵀ (Madill (3.80)): zero for rigid models."""
+        return self.expand(self.reduced.stiffness)
+
+    @cached_property
+    def strain_energy(self) -> sp.Expr:
+        """V_strain(Q) (Madill (3.80))."""
+        return self.expand(self.reduced.strain)
 
     @cached_property
     def inverse_dynamics(self) -> sp.Matrix:
-        """τ = D Q̈ + (I⊗Q̇ᵀ)CQ̇ + g (Newton–Euler form)."""
+        """τ = D Q̈ + (I⊗Q̇ᵀ)CQ̇ + g + k."""
         return self.expand(self.reduced.tau)
 
     def christoffel_symbol(self, i: int, j: int, k: int) -> sp.Expr:
@@ -191,7 +200,7 @@ class DynamicModel:
         ops = self.operation_counts()
         lines = [
             f"model {self.name}: {self.robot.description}".rstrip(": "),
-            f"  coordinates ({self.n}): {', '.join(self.robot.coordinates)}",
+            f"  coordinates ({self.n}): {', '.join(self.robot.generalized_coordinates)}",
             f"  parameters ({len(self.robot.parameters)}): {', '.join(p.name for p in self.robot.parameters)}",
             f"  frames {len(self.robot.frames)}, bodies {len(self.robot.bodies)}, constraints {len(self.robot.constraints)}",
             f"  intermediates {len(self.sub)}; derivation {sum(self.timings.values()):.2f} s",
@@ -201,14 +210,22 @@ class DynamicModel:
 
 
 def derive(robot: Robot) -> DynamicModel:
-    """Derive D(Q), the Christoffel matrix, Coriolis terms, g and τ for ``robot``.
+    """Derive D(Q), the Christoffel matrix, Coriolis terms, g, elastic forces and τ for ``robot``.
 
-    Progress is logged at INFO level (``logging.getLogger("symbolic")``).
+    Rigid bodies enter through the composite-rigid-body form of D and a Newton–Euler pass; flexible
+    beams (Madill 3.4–3.8) add their D_f (3.76), gravitational (3.79) and strain (3.80) energies, and
+    a model with beams takes τ = DQ̈ + (I⊗Q̇ᵀ)CQ̇ + g + k from the Lagrangian quantities (hierarchical
+    equations (3.83)). Progress is logged at INFO level (``logging.getLogger("symbolic")``).
     """
+    from symbolic.flexible import beam_energy
+
     timings: dict[str, float] = {}
-    q = robot.coordinate_symbols
-    qd = tuple(velocity_symbol(c) for c in robot.coordinates)
-    qdd = tuple(acceleration_symbol(c) for c in robot.coordinates)
+    names = robot.generalized_coordinates
+    q = tuple(coordinate_symbol(c) for c in names)
+    qd = tuple(velocity_symbol(c) for c in names)
+    qdd = tuple(acceleration_symbol(c) for c in names)
+    rigid = robot.coordinate_symbols
+    n, m = len(q), len(rigid)
     sub = Subexpressions(q + qd + qdd)
 
     def step(name: str, func):
@@ -221,18 +238,38 @@ def derive(robot: Robot) -> DynamicModel:
 
     kin = step("kinematics", lambda: Kinematics(robot, sub))
     composite = step("composite inertias", lambda: composite_inertias(kin))
-    D = step("inertia matrix", lambda: inertia_matrix(kin, composite))
+    D_rigid = step("inertia matrix", lambda: inertia_matrix(kin, composite))
+    beams = step("flexible beams", lambda: [beam_energy(kin, beam, q) for beam in robot.beams])
+    D = sp.zeros(n, n)
+    D[:m, :m] = D_rigid
+    for energy in beams:
+        D += energy.inertia
+    D = D.applyfunc(sub.add) if beams else D
     dD = step("dD/dQ", lambda: ch.inertia_derivatives(D, q, sub))
     C = step("christoffel", lambda: ch.christoffel_symbols(dD, sub))
     coriolis = step("coriolis", lambda: ch.coriolis_vector(C, qd))
     cmat = step("coriolis matrix", lambda: ch.coriolis_matrix(C, qd))
-    zero = {x: sp.Integer(0) for x in q}
-    gravity = step("gravity", lambda: inverse_dynamics(kin, zero, zero, gravity=True))
+    zero = {x: sp.Integer(0) for x in rigid}
+    g_rigid = step("gravity", lambda: inverse_dynamics(kin, zero, zero, gravity=True))
     potential = step("potential", lambda: potential_energy(kin))
-    tau = step(
-        "newton-euler",
-        lambda: inverse_dynamics(kin, dict(zip(q, qd)), dict(zip(q, qdd)), gravity=True),
-    )
-    coriolis_ne = step("newton-euler coriolis", lambda: inverse_dynamics(kin, dict(zip(q, qd)), zero, gravity=False))
-    reduced = ReducedForms(D, dD, C, coriolis, cmat, gravity, potential, tau, coriolis_ne)
+    gravity = sp.zeros(n, 1)
+    gravity[:m, 0] = g_rigid
+    strain = sp.Integer(0)
+    for energy in beams:
+        potential = potential + energy.gravity_potential
+        strain = strain + energy.strain
+        gravity += sp.Matrix([sub.add(sub.diff(energy.gravity_potential, x)) for x in q])
+    potential = sub.add(potential)
+    strain = sub.add(strain)
+    stiffness = sp.Matrix([sub.add(sub.diff(strain, x)) for x in q])
+    if beams:
+        tau = (D * sp.Matrix(qdd) + coriolis + gravity + stiffness).applyfunc(sub.add)
+        coriolis_ne = coriolis
+    else:
+        tau = step(
+            "newton-euler",
+            lambda: inverse_dynamics(kin, dict(zip(rigid, qd)), dict(zip(rigid, qdd)), gravity=True),
+        )
+        coriolis_ne = step("newton-euler coriolis", lambda: inverse_dynamics(kin, dict(zip(rigid, qd)), zero, gravity=False))
+    reduced = ReducedForms(D, dD, C, coriolis, cmat, gravity, potential, tau, coriolis_ne, stiffness, strain)
     return DynamicModel(robot, sub, kin, reduced, timings)

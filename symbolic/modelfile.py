@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from symbolic.errors import ModelError
-from symbolic.spec import DH_KEYS, INERTIA_KEYS, Body, Constraint, EndEffector, Frame, Parameter, Robot
+from symbolic.spec import DH_KEYS, INERTIA_KEYS, Beam, Body, Constraint, EndEffector, Frame, Parameter, Robot
 
 TOP_KEYS = {
     "name",
@@ -28,7 +28,7 @@ TOP_KEYS = {
     "beam",
     "friction",
 }
-SUPPORTED_LATER = {"beam", "friction"}
+SUPPORTED_LATER = {"friction"}
 
 
 def load(path: str | Path) -> Robot:
@@ -104,6 +104,7 @@ class _Reader:
             constraints=tuple(
                 self.constraint(c, i) for i, c in enumerate(self.array(d.get("constraint", []), "[[constraint]]"))
             ),
+            beams=tuple(self.beam(b, i) for i, b in enumerate(self.array(d.get("beam", []), "[[beam]]"))),
             end_effector=self.end_effector(d.get("end_effector")),
             source=self.source,
         )
@@ -144,6 +145,24 @@ class _Reader:
             mass=b["mass"],
             com=tuple(self.array(b.get("com", [0, 0, 0]), f"[[body]] {name!r} com")),
             inertia=inertia,
+        )
+
+    def beam(self, value: Any, index: int) -> Beam:
+        key = f"[[beam]] #{index + 1}"
+        allowed = {"name", "frame", "length", "density", "EI_v", "EI_w", "modes_v", "modes_w", "boundary", "tip_mass"}
+        b = self.table(value, key, allowed, {"name", "frame", "length", "density", "EI_v", "EI_w"})
+        name = self.string(b["name"], f"{key} name")
+        return Beam(
+            name=name,
+            frame=self.string(b["frame"], f"[[beam]] {name!r} frame"),
+            length=b["length"],
+            density=b["density"],
+            EI_v=b["EI_v"],
+            EI_w=b["EI_w"],
+            modes_v=b.get("modes_v", 1),
+            modes_w=b.get("modes_w", 1),
+            boundary=self.string(b.get("boundary", "clamped-free"), f"[[beam]] {name!r} boundary"),
+            tip_mass=b.get("tip_mass"),
         )
 
     def constraint(self, value: Any, index: int) -> Constraint:

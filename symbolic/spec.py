@@ -114,6 +114,36 @@ class Constraint:
 
 
 @dataclass(frozen=True)
+class Beam:
+    """An Euler–Bernoulli beam clamped to ``frame``, undeformed along its x axis (Madill 3.4).
+
+    ``EI_v``/``EI_w`` are the bending stiffnesses for deflection along frame y (v) and z (w);
+    ``modes_v``/``modes_w`` the numbers of assumed modes; ``tip_mass`` an optional point payload at
+    x = length. Modal coordinates ``<name>_nu<i>`` and ``<name>_eta<i>`` are appended to the
+    generalized coordinates.
+    """
+
+    name: str
+    frame: str
+    length: ExprLike
+    density: ExprLike
+    EI_v: ExprLike
+    EI_w: ExprLike
+    modes_v: int = 1
+    modes_w: int = 1
+    boundary: str = "clamped-free"
+    tip_mass: ExprLike | None = None
+
+    @property
+    def nu(self) -> tuple[str, ...]:
+        return tuple(f"{self.name}_nu{i}" for i in range(1, self.modes_v + 1))
+
+    @property
+    def eta(self) -> tuple[str, ...]:
+        return tuple(f"{self.name}_eta{i}" for i in range(1, self.modes_w + 1))
+
+
+@dataclass(frozen=True)
 class EndEffector:
     """A point fixed in a frame whose Jacobian J maps Q̇ to its velocity (Madill (3.57))."""
 
@@ -136,6 +166,7 @@ class Robot:
     frames: tuple[Frame, ...] = ()
     bodies: tuple[Body, ...] = ()
     constraints: tuple[Constraint, ...] = ()
+    beams: tuple[Beam, ...] = ()
     gravity: tuple[ExprLike, ExprLike, ExprLike] = (0, 0, "-9.81")
     convention: str = "standard"
     description: str = ""
@@ -150,7 +181,14 @@ class Robot:
     # -- symbols -------------------------------------------------------------------------
     @property
     def coordinate_symbols(self) -> tuple[sp.Symbol, ...]:
+        """The rigid (frame) coordinates."""
         return tuple(coordinate_symbol(c) for c in self.coordinates)
+
+    @property
+    def generalized_coordinates(self) -> tuple[str, ...]:
+        """Q: the coordinates, then every beam's modal coordinates ν, η (Madill (3.55))."""
+        modal = tuple(name for b in self.beams for name in b.nu + b.eta)
+        return tuple(self.coordinates) + modal
 
     @property
     def parameter_symbols(self) -> tuple[sp.Symbol, ...]:
@@ -183,6 +221,7 @@ class Robot:
             frames=self.frames,
             bodies=self.bodies,
             constraints=(),
+            beams=self.beams,
             gravity=self.gravity,
             convention=self.convention,
             description=f"equivalent tree structure of {self.name}",
@@ -205,7 +244,7 @@ def _replace(robot: Robot, **changes: Any) -> Robot:
     fields = {
         name: getattr(robot, name)
         for name in (
-            "name coordinates parameters frames bodies constraints gravity convention description "
+            "name coordinates parameters frames bodies constraints beams gravity convention description "
             "end_effector source keys"
         ).split()
     }
@@ -241,6 +280,7 @@ class _Validator:
         self.check_constraints()
         self.check_frames()
         self.check_bodies()
+        self.check_beams()
         self.check_gravity()
         self.check_end_effector()
         self.check_coordinates_used()
@@ -280,6 +320,8 @@ class _Validator:
         names = [(c, "coordinates") for c in r.coordinates]
         names += [(c.coordinate, "[[constraint]] coordinate") for c in r.constraints]
         names += [(p.name, "[parameters]") for p in r.parameters]
+        names += [(n, f"[[beam]] {b.name!r} modal coordinate") for b in r.beams for n in (b.nu + b.eta)
+                  if isinstance(b.modes_v, int) and isinstance(b.modes_w, int)]
         for name, key in names:
             if not isinstance(name, str) or not IDENTIFIER.match(name):
                 raise self.fail(key, f"{name!r} is not an identifier ([A-Za-z][A-Za-z0-9_]*)")
@@ -372,6 +414,44 @@ class _Validator:
             self.check_inertia(inertia, f"{key} inertia")
             out.append(Body(b.name, b.frame, mass, com, inertia))
         self.set(r, "bodies", tuple(out))
+
+    def check_beams(self) -> None:
+        from symbolic.mode_shapes import BOUNDARIES
+
+        r = self.robot
+        frames = {f.name for f in r.frames} | {BASE}
+        parameters = {p.name for p in r.parameters}
+        out, names = [], set()
+        for b in r.beams:
+            key = f"[[beam]] {b.name!r}"
+            if not isinstance(b.name, str) or not IDENTIFIER.match(b.name):
+                raise self.fail(key, "beam name must be an identifier ([A-Za-z][A-Za-z0-9_]*)")
+            if b.name in names:
+                raise self.fail(key, "beam defined twice")
+            names.add(b.name)
+            if b.frame not in frames:
+                raise self.fail(f"{key} frame", f"frame {b.frame!r} does not exist (frames: {', '.join(sorted(frames))})")
+            for attr in ("modes_v", "modes_w"):
+                n = getattr(b, attr)
+                if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+                    raise self.fail(f"{key} {attr}", f"number of modes must be an integer >= 1, got {n!r}")
+                if n > 6:
+                    raise self.fail(f"{key} {attr}", f"at most 6 modes per direction are supported (the mode shapes lose precision beyond), got {n}")
+            if b.boundary not in BOUNDARIES:
+                raise self.fail(f"{key} boundary", f"boundary {b.boundary!r} is not supported (supported: {', '.join(BOUNDARIES)})")
+            values = {}
+            for attr in ("length", "density", "EI_v", "EI_w"):
+                expr = self.expr(getattr(b, attr), f"{key} {attr}", parameters)
+                if self.nominal(expr, f"{key} {attr}") <= 0:
+                    raise self.fail(f"{key} {attr}", f"{attr} must be positive, nominal value is {self.nominal(expr, f'{key} {attr}'):g}")
+                values[attr] = expr
+            tip = None
+            if b.tip_mass is not None:
+                tip = self.expr(b.tip_mass, f"{key} tip_mass", parameters)
+                if self.nominal(tip, f"{key} tip_mass") < 0:
+                    raise self.fail(f"{key} tip_mass", "tip mass must be non-negative")
+            out.append(Beam(b.name, b.frame, modes_v=b.modes_v, modes_w=b.modes_w, boundary=b.boundary, tip_mass=tip, **values))
+        self.set(r, "beams", tuple(out))
 
     def check_inertia(self, inertia: Mapping[str, sp.Expr], key: str) -> None:
         v = {k: self.nominal(e, f"{key}.{k}") for k, e in inertia.items()}

@@ -67,6 +67,20 @@ class NumericModel:
         return self._fn([self.q, self.p], [self.model.reduced.potential])
 
     @cached_property
+    def _stiffness(self):
+        return self._fn([self.q, self.p], self.model.reduced.stiffness)
+
+    def stiffness(self, q, p=None) -> np.ndarray:
+        return self._stiffness(q, self.params(p))
+
+    @cached_property
+    def _strain(self):
+        return self._fn([self.q, self.p], [self.model.reduced.strain])
+
+    def strain_energy(self, q, p=None) -> float:
+        return float(self._strain(q, self.params(p))[0])
+
+    @cached_property
     def _tau(self):
         return self._fn([self.q, self.qd, self.qdd, self.p], self.model.reduced.tau)
 
@@ -111,7 +125,7 @@ class NumericModel:
 
     def forward_dynamics(self, q, qd, tau, p=None, force=None) -> np.ndarray:
         """Q̈ = D⁻¹(τ − J ᵀF − (I⊗Q̇ᵀ)CQ̇ − g) (3.114), by Cholesky; raises if D is not positive definite."""
-        rhs = np.asarray(tau, float) - self.coriolis(q, qd, p) - self.gravity(q, p)
+        rhs = np.asarray(tau, float) - self.coriolis(q, qd, p) - self.gravity(q, p) - self.stiffness(q, p)
         if force is not None:
             rhs = rhs - self.jacobian(q, p).T @ np.asarray(force, float)
         factor = np.linalg.cholesky(self.inertia(q, p))
@@ -131,7 +145,7 @@ class NumericModel:
         """∂P/∂Q (N×N), ∂P/∂Q̇ (N×N), ∂(JᵀF)/∂Q (N×N) as compiled functions."""
         m = self.model
         sub = self.sub
-        P = m.reduced.coriolis + m.reduced.gravity
+        P = m.reduced.coriolis + m.reduced.gravity + m.reduced.stiffness
         dP_dq = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(P[i], self.q[k])))
         dP_dqd = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(P[i], self.qd[k])))
         funcs = {
@@ -167,3 +181,25 @@ class NumericModel:
         B = np.zeros((2 * n, inputs.shape[1]))
         B[n:, :] = np.linalg.solve(D, inputs)
         return A, B
+
+
+def natural_frequencies(model: DynamicModel, q0=None, p=None, rigid_tolerance: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """Natural frequencies [rad/s] and mode shapes of the model linearised about a rest point.
+
+    Generalised eigenproblem K x = ω² D(Q⁰) x with K = ∂(g + k)/∂Q at Q⁰ (Madill 3.9.4 with Q̇ = 0,
+    U = 0); rigid-body modes (ω² ≤ rigid_tolerance·max ω²) are dropped. Returns (ω ascending, modes as
+    columns).
+    """
+    from scipy.linalg import eigh
+
+    num = model.numeric
+    n = model.n
+    q0 = np.zeros(n) if q0 is None else np.asarray(q0, float)
+    terms = num._linear_terms
+    zeros = np.zeros(n)
+    K = terms["dP_dq"](q0, zeros, num.params(p))  # at Q̇ = 0 only ∂(g + k)/∂Q remains
+    K = (K + K.T) / 2
+    D = num.inertia(q0, p)
+    w2, vectors = eigh(K, D)
+    keep = w2 > rigid_tolerance * max(w2.max(), 1e-300)
+    return np.sqrt(w2[keep]), vectors[:, keep]

@@ -2,7 +2,8 @@
 runs clean under the sanitizers; CasADi files load without this package; output is deterministic.
 
 Round trip tolerance: ‖C − SymPy‖ ≤ 1e-12 ‖SymPy‖ and ‖CasADi − SymPy‖ ≤ 1e-12 ‖SymPy‖ per function,
-20 seeded states per robot; forward dynamics inverts inverse dynamics to 1e-10 relative.
+20 seeded states per robot; forward dynamics inverts inverse dynamics to 1e-10 relative to the size of
+q̈ and of D⁻¹(bias forces) (the terms that cancel).
 The committed generated/ directory is what is tested (``make check-generated`` keeps it current).
 """
 
@@ -24,7 +25,7 @@ from conftest import derived
 
 ROOT = Path(__file__).resolve().parents[1]
 GENERATED = ROOT / "generated"
-ROBOTS = ["fivebar", "puma560", "panda", "janot_branch", "omni"]
+ROBOTS = ["fivebar", "puma560", "panda", "janot_branch", "omni", "single_flexible_link", "madill_beam"]
 
 
 def close(ours, reference, rtol):
@@ -52,8 +53,10 @@ def test_c_and_casadi_match_sympy(name: str, libraries) -> None:
     fns = {f: casadi.Function.load(str(GENERATED / name / f"{name}_{f}.casadi")) for f in
            ("inertia", "coriolis", "coriolis_matrix", "gravity", "inverse_dynamics", "forward_dynamics", "A", "B")}
     rng = np.random.default_rng(42)
+    # beam deflections (modal coordinates) at physical amplitudes, angles anywhere
+    amplitude = np.array([0.01 if ("_nu" in c or "_eta" in c) else np.pi for c in model.robot.generalized_coordinates])
     for _ in range(20):
-        q, qd, qdd = rng.uniform(-np.pi, np.pi, model.n), rng.uniform(-2, 2, model.n), rng.uniform(-2, 2, model.n)
+        q, qd, qdd = amplitude * rng.uniform(-1, 1, model.n), rng.uniform(-2, 2, model.n), rng.uniform(-2, 2, model.n)
         p = num.p0 * rng.uniform(0.5, 2.0, num.p0.size)
         reference = {
             "inertia": num.inertia(q, p),
@@ -67,7 +70,8 @@ def test_c_and_casadi_match_sympy(name: str, libraries) -> None:
         close(c.coriolis_matrix(q, qd, p), reference["coriolis_matrix"], 1e-12)
         close(c.gravity(q, p), reference["gravity"], 1e-12)
         close(c.inverse_dynamics(q, qd, qdd, p), reference["inverse_dynamics"], 1e-12)
-        assert not c.stiffness(q, p).any() and not c.friction(q, qd, p).any()
+        close(c.stiffness(q, p), num.stiffness(q, p), 1e-12) if num.stiffness(q, p).any() else None
+        assert not c.friction(q, qd, p).any()
         close(np.array(fns["inertia"](q, p)), reference["inertia"], 1e-12)
         close(np.array(fns["coriolis"](q, qd, p)).ravel(), reference["coriolis"], 1e-12)
         close(np.array(fns["coriolis_matrix"](q, qd, p)), reference["coriolis_matrix"], 1e-12)
@@ -76,8 +80,12 @@ def test_c_and_casadi_match_sympy(name: str, libraries) -> None:
         tau = reference["inverse_dynamics"]
         qdd_c, status = c.forward_dynamics(q, qd, tau, p)
         assert status == 0
-        close(qdd_c, qdd, 1e-10)
-        close(np.array(fns["forward_dynamics"](q, qd, tau, p)).ravel(), qdd, 1e-10)
+        # relative to the accelerations τ and the bias forces would produce on their own: elastic forces
+        # of a stiff beam cancel in τ − bias, and no solver recovers q̈ better than that cancellation
+        bias = np.linalg.solve(reference["inertia"], tau - reference["inertia"] @ qdd)
+        scale = np.linalg.norm(qdd) + np.linalg.norm(bias)
+        assert np.linalg.norm(qdd_c - qdd) <= 1e-10 * scale
+        assert np.linalg.norm(np.array(fns["forward_dynamics"](q, qd, tau, p)).ravel() - qdd) <= 1e-10 * scale
 
 
 @pytest.mark.parametrize("name", ["fivebar", "panda"])

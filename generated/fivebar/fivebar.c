@@ -13,21 +13,21 @@ const double fivebar_parameter_defaults[fivebar_NP] = { 9.81, 0.3, 0.06, 0.06, 0
 void fivebar_inertia(const double *q, const double *p, double *D)
 {
     const double v0 = q[1] - q[2];
-    const double v1 = p[8]*p[8];
-    const double v2 = p[7]*p[7];
-    const double v3 = p[1]*p[1];
+    const double v1 = (p[8]*p[8]);
+    const double v2 = (p[7]*p[7]);
+    const double v3 = (p[1]*p[1]);
     const double v4 = cos(v0);
     const double v5 = p[8]*p[12];
     const double v6 = v4*v5;
     const double v7 = p[1]*v6;
     const double v8 = p[12]*v3 - 2.0*v7;
-    const double v9 = p[5]*p[5];
-    const double v10 = p[2]*p[2];
+    const double v9 = (p[5]*p[5]);
+    const double v10 = (p[2]*p[2]);
     const double v11 = p[7]*p[11];
     const double v12 = v11*v4;
     const double v13 = p[2]*v12;
     const double v14 = p[11]*v10 + 2.0*v13;
-    const double v15 = p[6]*p[6];
+    const double v15 = (p[6]*p[6]);
     const double v16 = p[15] + p[7]*v11;
     const double v17 = p[16] + p[8]*v5;
     const double v18 = v16 + v17;
@@ -41,7 +41,7 @@ void fivebar_inertia(const double *q, const double *p, double *D)
     const double v26 = sin(v0);
     const double v27 = p[16] + p[12]*v1;
     const double v28 = v26*v5;
-    const double v29 = -v26*v26 + v4*v4;
+    const double v29 = -(v26*v26) + (v4*v4);
     const double v30 = 2.0*v26*v4;
     const double v31 = -0.5*v27;
     const double v32 = v29*v31;
@@ -59,7 +59,7 @@ void fivebar_inertia(const double *q, const double *p, double *D)
     const double v44 = -p[12]*v3 + v33 + 2.0*v7 + v8;
     const double v45 = p[1]*v28 + v35;
     const double v46 = v34 + v8;
-    const double v47 = v24*v24 - v25*v25;
+    const double v47 = (v24*v24) - (v25*v25);
     const double v48 = 2.0*v24*v25;
     const double v49 = v44 + v46;
     const double v50 = (0.5)*v44 - 0.5*v46;
@@ -76,7 +76,7 @@ void fivebar_inertia(const double *q, const double *p, double *D)
     const double v61 = -p[11]*v10 - 2.0*v13 + v14 + v40;
     const double v62 = -p[2]*v37 + v42;
     const double v63 = v14 - v41;
-    const double v64 = v22*v22 - v23*v23;
+    const double v64 = (v22*v22) - (v23*v23);
     const double v65 = 2.0*v22*v23;
     const double v66 = v61 + v63;
     const double v67 = (0.5)*v61 - 0.5*v63;
@@ -130,7 +130,7 @@ void fivebar_coriolis(const double *q, const double *qd, const double *p, double
     const double v15 = qd[0]*v14;
     const double v16 = v12*v4 + v13*v15;
     const double v17 = v11*v16;
-    const double v18 = v11*v11;
+    const double v18 = (v11*v11);
     const double v19 = 2.0*v11;
     const double v20 = cos(q[1]);
     const double v21 = qd[0]*v20;
@@ -141,7 +141,7 @@ void fivebar_coriolis(const double *q, const double *qd, const double *p, double
     const double v26 = p[1]*v21;
     const double v27 = v26*v8;
     const double v28 = v21*v26;
-    const double v29 = p[1]*qd[1]*qd[1] + v28;
+    const double v29 = p[1]*(qd[1]*qd[1]) + v28;
     const double v30 = -v12*v27 + v13*v29 + v22*v25;
     const double v31 = p[12]*v30;
     const double v32 = p[8]*v31;
@@ -153,7 +153,7 @@ void fivebar_coriolis(const double *q, const double *qd, const double *p, double
     const double v38 = p[2]*v15;
     const double v39 = v38*v4;
     const double v40 = v15*v38;
-    const double v41 = p[2]*qd[2]*qd[2] + v40;
+    const double v41 = p[2]*(qd[2]*qd[2]) + v40;
     const double v42 = v12*v39 + v13*v41 - v16*v37;
     const double v43 = p[11]*v42;
     const double v44 = p[7]*v43;
@@ -236,13 +236,13 @@ void fivebar_coriolis(const double *q, const double *qd, const double *p, double
 void fivebar_coriolis_matrix(const double *q, const double *qd, const double *p, double *C)
 {
     const double v0 = q[1] - q[2];
-    const double v1 = p[8]*p[8];
+    const double v1 = (p[8]*p[8]);
     const double v2 = cos(v0);
     const double v3 = sin(v0);
-    const double v4 = v2*v2 - v3*v3;
+    const double v4 = (v2*v2) - (v3*v3);
     const double v5 = v2*v3;
-    const double v6 = p[7]*p[7];
-    const double v7 = p[1]*p[1];
+    const double v6 = (p[7]*p[7]);
+    const double v7 = (p[1]*p[1]);
     const double v8 = p[8]*p[12];
     const double v9 = v2*v8;
     const double v10 = p[1]*v9;
@@ -251,10 +251,10 @@ void fivebar_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v13 = p[1]*v12;
     const double v14 = cos(q[1]);
     const double v15 = sin(q[1]);
-    const double v16 = v14*v14 - v15*v15;
+    const double v16 = (v14*v14) - (v15*v15);
     const double v17 = v14*v15;
-    const double v18 = p[5]*p[5];
-    const double v19 = p[2]*p[2];
+    const double v18 = (p[5]*p[5]);
+    const double v19 = (p[2]*p[2]);
     const double v20 = p[7]*p[11];
     const double v21 = v2*v20;
     const double v22 = p[2]*v21;
@@ -263,9 +263,9 @@ void fivebar_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v25 = p[2]*v24;
     const double v26 = cos(q[2]);
     const double v27 = sin(q[2]);
-    const double v28 = v26*v26 - v27*v27;
+    const double v28 = (v26*v26) - (v27*v27);
     const double v29 = v26*v27;
-    const double v30 = p[6]*p[6];
+    const double v30 = (p[6]*p[6]);
     const double v31 = 2.0*v13;
     const double v32 = 2.0*v17;
     const double v33 = p[16] + p[12]*v1;
@@ -447,7 +447,7 @@ void fivebar_inverse_dynamics(const double *q, const double *qd, const double *q
     const double v17 = qd[0]*v1;
     const double v18 = v15*v4 + v16*v17;
     const double v19 = v14*v18;
-    const double v20 = v14*v14;
+    const double v20 = (v14*v14);
     const double v21 = 2.0*v14;
     const double v22 = p[8]*qd[1];
     const double v23 = qd[0]*v7;
@@ -456,7 +456,7 @@ void fivebar_inverse_dynamics(const double *q, const double *qd, const double *q
     const double v26 = qdd[1] - qdd[2];
     const double v27 = p[1]*v23;
     const double v28 = p[0]*v9 - v23*v27;
-    const double v29 = -p[1]*qd[1]*qd[1] + v28;
+    const double v29 = -p[1]*(qd[1]*qd[1]) + v28;
     const double v30 = v10*v27 + v8;
     const double v31 = p[1]*qdd[1] + v30;
     const double v32 = v10*v16 + v15*v23;
@@ -470,7 +470,7 @@ void fivebar_inverse_dynamics(const double *q, const double *qd, const double *q
     const double v40 = p[16]*v38 - v24*v39;
     const double v41 = p[2]*v17;
     const double v42 = -p[0]*v3 + v17*v41;
-    const double v43 = p[2]*qd[2]*qd[2] + v42;
+    const double v43 = p[2]*(qd[2]*qd[2]) + v42;
     const double v44 = v2 + v4*v41;
     const double v45 = p[2]*qdd[2] + v44;
     const double v46 = -v15*v17 + v16*v4;

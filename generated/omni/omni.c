@@ -13,10 +13,10 @@ const double omni_parameter_defaults[omni_NP] = { 9.81, 0.135, 0.135, 0.035, 0.0
 void omni_inertia(const double *q, const double *p, double *D)
 {
     const double v0 = 2.0*q[1] + q[2] + p[6];
-    const double v1 = p[2]*p[2];
+    const double v1 = (p[2]*p[2]);
     const double v2 = (0.25)*v1;
     const double v3 = p[2]*p[4];
-    const double v4 = p[1]*p[1];
+    const double v4 = (p[1]*p[1]);
     const double v5 = cos(v0);
     const double v6 = (0.5)*v3;
     const double v7 = v5*v6;
@@ -35,7 +35,7 @@ void omni_inertia(const double *q, const double *p, double *D)
     const double v20 = sin(v0);
     const double v21 = p[4]*v2 + v13;
     const double v22 = v20*v6;
-    const double v23 = -v20*v20 + v5*v5;
+    const double v23 = -(v20*v20) + (v5*v5);
     const double v24 = 2.0*v20*v5;
     const double v25 = (0.5)*v21;
     const double v26 = v23*v25;
@@ -46,7 +46,7 @@ void omni_inertia(const double *q, const double *p, double *D)
     const double v31 = p[4]*v4 + v27 - 2.0*v8 + v9;
     const double v32 = p[1]*v22 - v29;
     const double v33 = v28 + v9;
-    const double v34 = v18*v18 - v19*v19;
+    const double v34 = (v18*v18) - (v19*v19);
     const double v35 = 2.0*v18*v19;
     const double v36 = v31 + v33;
     const double v37 = (0.5)*v31 - 0.5*v33;
@@ -87,10 +87,10 @@ void omni_coriolis(const double *q, const double *qd, const double *p, double *h
     const double v1 = cos(q[1]);
     const double v2 = qd[0]*v1;
     const double v3 = p[1]*v2;
-    const double v4 = (0.08333333333333333)*p[1]*p[1]*p[3];
+    const double v4 = (0.08333333333333333)*(p[1]*p[1])*p[3];
     const double v5 = 2.0*qd[1];
     const double v6 = (0.5)*p[2];
-    const double v7 = (0.08333333333333333)*p[2]*p[2]*p[4];
+    const double v7 = (0.08333333333333333)*(p[2]*p[2])*p[4];
     const double v8 = sin(q[1]);
     const double v9 = qd[0]*v8;
     const double v10 = qd[1]*v9;
@@ -103,7 +103,7 @@ void omni_coriolis(const double *q, const double *qd, const double *p, double *h
     const double v17 = v16*v6;
     const double v18 = v3*v9;
     const double v19 = v2*v3;
-    const double v20 = p[1]*qd[1]*qd[1] + v19;
+    const double v20 = p[1]*(qd[1]*qd[1]) + v19;
     const double v21 = -v12*v18 + v13*v20 + v14*v17;
     const double v22 = p[4]*v21;
     const double v23 = p[2]*v22;
@@ -129,7 +129,7 @@ void omni_coriolis(const double *q, const double *qd, const double *p, double *h
     const double v43 = -qd[1]*v31 + v12*v20 + v13*v18 - v16*v17;
     const double v44 = v14*v31 - v41 + v42*v6;
     const double v45 = v15 - v42;
-    const double v46 = p[2]*qd[1]*v11 - v11*v11*v6 + v43;
+    const double v46 = p[2]*qd[1]*v11 - (v11*v11)*v6 + v43;
     const double v47 = p[2]*v15 - v44;
     const double v48 = p[4]*v46;
     const double v49 = p[4]*v47;
@@ -158,12 +158,12 @@ void omni_coriolis_matrix(const double *q, const double *qd, const double *p, do
     const double v0 = 2.0*q[1] + q[2] + p[6];
     const double v1 = cos(v0);
     const double v2 = sin(v0);
-    const double v3 = p[2]*p[2];
+    const double v3 = (p[2]*p[2]);
     const double v4 = (0.25)*v3;
     const double v5 = p[2]*p[4];
-    const double v6 = v1*v1 - v2*v2;
+    const double v6 = (v1*v1) - (v2*v2);
     const double v7 = v1*v2;
-    const double v8 = p[1]*p[1];
+    const double v8 = (p[1]*p[1]);
     const double v9 = (0.5)*v5;
     const double v10 = v1*v9;
     const double v11 = p[1]*v10;
@@ -172,7 +172,7 @@ void omni_coriolis_matrix(const double *q, const double *qd, const double *p, do
     const double v14 = p[1]*v13;
     const double v15 = cos(q[1]);
     const double v16 = sin(q[1]);
-    const double v17 = v15*v15 - v16*v16;
+    const double v17 = (v15*v15) - (v16*v16);
     const double v18 = v15*v16;
     const double v19 = (0.25)*v8;
     const double v20 = 2.0*v2;
@@ -317,17 +317,17 @@ void omni_inverse_dynamics(const double *q, const double *qd, const double *qdd,
     const double v9 = qd[1]*v8;
     const double v10 = p[1]*qdd[1];
     const double v11 = p[1]*v9;
-    const double v12 = (0.08333333333333333)*p[1]*p[1]*p[3];
+    const double v12 = (0.08333333333333333)*(p[1]*p[1])*p[3];
     const double v13 = (0.5)*p[2];
     const double v14 = 2.0*qd[1] + qd[2];
     const double v15 = cos(v0);
     const double v16 = sin(v0);
     const double v17 = v15*v8 - v16*v2;
     const double v18 = v14*v17;
-    const double v19 = (0.08333333333333333)*p[2]*p[2]*p[4];
+    const double v19 = (0.08333333333333333)*(p[2]*p[2])*p[4];
     const double v20 = 2.0*qdd[1] + qdd[2];
     const double v21 = -p[0]*v7 + v2*v3;
-    const double v22 = p[1]*qd[1]*qd[1] + v21;
+    const double v22 = p[1]*(qd[1]*qd[1]) + v21;
     const double v23 = v3*v8 + v4;
     const double v24 = v10 + v23;
     const double v25 = v15*v2 + v16*v8;
@@ -360,7 +360,7 @@ void omni_inverse_dynamics(const double *q, const double *qd, const double *qdd,
     const double v52 = v13*v49 + v17*v50 - v48;
     const double v53 = -qd[1] + v14;
     const double v54 = v18 - v49;
-    const double v55 = p[2]*qd[1]*v14 - v13*v14*v14 + v51;
+    const double v55 = p[2]*qd[1]*v14 - v13*(v14*v14) + v51;
     const double v56 = p[2]*v18 - v52;
     const double v57 = p[4]*v55;
     const double v58 = p[4]*v56;

@@ -83,7 +83,7 @@ def _casadi_files(model: DynamicModel, head: str) -> dict[str, bytes]:
         banner=head,
         name=model.name,
         functions=list(functions),
-        coordinates=list(model.robot.coordinates),
+        coordinates=list(model.robot.generalized_coordinates),
         parameters=[{"name": p.name, "value": repr(p.value)} for p in model.robot.parameters],
     )
     out[f"{model.name}_casadi.py"] = loader.encode()

@@ -47,7 +47,7 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
         "description": comment_text(model.robot.description or model.name),
         "nq": model.n,
         "np": len(model.robot.parameters),
-        "coordinates": [{"index": i, "name": c} for i, c in enumerate(model.robot.coordinates)],
+        "coordinates": [{"index": i, "name": c} for i, c in enumerate(model.robot.generalized_coordinates)],
         "parameters": [
             {
                 "index": i,
@@ -67,4 +67,4 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
 def _layout(array: str, model: DynamicModel) -> str:
     if array == "p":
         return f"p[{len(model.robot.parameters)}] (see {model.name}_parameter_names)"
-    return f"{array}[{model.n}] ({', '.join(model.robot.coordinates)})"
+    return f"{array}[{model.n}] ({', '.join(model.robot.generalized_coordinates)})"

@@ -56,7 +56,9 @@ class CPrinter(C99CodePrinter):
         base, exp = expr.base, expr.exp
         if exp.is_Integer and 1 < int(exp) <= 4:
             factor = self.parenthesize(base, sp.printing.precedence.PRECEDENCE["Mul"])
-            return "*".join([factor] * int(exp))
+            # parenthesised: the printer treats a Pow as binding tighter than '/', so a/x**4 must not
+            # become a/x*x*x*x
+            return "(" + "*".join([factor] * int(exp)) + ")"
         if exp.is_Integer and int(exp) < 0:
             return f"1.0/({self._print(sp.Pow(base, -exp))})"
         if exp == sp.Rational(1, 2):

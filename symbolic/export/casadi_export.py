@@ -48,6 +48,36 @@ def _to_sx(model: DynamicModel, spec: FunctionSpec, inputs: dict[str, ca.SX]) ->
     return out
 
 
+def cholesky_solve(D: ca.SX, b: ca.SX) -> ca.SX:
+    """D⁻¹b by the same fixed-size Cholesky factorisation as the generated C (better conditioned than
+    CasADi's default symbolic QR for SX, and the two targets then agree to rounding)."""
+    n = D.shape[0]
+    L = [[None] * n for _ in range(n)]
+    for j in range(n):
+        s = D[j, j]
+        for k in range(j):
+            s = s - L[j][k] * L[j][k]
+        L[j][j] = ca.sqrt(s)
+        for i in range(j + 1, n):
+            t = D[i, j]
+            for k in range(j):
+                t = t - L[i][k] * L[j][k]
+            L[i][j] = t / L[j][j]
+    y = [None] * n
+    for i in range(n):
+        t = b[i]
+        for k in range(i):
+            t = t - L[i][k] * y[k]
+        y[i] = t / L[i][i]
+    x = [None] * n
+    for i in reversed(range(n)):
+        t = y[i]
+        for k in range(i + 1, n):
+            t = t - L[k][i] * x[k]
+        x[i] = t / L[i][i]
+    return ca.vertcat(*x)
+
+
 def casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
     """{function name: casadi.Function} for every function of the C ABI plus A and B."""
     n, n_p = model.n, len(model.robot.parameters)
@@ -61,7 +91,7 @@ def casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
         out[spec.name] = ca.Function(spec.name, args, [values[spec.name]], list(spec.inputs), [spec.output])
     q, qd, tau, p = inputs["q"], inputs["qd"], inputs["tau"], inputs["p"]
     bias = ca.substitute(values["inverse_dynamics"], inputs["qdd"], ca.SX.zeros(n))
-    qdd = ca.solve(values["inertia"], tau - bias)
+    qdd = cholesky_solve(values["inertia"], tau - bias)
     out["forward_dynamics"] = ca.Function("forward_dynamics", [q, qd, tau, p], [qdd], ["q", "qd", "tau", "p"], ["qdd"])
     x = ca.vertcat(q, qd)
     xdot = ca.vertcat(qd, qdd)

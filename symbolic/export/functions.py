@@ -41,9 +41,9 @@ def function_specs(model: DynamicModel) -> list[FunctionSpec]:
     """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, inverse_dynamics."""
     r = model.reduced
     n = model.n
-    stiffness = model.stiffness
+    stiffness = r.stiffness
     friction = sp.zeros(n, 1)  # [[friction]] entries are not supported yet: f = 0
-    tau = r.tau + stiffness + friction
+    tau = r.tau + friction
     return [
         FunctionSpec("inertia", ("q", "p"), "D", n, n, tuple(r.D), "D(q), N*N row-major, symmetric positive definite"),
         FunctionSpec("coriolis", ("q", "qd", "p"), "h", n, 1, tuple(r.coriolis_ne), "(I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)"),

@@ -22,7 +22,7 @@ SMALL_MODEL = 3
 
 def _latex_names(model: DynamicModel) -> dict[sp.Symbol, str]:
     names = {}
-    for c, qd, qdd in zip(model.robot.coordinates, model.velocities, model.accelerations):
+    for c, qd, qdd in zip(model.robot.generalized_coordinates, model.velocities, model.accelerations):
         base = sp.latex(sp.Symbol(c))
         names[qd] = rf"\dot{{{base}}}"
         names[qdd] = rf"\ddot{{{base}}}"
@@ -81,7 +81,7 @@ def report_markdown(model: DynamicModel, banner: str, operations: dict[str, tupl
         "version": version,
         "robot": model.robot,
         "n": n,
-        "coordinates": [{"index": i, "name": c, "latex": sp.latex(sp.Symbol(c))} for i, c in enumerate(model.robot.coordinates)],
+        "coordinates": [{"index": i, "name": c, "latex": sp.latex(sp.Symbol(c))} for i, c in enumerate(model.robot.generalized_coordinates)],
         "parameters": [
             {"name": p.name, "latex": sp.latex(sp.Symbol(p.name)), "value": repr(p.value), "unit": p.unit, "description": p.description}
             for p in model.robot.parameters

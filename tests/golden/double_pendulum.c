@@ -16,7 +16,7 @@ void double_pendulum_inertia(const double *q, const double *p, double *D)
     const double v1 = p[2]*p[4];
     const double v2 = v0*v1;
     const double v3 = p[1]*v2;
-    const double v4 = p[2]*p[2];
+    const double v4 = (p[2]*p[2]);
     const double v5 = p[4]*v4;
     const double v6 = p[3] + p[4];
     const double v7 = v3 + v5;
@@ -37,13 +37,13 @@ void double_pendulum_coriolis(const double *q, const double *qd, const double *p
 {
     const double v0 = p[2]*qd[0];
     const double v1 = sin(q[1]);
-    const double v2 = p[1]*qd[0]*qd[0];
+    const double v2 = p[1]*(qd[0]*qd[0]);
     const double v3 = v1*v2;
     const double v4 = p[4]*v3;
     const double v5 = p[2]*v4;
     const double v6 = cos(q[1]);
     const double v7 = qd[0]*v0 + v2*v6;
-    const double v8 = p[2]*qd[1]*qd[1] + 2.0*qd[1]*v0 + v7;
+    const double v8 = p[2]*(qd[1]*qd[1]) + 2.0*qd[1]*v0 + v7;
     const double v9 = p[4]*v8;
     const double v10 = -v1*v9 + v4*v6;
     h[0] = p[1]*v10 + v5;
@@ -124,7 +124,7 @@ void double_pendulum_inverse_dynamics(const double *q, const double *qd, const d
     const double v2 = sin(q[1]);
     const double v3 = sin(q[0]);
     const double v4 = p[0]*v3;
-    const double v5 = -p[1]*qd[0]*qd[0] + v4;
+    const double v5 = -p[1]*(qd[0]*qd[0]) + v4;
     const double v6 = cos(q[0]);
     const double v7 = p[0]*v6;
     const double v8 = p[1]*qdd[0] + v7;
@@ -134,7 +134,7 @@ void double_pendulum_inverse_dynamics(const double *q, const double *qd, const d
     const double v12 = p[2]*v11;
     const double v13 = p[3]*v8;
     const double v14 = -qd[0]*v0 + v1*v5 + v2*v8;
-    const double v15 = p[2]*qd[1]*qd[1] + 2.0*qd[1]*v0 - v14;
+    const double v15 = p[2]*(qd[1]*qd[1]) + 2.0*qd[1]*v0 - v14;
     const double v16 = p[4]*v15;
     const double v17 = v1*v11 - v16*v2;
     const double v18 = v13 + v17;
