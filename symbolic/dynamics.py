@@ -171,9 +171,15 @@ class DynamicModel:
         """C = Z·∂D/∂Qᵀ exactly as printed in Madill (3.81), expanded (blocks not symmetric)."""
         return self.expand(ch.christoffel_literal(self.reduced.dD))
 
+    def end_effector_jacobian(self) -> sp.Matrix:
+        """J(Q) (3.57) of the end-effector point over all of Q (3×N; zero columns for modal
+        coordinates: the point is fixed in a frame), in intermediates."""
+        rigid = self.kinematics.end_effector_jacobian()
+        return sp.Matrix.hstack(rigid, sp.zeros(3, self.n - rigid.shape[1]))
+
     def jacobian(self) -> sp.Matrix:
         """End-effector Jacobian J(Q) (3.57), expanded."""
-        return self.expand(self.kinematics.end_effector_jacobian())
+        return self.expand(self.end_effector_jacobian())
 
     # -- numbers -------------------------------------------------------------------------
     @cached_property

@@ -90,7 +90,7 @@ class NumericModel:
 
     @cached_property
     def _jacobian(self):
-        return self._fn([self.q, self.p], self.model.kinematics.end_effector_jacobian())
+        return self._fn([self.q, self.p], self.model.end_effector_jacobian())
 
     def params(self, p=None) -> np.ndarray:
         return self.p0 if p is None else np.asarray(p, dtype=float)
@@ -153,7 +153,7 @@ class NumericModel:
             "dP_dqd": self._fn([self.q, self.qd, self.p], dP_dqd),
         }
         if self.has_force:
-            JtF = m.kinematics.end_effector_jacobian().T * sp.Matrix(self.force)
+            JtF = m.end_effector_jacobian().T * sp.Matrix(self.force)
             dJtF = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(JtF[i], self.q[k])))
             funcs["dJtF_dq"] = self._fn([self.q, self.force, self.p], dJtF)
         return funcs

@@ -25,7 +25,7 @@ from conftest import derived
 
 ROOT = Path(__file__).resolve().parents[1]
 GENERATED = ROOT / "generated"
-ROBOTS = ["fivebar", "puma560", "panda", "janot_branch", "omni", "single_flexible_link", "madill_beam"]
+ROBOTS = ["fivebar", "puma560", "panda", "janot_branch", "omni", "single_flexible_link", "madill_beam", "fivebar_flexible"]
 
 
 def close(ours, reference, rtol):
