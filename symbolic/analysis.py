@@ -388,11 +388,17 @@ class Sag:
         return f"static sag {self.modal}; largest residual gravity torque {worst[1]:.3g} on {worst[0]}"
 
 
-def residual_imbalance(model: DynamicModel, q, parameters: Mapping[str, float] | None = None) -> Sag:
-    """Gravity sag of the beams at rigid configuration ``q`` and the gravity torques it causes.
+def residual_imbalance(
+    model: DynamicModel,
+    q,
+    parameters: Mapping[str, float] | None = None,
+    deflection: Mapping[str, float] | None = None,
+) -> Sag:
+    """Gravity torques on the rigid coordinates at configuration ``q`` with the beams deflected.
 
-    The modal equilibrium g_m(q, ν) + k_m(ν) = 0 is linear in the modal coordinates (V_g is linear in
-    them (3.78), V_s quadratic (3.80)), solved exactly; the torques are g on the rigid coordinates there.
+    Without ``deflection`` (modal coordinate name -> value) the static gravity sag is used: the modal
+    equilibrium g_m(q, ν) + k_m(ν) = 0 is linear in the modal coordinates (V_g is linear in them (3.78),
+    V_s quadratic (3.80)) and is solved exactly.
     """
     import numpy as np
 
@@ -411,7 +417,14 @@ def residual_imbalance(model: DynamicModel, q, parameters: Mapping[str, float] |
         e = x.copy()
         e[j] = 1.0
         columns.append((num.gravity(e, p) + num.stiffness(e, p))[modal] - base)
-    deflection = np.linalg.solve(np.column_stack(columns), -base)
+    if deflection is None:
+        values = np.linalg.solve(np.column_stack(columns), -base)
+    else:
+        unknown = set(deflection) - {names[j] for j in modal}
+        if unknown:
+            raise ValueError(f"unknown modal coordinate(s) {sorted(unknown)} (modal coordinates: {', '.join(names[j] for j in modal)})")
+        values = np.array([deflection.get(names[j], 0.0) for j in modal])
+    deflection = values
     x[modal] = deflection
     g = num.gravity(x, p)
     return Sag({names[j]: float(v) for j, v in zip(modal, deflection)}, {names[i]: float(g[i]) for i in range(rigid)})

@@ -37,6 +37,7 @@ def inverse_dynamics(
     g0 = -sp.Matrix(kin.robot.gravity) if gravity else ZERO3
     base = (ZERO3, ZERO3, g0)  # ω, ω̇, a of the base: a = −gravity models gravity
     wrench: dict[str, tuple[sp.Matrix, sp.Matrix]] = {}
+    tangent: dict[str, sp.Matrix] = {}
     bodies: dict[str, list] = {name: [] for name in kin.frames}
     for body in kin.robot.bodies:
         if body.frame != BASE:
@@ -53,12 +54,13 @@ def inverse_dynamics(
         v_rel = l_t * th_d + l_d * d_d
         w_pc = fk.to_child(w_p).applyfunc(add)
         dw_pc = fk.to_child(dw_p).applyfunc(add)
-        a_pc = _transported_acceleration(fk, w_p, w_pc, dw_p, dw_pc, a_p, add)
+        a_pc = _transported_acceleration(fk, w_p, w_pc, dw_p, dw_pc, a_p, tangent.get(fk.parent), add)
         w = (w_pc + w_rel).applyfunc(add)
         dw = (dw_pc + cross(w_pc, w_rel) + u_t * th_dd + u_d * d_dd).applyfunc(add)
         a = (a_pc + 2 * cross(w_pc, v_rel) + l_t * th_dd + l_d * d_dd + fk.theta_sq_accel * th_d**2).applyfunc(add)
         state[name] = (w, dw, a)
-        wrench[name] = _bodies_wrench(bodies[name], w, dw, a, add)
+        tangent[name] = _tangent_operator(w, dw, add)
+        wrench[name] = _bodies_wrench(bodies[name], w, dw, a, tangent[name], add)
 
     tau = {q: [] for q in kin.coordinates}
     for name in reversed(list(kin.frames)):
@@ -74,17 +76,34 @@ def inverse_dynamics(
     return sp.Matrix([sp.Add(*tau[q]) for q in kin.coordinates])
 
 
-def _transported_acceleration(fk, w_p, w_pc, dw_p, dw_pc, a_p, add) -> sp.Matrix:
+def _transported_acceleration(fk, w_p, w_pc, dw_p, dw_pc, a_p, tangent_p, add) -> sp.Matrix:
     """Rᵀ(a_p + ω̇_p × p + ω_p × (ω_p × p)): the parent's acceleration field at this origin.
 
-    Evaluated in whichever frame the offset p is constant (see ``FrameKinematics.shift_in_child``).
+    Evaluated in whichever frame the offset p is constant (see ``FrameKinematics.shift_in_child``);
+    in the parent's frame the operator U_p = S(ω̇_p) + S(ω_p)² is shared with the parent's bodies.
     """
     if fk.shift_in_child:
         p = fk.p_child
         return (fk.to_child(a_p) + cross(dw_pc, p) + cross(w_pc, cross(w_pc, p).applyfunc(add))).applyfunc(add)
     p = fk.p_parent
-    in_parent = (a_p + cross(dw_p, p) + cross(w_p, cross(w_p, p).applyfunc(add))).applyfunc(add)
-    return fk.to_child(in_parent).applyfunc(add)
+    field = tangent_p * p if tangent_p is not None else cross(dw_p, p) + cross(w_p, cross(w_p, p))
+    return fk.to_child((a_p + field).applyfunc(add)).applyfunc(add)
+
+
+def _tangent_operator(w: sp.Matrix, dw: sp.Matrix, add) -> sp.Matrix:
+    """U = S(ω̇) + S(ω)² = S(ω̇) + ωωᵀ − |ω|²E, so that ω̇ × x + ω × (ω × x) = U x (Khalil's U matrix).
+
+    Entries are registered lazily by use: only those a body or child needs are counted in programs.
+    """
+    sq = [add(w[i] * w[i]) for i in range(3)]
+    xy, xz, yz = add(w[0] * w[1]), add(w[0] * w[2]), add(w[1] * w[2])
+    return sp.Matrix(
+        [
+            [-(sq[1] + sq[2]), xy - dw[2], xz + dw[1]],
+            [xy + dw[2], -(sq[0] + sq[2]), yz - dw[0]],
+            [xz - dw[1], yz + dw[0], -(sq[0] + sq[1])],
+        ]
+    ).applyfunc(add)
 
 
 def _second_order(sub, rates: dict[sp.Symbol, sp.Expr], qd: dict[sp.Symbol, sp.Expr]) -> sp.Expr:
@@ -98,10 +117,10 @@ def _second_order(sub, rates: dict[sp.Symbol, sp.Expr], qd: dict[sp.Symbol, sp.E
     return sp.Add(*terms)
 
 
-def _bodies_wrench(bodies, w, dw, a, add) -> tuple[sp.Matrix, sp.Matrix]:
+def _bodies_wrench(bodies, w, dw, a, tangent, add) -> tuple[sp.Matrix, sp.Matrix]:
     """Wrench (moment about the frame origin, force) needed to move the bodies of one frame.
 
-    Per body, at its centre of mass c: a_c = a + ω̇ × c + ω × (ω × c), f = m a_c,
+    Per body, at its centre of mass c: a_c = a + ω̇ × c + ω × (ω × c) = a + U c, f = m a_c,
     n = I_c ω̇ + ω × I_c ω + c × f (Euler's equation about the centre of mass, moved to the origin).
     Working at the centre of mass avoids the parallel-axis conversion of the inertia.
     """
@@ -110,7 +129,7 @@ def _bodies_wrench(bodies, w, dw, a, add) -> tuple[sp.Matrix, sp.Matrix]:
         c = sp.Matrix(body.com)
         i = body.inertia
         inertia = sp.Matrix([[i["xx"], i["xy"], i["xz"]], [i["xy"], i["yy"], i["yz"]], [i["xz"], i["yz"], i["zz"]]])
-        a_c = (a + cross(dw, c) + cross(w, cross(w, c).applyfunc(add))).applyfunc(add)
+        a_c = (a + tangent * c).applyfunc(add)
         f = (body.mass * a_c).applyfunc(add)
         i_w = (inertia * w).applyfunc(add)
         n = inertia * dw + cross(w, i_w) + cross(c, f)

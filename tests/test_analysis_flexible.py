@@ -42,3 +42,17 @@ def test_thesis_sag_is_negligible_in_torque() -> None:
     own_moment = 9.81 * (values["rho"] * values["l5"] * (values["l4"] + values["l5"] / 2) + values["m_p"] * (values["l4"] + values["l5"]))
     worst = max(abs(t) for t in sag.torques.values())
     assert 1e-6 < worst < 1e-3 * own_moment
+
+
+def test_residual_for_a_given_deflection() -> None:
+    """A given deflection: ν₁ = 1 mm·√l₅/2 (tip ≈ 1 mm) at q2 = 3π/4 gives the q2 torque of the moved centre of
+    mass, −m_f g ∂h/∂q2 with h's α_vᵀν C₂ term: ρ g α_v1 ν₁ S₂ (3.13), plus the tip mass's share."""
+    model = derived("fivebar_flexible")
+    values = {s.name: v for s, v in model.parameters.items()}
+    nu1 = 1e-3 * np.sqrt(values["l5"]) / 2
+    sag = residual_imbalance(model, [0.0, np.pi / 2, 3 * np.pi / 4], deflection={"link5_nu1": nu1})
+    alpha1 = 0.78299175603962567 * np.sqrt(values["l5"])  # 2σ₁/k₁ √l (3.62), checked against quadrature elsewhere
+    tip1 = 2 / np.sqrt(values["l5"])
+    s2 = np.sin(3 * np.pi / 4)
+    expected = 9.81 * (values["rho"] * alpha1 + values["m_p"] * tip1) * nu1 * s2
+    assert abs(abs(sag.torques["q2"]) - abs(expected)) <= 1e-9 * abs(expected)

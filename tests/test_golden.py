@@ -40,3 +40,11 @@ def test_golden_model_is_the_textbook_double_pendulum() -> None:
         ]
     )
     assert all(trig_zero(e) for e in (model.D - expected))
+
+
+def test_templates_are_package_data() -> None:
+    """pip-installed users export too: the templates ship inside the package (symbolic.templates)."""
+    from importlib import resources
+
+    names = {p.name for p in resources.files("symbolic.templates").iterdir()}
+    assert {"model.h.j2", "model.c.j2", "report.md.j2", "loader.py.j2"} <= names

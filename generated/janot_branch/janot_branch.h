@@ -99,7 +99,7 @@ extern const double janot_branch_parameter_defaults[janot_branch_NP];
 void janot_branch_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 369 operations, 6 trigonometric calls. */
+ * 354 operations, 6 trigonometric calls. */
 void janot_branch_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
@@ -119,7 +119,7 @@ void janot_branch_stiffness(const double *q, const double *p, double *k);
 void janot_branch_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 423 operations, 6 trigonometric calls. */
+ * 396 operations, 6 trigonometric calls. */
 void janot_branch_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

@@ -45,7 +45,7 @@ extern const double omni_parameter_defaults[omni_NP];
 void omni_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 128 operations, 4 trigonometric calls. */
+ * 127 operations, 4 trigonometric calls. */
 void omni_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric

@@ -191,7 +191,7 @@ extern const double panda_parameter_defaults[panda_NP];
 void panda_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 841 operations, 12 trigonometric calls. */
+ * 797 operations, 12 trigonometric calls. */
 void panda_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
@@ -211,7 +211,7 @@ void panda_stiffness(const double *q, const double *p, double *k);
 void panda_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 873 operations, 12 trigonometric calls. */
+ * 833 operations, 12 trigonometric calls. */
 void panda_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

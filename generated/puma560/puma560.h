@@ -108,7 +108,7 @@ extern const double puma560_parameter_defaults[puma560_NP];
 void puma560_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 467 operations, 10 trigonometric calls. */
+ * 458 operations, 10 trigonometric calls. */
 void puma560_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
@@ -128,7 +128,7 @@ void puma560_stiffness(const double *q, const double *p, double *k);
 void puma560_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 502 operations, 10 trigonometric calls. */
+ * 497 operations, 10 trigonometric calls. */
 void puma560_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.
