@@ -51,17 +51,8 @@ class ModeShape:
         return (np.cosh(k) + np.cos(k)) / (np.sinh(k) + np.sin(k))
 
     def shape(self, xi, derivative: int = 0):
-        """Φ^(d)(ξ) for ξ = x/l (numpy)."""
-        k, s = self.k, self.sigma
-        xi = np.asarray(xi, dtype=float)
-        kx = k * xi
-        terms = {
-            0: np.cosh(kx) - np.cos(kx) - s * (np.sinh(kx) - np.sin(kx)),
-            1: k * (np.sinh(kx) + np.sin(kx) - s * (np.cosh(kx) - np.cos(kx))),
-            2: k**2 * (np.cosh(kx) + np.cos(kx) - s * (np.sinh(kx) + np.sin(kx))),
-            3: k**3 * (np.sinh(kx) - np.sin(kx) - s * (np.cosh(kx) + np.cos(kx))),
-        }
-        return terms[derivative]
+        """Φ^(d)(ξ) for ξ = x/l, numerically (numpy; the symbolic form below, compiled once)."""
+        return _compiled(self.k, derivative)(np.asarray(xi, dtype=float))
 
     def symbolic(self, xi: sp.Expr, derivative: int = 0) -> sp.Expr:
         """Φ^(d)(ξ) as a SymPy expression (for evaluation at symbolic positions)."""
@@ -74,6 +65,12 @@ class ModeShape:
             3: k**3 * (sp.sinh(kx) - sp.sin(kx) - s * (sp.cosh(kx) + sp.cos(kx))),
         }
         return forms[derivative]
+
+
+@lru_cache(maxsize=None)
+def _compiled(k: float, derivative: int):
+    xi = sp.Symbol("xi", real=True)
+    return sp.lambdify(xi, ModeShape(k).symbolic(xi, derivative), modules="numpy")
 
 
 def modes(n: int, boundary: str = "clamped-free") -> list[ModeShape]:
