@@ -121,11 +121,6 @@ def _assemble(monomials: dict[sp.Expr, sp.Expr]) -> sp.Expr:
     return sp.Add(*terms)
 
 
-def compact_matrix(matrix: sp.Matrix, coordinates: Sequence[sp.Symbol]) -> sp.Matrix:
-    """:func:`compact` applied entry by entry."""
-    return matrix.applyfunc(lambda e: compact(e, coordinates))
-
-
 def trig_zero(expr: sp.Expr) -> bool:
     """Whether ``expr`` is identically zero as a trigonometric polynomial.
 

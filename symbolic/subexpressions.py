@@ -77,12 +77,6 @@ class Subexpressions:
         self._index[expr] = symbol
         return symbol
 
-    def add_all(self, exprs: Iterable[sp.Expr]) -> list[sp.Expr]:
-        return [self.add(e) for e in exprs]
-
-    def add_matrix(self, matrix: sp.Matrix) -> sp.Matrix:
-        return matrix.applyfunc(self.add)
-
     def dependencies(self, expr: sp.Expr) -> frozenset[sp.Symbol]:
         """The variables ``expr`` depends on, through intermediates."""
         out: set[sp.Symbol] = set()
