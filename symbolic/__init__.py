@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import logging
 
-from symbolic import robots
+from symbolic import analysis, export, robots
 from symbolic.dynamics import DynamicModel, derive
 from symbolic.errors import ModelError, ModelWarning
 from symbolic.modelfile import load, loads
@@ -32,7 +32,9 @@ __all__ = [
     "ModelWarning",
     "Parameter",
     "Robot",
+    "analysis",
     "derive",
+    "export",
     "load",
     "loads",
     "robots",

@@ -33,11 +33,13 @@ def resolve(model: str) -> Robot:
 
 
 def cmd_list(args: argparse.Namespace) -> int:
-    for name in robots.names():
+    names = robots.names()
+    width = max(len(n) for n in names)
+    for name in names:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ModelWarning)
             robot = robots.load(name)
-        print(f"{name:14s} {len(robot.generalized_coordinates)} DOF  {robot.description}")
+        print(f"{name:{width}s}  {len(robot.generalized_coordinates):2d} DOF  {robot.description}")
     return 0
 
 

@@ -38,3 +38,18 @@ def test_user_error_has_no_traceback(tmp_path: Path) -> None:
     assert result.returncode == 2
     assert "Traceback" not in result.stderr
     assert f"error: {model}: [[frame]] '1' parent: parent frame 'nowhere' does not exist" in result.stderr
+
+
+def test_readme_library_calls_need_only_import_symbolic() -> None:
+    """The README's snippet uses symbolic.export and symbolic.analysis after a bare `import symbolic`."""
+    code = "import symbolic; print(callable(symbolic.export.generate), callable(symbolic.analysis.decoupling))"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0 and result.stdout.split() == ["True", "True"], result.stderr
+
+
+def test_report_of_flexible_model_lists_elastic_terms() -> None:
+    import symbolic
+
+    model = symbolic.derive(symbolic.robots.load("single_flexible_link"))
+    text = symbolic.export.render(model, ["report"])["single_flexible_link.md"].decode()
+    assert "Rigid model" not in text and "$$V_s =" in text and r"\nu_{1}^{(\mathrm{link})}" in text

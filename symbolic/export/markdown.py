@@ -20,10 +20,24 @@ SMALL_MODEL = 3
 """Models with at most this many coordinates get every entry compacted (fast, and what reviewers check)."""
 
 
+def coordinate_latex(model: DynamicModel) -> dict[str, str]:
+    """LaTeX of each generalized coordinate; beam modal coordinates as ν_i^(beam), η_i^(beam) (Madill (3.37)–(3.38))."""
+    out = {c: sp.latex(sp.Symbol(c)) for c in model.robot.coordinates}
+    for beam in model.robot.beams:
+        label = beam.name.replace("_", r"\_")
+        for i, c in enumerate(beam.nu, 1):
+            out[c] = rf"\nu_{{{i}}}^{{(\mathrm{{{label}}})}}"
+        for i, c in enumerate(beam.eta, 1):
+            out[c] = rf"\eta_{{{i}}}^{{(\mathrm{{{label}}})}}"
+    return out
+
+
 def _latex_names(model: DynamicModel) -> dict[sp.Symbol, str]:
+    latex = coordinate_latex(model)
     names = {}
-    for c, qd, qdd in zip(model.robot.generalized_coordinates, model.velocities, model.accelerations):
-        base = sp.latex(sp.Symbol(c))
+    for c, q, qd, qdd in zip(model.robot.generalized_coordinates, model.coordinates, model.velocities, model.accelerations):
+        base = latex[c]
+        names[q] = base
         names[qd] = rf"\dot{{{base}}}"
         names[qdd] = rf"\ddot{{{base}}}"
     return names
@@ -81,7 +95,7 @@ def report_markdown(model: DynamicModel, banner: str, operations: dict[str, tupl
         "version": version,
         "robot": model.robot,
         "n": n,
-        "coordinates": [{"index": i, "name": c, "latex": sp.latex(sp.Symbol(c))} for i, c in enumerate(model.robot.generalized_coordinates)],
+        "coordinates": [{"index": i, "name": c, "latex": coordinate_latex(model)[c]} for i, c in enumerate(model.robot.generalized_coordinates)],
         "parameters": [
             {"name": p.name, "latex": sp.latex(sp.Symbol(p.name)), "value": repr(p.value), "unit": p.unit, "description": p.description}
             for p in model.robot.parameters
@@ -92,6 +106,9 @@ def report_markdown(model: DynamicModel, banner: str, operations: dict[str, tupl
         "christoffel_count": sum(1 for e in r.christoffel if e != 0),
         "gravity": gravity,
         "potential": _entry(model, r.potential, q, names),
+        "beams": [{"name": b.name, "frame": b.frame, "modes_v": b.modes_v, "modes_w": b.modes_w, "tip": b.tip_mass is not None} for b in model.robot.beams],
+        "stiffness": [{"k": k, "latex": _entry(model, r.stiffness[k], q, names)} for k in range(n) if r.stiffness[k] != 0],
+        "strain": _entry(model, r.strain, q, names) if r.strain != 0 else None,
         "operations": [{"name": k, "ops": v[0], "trig": v[1]} for k, v in operations.items()],
         "conditions": _conditions(model, names) if n <= SMALL_MODEL else None,
         "constraints": [{"coordinate": c.coordinate, "latex": sp.latex(c.expression)} for c in model.robot.constraints],
