@@ -83,12 +83,3 @@ def coriolis_matrix(C: sp.Matrix, qd: Sequence[sp.Symbol]) -> sp.Matrix:
     n = C.shape[1]
     v = sp.Matrix(qd)
     return sp.Matrix.vstack(*[(v.T * block(C, k)) for k in range(n)])
-
-
-def inertia_rate(dD: Sequence[sp.Matrix], qd: Sequence[sp.Symbol]) -> sp.Matrix:
-    """Ḋ = Σ_k ∂D/∂Q_k Q̇_k ((3.17))."""
-    n = dD[0].shape[0] if dD else 0
-    out = sp.zeros(n, n)
-    for d, v in zip(dD, qd):
-        out += d * v
-    return out

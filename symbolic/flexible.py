@@ -122,6 +122,12 @@ def _clamp_jacobians(kin: Kinematics, frame: str) -> tuple[sp.Matrix, sp.Matrix]
     return kin.jacobian_linear_body(frame), kin.jacobian_omega(frame)
 
 
+def _columns(kin: Kinematics, g: BeamGeometry, coordinates: tuple[sp.Symbol, ...]) -> list[int]:
+    """Positions in Q of the beam's local columns: rigid coordinates, then its ν and η."""
+    index = {x: i for i, x in enumerate(coordinates)}
+    return [index[x] for x in list(kin.coordinates) + list(g.nu) + list(g.eta)]
+
+
 def beam_energy(kin: Kinematics, beam: Beam, coordinates: tuple[sp.Symbol, ...]) -> BeamEnergy:
     """D_f (3.76) with the tip mass, V_g (3.79) and V_s (3.80) of ``beam``, over all of Q."""
     sub = kin.sub
@@ -137,8 +143,7 @@ def beam_energy(kin: Kinematics, beam: Beam, coordinates: tuple[sp.Symbol, ...])
         tip = g.tip_point()
         J_tip = sp.Matrix.hstack(JL - skew(tip) * JO, g.tip_block())
         d_rigid_modes += beam.tip_mass * (J_tip.T * J_tip)
-    index = {x: i for i, x in enumerate(coordinates)}
-    columns = [index[x] for x in kin.coordinates] + [index[x] for x in list(g.nu) + list(g.eta)]
+    columns = _columns(kin, g, coordinates)
     inertia = sp.zeros(len(coordinates), len(coordinates))
     for a, i in enumerate(columns):
         for b, j in enumerate(columns):
@@ -163,10 +168,8 @@ def beam_jacobian(kin: Kinematics, beam: Beam, x: sp.Expr, coordinates: tuple[sp
     R = kin.rotation(beam.frame)
     body = sp.Matrix.hstack(JL - skew(g.point(x)) * JO, g.modal_block(x))
     full = R * body
-    index = {q: i for i, q in enumerate(coordinates)}
-    columns = [index[q] for q in kin.coordinates] + [index[q] for q in list(g.nu) + list(g.eta)]
     out = sp.zeros(3, len(coordinates))
-    for a, i in enumerate(columns):
+    for a, i in enumerate(_columns(kin, g, coordinates)):
         out[:, i] = full[:, a]
     return out
 

@@ -38,10 +38,8 @@ class SpatialInertia:
     def of_body(body: Body) -> SpatialInertia:
         """Parallel-axis theorem: I_o = I_c + m (cᵀc E − c cᵀ)."""
         c = sp.Matrix(body.com)
-        i = body.inertia
-        inertia_c = sp.Matrix([[i["xx"], i["xy"], i["xz"]], [i["xy"], i["yy"], i["yz"]], [i["xz"], i["yz"], i["zz"]]])
         m = body.mass
-        return SpatialInertia(m, m * c, inertia_c + m * ((c.T * c)[0] * sp.eye(3) - c * c.T))
+        return SpatialInertia(m, m * c, body.inertia_tensor + m * ((c.T * c)[0] * sp.eye(3) - c * c.T))
 
     def __add__(self, other: SpatialInertia) -> SpatialInertia:
         return SpatialInertia(self.mass + other.mass, self.moment + other.moment, self.rotational + other.rotational)

@@ -127,8 +127,7 @@ def _bodies_wrench(bodies, w, dw, a, tangent, add) -> tuple[sp.Matrix, sp.Matrix
     n_total, f_total = sp.Matrix(ZERO3), sp.Matrix(ZERO3)
     for body in bodies:
         c = sp.Matrix(body.com)
-        i = body.inertia
-        inertia = sp.Matrix([[i["xx"], i["xy"], i["xz"]], [i["xy"], i["yy"], i["yz"]], [i["xz"], i["yz"], i["zz"]]])
+        inertia = body.inertia_tensor
         a_c = (a + tangent * c).applyfunc(add)
         f = (body.mass * a_c).applyfunc(add)
         i_w = (inertia * w).applyfunc(add)

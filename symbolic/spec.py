@@ -11,6 +11,7 @@ never evaluated), numbers, or SymPy expressions built by the caller.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import warnings
 from collections.abc import Iterable, Mapping
@@ -99,6 +100,12 @@ class Body:
     mass: ExprLike
     com: tuple[ExprLike, ExprLike, ExprLike] = (0, 0, 0)
     inertia: Mapping[str, ExprLike] | None = None
+
+    @property
+    def inertia_tensor(self) -> sp.Matrix:
+        """The 3×3 inertia tensor about the centre of mass, in frame axes (validated bodies only)."""
+        i = self.inertia
+        return sp.Matrix([[i["xx"], i["xy"], i["xz"]], [i["xy"], i["yy"], i["yz"]], [i["xz"], i["yz"], i["zz"]]])
 
 
 @dataclass(frozen=True)
@@ -214,19 +221,12 @@ class Robot:
 
         This is Janot's "equivalent tree structure" whose joint torques Γ_ar enter (12).
         """
-        return Robot(
+        return dataclasses.replace(
+            self,
             name=f"{self.name}_tree",
             coordinates=self.coordinates + tuple(c.coordinate for c in self.constraints),
-            parameters=self.parameters,
-            frames=self.frames,
-            bodies=self.bodies,
             constraints=(),
-            beams=self.beams,
-            gravity=self.gravity,
-            convention=self.convention,
             description=f"equivalent tree structure of {self.name}",
-            end_effector=self.end_effector,
-            source=self.source,
         )
 
     def with_parameters(self, **values: float) -> Robot:
@@ -237,19 +237,7 @@ class Robot:
         params = tuple(
             Parameter(p.name, float(values.get(p.name, p.value)), p.unit, p.description) for p in self.parameters
         )
-        return _replace(self, parameters=params)
-
-
-def _replace(robot: Robot, **changes: Any) -> Robot:
-    fields = {
-        name: getattr(robot, name)
-        for name in (
-            "name coordinates parameters frames bodies constraints beams gravity convention description "
-            "end_effector source keys"
-        ).split()
-    }
-    fields.update(changes)
-    return Robot(**fields)
+        return dataclasses.replace(self, parameters=params)
 
 
 class _Validator:
