@@ -19,8 +19,8 @@ def gcc() -> str:
     return path
 
 
-def compile_shared(source: Path, out: Path) -> Path:
-    subprocess.run([gcc(), *STRICT, "-fPIC", "-shared", "-o", str(out), str(source), "-lm"], check=True, capture_output=True, text=True)
+def compile_shared(source: Path, out: Path, extra: tuple[str, ...] = ()) -> Path:
+    subprocess.run([gcc(), *STRICT, *extra, "-fPIC", "-shared", "-o", str(out), str(source), "-lm"], check=True, capture_output=True, text=True)
     return out
 
 

@@ -104,6 +104,23 @@ def test_casadi_linearisation_matches_sympy(name: str) -> None:
         close(np.array(B_fn(q, qd, tau, num.p0)), B[:, : model.n], 1e-9)
 
 
+@pytest.mark.parametrize("name", ["puma560", "fivebar_flexible"])
+def test_libm_trigonometry_switch_gives_the_same_dynamics(name: str, tmp_path: Path) -> None:
+    """-DSYMBOLIC_LIBM_SINCOS (libm sin/cos instead of the batched kernel) changes nothing beyond rounding."""
+    model = derived(name)
+    n, n_p = model.n, len(model.robot.parameters)
+    source = GENERATED / name / f"{name}.c"
+    fast = CModel(compile_shared(source, tmp_path / "libfast.so", ("-O3",)), name, n, n_p)
+    libm = CModel(compile_shared(source, tmp_path / "liblibm.so", ("-O3", "-DSYMBOLIC_LIBM_SINCOS")), name, n, n_p)
+    amplitude = np.array([0.01 if ("_nu" in c or "_eta" in c) else np.pi for c in model.robot.generalized_coordinates])
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        q, qd, qdd = amplitude * rng.uniform(-1, 1, n), rng.uniform(-2, 2, n), rng.uniform(-2, 2, n)
+        close(fast.inverse_dynamics(q, qd, qdd, fast.defaults), libm.inverse_dynamics(q, qd, qdd, fast.defaults), 1e-14)
+        close(fast.inertia(q, fast.defaults), libm.inertia(q, fast.defaults), 1e-14)
+        close(fast.gravity(q, fast.defaults), libm.gravity(q, fast.defaults), 1e-14)
+
+
 def test_forward_dynamics_reports_indefinite_inertia(libraries) -> None:
     c = libraries["fivebar"]
     p = c.defaults.copy()

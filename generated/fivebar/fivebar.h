@@ -63,31 +63,31 @@ extern const char *const fivebar_parameter_names[fivebar_NP];
 extern const double fivebar_parameter_defaults[fivebar_NP];
 
 /* D(q), N*N row-major, symmetric positive definite
- * 149 operations, 6 trigonometric calls. */
+ * 149 operations, sine and cosine of 2 angles. */
 void fivebar_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 226 operations, 6 trigonometric calls. */
+ * 226 operations, sine and cosine of 2 angles. */
 void fivebar_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
- * 181 operations, 6 trigonometric calls. */
+ * 181 operations, sine and cosine of 2 angles. */
 void fivebar_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 48 operations, 6 trigonometric calls. */
+ * 48 operations, sine and cosine of 2 angles. */
 void fivebar_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void fivebar_stiffness(const double *q, const double *p, double *k);
 
 /* friction and offset torques (none in this model)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void fivebar_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 278 operations, 6 trigonometric calls. */
+ * 278 operations, sine and cosine of 2 angles. */
 void fivebar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

@@ -73,31 +73,31 @@ extern const char *const fivebar_flexible_parameter_names[fivebar_flexible_NP];
 extern const double fivebar_flexible_parameter_defaults[fivebar_flexible_NP];
 
 /* D(q), N*N row-major, symmetric positive definite
- * 449 operations, 6 trigonometric calls. */
+ * 449 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 747 operations, 6 trigonometric calls. */
+ * 747 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
- * 696 operations, 6 trigonometric calls. */
+ * 696 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 96 operations, 6 trigonometric calls. */
+ * 96 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
- * 8 operations, 0 trigonometric calls. */
+ * 8 operations. */
 void fivebar_flexible_stiffness(const double *q, const double *p, double *k);
 
 /* friction and offset torques (none in this model)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void fivebar_flexible_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 1183 operations, 6 trigonometric calls. */
+ * 1183 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

@@ -95,31 +95,31 @@ extern const char *const janot_branch_parameter_names[janot_branch_NP];
 extern const double janot_branch_parameter_defaults[janot_branch_NP];
 
 /* D(q), N*N row-major, symmetric positive definite
- * 199 operations, 6 trigonometric calls. */
+ * 199 operations, sine and cosine of 2 angles. */
 void janot_branch_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 354 operations, 6 trigonometric calls. */
+ * 354 operations, sine and cosine of 2 angles. */
 void janot_branch_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
- * 286 operations, 6 trigonometric calls. */
+ * 286 operations, sine and cosine of 2 angles. */
 void janot_branch_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 73 operations, 6 trigonometric calls. */
+ * 73 operations, sine and cosine of 2 angles. */
 void janot_branch_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void janot_branch_stiffness(const double *q, const double *p, double *k);
 
 /* friction and offset torques (none in this model)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void janot_branch_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 396 operations, 6 trigonometric calls. */
+ * 396 operations, sine and cosine of 2 angles. */
 void janot_branch_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

@@ -9,7 +9,7 @@ const double madill_beam_parameter_defaults[madill_beam_NP] = { 9.81, 0.677, 0.4
 
 /* D(q), N*N row-major, symmetric positive definite
  * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output D[25]
- * 52 operations, 0 trigonometric calls. */
+ * 52 operations. */
 void madill_beam_inertia(const double *q, const double *p, double *D)
 {
     const double v0 = (q[1]*q[1]);
@@ -56,7 +56,7 @@ void madill_beam_inertia(const double *q, const double *p, double *D)
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
  * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output h[5]
- * 41 operations, 0 trigonometric calls. */
+ * 41 operations. */
 void madill_beam_coriolis(const double *q, const double *qd, const double *p, double *h)
 {
     const double v0 = 4.0*p[5]/p[2];
@@ -77,7 +77,7 @@ void madill_beam_coriolis(const double *q, const double *qd, const double *p, do
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
  * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output C[25]
- * 38 operations, 0 trigonometric calls. */
+ * 38 operations. */
 void madill_beam_coriolis_matrix(const double *q, const double *qd, const double *p, double *C)
 {
     const double v0 = 4.0*p[5]/p[2];
@@ -121,7 +121,7 @@ void madill_beam_coriolis_matrix(const double *q, const double *qd, const double
 
 /* g(q) = dV_gravity/dq
  * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output g[5]
- * 8 operations, 0 trigonometric calls. */
+ * 8 operations. */
 void madill_beam_gravity(const double *q, const double *p, double *g)
 {
     (void)q;
@@ -136,7 +136,7 @@ void madill_beam_gravity(const double *q, const double *p, double *g)
 
 /* k(q) = dV_strain/dq (zero for rigid models)
  * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output k[5]
- * 9 operations, 0 trigonometric calls. */
+ * 9 operations. */
 void madill_beam_stiffness(const double *q, const double *p, double *k)
 {
     const double v0 = p[4]/(p[2]*p[2]*p[2]*p[2]);
@@ -154,7 +154,7 @@ void madill_beam_stiffness(const double *q, const double *p, double *k)
 
 /* friction and offset torques (none in this model)
  * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output f[5]
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void madill_beam_friction(const double *q, const double *qd, const double *p, double *f)
 {
     (void)q;
@@ -169,7 +169,7 @@ void madill_beam_friction(const double *q, const double *qd, const double *p, do
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
  * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qdd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output tau[5]
- * 138 operations, 0 trigonometric calls. */
+ * 138 operations. */
 void madill_beam_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau)
 {
     const double v0 = (q[1]*q[1]);

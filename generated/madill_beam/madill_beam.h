@@ -41,31 +41,31 @@ extern const char *const madill_beam_parameter_names[madill_beam_NP];
 extern const double madill_beam_parameter_defaults[madill_beam_NP];
 
 /* D(q), N*N row-major, symmetric positive definite
- * 52 operations, 0 trigonometric calls. */
+ * 52 operations. */
 void madill_beam_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 41 operations, 0 trigonometric calls. */
+ * 41 operations. */
 void madill_beam_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
- * 38 operations, 0 trigonometric calls. */
+ * 38 operations. */
 void madill_beam_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 8 operations, 0 trigonometric calls. */
+ * 8 operations. */
 void madill_beam_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
- * 9 operations, 0 trigonometric calls. */
+ * 9 operations. */
 void madill_beam_stiffness(const double *q, const double *p, double *k);
 
 /* friction and offset torques (none in this model)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void madill_beam_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 138 operations, 0 trigonometric calls. */
+ * 138 operations. */
 void madill_beam_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

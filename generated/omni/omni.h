@@ -41,31 +41,31 @@ extern const char *const omni_parameter_names[omni_NP];
 extern const double omni_parameter_defaults[omni_NP];
 
 /* D(q), N*N row-major, symmetric positive definite
- * 98 operations, 4 trigonometric calls. */
+ * 98 operations, sine and cosine of 1 angles. */
 void omni_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 127 operations, 4 trigonometric calls. */
+ * 127 operations, sine and cosine of 1 angles. */
 void omni_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
- * 152 operations, 4 trigonometric calls. */
+ * 152 operations, sine and cosine of 1 angles. */
 void omni_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 29 operations, 4 trigonometric calls. */
+ * 29 operations, sine and cosine of 1 angles. */
 void omni_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void omni_stiffness(const double *q, const double *p, double *k);
 
 /* friction and offset torques (none in this model)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void omni_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 156 operations, 4 trigonometric calls. */
+ * 156 operations, sine and cosine of 1 angles. */
 void omni_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

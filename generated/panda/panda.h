@@ -187,31 +187,31 @@ extern const char *const panda_parameter_names[panda_NP];
 extern const double panda_parameter_defaults[panda_NP];
 
 /* D(q), N*N row-major, symmetric positive definite
- * 632 operations, 12 trigonometric calls. */
+ * 632 operations, sine and cosine of 6 angles. */
 void panda_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 797 operations, 12 trigonometric calls. */
+ * 797 operations, sine and cosine of 6 angles. */
 void panda_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
- * 2133 operations, 12 trigonometric calls. */
+ * 2133 operations, sine and cosine of 6 angles. */
 void panda_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 217 operations, 12 trigonometric calls. */
+ * 217 operations, sine and cosine of 6 angles. */
 void panda_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void panda_stiffness(const double *q, const double *p, double *k);
 
 /* friction and offset torques (none in this model)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void panda_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 833 operations, 12 trigonometric calls. */
+ * 833 operations, sine and cosine of 6 angles. */
 void panda_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

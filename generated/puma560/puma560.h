@@ -104,31 +104,31 @@ extern const char *const puma560_parameter_names[puma560_NP];
 extern const double puma560_parameter_defaults[puma560_NP];
 
 /* D(q), N*N row-major, symmetric positive definite
- * 357 operations, 10 trigonometric calls. */
+ * 357 operations, sine and cosine of 5 angles. */
 void puma560_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 458 operations, 10 trigonometric calls. */
+ * 458 operations, sine and cosine of 5 angles. */
 void puma560_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
- * 1042 operations, 10 trigonometric calls. */
+ * 1042 operations, sine and cosine of 5 angles. */
 void puma560_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 139 operations, 10 trigonometric calls. */
+ * 139 operations, sine and cosine of 5 angles. */
 void puma560_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void puma560_stiffness(const double *q, const double *p, double *k);
 
 /* friction and offset torques (none in this model)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void puma560_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 497 operations, 10 trigonometric calls. */
+ * 497 operations, sine and cosine of 5 angles. */
 void puma560_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

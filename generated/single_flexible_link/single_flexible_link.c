@@ -9,7 +9,7 @@ const double single_flexible_link_parameter_defaults[single_flexible_link_NP] = 
 
 /* D(q), N*N row-major, symmetric positive definite
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output D[25]
- * 13 operations, 0 trigonometric calls. */
+ * 13 operations. */
 void single_flexible_link_inertia(const double *q, const double *p, double *D)
 {
     const double v0 = pow(p[2], 1.5)*p[3];
@@ -46,7 +46,7 @@ void single_flexible_link_inertia(const double *q, const double *p, double *D)
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output h[5]
- * 16 operations, 0 trigonometric calls. */
+ * 16 operations. */
 void single_flexible_link_coriolis(const double *q, const double *qd, const double *p, double *h)
 {
     const double v0 = 2.0*p[3];
@@ -62,7 +62,7 @@ void single_flexible_link_coriolis(const double *q, const double *qd, const doub
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output C[25]
- * 13 operations, 0 trigonometric calls. */
+ * 13 operations. */
 void single_flexible_link_coriolis_matrix(const double *q, const double *qd, const double *p, double *C)
 {
     const double v0 = 2.0*p[3];
@@ -100,7 +100,7 @@ void single_flexible_link_coriolis_matrix(const double *q, const double *qd, con
 
 /* g(q) = dV_gravity/dq
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output g[5]
- * 6 operations, 0 trigonometric calls. */
+ * 6 operations. */
 void single_flexible_link_gravity(const double *q, const double *p, double *g)
 {
     (void)q;
@@ -116,7 +116,7 @@ void single_flexible_link_gravity(const double *q, const double *p, double *g)
 
 /* k(q) = dV_strain/dq (zero for rigid models)
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output k[5]
- * 12 operations, 0 trigonometric calls. */
+ * 12 operations. */
 void single_flexible_link_stiffness(const double *q, const double *p, double *k)
 {
     const double v0 = 1.0/((p[2]*p[2]*p[2]*p[2]));
@@ -135,7 +135,7 @@ void single_flexible_link_stiffness(const double *q, const double *p, double *k)
 
 /* friction and offset torques (none in this model)
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output f[5]
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void single_flexible_link_friction(const double *q, const double *qd, const double *p, double *f)
 {
     (void)q;
@@ -150,7 +150,7 @@ void single_flexible_link_friction(const double *q, const double *qd, const doub
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qdd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output tau[5]
- * 69 operations, 0 trigonometric calls. */
+ * 69 operations. */
 void single_flexible_link_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau)
 {
     const double v0 = pow(p[2], 1.5)*p[3];

@@ -41,31 +41,31 @@ extern const char *const single_flexible_link_parameter_names[single_flexible_li
 extern const double single_flexible_link_parameter_defaults[single_flexible_link_NP];
 
 /* D(q), N*N row-major, symmetric positive definite
- * 13 operations, 0 trigonometric calls. */
+ * 13 operations. */
 void single_flexible_link_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 16 operations, 0 trigonometric calls. */
+ * 16 operations. */
 void single_flexible_link_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
- * 13 operations, 0 trigonometric calls. */
+ * 13 operations. */
 void single_flexible_link_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 6 operations, 0 trigonometric calls. */
+ * 6 operations. */
 void single_flexible_link_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
- * 12 operations, 0 trigonometric calls. */
+ * 12 operations. */
 void single_flexible_link_stiffness(const double *q, const double *p, double *k);
 
 /* friction and offset torques (none in this model)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void single_flexible_link_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 69 operations, 0 trigonometric calls. */
+ * 69 operations. */
 void single_flexible_link_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

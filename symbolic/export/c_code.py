@@ -8,6 +8,7 @@ from symbolic.dynamics import DynamicModel
 from symbolic.export.c_printer import CPrinter, c_double
 from symbolic.export.functions import function_specs, input_symbols, programs
 from symbolic.export.naming import check_c_name, comment_text
+from symbolic.export.program import batch_trig
 from symbolic.export.templates import render
 
 
@@ -16,12 +17,15 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
     name = check_c_name(model.name, model.robot.source)
     symbols = input_symbols(model)
     slots = {s: f"{array}[{i}]" for array, group in symbols.items() for i, s in enumerate(group)}
-    printer = CPrinter(slots)
+    inputs = {s for group in symbols.values() for s in group}
     functions = []
     built = programs(model)
     for spec in function_specs(model):
-        program = built[spec.name]
-        used = set()
+        batched = batch_trig(built[spec.name], inputs)
+        program = batched.program
+        trig_slots = {s: f"sn[{k}]" for k, s in enumerate(batched.sines)} | {c: f"cs[{k}]" for k, c in enumerate(batched.cosines)}
+        printer = CPrinter(slots | trig_slots)
+        used = set().union(*(a.free_symbols for a in batched.angles))
         for _, e in program.statements:
             used |= e.free_symbols
         for e in program.outputs:
@@ -33,8 +37,8 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
                 "doc": spec.doc,
                 "signature": ", ".join(f"const double *{a}" for a in spec.inputs) + f", double *{spec.output}",
                 "layout": ", ".join(_layout(a, model) for a in spec.inputs) + f"; output {spec.output}[{spec.rows * spec.cols}]",
-                "operations": program.operations,
-                "trig": program.trig_calls,
+                "operations": built[spec.name].operations,
+                "angles": [printer.doprint(a) for a in batched.angles],
                 "unused": unused,
                 "statements": [{"name": str(s), "value": printer.doprint(e)} for s, e in program.statements],
                 "outputs": [{"name": f"{spec.output}[{i}]", "value": printer.doprint(e)} for i, e in enumerate(program.outputs)],

@@ -97,3 +97,42 @@ def _topological(statements: dict, order: list) -> list:
             deps = [t for t in statements[s].free_symbols if t in statements and t not in done]
             todo.extend((t, False) for t in sorted(deps, key=position.__getitem__, reverse=True))
     return out
+
+
+@dataclass(frozen=True)
+class BatchedTrig:
+    """A program whose sines and cosines of input-only angles come from one batched evaluation.
+
+    ``angles[k]`` is the k-th angle; in ``program`` its sine is the symbol ``sines[k]`` and its cosine
+    ``cosines[k]``. Generated C computes all of them in one vectorisable loop instead of one libm
+    call each (see templates/sincos.c.j2).
+    """
+
+    angles: tuple[sp.Expr, ...]
+    sines: tuple[sp.Symbol, ...]
+    cosines: tuple[sp.Symbol, ...]
+    program: Program
+
+
+def batch_trig(program: Program, inputs: set[sp.Symbol], local_prefix: str = "v") -> BatchedTrig:
+    """Replace sin/cos of angles that depend on inputs only by batch symbols; locals renumbered."""
+    angles: list[sp.Expr] = []
+    for expr in [e for _, e in program.statements] + list(program.outputs):
+        found = sorted(expr.atoms(sp.sin, sp.cos), key=sp.default_sort_key)
+        for atom in found:
+            angle = atom.args[0]
+            if angle.free_symbols <= inputs and angle not in angles:
+                angles.append(angle)
+    sines = tuple(sp.Symbol(f"_sin{k}", real=True) for k in range(len(angles)))
+    cosines = tuple(sp.Symbol(f"_cos{k}", real=True) for k in range(len(angles)))
+    table = {sp.sin(a): s for a, s in zip(angles, sines)} | {sp.cos(a): c for a, c in zip(angles, cosines)}
+
+    statements: dict[sp.Symbol, sp.Expr] = {}
+    order: list[sp.Symbol] = []
+    for symbol, expr in program.statements:
+        statements[symbol] = expr.xreplace(table)
+        order.append(symbol)
+    statements, order, outputs = _inline_aliases(statements, order, [e.xreplace(table) for e in program.outputs])
+    rename = {s: sp.Symbol(f"{local_prefix}{k}", real=True) for k, s in enumerate(order)}
+    final = tuple((rename[s], statements[s].xreplace(rename)) for s in order)
+    return BatchedTrig(tuple(angles), sines, cosines, Program(final, tuple(e.xreplace(rename) for e in outputs)))

@@ -36,31 +36,31 @@ extern const char *const double_pendulum_parameter_names[double_pendulum_NP];
 extern const double double_pendulum_parameter_defaults[double_pendulum_NP];
 
 /* D(q), N*N row-major, symmetric positive definite
- * 14 operations, 1 trigonometric calls. */
+ * 14 operations, sine and cosine of 1 angles. */
 void double_pendulum_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
- * 23 operations, 2 trigonometric calls. */
+ * 23 operations, sine and cosine of 1 angles. */
 void double_pendulum_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
- * 12 operations, 1 trigonometric calls. */
+ * 12 operations, sine and cosine of 1 angles. */
 void double_pendulum_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 23 operations, 4 trigonometric calls. */
+ * 23 operations, sine and cosine of 2 angles. */
 void double_pendulum_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void double_pendulum_stiffness(const double *q, const double *p, double *k);
 
 /* friction and offset torques (none in this model)
- * 0 operations, 0 trigonometric calls. */
+ * 0 operations. */
 void double_pendulum_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 40 operations, 4 trigonometric calls. */
+ * 40 operations, sine and cosine of 2 angles. */
 void double_pendulum_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.
