@@ -5,24 +5,28 @@ numbers as the test-suite's reference (tests/reference_pinocchio.py), links the 
 generated/<name>/ and times, in interleaved rounds over the same 64 random states:
 rnea vs NAME_inverse_dynamics, crba vs NAME_inertia, computeCoriolisMatrix vs NAME_coriolis_matrix,
 computeGeneralizedGravity vs NAME_gravity. It first checks that both sides compute the same numbers.
-Reported: median ns per call over rounds and the median of the per-round ratio ours/Pinocchio.
+Reported: median ns per call over rounds and the median of the per-round ratio ours/Pinocchio, for a
+portable build (-O3) and a native one (-O3 -march=native); Pinocchio is compiled header-only with the same flags.
 
 Needs g++, the pin wheel (headers and libpinocchio_default) and cmeel-eigen (Eigen headers);
-Pinocchio's C++ build takes about a minute per robot.
+Pinocchio's C++ build takes 1-2 minutes per robot and configuration (two at a time on 2 cores).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import statistics
 import subprocess
 import sys
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
+import sympy as sp
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
@@ -140,7 +144,16 @@ int main() {{
 """
 
 
-def run(name: str, rounds: int, calls: int, work: Path) -> dict:
+CONFIGURATIONS = {
+    "portable": ["-O3"],
+    "native": ["-O3", "-march=native"],
+}
+PIN_DEFINES = ["-DNDEBUG", "-DBOOST_MPL_CFG_NO_PREPROCESSED_HEADERS", "-DBOOST_MPL_LIMIT_LIST_SIZE=30",
+               "-DBOOST_MPL_LIMIT_VECTOR_SIZE=30", "-DBOOST_FUSION_INVOKE_MAX_ARITY=12"]
+
+
+def compile_benchmark(name: str, flags: list[str], rounds: int, calls: int, work: Path) -> tuple[Path, dict]:
+    """Both sides from source with the same flags: our C with gcc, Pinocchio header-only with g++."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         robot = symbolic.robots.load(name)
@@ -148,57 +161,80 @@ def run(name: str, rounds: int, calls: int, work: Path) -> dict:
     rng = np.random.default_rng(2026)
     n = model.nq
     states = np.hstack([rng.uniform(-np.pi, np.pi, (64, n)), rng.uniform(-2, 2, (64, n)), rng.uniform(-2, 2, (64, n))])
-    source = work / f"bench_{name}.cpp"
+    tag = f"{name}_{'_'.join(f.strip('-').replace('=', '') for f in flags)}"
+    source = work / f"bench_{tag}.cpp"
     source.write_text(cpp_source(name, model, states, rounds, calls))
     pre = prefix()
     gen = ROOT / "generated" / name
-    obj = work / f"{name}.o"
-    subprocess.run(["gcc", "-std=c99", "-O3", "-c", str(gen / f"{name}.c"), "-o", str(obj)], check=True)
-    exe = work / f"bench_{name}"
-    flags = ["-std=c++17", "-O3", "-DNDEBUG", "-DBOOST_MPL_CFG_NO_PREPROCESSED_HEADERS", "-DBOOST_MPL_LIMIT_LIST_SIZE=30",
-             "-DBOOST_MPL_LIMIT_VECTOR_SIZE=30", "-DBOOST_FUSION_INVOKE_MAX_ARITY=12", "-DPINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION"]
-    print(f"compiling the {name} benchmark against Pinocchio (about a minute)...", flush=True)
-    subprocess.run(["g++", *flags, f"-I{pre / 'include'}", f"-I{pre / 'include' / 'eigen3'}", f"-I{gen}", str(source), str(obj),
-                    "-o", str(exe), f"-L{pre / 'lib'}", "-lpinocchio_default", f"-Wl,-rpath,{pre / 'lib'}"], check=True)
-    out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.splitlines()
+    obj = work / f"{tag}.o"
+    subprocess.run(["gcc", "-std=c99", *flags, "-c", str(gen / f"{name}.c"), "-o", str(obj)], check=True)
+    exe = work / f"bench_{tag}"
+    subprocess.run(["g++", "-std=c++17", *flags, *PIN_DEFINES, "-w", f"-I{pre / 'include'}", f"-I{pre / 'include' / 'eigen3'}",
+                    f"-I{gen}", str(source), str(obj), "-o", str(exe), f"-L{pre / 'lib'}", "-lpinocchio_default",
+                    f"-Wl,-rpath,{pre / 'lib'}"], check=True)
+    return exe, {"robot": robot}
+
+
+def measure(name: str, exe: Path, robot) -> dict:
+    """Run pinned to one CPU (fewer migrations between the two sides of a round)."""
+    cpu = max(os.sched_getaffinity(0))
+    out = subprocess.run([str(exe)], check=True, capture_output=True, text=True,
+                         preexec_fn=lambda: os.sched_setaffinity(0, {cpu})).stdout.splitlines()
     check = json.loads(out[0])["check"]
     samples = [json.loads(line) for line in out[1:]]
-    derived = symbolic.derive(robot)
-    built = programs(derived)
+    built = programs(symbolic.derive(robot))
     result = {"check": check, "rows": []}
     for label, pin_key, our_key in PAIRS:
         pin_ns = statistics.median(s[pin_key] for s in samples)
         our_ns = statistics.median(s[our_key] for s in samples)
         ratio = statistics.median(s[our_key] / s[pin_key] for s in samples)
         program = built[FUNCTION_OF[label]]
-        result["rows"].append((label, pin_ns, our_ns, ratio, program.operations, program.trig_calls))
+        angles = len({a.args[0] for _, e in program.statements for a in e.atoms(sp.sin, sp.cos)}
+                     | {a.args[0] for e in program.outputs for a in e.atoms(sp.sin, sp.cos)})
+        result["rows"].append((label, pin_ns, our_ns, ratio, program.operations, angles))
     return result
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="bench/results/runtime.md")
-    parser.add_argument("--rounds", type=int, default=21)
-    parser.add_argument("--calls", type=int, default=20000)
+    parser.add_argument("--rounds", type=int, default=201)
+    parser.add_argument("--calls", type=int, default=2000)
+    parser.add_argument("--robots", default="puma560,panda")
+    parser.add_argument("--configurations", default=",".join(CONFIGURATIONS))
     args = parser.parse_args()
+    robots = args.robots.split(",")
+    configurations = args.configurations.split(",")
+    gcc_version = subprocess.run(["gcc", "-dumpfullversion"], capture_output=True, text=True).stdout.strip()
     lines = [
         "# Runtime: generated C vs Pinocchio C++",
         "",
-        f"`make bench` on {platform.machine()} / {platform.python_implementation()} {platform.python_version()}; "
-        f"gcc -O3 for both; {args.rounds} interleaved rounds × {args.calls} calls over 64 random states; medians.",
+        f"`make bench` on {platform.machine()} ({cpu_model()}), gcc/g++ {gcc_version}, Pinocchio {pinocchio_version()} compiled",
+        "header-only from the pin wheel with the same flags as the generated C (one binary per robot and configuration).",
+        f"{args.rounds} interleaved rounds × {args.calls} calls over 64 random states, pinned to one CPU; medians.",
         "Ratio = median over rounds of (ours / Pinocchio) measured in the same round. Target ratios from issue 4.",
+        "Angles: distinct sin/cos arguments, evaluated in one batched vectorisable call (templates/sincos.c.j2).",
         "",
     ]
-    with tempfile.TemporaryDirectory() as tmp:
-        for name in ("puma560", "panda"):
-            r = run(name, args.rounds, args.calls, Path(tmp))
-            lines += [f"## {name}", "", f"Agreement (max abs difference, τ / D / C·q̇ / g): {', '.join(f'{x:.1e}' for x in r['check'])}", "",
-                      "| function | Pinocchio [ns] | generated C [ns] | ratio | target | operations | trig calls |", "|---|---|---|---|---|---|---|"]
-            for label, pin_ns, our_ns, ratio, ops, trig in r["rows"]:
-                mark = "met" if ratio <= TARGETS[label] else "not met"
-                lines.append(f"| {label} | {pin_ns:.0f} | {our_ns:.0f} | ×{ratio:.3f} | ≤ ×{TARGETS[label]} ({mark}) | {ops} | {trig} |")
-                print(f"{name:8s} {label:18s} pin {pin_ns:8.0f} ns  ours {our_ns:8.0f} ns  ×{ratio:.3f} ({mark})", flush=True)
-            lines.append("")
+    with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+        print(f"compiling {len(robots) * len(configurations)} benchmarks against Pinocchio (1-2 minutes each)...", flush=True)
+        jobs = {(name, config): pool.submit(compile_benchmark, name, CONFIGURATIONS[config], args.rounds, args.calls, Path(tmp))
+                for config in configurations for name in robots}
+        built = {key: job.result() for key, job in jobs.items()}  # measure only once nothing else runs
+        for config in configurations:
+            lines += [f"## {config}: `{' '.join(CONFIGURATIONS[config])}`", ""]
+            for name in robots:
+                exe, info = built[(name, config)]
+                r = measure(name, exe, info["robot"])
+                lines += [f"### {name}", "",
+                          f"Agreement (max abs difference, τ / D / C·q̇ / g): {', '.join(f'{x:.1e}' for x in r['check'])}", "",
+                          "| function | Pinocchio [ns] | generated C [ns] | ratio | target | operations | angles |",
+                          "|---|---|---|---|---|---|---|"]
+                for label, pin_ns, our_ns, ratio, ops, angles in r["rows"]:
+                    mark = "met" if ratio <= TARGETS[label] else "not met"
+                    lines.append(f"| {label} | {pin_ns:.0f} | {our_ns:.0f} | ×{ratio:.3f} | ≤ ×{TARGETS[label]} ({mark}) | {ops} | {angles} |")
+                    print(f"{config:8s} {name:8s} {label:18s} pin {pin_ns:8.0f} ns  ours {our_ns:8.0f} ns  ×{ratio:.3f} ({mark})", flush=True)
+                lines.append("")
     lines += [
         "Team reference figures (not re-measured here): Panda rnea 805 ns, Pinocchio traced through CasADi 201 ns (×0.24),",
         "SymPyBotics C 144 ns (×0.17); PUMA 560 rnea 696 ns, 130 ns (×0.19), 121 ns (×0.17); crba 329 ns (PUMA), 386 ns (Panda).",
@@ -208,6 +244,22 @@ def main() -> int:
     Path(args.out).write_text("\n".join(lines))
     print(f"written {args.out}")
     return 0
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
+def pinocchio_version() -> str:
+    import pinocchio
+
+    return pinocchio.__version__
 
 
 if __name__ == "__main__":

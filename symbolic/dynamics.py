@@ -19,7 +19,7 @@ from functools import cached_property
 import sympy as sp
 
 from symbolic import christoffel as ch
-from symbolic.gravity import potential_energy
+from symbolic.gravity import gravity_forces, potential_energy
 from symbolic.inertia import composite_inertias, inertia_matrix
 from symbolic.kinematics import Kinematics
 from symbolic.newton_euler import inverse_dynamics
@@ -256,7 +256,7 @@ def derive(robot: Robot) -> DynamicModel:
     coriolis = step("coriolis", lambda: ch.coriolis_vector(C, qd))
     cmat = step("coriolis matrix", lambda: ch.coriolis_matrix(C, qd))
     zero = {x: sp.Integer(0) for x in rigid}
-    g_rigid = step("gravity", lambda: inverse_dynamics(kin, zero, zero, gravity=True))
+    g_rigid = step("gravity", lambda: gravity_forces(kin))
     potential = step("potential", lambda: potential_energy(kin))
     gravity = sp.zeros(n, 1)
     gravity[:m, 0] = g_rigid

@@ -1,15 +1,17 @@
 """Gravitational potential energy V_g(Q) and the gravity vector g(Q) = ∂V_g/∂Qᵀ (Madill 3.8.1, 3.9.1).
 
 V_g = −Σ_b m_b g₀ᵀ (R_b c_b + d_b), with g₀ the gravity vector in the base frame and R_b c_b + d_b the
-body's centre of mass (3.43). g(Q) itself is computed by the Newton–Euler pass with Q̇ = Q̈ = 0
-(:func:`symbolic.newton_euler.inverse_dynamics`); the tests check g = ∂V/∂Q.
+body's centre of mass (3.43). g(Q) itself is computed by :func:`gravity_forces`, the static case of
+the Newton–Euler pass reduced to first moments of mass; the tests check g = ∂V/∂Q and compare it with
+Pinocchio's computeGeneralizedGravity.
 """
 
 from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.kinematics import Kinematics
+from symbolic.kinematics import ZERO3, Kinematics, cross
+from symbolic.spec import BASE
 
 
 def potential_energy(kin: Kinematics) -> sp.Expr:
@@ -22,3 +24,45 @@ def potential_energy(kin: Kinematics) -> sp.Expr:
         com = kin.point_position(body.frame, sp.Matrix(body.com))
         terms.append(-body.mass * (g0.T * com)[0])
     return kin.sub.add(sp.Add(*terms))
+
+
+def gravity_forces(kin: Kinematics) -> sp.Matrix:
+    """g(Q) = ∂V_g/∂Qᵀ of the rigid bodies, by first moments of mass.
+
+    With Q̇ = Q̈ = 0 the Newton–Euler wrench that frame j must transmit to hold everything it carries
+    is f_j = −M_j g_j, n_j = −μ_j × g_j, with g_j the gravity vector in frame j's axes (rotated outwards
+    once per frame), M_j the carried mass and μ_j = Σ m_b (c_b − o_j) its first moment about the origin
+    o_j (accumulated inwards: μ_parent += R (μ_j + M_j p_child), or R μ_j + M_j p_parent where the
+    offset is constant in the parent). Each coordinate takes the projection of (n_j, f_j) on its joint
+    twist, as in :func:`symbolic.newton_euler.inverse_dynamics`. Carrying three first-moment components
+    instead of a six-component wrench makes the generated gravity about a third cheaper.
+    """
+    add = kin.sub.add
+    g0 = sp.Matrix(kin.robot.gravity)
+    gravity_in: dict[str, sp.Matrix] = {}
+    for name, fk in kin.frames.items():
+        outer = g0 if fk.parent == BASE else gravity_in[fk.parent]
+        gravity_in[name] = fk.to_child(outer).applyfunc(add)
+
+    mass: dict[str, sp.Expr] = {name: sp.Integer(0) for name in kin.frames}
+    moment: dict[str, sp.Matrix] = {name: ZERO3 for name in kin.frames}
+    for body in kin.robot.bodies:
+        if body.frame != BASE:
+            mass[body.frame] += body.mass
+            moment[body.frame] = moment[body.frame] + body.mass * sp.Matrix(body.com)
+
+    tau: dict[sp.Symbol, list[sp.Expr]] = {q: [] for q in kin.coordinates}
+    for name in reversed(list(kin.frames)):
+        fk = kin.frames[name]
+        m, mu, g = add(mass[name]), moment[name].applyfunc(add), gravity_in[name]
+        for q in fk.coordinates:
+            w_unit, v_unit = fk.joint_twist(q)
+            tau[q].append(-(w_unit.T * cross(mu, g) + m * (v_unit.T * g))[0])
+        if fk.parent != BASE and m != 0:
+            if fk.shift_in_child:
+                carried = fk.to_parent((mu + m * fk.p_child).applyfunc(add))
+            else:
+                carried = fk.to_parent(mu) + m * fk.p_parent
+            mass[fk.parent] += m
+            moment[fk.parent] = moment[fk.parent] + carried.applyfunc(add)
+    return sp.Matrix([add(sp.Add(*tau[q])) for q in kin.coordinates])

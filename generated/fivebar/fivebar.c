@@ -422,39 +422,35 @@ void fivebar_coriolis_matrix(const double *q, const double *qd, const double *p,
 
 /* g(q) = dV_gravity/dq
  * Inputs: q[3] (q0, q1, q2), p[18] (see fivebar_parameter_names); output g[3]
- * 48 operations; sine and cosine of 2 angles in one fivebar_sincos call. */
+ * 47 operations; sine and cosine of 2 angles in one fivebar_sincos call. */
 void fivebar_gravity(const double *q, const double *p, double *g)
 {
     double sn[2], cs[2];
     {
-        const double angle[2] = { q[1], q[2] };
+        const double angle[2] = { q[2], q[1] };
         fivebar_sincos(2, angle, sn, cs);
     }
     const double v0 = q[1] - q[2];
-    const double v1 = cos(v0);
-    const double v2 = sin(v0);
-    const double v3 = sn[0]*p[0];
-    const double v4 = cs[0]*p[0];
-    const double v5 = v1*v4 + v2*v3;
-    const double v6 = p[12]*v5;
-    const double v7 = p[8]*v6;
+    const double v1 = p[8]*p[12];
+    const double v2 = p[7]*p[11];
+    const double v3 = cos(v0);
+    const double v4 = sin(v0);
+    const double v5 = sn[0]*p[0];
+    const double v6 = cs[0]*p[0];
+    const double v7 = -v3*v6 + v4*v5;
     const double v8 = sn[1]*p[0];
     const double v9 = cs[1]*p[0];
-    const double v10 = -v1*v9 + v2*v8;
-    const double v11 = p[11]*v10;
-    const double v12 = p[7]*v11;
-    const double v13 = v12 - v7;
-    const double v14 = p[10]*v9;
-    const double v15 = p[9]*v4;
-    const double v16 = v1*v8 + v2*v9;
-    const double v17 = p[11]*v16;
-    const double v18 = v1*v3 - v2*v4;
-    const double v19 = p[12]*v18;
-    const double v20 = -v1*v6 + v19*v2;
-    const double v21 = -v1*v11 + v17*v2;
+    const double v10 = v3*v9 + v4*v8;
+    const double v11 = -v1*v10 + v2*v7;
+    const double v12 = v1*v3;
+    const double v13 = v1*v4;
+    const double v14 = v2*v3;
+    const double v15 = v2*v4;
+    const double v16 = -p[1]*p[12]*v9 - p[5]*p[9]*v9 + v11 + v12*v9 + v13*v8;
+    const double v17 = p[2]*p[11]*v6 + p[6]*p[10]*v6 + v11 + v14*v6 - v15*v5;
     g[0] = 0.0;
-    g[1] = -p[1]*v20 + p[5]*v15 - v13 - v7;
-    g[2] = p[2]*v21 + p[6]*v14 - v12 + v13;
+    g[1] = -v16;
+    g[2] = v17;
 }
 
 /* k(q) = dV_strain/dq (zero for rigid models)
@@ -584,13 +580,13 @@ void fivebar_inverse_dynamics(const double *q, const double *qd, const double *q
     const double v89 = p[11]*v87;
     const double v90 = p[11]*v88;
     const double v91 = p[15]*v85;
-    const double v92 = v11*v73 - v12*v72;
+    const double v92 = -v11*v73 + v12*v72;
     const double v93 = qd[1]*v18 + v11*v25 - v12*v27 + v28*v29;
-    const double v94 = p[8]*v92 + v18*v20 - v81;
+    const double v94 = p[8]*v92 - v18*v20 + v81;
     const double v95 = -qd[1] + v10;
-    const double v96 = v21 - v92;
+    const double v96 = v21 + v92;
     const double v97 = p[8]*v16 - v17*v18 + v93;
-    const double v98 = 2.0*p[8]*v21 - v94;
+    const double v98 = 2.0*p[8]*v21 + v94;
     const double v99 = p[12]*v97;
     const double v100 = p[12]*v98;
     const double v101 = p[16]*v95;

@@ -75,7 +75,7 @@ void fivebar_coriolis(const double *q, const double *qd, const double *p, double
 void fivebar_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 48 operations, sine and cosine of 2 angles. */
+ * 47 operations, sine and cosine of 2 angles. */
 void fivebar_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)

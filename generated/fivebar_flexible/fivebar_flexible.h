@@ -85,7 +85,7 @@ void fivebar_flexible_coriolis(const double *q, const double *qd, const double *
 void fivebar_flexible_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 96 operations, sine and cosine of 2 angles. */
+ * 94 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
@@ -97,7 +97,7 @@ void fivebar_flexible_stiffness(const double *q, const double *p, double *k);
 void fivebar_flexible_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 1183 operations, sine and cosine of 2 angles. */
+ * 1168 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

@@ -525,52 +525,44 @@ void janot_branch_coriolis_matrix(const double *q, const double *qd, const doubl
 
 /* g(q) = dV_gravity/dq
  * Inputs: q[3] (q1, q2, q5), p[34] (see janot_branch_parameter_names); output g[3]
- * 73 operations; sine and cosine of 2 angles in one janot_branch_sincos call. */
+ * 66 operations; sine and cosine of 2 angles in one janot_branch_sincos call. */
 void janot_branch_gravity(const double *q, const double *p, double *g)
 {
     double sn[2], cs[2];
     {
-        const double angle[2] = { q[1], q[2] };
+        const double angle[2] = { q[2], q[1] };
         janot_branch_sincos(2, angle, sn, cs);
     }
     const double v0 = q[1] - q[2];
-    const double v1 = cos(v0);
-    const double v2 = sin(v0);
-    const double v3 = sn[0]*p[0];
-    const double v4 = cs[0]*p[0];
-    const double v5 = p[5]*v4;
-    const double v6 = sn[1]*p[0];
-    const double v7 = cs[1]*p[0];
-    const double v8 = p[8]*v7;
-    const double v9 = v1*v3 - v2*v4;
-    const double v10 = v1*v4 + v2*v3;
-    const double v11 = p[6]*v9;
-    const double v12 = p[6]*v10;
-    const double v13 = v1*v6 + v2*v7;
-    const double v14 = v1*v7 - v2*v6;
-    const double v15 = p[9]*v13;
-    const double v16 = p[9]*v14;
-    const double v17 = cs[1]*v10 + sn[1]*v9;
-    const double v18 = cs[1]*v9 - sn[1]*v10;
-    const double v19 = p[7]*v17;
-    const double v20 = p[7]*v18;
-    const double v21 = p[13]*v20;
-    const double v22 = cs[1]*v20 + sn[1]*v19;
-    const double v23 = cs[1]*v19 - sn[1]*v20;
-    const double v24 = -p[2]*v23 + v21;
-    const double v25 = p[15]*v16;
-    const double v26 = v1*v16 + v15*v2;
-    const double v27 = p[3]*v26 + v25;
-    const double v28 = -p[11]*v12 + p[12]*v11 + v24;
-    const double v29 = v11 + v22;
-    const double v30 = v12 + v23;
-    const double v31 = v1*v30 - v2*v29;
-    const double v32 = -p[1]*v31 + v28;
-    const double v33 = p[14]*v8 + v27;
-    const double v34 = p[10]*v5 - v32;
+    const double v1 = p[9]*p[15];
+    const double v2 = p[7]*p[13];
+    const double v3 = cs[0]*v2;
+    const double v4 = p[6]*p[12] + v3;
+    const double v5 = cos(v0);
+    const double v6 = sin(v0);
+    const double v7 = sn[1]*p[0];
+    const double v8 = cs[1]*p[0];
+    const double v9 = v5*v7 - v6*v8;
+    const double v10 = v5*v8 + v6*v7;
+    const double v11 = sn[0]*p[0];
+    const double v12 = cs[0]*p[0];
+    const double v13 = -v11*v6 + v12*v5;
+    const double v14 = sn[0]*v2 + p[2]*p[7];
+    const double v15 = p[6]*p[11] + v14;
+    const double v16 = v1*v13 - v10*v15 + v4*v9;
+    const double v17 = v1*v6;
+    const double v18 = p[6] + p[7];
+    const double v19 = cs[0]*v9 - sn[0]*v10;
+    const double v20 = p[3]*p[9] + v1*v5;
+    const double v21 = p[1]*v18 + v15*v5 + v4*v6;
+    const double v22 = -v15*v6 + v4*v5;
+    const double v23 = p[8]*p[14] + v20;
+    const double v24 = p[5]*p[10] + v21;
+    const double v25 = v16 - v22*v7 + v24*v8;
+    const double v26 = v11*v17 - v12*v23 + v16 - v19*v2;
     g[0] = 0.0;
-    g[1] = -v25 - v28 - v34;
-    g[2] = -v21 + v25 + v28 - v33;
+    g[1] = -v25;
+    g[2] = v26;
 }
 
 /* k(q) = dV_strain/dq (zero for rigid models)

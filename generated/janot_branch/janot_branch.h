@@ -107,7 +107,7 @@ void janot_branch_coriolis(const double *q, const double *qd, const double *p, d
 void janot_branch_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 73 operations, sine and cosine of 2 angles. */
+ * 66 operations, sine and cosine of 2 angles. */
 void janot_branch_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)

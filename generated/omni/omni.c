@@ -316,7 +316,7 @@ void omni_coriolis_matrix(const double *q, const double *qd, const double *p, do
 
 /* g(q) = dV_gravity/dq
  * Inputs: q[3] (theta, gamma1, gamma2), p[7] (see omni_parameter_names); output g[3]
- * 29 operations; sine and cosine of 1 angles in one omni_sincos call. */
+ * 28 operations; sine and cosine of 1 angles in one omni_sincos call. */
 void omni_gravity(const double *q, const double *p, double *g)
 {
     double sn[1], cs[1];
@@ -325,21 +325,21 @@ void omni_gravity(const double *q, const double *p, double *g)
         omni_sincos(1, angle, sn, cs);
     }
     const double v0 = 2.0*q[1] + q[2] + p[6];
-    const double v1 = cos(v0);
-    const double v2 = sin(v0);
-    const double v3 = sn[0]*p[0];
-    const double v4 = cs[0]*p[0];
-    const double v5 = v1*v4 + v2*v3;
-    const double v6 = p[4]*v5;
-    const double v7 = p[2]*v6;
-    const double v8 = (0.5)*v7;
-    const double v9 = p[3]*v4;
-    const double v10 = v1*v3 - v2*v4;
-    const double v11 = p[4]*v10;
-    const double v12 = -v1*v6 + v11*v2;
+    const double v1 = p[2]*p[4];
+    const double v2 = (0.5)*v1;
+    const double v3 = cs[0]*p[0];
+    const double v4 = p[1]*v3;
+    const double v5 = cos(v0);
+    const double v6 = sin(v0);
+    const double v7 = v2*v5;
+    const double v8 = v2*v6;
+    const double v9 = sn[0]*p[0];
+    const double v10 = v3*v5 + v6*v9;
+    const double v11 = (0.5)*p[3]*v4 + p[4]*v4 + v1*v10 - v3*v7 - v8*v9;
+    const double v12 = v10*v2;
     g[0] = 0.0;
-    g[1] = -p[1]*v12 + (0.5)*p[1]*v9 + v7 - v8;
-    g[2] = v8;
+    g[1] = v11;
+    g[2] = v12;
 }
 
 /* k(q) = dV_strain/dq (zero for rigid models)

@@ -53,7 +53,7 @@ void omni_coriolis(const double *q, const double *qd, const double *p, double *h
 void omni_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 29 operations, sine and cosine of 1 angles. */
+ * 28 operations, sine and cosine of 1 angles. */
 void omni_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)

@@ -199,7 +199,7 @@ void panda_coriolis(const double *q, const double *qd, const double *p, double *
 void panda_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 217 operations, sine and cosine of 6 angles. */
+ * 135 operations, sine and cosine of 6 angles. */
 void panda_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
@@ -211,7 +211,7 @@ void panda_stiffness(const double *q, const double *p, double *k);
 void panda_friction(const double *q, const double *qd, const double *p, double *f);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 833 operations, sine and cosine of 6 angles. */
+ * 834 operations, sine and cosine of 6 angles. */
 void panda_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

@@ -957,83 +957,48 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
 
 /* g(q) = dV_gravity/dq
  * Inputs: q[6] (q1, q2, q3, q4, q5, q6), p[37] (see puma560_parameter_names); output g[6]
- * 139 operations; sine and cosine of 5 angles in one puma560_sincos call. */
+ * 64 operations; sine and cosine of 4 angles in one puma560_sincos call. */
 void puma560_gravity(const double *q, const double *p, double *g)
 {
-    double sn[5], cs[5];
+    double sn[4], cs[4];
     {
-        const double angle[5] = { q[2], q[1], q[3], q[4], q[5] };
-        puma560_sincos(5, angle, sn, cs);
+        const double angle[4] = { q[1], q[2], q[3], q[4] };
+        puma560_sincos(4, angle, sn, cs);
     }
-    const double v0 = sn[1]*p[0];
-    const double v1 = cs[1]*p[0];
-    const double v2 = cs[0]*v0 + sn[0]*v1;
-    const double v3 = p[7]*v2;
-    const double v4 = cs[0]*v1 - sn[0]*v0;
-    const double v5 = p[7]*v4;
-    const double v6 = sn[2]*v2;
-    const double v7 = p[8]*v6;
-    const double v8 = cs[2]*v2;
-    const double v9 = cs[3]*v8 + sn[3]*v4;
-    const double v10 = cs[4]*v6 + sn[4]*v9;
-    const double v11 = p[10]*v10;
-    const double v12 = p[18]*v11;
-    const double v13 = -cs[4]*v9 + sn[4]*v6;
-    const double v14 = p[10]*v13;
-    const double v15 = p[18]*v14;
-    const double v16 = cs[4]*v12 + sn[4]*v15;
-    const double v17 = cs[3]*v16;
-    const double v18 = p[17]*v7 + v17;
-    const double v19 = p[9]*v6;
-    const double v20 = cs[4]*v11 + sn[4]*v14;
-    const double v21 = v19 + v20;
-    const double v22 = v21 + v7;
-    const double v23 = p[4]*v22 + v18;
-    const double v24 = p[8]*v8;
-    const double v25 = -cs[4]*v15 + sn[4]*v12;
-    const double v26 = p[17]*v24 + v25;
-    const double v27 = p[9]*v9;
-    const double v28 = cs[4]*v14 - sn[4]*v11;
-    const double v29 = v27 - v28;
-    const double v30 = cs[3]*v4 - sn[3]*v8;
-    const double v31 = p[9]*v30;
-    const double v32 = p[10]*v30;
-    const double v33 = v31 + v32;
-    const double v34 = cs[3]*v29 - sn[3]*v33;
-    const double v35 = v24 + v34;
-    const double v36 = p[4]*v35 + v26;
-    const double v37 = cs[2]*v36 + sn[2]*v23;
-    const double v38 = -p[14]*v5 + p[16]*v3 + v37;
-    const double v39 = p[8]*v4;
-    const double v40 = cs[3]*v33 + sn[3]*v29;
-    const double v41 = v39 + v40;
-    const double v42 = v41 + v5;
-    const double v43 = -p[2]*v42 + v38;
-    const double v44 = p[6]*v0;
-    const double v45 = p[6]*v1;
-    const double v46 = sn[3]*v16;
-    const double v47 = cs[2]*v23 - sn[2]*v36;
-    const double v48 = cs[2]*v35 + sn[2]*v22;
-    const double v49 = cs[2]*v22 - sn[2]*v35;
-    const double v50 = p[15]*v5 + v47;
-    const double v51 = p[15]*v3 - v46;
-    const double v52 = v3 + v48;
-    const double v53 = -p[3]*v42 + v50;
-    const double v54 = p[2]*v49 - p[3]*v52 + v51;
-    const double v55 = cs[0]*v53 + sn[0]*v54;
-    const double v56 = cs[0]*v54 - sn[0]*v53;
-    const double v57 = cs[0]*v42 + sn[0]*v52;
-    const double v58 = p[13]*v45 - v55;
-    const double v59 = p[13]*v44 - v56;
-    const double v60 = -p[11]*v45 + p[12]*v44 + v43;
-    const double v61 = v45 + v57;
-    const double v62 = p[1]*v49 - v59;
-    const double v63 = cs[1]*v62 + sn[1]*v58;
-    g[0] = -v63;
-    g[1] = p[1]*v61 - v60;
-    g[2] = -v43;
-    g[3] = v46;
-    g[4] = -v25;
+    const double v0 = p[9] + p[10];
+    const double v1 = p[8] + v0;
+    const double v2 = p[7] + v1;
+    const double v3 = p[2]*v2;
+    const double v4 = p[10]*p[18];
+    const double v5 = sn[3]*v4;
+    const double v6 = cs[3]*v4;
+    const double v7 = p[8]*p[17] + v6;
+    const double v8 = p[4]*v1 + v7;
+    const double v9 = cs[2]*v5;
+    const double v10 = -p[7]*p[14] + v9;
+    const double v11 = p[7]*p[16] + v8;
+    const double v12 = -v10 + v3;
+    const double v13 = cs[1]*v12 - sn[1]*v11;
+    const double v14 = cs[1]*v11 + sn[1]*v12;
+    const double v15 = p[6] + v2;
+    const double v16 = p[6]*p[11] + v13;
+    const double v17 = p[6]*p[12] + v14;
+    const double v18 = sn[0]*p[0];
+    const double v19 = cs[0]*p[0];
+    const double v20 = cs[1]*v18 + sn[1]*v19;
+    const double v21 = cs[1]*v19 - sn[1]*v18;
+    const double v22 = cs[2]*v20;
+    const double v23 = sn[2]*v20;
+    const double v24 = cs[3]*v22 + sn[3]*v21;
+    const double v25 = p[1]*v15*v19 + v16*v19 - v17*v18;
+    const double v26 = v10*v21 + v11*v20 - v21*v3;
+    const double v27 = v23*v5;
+    const double v28 = v24*v4;
+    g[0] = 0.0;
+    g[1] = v25;
+    g[2] = -v26;
+    g[3] = v27;
+    g[4] = -v28;
     g[5] = 0.0;
 }
 

@@ -116,7 +116,7 @@ void puma560_coriolis(const double *q, const double *qd, const double *p, double
 void puma560_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 139 operations, sine and cosine of 5 angles. */
+ * 64 operations, sine and cosine of 4 angles. */
 void puma560_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)

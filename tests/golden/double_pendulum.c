@@ -137,26 +137,25 @@ void double_pendulum_coriolis_matrix(const double *q, const double *qd, const do
 
 /* g(q) = dV_gravity/dq
  * Inputs: q[2] (q1, q2), p[5] (see double_pendulum_parameter_names); output g[2]
- * 23 operations; sine and cosine of 2 angles in one double_pendulum_sincos call. */
+ * 21 operations; sine and cosine of 2 angles in one double_pendulum_sincos call. */
 void double_pendulum_gravity(const double *q, const double *p, double *g)
 {
     double sn[2], cs[2];
     {
-        const double angle[2] = { q[1], q[0] };
+        const double angle[2] = { q[0], q[1] };
         double_pendulum_sincos(2, angle, sn, cs);
     }
-    const double v0 = sn[1]*p[0];
-    const double v1 = cs[1]*p[0];
-    const double v2 = -cs[0]*v1 + sn[0]*v0;
-    const double v3 = p[4]*v2;
-    const double v4 = p[2]*v3;
-    const double v5 = p[3]*v1;
-    const double v6 = cs[0]*v0 + sn[0]*v1;
-    const double v7 = p[4]*v6;
-    const double v8 = cs[0]*v3 - sn[0]*v7;
-    const double v9 = v5 - v8;
-    g[0] = p[1]*v9 - v4;
-    g[1] = -v4;
+    const double v0 = p[2]*p[4];
+    const double v1 = cs[1]*v0;
+    const double v2 = sn[1]*v0;
+    const double v3 = p[3] + p[4];
+    const double v4 = sn[0]*p[0];
+    const double v5 = cs[0]*p[0];
+    const double v6 = -cs[1]*v5 + sn[1]*v4;
+    const double v7 = p[1]*v3*v5 + v1*v5 - v2*v4;
+    const double v8 = v0*v6;
+    g[0] = v7;
+    g[1] = -v8;
 }
 
 /* k(q) = dV_strain/dq (zero for rigid models)

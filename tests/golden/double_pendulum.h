@@ -48,7 +48,7 @@ void double_pendulum_coriolis(const double *q, const double *qd, const double *p
 void double_pendulum_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 23 operations, sine and cosine of 2 angles. */
+ * 21 operations, sine and cosine of 2 angles. */
 void double_pendulum_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
