@@ -214,6 +214,7 @@ def main() -> int:
         f"{args.rounds} interleaved rounds × {args.calls} calls over 64 random states, pinned to one CPU; medians.",
         "Ratio = median over rounds of (ours / Pinocchio) measured in the same round. Target ratios from issue 4.",
         "Angles: distinct sin/cos arguments, evaluated in one batched vectorisable call (templates/sincos.c.j2).",
+        "On a shared virtual machine the ratios move by up to ±30 % from run to run (compare several runs before concluding).",
         "",
     ]
     with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
