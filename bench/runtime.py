@@ -26,7 +26,6 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
-import sympy as sp
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
@@ -35,7 +34,8 @@ import warnings  # noqa: E402
 
 import symbolic  # noqa: E402
 from reference_pinocchio import build  # noqa: E402
-from symbolic.export.functions import programs  # noqa: E402
+from symbolic.export.functions import input_symbols, programs  # noqa: E402
+from symbolic.export.program import batch_trig  # noqa: E402
 
 PAIRS = [
     ("inverse dynamics", "pin_rnea", "our_id"),
@@ -182,15 +182,16 @@ def measure(name: str, exe: Path, robot) -> dict:
                          preexec_fn=lambda: os.sched_setaffinity(0, {cpu})).stdout.splitlines()
     check = json.loads(out[0])["check"]
     samples = [json.loads(line) for line in out[1:]]
-    built = programs(symbolic.derive(robot))
+    derived = symbolic.derive(robot)
+    built = programs(derived)
+    inputs = {s for group in input_symbols(derived).values() for s in group}
     result = {"check": check, "rows": []}
     for label, pin_key, our_key in PAIRS:
         pin_ns = statistics.median(s[pin_key] for s in samples)
         our_ns = statistics.median(s[our_key] for s in samples)
         ratio = statistics.median(s[our_key] / s[pin_key] for s in samples)
         program = built[FUNCTION_OF[label]]
-        angles = len({a.args[0] for _, e in program.statements for a in e.atoms(sp.sin, sp.cos)}
-                     | {a.args[0] for e in program.outputs for a in e.atoms(sp.sin, sp.cos)})
+        angles = len(batch_trig(program, inputs).angles)
         result["rows"].append((label, pin_ns, our_ns, ratio, program.operations, angles))
     return result
 
