@@ -4,7 +4,7 @@ Every generated function that needs trigonometry calls NAME_sincos once for all 
 kernel must be as accurate as libm: under 1 ulp from the exact value. It is checked here against
 mpmath at 200 bits on random angles, tiny angles, and every double within 3 ulp of a multiple of
 pi/2 in the fast path's range (where the argument reduction cancels most), compiled the ways a
-controller project would (-O2 scalar, -O3 vectorised, -march=native with FMA contraction allowed).
+controller project would (-O2, -O3, -march=native with FMA contraction allowed, and the libm switch).
 """
 
 from __future__ import annotations
