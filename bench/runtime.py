@@ -34,7 +34,7 @@ import warnings  # noqa: E402
 
 import symbolic  # noqa: E402
 from reference_pinocchio import build  # noqa: E402
-from symbolic.export.functions import input_symbols, programs  # noqa: E402
+from symbolic.export.functions import input_set, programs  # noqa: E402
 from symbolic.export.program import batch_trig  # noqa: E402
 
 PAIRS = [
@@ -184,7 +184,7 @@ def measure(name: str, exe: Path, robot) -> dict:
     samples = [json.loads(line) for line in out[1:]]
     derived = symbolic.derive(robot)
     built = programs(derived)
-    inputs = {s for group in input_symbols(derived).values() for s in group}
+    inputs = input_set(derived)
     result = {"check": check, "rows": []}
     for label, pin_key, our_key in PAIRS:
         pin_ns = statistics.median(s[pin_key] for s in samples)

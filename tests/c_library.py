@@ -5,6 +5,7 @@ from __future__ import annotations
 import ctypes
 import shutil
 import subprocess
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -19,8 +20,9 @@ def gcc() -> str:
     return path
 
 
-def compile_shared(source: Path, out: Path, extra: tuple[str, ...] = ()) -> Path:
-    subprocess.run([gcc(), *STRICT, *extra, "-fPIC", "-shared", "-o", str(out), str(source), "-lm"], check=True, capture_output=True, text=True)
+def compile_shared(source: Path, out: Path, flags: Sequence[str] = tuple(STRICT)) -> Path:
+    """A shared library from one C file (``flags`` replace the strict defaults)."""
+    subprocess.run([gcc(), *flags, "-fPIC", "-shared", "-o", str(out), str(source), "-lm"], check=True, capture_output=True, text=True)
     return out
 
 

@@ -110,8 +110,8 @@ def test_libm_trigonometry_switch_gives_the_same_dynamics(name: str, tmp_path: P
     model = derived(name)
     n, n_p = model.n, len(model.robot.parameters)
     source = GENERATED / name / f"{name}.c"
-    fast = CModel(compile_shared(source, tmp_path / "libfast.so", ("-O3",)), name, n, n_p)
-    libm = CModel(compile_shared(source, tmp_path / "liblibm.so", ("-O3", "-DSYMBOLIC_LIBM_SINCOS")), name, n, n_p)
+    fast = CModel(compile_shared(source, tmp_path / "libfast.so", (*STRICT, "-O3")), name, n, n_p)
+    libm = CModel(compile_shared(source, tmp_path / "liblibm.so", (*STRICT, "-O3", "-DSYMBOLIC_LIBM_SINCOS")), name, n, n_p)
     amplitude = np.array([0.01 if ("_nu" in c or "_eta" in c) else np.pi for c in model.robot.generalized_coordinates])
     rng = np.random.default_rng(5)
     for _ in range(20):

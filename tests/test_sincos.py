@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import ctypes
 import math
-import subprocess
 from pathlib import Path
 
 import mpmath
 import numpy as np
 import pytest
 
-from c_library import STRICT, gcc
+from c_library import STRICT, compile_shared
 from symbolic.export.templates import render
 
 WRAPPER = """#include <math.h>
@@ -37,9 +36,7 @@ BUILDS = {
 def build(tmp_path: Path, flags: list[str]):
     source = tmp_path / "sincos.c"
     source.write_text(WRAPPER.format(kernel=render("sincos.c.j2", name="t")))
-    library = tmp_path / "libsincos.so"
-    subprocess.run([gcc(), *flags, "-fPIC", "-shared", "-o", str(library), str(source), "-lm"], check=True, capture_output=True, text=True)
-    lib = ctypes.CDLL(str(library))
+    lib = ctypes.CDLL(str(compile_shared(source, tmp_path / "libsincos.so", flags)))
     pointer = ctypes.POINTER(ctypes.c_double)
 
     def batch(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -6,7 +6,7 @@ import sympy as sp
 
 from symbolic.dynamics import DynamicModel
 from symbolic.export.c_printer import CPrinter, c_double
-from symbolic.export.functions import function_specs, input_symbols, programs
+from symbolic.export.functions import function_specs, input_set, input_symbols, programs
 from symbolic.export.naming import check_c_name, comment_text
 from symbolic.export.program import batch_trig
 from symbolic.export.templates import render
@@ -17,7 +17,7 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
     name = check_c_name(model.name, model.robot.source)
     symbols = input_symbols(model)
     slots = {s: f"{array}[{i}]" for array, group in symbols.items() for i, s in enumerate(group)}
-    inputs = {s for group in symbols.values() for s in group}
+    inputs = input_set(model)
     functions = []
     built = programs(model)
     for spec in function_specs(model):

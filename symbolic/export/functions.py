@@ -37,6 +37,11 @@ def input_symbols(model: DynamicModel) -> dict[str, tuple[sp.Symbol, ...]]:
     }
 
 
+def input_set(model: DynamicModel) -> set[sp.Symbol]:
+    """Every input symbol (q, qd, qdd, tau, p): what a generated function may read."""
+    return {s for group in input_symbols(model).values() for s in group}
+
+
 def function_specs(model: DynamicModel) -> list[FunctionSpec]:
     """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, inverse_dynamics."""
     r = model.reduced
