@@ -5,12 +5,17 @@ kernel must be as accurate as libm: under 1 ulp from the exact value. It is chec
 mpmath at 200 bits on random angles, tiny angles, and every double within 3 ulp of a multiple of
 pi/2 in the fast path's range (where the argument reduction cancels most), compiled the ways a
 controller project would (-O2, -O3, -march=native with FMA contraction allowed, and the libm switch).
+On x86-64 without -march, the kernel carries a second copy compiled for AVX2 and FMA and picks it at
+run time; both copies are checked (the SYMBOLIC_NO_DISPATCH build keeps to the baseline copy).
 """
 
 from __future__ import annotations
 
 import ctypes
 import math
+import platform
+import shutil
+import subprocess
 from pathlib import Path
 
 import mpmath
@@ -25,10 +30,13 @@ WRAPPER = """#include <math.h>
 void batch(int n, const double *x, double *s, double *c) {{ t_sincos(n, x, s, c); }}
 """
 
+GNU99 = ["-std=gnu99", "-Wall", "-Wextra", "-Werror", "-O3"]  # GNU C: contraction into FMA allowed
 BUILDS = {
     "strict -O2": [*STRICT],
     "strict -O3": [*STRICT[:-1], "-O3"],
-    "gnu99 -O3 -march=native": ["-std=gnu99", "-Wall", "-Wextra", "-Werror", "-O3", "-march=native"],
+    "strict -O3 SYMBOLIC_NO_DISPATCH": [*STRICT[:-1], "-O3", "-DSYMBOLIC_NO_DISPATCH"],
+    "gnu99 -O3": GNU99,
+    "gnu99 -O3 -march=native": [*GNU99, "-march=native"],
     "libm (SYMBOLIC_LIBM_SINCOS)": [*STRICT, "-DSYMBOLIC_LIBM_SINCOS"],
 }
 
@@ -125,3 +133,41 @@ def test_large_or_non_finite_angles_take_libm_for_the_whole_batch(tmp_path: Path
     s, c = batch(np.array([0.3, math.inf, math.nan]))
     assert np.isnan(s[1:]).all() and np.isnan(c[1:]).all()
     assert s[0] == math.sin(0.3) and c[0] == math.cos(0.3)
+
+
+def cpu_has(*flags: str) -> bool:
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return False
+    words = set(text.split())
+    return all(f in words for f in flags)
+
+
+X86_64 = platform.machine() in ("x86_64", "AMD64")
+
+
+@pytest.mark.skipif(not (X86_64 and shutil.which("objdump")), reason="x86-64 with binutils' objdump only")
+def test_portable_build_carries_an_avx2_copy_and_the_switch_removes_it(tmp_path: Path) -> None:
+    """-O3 without -march targets SSE2; the AVX2 copy shows as 256-bit (ymm) instructions."""
+    for flags, expected in ((BUILDS["strict -O3"], True), (BUILDS["strict -O3 SYMBOLIC_NO_DISPATCH"], False)):
+        directory = tmp_path / str(expected)
+        directory.mkdir()
+        build(directory, flags)
+        listing = subprocess.run(["objdump", "-d", str(directory / "libsincos.so")], capture_output=True, text=True, check=True)
+        assert ("%ymm" in listing.stdout) == expected, flags
+
+
+@pytest.mark.skipif(not (X86_64 and cpu_has("avx2", "fma")), reason="needs an x86-64 processor with AVX2 and FMA")
+def test_the_avx2_copy_is_taken_at_run_time(reference, tmp_path: Path) -> None:
+    """With FMA contraction allowed, the AVX2+FMA copy rounds differently from the SSE2 copy on some angles.
+
+    Identical results would mean the dispatch never chose the AVX2 copy on a processor that has it.
+    """
+    x = reference[0]
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    dispatched = build(tmp_path / "a", GNU99)(x)
+    baseline = build(tmp_path / "b", [*GNU99, "-DSYMBOLIC_NO_DISPATCH"])(x)
+    differing = sum(int((u != v).sum()) for u, v in zip(dispatched, baseline))
+    assert differing > 0

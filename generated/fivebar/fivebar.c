@@ -17,9 +17,59 @@ const double fivebar_parameter_defaults[fivebar_NP] = { 9.81, 0.3, 0.06, 0.06, 0
  * Error under 1 ulp (tests/test_sincos.py checks against 200-bit references, including every double
  * next to a multiple of pi/2 in range).
  * Angles beyond +-800 rad, infinities and NaN take the libm path for the whole batch.
+ * On x86-64 compiled without AVX2 (gcc or clang), a second copy of the loop is compiled for AVX2 and FMA
+ * and chosen at run time when the processor has them, as glibc's libm does for its own sin and cos;
+ * the results may then differ from the other copy's in the last bit (both stay under 1 ulp).
+ * Define SYMBOLIC_NO_DISPATCH to always use the copy compiled for the build's target.
  * The quadrant is read from the bits of an IEEE 754 binary64 (sign in the top bit), as on every target
  * with a 64-bit double. Define SYMBOLIC_LIBM_SINCOS to always use libm sin() and cos(). */
 typedef char fivebar_sincos_needs_64_bit_double[sizeof(double) == sizeof(unsigned long long) ? 1 : -1];
+
+#if !defined(SYMBOLIC_LIBM_SINCOS) && !defined(SYMBOLIC_NO_DISPATCH) && defined(__x86_64__) && defined(__GNUC__) && !defined(__AVX2__)
+#define FIVEBAR_SINCOS_DISPATCH 1
+__attribute__((target("avx2,fma")))
+static void fivebar_sincos_avx2(int n, const double *restrict x, double *restrict s, double *restrict c)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        const double shift = 6755399441055744.0; /* 1.5*2^52: adding and subtracting it rounds to an integer */
+        const double a = x[i];
+        const double big = a * 0.63661977236758138 + shift;     /* its low mantissa bits hold fn mod 4 */
+        const double fn = big - shift;                              /* nearest integer to a/(pi/2) */
+        union { double d; unsigned long long u; } bits, sw, cw, out;
+        unsigned long long swap;
+        const double t = a - fn * 1.5707963267948344;               /* exact */
+        const double w0 = fn * 6.223372171896261e-14;               /* exact */
+        const double tail = fn * 3.5215598651832e-27;
+        const double r = t - w0;
+        const double y0 = r - tail;                                 /* the reduced angle is y0 + y1 */
+        const double y1 = ((r - y0) - tail) + ((t - r) - w0);       /* (t - r) - w0: rounding error of r */
+        const double z = y0 * y0;
+        const double z2 = z * z;
+        const double v = z * y0;
+        /* the fdlibm polynomials, evaluated by Estrin's scheme (shorter dependency chains than Horner's) */
+        const double ps = (8.33333333332248946124e-03 + z * -1.98412698298579493134e-04)
+                          + z2 * ((2.75573137070700676789e-06 + z * -2.50507602534068634195e-08) + z2 * 1.58969099521155010221e-10);
+        const double sr = y0 - ((z * (0.5 * y1 - v * ps) - y1) + v * 1.66666666666666324348e-01);
+        const double pc = z * ((4.16666666666666019037e-02 + z * -1.38888888888741095749e-03)
+                               + z2 * ((2.48015872894767294178e-05 + z * -2.75573143513906633035e-07)
+                                       + z2 * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)));
+        const double hz = 0.5 * z;
+        const double u = 1.0 - hz;
+        const double cr = u + (((1.0 - u) - hz) + (z * pc - y0 * y1));
+        /* quadrant fn mod 4: odd swaps sin and cos; sin changes sign in quadrants 2, 3, cos in 1, 2
+           (bit operations rather than branches or selects, so that the loop vectorises even at -O2) */
+        bits.d = big;
+        sw.d = sr;
+        cw.d = cr;
+        swap = 0ULL - (bits.u & 1ULL);
+        out.u = ((sw.u & ~swap) | (cw.u & swap)) ^ ((bits.u & 2ULL) << 62);
+        s[i] = out.d;
+        out.u = ((cw.u & ~swap) | (sw.u & swap)) ^ (((bits.u + 1ULL) & 2ULL) << 62);
+        c[i] = out.d;
+    }
+}
+#endif
 
 static void fivebar_sincos(int n, const double *restrict x, double *restrict s, double *restrict c)
 {
@@ -31,6 +81,12 @@ static void fivebar_sincos(int n, const double *restrict x, double *restrict s, 
         }
     }
     if (i == n) {
+#ifdef FIVEBAR_SINCOS_DISPATCH
+        if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+            fivebar_sincos_avx2(n, x, s, c);
+            return;
+        }
+#endif
         for (i = 0; i < n; ++i) {
             const double shift = 6755399441055744.0; /* 1.5*2^52: adding and subtracting it rounds to an integer */
             const double a = x[i];
@@ -83,10 +139,7 @@ static void fivebar_sincos(int n, const double *restrict x, double *restrict s, 
 void fivebar_inertia(const double *q, const double *p, double *D)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[2], q[1] };
-        fivebar_sincos(2, angle, sn, cs);
-    }
+    fivebar_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
     const double v1 = (p[8]*p[8]);
     const double v2 = (p[7]*p[7]);
@@ -130,8 +183,8 @@ void fivebar_inertia(const double *q, const double *p, double *D)
     const double v40 = -p[12]*v3 + v29 + 2.0*v7 + v8;
     const double v41 = p[1]*v24 + v31;
     const double v42 = v30 + v8;
-    const double v43 = (cs[1]*cs[1]) - (sn[1]*sn[1]);
-    const double v44 = 2.0*cs[1]*sn[1];
+    const double v43 = (cs[0]*cs[0]) - (sn[0]*sn[0]);
+    const double v44 = 2.0*cs[0]*sn[0];
     const double v45 = v40 + v42;
     const double v46 = (0.5)*v40 - 0.5*v42;
     const double v47 = v41*v44 + v43*v46;
@@ -147,8 +200,8 @@ void fivebar_inertia(const double *q, const double *p, double *D)
     const double v57 = -p[11]*v10 - 2.0*v13 + v14 + v36;
     const double v58 = -p[2]*v33 + v38;
     const double v59 = v14 - v37;
-    const double v60 = (cs[0]*cs[0]) - (sn[0]*sn[0]);
-    const double v61 = 2.0*cs[0]*sn[0];
+    const double v60 = (cs[1]*cs[1]) - (sn[1]*sn[1]);
+    const double v61 = 2.0*cs[1]*sn[1];
     const double v62 = v57 + v59;
     const double v63 = (0.5)*v57 - 0.5*v59;
     const double v64 = v58*v61 - v60*v63;
@@ -184,14 +237,11 @@ void fivebar_inertia(const double *q, const double *p, double *D)
 void fivebar_coriolis(const double *q, const double *qd, const double *p, double *h)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[2], q[1] };
-        fivebar_sincos(2, angle, sn, cs);
-    }
+    fivebar_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
-    const double v1 = sn[0]*qd[0];
+    const double v1 = sn[1]*qd[0];
     const double v2 = qd[2]*v1;
-    const double v3 = sn[1]*qd[0];
+    const double v3 = sn[0]*qd[0];
     const double v4 = qd[1]*v3;
     const double v5 = p[7]*qd[2];
     const double v6 = p[8]*qd[1];
@@ -200,12 +250,12 @@ void fivebar_coriolis(const double *q, const double *qd, const double *p, double
     const double v9 = qd[1] - qd[2];
     const double v10 = cos(v0);
     const double v11 = sin(v0);
-    const double v12 = cs[0]*qd[0];
+    const double v12 = cs[1]*qd[0];
     const double v13 = v1*v10 + v11*v12;
     const double v14 = v13*v9;
     const double v15 = (v9*v9);
     const double v16 = 2.0*v9;
-    const double v17 = cs[1]*qd[0];
+    const double v17 = cs[0]*qd[0];
     const double v18 = v10*v3 - v11*v17;
     const double v19 = v18*v9;
     const double v20 = v10*v17 + v11*v3;
@@ -285,17 +335,17 @@ void fivebar_coriolis(const double *q, const double *qd, const double *p, double
     const double v94 = v10*v92 + v11*v57;
     const double v95 = v10*v39 - v11*v76;
     const double v96 = p[1]*v85 - v89;
-    const double v97 = cs[1]*v96 + sn[1]*v88;
+    const double v97 = cs[0]*v96 + sn[0]*v88;
     const double v98 = p[13]*v4 + v3*v51;
     const double v99 = v3*v50;
     const double v100 = p[5]*v68 + v98;
-    const double v101 = cs[1]*v100 - sn[1]*v58;
+    const double v101 = cs[0]*v100 - sn[0]*v58;
     const double v102 = p[2]*v77 + v94;
-    const double v103 = cs[0]*v102 + sn[0]*v93;
+    const double v103 = cs[1]*v102 + sn[1]*v93;
     const double v104 = p[14]*v2 + v1*v47;
     const double v105 = v1*v46;
     const double v106 = p[6]*v63 + v104;
-    const double v107 = cs[0]*v106 - sn[0]*v59;
+    const double v107 = cs[1]*v106 - sn[1]*v59;
     const double v108 = v101 + v103 + v107 + v97;
     h[0] = -v108;
     h[1] = -p[1]*v90 + p[5]*v67 - v28 - v30 + v31 + v43 + v99;
@@ -308,10 +358,7 @@ void fivebar_coriolis(const double *q, const double *qd, const double *p, double
 void fivebar_coriolis_matrix(const double *q, const double *qd, const double *p, double *C)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[1], q[2] };
-        fivebar_sincos(2, angle, sn, cs);
-    }
+    fivebar_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
     const double v1 = (p[8]*p[8]);
     const double v2 = cos(v0);
@@ -440,20 +487,17 @@ void fivebar_coriolis_matrix(const double *q, const double *qd, const double *p,
 void fivebar_gravity(const double *q, const double *p, double *g)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[2], q[1] };
-        fivebar_sincos(2, angle, sn, cs);
-    }
+    fivebar_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
     const double v1 = p[8]*p[12];
     const double v2 = p[7]*p[11];
     const double v3 = cos(v0);
     const double v4 = sin(v0);
-    const double v5 = sn[0]*p[0];
-    const double v6 = cs[0]*p[0];
+    const double v5 = sn[1]*p[0];
+    const double v6 = cs[1]*p[0];
     const double v7 = -v3*v6 + v4*v5;
-    const double v8 = sn[1]*p[0];
-    const double v9 = cs[1]*p[0];
+    const double v8 = sn[0]*p[0];
+    const double v9 = cs[0]*p[0];
     const double v10 = v3*v9 + v4*v8;
     const double v11 = -v1*v10 + v2*v7;
     const double v12 = v1*v3;
@@ -498,35 +542,32 @@ void fivebar_friction(const double *q, const double *qd, const double *p, double
 void fivebar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[2], q[1] };
-        fivebar_sincos(2, angle, sn, cs);
-    }
+    fivebar_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
-    const double v1 = cs[0]*p[0];
-    const double v2 = sn[0]*qd[0];
+    const double v1 = cs[1]*p[0];
+    const double v2 = sn[1]*qd[0];
     const double v3 = qd[2]*v2;
     const double v4 = 2.0*v3;
-    const double v5 = cs[1]*p[0];
-    const double v6 = sn[1]*qd[0];
+    const double v5 = cs[0]*p[0];
+    const double v6 = sn[0]*qd[0];
     const double v7 = qd[1]*v6;
     const double v8 = 2.0*v7;
     const double v9 = p[7]*qd[2];
     const double v10 = qd[1] - qd[2];
     const double v11 = cos(v0);
     const double v12 = sin(v0);
-    const double v13 = cs[0]*qd[0];
+    const double v13 = cs[1]*qd[0];
     const double v14 = v11*v2 + v12*v13;
     const double v15 = v10*v14;
     const double v16 = (v10*v10);
     const double v17 = 2.0*v10;
     const double v18 = p[8]*qd[1];
-    const double v19 = cs[1]*qd[0];
+    const double v19 = cs[0]*qd[0];
     const double v20 = v11*v6 - v12*v19;
     const double v21 = v10*v20;
     const double v22 = qdd[1] - qdd[2];
     const double v23 = p[1]*v19;
-    const double v24 = sn[1]*p[0] - v19*v23;
+    const double v24 = sn[0]*p[0] - v19*v23;
     const double v25 = -p[1]*(qd[1]*qd[1]) + v24;
     const double v26 = v23*v6 + v5;
     const double v27 = p[1]*qdd[1] + v26;
@@ -540,7 +581,7 @@ void fivebar_inverse_dynamics(const double *q, const double *qd, const double *q
     const double v35 = p[16]*v28;
     const double v36 = p[16]*v34 - v20*v35;
     const double v37 = p[2]*v13;
-    const double v38 = -sn[0]*p[0] + v13*v37;
+    const double v38 = -sn[1]*p[0] + v13*v37;
     const double v39 = p[2]*(qd[2]*qd[2]) + v38;
     const double v40 = v1 + v2*v37;
     const double v41 = p[2]*qdd[2] + v40;
@@ -554,8 +595,8 @@ void fivebar_inverse_dynamics(const double *q, const double *qd, const double *q
     const double v49 = p[15]*v42;
     const double v50 = p[15]*v48 - v14*v49;
     const double v51 = v47 + v50;
-    const double v52 = sn[0]*qdd[0];
-    const double v53 = cs[0]*qdd[0];
+    const double v52 = sn[1]*qdd[0];
+    const double v53 = cs[1]*qdd[0];
     const double v54 = p[6]*v13;
     const double v55 = v1 + v2*v54;
     const double v56 = p[6]*v53;
@@ -569,8 +610,8 @@ void fivebar_inverse_dynamics(const double *q, const double *qd, const double *q
     const double v64 = p[14]*qd[2];
     const double v65 = p[2]*v53;
     const double v66 = p[2]*v4 - v65;
-    const double v67 = sn[1]*qdd[0];
-    const double v68 = cs[1]*qdd[0];
+    const double v67 = sn[0]*qdd[0];
+    const double v68 = cs[0]*qdd[0];
     const double v69 = p[5]*v19;
     const double v70 = v5 + v6*v69;
     const double v71 = p[5]*v68;
@@ -617,19 +658,19 @@ void fivebar_inverse_dynamics(const double *q, const double *qd, const double *q
     const double v112 = v108*v12 + v11*v110;
     const double v113 = v11*v46 - v12*v89;
     const double v114 = p[1]*v100 - v106;
-    const double v115 = cs[1]*v114 + sn[1]*v105;
+    const double v115 = cs[0]*v114 + sn[0]*v105;
     const double v116 = -qd[1]*v78 + v19*v79;
     const double v117 = p[13]*v73 + v6*v79;
     const double v118 = p[13]*qdd[1] + v6*v78;
     const double v119 = p[5]*v77 + v117;
-    const double v120 = cs[1]*v119 - sn[1]*v116;
+    const double v120 = cs[0]*v119 - sn[0]*v116;
     const double v121 = p[2]*v90 + v112;
-    const double v122 = cs[0]*v121 + sn[0]*v111;
+    const double v122 = cs[1]*v121 + sn[1]*v111;
     const double v123 = -qd[2]*v63 + v13*v64;
     const double v124 = p[14]*v58 + v2*v64;
     const double v125 = p[14]*qdd[2] + v2*v63;
     const double v126 = p[6]*v62 + v124;
-    const double v127 = cs[0]*v126 - sn[0]*v123;
+    const double v127 = cs[1]*v126 - sn[1]*v123;
     const double v128 = -p[17]*qdd[0] + v115 + v120 + v122 + v127;
     tau[0] = -v128;
     tau[1] = p[1]*v107 + p[5]*v76 + v118 + v51;

@@ -17,9 +17,59 @@ const double fivebar_flexible_parameter_defaults[fivebar_flexible_NP] = { 9.81, 
  * Error under 1 ulp (tests/test_sincos.py checks against 200-bit references, including every double
  * next to a multiple of pi/2 in range).
  * Angles beyond +-800 rad, infinities and NaN take the libm path for the whole batch.
+ * On x86-64 compiled without AVX2 (gcc or clang), a second copy of the loop is compiled for AVX2 and FMA
+ * and chosen at run time when the processor has them, as glibc's libm does for its own sin and cos;
+ * the results may then differ from the other copy's in the last bit (both stay under 1 ulp).
+ * Define SYMBOLIC_NO_DISPATCH to always use the copy compiled for the build's target.
  * The quadrant is read from the bits of an IEEE 754 binary64 (sign in the top bit), as on every target
  * with a 64-bit double. Define SYMBOLIC_LIBM_SINCOS to always use libm sin() and cos(). */
 typedef char fivebar_flexible_sincos_needs_64_bit_double[sizeof(double) == sizeof(unsigned long long) ? 1 : -1];
+
+#if !defined(SYMBOLIC_LIBM_SINCOS) && !defined(SYMBOLIC_NO_DISPATCH) && defined(__x86_64__) && defined(__GNUC__) && !defined(__AVX2__)
+#define FIVEBAR_FLEXIBLE_SINCOS_DISPATCH 1
+__attribute__((target("avx2,fma")))
+static void fivebar_flexible_sincos_avx2(int n, const double *restrict x, double *restrict s, double *restrict c)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        const double shift = 6755399441055744.0; /* 1.5*2^52: adding and subtracting it rounds to an integer */
+        const double a = x[i];
+        const double big = a * 0.63661977236758138 + shift;     /* its low mantissa bits hold fn mod 4 */
+        const double fn = big - shift;                              /* nearest integer to a/(pi/2) */
+        union { double d; unsigned long long u; } bits, sw, cw, out;
+        unsigned long long swap;
+        const double t = a - fn * 1.5707963267948344;               /* exact */
+        const double w0 = fn * 6.223372171896261e-14;               /* exact */
+        const double tail = fn * 3.5215598651832e-27;
+        const double r = t - w0;
+        const double y0 = r - tail;                                 /* the reduced angle is y0 + y1 */
+        const double y1 = ((r - y0) - tail) + ((t - r) - w0);       /* (t - r) - w0: rounding error of r */
+        const double z = y0 * y0;
+        const double z2 = z * z;
+        const double v = z * y0;
+        /* the fdlibm polynomials, evaluated by Estrin's scheme (shorter dependency chains than Horner's) */
+        const double ps = (8.33333333332248946124e-03 + z * -1.98412698298579493134e-04)
+                          + z2 * ((2.75573137070700676789e-06 + z * -2.50507602534068634195e-08) + z2 * 1.58969099521155010221e-10);
+        const double sr = y0 - ((z * (0.5 * y1 - v * ps) - y1) + v * 1.66666666666666324348e-01);
+        const double pc = z * ((4.16666666666666019037e-02 + z * -1.38888888888741095749e-03)
+                               + z2 * ((2.48015872894767294178e-05 + z * -2.75573143513906633035e-07)
+                                       + z2 * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)));
+        const double hz = 0.5 * z;
+        const double u = 1.0 - hz;
+        const double cr = u + (((1.0 - u) - hz) + (z * pc - y0 * y1));
+        /* quadrant fn mod 4: odd swaps sin and cos; sin changes sign in quadrants 2, 3, cos in 1, 2
+           (bit operations rather than branches or selects, so that the loop vectorises even at -O2) */
+        bits.d = big;
+        sw.d = sr;
+        cw.d = cr;
+        swap = 0ULL - (bits.u & 1ULL);
+        out.u = ((sw.u & ~swap) | (cw.u & swap)) ^ ((bits.u & 2ULL) << 62);
+        s[i] = out.d;
+        out.u = ((cw.u & ~swap) | (sw.u & swap)) ^ (((bits.u + 1ULL) & 2ULL) << 62);
+        c[i] = out.d;
+    }
+}
+#endif
 
 static void fivebar_flexible_sincos(int n, const double *restrict x, double *restrict s, double *restrict c)
 {
@@ -31,6 +81,12 @@ static void fivebar_flexible_sincos(int n, const double *restrict x, double *res
         }
     }
     if (i == n) {
+#ifdef FIVEBAR_FLEXIBLE_SINCOS_DISPATCH
+        if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+            fivebar_flexible_sincos_avx2(n, x, s, c);
+            return;
+        }
+#endif
         for (i = 0; i < n; ++i) {
             const double shift = 6755399441055744.0; /* 1.5*2^52: adding and subtracting it rounds to an integer */
             const double a = x[i];
@@ -83,10 +139,7 @@ static void fivebar_flexible_sincos(int n, const double *restrict x, double *res
 void fivebar_flexible_inertia(const double *q, const double *p, double *D)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[1], q[2] };
-        fivebar_flexible_sincos(2, angle, sn, cs);
-    }
+    fivebar_flexible_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
     const double v1 = (p[8]*p[8]);
     const double v2 = (p[7]*p[7]);
@@ -325,10 +378,7 @@ void fivebar_flexible_inertia(const double *q, const double *p, double *D)
 void fivebar_flexible_coriolis(const double *q, const double *qd, const double *p, double *h)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[1], q[2] };
-        fivebar_flexible_sincos(2, angle, sn, cs);
-    }
+    fivebar_flexible_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
     const double v1 = cos(v0);
     const double v2 = p[1]*v1;
@@ -604,10 +654,7 @@ void fivebar_flexible_coriolis(const double *q, const double *qd, const double *
 void fivebar_flexible_coriolis_matrix(const double *q, const double *qd, const double *p, double *C)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[1], q[2] };
-        fivebar_flexible_sincos(2, angle, sn, cs);
-    }
+    fivebar_flexible_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
     const double v1 = cos(v0);
     const double v2 = p[1]*v1;
@@ -923,20 +970,17 @@ void fivebar_flexible_coriolis_matrix(const double *q, const double *qd, const d
 void fivebar_flexible_gravity(const double *q, const double *p, double *g)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[2], q[1] };
-        fivebar_flexible_sincos(2, angle, sn, cs);
-    }
+    fivebar_flexible_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
     const double v1 = p[8]*p[12];
     const double v2 = p[7]*p[11];
     const double v3 = cos(v0);
     const double v4 = sin(v0);
-    const double v5 = sn[0]*p[0];
-    const double v6 = cs[0]*p[0];
+    const double v5 = sn[1]*p[0];
+    const double v6 = cs[1]*p[0];
     const double v7 = -v3*v6 + v4*v5;
-    const double v8 = sn[1]*p[0];
-    const double v9 = cs[1]*p[0];
+    const double v8 = sn[0]*p[0];
+    const double v9 = cs[0]*p[0];
     const double v10 = v3*v9 + v4*v8;
     const double v11 = -v1*v10 + v2*v7;
     const double v12 = p[4]*p[18];
@@ -947,10 +991,10 @@ void fivebar_flexible_gravity(const double *q, const double *p, double *g)
     const double v17 = 0.7829917560396257*v16;
     const double v18 = 0.4339358951107193*v16;
     const double v19 = v14/v15;
-    const double v20 = cs[1]*v3 + sn[1]*v4;
+    const double v20 = cs[0]*v3 + sn[0]*v4;
     const double v21 = p[0]*v20;
-    const double v22 = cs[1]*p[1];
-    const double v23 = cs[1]*v4 - sn[1]*v3;
+    const double v22 = cs[0]*p[1];
+    const double v23 = cs[0]*v4 - sn[0]*v3;
     const double v24 = p[3]*v3;
     const double v25 = p[3]*v4;
     const double v26 = v1*v3;
@@ -960,7 +1004,7 @@ void fivebar_flexible_gravity(const double *q, const double *p, double *g)
     const double v30 = -p[1]*p[12]*v9 - p[5]*p[9]*v9 + v11 + v26*v9 + v27*v8;
     const double v31 = p[2]*p[11]*v6 + p[6]*p[10]*v6 + v11 + v28*v6 - v29*v5;
     const double v32 = p[0]*v13*v22;
-    const double v33 = cs[1]*v24 + sn[1]*v25;
+    const double v33 = cs[0]*v24 + sn[0]*v25;
     const double v34 = p[0]*((0.5)*p[4]*v20*(v12 + v14) + v13*v33 + v23*(q[3]*v17 + q[3]*v19 + q[4]*v18 - q[4]*v19));
     const double v35 = v21*(v17 + v19);
     const double v36 = v21*(v18 - v19);
@@ -1017,10 +1061,7 @@ void fivebar_flexible_friction(const double *q, const double *qd, const double *
 void fivebar_flexible_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[1], q[2] };
-        fivebar_flexible_sincos(2, angle, sn, cs);
-    }
+    fivebar_flexible_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
     const double v1 = cos(v0);
     const double v2 = p[1]*v1;

@@ -17,9 +17,59 @@ const double janot_branch_parameter_defaults[janot_branch_NP] = { 9.81, 0.2, 0.2
  * Error under 1 ulp (tests/test_sincos.py checks against 200-bit references, including every double
  * next to a multiple of pi/2 in range).
  * Angles beyond +-800 rad, infinities and NaN take the libm path for the whole batch.
+ * On x86-64 compiled without AVX2 (gcc or clang), a second copy of the loop is compiled for AVX2 and FMA
+ * and chosen at run time when the processor has them, as glibc's libm does for its own sin and cos;
+ * the results may then differ from the other copy's in the last bit (both stay under 1 ulp).
+ * Define SYMBOLIC_NO_DISPATCH to always use the copy compiled for the build's target.
  * The quadrant is read from the bits of an IEEE 754 binary64 (sign in the top bit), as on every target
  * with a 64-bit double. Define SYMBOLIC_LIBM_SINCOS to always use libm sin() and cos(). */
 typedef char janot_branch_sincos_needs_64_bit_double[sizeof(double) == sizeof(unsigned long long) ? 1 : -1];
+
+#if !defined(SYMBOLIC_LIBM_SINCOS) && !defined(SYMBOLIC_NO_DISPATCH) && defined(__x86_64__) && defined(__GNUC__) && !defined(__AVX2__)
+#define JANOT_BRANCH_SINCOS_DISPATCH 1
+__attribute__((target("avx2,fma")))
+static void janot_branch_sincos_avx2(int n, const double *restrict x, double *restrict s, double *restrict c)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        const double shift = 6755399441055744.0; /* 1.5*2^52: adding and subtracting it rounds to an integer */
+        const double a = x[i];
+        const double big = a * 0.63661977236758138 + shift;     /* its low mantissa bits hold fn mod 4 */
+        const double fn = big - shift;                              /* nearest integer to a/(pi/2) */
+        union { double d; unsigned long long u; } bits, sw, cw, out;
+        unsigned long long swap;
+        const double t = a - fn * 1.5707963267948344;               /* exact */
+        const double w0 = fn * 6.223372171896261e-14;               /* exact */
+        const double tail = fn * 3.5215598651832e-27;
+        const double r = t - w0;
+        const double y0 = r - tail;                                 /* the reduced angle is y0 + y1 */
+        const double y1 = ((r - y0) - tail) + ((t - r) - w0);       /* (t - r) - w0: rounding error of r */
+        const double z = y0 * y0;
+        const double z2 = z * z;
+        const double v = z * y0;
+        /* the fdlibm polynomials, evaluated by Estrin's scheme (shorter dependency chains than Horner's) */
+        const double ps = (8.33333333332248946124e-03 + z * -1.98412698298579493134e-04)
+                          + z2 * ((2.75573137070700676789e-06 + z * -2.50507602534068634195e-08) + z2 * 1.58969099521155010221e-10);
+        const double sr = y0 - ((z * (0.5 * y1 - v * ps) - y1) + v * 1.66666666666666324348e-01);
+        const double pc = z * ((4.16666666666666019037e-02 + z * -1.38888888888741095749e-03)
+                               + z2 * ((2.48015872894767294178e-05 + z * -2.75573143513906633035e-07)
+                                       + z2 * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)));
+        const double hz = 0.5 * z;
+        const double u = 1.0 - hz;
+        const double cr = u + (((1.0 - u) - hz) + (z * pc - y0 * y1));
+        /* quadrant fn mod 4: odd swaps sin and cos; sin changes sign in quadrants 2, 3, cos in 1, 2
+           (bit operations rather than branches or selects, so that the loop vectorises even at -O2) */
+        bits.d = big;
+        sw.d = sr;
+        cw.d = cr;
+        swap = 0ULL - (bits.u & 1ULL);
+        out.u = ((sw.u & ~swap) | (cw.u & swap)) ^ ((bits.u & 2ULL) << 62);
+        s[i] = out.d;
+        out.u = ((cw.u & ~swap) | (sw.u & swap)) ^ (((bits.u + 1ULL) & 2ULL) << 62);
+        c[i] = out.d;
+    }
+}
+#endif
 
 static void janot_branch_sincos(int n, const double *restrict x, double *restrict s, double *restrict c)
 {
@@ -31,6 +81,12 @@ static void janot_branch_sincos(int n, const double *restrict x, double *restric
         }
     }
     if (i == n) {
+#ifdef JANOT_BRANCH_SINCOS_DISPATCH
+        if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+            janot_branch_sincos_avx2(n, x, s, c);
+            return;
+        }
+#endif
         for (i = 0; i < n; ++i) {
             const double shift = 6755399441055744.0; /* 1.5*2^52: adding and subtracting it rounds to an integer */
             const double a = x[i];
@@ -83,15 +139,12 @@ static void janot_branch_sincos(int n, const double *restrict x, double *restric
 void janot_branch_inertia(const double *q, const double *p, double *D)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[2], q[1] };
-        janot_branch_sincos(2, angle, sn, cs);
-    }
+    janot_branch_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
     const double v1 = p[7]*(p[13]*p[13]);
     const double v2 = (p[2]*p[2]);
     const double v3 = p[7]*p[13];
-    const double v4 = sn[0]*v3;
+    const double v4 = sn[1]*v3;
     const double v5 = p[2]*v4;
     const double v6 = p[7]*v2 + 2.0*v5;
     const double v7 = p[9]*(p[15]*p[15]);
@@ -108,7 +161,7 @@ void janot_branch_inertia(const double *q, const double *p, double *D)
     const double v18 = sin(v0);
     const double v19 = p[2]*p[7] + v4;
     const double v20 = v15 + v19;
-    const double v21 = cs[0]*v3;
+    const double v21 = cs[1]*v3;
     const double v22 = p[6]*p[12] + v21;
     const double v23 = v18*v22 + v20*v9;
     const double v24 = p[1]*v23;
@@ -128,8 +181,8 @@ void janot_branch_inertia(const double *q, const double *p, double *D)
     const double v38 = p[1]*v37 + v36;
     const double v39 = -v29 - v32 + v34 + v35 + v36 - v38;
     const double v40 = v1 + p[26];
-    const double v41 = (cs[0]*cs[0]) - (sn[0]*sn[0]);
-    const double v42 = 2.0*cs[0]*sn[0];
+    const double v41 = (cs[1]*cs[1]) - (sn[1]*sn[1]);
+    const double v42 = 2.0*cs[1]*sn[1];
     const double v43 = v40 + p[25];
     const double v44 = (0.5)*v40 - 0.5*p[25];
     const double v45 = v41*v44;
@@ -178,14 +231,14 @@ void janot_branch_inertia(const double *q, const double *p, double *D)
     const double v88 = v76 + p[17];
     const double v89 = v28 + v78 + p[18];
     const double v90 = v28 + v79 + p[19];
-    const double v91 = (cs[1]*cs[1]) - (sn[1]*sn[1]);
-    const double v92 = 2.0*cs[1]*sn[1];
+    const double v91 = (cs[0]*cs[0]) - (sn[0]*sn[0]);
+    const double v92 = 2.0*cs[0]*sn[0];
     const double v93 = v88 + v89;
     const double v94 = (0.5)*v88 - 0.5*v89;
     const double v95 = v77*v92 + v91*v94;
     const double v96 = (0.5)*v93 + v95;
     const double v97 = v93 - v96;
-    const double v98 = sn[1]*p[20];
+    const double v98 = sn[0]*p[20];
     const double v99 = v87 + v97 + p[16];
     D[0] = v99;
     D[1] = -v98;
@@ -204,10 +257,7 @@ void janot_branch_inertia(const double *q, const double *p, double *D)
 void janot_branch_coriolis(const double *q, const double *qd, const double *p, double *h)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[1], q[2] };
-        janot_branch_sincos(2, angle, sn, cs);
-    }
+    janot_branch_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
     const double v1 = sn[0]*qd[0];
     const double v2 = qd[1]*v1;
@@ -374,19 +424,16 @@ void janot_branch_coriolis(const double *q, const double *qd, const double *p, d
 void janot_branch_coriolis_matrix(const double *q, const double *qd, const double *p, double *C)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[2], q[1] };
-        janot_branch_sincos(2, angle, sn, cs);
-    }
+    janot_branch_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
-    const double v1 = (cs[0]*cs[0]) - (sn[0]*sn[0]);
-    const double v2 = cs[0]*sn[0];
+    const double v1 = (cs[1]*cs[1]) - (sn[1]*sn[1]);
+    const double v2 = cs[1]*sn[1];
     const double v3 = (p[2]*p[2]);
     const double v4 = p[7]*p[13];
-    const double v5 = sn[0]*v4;
+    const double v5 = sn[1]*v4;
     const double v6 = p[2]*v5;
     const double v7 = p[7]*v3 + 2.0*v6;
-    const double v8 = cs[0]*v4;
+    const double v8 = cs[1]*v4;
     const double v9 = p[2]*v8;
     const double v10 = cos(v0);
     const double v11 = sin(v0);
@@ -410,8 +457,8 @@ void janot_branch_coriolis_matrix(const double *q, const double *qd, const doubl
     const double v29 = p[6] + p[7];
     const double v30 = v27*v29 + 2.0*v28;
     const double v31 = p[1]*v26;
-    const double v32 = (cs[1]*cs[1]) - (sn[1]*sn[1]);
-    const double v33 = cs[1]*sn[1];
+    const double v32 = (cs[0]*cs[0]) - (sn[0]*sn[0]);
+    const double v33 = cs[0]*sn[0];
     const double v34 = v10*v8;
     const double v35 = v11*v5;
     const double v36 = 2.0*v20;
@@ -520,7 +567,7 @@ void janot_branch_coriolis_matrix(const double *q, const double *qd, const doubl
     const double v139 = v132 - v138;
     const double v140 = v119 + v139;
     const double v141 = v140*v76;
-    const double v142 = cs[1]*p[20];
+    const double v142 = cs[0]*p[20];
     const double v143 = v34 - v35;
     const double v144 = p[1]*v143;
     const double v145 = v144 + v20 - v31;
@@ -543,30 +590,27 @@ void janot_branch_coriolis_matrix(const double *q, const double *qd, const doubl
 void janot_branch_gravity(const double *q, const double *p, double *g)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[2], q[1] };
-        janot_branch_sincos(2, angle, sn, cs);
-    }
+    janot_branch_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
     const double v1 = p[9]*p[15];
     const double v2 = p[7]*p[13];
-    const double v3 = cs[0]*v2;
+    const double v3 = cs[1]*v2;
     const double v4 = p[6]*p[12] + v3;
     const double v5 = cos(v0);
     const double v6 = sin(v0);
-    const double v7 = sn[1]*p[0];
-    const double v8 = cs[1]*p[0];
+    const double v7 = sn[0]*p[0];
+    const double v8 = cs[0]*p[0];
     const double v9 = v5*v7 - v6*v8;
     const double v10 = v5*v8 + v6*v7;
-    const double v11 = sn[0]*p[0];
-    const double v12 = cs[0]*p[0];
+    const double v11 = sn[1]*p[0];
+    const double v12 = cs[1]*p[0];
     const double v13 = -v11*v6 + v12*v5;
-    const double v14 = sn[0]*v2 + p[2]*p[7];
+    const double v14 = sn[1]*v2 + p[2]*p[7];
     const double v15 = p[6]*p[11] + v14;
     const double v16 = v1*v13 - v10*v15 + v4*v9;
     const double v17 = v1*v6;
     const double v18 = p[6] + p[7];
-    const double v19 = cs[0]*v9 - sn[0]*v10;
+    const double v19 = cs[1]*v9 - sn[1]*v10;
     const double v20 = p[3]*p[9] + v1*v5;
     const double v21 = p[1]*v18 + v15*v5 + v4*v6;
     const double v22 = -v15*v6 + v4*v5;
@@ -610,10 +654,7 @@ void janot_branch_friction(const double *q, const double *qd, const double *p, d
 void janot_branch_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau)
 {
     double sn[2], cs[2];
-    {
-        const double angle[2] = { q[1], q[2] };
-        janot_branch_sincos(2, angle, sn, cs);
-    }
+    janot_branch_sincos(2, q + 1, sn, cs);
     const double v0 = q[1] - q[2];
     const double v1 = sn[0]*qd[0];
     const double v2 = qd[1]*v1;

@@ -17,9 +17,59 @@ const double puma560_parameter_defaults[puma560_NP] = { 9.81, 0.4318, 0.0203, 0.
  * Error under 1 ulp (tests/test_sincos.py checks against 200-bit references, including every double
  * next to a multiple of pi/2 in range).
  * Angles beyond +-800 rad, infinities and NaN take the libm path for the whole batch.
+ * On x86-64 compiled without AVX2 (gcc or clang), a second copy of the loop is compiled for AVX2 and FMA
+ * and chosen at run time when the processor has them, as glibc's libm does for its own sin and cos;
+ * the results may then differ from the other copy's in the last bit (both stay under 1 ulp).
+ * Define SYMBOLIC_NO_DISPATCH to always use the copy compiled for the build's target.
  * The quadrant is read from the bits of an IEEE 754 binary64 (sign in the top bit), as on every target
  * with a 64-bit double. Define SYMBOLIC_LIBM_SINCOS to always use libm sin() and cos(). */
 typedef char puma560_sincos_needs_64_bit_double[sizeof(double) == sizeof(unsigned long long) ? 1 : -1];
+
+#if !defined(SYMBOLIC_LIBM_SINCOS) && !defined(SYMBOLIC_NO_DISPATCH) && defined(__x86_64__) && defined(__GNUC__) && !defined(__AVX2__)
+#define PUMA560_SINCOS_DISPATCH 1
+__attribute__((target("avx2,fma")))
+static void puma560_sincos_avx2(int n, const double *restrict x, double *restrict s, double *restrict c)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        const double shift = 6755399441055744.0; /* 1.5*2^52: adding and subtracting it rounds to an integer */
+        const double a = x[i];
+        const double big = a * 0.63661977236758138 + shift;     /* its low mantissa bits hold fn mod 4 */
+        const double fn = big - shift;                              /* nearest integer to a/(pi/2) */
+        union { double d; unsigned long long u; } bits, sw, cw, out;
+        unsigned long long swap;
+        const double t = a - fn * 1.5707963267948344;               /* exact */
+        const double w0 = fn * 6.223372171896261e-14;               /* exact */
+        const double tail = fn * 3.5215598651832e-27;
+        const double r = t - w0;
+        const double y0 = r - tail;                                 /* the reduced angle is y0 + y1 */
+        const double y1 = ((r - y0) - tail) + ((t - r) - w0);       /* (t - r) - w0: rounding error of r */
+        const double z = y0 * y0;
+        const double z2 = z * z;
+        const double v = z * y0;
+        /* the fdlibm polynomials, evaluated by Estrin's scheme (shorter dependency chains than Horner's) */
+        const double ps = (8.33333333332248946124e-03 + z * -1.98412698298579493134e-04)
+                          + z2 * ((2.75573137070700676789e-06 + z * -2.50507602534068634195e-08) + z2 * 1.58969099521155010221e-10);
+        const double sr = y0 - ((z * (0.5 * y1 - v * ps) - y1) + v * 1.66666666666666324348e-01);
+        const double pc = z * ((4.16666666666666019037e-02 + z * -1.38888888888741095749e-03)
+                               + z2 * ((2.48015872894767294178e-05 + z * -2.75573143513906633035e-07)
+                                       + z2 * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)));
+        const double hz = 0.5 * z;
+        const double u = 1.0 - hz;
+        const double cr = u + (((1.0 - u) - hz) + (z * pc - y0 * y1));
+        /* quadrant fn mod 4: odd swaps sin and cos; sin changes sign in quadrants 2, 3, cos in 1, 2
+           (bit operations rather than branches or selects, so that the loop vectorises even at -O2) */
+        bits.d = big;
+        sw.d = sr;
+        cw.d = cr;
+        swap = 0ULL - (bits.u & 1ULL);
+        out.u = ((sw.u & ~swap) | (cw.u & swap)) ^ ((bits.u & 2ULL) << 62);
+        s[i] = out.d;
+        out.u = ((cw.u & ~swap) | (sw.u & swap)) ^ (((bits.u + 1ULL) & 2ULL) << 62);
+        c[i] = out.d;
+    }
+}
+#endif
 
 static void puma560_sincos(int n, const double *restrict x, double *restrict s, double *restrict c)
 {
@@ -31,6 +81,12 @@ static void puma560_sincos(int n, const double *restrict x, double *restrict s, 
         }
     }
     if (i == n) {
+#ifdef PUMA560_SINCOS_DISPATCH
+        if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+            puma560_sincos_avx2(n, x, s, c);
+            return;
+        }
+#endif
         for (i = 0; i < n; ++i) {
             const double shift = 6755399441055744.0; /* 1.5*2^52: adding and subtracting it rounds to an integer */
             const double a = x[i];
@@ -83,15 +139,12 @@ static void puma560_sincos(int n, const double *restrict x, double *restrict s, 
 void puma560_inertia(const double *q, const double *p, double *D)
 {
     double sn[5], cs[5];
-    {
-        const double angle[5] = { q[4], q[3], q[5], q[2], q[1] };
-        puma560_sincos(5, angle, sn, cs);
-    }
+    puma560_sincos(5, q + 1, sn, cs);
     const double v0 = p[10]*(p[18]*p[18]);
     const double v1 = p[8]*(p[17]*p[17]);
     const double v2 = (p[4]*p[4]);
     const double v3 = p[10]*p[18];
-    const double v4 = cs[0]*v3;
+    const double v4 = cs[3]*v3;
     const double v5 = p[8]*p[17] + v4;
     const double v6 = p[4]*v5;
     const double v7 = p[9] + p[10];
@@ -104,11 +157,11 @@ void puma560_inertia(const double *q, const double *p, double *D)
     const double v14 = p[7]*p[15];
     const double v15 = (p[2]*p[2]);
     const double v16 = (p[3]*p[3]);
-    const double v17 = sn[0]*v3;
-    const double v18 = cs[1]*v17;
+    const double v17 = sn[3]*v3;
+    const double v18 = cs[2]*v17;
     const double v19 = -v12 + v18;
     const double v20 = p[2]*v19;
-    const double v21 = sn[1]*v17;
+    const double v21 = sn[2]*v17;
     const double v22 = -v14 + v21;
     const double v23 = p[3]*v22;
     const double v24 = p[7] + v8;
@@ -118,22 +171,22 @@ void puma560_inertia(const double *q, const double *p, double *D)
     const double v28 = v15 + v16;
     const double v29 = v24*v28;
     const double v30 = -v27 + v29;
-    const double v31 = 2.0*cs[2]*sn[2];
+    const double v31 = 2.0*cs[4]*sn[4];
     const double v32 = p[34] + v0;
     const double v33 = p[35] + v0;
     const double v34 = (0.5)*v32 - 0.5*v33;
     const double v35 = v31*v34;
-    const double v36 = cs[0]*v35;
-    const double v37 = (cs[1]*cs[1]) - (sn[1]*sn[1]);
-    const double v38 = 2.0*cs[1]*sn[1];
+    const double v36 = cs[3]*v35;
+    const double v37 = (cs[2]*cs[2]) - (sn[2]*sn[2]);
+    const double v38 = 2.0*cs[2]*sn[2];
     const double v39 = v32 + v33;
-    const double v40 = (cs[2]*cs[2]) - (sn[2]*sn[2]);
+    const double v40 = (cs[4]*cs[4]) - (sn[4]*sn[4]);
     const double v41 = v34*v40;
     const double v42 = (0.5)*v39 + v41;
     const double v43 = p[31] + v42;
     const double v44 = p[33] + p[36];
     const double v45 = v43 + v44;
-    const double v46 = (cs[0]*cs[0]) - (sn[0]*sn[0]);
+    const double v46 = (cs[3]*cs[3]) - (sn[3]*sn[3]);
     const double v47 = (0.5)*v43 - 0.5*v44;
     const double v48 = v46*v47;
     const double v49 = (0.5)*v45 + v48;
@@ -147,17 +200,17 @@ void puma560_inertia(const double *q, const double *p, double *D)
     const double v57 = v36*v37 + v38*v56;
     const double v58 = -p[15]*v12 + v57;
     const double v59 = p[2]*v22 + v58;
-    const double v60 = sn[0]*v35;
-    const double v61 = 2.0*cs[0]*sn[0];
+    const double v60 = sn[3]*v35;
+    const double v61 = 2.0*cs[3]*sn[3];
     const double v62 = v47*v61;
     const double v63 = p[4]*v17 + v62;
-    const double v64 = cs[1]*v60 + sn[1]*v63;
+    const double v64 = cs[2]*v60 + sn[2]*v63;
     const double v65 = -p[16]*v14 + v64;
     const double v66 = p[4]*v8 + v5;
     const double v67 = p[7]*p[16] + v66;
     const double v68 = p[3]*v67 + v65;
-    const double v69 = -sn[3]*v68;
-    const double v70 = cs[3]*v68;
+    const double v69 = -sn[1]*v68;
+    const double v70 = cs[1]*v68;
     const double v71 = (p[12]*p[12]);
     const double v72 = (p[13]*p[13]);
     const double v73 = p[6]*p[11];
@@ -165,7 +218,7 @@ void puma560_inertia(const double *q, const double *p, double *D)
     const double v75 = p[6]*p[12];
     const double v76 = (p[1]*p[1]);
     const double v77 = -v19 + v25;
-    const double v78 = cs[3]*v77 - sn[3]*v67;
+    const double v78 = cs[1]*v77 - sn[1]*v67;
     const double v79 = v73 + v78;
     const double v80 = p[1]*v79;
     const double v81 = p[6] + v24;
@@ -177,7 +230,7 @@ void puma560_inertia(const double *q, const double *p, double *D)
     const double v87 = v36*v38 - v37*v56;
     const double v88 = (0.5)*v86 - v87;
     const double v89 = v86 - v88;
-    const double v90 = -cs[1]*v63 + sn[1]*v60;
+    const double v90 = -cs[2]*v63 + sn[2]*v60;
     const double v91 = p[25] + p[7]*(v10 + v11) + v88;
     const double v92 = p[16]*v12 + v90;
     const double v93 = p[26] + p[7]*(v11 + v13) + v89;
@@ -188,17 +241,17 @@ void puma560_inertia(const double *q, const double *p, double *D)
     const double v98 = p[2]*v67 + v92;
     const double v99 = v16*v24 + 2.0*v23 + v27 - v29 - v93;
     const double v100 = v30 + v94;
-    const double v101 = cs[3]*v67 + sn[3]*v77;
-    const double v102 = (cs[3]*cs[3]) - (sn[3]*sn[3]);
-    const double v103 = 2.0*cs[3]*sn[3];
+    const double v101 = cs[1]*v67 + sn[1]*v77;
+    const double v102 = (cs[1]*cs[1]) - (sn[1]*sn[1]);
+    const double v103 = 2.0*cs[1]*sn[1];
     const double v104 = v100 + v96;
     const double v105 = -0.5*v100 + (0.5)*v96;
     const double v106 = v102*v105 + v103*v98;
     const double v107 = (0.5)*v104 + v106;
     const double v108 = v104 - v107;
     const double v109 = v102*v98 - v103*v105;
-    const double v110 = cs[3]*v97 + v69;
-    const double v111 = sn[3]*v97 + v70;
+    const double v110 = cs[1]*v97 + v69;
+    const double v111 = sn[1]*v97 + v70;
     const double v112 = p[22] + p[6]*(v71 + v72) + v107;
     const double v113 = p[12]*v73 + v109;
     const double v114 = p[13]*v73 + v110;
@@ -212,52 +265,52 @@ void puma560_inertia(const double *q, const double *p, double *D)
     const double v122 = p[1]*v118 + v113;
     const double v123 = p[1]*v119 + v114;
     const double v124 = v115 + v82;
-    const double v125 = (cs[4]*cs[4]) - (sn[4]*sn[4]);
-    const double v126 = 2.0*cs[4]*sn[4];
+    const double v125 = (cs[0]*cs[0]) - (sn[0]*sn[0]);
+    const double v126 = 2.0*cs[0]*sn[0];
     const double v127 = v121 + v124;
     const double v128 = (0.5)*v121 - 0.5*v124;
     const double v129 = v122*v126 + v125*v128;
     const double v130 = (0.5)*v127 + v129;
     const double v131 = v127 - v130;
-    const double v132 = cs[4]*v116 + sn[4]*v123;
+    const double v132 = cs[0]*v116 + sn[0]*v123;
     const double v133 = p[20] + v131;
     const double v134 = v117 + v80;
     const double v135 = p[1]*v120 + v134;
     const double v136 = -v20 + v93;
     const double v137 = p[2]*v77 + v136;
     const double v138 = p[3]*v77 + v59;
-    const double v139 = cs[3]*v138 + v69;
-    const double v140 = sn[3]*v138 + v70;
+    const double v139 = cs[1]*v138 + v69;
+    const double v140 = sn[1]*v138 + v70;
     const double v141 = p[1]*v78 + v137;
-    const double v142 = cs[4]*v140 + sn[4]*v139;
+    const double v142 = cs[0]*v140 + sn[0]*v139;
     const double v143 = -p[2]*v18 + p[3]*v21 + v84;
-    const double v144 = cs[3]*v90 + sn[3]*v143;
-    const double v145 = cs[3]*v143 - sn[3]*v90;
-    const double v146 = sn[3]*v21;
+    const double v144 = cs[1]*v90 + sn[1]*v143;
+    const double v145 = cs[1]*v143 - sn[1]*v90;
+    const double v146 = sn[1]*v21;
     const double v147 = -p[1]*v146 + v64;
     const double v148 = p[1]*v18 - v145;
-    const double v149 = cs[4]*v148 + sn[4]*v144;
+    const double v149 = cs[0]*v148 + sn[0]*v144;
     const double v150 = p[4]*v4 + v53;
-    const double v151 = cs[1]*v36 - sn[1]*v150;
-    const double v152 = cs[1]*v150 + sn[1]*v36;
-    const double v153 = cs[1]*v4;
-    const double v154 = sn[1]*v4;
+    const double v151 = cs[2]*v36 - sn[2]*v150;
+    const double v152 = cs[2]*v150 + sn[2]*v36;
+    const double v153 = cs[2]*v4;
+    const double v154 = sn[2]*v4;
     const double v155 = -p[2]*v17 + v152;
     const double v156 = -p[3]*v17 + v151;
     const double v157 = p[2]*v154 + p[3]*v153 + v60;
-    const double v158 = cs[3]*v156 - sn[3]*v157;
-    const double v159 = cs[3]*v157 + sn[3]*v156;
-    const double v160 = cs[3]*v17 + sn[3]*v153;
+    const double v158 = cs[1]*v156 - sn[1]*v157;
+    const double v159 = cs[1]*v157 + sn[1]*v156;
+    const double v160 = cs[1]*v17 + sn[1]*v153;
     const double v161 = -p[1]*v160 + v155;
     const double v162 = p[1]*v154 + v159;
-    const double v163 = cs[4]*v162 + sn[4]*v158;
-    const double v164 = p[36]*sn[0];
-    const double v165 = p[36]*cs[0];
-    const double v166 = cs[1]*v164;
-    const double v167 = sn[1]*v164;
-    const double v168 = cs[3]*v166 + sn[3]*v165;
-    const double v169 = cs[3]*v165 - sn[3]*v166;
-    const double v170 = cs[4]*v169 - sn[4]*v168;
+    const double v163 = cs[0]*v162 + sn[0]*v158;
+    const double v164 = p[36]*sn[3];
+    const double v165 = p[36]*cs[3];
+    const double v166 = cs[2]*v164;
+    const double v167 = sn[2]*v164;
+    const double v168 = cs[1]*v166 + sn[1]*v165;
+    const double v169 = cs[1]*v165 - sn[1]*v166;
+    const double v170 = cs[0]*v169 - sn[0]*v168;
     D[0] = v133;
     D[1] = -v132;
     D[2] = -v142;
@@ -302,10 +355,7 @@ void puma560_inertia(const double *q, const double *p, double *D)
 void puma560_coriolis(const double *q, const double *qd, const double *p, double *h)
 {
     double sn[5], cs[5];
-    {
-        const double angle[5] = { q[1], q[2], q[3], q[4], q[5] };
-        puma560_sincos(5, angle, sn, cs);
-    }
+    puma560_sincos(5, q + 1, sn, cs);
     const double v0 = (qd[1]*qd[1]);
     const double v1 = sn[0]*qd[0];
     const double v2 = qd[1]*v1;
@@ -500,22 +550,19 @@ void puma560_coriolis(const double *q, const double *qd, const double *p, double
 void puma560_coriolis_matrix(const double *q, const double *qd, const double *p, double *C)
 {
     double sn[5], cs[5];
-    {
-        const double angle[5] = { q[5], q[4], q[3], q[2], q[1] };
-        puma560_sincos(5, angle, sn, cs);
-    }
+    puma560_sincos(5, q + 1, sn, cs);
     const double v0 = p[10]*(p[18]*p[18]);
-    const double v1 = (cs[0]*cs[0]) - (sn[0]*sn[0]);
-    const double v2 = cs[0]*sn[0];
-    const double v3 = (cs[1]*cs[1]) - (sn[1]*sn[1]);
-    const double v4 = cs[1]*sn[1];
+    const double v1 = (cs[4]*cs[4]) - (sn[4]*sn[4]);
+    const double v2 = cs[4]*sn[4];
+    const double v3 = (cs[3]*cs[3]) - (sn[3]*sn[3]);
+    const double v4 = cs[3]*sn[3];
     const double v5 = p[8]*(p[17]*p[17]);
     const double v6 = (p[4]*p[4]);
     const double v7 = p[10]*p[18];
-    const double v8 = cs[1]*v7;
+    const double v8 = cs[3]*v7;
     const double v9 = p[8]*p[17] + v8;
     const double v10 = p[4]*v9;
-    const double v11 = sn[1]*v7;
+    const double v11 = sn[3]*v7;
     const double v12 = p[4]*v11;
     const double v13 = p[9] + p[10];
     const double v14 = p[8] + v13;
@@ -527,7 +574,7 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v20 = p[35] + v0;
     const double v21 = (0.5)*v19 - 0.5*v20;
     const double v22 = v18*v21;
-    const double v23 = sn[1]*v22;
+    const double v23 = sn[3]*v22;
     const double v24 = sn[2]*v23;
     const double v25 = cs[2]*v23;
     const double v26 = (p[15]*p[15]);
@@ -544,7 +591,7 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v37 = -v28 + v36;
     const double v38 = -p[3]*v37 + v32;
     const double v39 = v33*v35 - 2.0*v38;
-    const double v40 = cs[1]*v22;
+    const double v40 = cs[3]*v22;
     const double v41 = 2.0*v17;
     const double v42 = v19 + v20;
     const double v43 = v1*v21;
@@ -565,8 +612,8 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v58 = v16*v40 + v41*v57;
     const double v59 = -p[15]*v27 + v58;
     const double v60 = p[2]*v37 + v59;
-    const double v61 = (cs[3]*cs[3]) - (sn[3]*sn[3]);
-    const double v62 = cs[3]*sn[3];
+    const double v61 = (cs[1]*cs[1]) - (sn[1]*sn[1]);
+    const double v62 = cs[1]*sn[1];
     const double v63 = 2.0*v4;
     const double v64 = v48*v63;
     const double v65 = v12 + v64;
@@ -575,31 +622,31 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v68 = p[4]*v14 + v9;
     const double v69 = p[7]*p[16] + v68;
     const double v70 = p[3]*v69 + v67;
-    const double v71 = -sn[3]*v70;
-    const double v72 = cs[3]*v70;
+    const double v71 = -sn[1]*v70;
+    const double v72 = cs[1]*v70;
     const double v73 = (p[13]*p[13]);
     const double v74 = p[6]*p[11];
     const double v75 = p[6]*p[12];
     const double v76 = (p[1]*p[1]);
     const double v77 = -v31 + v34;
-    const double v78 = cs[3]*v77 - sn[3]*v69;
+    const double v78 = cs[1]*v77 - sn[1]*v69;
     const double v79 = v74 + v78;
     const double v80 = p[1]*v79;
     const double v81 = p[6] + v33;
     const double v82 = v76*v81 + 2.0*v80;
-    const double v83 = (cs[4]*cs[4]) - (sn[4]*sn[4]);
-    const double v84 = cs[4]*sn[4];
+    const double v83 = (cs[0]*cs[0]) - (sn[0]*sn[0]);
+    const double v84 = cs[0]*sn[0];
     const double v85 = p[3]*v36;
     const double v86 = p[2]*v30;
     const double v87 = -cs[2]*v65 + v24;
-    const double v88 = cs[3]*v87;
-    const double v89 = sn[3]*v87;
+    const double v88 = cs[1]*v87;
+    const double v89 = sn[1]*v87;
     const double v90 = p[1]*v30;
     const double v91 = v47 - v50;
     const double v92 = p[29] + v91;
     const double v93 = v85 - v86 + v92;
-    const double v94 = sn[3]*v93 + v88;
-    const double v95 = cs[4]*v94;
+    const double v94 = sn[1]*v93 + v88;
+    const double v95 = cs[0]*v94;
     const double v96 = p[4]*v8;
     const double v97 = cs[2]*v40;
     const double v98 = sn[2]*v40;
@@ -613,14 +660,14 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v106 = -sn[2]*v105 + v97;
     const double v107 = v106 + v99;
     const double v108 = v101 + v103 + v23;
-    const double v109 = cs[3]*v107 - sn[3]*v108;
-    const double v110 = cs[4]*v109;
-    const double v111 = cs[3]*v69 + sn[3]*v77;
+    const double v109 = cs[1]*v107 - sn[1]*v108;
+    const double v110 = cs[0]*v109;
+    const double v111 = cs[1]*v69 + sn[1]*v77;
     const double v112 = p[1]*v111;
     const double v113 = 2.0*v112;
-    const double v114 = cs[3]*v36;
+    const double v114 = cs[1]*v36;
     const double v115 = p[1]*v114;
-    const double v116 = cs[3]*v100 - sn[3]*v11;
+    const double v116 = cs[1]*v100 - sn[1]*v11;
     const double v117 = p[1]*v116;
     const double v118 = p[3]*v30;
     const double v119 = p[2]*v36;
@@ -635,8 +682,8 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v128 = p[2]*v100;
     const double v129 = p[3]*v102;
     const double v130 = p[1]*v100;
-    const double v131 = sn[3]*v30;
-    const double v132 = sn[3]*v102;
+    const double v131 = sn[1]*v30;
+    const double v132 = sn[1]*v102;
     const double v133 = p[1]*v132;
     const double v134 = 2.0*v12;
     const double v135 = v128 - v129;
@@ -647,8 +694,8 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v140 = v139 + v96;
     const double v141 = sn[2]*v140 + v97;
     const double v142 = v141 + v99;
-    const double v143 = cs[3]*v142;
-    const double v144 = sn[3]*v142;
+    const double v143 = cs[1]*v142;
+    const double v144 = sn[1]*v142;
     const double v145 = 4.0*v2;
     const double v146 = v145*v21;
     const double v147 = (0.5)*v146;
@@ -658,25 +705,25 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v151 = (0.5)*v150;
     const double v152 = 2.0*v1;
     const double v153 = v152*v21;
-    const double v154 = cs[1]*v153;
+    const double v154 = cs[3]*v153;
     const double v155 = (0.5)*v146 + (0.5)*v149;
     const double v156 = v154*v41 + v155*v16;
     const double v157 = v151 - v156;
     const double v158 = v150 - v157;
     const double v159 = (0.5)*v158;
-    const double v160 = p[36]*cs[1];
-    const double v161 = p[36]*sn[1];
+    const double v160 = p[36]*cs[3];
+    const double v161 = p[36]*sn[3];
     const double v162 = cs[2]*v161;
-    const double v163 = cs[3]*v162 + sn[3]*v160;
-    const double v164 = cs[3]*v160 - sn[3]*v162;
-    const double v165 = cs[4]*v163 + sn[4]*v164;
+    const double v163 = cs[1]*v162 + sn[1]*v160;
+    const double v164 = cs[1]*v160 - sn[1]*v162;
+    const double v165 = cs[0]*v163 + sn[0]*v164;
     const double v166 = v154*v16 - v155*v41;
-    const double v167 = sn[1]*v153;
+    const double v167 = sn[3]*v153;
     const double v168 = v147*v63;
     const double v169 = cs[2]*v167 - sn[2]*v168;
-    const double v170 = cs[3]*v169 + sn[3]*v166;
-    const double v171 = cs[3]*v166 - sn[3]*v169;
-    const double v172 = cs[4]*v170 + sn[4]*v171;
+    const double v170 = cs[1]*v169 + sn[1]*v166;
+    const double v171 = cs[1]*v166 - sn[1]*v169;
+    const double v172 = cs[0]*v170 + sn[0]*v171;
     const double v173 = (0.5)*v165 + (0.5)*v172;
     const double v174 = qd[5]*v173;
     const double v175 = (0.5)*qd[0];
@@ -733,7 +780,7 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v226 = v221 - v224;
     const double v227 = v122 + v226;
     const double v228 = v225 + v227;
-    const double v229 = sn[3]*v36;
+    const double v229 = sn[1]*v36;
     const double v230 = v178*v222 + v61*v66;
     const double v231 = p[1]*v229 + v230;
     const double v232 = (0.5)*v225 - 0.5*v227;
@@ -761,7 +808,7 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v254 = v247 - v252;
     const double v255 = v137 + v254;
     const double v256 = v253 + v255;
-    const double v257 = cs[3]*v11 + sn[3]*v100;
+    const double v257 = cs[1]*v11 + sn[1]*v100;
     const double v258 = v178*v250 + v249*v61;
     const double v259 = p[1]*v257 - v258;
     const double v260 = (0.5)*v253 - 0.5*v255;
@@ -786,13 +833,13 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v279 = (0.5)*qd[1];
     const double v280 = 2.0*v112;
     const double v281 = p[3]*v77 + v60;
-    const double v282 = cs[3]*v281 + v71;
-    const double v283 = sn[3]*v281 + v72;
-    const double v284 = cs[4]*v282 - sn[4]*v283;
+    const double v282 = cs[1]*v281 + v71;
+    const double v283 = sn[1]*v281 + v72;
+    const double v284 = cs[0]*v282 - sn[0]*v283;
     const double v285 = -p[3]*v31 + p[3]*v34 + v60;
-    const double v286 = cs[3]*v285 + v71;
-    const double v287 = sn[3]*v285 + v72;
-    const double v288 = cs[4]*v286 - sn[4]*v287;
+    const double v286 = cs[1]*v285 + v71;
+    const double v287 = sn[1]*v285 + v72;
+    const double v288 = cs[0]*v286 - sn[0]*v287;
     const double v289 = (0.5)*v284 - 0.5*v288;
     const double v290 = -qd[0]*v289 + v279*v280;
     const double v291 = (0.5)*v162 - 0.5*v169;
@@ -800,14 +847,14 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v293 = -2.0*v118 + v121 + v219;
     const double v294 = v115 + v293;
     const double v295 = v115 + v294;
-    const double v296 = cs[3]*v93 - v89;
+    const double v296 = cs[1]*v93 - v89;
     const double v297 = -v296 + v90;
-    const double v298 = -sn[4]*v297 + v95;
+    const double v298 = -sn[0]*v297 + v95;
     const double v299 = v126 + v85;
-    const double v300 = -sn[3]*v299 + v88;
-    const double v301 = cs[3]*v299 + v89;
+    const double v300 = -sn[1]*v299 + v88;
+    const double v301 = cs[1]*v299 + v89;
     const double v302 = v301 + v90;
-    const double v303 = cs[4]*v300 - sn[4]*v302;
+    const double v303 = cs[0]*v300 - sn[0]*v302;
     const double v304 = (0.5)*v298 + (0.5)*v303;
     const double v305 = qd[0]*v304 + v279*v295;
     const double v306 = v240 - v243;
@@ -815,15 +862,15 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v308 = v117 + v307;
     const double v309 = v117 + v308;
     const double v310 = v279*v309;
-    const double v311 = cs[3]*v108 + sn[3]*v107;
+    const double v311 = cs[1]*v108 + sn[1]*v107;
     const double v312 = v104 + v311;
-    const double v313 = -sn[4]*v312 + v110;
+    const double v313 = -sn[0]*v312 + v110;
     const double v314 = v16*v23 - v241*v41;
     const double v315 = v101 - v103 + v314;
-    const double v316 = -sn[3]*v315 + v143;
-    const double v317 = cs[3]*v315 + v144;
+    const double v316 = -sn[1]*v315 + v143;
+    const double v317 = cs[1]*v315 + v144;
     const double v318 = v104 - v317;
-    const double v319 = cs[4]*v316 + sn[4]*v318;
+    const double v319 = cs[0]*v316 + sn[0]*v318;
     const double v320 = (0.5)*v313 - 0.5*v319;
     const double v321 = qd[0]*v320;
     const double v322 = qd[0]*v277 + qd[1]*v159 + qd[2]*v159;
@@ -834,23 +881,23 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v327 = (0.5)*qd[2];
     const double v328 = v119 + v219;
     const double v329 = v119 + v328;
-    const double v330 = sn[4]*v296 + v95;
+    const double v330 = sn[0]*v296 + v95;
     const double v331 = v126 + v85;
-    const double v332 = cs[3]*v331 + v89;
-    const double v333 = -sn[3]*v331 + v88;
-    const double v334 = cs[4]*v333 - sn[4]*v332;
+    const double v332 = cs[1]*v331 + v89;
+    const double v333 = -sn[1]*v331 + v88;
+    const double v334 = cs[0]*v333 - sn[0]*v332;
     const double v335 = (0.5)*v330 + (0.5)*v334;
     const double v336 = v115 + v329;
     const double v337 = (0.5)*v115 - 0.5*v336;
     const double v338 = qd[0]*v335 - qd[1]*v337 + v327*v329;
     const double v339 = v128 + v306;
     const double v340 = v128 + v339;
-    const double v341 = -sn[4]*v311 + v110;
+    const double v341 = -sn[0]*v311 + v110;
     const double v342 = v103 - v314;
     const double v343 = v101 - v342;
-    const double v344 = cs[3]*v343 + v144;
-    const double v345 = -sn[3]*v343 + v143;
-    const double v346 = cs[4]*v345 - sn[4]*v344;
+    const double v344 = cs[1]*v343 + v144;
+    const double v345 = -sn[1]*v343 + v143;
+    const double v346 = cs[0]*v345 - sn[0]*v344;
     const double v347 = (0.5)*v341 - 0.5*v346;
     const double v348 = v117 + v340;
     const double v349 = (0.5)*v117 - 0.5*v348;
@@ -858,15 +905,15 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v351 = (0.5)*v162 + (0.5)*v169;
     const double v352 = qd[5]*v351;
     const double v353 = cs[2]*v105 + v98;
-    const double v354 = cs[3]*v353 + sn[3]*v135;
-    const double v355 = cs[3]*v135 - sn[3]*v353;
+    const double v354 = cs[1]*v353 + sn[1]*v135;
+    const double v355 = cs[1]*v135 - sn[1]*v353;
     const double v356 = v130 + v355;
-    const double v357 = cs[4]*v356 - sn[4]*v354;
+    const double v357 = cs[0]*v356 - sn[0]*v354;
     const double v358 = -v128 + v129 + v238;
-    const double v359 = cs[3]*v248 + sn[3]*v358;
-    const double v360 = cs[3]*v358 - sn[3]*v248;
+    const double v359 = cs[1]*v248 + sn[1]*v358;
+    const double v360 = cs[1]*v358 - sn[1]*v248;
     const double v361 = v130 - v360;
-    const double v362 = cs[4]*v361 + sn[4]*v359;
+    const double v362 = cs[0]*v361 + sn[0]*v359;
     const double v363 = (0.5)*v357 - 0.5*v362;
     const double v364 = v106 + v133;
     const double v365 = v133 - v141;
@@ -874,24 +921,24 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v367 = (0.5)*v106 + (0.5)*v141;
     const double v368 = -qd[0]*v363 + qd[1]*v366 + qd[2]*v367 - 0.5*qd[3]*v238;
     const double v369 = sn[2]*v161;
-    const double v370 = cs[3]*v369;
-    const double v371 = sn[3]*v369;
-    const double v372 = cs[4]*v371 + sn[4]*v370;
-    const double v373 = cs[3]*v265 - sn[3]*v150;
-    const double v374 = cs[3]*v150 + sn[3]*v265;
-    const double v375 = cs[4]*v374 + sn[4]*v373;
+    const double v370 = cs[1]*v369;
+    const double v371 = sn[1]*v369;
+    const double v372 = cs[0]*v371 + sn[0]*v370;
+    const double v373 = cs[1]*v265 - sn[1]*v150;
+    const double v374 = cs[1]*v150 + sn[1]*v265;
+    const double v375 = cs[0]*v374 + sn[0]*v373;
     const double v376 = (0.5)*v372 + (0.5)*v375;
     const double v377 = qd[0]*v376 + qd[1]*v351 + qd[2]*v351 + qd[3]*v151;
     const double v378 = (0.5)*v323 - 0.5*v324;
     const double v379 = qd[5]*v378;
     const double v380 = cs[2]*v160;
-    const double v381 = cs[3]*v380 - sn[3]*v161;
-    const double v382 = cs[3]*v161 + sn[3]*v380;
-    const double v383 = cs[4]*v382 + sn[4]*v381;
+    const double v381 = cs[1]*v380 - sn[1]*v161;
+    const double v382 = cs[1]*v161 + sn[1]*v380;
+    const double v383 = cs[0]*v382 + sn[0]*v381;
     const double v384 = cs[2]*v154 - sn[2]*v146;
-    const double v385 = cs[3]*v384 - sn[3]*v167;
-    const double v386 = cs[3]*v167 + sn[3]*v384;
-    const double v387 = cs[4]*v386 + sn[4]*v385;
+    const double v385 = cs[1]*v384 - sn[1]*v167;
+    const double v386 = cs[1]*v167 + sn[1]*v384;
+    const double v387 = cs[0]*v386 + sn[0]*v385;
     const double v388 = (0.5)*v383 - 0.5*v387;
     const double v389 = (0.5)*v161 - 0.5*v167;
     const double v390 = qd[0]*v388 - qd[1]*v378 - qd[2]*v378 + qd[3]*v389 + qd[4]*v147;
@@ -901,22 +948,22 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
     const double v394 = p[13]*v75 + v287;
     const double v395 = p[6]*p[13] + v392;
     const double v396 = p[1]*v395 + v393;
-    const double v397 = -cs[4]*v396 + sn[4]*v394;
-    const double v398 = cs[3]*v66 + sn[3]*v120;
-    const double v399 = cs[3]*v120 - sn[3]*v66;
+    const double v397 = -cs[0]*v396 + sn[0]*v394;
+    const double v398 = cs[1]*v66 + sn[1]*v120;
+    const double v399 = cs[1]*v120 - sn[1]*v66;
     const double v400 = v127 + v399;
-    const double v401 = cs[4]*v400 - sn[4]*v398;
+    const double v401 = cs[0]*v400 - sn[0]*v398;
     const double v402 = p[1]*v131 + v87;
     const double v403 = -sn[2]*v12 + v25;
     const double v404 = p[3]*v8 + v403;
     const double v405 = v120 - v40;
-    const double v406 = cs[3]*v404 - sn[3]*v405;
-    const double v407 = cs[3]*v405 + sn[3]*v404;
+    const double v406 = cs[1]*v404 - sn[1]*v405;
+    const double v407 = cs[1]*v405 + sn[1]*v404;
     const double v408 = v127 + v407;
-    const double v409 = cs[4]*v408 + sn[4]*v406;
+    const double v409 = cs[0]*v408 + sn[0]*v406;
     const double v410 = cs[2]*v12 + v24;
     const double v411 = p[2]*v8 + v410;
-    const double v412 = cs[3]*v8 - v131;
+    const double v412 = cs[1]*v8 - v131;
     const double v413 = p[1]*v412 + v411;
     const double v414 = (0.5)*v284 + (0.5)*v288;
     const double v415 = (0.5)*v298 - 0.5*v303;
@@ -975,10 +1022,7 @@ void puma560_coriolis_matrix(const double *q, const double *qd, const double *p,
 void puma560_gravity(const double *q, const double *p, double *g)
 {
     double sn[4], cs[4];
-    {
-        const double angle[4] = { q[1], q[2], q[3], q[4] };
-        puma560_sincos(4, angle, sn, cs);
-    }
+    puma560_sincos(4, q + 1, sn, cs);
     const double v0 = p[9] + p[10];
     const double v1 = p[8] + v0;
     const double v2 = p[7] + v1;
@@ -1053,10 +1097,7 @@ void puma560_friction(const double *q, const double *qd, const double *p, double
 void puma560_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau)
 {
     double sn[5], cs[5];
-    {
-        const double angle[5] = { q[1], q[2], q[3], q[4], q[5] };
-        puma560_sincos(5, angle, sn, cs);
-    }
+    puma560_sincos(5, q + 1, sn, cs);
     const double v0 = cs[0]*qd[0];
     const double v1 = qd[1]*v0;
     const double v2 = sn[0]*qd[0];

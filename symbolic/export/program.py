@@ -114,8 +114,15 @@ class BatchedTrig:
     program: Program
 
 
-def batch_trig(program: Program, inputs: set[sp.Symbol], local_prefix: str = "v") -> BatchedTrig:
-    """Replace sin/cos of angles that depend on inputs only by batch symbols; locals renumbered."""
+def batch_trig(
+    program: Program, inputs: set[sp.Symbol], local_prefix: str = "v", order: Sequence[sp.Symbol] = ()
+) -> BatchedTrig:
+    """Replace sin/cos of angles that depend on inputs only by batch symbols; locals renumbered.
+
+    Angles that are one of the symbols in ``order`` come first, in that order (so that angles
+    q[1], ..., q[6] form one run the generated C can pass without copying); the others follow in
+    order of first appearance.
+    """
     angles: list[sp.Expr] = []
     for expr in [e for _, e in program.statements] + list(program.outputs):
         found = sorted(expr.atoms(sp.sin, sp.cos), key=sp.default_sort_key)
@@ -123,6 +130,8 @@ def batch_trig(program: Program, inputs: set[sp.Symbol], local_prefix: str = "v"
             angle = atom.args[0]
             if angle.free_symbols <= inputs and angle not in angles:
                 angles.append(angle)
+    rank = {s: k for k, s in enumerate(order)}
+    angles.sort(key=lambda a: rank.get(a, len(rank)))  # stable: the others keep their order
     sines = tuple(sp.Symbol(f"_sin{k}", real=True) for k in range(len(angles)))
     cosines = tuple(sp.Symbol(f"_cos{k}", real=True) for k in range(len(angles)))
     table = {sp.sin(a): s for a, s in zip(angles, sines)} | {sp.cos(a): c for a, c in zip(angles, cosines)}
