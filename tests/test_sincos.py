@@ -135,6 +135,21 @@ def test_large_or_non_finite_angles_take_libm_for_the_whole_batch(tmp_path: Path
     assert s[0] == math.sin(0.3) and c[0] == math.cos(0.3)
 
 
+@pytest.mark.parametrize("build_name", ["strict -O3", "strict -O3 SYMBOLIC_NO_DISPATCH"])
+def test_one_out_of_range_angle_anywhere_in_the_batch_is_noticed(build_name: str, tmp_path: Path) -> None:
+    """The range check is folded into the vector loop: every lane and the scalar remainder must report."""
+    batch = build(tmp_path, BUILDS[build_name])
+    for n in range(1, 10):
+        for position in range(n):
+            for bad in (800.0000000000001, -1.0e4, math.inf, -math.nan):
+                x = np.linspace(-3.0, 3.0, n)
+                x[position] = bad
+                s, c = batch(x)
+                finite = np.isfinite(x)
+                assert s[finite].tolist() == [math.sin(v) for v in x[finite]], (n, position, bad)
+                assert c[finite].tolist() == [math.cos(v) for v in x[finite]], (n, position, bad)
+
+
 def cpu_has(*flags: str) -> bool:
     try:
         text = Path("/proc/cpuinfo").read_text()
@@ -170,4 +185,15 @@ def test_the_avx2_copy_is_taken_at_run_time(reference, tmp_path: Path) -> None:
     dispatched = build(tmp_path / "a", GNU99)(x)
     baseline = build(tmp_path / "b", [*GNU99, "-DSYMBOLIC_NO_DISPATCH"])(x)
     differing = sum(int((u != v).sum()) for u, v in zip(dispatched, baseline))
+    assert differing > 0
+
+
+def test_in_range_angles_stay_on_the_fast_path(reference, tmp_path: Path) -> None:
+    """The kernel rounds differently from libm on some angles; all-equal results would mean a range
+    check that sends every batch to libm (the accuracy tests would then be testing libm)."""
+    x = reference[0]
+    s, c = build(tmp_path, BUILDS["strict -O3 SYMBOLIC_NO_DISPATCH"])(x)
+    libm_s = np.array([math.sin(v) for v in x])  # math.sin is libm's (numpy may use its own SIMD code)
+    libm_c = np.array([math.cos(v) for v in x])
+    differing = int((s != libm_s).sum() + (c != libm_c).sum())
     assert differing > 0

@@ -16,7 +16,8 @@ const double fivebar_parameter_defaults[fivebar_NP] = { 9.81, 0.3, 0.06, 0.06, 0
  * fdlibm 5.3 (Sun Microsystems, 1993; same coefficients, polynomials evaluated by Estrin's scheme).
  * Error under 1 ulp (tests/test_sincos.py checks against 200-bit references, including every double
  * next to a multiple of pi/2 in range).
- * Angles beyond +-800 rad, infinities and NaN take the libm path for the whole batch.
+ * If any angle is beyond +-800 rad, infinite or NaN (the loop checks the bits on the way), the whole batch
+ * is redone with libm.
  * On x86-64 compiled without AVX2 (gcc or clang), a second copy of the loop is compiled for AVX2 and FMA
  * and chosen at run time when the processor has them, as glibc's libm does for its own sin and cos;
  * the results may then differ from the other copy's in the last bit (both stay under 1 ulp).
@@ -25,19 +26,23 @@ const double fivebar_parameter_defaults[fivebar_NP] = { 9.81, 0.3, 0.06, 0.06, 0
  * with a 64-bit double. Define SYMBOLIC_LIBM_SINCOS to always use libm sin() and cos(). */
 typedef char fivebar_sincos_needs_64_bit_double[sizeof(double) == sizeof(unsigned long long) ? 1 : -1];
 
-#if !defined(SYMBOLIC_LIBM_SINCOS) && !defined(SYMBOLIC_NO_DISPATCH) && defined(__x86_64__) && defined(__GNUC__) && !defined(__AVX2__)
+#ifndef SYMBOLIC_LIBM_SINCOS
+#if !defined(SYMBOLIC_NO_DISPATCH) && defined(__x86_64__) && defined(__GNUC__) && !defined(__AVX2__)
 #define FIVEBAR_SINCOS_DISPATCH 1
 __attribute__((target("avx2,fma")))
-static void fivebar_sincos_avx2(int n, const double *restrict x, double *restrict s, double *restrict c)
+static unsigned long long fivebar_sincos_reduced_avx2(int n, const double *restrict x, double *restrict s, double *restrict c)
 {
+    unsigned long long out_of_range = 0;
     int i;
     for (i = 0; i < n; ++i) {
         const double shift = 6755399441055744.0; /* 1.5*2^52: adding and subtracting it rounds to an integer */
         const double a = x[i];
         const double big = a * 0.63661977236758138 + shift;     /* its low mantissa bits hold fn mod 4 */
         const double fn = big - shift;                              /* nearest integer to a/(pi/2) */
-        union { double d; unsigned long long u; } bits, sw, cw, out;
+        union { double d; unsigned long long u; } in, bits, sw, cw, out;
         unsigned long long swap;
+        in.d = a;
+        out_of_range |= 0x4089000000000000ULL - (in.u & 0x7FFFFFFFFFFFFFFFULL); /* top bit set: |a| > 800 or NaN */
         const double t = a - fn * 1.5707963267948344;               /* exact */
         const double w0 = fn * 6.223372171896261e-14;               /* exact */
         const double tail = fn * 3.5215598651832e-27;
@@ -68,6 +73,54 @@ static void fivebar_sincos_avx2(int n, const double *restrict x, double *restric
         out.u = ((cw.u & ~swap) | (sw.u & swap)) ^ (((bits.u + 1ULL) & 2ULL) << 62);
         c[i] = out.d;
     }
+    return out_of_range >> 63;
+}
+#endif
+
+static unsigned long long fivebar_sincos_reduced(int n, const double *restrict x, double *restrict s, double *restrict c)
+{
+    unsigned long long out_of_range = 0;
+    int i;
+    for (i = 0; i < n; ++i) {
+        const double shift = 6755399441055744.0; /* 1.5*2^52: adding and subtracting it rounds to an integer */
+        const double a = x[i];
+        const double big = a * 0.63661977236758138 + shift;     /* its low mantissa bits hold fn mod 4 */
+        const double fn = big - shift;                              /* nearest integer to a/(pi/2) */
+        union { double d; unsigned long long u; } in, bits, sw, cw, out;
+        unsigned long long swap;
+        in.d = a;
+        out_of_range |= 0x4089000000000000ULL - (in.u & 0x7FFFFFFFFFFFFFFFULL); /* top bit set: |a| > 800 or NaN */
+        const double t = a - fn * 1.5707963267948344;               /* exact */
+        const double w0 = fn * 6.223372171896261e-14;               /* exact */
+        const double tail = fn * 3.5215598651832e-27;
+        const double r = t - w0;
+        const double y0 = r - tail;                                 /* the reduced angle is y0 + y1 */
+        const double y1 = ((r - y0) - tail) + ((t - r) - w0);       /* (t - r) - w0: rounding error of r */
+        const double z = y0 * y0;
+        const double z2 = z * z;
+        const double v = z * y0;
+        /* the fdlibm polynomials, evaluated by Estrin's scheme (shorter dependency chains than Horner's) */
+        const double ps = (8.33333333332248946124e-03 + z * -1.98412698298579493134e-04)
+                          + z2 * ((2.75573137070700676789e-06 + z * -2.50507602534068634195e-08) + z2 * 1.58969099521155010221e-10);
+        const double sr = y0 - ((z * (0.5 * y1 - v * ps) - y1) + v * 1.66666666666666324348e-01);
+        const double pc = z * ((4.16666666666666019037e-02 + z * -1.38888888888741095749e-03)
+                               + z2 * ((2.48015872894767294178e-05 + z * -2.75573143513906633035e-07)
+                                       + z2 * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)));
+        const double hz = 0.5 * z;
+        const double u = 1.0 - hz;
+        const double cr = u + (((1.0 - u) - hz) + (z * pc - y0 * y1));
+        /* quadrant fn mod 4: odd swaps sin and cos; sin changes sign in quadrants 2, 3, cos in 1, 2
+           (bit operations rather than branches or selects, so that the loop vectorises even at -O2) */
+        bits.d = big;
+        sw.d = sr;
+        cw.d = cr;
+        swap = 0ULL - (bits.u & 1ULL);
+        out.u = ((sw.u & ~swap) | (cw.u & swap)) ^ ((bits.u & 2ULL) << 62);
+        s[i] = out.d;
+        out.u = ((cw.u & ~swap) | (sw.u & swap)) ^ (((bits.u + 1ULL) & 2ULL) << 62);
+        c[i] = out.d;
+    }
+    return out_of_range >> 63;
 }
 #endif
 
@@ -75,55 +128,16 @@ static void fivebar_sincos(int n, const double *restrict x, double *restrict s, 
 {
     int i;
 #ifndef SYMBOLIC_LIBM_SINCOS
-    for (i = 0; i < n; ++i) {
-        if (!(fabs(x[i]) <= 800.0)) {
-            break;
-        }
-    }
-    if (i == n) {
+    unsigned long long out_of_range;
 #ifdef FIVEBAR_SINCOS_DISPATCH
-        if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
-            fivebar_sincos_avx2(n, x, s, c);
-            return;
-        }
+    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+        out_of_range = fivebar_sincos_reduced_avx2(n, x, s, c);
+    } else
 #endif
-        for (i = 0; i < n; ++i) {
-            const double shift = 6755399441055744.0; /* 1.5*2^52: adding and subtracting it rounds to an integer */
-            const double a = x[i];
-            const double big = a * 0.63661977236758138 + shift;     /* its low mantissa bits hold fn mod 4 */
-            const double fn = big - shift;                              /* nearest integer to a/(pi/2) */
-            union { double d; unsigned long long u; } bits, sw, cw, out;
-            unsigned long long swap;
-            const double t = a - fn * 1.5707963267948344;               /* exact */
-            const double w0 = fn * 6.223372171896261e-14;               /* exact */
-            const double tail = fn * 3.5215598651832e-27;
-            const double r = t - w0;
-            const double y0 = r - tail;                                 /* the reduced angle is y0 + y1 */
-            const double y1 = ((r - y0) - tail) + ((t - r) - w0);       /* (t - r) - w0: rounding error of r */
-            const double z = y0 * y0;
-            const double z2 = z * z;
-            const double v = z * y0;
-            /* the fdlibm polynomials, evaluated by Estrin's scheme (shorter dependency chains than Horner's) */
-            const double ps = (8.33333333332248946124e-03 + z * -1.98412698298579493134e-04)
-                              + z2 * ((2.75573137070700676789e-06 + z * -2.50507602534068634195e-08) + z2 * 1.58969099521155010221e-10);
-            const double sr = y0 - ((z * (0.5 * y1 - v * ps) - y1) + v * 1.66666666666666324348e-01);
-            const double pc = z * ((4.16666666666666019037e-02 + z * -1.38888888888741095749e-03)
-                                   + z2 * ((2.48015872894767294178e-05 + z * -2.75573143513906633035e-07)
-                                           + z2 * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)));
-            const double hz = 0.5 * z;
-            const double u = 1.0 - hz;
-            const double cr = u + (((1.0 - u) - hz) + (z * pc - y0 * y1));
-            /* quadrant fn mod 4: odd swaps sin and cos; sin changes sign in quadrants 2, 3, cos in 1, 2
-               (bit operations rather than branches or selects, so that the loop vectorises even at -O2) */
-            bits.d = big;
-            sw.d = sr;
-            cw.d = cr;
-            swap = 0ULL - (bits.u & 1ULL);
-            out.u = ((sw.u & ~swap) | (cw.u & swap)) ^ ((bits.u & 2ULL) << 62);
-            s[i] = out.d;
-            out.u = ((cw.u & ~swap) | (sw.u & swap)) ^ (((bits.u + 1ULL) & 2ULL) << 62);
-            c[i] = out.d;
-        }
+    {
+        out_of_range = fivebar_sincos_reduced(n, x, s, c);
+    }
+    if (!out_of_range) {
         return;
     }
 #endif
