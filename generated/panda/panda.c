@@ -19,7 +19,7 @@ const double panda_parameter_defaults[panda_NP] = { 9.81, 0.333, 0.316, 0.0825, 
  * If any angle is beyond +-800 rad, infinite or NaN (the loop checks the bits on the way), the whole batch
  * is redone with libm.
  * On x86-64 compiled without AVX2 (gcc or clang), a second copy of the loop is compiled for AVX2 and FMA
- * and chosen at run time when the processor has them, as glibc's libm does for its own sin and cos;
+ * (polynomials by fused multiply-add) and chosen at run time when the processor has them, as glibc's libm does for its own sin and cos;
  * the results may then differ from the other copy's in the last bit (both stay under 1 ulp).
  * Define SYMBOLIC_NO_DISPATCH to always use the copy compiled for the build's target.
  * The quadrant is read from the bits of an IEEE 754 binary64 (sign in the top bit), as on every target
@@ -53,12 +53,12 @@ static unsigned long long panda_sincos_reduced_avx2(int n, const double *restric
         const double z2 = z * z;
         const double v = z * y0;
         /* the fdlibm polynomials, evaluated by Estrin's scheme (shorter dependency chains than Horner's) */
-        const double ps = (8.33333333332248946124e-03 + z * -1.98412698298579493134e-04)
-                          + z2 * ((2.75573137070700676789e-06 + z * -2.50507602534068634195e-08) + z2 * 1.58969099521155010221e-10);
+        const double ps = fma(z2, fma(z2, 1.58969099521155010221e-10, fma(z, -2.50507602534068634195e-08, 2.75573137070700676789e-06)),
+            fma(z, -1.98412698298579493134e-04, 8.33333333332248946124e-03));
         const double sr = y0 - ((z * (0.5 * y1 - v * ps) - y1) + v * 1.66666666666666324348e-01);
-        const double pc = z * ((4.16666666666666019037e-02 + z * -1.38888888888741095749e-03)
-                               + z2 * ((2.48015872894767294178e-05 + z * -2.75573143513906633035e-07)
-                                       + z2 * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)));
+        const double pc = z * fma(z2,
+            fma(z2, fma(z, -1.13596475577881948265e-11, 2.08757232129817482790e-09), fma(z, -2.75573143513906633035e-07, 2.48015872894767294178e-05)),
+            fma(z, -1.38888888888741095749e-03, 4.16666666666666019037e-02));
         const double hz = 0.5 * z;
         const double u = 1.0 - hz;
         const double cr = u + (((1.0 - u) - hz) + (z * pc - y0 * y1));
@@ -77,6 +77,7 @@ static unsigned long long panda_sincos_reduced_avx2(int n, const double *restric
 }
 #endif
 
+#define PANDA_MUL_ADD(a, b, c) ((a) * (b) + (c))
 static unsigned long long panda_sincos_reduced(int n, const double *restrict x, double *restrict s, double *restrict c)
 {
     unsigned long long out_of_range = 0;
@@ -100,12 +101,12 @@ static unsigned long long panda_sincos_reduced(int n, const double *restrict x, 
         const double z2 = z * z;
         const double v = z * y0;
         /* the fdlibm polynomials, evaluated by Estrin's scheme (shorter dependency chains than Horner's) */
-        const double ps = (8.33333333332248946124e-03 + z * -1.98412698298579493134e-04)
-                          + z2 * ((2.75573137070700676789e-06 + z * -2.50507602534068634195e-08) + z2 * 1.58969099521155010221e-10);
+        const double ps = PANDA_MUL_ADD(z2, PANDA_MUL_ADD(z2, 1.58969099521155010221e-10, PANDA_MUL_ADD(z, -2.50507602534068634195e-08, 2.75573137070700676789e-06)),
+            PANDA_MUL_ADD(z, -1.98412698298579493134e-04, 8.33333333332248946124e-03));
         const double sr = y0 - ((z * (0.5 * y1 - v * ps) - y1) + v * 1.66666666666666324348e-01);
-        const double pc = z * ((4.16666666666666019037e-02 + z * -1.38888888888741095749e-03)
-                               + z2 * ((2.48015872894767294178e-05 + z * -2.75573143513906633035e-07)
-                                       + z2 * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)));
+        const double pc = z * PANDA_MUL_ADD(z2,
+            PANDA_MUL_ADD(z2, PANDA_MUL_ADD(z, -1.13596475577881948265e-11, 2.08757232129817482790e-09), PANDA_MUL_ADD(z, -2.75573143513906633035e-07, 2.48015872894767294178e-05)),
+            PANDA_MUL_ADD(z, -1.38888888888741095749e-03, 4.16666666666666019037e-02));
         const double hz = 0.5 * z;
         const double u = 1.0 - hz;
         const double cr = u + (((1.0 - u) - hz) + (z * pc - y0 * y1));

@@ -71,6 +71,7 @@ def _conditions(model: DynamicModel, names) -> list[dict]:
 
 
 def report_markdown(model: DynamicModel, banner: str, operations: dict[str, tuple[int, int]], version: str) -> str:
+    """The reviewer's report NAME.md; ``operations`` maps each C function to (operations, angles)."""
     r = model.reduced
     names = _latex_names(model)
     q = list(model.coordinates)
@@ -109,7 +110,7 @@ def report_markdown(model: DynamicModel, banner: str, operations: dict[str, tupl
         "beams": [{"name": b.name, "frame": b.frame, "modes_v": b.modes_v, "modes_w": b.modes_w, "tip": b.tip_mass is not None} for b in model.robot.beams],
         "stiffness": [{"k": k, "latex": _entry(model, r.stiffness[k], q, names)} for k in range(n) if r.stiffness[k] != 0],
         "strain": _entry(model, r.strain, q, names) if r.strain != 0 else None,
-        "operations": [{"name": k, "ops": v[0], "trig": v[1]} for k, v in operations.items()],
+        "operations": [{"name": k, "ops": v[0], "angles": v[1]} for k, v in operations.items()],
         "conditions": _conditions(model, names) if n <= SMALL_MODEL else None,
         "constraints": [{"coordinate": c.coordinate, "latex": sp.latex(c.expression)} for c in model.robot.constraints],
     }

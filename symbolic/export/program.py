@@ -29,12 +29,6 @@ class Program:
         """SymPy ``count_ops`` of all statements and outputs."""
         return int(sum(sp.count_ops(e) for _, e in self.statements) + sum(sp.count_ops(e) for e in self.outputs))
 
-    @property
-    def trig_calls(self) -> int:
-        """Number of sin/cos/tan evaluations."""
-        exprs = [e for _, e in self.statements] + list(self.outputs)
-        return sum(len(e.atoms(sp.sin, sp.cos, sp.tan)) for e in exprs)
-
 
 def build_program(sub: Subexpressions, outputs: Sequence[sp.Expr], local_prefix: str = "v") -> Program:
     """Definitions needed by ``outputs``, CSE'd and scheduled, with locals renamed ``v0, v1, …``."""
