@@ -37,6 +37,7 @@ BUILDS = {
     "strict -O3 SYMBOLIC_NO_DISPATCH": [*STRICT[:-1], "-O3", "-DSYMBOLIC_NO_DISPATCH"],
     "gnu99 -O3": GNU99,
     "gnu99 -O3 -march=native": [*GNU99, "-march=native"],
+    "strict -O3 -march=native": [*STRICT[:-1], "-O3", "-march=native"],
     "libm (SYMBOLIC_LIBM_SINCOS)": [*STRICT, "-DSYMBOLIC_LIBM_SINCOS"],
 }
 

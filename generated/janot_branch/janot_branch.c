@@ -77,7 +77,11 @@ static unsigned long long janot_branch_sincos_reduced_avx2(int n, const double *
 }
 #endif
 
+#ifdef FP_FAST_FMA /* C99 7.12: fma() is about as fast as a multiply and an add (the target has FMA) */
+#define JANOT_BRANCH_MUL_ADD(a, b, c) fma(a, b, c)
+#else
 #define JANOT_BRANCH_MUL_ADD(a, b, c) ((a) * (b) + (c))
+#endif
 static unsigned long long janot_branch_sincos_reduced(int n, const double *restrict x, double *restrict s, double *restrict c)
 {
     unsigned long long out_of_range = 0;

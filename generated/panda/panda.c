@@ -77,7 +77,11 @@ static unsigned long long panda_sincos_reduced_avx2(int n, const double *restric
 }
 #endif
 
+#ifdef FP_FAST_FMA /* C99 7.12: fma() is about as fast as a multiply and an add (the target has FMA) */
+#define PANDA_MUL_ADD(a, b, c) fma(a, b, c)
+#else
 #define PANDA_MUL_ADD(a, b, c) ((a) * (b) + (c))
+#endif
 static unsigned long long panda_sincos_reduced(int n, const double *restrict x, double *restrict s, double *restrict c)
 {
     unsigned long long out_of_range = 0;
