@@ -34,8 +34,7 @@ import warnings  # noqa: E402
 
 import symbolic  # noqa: E402
 from reference_pinocchio import build  # noqa: E402
-from symbolic.export.functions import input_set, programs  # noqa: E402
-from symbolic.export.program import batch_trig  # noqa: E402
+from symbolic.export.functions import batched_programs, programs  # noqa: E402
 
 PAIRS = [
     ("inverse dynamics", "pin_rnea", "our_id"),
@@ -185,7 +184,7 @@ def measure(name: str, exe: Path, robot) -> dict:
     samples = [json.loads(line) for line in out[1:]]
     derived = symbolic.derive(robot)
     built = programs(derived)
-    inputs = input_set(derived)
+    batched = batched_programs(derived)
     result = {"check": check, "rows": []}
     for label, pin_key, our_key in PAIRS:
         pin_ns = statistics.median(s[pin_key] for s in samples)
@@ -194,7 +193,7 @@ def measure(name: str, exe: Path, robot) -> dict:
         ratio = statistics.median(ratios)
         quartiles = statistics.quantiles(ratios, n=4)
         program = built[FUNCTION_OF[label]]
-        angles = len(batch_trig(program, inputs).angles)
+        angles = len(batched[FUNCTION_OF[label]].angles)
         result["rows"].append((label, pin_ns, our_ns, ratio, (quartiles[0], quartiles[2]), program.operations, angles))
     return result
 

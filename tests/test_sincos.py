@@ -42,10 +42,12 @@ BUILDS = {
 }
 
 
-def build(tmp_path: Path, flags: list[str]):
-    source = tmp_path / "sincos.c"
+def build(directory: Path, flags: list[str]):
+    """The kernel compiled with ``flags`` into ``directory`` (created if needed) as a batch function."""
+    directory.mkdir(parents=True, exist_ok=True)
+    source = directory / "sincos.c"
     source.write_text(WRAPPER.format(kernel=render("sincos.c.j2", name="t")))
-    lib = ctypes.CDLL(str(compile_shared(source, tmp_path / "libsincos.so", flags)))
+    lib = ctypes.CDLL(str(compile_shared(source, directory / "libsincos.so", flags)))
     pointer = ctypes.POINTER(ctypes.c_double)
 
     def batch(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -55,6 +57,11 @@ def build(tmp_path: Path, flags: list[str]):
         return s, c
 
     return batch
+
+
+def libm(x: np.ndarray) -> tuple[list[float], list[float]]:
+    """libm's sin and cos of each angle (math.sin is libm's; numpy may use its own SIMD code)."""
+    return [math.sin(v) for v in x], [math.cos(v) for v in x]
 
 
 def ulp_error(computed: float, exact: mpmath.mpf) -> float:
@@ -130,7 +137,7 @@ def test_large_or_non_finite_angles_take_libm_for_the_whole_batch(tmp_path: Path
     batch = build(tmp_path, BUILDS["strict -O3"])
     x = np.array([0.3, 1.0e6, -2.5e300, 800.0000001, 1.2])
     s, c = batch(x)
-    assert s.tolist() == [math.sin(v) for v in x] and c.tolist() == [math.cos(v) for v in x]
+    assert (s.tolist(), c.tolist()) == libm(x)
     s, c = batch(np.array([0.3, math.inf, math.nan]))
     assert np.isnan(s[1:]).all() and np.isnan(c[1:]).all()
     assert s[0] == math.sin(0.3) and c[0] == math.cos(0.3)
@@ -147,8 +154,7 @@ def test_one_out_of_range_angle_anywhere_in_the_batch_is_noticed(build_name: str
                 x[position] = bad
                 s, c = batch(x)
                 finite = np.isfinite(x)
-                assert s[finite].tolist() == [math.sin(v) for v in x[finite]], (n, position, bad)
-                assert c[finite].tolist() == [math.cos(v) for v in x[finite]], (n, position, bad)
+                assert (s[finite].tolist(), c[finite].tolist()) == libm(x[finite]), (n, position, bad)
 
 
 def cpu_has(*flags: str) -> bool:
@@ -168,7 +174,6 @@ def test_portable_build_carries_an_avx2_copy_and_the_switch_removes_it(tmp_path:
     """-O3 without -march targets SSE2; the AVX2 copy shows as 256-bit (ymm) instructions."""
     for flags, expected in ((BUILDS["strict -O3"], True), (BUILDS["strict -O3 SYMBOLIC_NO_DISPATCH"], False)):
         directory = tmp_path / str(expected)
-        directory.mkdir()
         build(directory, flags)
         listing = subprocess.run(["objdump", "-d", str(directory / "libsincos.so")], capture_output=True, text=True, check=True)
         assert ("%ymm" in listing.stdout) == expected, flags
@@ -176,13 +181,11 @@ def test_portable_build_carries_an_avx2_copy_and_the_switch_removes_it(tmp_path:
 
 @pytest.mark.skipif(not (X86_64 and cpu_has("avx2", "fma")), reason="needs an x86-64 processor with AVX2 and FMA")
 def test_the_avx2_copy_is_taken_at_run_time(reference, tmp_path: Path) -> None:
-    """With FMA contraction allowed, the AVX2+FMA copy rounds differently from the SSE2 copy on some angles.
+    """The AVX2 copy's fused multiply-adds round differently from the SSE2 copy on some angles.
 
     Identical results would mean the dispatch never chose the AVX2 copy on a processor that has it.
     """
     x = reference[0]
-    (tmp_path / "a").mkdir()
-    (tmp_path / "b").mkdir()
     dispatched = build(tmp_path / "a", GNU99)(x)
     baseline = build(tmp_path / "b", [*GNU99, "-DSYMBOLIC_NO_DISPATCH"])(x)
     differing = sum(int((u != v).sum()) for u, v in zip(dispatched, baseline))
@@ -194,7 +197,6 @@ def test_in_range_angles_stay_on_the_fast_path(reference, tmp_path: Path) -> Non
     check that sends every batch to libm (the accuracy tests would then be testing libm)."""
     x = reference[0]
     s, c = build(tmp_path, BUILDS["strict -O3 SYMBOLIC_NO_DISPATCH"])(x)
-    libm_s = np.array([math.sin(v) for v in x])  # math.sin is libm's (numpy may use its own SIMD code)
-    libm_c = np.array([math.cos(v) for v in x])
+    libm_s, libm_c = libm(x)
     differing = int((s != libm_s).sum() + (c != libm_c).sum())
     assert differing > 0

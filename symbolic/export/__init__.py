@@ -59,12 +59,11 @@ def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str |
         files.update(_casadi_files(model, head))
     if "report" in targets:
         from symbolic import __version__
-        from symbolic.export.functions import input_set, programs
+        from symbolic.export.functions import batched_programs, programs
         from symbolic.export.markdown import report_markdown
-        from symbolic.export.program import batch_trig
 
-        inputs = input_set(model)
-        ops = {name: (p.operations, len(batch_trig(p, inputs).angles)) for name, p in programs(model).items()}
+        batched = batched_programs(model)
+        ops = {name: (p.operations, len(batched[name].angles)) for name, p in programs(model).items()}
         files[f"{model.name}.md"] = report_markdown(model, head, ops, __version__).encode()
     return files
 

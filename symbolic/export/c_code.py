@@ -6,9 +6,8 @@ import sympy as sp
 
 from symbolic.dynamics import DynamicModel
 from symbolic.export.c_printer import CPrinter, c_double
-from symbolic.export.functions import function_specs, input_set, input_symbols, programs
+from symbolic.export.functions import batched_programs, function_specs, input_symbols, programs
 from symbolic.export.naming import check_c_name, comment_text
-from symbolic.export.program import batch_trig
 from symbolic.export.templates import render
 
 
@@ -16,13 +15,13 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
     """{file name: text} of the C header and source."""
     name = check_c_name(model.name, model.robot.source)
     symbols = input_symbols(model)
-    slots = {s: f"{array}[{i}]" for array, group in symbols.items() for i, s in enumerate(group)}
     places = {s: (array, i) for array, group in symbols.items() for i, s in enumerate(group)}
-    inputs = input_set(model)
+    slots = {s: f"{array}[{i}]" for s, (array, i) in places.items()}
     functions = []
     built = programs(model)
+    batched_all = batched_programs(model)
     for spec in function_specs(model):
-        batched = batch_trig(built[spec.name], inputs, order=list(places))
+        batched = batched_all[spec.name]
         program = batched.program
         trig_slots = {s: f"sn[{k}]" for k, s in enumerate(batched.sines)} | {c: f"cs[{k}]" for k, c in enumerate(batched.cosines)}
         printer = CPrinter(slots | trig_slots)

@@ -37,11 +37,6 @@ def input_symbols(model: DynamicModel) -> dict[str, tuple[sp.Symbol, ...]]:
     }
 
 
-def input_set(model: DynamicModel) -> set[sp.Symbol]:
-    """Every input symbol (q, qd, qdd, tau, p): what a generated function may read."""
-    return {s for group in input_symbols(model).values() for s in group}
-
-
 def function_specs(model: DynamicModel) -> list[FunctionSpec]:
     """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, inverse_dynamics."""
     r = model.reduced
@@ -70,4 +65,20 @@ def programs(model: DynamicModel) -> dict[str, "Program"]:
     if cache is None:
         cache = {spec.name: build_program(model.sub, spec.expressions) for spec in function_specs(model)}
         model.__dict__["_export_programs"] = cache
+    return cache
+
+
+def batched_programs(model: DynamicModel) -> dict[str, "BatchedTrig"]:
+    """:func:`programs` with the sines and cosines of each function's angles batched (what the C computes).
+
+    Coordinate angles come first in slot order, so that angles q[1], ..., q[6] form one run.
+    """
+    from symbolic.export.program import batch_trig
+
+    cache = model.__dict__.get("_export_batched")
+    if cache is None:
+        inputs = input_symbols(model)
+        order = [s for group in inputs.values() for s in group]
+        cache = {name: batch_trig(p, set(order), order=order) for name, p in programs(model).items()}
+        model.__dict__["_export_batched"] = cache
     return cache

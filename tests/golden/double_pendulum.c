@@ -19,8 +19,9 @@ const double double_pendulum_parameter_defaults[double_pendulum_NP] = { 9.81, 0.
  * If any angle is beyond +-800 rad, infinite or NaN (the loop checks the bits on the way), the whole batch
  * is redone with libm.
  * On x86-64 compiled without AVX2 (gcc or clang), a second copy of the loop is compiled for AVX2 and FMA
- * (polynomials by fused multiply-add) and chosen at run time when the processor has them, as glibc's libm does for its own sin and cos;
- * the results may then differ from the other copy's in the last bit (both stay under 1 ulp).
+ * (polynomials by fused multiply-add) and chosen at run time when the processor has them, as glibc's
+ * libm does for its own sin and cos; the results may then differ from the other copy's in the last bit
+ * (both stay under 1 ulp).
  * Define SYMBOLIC_NO_DISPATCH to always use the copy compiled for the build's target.
  * The quadrant is read from the bits of an IEEE 754 binary64 (sign in the top bit), as on every target
  * with a 64-bit double. Define SYMBOLIC_LIBM_SINCOS to always use libm sin() and cos(). */
