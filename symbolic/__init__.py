@@ -11,13 +11,18 @@ from __future__ import annotations
 
 import logging
 
-from symbolic import analysis, export, robots
-from symbolic.dynamics import DynamicModel, derive
+from symbolic import emit, numeric, spec
+from symbolic.derive import analysis
+from symbolic.derive.dynamics import DynamicModel, derive
 from symbolic.errors import ModelError, ModelWarning
-from symbolic.modelfile import load, loads
-from symbolic.spec import Beam, Body, Constraint, EndEffector, Frame, Parameter, Robot
+from symbolic.numeric import NumericModel, numeric_model
+from symbolic.spec import robots
+from symbolic.spec.modelfile import load, loads
+from symbolic.spec.robot import Beam, Body, Constraint, EndEffector, Frame, Parameter, Robot
+from symbolic.spec.validation import validate
+from symbolic.version import __version__
 
-__version__ = "0.1.0"
+export = emit  # the name DESIGN-era callers use: symbolic.export.generate(model, "out/")
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
@@ -26,6 +31,7 @@ __all__ = [
     "Body",
     "Constraint",
     "DynamicModel",
+    "NumericModel",
     "EndEffector",
     "Frame",
     "ModelError",
@@ -34,8 +40,13 @@ __all__ = [
     "Robot",
     "analysis",
     "derive",
+    "emit",
     "export",
     "load",
     "loads",
+    "numeric",
+    "numeric_model",
     "robots",
+    "spec",
+    "validate",
 ]

@@ -15,7 +15,7 @@ import warnings
 from pathlib import Path
 
 from symbolic import export, robots
-from symbolic.dynamics import derive
+from symbolic.derive.dynamics import derive
 from symbolic.errors import ModelWarning
 
 log = logging.getLogger(__name__)

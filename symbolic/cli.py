@@ -15,11 +15,11 @@ from pathlib import Path
 import sympy as sp
 
 from symbolic import robots
-from symbolic.dynamics import derive
+from symbolic.derive.dynamics import derive
 from symbolic.errors import ModelError, ModelWarning
-from symbolic.modelfile import load
-from symbolic.simplify import compact
-from symbolic.spec import Robot
+from symbolic.spec.modelfile import load
+from symbolic.derive.simplify import compact
+from symbolic.spec.robot import Robot
 
 
 def resolve(model: str) -> Robot:
@@ -81,7 +81,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
 def cmd_analyze(args: argparse.Namespace) -> int:
     import json
 
-    from symbolic.analysis import KINDS, counterbalance, decoupling
+    from symbolic.derive.analysis import KINDS, counterbalance, decoupling
 
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
     unknown = set(kinds) - set(KINDS)

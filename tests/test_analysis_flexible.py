@@ -7,7 +7,8 @@ import numpy as np
 import sympy as sp
 
 from conftest import derived
-from symbolic.analysis import decoupling, flexible_conditions, residual_imbalance
+from symbolic.derive.analysis import decoupling, flexible_conditions
+from symbolic.numeric.statics import residual_imbalance
 
 
 def test_balancing_conditions_broken_by_modal_coordinates() -> None:

@@ -19,9 +19,10 @@ import numpy as np
 import pytest
 
 import symbolic
-import symbolic.export as export
+import symbolic.emit as export
 from c_library import STRICT, CModel, compile_shared, gcc
 from conftest import derived
+from symbolic.numeric import numeric_model
 
 ROOT = Path(__file__).resolve().parents[1]
 GENERATED = ROOT / "generated"
@@ -47,7 +48,7 @@ def libraries(tmp_path_factory) -> dict[str, CModel]:
 @pytest.mark.parametrize("name", ROBOTS)
 def test_c_and_casadi_match_sympy(name: str, libraries) -> None:
     model = derived(name)
-    num = model.numeric
+    num = numeric_model(model)
     c = libraries[name]
     np.testing.assert_array_equal(c.defaults, num.p0)
     fns = {f: casadi.Function.load(str(GENERATED / name / f"{name}_{f}.casadi")) for f in
@@ -92,7 +93,7 @@ def test_c_and_casadi_match_sympy(name: str, libraries) -> None:
 def test_casadi_linearisation_matches_sympy(name: str) -> None:
     """A(q,qd,tau,p), B(q,qd,tau,p) from the .casadi files against NumericModel.linearize (exact derivatives)."""
     model = derived(name)
-    num = model.numeric
+    num = numeric_model(model)
     A_fn = casadi.Function.load(str(GENERATED / name / f"{name}_A.casadi"))
     B_fn = casadi.Function.load(str(GENERATED / name / f"{name}_B.casadi"))
     rng = np.random.default_rng(8)
@@ -200,14 +201,14 @@ def test_generation_is_byte_identical_across_hash_seeds(tmp_path: Path) -> None:
 
 
 def small_robot(name: str = "arm", parameter: str = "m") -> symbolic.Robot:
-    return symbolic.Robot(
+    return symbolic.validate(symbolic.Robot(
         name=name,
         coordinates=("q",),
         parameters=(symbolic.Parameter(parameter, 1.0), symbolic.Parameter("l", 0.5)),
         frames=(symbolic.Frame("1", "base", theta="q", a="l"),),
         bodies=(symbolic.Body("b", "1", parameter),),
         gravity=(0, "-9.81", 0),
-    )
+    ))
 
 
 def test_model_name_that_is_a_c_keyword_is_refused(tmp_path: Path) -> None:
@@ -243,7 +244,7 @@ def test_failed_export_leaves_previous_output_intact(tmp_path: Path, monkeypatch
     def broken(*args, **kwargs):
         raise RuntimeError("simulated failure while rendering")
 
-    monkeypatch.setattr("symbolic.export.markdown.report_markdown", broken)
+    monkeypatch.setattr("symbolic.emit.report.report_markdown", broken)
     with pytest.raises(RuntimeError):
         export.generate(model, out, ["c", "report"])
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before

@@ -17,8 +17,8 @@ import pytest
 import sympy as sp
 
 import symbolic
-from symbolic.flexible import beam_jacobian, geometry, xi_matrices
-from symbolic.simplify import trig_zero
+from symbolic.derive.flexible import beam_jacobian, geometry, xi_matrices
+from symbolic.derive.simplify import trig_zero
 
 
 @pytest.fixture(scope="module")

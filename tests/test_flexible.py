@@ -11,8 +11,9 @@ from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
 import symbolic
-from symbolic.mode_shapes import clamped_free_roots, modal_constants, modes
-from symbolic.statespace import natural_frequencies
+from symbolic.derive.mode_shapes import clamped_free_roots, modal_constants, modes
+from symbolic.numeric.statespace import natural_frequencies
+from symbolic.numeric import numeric_model
 
 
 def with_modes(name: str, **replace: str) -> symbolic.Robot:
@@ -150,7 +151,7 @@ def test_gravity_sag_against_4_4(n: int, tolerance: float) -> None:
         l=length, rho=m / length, EIw=EI, EIv=EI
     )
     model = symbolic.derive(robot)
-    num = model.numeric
+    num = numeric_model(model)
     eta = [i for i, c in enumerate(model.robot.generalized_coordinates) if "_eta" in c]
     K = np.array([[float(sp.diff(model.stiffness[i], model.coordinates[j]).xreplace(model.parameters)) for j in eta] for i in eta])
     gvec = num.gravity(np.zeros(model.n))[eta]
@@ -167,7 +168,7 @@ def test_gravity_sag_against_4_4(n: int, tolerance: float) -> None:
 def test_energy_is_conserved_in_simulation() -> None:
     """Undamped, unforced: K + V_g + V_s constant to integration tolerance (rtol 1e-10) over 0.2 s."""
     model = symbolic.derive(with_modes("single_flexible_link").with_parameters(EIv=20.0, EIw=20.0))
-    num = model.numeric
+    num = numeric_model(model)
     n = model.n
 
     def energy(x):

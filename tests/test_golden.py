@@ -11,8 +11,8 @@ from pathlib import Path
 import sympy as sp
 
 import symbolic
-import symbolic.export as export
-from symbolic.simplify import trig_zero
+import symbolic.emit as export
+from symbolic.derive.simplify import trig_zero
 
 GOLDEN = Path(__file__).parent / "golden"
 TEXT = ("double_pendulum.h", "double_pendulum.c", "double_pendulum.md", "double_pendulum_casadi.py")

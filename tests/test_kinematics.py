@@ -13,7 +13,8 @@ import pytest
 import sympy as sp
 
 from conftest import derived
-from symbolic.kinematics import dh_transform, unskew
+from symbolic.derive.kinematics import dh_transform, unskew
+from symbolic.numeric import numeric_model
 
 
 def chain_transform(robot, frame: str) -> sp.Matrix:
@@ -40,7 +41,7 @@ def test_jacobians_are_madill_3_52_and_3_53(name: str, frame: str) -> None:
     Jv_literal = d.jacobian(q)
     literal = sp.lambdify([q], [JO_literal, Jv_literal, R, d])
     kin = model.kinematics
-    from symbolic.numeric import compile_function
+    from symbolic.numeric.functions import compile_function
 
     args = [q, model.parameter_symbols]
     jacobians = compile_function(model.sub, args, sp.Matrix.vstack(kin.jacobian_omega(frame), kin.jacobian_v(frame)))
@@ -49,8 +50,8 @@ def test_jacobians_are_madill_3_52_and_3_53(name: str, frame: str) -> None:
     for _ in range(10):
         x = rng.uniform(-np.pi, np.pi, len(q))
         JO, Jv, Rn, dn = (np.array(a, dtype=float) for a in literal(x))
-        J = jacobians(x, model.numeric.p0)
-        H = placement(x, model.numeric.p0)
+        J = jacobians(x, numeric_model(model).p0)
+        H = placement(x, numeric_model(model).p0)
         np.testing.assert_allclose(J[0:3], JO, atol=1e-12)
         np.testing.assert_allclose(J[3:6], Jv, atol=1e-12)
         np.testing.assert_allclose(H[:, :3], Rn, atol=1e-12)
@@ -64,15 +65,15 @@ def test_end_effector_jacobian_and_virtual_work(name: str) -> None:
     model = derived(name)
     kin = model.kinematics
     ee = model.robot.end_effector
-    from symbolic.numeric import compile_function
+    from symbolic.numeric.functions import compile_function
 
     args = [model.coordinates, model.parameter_symbols]
     position = compile_function(model.sub, args, kin.point_position(ee.frame, sp.Matrix(ee.point)))
-    p0 = model.numeric.p0
+    p0 = numeric_model(model).p0
     rng = np.random.default_rng(5)
     for _ in range(5):
         q = rng.uniform(-np.pi, np.pi, model.n)
-        J = model.numeric.jacobian(q)
+        J = numeric_model(model).jacobian(q)
         h = 1e-6
         J_fd = np.column_stack([(position(q + h * e, p0) - position(q - h * e, p0)) / (2 * h) for e in np.eye(model.n)])
         np.testing.assert_allclose(J, J_fd, atol=1e-8)

@@ -9,7 +9,7 @@ import pytest
 
 import symbolic
 from symbolic.errors import ModelError, ModelWarning
-from symbolic.expressions import parse_expression
+from symbolic.spec.expressions import parse_expression
 
 VALID = """
 name = "arm"
@@ -168,19 +168,19 @@ def test_coordinate_in_link_length_is_refused(tmp_path: Path) -> None:
 
 def test_python_spec_is_validated_too() -> None:
     with pytest.raises(ModelError, match=r"<python>: \[\[body\]\] 'b' mass: mass must be non-negative"):
-        symbolic.Robot(
+        symbolic.validate(symbolic.Robot(
             name="p",
             coordinates=("q",),
             parameters=(symbolic.Parameter("m", -1.0),),
             frames=(symbolic.Frame("f", "base", theta="q"),),
             bodies=(symbolic.Body("b", "f", mass="m"),),
-        )
+        ))
 
 
 def test_python_spec_equals_file(tmp_path: Path) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        robot = symbolic.Robot(
+        robot = symbolic.validate(symbolic.Robot(
             name="arm",
             coordinates=("q1", "q2"),
             parameters=(
@@ -195,5 +195,5 @@ def test_python_spec_equals_file(tmp_path: Path) -> None:
                 symbolic.Body("tip", "2", "m2"),
             ),
             gravity=(0, 0, "-g"),
-        )
+        ))
     assert robot == symbolic.load(write(tmp_path, VALID))

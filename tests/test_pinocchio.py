@@ -11,6 +11,7 @@ import pytest
 
 from conftest import derived
 from reference_pinocchio import Reference
+from symbolic.numeric import numeric_model
 
 pin = pytest.importorskip("pinocchio")
 
@@ -32,7 +33,7 @@ def close(ours: np.ndarray, reference: np.ndarray) -> None:
 @pytest.mark.parametrize("name", ["puma560", "panda"])
 def test_dynamics_match_pinocchio(name: str) -> None:
     model = derived(name)
-    num = model.numeric
+    num = numeric_model(model)
     ref = Reference(model.robot)
     for q, qd, qdd in states(model.n, seed=2026):
         D = num.inertia(q)

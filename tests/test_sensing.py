@@ -7,10 +7,11 @@ import pytest
 import sympy as sp
 
 import symbolic
-from symbolic.flexible import beam_jacobian, beam_point
-from symbolic.numeric import compile_function
-from symbolic.sensing import (check_strain_matrix, force_from_root_strain, generalized_force, strain_matrix,
+from symbolic.derive.flexible import beam_jacobian, beam_point
+from symbolic.numeric.functions import compile_function
+from symbolic.derive.sensing import (check_strain_matrix, force_from_root_strain, generalized_force, strain_matrix,
                               tip_deflection, tip_deflection_from_strain)
+from symbolic.numeric import numeric_model
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +61,7 @@ def test_beam_jacobian_is_derivative_of_position(link) -> None:
     args = [model.coordinates, model.parameter_symbols]
     position = compile_function(model.sub, args, beam_point(model.kinematics, beam, x).applyfunc(model.sub.add))
     jacobian = compile_function(model.sub, args, beam_jacobian(model.kinematics, beam, x, model.coordinates).applyfunc(model.sub.add))
-    p0 = model.numeric.p0
+    p0 = numeric_model(model).p0
     rng = np.random.default_rng(1)
     for _ in range(5):
         q = np.r_[rng.uniform(-np.pi, np.pi), rng.uniform(-0.01, 0.01, model.n - 1)]

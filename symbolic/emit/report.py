@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.dynamics import DynamicModel
-from symbolic.export.templates import render
-from symbolic.simplify import compact
+from symbolic.derive.dynamics import DynamicModel
+from symbolic.emit.templates import render
+from symbolic.derive.simplify import compact
 
 MAX_INTERMEDIATES = 24
 """Entries needing more intermediate definitions than this are not expanded for the report
@@ -54,7 +54,7 @@ def _entry(model: DynamicModel, expr: sp.Expr, variables, names) -> str | None:
 
 
 def _conditions(model: DynamicModel, names) -> list[dict]:
-    from symbolic.analysis import decoupling
+    from symbolic.derive.analysis import decoupling
 
     analysis = decoupling(model, kinds=["decoupling", "constant_inertia", "balancing"])
     out = []

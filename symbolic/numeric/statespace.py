@@ -12,16 +12,24 @@ The linearisation A = ∂F/∂X, B = ∂F/∂U is computed from exact symbolic d
 
 from __future__ import annotations
 
+import weakref
 from functools import cached_property
-from typing import TYPE_CHECKING
 
 import numpy as np
 import sympy as sp
 
-from symbolic.numeric import compile_function
+from symbolic.derive.dynamics import DynamicModel
+from symbolic.numeric.functions import compile_function
 
-if TYPE_CHECKING:
-    from symbolic.dynamics import DynamicModel
+_MODELS: weakref.WeakKeyDictionary[DynamicModel, NumericModel] = weakref.WeakKeyDictionary()
+
+
+def numeric_model(model: DynamicModel) -> NumericModel:
+    """The :class:`NumericModel` of ``model``, built once per model object (its compiled functions are kept)."""
+    num = _MODELS.get(model)
+    if num is None:
+        num = _MODELS[model] = NumericModel(model)
+    return num
 
 
 class NumericModel:
@@ -192,7 +200,7 @@ def natural_frequencies(model: DynamicModel, q0=None, p=None, rigid_tolerance: f
     """
     from scipy.linalg import eigh
 
-    num = model.numeric
+    num = numeric_model(model)
     n = model.n
     q0 = np.zeros(n) if q0 is None else np.asarray(q0, float)
     terms = num._linear_terms

@@ -17,9 +17,9 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.kinematics import FrameKinematics, Kinematics, cross
-from symbolic.spec import BASE, Body
-from symbolic.subexpressions import Subexpressions
+from symbolic.derive.kinematics import FrameKinematics, Kinematics, cross
+from symbolic.spec.robot import BASE, Body
+from symbolic.derive.subexpressions import Subexpressions
 
 
 @dataclass

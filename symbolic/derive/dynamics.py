@@ -18,13 +18,14 @@ from functools import cached_property
 
 import sympy as sp
 
-from symbolic import christoffel as ch
-from symbolic.gravity import gravity_forces, potential_energy
-from symbolic.inertia import composite_inertias, inertia_matrix
-from symbolic.kinematics import Kinematics
-from symbolic.newton_euler import inverse_dynamics
-from symbolic.spec import Robot, acceleration_symbol, coordinate_symbol, velocity_symbol
-from symbolic.subexpressions import Subexpressions
+from symbolic.derive import christoffel as ch
+from symbolic.derive.gravity import gravity_forces, potential_energy
+from symbolic.derive.inertia import composite_inertias, inertia_matrix
+from symbolic.derive.kinematics import Kinematics
+from symbolic.derive.newton_euler import inverse_dynamics
+from symbolic.spec.validation import validate
+from symbolic.spec.robot import Robot, acceleration_symbol, coordinate_symbol, velocity_symbol
+from symbolic.derive.subexpressions import Subexpressions
 
 log = logging.getLogger(__name__)
 
@@ -70,7 +71,7 @@ class ReducedForms:
     strain: sp.Expr
 
 
-@dataclass
+@dataclass(eq=False)  # identity semantics: numeric and emit cache per model object
 class DynamicModel:
     """A robot's derived dynamics. Build with :func:`derive`."""
 
@@ -181,14 +182,6 @@ class DynamicModel:
         """End-effector Jacobian J(Q) (3.57), expanded."""
         return self.expand(self.end_effector_jacobian())
 
-    # -- numbers -------------------------------------------------------------------------
-    @cached_property
-    def numeric(self):
-        """Numerical functions of this model (:class:`symbolic.simulation.NumericModel`)."""
-        from symbolic.statespace import NumericModel
-
-        return NumericModel(self)
-
     def operation_counts(self) -> dict[str, int]:
         """Operations of the straight-line programs for each output (``count_ops`` of definitions)."""
         r = self.reduced
@@ -223,8 +216,9 @@ def derive(robot: Robot) -> DynamicModel:
     a model with beams takes τ = DQ̈ + (I⊗Q̇ᵀ)CQ̇ + g + k from the Lagrangian quantities (hierarchical
     equations (3.83)). Progress is logged at INFO level (``logging.getLogger("symbolic")``).
     """
-    from symbolic.flexible import beam_energy
+    from symbolic.derive.flexible import beam_energy
 
+    robot = validate(robot)
     timings: dict[str, float] = {}
     names = robot.generalized_coordinates
     q = tuple(coordinate_symbol(c) for c in names)

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.kinematics import Kinematics, skew
-from symbolic.mode_shapes import ModalConstants, modal_constants, phi
-from symbolic.spec import Beam, coordinate_symbol
+from symbolic.derive.kinematics import Kinematics, skew
+from symbolic.derive.mode_shapes import ModalConstants, modal_constants, phi
+from symbolic.spec.robot import Beam, coordinate_symbol
 
 
 @dataclass

@@ -12,7 +12,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import sympy as sp
 
-from symbolic.subexpressions import Subexpressions
+from symbolic.derive.subexpressions import Subexpressions
 
 
 def compile_function(

@@ -7,11 +7,16 @@ the two targets compute the same thing.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.dynamics import DynamicModel
+from symbolic.derive.dynamics import DynamicModel
+
+# Built once per model object (CSE is the slow part), dropped with the model.
+_PROGRAMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_BATCHED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 @dataclass(frozen=True)
@@ -59,12 +64,11 @@ def function_specs(model: DynamicModel) -> list[FunctionSpec]:
 
 def programs(model: DynamicModel) -> dict[str, "Program"]:
     """Straight-line programs of every function spec, built once per model (CSE is the slow part)."""
-    from symbolic.export.program import build_program
+    from symbolic.numeric.program import build_program
 
-    cache = model.__dict__.get("_export_programs")
+    cache = _PROGRAMS.get(model)
     if cache is None:
-        cache = {spec.name: build_program(model.sub, spec.expressions) for spec in function_specs(model)}
-        model.__dict__["_export_programs"] = cache
+        cache = _PROGRAMS[model] = {spec.name: build_program(model.sub, spec.expressions) for spec in function_specs(model)}
     return cache
 
 
@@ -73,12 +77,11 @@ def batched_programs(model: DynamicModel) -> dict[str, "BatchedTrig"]:
 
     Coordinate angles come first in slot order, so that angles q[1], ..., q[6] form one run.
     """
-    from symbolic.export.program import batch_trig
+    from symbolic.numeric.program import batch_trig
 
-    cache = model.__dict__.get("_export_batched")
+    cache = _BATCHED.get(model)
     if cache is None:
         inputs = input_symbols(model)
         order = [s for group in inputs.values() for s in group]
-        cache = {name: batch_trig(p, set(order), order=order) for name, p in programs(model).items()}
-        model.__dict__["_export_batched"] = cache
+        cache = _BATCHED[model] = {name: batch_trig(p, set(order), order=order) for name, p in programs(model).items()}
     return cache

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.kinematics import ZERO3, Kinematics, cross
-from symbolic.spec import BASE
+from symbolic.derive.kinematics import ZERO3, Kinematics, cross
+from symbolic.spec.robot import BASE
 
 
 def _rate(rates: dict[sp.Symbol, sp.Expr], values: dict[sp.Symbol, sp.Expr]) -> sp.Expr:

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.dynamics import DynamicModel
-from symbolic.export.c_printer import CPrinter, c_double
-from symbolic.export.functions import batched_programs, function_specs, input_symbols, programs
-from symbolic.export.naming import check_c_name, comment_text
-from symbolic.export.templates import render
+from symbolic.derive.dynamics import DynamicModel
+from symbolic.emit.c_printer import CPrinter, c_double
+from symbolic.numeric.exported import batched_programs, function_specs, input_symbols, programs
+from symbolic.emit.naming import check_c_name, comment_text
+from symbolic.emit.templates import render
 
 
 def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 
 from symbolic.errors import ModelError
-from symbolic.export.c_printer import C_KEYWORDS
+from symbolic.emit.c_printer import C_KEYWORDS
 
 C_IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 

@@ -12,7 +12,8 @@ from pathlib import Path
 from typing import Any
 
 from symbolic.errors import ModelError
-from symbolic.spec import DH_KEYS, INERTIA_KEYS, Beam, Body, Constraint, EndEffector, Frame, Parameter, Robot
+from symbolic.spec.validation import validate
+from symbolic.spec.robot import DH_KEYS, INERTIA_KEYS, Beam, Body, Constraint, EndEffector, Frame, Parameter, Robot
 
 TOP_KEYS = {
     "name",
@@ -92,7 +93,7 @@ class _Reader:
         d = self.table(self.data, "top level", TOP_KEYS, {"name", "coordinates"})
         for key in SUPPORTED_LATER & set(d):
             raise self.fail(f"[[{key}]]", f"'{key}' entries are part of the model format but not supported by this version yet")
-        return Robot(
+        return validate(Robot(
             name=self.string(d["name"], "name"),
             description=self.string(d.get("description", ""), "description"),
             convention=self.string(d.get("convention", "standard"), "convention"),
@@ -107,7 +108,7 @@ class _Reader:
             beams=tuple(self.beam(b, i) for i, b in enumerate(self.array(d.get("beam", []), "[[beam]]"))),
             end_effector=self.end_effector(d.get("end_effector")),
             source=self.source,
-        )
+        ))
 
     def parameters(self, table: Any) -> tuple[Parameter, ...]:
         if not isinstance(table, Mapping):

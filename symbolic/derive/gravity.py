@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.kinematics import ZERO3, Kinematics, cross
-from symbolic.spec import BASE
+from symbolic.derive.kinematics import ZERO3, Kinematics, cross
+from symbolic.spec.robot import BASE
 
 
 def potential_energy(kin: Kinematics) -> sp.Expr:

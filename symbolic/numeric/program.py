@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.subexpressions import Subexpressions
+from symbolic.derive.subexpressions import Subexpressions
 
 
 @dataclass(frozen=True)

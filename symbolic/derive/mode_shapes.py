@@ -26,7 +26,7 @@ import numpy as np
 import sympy as sp
 from scipy.optimize import brentq
 
-BOUNDARIES = ("clamped-free",)
+from symbolic.spec.robot import BOUNDARIES
 
 
 @lru_cache(maxsize=None)

@@ -9,7 +9,7 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from symbolic.spec import Robot
+from symbolic.spec.robot import Robot
 
 
 def names() -> list[str]:
@@ -26,6 +26,6 @@ def path(name: str) -> Path:
 
 def load(name: str) -> Robot:
     """Load built-in robot ``name``."""
-    from symbolic.modelfile import load as load_file
+    from symbolic.spec.modelfile import load as load_file
 
     return load_file(path(name))

@@ -17,7 +17,7 @@ import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
-from symbolic.dynamics import DynamicModel
+from symbolic.derive.dynamics import DynamicModel
 from symbolic.errors import ModelError
 
 TARGETS = ("c", "casadi", "report")
@@ -52,15 +52,15 @@ def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str |
     head = banner(model, command)
     files: dict[str, bytes] = {}
     if "c" in targets:
-        from symbolic.export.c_code import c_sources
+        from symbolic.emit.c import c_sources
 
         files.update({k: v.encode() for k, v in c_sources(model, head).items()})
     if "casadi" in targets:
         files.update(_casadi_files(model, head))
     if "report" in targets:
-        from symbolic import __version__
-        from symbolic.export.functions import batched_programs, programs
-        from symbolic.export.markdown import report_markdown
+        from symbolic.version import __version__
+        from symbolic.numeric.exported import batched_programs, programs
+        from symbolic.emit.report import report_markdown
 
         batched = batched_programs(model)
         ops = {name: (p.operations, len(batched[name].angles)) for name, p in programs(model).items()}
@@ -69,8 +69,8 @@ def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str |
 
 
 def _casadi_files(model: DynamicModel, head: str) -> dict[str, bytes]:
-    from symbolic.export.casadi_export import casadi_functions
-    from symbolic.export.templates import render as render_template
+    from symbolic.numeric.casadi import casadi_functions
+    from symbolic.emit.templates import render as render_template
 
     functions = casadi_functions(model)
     out = {}

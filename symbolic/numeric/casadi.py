@@ -12,8 +12,8 @@ from __future__ import annotations
 import casadi as ca
 import sympy as sp
 
-from symbolic.dynamics import DynamicModel
-from symbolic.export.functions import FunctionSpec, function_specs, input_symbols, programs
+from symbolic.derive.dynamics import DynamicModel
+from symbolic.numeric.exported import FunctionSpec, function_specs, input_symbols, programs
 
 CASADI_MODULE = {
     "sin": ca.sin,

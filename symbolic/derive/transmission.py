@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.spec import Robot
+from symbolic.spec.robot import Robot
 
 
 def constraint_jacobian(robot: Robot) -> sp.Matrix:

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
-from symbolic.spec import BASE, Robot
-from symbolic.subexpressions import Subexpressions
+from symbolic.spec.robot import BASE, Robot
+from symbolic.derive.subexpressions import Subexpressions
 
 Vec = sp.Matrix
 ZERO3 = sp.ImmutableMatrix.zeros(3, 1)

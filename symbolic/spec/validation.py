@@ -1,247 +1,44 @@
-"""Immutable, validated descriptions of a robot (the spec layer).
+"""Validation of a :class:`~symbolic.spec.robot.Robot`: :func:`validate` returns a new, frozen copy.
 
-A :class:`Robot` holds coordinates, parameters with nominal values, a tree of frames given by
-Denavit–Hartenberg parameters, rigid bodies and point masses, closed-loop constraints and the
-gravity vector. It is built either from a TOML model file (:mod:`symbolic.modelfile`) or directly
-in Python; both routes validate on construction, so a ``Robot`` that exists is a usable one.
-
-Expressions may be given as strings (parsed by :func:`symbolic.expressions.parse_expression`,
-never evaluated), numbers, or SymPy expressions built by the caller.
+Every expression field of the copy is a SymPy expression in declared symbols (strings are parsed
+by :func:`symbolic.spec.expressions.parse_expression`, never evaluated), frames are ordered parents
+first, and every refusal is a :class:`~symbolic.errors.ModelError` naming the file, the key and the
+problem. The input is never modified.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import re
 import warnings
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import sympy as sp
 
 from symbolic.errors import ModelError, ModelWarning
-from symbolic.expressions import RESERVED_NAMES, parse_expression
-
-IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
-MODEL_NAME = re.compile(r"^[a-z][a-z0-9_]*$")
-FRAME_NAME = re.compile(r"^[A-Za-z0-9_']+$")
-CONVENTIONS = ("standard", "modified")
-INERTIA_KEYS = ("xx", "yy", "zz", "xy", "xz", "yz")
-DH_KEYS = ("theta", "d", "a", "alpha")
-BASE = "base"
-
-ExprLike = str | int | float | sp.Expr
+from symbolic.spec.expressions import RESERVED_NAMES, parse_expression
+from symbolic.spec.robot import (
+    BASE, BOUNDARIES, CONVENTIONS, DH_KEYS, FRAME_NAME, IDENTIFIER, INERTIA_KEYS, MODEL_NAME,
+    Beam, Body, Constraint, EndEffector, Frame, Robot, coordinate_symbol,
+)
 
 
-def coordinate_symbol(name: str) -> sp.Symbol:
-    """The SymPy symbol of generalized coordinate ``name``."""
-    return sp.Symbol(name, real=True)
+def validate(robot: Robot) -> Robot:
+    """The validated copy of ``robot`` (``robot`` itself when it is already validated).
 
-
-def velocity_symbol(name: str) -> sp.Symbol:
-    """The SymPy symbol of the velocity of coordinate ``name`` (``<name>_dot``)."""
-    return sp.Symbol(f"{name}_dot", real=True)
-
-
-def acceleration_symbol(name: str) -> sp.Symbol:
-    """The SymPy symbol of the acceleration of coordinate ``name`` (``<name>_ddot``)."""
-    return sp.Symbol(f"{name}_ddot", real=True)
-
-
-def parameter_symbol(name: str) -> sp.Symbol:
-    """The SymPy symbol of parameter ``name``."""
-    return sp.Symbol(name, real=True)
-
-
-@dataclass(frozen=True)
-class Parameter:
-    """A model parameter: a symbol with a nominal value, unit and description."""
-
-    name: str
-    value: float
-    unit: str = ""
-    description: str = ""
-
-    @property
-    def symbol(self) -> sp.Symbol:
-        return parameter_symbol(self.name)
-
-
-@dataclass(frozen=True)
-class Frame:
-    """A frame placed relative to ``parent`` by Denavit–Hartenberg parameters.
-
-    Standard convention: ``T = Rz(theta)·Tz(d)·Tx(a)·Rx(alpha)`` (Madill's A(θ,d,a,α), Table 3.1).
-    Modified (Khalil–Kleinfinger / Craig): ``T = Rx(alpha)·Tx(a)·Rz(theta)·Tz(d)`` (Janot Table 1:
-    alpha = α_j, a = d_j, theta = θ_j, d = r_j).
+    Raises
+    ------
+    ModelError
+        On the first problem found, naming the file, the key and what is allowed.
     """
-
-    name: str
-    parent: str
-    theta: ExprLike = 0
-    d: ExprLike = 0
-    a: ExprLike = 0
-    alpha: ExprLike = 0
-
-
-@dataclass(frozen=True)
-class Body:
-    """A rigid body attached to a frame (a point mass when the inertia is omitted).
-
-    ``com`` is the centre of mass in frame coordinates; ``inertia`` maps xx, yy, zz, xy, xz, yz to
-    the entries of the inertia tensor about the centre of mass in frame axes (xy is the tensor's
-    (x, y) entry, i.e. −∫xy dm).
-    """
-
-    name: str
-    frame: str
-    mass: ExprLike
-    com: tuple[ExprLike, ExprLike, ExprLike] = (0, 0, 0)
-    inertia: Mapping[str, ExprLike] | None = None
-
-    @property
-    def inertia_tensor(self) -> sp.Matrix:
-        """The 3×3 inertia tensor about the centre of mass, in frame axes (validated bodies only)."""
-        i = self.inertia
-        return sp.Matrix([[i["xx"], i["xy"], i["xz"]], [i["xy"], i["yy"], i["yz"]], [i["xz"], i["yz"], i["zz"]]])
-
-
-@dataclass(frozen=True)
-class Constraint:
-    """A closed-loop constraint solved explicitly: ``coordinate = expression`` of the others.
-
-    The constrained coordinate is not a generalized coordinate; it may appear in DH expressions
-    and is substituted before derivation (Janot (8)–(11)).
-    """
-
-    coordinate: str
-    expression: ExprLike
-
-
-@dataclass(frozen=True)
-class Beam:
-    """An Euler–Bernoulli beam clamped to ``frame``, undeformed along its x axis (Madill 3.4).
-
-    ``EI_v``/``EI_w`` are the bending stiffnesses for deflection along frame y (v) and z (w);
-    ``modes_v``/``modes_w`` the numbers of assumed modes; ``tip_mass`` an optional point payload at
-    x = length. Modal coordinates ``<name>_nu<i>`` and ``<name>_eta<i>`` are appended to the
-    generalized coordinates.
-    """
-
-    name: str
-    frame: str
-    length: ExprLike
-    density: ExprLike
-    EI_v: ExprLike
-    EI_w: ExprLike
-    modes_v: int = 1
-    modes_w: int = 1
-    boundary: str = "clamped-free"
-    tip_mass: ExprLike | None = None
-
-    @property
-    def nu(self) -> tuple[str, ...]:
-        return tuple(f"{self.name}_nu{i}" for i in range(1, self.modes_v + 1))
-
-    @property
-    def eta(self) -> tuple[str, ...]:
-        return tuple(f"{self.name}_eta{i}" for i in range(1, self.modes_w + 1))
-
-
-@dataclass(frozen=True)
-class EndEffector:
-    """A point fixed in a frame whose Jacobian J maps Q̇ to its velocity (Madill (3.57))."""
-
-    frame: str
-    point: tuple[ExprLike, ExprLike, ExprLike] = (0, 0, 0)
-
-
-@dataclass(frozen=True)
-class Robot:
-    """A validated, immutable robot description.
-
-    After construction every expression field holds a SymPy expression in the symbols of
-    :attr:`coordinates`, constrained coordinates and :attr:`parameters`; frames are ordered
-    parents first.
-    """
-
-    name: str
-    coordinates: tuple[str, ...]
-    parameters: tuple[Parameter, ...] = ()
-    frames: tuple[Frame, ...] = ()
-    bodies: tuple[Body, ...] = ()
-    constraints: tuple[Constraint, ...] = ()
-    beams: tuple[Beam, ...] = ()
-    gravity: tuple[ExprLike, ExprLike, ExprLike] = (0, 0, "-9.81")
-    convention: str = "standard"
-    description: str = ""
-    end_effector: EndEffector | None = None
-    source: str = field(default="<python>", compare=False)
-    keys: Mapping[str, str] = field(default_factory=dict, compare=False, repr=False)
-    """Optional map from an internal location to the file's own key spelling (for messages)."""
-
-    def __post_init__(self) -> None:
-        _Validator(self).run()
-
-    # -- symbols -------------------------------------------------------------------------
-    @property
-    def coordinate_symbols(self) -> tuple[sp.Symbol, ...]:
-        """The rigid (frame) coordinates."""
-        return tuple(coordinate_symbol(c) for c in self.coordinates)
-
-    @property
-    def generalized_coordinates(self) -> tuple[str, ...]:
-        """Q: the coordinates, then every beam's modal coordinates ν, η (Madill (3.55))."""
-        modal = tuple(name for b in self.beams for name in b.nu + b.eta)
-        return tuple(self.coordinates) + modal
-
-    @property
-    def parameter_symbols(self) -> tuple[sp.Symbol, ...]:
-        return tuple(p.symbol for p in self.parameters)
-
-    @property
-    def parameter_values(self) -> dict[sp.Symbol, float]:
-        return {p.symbol: p.value for p in self.parameters}
-
-    @property
-    def constraint_substitution(self) -> dict[sp.Symbol, sp.Expr]:
-        """Constrained coordinate -> its expression in the generalized coordinates."""
-        return {coordinate_symbol(c.coordinate): c.expression for c in self.constraints}
-
-    def frame(self, name: str) -> Frame:
-        for f in self.frames:
-            if f.name == name:
-                return f
-        raise KeyError(name)
-
-    def tree(self) -> Robot:
-        """The equivalent tree structure: constraints removed, their coordinates appended.
-
-        This is Janot's "equivalent tree structure" whose joint torques Γ_ar enter (12).
-        """
-        return dataclasses.replace(
-            self,
-            name=f"{self.name}_tree",
-            coordinates=self.coordinates + tuple(c.coordinate for c in self.constraints),
-            constraints=(),
-            description=f"equivalent tree structure of {self.name}",
-        )
-
-    def with_parameters(self, **values: float) -> Robot:
-        """A copy with some nominal parameter values replaced."""
-        unknown = set(values) - {p.name for p in self.parameters}
-        if unknown:
-            raise ModelError(self.source, "[parameters]", f"unknown parameter(s) {sorted(unknown)}")
-        params = tuple(
-            Parameter(p.name, float(values.get(p.name, p.value)), p.unit, p.description) for p in self.parameters
-        )
-        return dataclasses.replace(self, parameters=params)
+    if robot.validated:
+        return robot
+    return _Validator(robot).run()
 
 
 class _Validator:
-    """Check a :class:`Robot` and convert its expression fields to SymPy in place."""
+    """Check a :class:`Robot` and build its validated copy field by field (the input stays as it was)."""
 
     def __init__(self, robot: Robot) -> None:
         self.robot = robot
@@ -250,16 +47,16 @@ class _Validator:
     def fail(self, key: str, problem: str) -> ModelError:
         return ModelError(self.source, self.robot.keys.get(key, key), problem)
 
-    def set(self, obj: Any, name: str, value: Any) -> None:
-        object.__setattr__(obj, name, value)
+    def set(self, name: str, value: Any) -> None:
+        self.robot = dataclasses.replace(self.robot, **{name: value})
 
-    def run(self) -> None:
+    def run(self) -> Robot:
         r = self.robot
         self.check_name()
         if r.convention not in CONVENTIONS:
             raise self.fail("convention", f"unknown DH convention {r.convention!r} (allowed: {', '.join(CONVENTIONS)})")
-        self.set(r, "coordinates", tuple(r.coordinates))
-        self.set(r, "parameters", tuple(r.parameters))
+        self.set("coordinates", tuple(r.coordinates))
+        self.set("parameters", tuple(r.parameters))
         self.check_names()
         self.symbols = {c: coordinate_symbol(c) for c in r.coordinates}
         self.symbols.update({c.coordinate: coordinate_symbol(c.coordinate) for c in r.constraints})
@@ -272,6 +69,7 @@ class _Validator:
         self.check_gravity()
         self.check_end_effector()
         self.check_coordinates_used()
+        return dataclasses.replace(self.robot, validated=True)
 
     def expr(self, value: Any, key: str, allowed: Iterable[str] | None = None) -> sp.Expr:
         if isinstance(value, sp.Basic):
@@ -334,7 +132,7 @@ class _Validator:
         for c in self.robot.constraints:
             key = f"[[constraint]] {c.coordinate} expression"
             out.append(Constraint(c.coordinate, self.expr(c.expression, key, allowed)))
-        self.set(self.robot, "constraints", tuple(out))
+        self.set("constraints", tuple(out))
 
     def check_frames(self) -> None:
         r = self.robot
@@ -357,7 +155,7 @@ class _Validator:
                 allowed = coordinates | parameters if k in ("theta", "d") else parameters
                 values[k] = self.expr(getattr(f, k), f"{key} dh.{k}", allowed)
             converted[f.name] = Frame(f.name, f.parent, **values)
-        self.set(r, "frames", tuple(converted[n] for n in self.toposort(converted)))
+        self.set("frames", tuple(converted[n] for n in self.toposort(converted)))
 
     def toposort(self, frames: Mapping[str, Frame]) -> list[str]:
         order: list[str] = []
@@ -401,11 +199,9 @@ class _Validator:
             inertia = {k: self.expr(inertia.get(k, 0), f"{key} inertia.{k}", parameters) for k in INERTIA_KEYS}
             self.check_inertia(inertia, f"{key} inertia")
             out.append(Body(b.name, b.frame, mass, com, inertia))
-        self.set(r, "bodies", tuple(out))
+        self.set("bodies", tuple(out))
 
     def check_beams(self) -> None:
-        from symbolic.mode_shapes import BOUNDARIES
-
         r = self.robot
         frames = {f.name for f in r.frames} | {BASE}
         parameters = {p.name for p in r.parameters}
@@ -439,7 +235,7 @@ class _Validator:
                 if self.nominal(tip, f"{key} tip_mass") < 0:
                     raise self.fail(f"{key} tip_mass", "tip mass must be non-negative")
             out.append(Beam(b.name, b.frame, modes_v=b.modes_v, modes_w=b.modes_w, boundary=b.boundary, tip_mass=tip, **values))
-        self.set(r, "beams", tuple(out))
+        self.set("beams", tuple(out))
 
     def check_inertia(self, inertia: Mapping[str, sp.Expr], key: str) -> None:
         v = {k: self.nominal(e, f"{key}.{k}") for k, e in inertia.items()}
@@ -465,7 +261,7 @@ class _Validator:
         if len(g) != 3:
             raise self.fail("gravity", f"gravity vector needs 3 entries, got {len(g)}")
         params = {p.name for p in self.robot.parameters}
-        self.set(self.robot, "gravity", tuple(self.expr(x, f"gravity[{i}]", params) for i, x in enumerate(g)))
+        self.set("gravity", tuple(self.expr(x, f"gravity[{i}]", params) for i, x in enumerate(g)))
 
     def check_end_effector(self) -> None:
         ee = self.robot.end_effector
@@ -478,7 +274,7 @@ class _Validator:
         point = tuple(self.expr(x, f"end_effector point[{i}]", params) for i, x in enumerate(ee.point))
         if len(point) != 3:
             raise self.fail("end_effector point", "point needs 3 entries")
-        self.set(self.robot, "end_effector", EndEffector(ee.frame, point))
+        self.set("end_effector", EndEffector(ee.frame, point))
 
     def check_coordinates_used(self) -> None:
         r = self.robot

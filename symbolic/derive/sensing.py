@@ -15,10 +15,10 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import sympy as sp
 
-from symbolic.flexible import beam_jacobian, geometry
-from symbolic.kinematics import Kinematics
-from symbolic.mode_shapes import phi
-from symbolic.spec import Beam
+from symbolic.derive.flexible import beam_jacobian, geometry
+from symbolic.derive.kinematics import Kinematics
+from symbolic.derive.mode_shapes import phi
+from symbolic.spec.robot import Beam
 
 CONDITION_LIMIT = 1e12
 
