@@ -63,6 +63,9 @@ class CModel:
     def friction(self, q, qd, p):
         return self._call("friction", [q, qd, p], self.n)
 
+    def applied(self, q, qd, p):
+        return self._call("applied", [q, qd, p], self.n)
+
     def inverse_dynamics(self, q, qd, qdd, p):
         return self._call("inverse_dynamics", [q, qd, qdd, p], self.n)
 

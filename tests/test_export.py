@@ -26,7 +26,7 @@ from symbolic.numeric import numeric_model
 
 ROOT = Path(__file__).resolve().parents[1]
 GENERATED = ROOT / "generated"
-ROBOTS = ["fivebar", "puma560", "panda", "janot_branch", "omni", "single_flexible_link", "madill_beam", "fivebar_flexible"]
+ROBOTS = ["fivebar", "puma560", "panda", "janot_branch", "omni", "single_flexible_link", "madill_beam", "fivebar_flexible", "emps"]
 
 
 def close(ours, reference, rtol):
@@ -52,7 +52,8 @@ def test_c_and_casadi_match_sympy(name: str, libraries) -> None:
     c = libraries[name]
     np.testing.assert_array_equal(c.defaults, num.p0)
     fns = {f: casadi.Function.load(str(GENERATED / name / f"{name}_{f}.casadi")) for f in
-           ("inertia", "coriolis", "coriolis_matrix", "gravity", "inverse_dynamics", "forward_dynamics", "A", "B")}
+           ("inertia", "coriolis", "coriolis_matrix", "gravity", "friction", "applied", "inverse_dynamics", "forward_dynamics",
+            "A", "B")}
     rng = np.random.default_rng(42)
     # beam deflections (modal coordinates) at physical amplitudes, angles anywhere
     amplitude = np.array([0.01 if ("_nu" in c or "_eta" in c) else np.pi for c in model.robot.generalized_coordinates])
@@ -64,6 +65,8 @@ def test_c_and_casadi_match_sympy(name: str, libraries) -> None:
             "coriolis": num.coriolis(q, qd, p),
             "coriolis_matrix": num.coriolis_matrix(q, qd, p),
             "gravity": num.gravity(q, p),
+            "friction": num.friction(q, qd, p),
+            "applied": num.applied(q, qd, p),
             "inverse_dynamics": num.inverse_dynamics(q, qd, qdd, p),
         }
         close(c.inertia(q, p), reference["inertia"], 1e-12)
@@ -72,7 +75,12 @@ def test_c_and_casadi_match_sympy(name: str, libraries) -> None:
         close(c.gravity(q, p), reference["gravity"], 1e-12)
         close(c.inverse_dynamics(q, qd, qdd, p), reference["inverse_dynamics"], 1e-12)
         close(c.stiffness(q, p), num.stiffness(q, p), 1e-12) if num.stiffness(q, p).any() else None
-        assert not c.friction(q, qd, p).any()
+        for part in ("friction", "applied"):
+            if reference[part].any():
+                close(getattr(c, part)(q, qd, p), reference[part], 1e-12)
+                close(np.array(fns[part](q, qd, p)).ravel(), reference[part], 1e-12)
+            else:  # no entries: exactly zero everywhere
+                assert not getattr(c, part)(q, qd, p).any() and not np.array(fns[part](q, qd, p)).any()
         close(np.array(fns["inertia"](q, p)), reference["inertia"], 1e-12)
         close(np.array(fns["coriolis"](q, qd, p)).ravel(), reference["coriolis"], 1e-12)
         close(np.array(fns["coriolis_matrix"](q, qd, p)), reference["coriolis_matrix"], 1e-12)

@@ -153,7 +153,7 @@ static void fivebar_sincos(int n, const double *restrict x, double *restrict s, 
     }
 }
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * Inputs: q[3] (q0, q1, q2), p[18] (see fivebar_parameter_names); output D[9]
  * 149 operations; sine and cosine of 2 angles in one fivebar_sincos call. */
 void fivebar_inertia(const double *q, const double *p, double *D)
@@ -543,7 +543,7 @@ void fivebar_stiffness(const double *q, const double *p, double *k)
     k[2] = 0.0;
 }
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * Inputs: q[3] (q0, q1, q2), qd[3] (q0, q1, q2), p[18] (see fivebar_parameter_names); output f[3]
  * 0 operations. */
 void fivebar_friction(const double *q, const double *qd, const double *p, double *f)
@@ -556,7 +556,20 @@ void fivebar_friction(const double *q, const double *qd, const double *p, double
     f[2] = 0.0;
 }
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * Inputs: q[3] (q0, q1, q2), qd[3] (q0, q1, q2), p[18] (see fivebar_parameter_names); output Q[3]
+ * 0 operations. */
+void fivebar_applied(const double *q, const double *qd, const double *p, double *Q)
+{
+    (void)q;
+    (void)qd;
+    (void)p;
+    Q[0] = 0.0;
+    Q[1] = 0.0;
+    Q[2] = 0.0;
+}
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * Inputs: q[3] (q0, q1, q2), qd[3] (q0, q1, q2), qdd[3] (q0, q1, q2), p[18] (see fivebar_parameter_names); output tau[3]
  * 278 operations; sine and cosine of 2 angles in one fivebar_sincos call. */
 void fivebar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau)
@@ -692,9 +705,11 @@ void fivebar_inverse_dynamics(const double *q, const double *qd, const double *q
     const double v126 = p[6]*v62 + v124;
     const double v127 = cs[1]*v126 - sn[1]*v123;
     const double v128 = -p[17]*qdd[0] + v115 + v120 + v122 + v127;
+    const double v129 = p[1]*v107 + p[5]*v76 + v118 + v51;
+    const double v130 = p[2]*v113 + p[6]*v61 + v125 - v33 - v36 - v47 - v50 + v51;
     tau[0] = -v128;
-    tau[1] = p[1]*v107 + p[5]*v76 + v118 + v51;
-    tau[2] = p[2]*v113 + p[6]*v61 + v125 - v33 - v36 - v47 - v50 + v51;
+    tau[1] = v129;
+    tau[2] = v130;
 }
 
 int fivebar_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)

@@ -62,7 +62,7 @@ extern const char *const fivebar_coordinate_names[fivebar_NQ];
 extern const char *const fivebar_parameter_names[fivebar_NP];
 extern const double fivebar_parameter_defaults[fivebar_NP];
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 149 operations, sine and cosine of 2 angles. */
 void fivebar_inertia(const double *q, const double *p, double *D);
 
@@ -82,11 +82,15 @@ void fivebar_gravity(const double *q, const double *p, double *g);
  * 0 operations. */
 void fivebar_stiffness(const double *q, const double *p, double *k);
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * 0 operations. */
 void fivebar_friction(const double *q, const double *qd, const double *p, double *f);
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * 0 operations. */
+void fivebar_applied(const double *q, const double *qd, const double *p, double *Q);
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * 278 operations, sine and cosine of 2 angles. */
 void fivebar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 

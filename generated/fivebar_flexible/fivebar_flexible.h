@@ -72,7 +72,7 @@ extern const char *const fivebar_flexible_coordinate_names[fivebar_flexible_NQ];
 extern const char *const fivebar_flexible_parameter_names[fivebar_flexible_NP];
 extern const double fivebar_flexible_parameter_defaults[fivebar_flexible_NP];
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 449 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_inertia(const double *q, const double *p, double *D);
 
@@ -92,12 +92,16 @@ void fivebar_flexible_gravity(const double *q, const double *p, double *g);
  * 8 operations. */
 void fivebar_flexible_stiffness(const double *q, const double *p, double *k);
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * 0 operations. */
 void fivebar_flexible_friction(const double *q, const double *qd, const double *p, double *f);
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
- * 1168 operations, sine and cosine of 2 angles. */
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * 0 operations. */
+void fivebar_flexible_applied(const double *q, const double *qd, const double *p, double *Q);
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
+ * 1160 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

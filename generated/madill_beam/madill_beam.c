@@ -7,7 +7,7 @@ const char *const madill_beam_coordinate_names[madill_beam_NQ] = { "q0", "beam_n
 const char *const madill_beam_parameter_names[madill_beam_NP] = { "g", "J0", "L", "rho", "EI", "M_p" };
 const double madill_beam_parameter_defaults[madill_beam_NP] = { 9.81, 0.677, 0.449, 0.163, 88.32, 0.043 };
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output D[25]
  * 52 operations. */
 void madill_beam_inertia(const double *q, const double *p, double *D)
@@ -152,7 +152,7 @@ void madill_beam_stiffness(const double *q, const double *p, double *k)
     k[4] = v5;
 }
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output f[5]
  * 0 operations. */
 void madill_beam_friction(const double *q, const double *qd, const double *p, double *f)
@@ -167,7 +167,22 @@ void madill_beam_friction(const double *q, const double *qd, const double *p, do
     f[4] = 0.0;
 }
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output Q[5]
+ * 0 operations. */
+void madill_beam_applied(const double *q, const double *qd, const double *p, double *Q)
+{
+    (void)q;
+    (void)qd;
+    (void)p;
+    Q[0] = 0.0;
+    Q[1] = 0.0;
+    Q[2] = 0.0;
+    Q[3] = 0.0;
+    Q[4] = 0.0;
+}
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qdd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output tau[5]
  * 138 operations. */
 void madill_beam_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau)
@@ -187,17 +202,17 @@ void madill_beam_inverse_dynamics(const double *q, const double *qd, const doubl
     const double v12 = v10 + v11 - v9;
     const double v13 = p[4]/(p[2]*p[2]*p[2]*p[2]);
     const double v14 = 12.36236336832619*v13;
-    const double v15 = qdd[3]*v5;
-    const double v16 = -qdd[2]*v5;
-    const double v17 = (0.5)*(qd[0]*qd[0]);
-    const double v18 = qdd[1]*v5;
-    const double v19 = 2.0*q[1]*p[3] + 2.0*v12;
-    const double v20 = qd[1]*v19;
-    const double v21 = (0.5)*qd[0];
-    const double v22 = 2.0*q[2]*p[3] - 2.0*v10 - 2.0*v11 + 2.0*v9;
-    const double v23 = qd[2]*v22;
-    const double v24 = 2.0*q[3]*p[3] + 2.0*v12;
-    const double v25 = qd[3]*v24;
+    const double v15 = 2.0*q[1]*p[3] + 2.0*v12;
+    const double v16 = qd[1]*v15;
+    const double v17 = (0.5)*qd[0];
+    const double v18 = 2.0*q[2]*p[3] - 2.0*v10 - 2.0*v11 + 2.0*v9;
+    const double v19 = qd[2]*v18;
+    const double v20 = 2.0*q[3]*p[3] + 2.0*v12;
+    const double v21 = qd[3]*v20;
+    const double v22 = qdd[3]*v5;
+    const double v23 = -qdd[2]*v5;
+    const double v24 = (0.5)*(qd[0]*qd[0]);
+    const double v25 = qdd[1]*v5;
     const double v26 = (0.3333333333333333)*(p[2]*p[2]*p[2])*p[3] + (p[2]*p[2])*p[5] + 8.0*q[1]*q[3]*v3 - q[1]*v4 - q[3]*v4 + p[3]*v0 + p[3]*v1 + p[3]*v2 + v0*v5 + v1*v5 + v2*v5;
     const double v27 = v6*(v7 + 0.5688257437099108*v8);
     const double v28 = v6*(-v7 + 0.09076678688638695*v8);
@@ -209,16 +224,16 @@ void madill_beam_inverse_dynamics(const double *q, const double *qd, const doubl
     const double v34 = 485.51881851337123*q[2]*v13;
     const double v35 = 3806.5462663914514*q[3]*v13;
     const double v36 = q[4]*v14;
-    const double v37 = qdd[1]*v30 + qdd[0]*v27 + v15 + v16 - v17*v19 + v33;
-    const double v38 = -qdd[2]*v30 - qdd[0]*v28 + v15 + v17*v22 + v18 - v34;
-    const double v39 = qdd[3]*v30 + qdd[0]*v29 + v16 - v17*v24 + v18 + v35;
-    const double v40 = qdd[4]*v30 + v32 + v36;
-    const double v41 = qdd[1]*v27 + qdd[2]*v28 + qdd[3]*v29 + qdd[0]*v31 + v20*v21 + v21*v23 + v21*v25 + v21*(v20 + v23 + v25);
-    tau[0] = v41;
-    tau[1] = v37;
-    tau[2] = -v38;
-    tau[3] = v39;
-    tau[4] = v40;
+    const double v37 = qdd[1]*v27 + qdd[2]*v28 + qdd[3]*v29 + qdd[0]*v31 + v16*v17 + v17*v19 + v17*v21 + v17*(v16 + v19 + v21);
+    const double v38 = qdd[1]*v30 + qdd[0]*v27 - v15*v24 + v22 + v23 + v33;
+    const double v39 = -qdd[2]*v30 - qdd[0]*v28 + v18*v24 + v22 + v25 - v34;
+    const double v40 = qdd[3]*v30 + qdd[0]*v29 - v20*v24 + v23 + v25 + v35;
+    const double v41 = qdd[4]*v30 + v32 + v36;
+    tau[0] = v37;
+    tau[1] = v38;
+    tau[2] = -v39;
+    tau[3] = v40;
+    tau[4] = v41;
 }
 
 int madill_beam_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)

@@ -40,7 +40,7 @@ extern const char *const madill_beam_coordinate_names[madill_beam_NQ];
 extern const char *const madill_beam_parameter_names[madill_beam_NP];
 extern const double madill_beam_parameter_defaults[madill_beam_NP];
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 52 operations. */
 void madill_beam_inertia(const double *q, const double *p, double *D);
 
@@ -60,11 +60,15 @@ void madill_beam_gravity(const double *q, const double *p, double *g);
  * 9 operations. */
 void madill_beam_stiffness(const double *q, const double *p, double *k);
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * 0 operations. */
 void madill_beam_friction(const double *q, const double *qd, const double *p, double *f);
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * 0 operations. */
+void madill_beam_applied(const double *q, const double *qd, const double *p, double *Q);
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * 138 operations. */
 void madill_beam_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 

@@ -153,7 +153,7 @@ static void omni_sincos(int n, const double *restrict x, double *restrict s, dou
     }
 }
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * Inputs: q[3] (theta, gamma1, gamma2), p[7] (see omni_parameter_names); output D[9]
  * 98 operations; sine and cosine of 1 angles in one omni_sincos call. */
 void omni_inertia(const double *q, const double *p, double *D)
@@ -432,7 +432,7 @@ void omni_stiffness(const double *q, const double *p, double *k)
     k[2] = 0.0;
 }
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * Inputs: q[3] (theta, gamma1, gamma2), qd[3] (theta, gamma1, gamma2), p[7] (see omni_parameter_names); output f[3]
  * 0 operations. */
 void omni_friction(const double *q, const double *qd, const double *p, double *f)
@@ -445,7 +445,20 @@ void omni_friction(const double *q, const double *qd, const double *p, double *f
     f[2] = 0.0;
 }
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * Inputs: q[3] (theta, gamma1, gamma2), qd[3] (theta, gamma1, gamma2), p[7] (see omni_parameter_names); output Q[3]
+ * 0 operations. */
+void omni_applied(const double *q, const double *qd, const double *p, double *Q)
+{
+    (void)q;
+    (void)qd;
+    (void)p;
+    Q[0] = 0.0;
+    Q[1] = 0.0;
+    Q[2] = 0.0;
+}
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * Inputs: q[3] (theta, gamma1, gamma2), qd[3] (theta, gamma1, gamma2), qdd[3] (theta, gamma1, gamma2), p[7] (see omni_parameter_names); output tau[3]
  * 156 operations; sine and cosine of 1 angles in one omni_sincos call. */
 void omni_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau)
@@ -481,52 +494,53 @@ void omni_inverse_dynamics(const double *q, const double *qd, const double *qdd,
     const double v26 = v11*v18 - v25;
     const double v27 = p[4]*v26;
     const double v28 = p[2]*v27;
-    const double v29 = -qdd[1] + v18;
-    const double v30 = v17*v23;
-    const double v31 = -v15*v30 + v17*v29;
-    const double v32 = (0.5)*v28 + v31;
-    const double v33 = (0.5)*p[1];
-    const double v34 = sn[0]*qdd[0];
-    const double v35 = (0.5)*v2;
-    const double v36 = v3 + v35*v6;
-    const double v37 = (0.5)*v5;
-    const double v38 = qd[1]*v1 + v34;
-    const double v39 = -v4 + v7;
-    const double v40 = v36 + (0.5)*v8;
-    const double v41 = -v37 + v9;
-    const double v42 = p[3]*v40;
-    const double v43 = p[3]*v41;
-    const double v44 = v1*v10;
-    const double v45 = qd[1]*v10;
-    const double v46 = -v5 + 2.0*v9;
-    const double v47 = v13*v39 - v14*v38;
-    const double v48 = qd[1]*v11;
-    const double v49 = -qd[1]*v48 + v13*v20 + v14*v22 - v23*v24;
-    const double v50 = v11*v47 + v15*v48 - v46;
-    const double v51 = -qd[1] + v12;
-    const double v52 = v16 - v47;
-    const double v53 = p[2]*qd[1]*v12 - v11*(v12*v12) + v49;
-    const double v54 = p[2]*v16 - v50;
-    const double v55 = p[4]*v53;
-    const double v56 = p[4]*v54;
-    const double v57 = v17*v51;
-    const double v58 = v23*v57 - v30*v51;
-    const double v59 = v15*v57 + v17*v52;
-    const double v60 = v11*v56 + v59;
-    const double v61 = v13*v58 - v14*v60;
-    const double v62 = v13*v60 + v14*v58;
-    const double v63 = v13*v27 + v14*v55;
-    const double v64 = p[1]*v56 - v62;
+    const double v29 = (0.5)*p[1];
+    const double v30 = sn[0]*qdd[0];
+    const double v31 = (0.5)*v2;
+    const double v32 = v3 + v31*v6;
+    const double v33 = (0.5)*v5;
+    const double v34 = qd[1]*v1 + v30;
+    const double v35 = -v4 + v7;
+    const double v36 = v32 + (0.5)*v8;
+    const double v37 = -v33 + v9;
+    const double v38 = p[3]*v36;
+    const double v39 = p[3]*v37;
+    const double v40 = v1*v10;
+    const double v41 = qd[1]*v10;
+    const double v42 = -v5 + 2.0*v9;
+    const double v43 = v13*v35 - v14*v34;
+    const double v44 = qd[1]*v11;
+    const double v45 = -qd[1]*v44 + v13*v20 + v14*v22 - v23*v24;
+    const double v46 = v11*v43 + v15*v44 - v42;
+    const double v47 = -qd[1] + v12;
+    const double v48 = v16 - v43;
+    const double v49 = -qdd[1] + v18;
+    const double v50 = p[2]*qd[1]*v12 - v11*(v12*v12) + v45;
+    const double v51 = p[2]*v16 - v46;
+    const double v52 = p[4]*v50;
+    const double v53 = p[4]*v51;
+    const double v54 = v17*v23;
+    const double v55 = v17*v47;
+    const double v56 = v23*v55 - v47*v54;
+    const double v57 = v15*v55 + v17*v48;
+    const double v58 = -v15*v54 + v17*v49;
+    const double v59 = v11*v53 + v57;
+    const double v60 = (0.5)*v28 + v58;
+    const double v61 = v13*v56 - v14*v59;
+    const double v62 = v13*v59 + v14*v56;
+    const double v63 = v13*v27 + v14*v52;
+    const double v64 = p[1]*v53 - v62;
     const double v65 = cs[0]*v64 + sn[0]*v61;
-    const double v66 = -qd[1]*v44 + v1*v45;
-    const double v67 = v10*v39 + v45*v6;
-    const double v68 = qdd[1]*v10 + v44*v6;
-    const double v69 = v33*v43 + v67;
+    const double v66 = -qd[1]*v40 + v1*v41;
+    const double v67 = v10*v35 + v41*v6;
+    const double v68 = qdd[1]*v10 + v40*v6;
+    const double v69 = v29*v39 + v67;
     const double v70 = cs[0]*v69 - sn[0]*v66;
     const double v71 = -p[5]*qdd[0] + v65 + v70;
+    const double v72 = p[1]*v63 + v28 + v29*v38 + 2.0*v58 - v60 + v68;
     tau[0] = -v71;
-    tau[1] = p[1]*v63 + v28 + 2.0*v31 - v32 + v33*v42 + v68;
-    tau[2] = v32;
+    tau[1] = v72;
+    tau[2] = v60;
 }
 
 int omni_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)

@@ -40,7 +40,7 @@ extern const char *const omni_coordinate_names[omni_NQ];
 extern const char *const omni_parameter_names[omni_NP];
 extern const double omni_parameter_defaults[omni_NP];
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 98 operations, sine and cosine of 1 angles. */
 void omni_inertia(const double *q, const double *p, double *D);
 
@@ -60,11 +60,15 @@ void omni_gravity(const double *q, const double *p, double *g);
  * 0 operations. */
 void omni_stiffness(const double *q, const double *p, double *k);
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * 0 operations. */
 void omni_friction(const double *q, const double *qd, const double *p, double *f);
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * 0 operations. */
+void omni_applied(const double *q, const double *qd, const double *p, double *Q);
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * 156 operations, sine and cosine of 1 angles. */
 void omni_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 

@@ -153,7 +153,7 @@ static void panda_sincos(int n, const double *restrict x, double *restrict s, do
     }
 }
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * Inputs: q[7] (q1, q2, q3, q4, q5, q6, q7), p[78] (see panda_parameter_names); output D[49]
  * 632 operations; sine and cosine of 6 angles in one panda_sincos call. */
 void panda_inertia(const double *q, const double *p, double *D)
@@ -1669,7 +1669,7 @@ void panda_stiffness(const double *q, const double *p, double *k)
     k[6] = 0.0;
 }
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * Inputs: q[7] (q1, q2, q3, q4, q5, q6, q7), qd[7] (q1, q2, q3, q4, q5, q6, q7), p[78] (see panda_parameter_names); output f[7]
  * 0 operations. */
 void panda_friction(const double *q, const double *qd, const double *p, double *f)
@@ -1686,7 +1686,24 @@ void panda_friction(const double *q, const double *qd, const double *p, double *
     f[6] = 0.0;
 }
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * Inputs: q[7] (q1, q2, q3, q4, q5, q6, q7), qd[7] (q1, q2, q3, q4, q5, q6, q7), p[78] (see panda_parameter_names); output Q[7]
+ * 0 operations. */
+void panda_applied(const double *q, const double *qd, const double *p, double *Q)
+{
+    (void)q;
+    (void)qd;
+    (void)p;
+    Q[0] = 0.0;
+    Q[1] = 0.0;
+    Q[2] = 0.0;
+    Q[3] = 0.0;
+    Q[4] = 0.0;
+    Q[5] = 0.0;
+    Q[6] = 0.0;
+}
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * Inputs: q[7] (q1, q2, q3, q4, q5, q6, q7), qd[7] (q1, q2, q3, q4, q5, q6, q7), qdd[7] (q1, q2, q3, q4, q5, q6, q7), p[78] (see panda_parameter_names); output tau[7]
  * 834 operations; sine and cosine of 6 angles in one panda_sincos call. */
 void panda_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau)

@@ -186,7 +186,7 @@ extern const char *const panda_coordinate_names[panda_NQ];
 extern const char *const panda_parameter_names[panda_NP];
 extern const double panda_parameter_defaults[panda_NP];
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 632 operations, sine and cosine of 6 angles. */
 void panda_inertia(const double *q, const double *p, double *D);
 
@@ -206,11 +206,15 @@ void panda_gravity(const double *q, const double *p, double *g);
  * 0 operations. */
 void panda_stiffness(const double *q, const double *p, double *k);
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * 0 operations. */
 void panda_friction(const double *q, const double *qd, const double *p, double *f);
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * 0 operations. */
+void panda_applied(const double *q, const double *qd, const double *p, double *Q);
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * 834 operations, sine and cosine of 6 angles. */
 void panda_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 

@@ -103,7 +103,7 @@ extern const char *const puma560_coordinate_names[puma560_NQ];
 extern const char *const puma560_parameter_names[puma560_NP];
 extern const double puma560_parameter_defaults[puma560_NP];
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 357 operations, sine and cosine of 5 angles. */
 void puma560_inertia(const double *q, const double *p, double *D);
 
@@ -123,11 +123,15 @@ void puma560_gravity(const double *q, const double *p, double *g);
  * 0 operations. */
 void puma560_stiffness(const double *q, const double *p, double *k);
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * 0 operations. */
 void puma560_friction(const double *q, const double *qd, const double *p, double *f);
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * 0 operations. */
+void puma560_applied(const double *q, const double *qd, const double *p, double *Q);
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * 497 operations, sine and cosine of 5 angles. */
 void puma560_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 

@@ -7,7 +7,7 @@ const char *const single_flexible_link_coordinate_names[single_flexible_link_NQ]
 const char *const single_flexible_link_parameter_names[single_flexible_link_NP] = { "g", "I_h", "l", "rho", "EIv", "EIw" };
 const double single_flexible_link_parameter_defaults[single_flexible_link_NP] = { 9.81, 0.677, 0.449, 0.163, 88.32, 88.32 };
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output D[25]
  * 13 operations. */
 void single_flexible_link_inertia(const double *q, const double *p, double *D)
@@ -133,7 +133,7 @@ void single_flexible_link_stiffness(const double *q, const double *p, double *k)
     k[4] = v6;
 }
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output f[5]
  * 0 operations. */
 void single_flexible_link_friction(const double *q, const double *qd, const double *p, double *f)
@@ -148,7 +148,22 @@ void single_flexible_link_friction(const double *q, const double *qd, const doub
     f[4] = 0.0;
 }
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output Q[5]
+ * 0 operations. */
+void single_flexible_link_applied(const double *q, const double *qd, const double *p, double *Q)
+{
+    (void)q;
+    (void)qd;
+    (void)p;
+    Q[0] = 0.0;
+    Q[1] = 0.0;
+    Q[2] = 0.0;
+    Q[3] = 0.0;
+    Q[4] = 0.0;
+}
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qdd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output tau[5]
  * 69 operations. */
 void single_flexible_link_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau)
@@ -159,12 +174,12 @@ void single_flexible_link_inverse_dynamics(const double *q, const double *qd, co
     const double v3 = 1.0/((p[2]*p[2]*p[2]*p[2]));
     const double v4 = p[4]*v3;
     const double v5 = p[5]*v3;
-    const double v6 = (0.5)*(qd[0]*qd[0]);
-    const double v7 = q[1]*v1;
-    const double v8 = qd[1]*v7;
-    const double v9 = (0.5)*qd[0];
-    const double v10 = q[2]*v1;
-    const double v11 = qd[2]*v10;
+    const double v6 = q[1]*v1;
+    const double v7 = qd[1]*v6;
+    const double v8 = (0.5)*qd[0];
+    const double v9 = q[2]*v1;
+    const double v10 = qd[2]*v9;
+    const double v11 = (0.5)*(qd[0]*qd[0]);
     const double v12 = p[3]*((0.3333333333333333)*(p[2]*p[2]*p[2]) + (q[1]*q[1]) + (q[2]*q[2]));
     const double v13 = 0.5688257437099108*v0;
     const double v14 = 0.09076678688638695*v0;
@@ -175,16 +190,16 @@ void single_flexible_link_inverse_dynamics(const double *q, const double *qd, co
     const double v19 = 485.51881851337123*q[2]*v4;
     const double v20 = 12.36236336832619*q[3]*v5;
     const double v21 = 485.51881851337123*q[4]*v5;
-    const double v22 = qdd[1]*p[3] + qdd[0]*v13 + v18 - v6*v7;
-    const double v23 = qdd[2]*p[3] + qdd[0]*v14 - v10*v6 + v19;
-    const double v24 = qdd[3]*p[3] + v16 + v20;
-    const double v25 = qdd[4]*p[3] + v17 + v21;
-    const double v26 = qdd[1]*v13 + qdd[2]*v14 + qdd[0]*v15 + v11*v9 + v8*v9 + v9*(v11 + v8);
-    tau[0] = v26;
-    tau[1] = v22;
-    tau[2] = v23;
-    tau[3] = v24;
-    tau[4] = v25;
+    const double v22 = qdd[1]*v13 + qdd[2]*v14 + qdd[0]*v15 + v10*v8 + v7*v8 + v8*(v10 + v7);
+    const double v23 = qdd[1]*p[3] + qdd[0]*v13 - v11*v6 + v18;
+    const double v24 = qdd[2]*p[3] + qdd[0]*v14 - v11*v9 + v19;
+    const double v25 = qdd[3]*p[3] + v16 + v20;
+    const double v26 = qdd[4]*p[3] + v17 + v21;
+    tau[0] = v22;
+    tau[1] = v23;
+    tau[2] = v24;
+    tau[3] = v25;
+    tau[4] = v26;
 }
 
 int single_flexible_link_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)

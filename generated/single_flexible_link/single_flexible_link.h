@@ -40,7 +40,7 @@ extern const char *const single_flexible_link_coordinate_names[single_flexible_l
 extern const char *const single_flexible_link_parameter_names[single_flexible_link_NP];
 extern const double single_flexible_link_parameter_defaults[single_flexible_link_NP];
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 13 operations. */
 void single_flexible_link_inertia(const double *q, const double *p, double *D);
 
@@ -60,11 +60,15 @@ void single_flexible_link_gravity(const double *q, const double *p, double *g);
  * 12 operations. */
 void single_flexible_link_stiffness(const double *q, const double *p, double *k);
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * 0 operations. */
 void single_flexible_link_friction(const double *q, const double *qd, const double *p, double *f);
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * 0 operations. */
+void single_flexible_link_applied(const double *q, const double *qd, const double *p, double *Q);
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * 69 operations. */
 void single_flexible_link_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 

@@ -2,11 +2,16 @@
 
 :func:`derive` runs the derivation once, in intermediate symbols (see
 :mod:`symbolic.subexpressions`), and returns a :class:`DynamicModel`. The contract attributes of
-DESIGN.md (``.D``, ``.christoffel``, ``.coriolis_vector``, ``.gravity``, ``.stiffness``) are the fully
+docs/contracts.md (``.D``, ``.christoffel``, ``.coriolis_vector``, ``.gravity``, ``.stiffness``) are the fully
 expanded SymPy forms in coordinate and parameter symbols, computed on first access; the compact
 forms used for code generation stay in :attr:`DynamicModel.reduced`.
 
-Equations of motion (3.82): D(Q)Q̈ + (I_N⊗Q̇ᵀ)C(Q)Q̇ + g(Q) = τ − J(Q)ᵀF_ext.
+Equations of motion (Madill (3.82) with elastic forces, friction and applied forces):
+
+    D(Q)Q̈ + (I_N⊗Q̇ᵀ)C(Q)Q̇ + g(Q) + k(Q) + f(Q̇) − Q(Q, Q̇) = τ − J(Q)ᵀF_ext,
+
+composed once here (rotor inertia of the drives inside D); the numeric, CasADi and C layers read
+:attr:`ReducedForms.tau`, :attr:`ReducedForms.bias` and the parts, never assemble their own.
 """
 
 from __future__ import annotations
@@ -19,6 +24,9 @@ from functools import cached_property
 import sympy as sp
 
 from symbolic.derive import christoffel as ch
+from symbolic.derive.drives import rotor_inertia
+from symbolic.derive.forces import applied_vector
+from symbolic.derive.friction import friction_vector
 from symbolic.derive.gravity import gravity_forces, potential_energy
 from symbolic.derive.inertia import composite_inertias, inertia_matrix
 from symbolic.derive.kinematics import Kinematics
@@ -51,11 +59,18 @@ class ReducedForms:
     potential
         V_g(Q).
     tau
-        τ = DQ̈ + (I⊗Q̇ᵀ)CQ̇ + g + k (Newton–Euler for rigid models).
+        τ = DQ̈ + (I⊗Q̇ᵀ)CQ̇ + g + k + f − Q: what the actuators supply (Newton–Euler for rigid
+        models, plus the rotors' inertia, friction and applied forces).
     coriolis_ne
         (I⊗Q̇ᵀ)CQ̇ by Newton–Euler (Q̈ = 0, no gravity): the same vector as ``coriolis``, cheaper.
     stiffness, strain
         k = ∂V_strain/∂Qᵀ and V_strain (Madill (3.80)); zero for rigid models.
+    friction
+        f(Q̇) of the [[friction]] entries (Janot (15)–(17)), opposing motion.
+    applied
+        Q(Q, Q̇) of the [[force]] entries, exerted on the system.
+    bias
+        τ at Q̈ = 0: (I⊗Q̇ᵀ)CQ̇ + g + k + f − Q, so that D Q̈ = τ − bias (forward dynamics).
     """
 
     D: sp.Matrix
@@ -69,6 +84,9 @@ class ReducedForms:
     coriolis_ne: sp.Matrix
     stiffness: sp.Matrix
     strain: sp.Expr
+    friction: sp.Matrix
+    applied: sp.Matrix
+    bias: sp.Matrix
 
 
 @dataclass(eq=False)  # identity semantics: numeric and emit cache per model object
@@ -160,8 +178,18 @@ class DynamicModel:
         return self.expand(self.reduced.strain)
 
     @cached_property
+    def friction(self) -> sp.Matrix:
+        """f(Q, Q̇): friction of the [[friction]] entries (Janot (15)–(17)), zero without them."""
+        return self.expand(self.reduced.friction)
+
+    @cached_property
+    def applied(self) -> sp.Matrix:
+        """Q(Q, Q̇): generalized forces of the [[force]] entries, exerted on the system."""
+        return self.expand(self.reduced.applied)
+
+    @cached_property
     def inverse_dynamics(self) -> sp.Matrix:
-        """τ = D Q̈ + (I⊗Q̇ᵀ)CQ̇ + g + k."""
+        """τ = D Q̈ + (I⊗Q̇ᵀ)CQ̇ + g + k + f − Q."""
         return self.expand(self.reduced.tau)
 
     def christoffel_symbol(self, i: int, j: int, k: int) -> sp.Expr:
@@ -192,6 +220,8 @@ class DynamicModel:
             "coriolis_matrix": self.sub.count_ops(list(r.coriolis_matrix)),
             "gravity": self.sub.count_ops(list(r.gravity)),
             "tau": self.sub.count_ops(list(r.tau)),
+            "friction": self.sub.count_ops(list(r.friction)),
+            "applied": self.sub.count_ops(list(r.applied)),
         }
 
     def summary(self) -> str:
@@ -245,6 +275,10 @@ def derive(robot: Robot) -> DynamicModel:
     for energy in beams:
         D += energy.inertia
     D = D.applyfunc(sub.add) if beams else D
+    rotors = rotor_inertia(robot)
+    for i in range(n):
+        if rotors[i, i] != 0:
+            D[i, i] = sub.add(D[i, i] + rotors[i, i])
     dD = step("dD/dQ", lambda: ch.inertia_derivatives(D, q, sub))
     C = step("christoffel", lambda: ch.christoffel_symbols(dD, sub))
     coriolis = step("coriolis", lambda: ch.coriolis_vector(C, qd))
@@ -263,13 +297,19 @@ def derive(robot: Robot) -> DynamicModel:
     strain = sub.add(strain)
     stiffness = sp.Matrix([sub.add(sub.diff(strain, x)) for x in q])
     if beams:
-        tau = (D * sp.Matrix(qdd) + coriolis + gravity + stiffness).applyfunc(sub.add)
         coriolis_ne = coriolis
+        tau_body = D * sp.Matrix(qdd) + coriolis + gravity + stiffness
     else:
-        tau = step(
+        tau_body = step(
             "newton-euler",
             lambda: inverse_dynamics(kin, dict(zip(rigid, qd)), dict(zip(rigid, qdd)), gravity=True),
-        )
+        ) + rotors * sp.Matrix(qdd)
         coriolis_ne = step("newton-euler coriolis", lambda: inverse_dynamics(kin, dict(zip(rigid, qd)), zero, gravity=False))
-    reduced = ReducedForms(D, dD, C, coriolis, cmat, gravity, potential, tau, coriolis_ne, stiffness, strain)
+    friction = step("friction", lambda: friction_vector(robot).applyfunc(sub.add))
+    applied = step("applied forces", lambda: applied_vector(robot).applyfunc(sub.add))
+    # The one composition of the equations of motion (docs/architecture.md, "Equations of motion").
+    tau = (tau_body + friction - applied).applyfunc(sub.add)
+    bias = (coriolis_ne + gravity + stiffness + friction - applied).applyfunc(sub.add)
+    reduced = ReducedForms(D, dD, C, coriolis, cmat, gravity, potential, tau, coriolis_ne, stiffness, strain,
+                           friction, applied, bias)
     return DynamicModel(robot, sub, kin, reduced, timings)

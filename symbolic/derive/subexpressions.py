@@ -9,7 +9,8 @@ generators print directly, and identical definitions are shared automatically.
 
 Derivatives with respect to coordinates and velocities are taken by the chain rule through the
 definitions (forward mode), memoized per (symbol, variable) and registered in turn, so ∂D/∂Q for
-the Christoffel symbols costs a small multiple of D itself.
+the Christoffel symbols costs a small multiple of D itself. The derivative of sign(v) is taken as
+zero (its value everywhere but at v = 0), so friction laws linearise as they behave in motion.
 
 The fully expanded SymPy form of any result is available through :meth:`Subexpressions.expand`.
 """
@@ -101,7 +102,11 @@ class Subexpressions:
                 continue
             if ds != 0:
                 terms.append(expr.diff(s) * ds)
-        return sp.Add(*terms)
+        result = sp.Add(*terms)
+        if result.has(sp.DiracDelta):
+            # d sign(v)/dv = 2δ(v): friction laws are differentiated away from v = 0, where it vanishes
+            result = result.replace(sp.DiracDelta, lambda *args: sp.Integer(0))
+        return result
 
     def derivative(self, symbol: sp.Symbol, variable: sp.Symbol) -> sp.Expr:
         """∂symbol/∂variable for an intermediate ``symbol`` (memoized and registered)."""

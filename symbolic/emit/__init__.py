@@ -58,13 +58,17 @@ def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str |
     if "casadi" in targets:
         files.update(_casadi_files(model, head))
     if "report" in targets:
-        from symbolic.version import __version__
+        from symbolic.derive.analysis import decoupling
+        from symbolic.emit.report import SMALL_MODEL, report_markdown
         from symbolic.numeric.exported import batched_programs, programs
-        from symbolic.emit.report import report_markdown
+        from symbolic.version import __version__
 
         batched = batched_programs(model)
         ops = {name: (p.operations, len(batched[name].angles)) for name, p in programs(model).items()}
-        files[f"{model.name}.md"] = report_markdown(model, head, ops, __version__).encode()
+        analysis = None
+        if model.n <= SMALL_MODEL:  # larger models: `symbolic analyze` (minutes of simplification)
+            analysis = decoupling(model, kinds=["decoupling", "constant_inertia", "balancing"])
+        files[f"{model.name}.md"] = report_markdown(model, head, ops, __version__, analysis).encode()
     return files
 
 

@@ -1,4 +1,4 @@
-"""The reviewer's report ``NAME.md`` (DESIGN.md, "Generated report"): Markdown with LaTeX that GitHub renders.
+"""The reviewer's report ``NAME.md`` (docs/contracts.md, "Generated report"): Markdown with LaTeX that GitHub renders.
 
 Entries are shown in the compact form of :mod:`symbolic.simplify` (Madill (4.10) style) when they
 are short enough to read; longer ones are summarised by their operation count in the generated C.
@@ -53,10 +53,7 @@ def _entry(model: DynamicModel, expr: sp.Expr, variables, names) -> str | None:
     return sp.latex(form, symbol_names=names)
 
 
-def _conditions(model: DynamicModel, names) -> list[dict]:
-    from symbolic.derive.analysis import decoupling
-
-    analysis = decoupling(model, kinds=["decoupling", "constant_inertia", "balancing"])
+def _conditions(analysis, names) -> list[dict]:
     out = []
     for c in analysis.conditions:
         check = c.check(analysis.values)
@@ -70,8 +67,14 @@ def _conditions(model: DynamicModel, names) -> list[dict]:
     return out
 
 
-def report_markdown(model: DynamicModel, banner: str, operations: dict[str, tuple[int, int]], version: str) -> str:
-    """The reviewer's report NAME.md; ``operations`` maps each C function to (operations, angles)."""
+def report_markdown(
+    model: DynamicModel, banner: str, operations: dict[str, tuple[int, int]], version: str, analysis=None
+) -> str:
+    """The reviewer's report NAME.md.
+
+    ``operations`` maps each C function to (operations, angles); ``analysis`` is the
+    :func:`~symbolic.derive.analysis.decoupling` result to list (None: the section says how to get it).
+    """
     r = model.reduced
     names = _latex_names(model)
     q = list(model.coordinates)
@@ -111,7 +114,15 @@ def report_markdown(model: DynamicModel, banner: str, operations: dict[str, tupl
         "stiffness": [{"k": k, "latex": _entry(model, r.stiffness[k], q, names)} for k in range(n) if r.stiffness[k] != 0],
         "strain": _entry(model, r.strain, q, names) if r.strain != 0 else None,
         "operations": [{"name": k, "ops": v[0], "angles": v[1]} for k, v in operations.items()],
-        "conditions": _conditions(model, names) if n <= SMALL_MODEL else None,
+        "conditions": _conditions(analysis, names) if analysis is not None else None,
+        "friction": [{"k": k, "latex": _entry(model, r.friction[k], qv, names)} for k in range(n) if r.friction[k] != 0],
+        "applied": [{"k": k, "latex": _entry(model, r.applied[k], qv, names)} for k in range(n) if r.applied[k] != 0],
+        "forces": [{"name": f.name, "coordinate": sp.latex(sp.Symbol(f.coordinate))} for f in model.robot.forces],
+        "drives": [
+            {"coordinate": sp.latex(sp.Symbol(d.coordinate)), "ratio": sp.latex(d.ratio), "rotor_inertia": sp.latex(d.rotor_inertia),
+             "gain": "—" if d.gain is None else f"${sp.latex(d.gain)}$"}
+            for d in model.robot.drives
+        ],
         "constraints": [{"coordinate": c.coordinate, "latex": sp.latex(c.expression)} for c in model.robot.constraints],
     }
     return render("report.md.j2", **context)

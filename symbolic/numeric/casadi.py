@@ -1,4 +1,4 @@
-"""Generated CasADi (DESIGN.md, "Generated CasADi"): one ``NAME_<function>.casadi`` per function.
+"""CasADi functions of a model (docs/contracts.md, "Generated CasADi"): one ``NAME_<function>.casadi`` per function.
 
 Expressions are translated into ``casadi.SX`` by evaluating the same straight-line program as the
 C code (SymPy's lambdify with CasADi's functions as the numeric module), so both targets share one
@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import casadi as ca
 import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
 
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.numeric.exported import FunctionSpec, function_specs, input_symbols, programs
@@ -35,12 +36,25 @@ CASADI_MODULE = {
 }
 
 
+class _CasadiPrinter(PythonCodePrinter):
+    """lambdify's default printer for a module dictionary, except that sign(x) is a call (the default
+    writes a Python conditional, which needs a number, not a CasADi expression)."""
+
+    def __init__(self) -> None:
+        super().__init__({"fully_qualified_modules": False, "inline": True, "allow_unknown_functions": True,
+                          "user_functions": {name: name for name in CASADI_MODULE}})
+
+    def _print_sign(self, expr: sp.sign) -> str:
+        return f"sign({self._print(expr.args[0])})"
+
+
 def _to_sx(model: DynamicModel, spec: FunctionSpec, inputs: dict[str, ca.SX]) -> ca.SX:
     symbols = input_symbols(model)
     program = programs(model)[spec.name]
     args = [list(symbols[a]) for a in spec.inputs]
     flat = list(program.outputs)
-    fn = sp.lambdify(args, flat, modules=[CASADI_MODULE], cse=lambda exprs: (list(program.statements), exprs))
+    fn = sp.lambdify(args, flat, modules=[CASADI_MODULE], printer=_CasadiPrinter(),
+                     cse=lambda exprs: (list(program.statements), exprs))
     values = fn(*[[inputs[a][i] for i in range(inputs[a].shape[0])] for a in spec.inputs])
     out = ca.SX(spec.rows, spec.cols)
     for k, v in enumerate(values):

@@ -43,22 +43,26 @@ def input_symbols(model: DynamicModel) -> dict[str, tuple[sp.Symbol, ...]]:
 
 
 def function_specs(model: DynamicModel) -> list[FunctionSpec]:
-    """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, inverse_dynamics."""
+    """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, applied, inverse_dynamics.
+
+    Every output is a part of the one composition in :func:`symbolic.derive.derive`; nothing is
+    assembled here.
+    """
     r = model.reduced
     n = model.n
-    stiffness = r.stiffness
-    friction = sp.zeros(n, 1)  # [[friction]] entries are not supported yet: f = 0
-    tau = r.tau + friction
     return [
-        FunctionSpec("inertia", ("q", "p"), "D", n, n, tuple(r.D), "D(q), N*N row-major, symmetric positive definite"),
+        FunctionSpec("inertia", ("q", "p"), "D", n, n, tuple(r.D), "D(q), N*N row-major, symmetric positive definite (rotor inertias included)"),
         FunctionSpec("coriolis", ("q", "qd", "p"), "h", n, 1, tuple(r.coriolis_ne), "(I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)"),
         FunctionSpec("coriolis_matrix", ("q", "qd", "p"), "C", n, n, tuple(r.coriolis_matrix),
                      "C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric"),
         FunctionSpec("gravity", ("q", "p"), "g", n, 1, tuple(r.gravity), "g(q) = dV_gravity/dq"),
-        FunctionSpec("stiffness", ("q", "p"), "k", n, 1, tuple(stiffness), "k(q) = dV_strain/dq (zero for rigid models)"),
-        FunctionSpec("friction", ("q", "qd", "p"), "f", n, 1, tuple(friction), "friction and offset torques (none in this model)"),
-        FunctionSpec("inverse_dynamics", ("q", "qd", "qdd", "p"), "tau", n, 1, tuple(tau),
-                     "tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)"),
+        FunctionSpec("stiffness", ("q", "p"), "k", n, 1, tuple(r.stiffness), "k(q) = dV_strain/dq (zero for rigid models)"),
+        FunctionSpec("friction", ("q", "qd", "p"), "f", n, 1, tuple(r.friction),
+                     "f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)"),
+        FunctionSpec("applied", ("q", "qd", "p"), "Q", n, 1, tuple(r.applied),
+                     "Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)"),
+        FunctionSpec("inverse_dynamics", ("q", "qd", "qdd", "p"), "tau", n, 1, tuple(r.tau),
+                     "tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)"),
     ]
 
 

@@ -2,10 +2,10 @@
 
 X = [Qᵀ Q̇ᵀ]ᵀ, U = [τᵀ F_extᵀ]ᵀ (F_ext only when the model declares an end effector):
 
-    Ẋ = [ X₂ ; D(X₁)⁻¹( [I −Jᵀ] U − (I⊗X₂ᵀ)C X₂ − g ) ].
+    Ẋ = [ X₂ ; D(X₁)⁻¹( [I −Jᵀ] U − (I⊗X₂ᵀ)C X₂ − g − k − f + Q ) ].
 
 The linearisation A = ∂F/∂X, B = ∂F/∂U is computed from exact symbolic derivatives
-(∂D/∂Q, ∂P/∂Q, ∂P/∂Q̇ with P = (I⊗Q̇ᵀ)CQ̇ + g, ∂(JᵀF)/∂Q), not by finite differences:
+(∂D/∂Q, ∂P/∂Q, ∂P/∂Q̇ with P = (I⊗Q̇ᵀ)CQ̇ + g + k + f − Q, ∂(JᵀF)/∂Q), not by finite differences:
 
     ∂Q̈/∂Q_k = −D⁻¹( ∂D/∂Q_k Q̈ + ∂P/∂Q_k + ∂(JᵀF)/∂Q_k ),   ∂Q̈/∂Q̇ = −D⁻¹ ∂P/∂Q̇,   B = [0; D⁻¹[I −Jᵀ]].
 """
@@ -46,7 +46,7 @@ class NumericModel:
         self.qd = list(model.velocities)
         self.qdd = list(model.accelerations)
         self.p = list(model.parameter_symbols)
-        self.p0 = np.array([v for v in model.parameters.values()], dtype=float)
+        self.p0 = np.array(list(model.parameters.values()), dtype=float)
         self.n = model.n
         self.has_force = model.robot.end_effector is not None
         self.force = sp.symbols("_F0:3", real=True)
@@ -93,6 +93,30 @@ class NumericModel:
         return self._fn([self.q, self.qd, self.qdd, self.p], self.model.reduced.tau)
 
     @cached_property
+    def _bias(self):
+        return self._fn([self.q, self.qd, self.p], self.model.reduced.bias)
+
+    @cached_property
+    def _friction(self):
+        return self._fn([self.q, self.qd, self.p], self.model.reduced.friction)
+
+    @cached_property
+    def _applied(self):
+        return self._fn([self.q, self.qd, self.p], self.model.reduced.applied)
+
+    def friction(self, q, qd, p=None) -> np.ndarray:
+        """f(Q, Q̇) of the [[friction]] entries."""
+        return self._friction(q, qd, self.params(p))
+
+    def applied(self, q, qd, p=None) -> np.ndarray:
+        """Q(Q, Q̇) of the [[force]] entries."""
+        return self._applied(q, qd, self.params(p))
+
+    def bias(self, q, qd, p=None) -> np.ndarray:
+        """τ at Q̈ = 0: (I⊗Q̇ᵀ)CQ̇ + g + k + f − Q."""
+        return self._bias(q, qd, self.params(p))
+
+    @cached_property
     def _dD(self):
         return self._fn([self.q, self.p], sp.Matrix.vstack(*self.model.reduced.dD))
 
@@ -104,13 +128,13 @@ class NumericModel:
         return self.p0 if p is None else np.asarray(p, dtype=float)
 
     def inertia(self, q, p=None) -> np.ndarray:
-        return self._inertia(q, self.params(p))
+        return self._inertia(q, self.params(p)).reshape(self.n, self.n)
 
     def coriolis(self, q, qd, p=None) -> np.ndarray:
         return self._coriolis(q, qd, self.params(p))
 
     def coriolis_matrix(self, q, qd, p=None) -> np.ndarray:
-        return self._coriolis_matrix(q, qd, self.params(p))
+        return self._coriolis_matrix(q, qd, self.params(p)).reshape(self.n, self.n)
 
     def gravity(self, q, p=None) -> np.ndarray:
         return self._gravity(q, self.params(p))
@@ -132,8 +156,8 @@ class NumericModel:
         return self._jacobian(q, self.params(p))
 
     def forward_dynamics(self, q, qd, tau, p=None, force=None) -> np.ndarray:
-        """Q̈ = D⁻¹(τ − J ᵀF − (I⊗Q̇ᵀ)CQ̇ − g) (3.114), by Cholesky; raises if D is not positive definite."""
-        rhs = np.asarray(tau, float) - self.coriolis(q, qd, p) - self.gravity(q, p) - self.stiffness(q, p)
+        """Q̈ = D⁻¹(τ − JᵀF − (I⊗Q̇ᵀ)CQ̇ − g − k − f + Q) (3.114), by Cholesky; raises if D is not positive definite."""
+        rhs = np.asarray(tau, float) - self.bias(q, qd, p)
         if force is not None:
             rhs = rhs - self.jacobian(q, p).T @ np.asarray(force, float)
         factor = np.linalg.cholesky(self.inertia(q, p))
@@ -150,10 +174,10 @@ class NumericModel:
     # -- linearisation ---------------------------------------------------------------------
     @cached_property
     def _linear_terms(self):
-        """∂P/∂Q (N×N), ∂P/∂Q̇ (N×N), ∂(JᵀF)/∂Q (N×N) as compiled functions."""
+        """∂P/∂Q (N×N), ∂P/∂Q̇ (N×N), ∂(JᵀF)/∂Q (N×N) as compiled functions; P = bias = τ at Q̈ = 0."""
         m = self.model
         sub = self.sub
-        P = m.reduced.coriolis + m.reduced.gravity + m.reduced.stiffness
+        P = m.reduced.bias
         dP_dq = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(P[i], self.q[k])))
         dP_dqd = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(P[i], self.qd[k])))
         funcs = {

@@ -7,7 +7,12 @@ from __future__ import annotations
 
 from symbolic.spec import robots
 from symbolic.spec.modelfile import load, loads
-from symbolic.spec.robot import Beam, Body, Constraint, EndEffector, Frame, Parameter, Robot
+from symbolic.spec.robot import (
+    Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Parameter, Robot, Stribeck,
+)
 from symbolic.spec.validation import validate
 
-__all__ = ["Beam", "Body", "Constraint", "EndEffector", "Frame", "Parameter", "Robot", "load", "loads", "robots", "validate"]
+__all__ = [
+    "Beam", "Body", "Constraint", "Directional", "Drive", "EndEffector", "Force", "Frame", "Friction", "Parameter", "Robot",
+    "Stribeck", "load", "loads", "robots", "validate",
+]

@@ -13,7 +13,10 @@ from typing import Any
 
 from symbolic.errors import ModelError
 from symbolic.spec.validation import validate
-from symbolic.spec.robot import DH_KEYS, INERTIA_KEYS, Beam, Body, Constraint, EndEffector, Frame, Parameter, Robot
+from symbolic.spec.robot import (
+    DH_KEYS, INERTIA_KEYS, Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Parameter,
+    Robot, Stribeck,
+)
 
 TOP_KEYS = {
     "name",
@@ -28,8 +31,9 @@ TOP_KEYS = {
     "end_effector",
     "beam",
     "friction",
+    "drive",
+    "force",
 }
-SUPPORTED_LATER = {"friction"}
 
 
 def load(path: str | Path) -> Robot:
@@ -91,8 +95,6 @@ class _Reader:
 
     def robot(self) -> Robot:
         d = self.table(self.data, "top level", TOP_KEYS, {"name", "coordinates"})
-        for key in SUPPORTED_LATER & set(d):
-            raise self.fail(f"[[{key}]]", f"'{key}' entries are part of the model format but not supported by this version yet")
         return validate(Robot(
             name=self.string(d["name"], "name"),
             description=self.string(d.get("description", ""), "description"),
@@ -107,6 +109,9 @@ class _Reader:
             ),
             beams=tuple(self.beam(b, i) for i, b in enumerate(self.array(d.get("beam", []), "[[beam]]"))),
             end_effector=self.end_effector(d.get("end_effector")),
+            frictions=tuple(self.friction(f, i) for i, f in enumerate(self.array(d.get("friction", []), "[[friction]]"))),
+            drives=tuple(self.drive(x, i) for i, x in enumerate(self.array(d.get("drive", []), "[[drive]]"))),
+            forces=tuple(self.force(x, i) for i, x in enumerate(self.array(d.get("force", []), "[[force]]"))),
             source=self.source,
         ))
 
@@ -176,3 +181,40 @@ class _Reader:
             return None
         e = self.table(value, "end_effector", {"frame", "point"}, {"frame"})
         return EndEffector(self.string(e["frame"], "end_effector frame"), tuple(self.array(e.get("point", [0, 0, 0]), "end_effector point")))
+
+    def entry_key(self, kind: str, table: Mapping[str, Any], index: int) -> str:
+        c = table.get("coordinate")
+        return f"[[{kind}]] {c!r}" if isinstance(c, str) else f"[[{kind}]] #{index + 1}"
+
+    def friction(self, value: Any, index: int) -> Friction:
+        key = f"[[friction]] #{index + 1}"
+        f = self.table(value, key, {"coordinate", "viscous", "coulomb", "offset", "stribeck"}, {"coordinate"})
+        key = self.entry_key("friction", f, index)
+        stribeck = f.get("stribeck")
+        if stribeck is not None:
+            t = self.table(stribeck, f"{key} stribeck", {"static", "velocity"}, {"static", "velocity"})
+            stribeck = Stribeck(t["static"], t["velocity"])
+        return Friction(
+            coordinate=self.string(f["coordinate"], f"{key} coordinate"),
+            viscous=self.directional(f.get("viscous"), f"{key} viscous"),
+            coulomb=self.directional(f.get("coulomb"), f"{key} coulomb"),
+            offset=f.get("offset"),
+            stribeck=stribeck,
+        )
+
+    def directional(self, value: Any, key: str) -> Any:
+        """An expression, or ``{ positive = ..., negative = ... }`` for a direction-dependent coefficient."""
+        if isinstance(value, Mapping):
+            t = self.table(value, key, {"positive", "negative"}, {"positive", "negative"})
+            return Directional(t["positive"], t["negative"])
+        return value
+
+    def drive(self, value: Any, index: int) -> Drive:
+        d = self.table(value, f"[[drive]] #{index + 1}", {"coordinate", "ratio", "rotor_inertia", "gain"}, {"coordinate"})
+        key = self.entry_key("drive", d, index)
+        return Drive(self.string(d["coordinate"], f"{key} coordinate"), d.get("ratio", 1), d.get("rotor_inertia", 0), d.get("gain"))
+
+    def force(self, value: Any, index: int) -> Force:
+        f = self.table(value, f"[[force]] #{index + 1}", {"name", "coordinate", "expression"}, {"name", "coordinate", "expression"})
+        name = self.string(f["name"], f"[[force]] #{index + 1} name")
+        return Force(name, self.string(f["coordinate"], f"[[force]] {name!r} coordinate"), f["expression"])

@@ -48,6 +48,11 @@ def acceleration_symbol(name: str) -> sp.Symbol:
     return sp.Symbol(f"{name}_ddot", real=True)
 
 
+def velocity_name(name: str) -> str:
+    """How model files and data columns write the velocity of coordinate ``name``: ``qd_<name>``."""
+    return f"qd_{name}"
+
+
 def parameter_symbol(name: str) -> sp.Symbol:
     """The SymPy symbol of parameter ``name``."""
     return sp.Symbol(name, real=True)
@@ -149,6 +154,69 @@ class Beam:
 
 
 @dataclass(frozen=True)
+class Directional:
+    """A coefficient that differs with the direction of motion: ``positive`` for q̇ > 0, ``negative`` for q̇ < 0."""
+
+    positive: ExprLike
+    negative: ExprLike
+
+
+@dataclass(frozen=True)
+class Stribeck:
+    """Stribeck effect: the Coulomb level rises to ``static`` at rest, decaying with velocity scale ``velocity``.
+
+    The Coulomb part becomes (Fc + (Fs − Fc)·exp(−(q̇/vs)²))·sign(q̇).
+    """
+
+    static: ExprLike
+    velocity: ExprLike
+
+
+Coefficient = ExprLike | Directional
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Friction on one coordinate, opposing its motion (Janot (15); docs/model-format.md, "Friction").
+
+    f = Fv·q̇ + Fc·sign(q̇) + offset, with direction-dependent Fv, Fc as :class:`Directional` and an
+    optional :class:`Stribeck` rise of the Coulomb level. ``coordinate`` may be a generalized or a
+    constrained (passive) coordinate; friction on a constrained one reaches the generalized
+    coordinates through Lᵀ of Janot (12).
+    """
+
+    coordinate: str
+    viscous: Coefficient | None = None
+    coulomb: Coefficient | None = None
+    offset: ExprLike | None = None
+    stribeck: Stribeck | None = None
+
+
+@dataclass(frozen=True)
+class Drive:
+    """An actuator on a coordinate: motor angle = ``ratio``·q, rotor inertia ``rotor_inertia``.
+
+    The rotor adds Ia·ratio² to D[q, q]; ``gain`` converts the measured drive signal (volts,
+    amperes) into the generalized force at the coordinate (used by identification and simulation).
+    """
+
+    coordinate: str
+    ratio: ExprLike = 1
+    rotor_inertia: ExprLike = 0
+    gain: ExprLike | None = None
+
+
+@dataclass(frozen=True)
+class Force:
+    """A generalized force exerted ON the system at ``coordinate``: an expression of coordinates,
+    velocities (written ``qd_<coordinate>``) and parameters, e.g. a cable spring ``-k1*(q1 - q10)``."""
+
+    name: str
+    coordinate: str
+    expression: ExprLike
+
+
+@dataclass(frozen=True)
 class EndEffector:
     """A point fixed in a frame whose Jacobian J maps Q̇ to its velocity (Madill (3.57))."""
 
@@ -176,6 +244,9 @@ class Robot:
     convention: str = "standard"
     description: str = ""
     end_effector: EndEffector | None = None
+    frictions: tuple[Friction, ...] = ()
+    drives: tuple[Drive, ...] = ()
+    forces: tuple[Force, ...] = ()
     source: str = field(default="<python>", compare=False)
     keys: Mapping[str, str] = field(default_factory=dict, compare=False, repr=False)
     """Optional map from an internal location to the file's own key spelling (for messages)."""
@@ -203,6 +274,10 @@ class Robot:
         return {p.symbol: p.value for p in self.parameters}
 
     @property
+    def constrained_coordinates(self) -> tuple[str, ...]:
+        return tuple(c.coordinate for c in self.constraints)
+
+    @property
     def constraint_substitution(self) -> dict[sp.Symbol, sp.Expr]:
         """Constrained coordinate -> its expression in the generalized coordinates."""
         return {coordinate_symbol(c.coordinate): c.expression for c in self.constraints}
@@ -212,22 +287,6 @@ class Robot:
             if f.name == name:
                 return f
         raise KeyError(name)
-
-    def tree(self) -> Robot:
-        """The equivalent tree structure: constraints removed, their coordinates appended.
-
-        This is Janot's "equivalent tree structure" whose joint torques Γ_ar enter (12).
-        """
-        from symbolic.spec.validation import validate
-
-        return validate(dataclasses.replace(
-            self,
-            validated=False,
-            name=f"{self.name}_tree",
-            coordinates=self.coordinates + tuple(c.coordinate for c in self.constraints),
-            constraints=(),
-            description=f"equivalent tree structure of {self.name}",
-        ))
 
     def with_parameters(self, **values: float) -> Robot:
         """A copy with some nominal parameter values replaced."""

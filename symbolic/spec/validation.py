@@ -20,7 +20,8 @@ from symbolic.errors import ModelError, ModelWarning
 from symbolic.spec.expressions import RESERVED_NAMES, parse_expression
 from symbolic.spec.robot import (
     BASE, BOUNDARIES, CONVENTIONS, DH_KEYS, FRAME_NAME, IDENTIFIER, INERTIA_KEYS, MODEL_NAME,
-    Beam, Body, Constraint, EndEffector, Frame, Robot, coordinate_symbol,
+    Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Robot, Stribeck,
+    coordinate_symbol, velocity_name, velocity_symbol,
 )
 
 
@@ -69,6 +70,9 @@ class _Validator:
         self.check_gravity()
         self.check_end_effector()
         self.check_coordinates_used()
+        self.check_frictions()
+        self.check_drives()
+        self.check_forces()
         return dataclasses.replace(self.robot, validated=True)
 
     def expr(self, value: Any, key: str, allowed: Iterable[str] | None = None) -> sp.Expr:
@@ -115,6 +119,8 @@ class _Validator:
                 raise self.fail(key, f"{name!r} is reserved (a function or constant name)")
             if name.endswith("_dot") or name.endswith("_ddot"):
                 raise self.fail(key, f"{name!r}: names ending in _dot/_ddot are reserved for velocities")
+            if name.startswith("qd_") or name.startswith("qdd_"):
+                raise self.fail(key, f"{name!r}: names starting with qd_/qdd_ are reserved for velocities and accelerations")
             if name in seen:
                 raise self.fail(key, f"{name!r} is declared twice (also in {seen[name]})")
             seen[name] = key
@@ -291,3 +297,96 @@ class _Validator:
         for c in r.constraints:
             if not any(coordinate_symbol(c.coordinate) in getattr(f, k).free_symbols for f in r.frames for k in ("theta", "d")):
                 raise self.fail(f"[[constraint]] {c.coordinate}", f"constrained coordinate {c.coordinate!r} is not used by any frame")
+
+    # -- friction, drives and applied forces (docs/model-format.md) -------------------------
+    def actuated_coordinates(self) -> dict[str, str]:
+        """Coordinates a friction or force entry may act on -> what they are (for messages)."""
+        r = self.robot
+        kinds = {c: "coordinate" for c in r.generalized_coordinates}
+        kinds.update({c.coordinate: "constrained coordinate" for c in r.constraints})
+        return kinds
+
+    def coordinate_of(self, entry: str, coordinate: Any, allowed: Mapping[str, str]) -> str:
+        if not isinstance(coordinate, str) or coordinate not in allowed:
+            raise self.fail(f"{entry} coordinate", f"unknown coordinate {coordinate!r} (coordinates: {', '.join(allowed)})")
+        return coordinate
+
+    def coefficient(self, value: Any, key: str, minimum: float | None = 0.0, strict: bool = False) -> sp.Expr:
+        """A parameter expression whose nominal value is >= minimum (> when strict)."""
+        expr = self.expr(value, key, {p.name for p in self.robot.parameters})
+        if minimum is not None:
+            v = self.nominal(expr, key)
+            if v < minimum or (strict and v == minimum):
+                relation = ">" if strict else ">="
+                raise self.fail(key, f"must be {relation} {minimum:g} at the nominal parameters, got {v:g}")
+        return expr
+
+    def directional(self, value: Any, key: str) -> sp.Expr | Directional | None:
+        if value is None:
+            return None
+        if isinstance(value, Directional):
+            return Directional(self.coefficient(value.positive, f"{key}.positive"), self.coefficient(value.negative, f"{key}.negative"))
+        return self.coefficient(value, key)
+
+    def check_frictions(self) -> None:
+        allowed = self.actuated_coordinates()
+        out, seen = [], set()
+        for f in self.robot.frictions:
+            entry = f"[[friction]] {f.coordinate!r}" if isinstance(f.coordinate, str) else "[[friction]]"
+            c = self.coordinate_of(entry, f.coordinate, allowed)
+            if c in seen:
+                raise self.fail(f"{entry} coordinate", f"coordinate {c!r} has two [[friction]] tables (one per coordinate; combine them)")
+            seen.add(c)
+            stribeck = None
+            if f.stribeck is not None:
+                stribeck = Stribeck(
+                    self.coefficient(f.stribeck.static, f"{entry} stribeck.static"),
+                    self.coefficient(f.stribeck.velocity, f"{entry} stribeck.velocity", strict=True),
+                )
+            offset = None if f.offset is None else self.coefficient(f.offset, f"{entry} offset", minimum=None)
+            out.append(Friction(c, self.directional(f.viscous, f"{entry} viscous"), self.directional(f.coulomb, f"{entry} coulomb"), offset, stribeck))
+        self.set("frictions", tuple(out))
+
+    def check_drives(self) -> None:
+        allowed = {c: "coordinate" for c in self.robot.coordinates}
+        out, seen = [], set()
+        for d in self.robot.drives:
+            entry = f"[[drive]] {d.coordinate!r}" if isinstance(d.coordinate, str) else "[[drive]]"
+            c = self.coordinate_of(entry, d.coordinate, allowed)
+            if c in seen:
+                raise self.fail(f"{entry} coordinate", f"coordinate {c!r} has two [[drive]] tables")
+            seen.add(c)
+            ratio = self.coefficient(d.ratio, f"{entry} ratio", minimum=None)
+            if self.nominal(ratio, f"{entry} ratio") == 0:
+                raise self.fail(f"{entry} ratio", "transmission ratio must not be zero")
+            inertia = self.coefficient(d.rotor_inertia, f"{entry} rotor_inertia")
+            gain = None if d.gain is None else self.coefficient(d.gain, f"{entry} gain", minimum=None)
+            if gain is not None and self.nominal(gain, f"{entry} gain") == 0:
+                raise self.fail(f"{entry} gain", "drive gain must not be zero")
+            out.append(Drive(c, ratio, inertia, gain))
+        self.set("drives", tuple(out))
+
+    def check_forces(self) -> None:
+        allowed = self.actuated_coordinates()
+        velocities = {velocity_name(c): velocity_symbol(c) for c in self.robot.generalized_coordinates}
+        modal = {c: coordinate_symbol(c) for c in self.robot.generalized_coordinates}
+        symbols = self.symbols | modal | velocities
+        out, names = [], set()
+        for f in self.robot.forces:
+            entry = f"[[force]] {f.name!r}"
+            if not isinstance(f.name, str) or not f.name.strip():
+                raise self.fail("[[force]] name", "a force needs a non-empty name")
+            if f.name in names:
+                raise self.fail(entry, "force defined twice")
+            names.add(f.name)
+            c = self.coordinate_of(entry, f.coordinate, allowed)
+            key = f"{entry} expression"
+            if isinstance(f.expression, sp.Basic):
+                expr = sp.sympify(f.expression)
+                unknown = {x.name for x in expr.free_symbols} - {x.name for x in symbols.values()}
+                if unknown:
+                    raise self.fail(key, f"undeclared symbol(s) {sorted(unknown)}")
+            else:
+                expr = parse_expression(f.expression, symbols, self.source, self.robot.keys.get(key, key))
+            out.append(Force(f.name, c, expr))
+        self.set("forces", tuple(out))

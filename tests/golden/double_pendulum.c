@@ -153,7 +153,7 @@ static void double_pendulum_sincos(int n, const double *restrict x, double *rest
     }
 }
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * Inputs: q[2] (q1, q2), p[5] (see double_pendulum_parameter_names); output D[4]
  * 14 operations; sine and cosine of 1 angles in one double_pendulum_sincos call. */
 void double_pendulum_inertia(const double *q, const double *p, double *D)
@@ -247,7 +247,7 @@ void double_pendulum_stiffness(const double *q, const double *p, double *k)
     k[1] = 0.0;
 }
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * Inputs: q[2] (q1, q2), qd[2] (q1, q2), p[5] (see double_pendulum_parameter_names); output f[2]
  * 0 operations. */
 void double_pendulum_friction(const double *q, const double *qd, const double *p, double *f)
@@ -259,7 +259,19 @@ void double_pendulum_friction(const double *q, const double *qd, const double *p
     f[1] = 0.0;
 }
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * Inputs: q[2] (q1, q2), qd[2] (q1, q2), p[5] (see double_pendulum_parameter_names); output Q[2]
+ * 0 operations. */
+void double_pendulum_applied(const double *q, const double *qd, const double *p, double *Q)
+{
+    (void)q;
+    (void)qd;
+    (void)p;
+    Q[0] = 0.0;
+    Q[1] = 0.0;
+}
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * Inputs: q[2] (q1, q2), qd[2] (q1, q2), qdd[2] (q1, q2), p[5] (see double_pendulum_parameter_names); output tau[2]
  * 40 operations; sine and cosine of 2 angles in one double_pendulum_sincos call. */
 void double_pendulum_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau)
@@ -268,21 +280,22 @@ void double_pendulum_inverse_dynamics(const double *q, const double *qd, const d
     double_pendulum_sincos(2, q, sn, cs);
     const double v0 = p[2]*qd[0];
     const double v1 = sn[0]*p[0];
-    const double v2 = -p[1]*(qd[0]*qd[0]) + v1;
-    const double v3 = cs[0]*p[0];
-    const double v4 = p[1]*qdd[0] + v3;
-    const double v5 = cs[1]*v4 - sn[1]*v2 + p[2]*qdd[0];
-    const double v6 = p[2]*qdd[1] + v5;
-    const double v7 = p[4]*v6;
-    const double v8 = p[2]*v7;
-    const double v9 = p[3]*v4;
-    const double v10 = cs[1]*v2 + sn[1]*v4 - qd[0]*v0;
-    const double v11 = p[2]*(qd[1]*qd[1]) + 2.0*qd[1]*v0 - v10;
-    const double v12 = p[4]*v11;
-    const double v13 = cs[1]*v7 - sn[1]*v12;
-    const double v14 = v13 + v9;
-    tau[0] = p[1]*v14 + v8;
-    tau[1] = v8;
+    const double v2 = cs[0]*p[0];
+    const double v3 = -p[1]*(qd[0]*qd[0]) + v1;
+    const double v4 = p[1]*qdd[0] + v2;
+    const double v5 = p[3]*v4;
+    const double v6 = cs[1]*v3 + sn[1]*v4 - qd[0]*v0;
+    const double v7 = cs[1]*v4 - sn[1]*v3 + p[2]*qdd[0];
+    const double v8 = p[2]*(qd[1]*qd[1]) + 2.0*qd[1]*v0 - v6;
+    const double v9 = p[2]*qdd[1] + v7;
+    const double v10 = p[4]*v8;
+    const double v11 = p[4]*v9;
+    const double v12 = p[2]*v11;
+    const double v13 = cs[1]*v11 - sn[1]*v10;
+    const double v14 = v13 + v5;
+    const double v15 = p[1]*v14 + v12;
+    tau[0] = v15;
+    tau[1] = v12;
 }
 
 int double_pendulum_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)

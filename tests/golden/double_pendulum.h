@@ -35,7 +35,7 @@ extern const char *const double_pendulum_coordinate_names[double_pendulum_NQ];
 extern const char *const double_pendulum_parameter_names[double_pendulum_NP];
 extern const double double_pendulum_parameter_defaults[double_pendulum_NP];
 
-/* D(q), N*N row-major, symmetric positive definite
+/* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 14 operations, sine and cosine of 1 angles. */
 void double_pendulum_inertia(const double *q, const double *p, double *D);
 
@@ -55,11 +55,15 @@ void double_pendulum_gravity(const double *q, const double *p, double *g);
  * 0 operations. */
 void double_pendulum_stiffness(const double *q, const double *p, double *k);
 
-/* friction and offset torques (none in this model)
+/* f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)
  * 0 operations. */
 void double_pendulum_friction(const double *q, const double *qd, const double *p, double *f);
 
-/* tau = D(q) qdd + coriolis + gravity + stiffness + friction (recursive Newton-Euler)
+/* Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)
+ * 0 operations. */
+void double_pendulum_applied(const double *q, const double *qd, const double *p, double *Q);
+
+/* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * 40 operations, sine and cosine of 2 angles. */
 void double_pendulum_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
