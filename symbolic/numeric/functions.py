@@ -19,13 +19,16 @@ def compile_function(
     sub: Subexpressions,
     arguments: Sequence[Sequence[sp.Symbol]],
     outputs: sp.Matrix | Sequence[sp.Expr],
+    shape: tuple[int, ...] | None = None,
 ) -> Callable[..., np.ndarray]:
     """A function of array arguments (one per group of symbols) returning ``outputs`` as an array.
 
-    The returned array has the shape of ``outputs`` (a matrix gives a 2-D array).
+    The returned array has ``shape``; by default that of ``outputs``, a column giving a 1-D array
+    (pass ``shape=(n, n)`` for a matrix that may be 1×1).
     """
     matrix = sp.Matrix(outputs)
-    shape = matrix.shape
+    if shape is None:
+        shape = matrix.shape if matrix.shape[1] != 1 else (matrix.shape[0],)
     flat = list(matrix)
     program = sub.program(flat)
     symbols = [list(group) for group in arguments]
@@ -33,6 +36,6 @@ def compile_function(
 
     def function(*values: Sequence[float]) -> np.ndarray:
         result = raw(*[list(map(float, np.ravel(v))) for v in values])
-        return np.array(result, dtype=float).reshape(shape if shape[1] != 1 else (shape[0],))
+        return np.array(result, dtype=float).reshape(shape)
 
     return function

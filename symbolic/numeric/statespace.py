@@ -51,12 +51,12 @@ class NumericModel:
         self.has_force = model.robot.end_effector is not None
         self.force = sp.symbols("_F0:3", real=True)
 
-    def _fn(self, args, outputs):
-        return compile_function(self.sub, args, outputs)
+    def _fn(self, args, outputs, shape=None):
+        return compile_function(self.sub, args, outputs, shape)
 
     @cached_property
     def _inertia(self):
-        return self._fn([self.q, self.p], self.model.reduced.D)
+        return self._fn([self.q, self.p], self.model.reduced.D, (self.n, self.n))
 
     @cached_property
     def _coriolis(self):
@@ -64,7 +64,7 @@ class NumericModel:
 
     @cached_property
     def _coriolis_matrix(self):
-        return self._fn([self.q, self.qd, self.p], self.model.reduced.coriolis_matrix)
+        return self._fn([self.q, self.qd, self.p], self.model.reduced.coriolis_matrix, (self.n, self.n))
 
     @cached_property
     def _gravity(self):
@@ -122,19 +122,19 @@ class NumericModel:
 
     @cached_property
     def _jacobian(self):
-        return self._fn([self.q, self.p], self.model.end_effector_jacobian())
+        return self._fn([self.q, self.p], self.model.end_effector_jacobian(), (3, self.n))
 
     def params(self, p=None) -> np.ndarray:
         return self.p0 if p is None else np.asarray(p, dtype=float)
 
     def inertia(self, q, p=None) -> np.ndarray:
-        return self._inertia(q, self.params(p)).reshape(self.n, self.n)
+        return self._inertia(q, self.params(p))
 
     def coriolis(self, q, qd, p=None) -> np.ndarray:
         return self._coriolis(q, qd, self.params(p))
 
     def coriolis_matrix(self, q, qd, p=None) -> np.ndarray:
-        return self._coriolis_matrix(q, qd, self.params(p)).reshape(self.n, self.n)
+        return self._coriolis_matrix(q, qd, self.params(p))
 
     def gravity(self, q, p=None) -> np.ndarray:
         return self._gravity(q, self.params(p))
@@ -181,13 +181,13 @@ class NumericModel:
         dP_dq = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(P[i], self.q[k])))
         dP_dqd = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(P[i], self.qd[k])))
         funcs = {
-            "dP_dq": self._fn([self.q, self.qd, self.p], dP_dq),
-            "dP_dqd": self._fn([self.q, self.qd, self.p], dP_dqd),
+            "dP_dq": self._fn([self.q, self.qd, self.p], dP_dq, (self.n, self.n)),
+            "dP_dqd": self._fn([self.q, self.qd, self.p], dP_dqd, (self.n, self.n)),
         }
         if self.has_force:
             JtF = m.end_effector_jacobian().T * sp.Matrix(self.force)
             dJtF = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(JtF[i], self.q[k])))
-            funcs["dJtF_dq"] = self._fn([self.q, self.force, self.p], dJtF)
+            funcs["dJtF_dq"] = self._fn([self.q, self.force, self.p], dJtF, (self.n, self.n))
         return funcs
 
     def linearize(self, x0, u0, p=None) -> tuple[np.ndarray, np.ndarray]:
