@@ -22,7 +22,7 @@ from symbolic.spec.robot import Beam, Body, Constraint, EndEffector, Frame, Para
 from symbolic.spec.validation import validate
 from symbolic.version import __version__
 
-export = emit  # the name DESIGN-era callers use: symbolic.export.generate(model, "out/")
+export = emit  # the name earlier callers use: symbolic.export.generate(model, "out/")
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 

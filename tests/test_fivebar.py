@@ -132,7 +132,7 @@ def test_rigid_beam_jacobian(fivebar) -> None:
 def test_literal_381_has_same_quadratic_form(fivebar) -> None:
     """C = Z·∂D/∂Qᵀ as printed (3.81) and the symmetric Christoffel form give the same (3.82).
 
-    DESIGN.md: the literal blocks are not symmetric; their symmetric part is c_ijk.
+    docs/contracts.md: the literal blocks are not symmetric; their symmetric part is c_ijk.
     """
     literal = fivebar.christoffel_literal()
     symmetric = fivebar.christoffel

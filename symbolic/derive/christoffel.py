@@ -6,7 +6,7 @@ centripetal/Coriolis vector is (I_N ⊗ Q̇ᵀ) C Q̇ (3.82), whose k-th entry i
 
 Taken literally, the blocks of Z D'ᵀ are not symmetric; their symmetric parts are the Christoffel
 symbols of the first kind c_ijk = ½(∂d_kj/∂Q_i + ∂d_ki/∂Q_j − ∂d_ij/∂Q_k) and the quadratic form is
-the same (DESIGN.md). We store the symmetric form and keep the literal one for comparison.
+the same (docs/contracts.md). We store the symmetric form and keep the literal one for comparison.
 
 The Coriolis matrix C(Q,Q̇)_kj = Σ_i c_ijk Q̇_i satisfies C(Q,Q̇)Q̇ = (I⊗Q̇ᵀ)CQ̇ and makes Ḋ − 2C(Q,Q̇)
 skew-symmetric.

@@ -1,4 +1,4 @@
-"""Code and report export: C, CasADi and Markdown (DESIGN.md, "Generated C/CasADi/report").
+"""Code and report export: C, CasADi and Markdown (docs/contracts.md, "Generated C/CasADi/report").
 
 >>> symbolic.export.generate(model, "out/")            # all targets
 >>> symbolic.export.c(model, "out/")                   # out/NAME.h, out/NAME.c

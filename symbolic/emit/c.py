@@ -1,4 +1,4 @@
-"""Generated C (DESIGN.md, "Generated C"): ``NAME.h`` and ``NAME.c``, C99, no allocation, only <math.h>."""
+"""Generated C (docs/contracts.md, "Generated C"): ``NAME.h`` and ``NAME.c``, C99, no allocation, only <math.h>."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The functions every export target provides (DESIGN.md, "Generated C" / "Generated CasADi").
+"""The functions every export target provides (docs/contracts.md, "Generated C" / "Generated CasADi").
 
 Each entry names the function, its inputs (q, qd, qdd, tau, p) and its outputs as expressions in
 the model's intermediate symbols; the C printer and the CasADi translator both start from here, so

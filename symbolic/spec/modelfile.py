@@ -1,4 +1,4 @@
-"""Read TOML model files (the contract in DESIGN.md, "Model file") into :class:`~symbolic.spec.Robot`.
+"""Read TOML model files (docs/model-format.md) into :class:`~symbolic.spec.Robot`.
 
 Parsing uses the standard library's :mod:`tomllib`; expressions are parsed by
 :mod:`symbolic.expressions`. Unknown keys are refused so that a typo does not silently drop a body.
