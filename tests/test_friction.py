@@ -88,11 +88,11 @@ def test_janot_passive_joint_friction_is_16_and_17() -> None:
     Γ_fc = F_V3R (q̇2 − q̇5) + F_C3R sign(q̇2 − q̇5), from friction declared at the passive joint q3 = q5 − q2
     and mapped by Lᵀ of (12)."""
     model = derived("janot_branch")
-    s = {n: sp.Symbol(n, real=True) for n in ("fv1", "fc1", "fv2", "fc2", "off2", "fv5", "fc5", "off5", "fv3r", "fc3r")}
+    s = {n: sp.Symbol(n, real=True) for n in ("fv1", "fc1", "off1", "fv2", "fc2", "off2", "fv5", "fc5", "off5", "fv3r", "fc3r")}
     qd1, qd2, qd5 = model.velocities
     gamma_fc = s["fv3r"] * (qd2 - qd5) + s["fc3r"] * sp.sign(qd2 - qd5)
     expected = [
-        s["fv1"] * qd1 + s["fc1"] * sp.sign(qd1),
+        s["fv1"] * qd1 + s["fc1"] * sp.sign(qd1) + s["off1"],
         s["fv2"] * qd2 + s["fc2"] * sp.sign(qd2) + gamma_fc + s["off2"],
         s["fv5"] * qd5 + s["fc5"] * sp.sign(qd5) - gamma_fc + s["off5"],
     ]

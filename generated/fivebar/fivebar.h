@@ -71,7 +71,7 @@ void fivebar_inertia(const double *q, const double *p, double *D);
 void fivebar_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
- * 181 operations, sine and cosine of 2 angles. */
+ * 179 operations, sine and cosine of 2 angles. */
 void fivebar_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq

@@ -73,7 +73,7 @@ extern const char *const fivebar_flexible_parameter_names[fivebar_flexible_NP];
 extern const double fivebar_flexible_parameter_defaults[fivebar_flexible_NP];
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
- * 449 operations, sine and cosine of 2 angles. */
+ * 447 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_inertia(const double *q, const double *p, double *D);
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
@@ -81,11 +81,11 @@ void fivebar_flexible_inertia(const double *q, const double *p, double *D);
 void fivebar_flexible_coriolis(const double *q, const double *qd, const double *p, double *h);
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
- * 696 operations, sine and cosine of 2 angles. */
+ * 691 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_coriolis_matrix(const double *q, const double *qd, const double *p, double *C);
 
 /* g(q) = dV_gravity/dq
- * 94 operations, sine and cosine of 2 angles. */
+ * 96 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_gravity(const double *q, const double *p, double *g);
 
 /* k(q) = dV_strain/dq (zero for rigid models)
@@ -101,7 +101,7 @@ void fivebar_flexible_friction(const double *q, const double *qd, const double *
 void fivebar_flexible_applied(const double *q, const double *qd, const double *p, double *Q);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
- * 1160 operations, sine and cosine of 2 angles. */
+ * 1156 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.

@@ -10,6 +10,8 @@ Table 3.1).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import sympy as sp
 
 from symbolic.derive.kinematics import ZERO3, Kinematics, cross
@@ -25,11 +27,13 @@ def inverse_dynamics(
     qd: dict[sp.Symbol, sp.Expr],
     qdd: dict[sp.Symbol, sp.Expr],
     gravity: bool = True,
+    frame_wrench: Callable | None = None,
 ) -> sp.Matrix:
     """Generalized forces for velocities ``qd`` and accelerations ``qdd`` (maps coordinate -> value).
 
     With ``qd = qdd = 0`` and ``gravity=True`` this is g(Q); with ``qdd = 0`` and
-    ``gravity=False`` the Coriolis/centripetal vector.
+    ``gravity=False`` the Coriolis/centripetal vector. ``frame_wrench(frame, ω, ω̇, a, U, add)``
+    replaces the bodies' wrench at each frame (the regressor passes the standard-parameter form).
     """
     sub = kin.sub
     add = sub.add
@@ -60,7 +64,10 @@ def inverse_dynamics(
         a = (a_pc + 2 * cross(w_pc, v_rel) + l_t * th_dd + l_d * d_dd + fk.theta_sq_accel * th_d**2).applyfunc(add)
         state[name] = (w, dw, a)
         tangent[name] = _tangent_operator(w, dw, add)
-        wrench[name] = _bodies_wrench(bodies[name], w, dw, a, tangent[name], add)
+        if frame_wrench is None:
+            wrench[name] = _bodies_wrench(bodies[name], w, dw, a, tangent[name], add)
+        else:
+            wrench[name] = frame_wrench(name, w, dw, a, tangent[name], add)
 
     tau = {q: [] for q in kin.coordinates}
     for name in reversed(list(kin.frames)):

@@ -172,10 +172,9 @@ class _Validator:
             if not ready:
                 cycle = " -> ".join(pending)
                 raise self.fail(f"[[frame]] {pending[0]!r} parent", f"frames form a cycle: {cycle}")
-            for n in ready:
-                order.append(n)
-                placed.add(n)
-            pending = [n for n in pending if n not in placed]
+            order.append(ready[0])  # one at a time: the file's order is kept wherever parents come first
+            placed.add(ready[0])
+            pending.remove(ready[0])
         return order
 
     def check_bodies(self) -> None:

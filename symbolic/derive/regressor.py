@@ -1,0 +1,229 @@
+"""The dynamic model linear in its parameters: τ = Y(Q, Q̇, Q̈)·θ (Khalil & Dombre 14.2; Janot (2)–(3)).
+
+θ, the standard parameters, collects in this order:
+
+* per frame that carries bodies (frame j, in frame order), Khalil's ten inertial parameters about
+  the frame's origin in its axes: XXj XYj XZj YYj YZj ZZj (the inertia tensor ʲJ_j, xy being the
+  tensor's (x, y) entry), MXj MYj MZj (first moments m·c) and Mj (mass) — the sums over the frame's
+  bodies;
+* per [[drive]] with a rotor inertia: Iaj = Ia·ratio², the rotor's inertia at its coordinate;
+* per [[friction]] (coordinate j): Fvj, Fcj, offj, or Fvpj/Fvnj, Fcpj/Fcnj for direction-dependent
+  coefficients, and Fsj for a Stribeck level (its velocity scale vs stays a fixed parameter of Y,
+  the law being linear in Fc and Fs for a given vs);
+* per [[force]]: one parameter per monomial of the model's parameters in its expression (e.g.
+  ``-k1*(q1 - q10)`` gives k1 and k1·q10); a force that is not polynomial in its parameters cannot be
+  written this way and is refused.
+
+Y is derived by a Newton–Euler pass in which each frame's wrench is written in these parameters,
+
+    f = M a + U·(MX, MY, MZ),   n = J ω̇ + ω × J ω + (MX, MY, MZ) × a,   U = S(ω̇) + S(ω)²,
+
+which is linear in them (Khalil's formulation); column θ_k of Y is ∂τ/∂θ_k, taken by the chain rule
+through the intermediate symbols. Y also depends on the fixed model parameters (lengths of the DH
+table, gravity, Stribeck velocities); :attr:`Regressor.theta_expressions` maps the model file's
+parameters to θ, so that Y(p)·θ(p) = τ(p) for every p. Models with [[beam]] entries are not
+supported (a beam's mass, stiffness and length enter through modal constants that are not linear).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import sympy as sp
+
+from symbolic.derive.friction import friction_force
+from symbolic.derive.inertia import SpatialInertia
+from symbolic.derive.kinematics import Kinematics, cross
+from symbolic.derive.newton_euler import inverse_dynamics
+from symbolic.derive.subexpressions import Subexpressions
+from symbolic.derive.transmission import map_to_generalized
+from symbolic.errors import ModelError
+from symbolic.spec.robot import Directional, Friction, Robot, Stribeck, acceleration_symbol, coordinate_symbol, velocity_symbol
+from symbolic.spec.validation import validate
+
+INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
+
+
+class StandardParameter(sp.Symbol):
+    """A standard parameter θ_k: a symbol of its own class, so that θ named like a model parameter
+    (an Fv1 in both) never equals it in an expression."""
+
+
+@dataclass(frozen=True)
+class Regressor:
+    """τ = Y·θ for one robot.
+
+    Attributes
+    ----------
+    theta
+        The standard parameters θ (symbols), in the order described in the module docstring.
+    theta_expressions
+        θ as expressions of the model file's parameters (same order).
+    Y
+        N×len(θ) matrix in intermediates of :attr:`sub` (and Q, Q̇, Q̈ and the model's parameters).
+    sub
+        The intermediate registry of Y.
+    kinds
+        For each θ: ``"inertial"``, ``"drive"``, ``"friction"`` or ``"force"``.
+    """
+
+    robot: Robot
+    theta: tuple[sp.Symbol, ...]
+    theta_expressions: tuple[sp.Expr, ...]
+    Y: sp.Matrix
+    sub: Subexpressions
+    kinds: tuple[str, ...]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(t.name for t in self.theta)
+
+    def expand(self) -> sp.Matrix:
+        """Y in Q, Q̇, Q̈ and the model's parameters."""
+        return self.Y.applyfunc(self.sub.expand)
+
+
+def frame_label(name: str) -> str:
+    """Frame name as it follows a parameter kind: '2' -> '2', 'c1' -> '_c1', "0'" -> '_0p'."""
+    clean = re.sub(r"[^A-Za-z0-9_]", "p", name)
+    return clean if clean.isdigit() else f"_{clean}"
+
+
+def regressor(robot: Robot) -> Regressor:
+    """Derive Y and θ for ``robot`` (see the module docstring)."""
+    robot = validate(robot)
+    if robot.beams:
+        raise ModelError(robot.source, "[[beam]]", "the parameter regressor does not support flexible links yet "
+                         "(beam parameters enter through modal constants that are not linear); identify the rigid part")
+    inertial = _inertial_parameters(robot)
+    extra = _drive_parameters(robot) + _friction_parameters(robot) + _force_parameters(robot)
+    theta = tuple(t for frame in inertial.values() for t, _ in frame) + tuple(t for t, _, _ in extra)
+    names = robot.generalized_coordinates
+    q = tuple(coordinate_symbol(c) for c in names)
+    qd = tuple(velocity_symbol(c) for c in names)
+    qdd = tuple(acceleration_symbol(c) for c in names)
+    sub = Subexpressions(q + qd + qdd + theta)
+    kin = Kinematics(robot, sub)
+    symbols = {frame: [t for t, _ in parameters] for frame, parameters in inertial.items()}
+    tau = inverse_dynamics(kin, dict(zip(q, qd)), dict(zip(q, qdd)), gravity=True,
+                           frame_wrench=lambda frame, w, dw, a, U, add: _standard_wrench(symbols.get(frame), w, dw, a, U, add))
+    tau = tau + sum((column * t for t, column, _ in extra), sp.zeros(len(names), 1))
+    Y = sp.Matrix(len(names), len(theta), lambda i, k: sub.add(sub.diff(tau[i], theta[k])))
+    expressions = tuple(e for frame in inertial.values() for _, e in frame) + tuple(e for _, _, e in extra)
+    kinds = tuple(["inertial"] * sum(len(f) for f in inertial.values())) + tuple(_kind(t.name) for t, _, _ in extra)
+    return Regressor(robot, theta, expressions, Y, sub, kinds)
+
+
+def _kind(name: str) -> str:
+    return "drive" if name.startswith("Ia") else "friction" if re.match(r"^(Fv|Fc|Fs|off)", name) else "force"
+
+
+def _inertial_parameters(robot: Robot) -> dict[str, list[tuple[sp.Symbol, sp.Expr]]]:
+    """{frame: [(θ, its expression in the model's parameters)] * 10} for frames carrying bodies."""
+    out: dict[str, list[tuple[sp.Symbol, sp.Expr]]] = {}
+    for frame in robot.frames:
+        bodies = [b for b in robot.bodies if b.frame == frame.name]
+        if not bodies:
+            continue
+        total = SpatialInertia.zero()
+        for body in bodies:
+            total = total + SpatialInertia.of_body(body)
+        J, h = total.rotational, total.moment
+        values = (J[0, 0], J[0, 1], J[0, 2], J[1, 1], J[1, 2], J[2, 2], h[0], h[1], h[2], total.mass)
+        label = frame_label(frame.name)
+        out[frame.name] = [(StandardParameter(f"{k}{label}", real=True), sp.expand(v)) for k, v in zip(INERTIAL, values)]
+    return out  # bodies on the base frame never move: they contribute nothing to τ
+
+
+def _standard_wrench(theta, w, dw, a, U, add) -> tuple[sp.Matrix, sp.Matrix]:
+    """Wrench about the frame origin, linear in the frame's ten standard parameters (Khalil)."""
+    if theta is None:
+        return sp.zeros(3, 1), sp.zeros(3, 1)
+    xx, xy, xz, yy, yz, zz, mx, my, mz, m = theta
+    J = sp.Matrix([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    h = sp.Matrix([mx, my, mz])
+    f = (m * a + U * h).applyfunc(add)
+    Jw = (J * w).applyfunc(add)
+    n = (J * dw + cross(w, Jw) + cross(h, a)).applyfunc(add)
+    return n, f
+
+
+def _drive_parameters(robot: Robot) -> list[tuple[sp.Symbol, sp.Matrix, sp.Expr]]:
+    names = robot.generalized_coordinates
+    out = []
+    for drive in robot.drives:
+        if drive.rotor_inertia == 0:
+            continue  # no rotor declared: nothing to identify
+        theta = StandardParameter(f"Ia{drive.coordinate}", real=True)
+        column = sp.zeros(len(names), 1)
+        column[names.index(drive.coordinate), 0] = acceleration_symbol(drive.coordinate)
+        out.append((theta, column, drive.rotor_inertia * drive.ratio**2))
+    return out
+
+
+def _friction_parameters(robot: Robot) -> list[tuple[sp.Symbol, sp.Matrix, sp.Expr]]:
+    """θ for each friction coefficient, its column (∂f/∂θ over the generalized coordinates) and value."""
+    out = []
+    for entry in robot.frictions:
+        c = entry.coordinate
+        pairs: list[tuple[str, sp.Expr]] = []
+
+        def coefficient(value, name):
+            if value is None:
+                return None
+            if isinstance(value, Directional):
+                pos, neg = StandardParameter(f"{name}p{c}", real=True), StandardParameter(f"{name}n{c}", real=True)
+                pairs.extend([(pos, value.positive), (neg, value.negative)])
+                return Directional(pos, neg)
+            symbol = StandardParameter(f"{name}{c}", real=True)
+            pairs.append((symbol, value))
+            return symbol
+
+        viscous = coefficient(entry.viscous, "Fv")
+        coulomb = coefficient(entry.coulomb, "Fc")
+        if entry.stribeck is not None and coulomb is None:
+            coulomb = sp.Integer(0)
+        offset = coefficient(entry.offset, "off")
+        stribeck = None
+        if entry.stribeck is not None:
+            fs = StandardParameter(f"Fs{c}", real=True)
+            pairs.append((fs, entry.stribeck.static))
+            stribeck = Stribeck(fs, entry.stribeck.velocity)
+        law = friction_force(Friction(c, viscous, coulomb, offset, stribeck), velocity_symbol(c))
+        shares = map_to_generalized(robot, c, law)
+        for theta, value in pairs:
+            out.append((theta, _column(robot, {k: sp.diff(v, theta) for k, v in shares.items()}), value))
+    return out
+
+
+def _force_parameters(robot: Robot) -> list[tuple[sp.Symbol, sp.Matrix, sp.Expr]]:
+    """One θ per monomial of the model's parameters in each [[force]] expression (Q enters τ as −Q)."""
+    params = set(robot.parameter_symbols)
+    out = []
+    for force in robot.forces:
+        present = sorted(force.expression.free_symbols & params, key=sp.default_sort_key)
+        try:
+            poly = sp.Poly(sp.expand(force.expression), *present) if present else None
+        except sp.PolynomialError:
+            poly = None
+        if poly is None or any(not c.free_symbols.isdisjoint(params) for c in poly.coeffs()):
+            raise ModelError(robot.source, f"[[force]] {force.name!r} expression",
+                             "is not polynomial in its parameters, so it cannot enter the linear regressor")
+        for monomial, coeff in zip(poly.monoms(), poly.coeffs()):
+            value = sp.Mul(*[p**k for p, k in zip(present, monomial)])
+            if value == 1:
+                raise ModelError(robot.source, f"[[force]] {force.name!r} expression",
+                                 f"has a term without parameters ({coeff}); write it with a parameter to identify it")
+            theta = StandardParameter(f"{force.name}:{value}", real=True)
+            shares = map_to_generalized(robot, force.coordinate, -coeff)
+            out.append((theta, _column(robot, shares), value))
+    return out
+
+
+def _column(robot: Robot, shares: dict[str, sp.Expr]) -> sp.Matrix:
+    names = robot.generalized_coordinates
+    column = sp.zeros(len(names), 1)
+    for coordinate, value in shares.items():
+        column[names.index(coordinate), 0] += value
+    return column
