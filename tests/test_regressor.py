@@ -171,3 +171,41 @@ def test_janot_regrouped_set_of_the_paper() -> None:
     ours = {janot_name(n) for n in base.names}
     assert ours - set(JANOT_BASE) == {"MY4"}
     assert set(JANOT_BASE) - ours == set()
+
+
+@pytest.mark.parametrize("name", RIGID)
+def test_exported_regressor_in_c_and_casadi(name: str, tmp_path) -> None:
+    """NAME_regressor · NAME_standard_parameters = NAME_inverse_dynamics in the committed C (gcc, ctypes)
+    and the CasADi files, and both equal the SymPy Y to 1e-12 relative."""
+    import ctypes
+    from pathlib import Path
+
+    import casadi
+
+    from c_library import CModel, compile_shared
+
+    model = derived(name)
+    reg = regressor(model.robot)
+    t = len(reg.theta)
+    root = Path(__file__).resolve().parents[1] / "generated" / name
+    c = CModel(compile_shared(root / f"{name}.c", tmp_path / f"lib{name}.so"), name, model.n, len(model.robot.parameters))
+    names = (ctypes.c_char_p * t).in_dll(c.lib, f"{name}_theta_names")
+    assert [x.decode() for x in names] == list(reg.names)
+    Yc = casadi.Function.load(str(root / f"{name}_regressor.casadi"))
+    thc = casadi.Function.load(str(root / f"{name}_standard_parameters.casadi"))
+    Y = regressor_function(model, reg)
+    rng = np.random.default_rng(2)
+    num = numeric_model(model)
+    for _ in range(5):
+        q, qd, qdd = rng.uniform(-np.pi, np.pi, model.n), rng.uniform(-2, 2, model.n), rng.uniform(-5, 5, model.n)
+        p = num.p0 * rng.uniform(0.5, 2.0, num.p0.size)
+        reference = Y(q, qd, qdd, p)
+        theta = theta_values(model, reg, p)
+        y_c = c._call("regressor", [q, qd, qdd, p], model.n * t).reshape(model.n, t)
+        theta_c = c._call("standard_parameters", [p], t)
+        assert np.linalg.norm(y_c - reference) <= 1e-12 * np.linalg.norm(reference)
+        assert np.linalg.norm(np.array(Yc(q, qd, qdd, p)) - reference) <= 1e-12 * np.linalg.norm(reference)
+        scale = 1e-13 * np.linalg.norm(theta)  # entries like I_xy − m·cx·cy cancel: relative to the whole vector
+        assert np.abs(theta_c - theta).max() <= scale and np.abs(np.ravel(thc(p)) - theta).max() <= scale
+        tau = c.inverse_dynamics(q, qd, qdd, p)
+        assert np.linalg.norm(y_c @ theta_c - tau) <= 1e-12 * np.linalg.norm(tau)

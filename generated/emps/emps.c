@@ -6,6 +6,7 @@
 const char *const emps_coordinate_names[emps_NQ] = { "q" };
 const char *const emps_parameter_names[emps_NP] = { "M", "Fv", "Fc", "offset", "gtau" };
 const double emps_parameter_defaults[emps_NP] = { 95.1089, 203.5034, 20.3935, -3.1648, 35.15 };
+const char *const emps_theta_names[emps_NTHETA] = { "XX_carriage", "XY_carriage", "XZ_carriage", "YY_carriage", "YZ_carriage", "ZZ_carriage", "MX_carriage", "MY_carriage", "MZ_carriage", "M_carriage", "Fvq", "Fcq", "offq" };
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * Inputs: q[1] (q), p[5] (see emps_parameter_names); output D[1]
@@ -89,6 +90,49 @@ void emps_inverse_dynamics(const double *q, const double *qd, const double *qdd,
     const double v1 = p[2]*(((qd[0]) > 0) - ((qd[0]) < 0)) + p[1]*qd[0] + p[3];
     const double v2 = v0 + v1;
     tau[0] = v2;
+}
+
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * Inputs: q[1] (q), qd[1] (q), qdd[1] (q), p[5] (see emps_parameter_names); output Y[13]
+ * 1 operations. */
+void emps_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y)
+{
+    (void)q;
+    (void)p;
+    const double v0 = (((qd[0]) > 0) - ((qd[0]) < 0));
+    Y[0] = 0.0;
+    Y[1] = 0.0;
+    Y[2] = 0.0;
+    Y[3] = 0.0;
+    Y[4] = 0.0;
+    Y[5] = 0.0;
+    Y[6] = 0.0;
+    Y[7] = 0.0;
+    Y[8] = 0.0;
+    Y[9] = qdd[0];
+    Y[10] = qd[0];
+    Y[11] = v0;
+    Y[12] = 1.0;
+}
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)
+ * Inputs: p[5] (see emps_parameter_names); output theta[13]
+ * 0 operations. */
+void emps_standard_parameters(const double *p, double *theta)
+{
+    theta[0] = 0.0;
+    theta[1] = 0.0;
+    theta[2] = 0.0;
+    theta[3] = 0.0;
+    theta[4] = 0.0;
+    theta[5] = 0.0;
+    theta[6] = 0.0;
+    theta[7] = 0.0;
+    theta[8] = 0.0;
+    theta[9] = p[0];
+    theta[10] = p[1];
+    theta[11] = p[2];
+    theta[12] = p[3];
 }
 
 int emps_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)

@@ -19,11 +19,27 @@ extern "C" {
  *   [3] offset = -3.1648 N -- force offset (published, 1.40 %)
  *   [4] gtau = 35.15 N/V -- drive gain: motor force = gtau * vir
  *
- * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) = tau.
+ * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
+ *
+ * Standard parameters theta (regressor column): tau = regressor(q, qd, qdd, p) * standard_parameters(p).
+ *   [0] XX_carriage
+ *   [1] XY_carriage
+ *   [2] XZ_carriage
+ *   [3] YY_carriage
+ *   [4] YZ_carriage
+ *   [5] ZZ_carriage
+ *   [6] MX_carriage
+ *   [7] MY_carriage
+ *   [8] MZ_carriage
+ *   [9] M_carriage
+ *   [10] Fvq
+ *   [11] Fcq
+ *   [12] offq
  */
 
 #define emps_NQ 1
 #define emps_NP 5
+#define emps_NTHETA 13
 #define emps_P_M 0
 #define emps_P_Fv 1
 #define emps_P_Fc 2
@@ -33,6 +49,7 @@ extern "C" {
 extern const char *const emps_coordinate_names[emps_NQ];
 extern const char *const emps_parameter_names[emps_NP];
 extern const double emps_parameter_defaults[emps_NP];
+extern const char *const emps_theta_names[emps_NTHETA];
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 0 operations. */
@@ -66,7 +83,15 @@ void emps_applied(const double *q, const double *qd, const double *p, double *Q)
  * 7 operations. */
 void emps_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
-/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * 1 operations. */
+void emps_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y);
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)
+ * 0 operations. */
+void emps_standard_parameters(const double *p, double *theta);
+
+/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */
 int emps_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd);
 

@@ -34,11 +34,64 @@ extern "C" {
  *   [16] I_r = 0.0052 kg*m^2 -- link r about its centre of mass
  *   [17] J0 = 0.676 kg*m^2 -- turntable and base motor about the vertical axis
  *
- * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) = tau.
+ * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
+ *
+ * Standard parameters theta (regressor column): tau = regressor(q, qd, qdd, p) * standard_parameters(p).
+ *   [0] XX_0p
+ *   [1] XY_0p
+ *   [2] XZ_0p
+ *   [3] YY_0p
+ *   [4] YZ_0p
+ *   [5] ZZ_0p
+ *   [6] MX_0p
+ *   [7] MY_0p
+ *   [8] MZ_0p
+ *   [9] M_0p
+ *   [10] XX_c2
+ *   [11] XY_c2
+ *   [12] XZ_c2
+ *   [13] YY_c2
+ *   [14] YZ_c2
+ *   [15] ZZ_c2
+ *   [16] MX_c2
+ *   [17] MY_c2
+ *   [18] MZ_c2
+ *   [19] M_c2
+ *   [20] XX_c3
+ *   [21] XY_c3
+ *   [22] XZ_c3
+ *   [23] YY_c3
+ *   [24] YZ_c3
+ *   [25] ZZ_c3
+ *   [26] MX_c3
+ *   [27] MY_c3
+ *   [28] MZ_c3
+ *   [29] M_c3
+ *   [30] XX_c1
+ *   [31] XY_c1
+ *   [32] XZ_c1
+ *   [33] YY_c1
+ *   [34] YZ_c1
+ *   [35] ZZ_c1
+ *   [36] MX_c1
+ *   [37] MY_c1
+ *   [38] MZ_c1
+ *   [39] M_c1
+ *   [40] XX_cr
+ *   [41] XY_cr
+ *   [42] XZ_cr
+ *   [43] YY_cr
+ *   [44] YZ_cr
+ *   [45] ZZ_cr
+ *   [46] MX_cr
+ *   [47] MY_cr
+ *   [48] MZ_cr
+ *   [49] M_cr
  */
 
 #define fivebar_NQ 3
 #define fivebar_NP 18
+#define fivebar_NTHETA 50
 #define fivebar_P_g 0
 #define fivebar_P_l1 1
 #define fivebar_P_l2 2
@@ -61,6 +114,7 @@ extern "C" {
 extern const char *const fivebar_coordinate_names[fivebar_NQ];
 extern const char *const fivebar_parameter_names[fivebar_NP];
 extern const double fivebar_parameter_defaults[fivebar_NP];
+extern const char *const fivebar_theta_names[fivebar_NTHETA];
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 149 operations, sine and cosine of 2 angles. */
@@ -94,7 +148,15 @@ void fivebar_applied(const double *q, const double *qd, const double *p, double 
  * 278 operations, sine and cosine of 2 angles. */
 void fivebar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
-/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * 601 operations, sine and cosine of 2 angles. */
+void fivebar_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y);
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)
+ * 1 operations. */
+void fivebar_standard_parameters(const double *p, double *theta);
+
+/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */
 int fivebar_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd);
 

@@ -41,7 +41,7 @@ extern "C" {
  *   [19] EI = 88.32 N*m^2 -- bending stiffness of link 5 (both directions)
  *   [20] m_p = 0.043 kg -- strain-gauge unit at the tip of link 5
  *
- * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) = tau.
+ * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
  */
 
 #define fivebar_flexible_NQ 7
@@ -104,7 +104,7 @@ void fivebar_flexible_applied(const double *q, const double *qd, const double *p
  * 1156 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
-/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.
+/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */
 int fivebar_flexible_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd);
 

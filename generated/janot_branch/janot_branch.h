@@ -64,11 +64,88 @@ extern "C" {
  *   [46] ia2 = 0.0002 kg*m^2 -- rotor inertia at joint 2 (assumed)
  *   [47] ia5 = 0.0002 kg*m^2 -- rotor inertia at joint 5 (assumed)
  *
- * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) = tau.
+ * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
+ *
+ * Standard parameters theta (regressor column): tau = regressor(q, qd, qdd, p) * standard_parameters(p).
+ *   [0] XX1
+ *   [1] XY1
+ *   [2] XZ1
+ *   [3] YY1
+ *   [4] YZ1
+ *   [5] ZZ1
+ *   [6] MX1
+ *   [7] MY1
+ *   [8] MZ1
+ *   [9] M1
+ *   [10] XX2
+ *   [11] XY2
+ *   [12] XZ2
+ *   [13] YY2
+ *   [14] YZ2
+ *   [15] ZZ2
+ *   [16] MX2
+ *   [17] MY2
+ *   [18] MZ2
+ *   [19] M2
+ *   [20] XX3
+ *   [21] XY3
+ *   [22] XZ3
+ *   [23] YY3
+ *   [24] YZ3
+ *   [25] ZZ3
+ *   [26] MX3
+ *   [27] MY3
+ *   [28] MZ3
+ *   [29] M3
+ *   [30] XX4
+ *   [31] XY4
+ *   [32] XZ4
+ *   [33] YY4
+ *   [34] YZ4
+ *   [35] ZZ4
+ *   [36] MX4
+ *   [37] MY4
+ *   [38] MZ4
+ *   [39] M4
+ *   [40] XX5
+ *   [41] XY5
+ *   [42] XZ5
+ *   [43] YY5
+ *   [44] YZ5
+ *   [45] ZZ5
+ *   [46] MX5
+ *   [47] MY5
+ *   [48] MZ5
+ *   [49] M5
+ *   [50] XX6
+ *   [51] XY6
+ *   [52] XZ6
+ *   [53] YY6
+ *   [54] YZ6
+ *   [55] ZZ6
+ *   [56] MX6
+ *   [57] MY6
+ *   [58] MZ6
+ *   [59] M6
+ *   [60] Iaq1
+ *   [61] Iaq2
+ *   [62] Iaq5
+ *   [63] Fvq1
+ *   [64] Fcq1
+ *   [65] offq1
+ *   [66] Fvq2
+ *   [67] Fcq2
+ *   [68] offq2
+ *   [69] Fvq5
+ *   [70] Fcq5
+ *   [71] offq5
+ *   [72] Fvq3
+ *   [73] Fcq3
  */
 
 #define janot_branch_NQ 3
 #define janot_branch_NP 48
+#define janot_branch_NTHETA 74
 #define janot_branch_P_g 0
 #define janot_branch_P_d3 1
 #define janot_branch_P_d4 2
@@ -121,6 +198,7 @@ extern "C" {
 extern const char *const janot_branch_coordinate_names[janot_branch_NQ];
 extern const char *const janot_branch_parameter_names[janot_branch_NP];
 extern const double janot_branch_parameter_defaults[janot_branch_NP];
+extern const char *const janot_branch_theta_names[janot_branch_NTHETA];
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 201 operations, sine and cosine of 2 angles. */
@@ -154,7 +232,15 @@ void janot_branch_applied(const double *q, const double *qd, const double *p, do
  * 435 operations, sine and cosine of 3 angles. */
 void janot_branch_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
-/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * 695 operations, sine and cosine of 3 angles. */
+void janot_branch_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y);
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)
+ * 33 operations. */
+void janot_branch_standard_parameters(const double *p, double *theta);
+
+/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */
 int janot_branch_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd);
 

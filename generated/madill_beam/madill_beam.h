@@ -24,7 +24,7 @@ extern "C" {
  *   [4] EI = 88.32 N*m^2 -- E I = 69e9 * 1.28e-9
  *   [5] M_p = 0.043 kg -- axial force sensor at the tip
  *
- * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) = tau.
+ * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
  */
 
 #define madill_beam_NQ 5
@@ -72,7 +72,7 @@ void madill_beam_applied(const double *q, const double *qd, const double *p, dou
  * 138 operations. */
 void madill_beam_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
-/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.
+/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */
 int madill_beam_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd);
 

@@ -23,11 +23,44 @@ extern "C" {
  *   [5] I_base = 0.00012 kg*m^2 -- base (central shell) about the yaw axis
  *   [6] gamma_offs = 0.0 rad -- offset angle of link 2 (Milne (5))
  *
- * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) = tau.
+ * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
+ *
+ * Standard parameters theta (regressor column): tau = regressor(q, qd, qdd, p) * standard_parameters(p).
+ *   [0] XX_yaw
+ *   [1] XY_yaw
+ *   [2] XZ_yaw
+ *   [3] YY_yaw
+ *   [4] YZ_yaw
+ *   [5] ZZ_yaw
+ *   [6] MX_yaw
+ *   [7] MY_yaw
+ *   [8] MZ_yaw
+ *   [9] M_yaw
+ *   [10] XX_c1
+ *   [11] XY_c1
+ *   [12] XZ_c1
+ *   [13] YY_c1
+ *   [14] YZ_c1
+ *   [15] ZZ_c1
+ *   [16] MX_c1
+ *   [17] MY_c1
+ *   [18] MZ_c1
+ *   [19] M_c1
+ *   [20] XX_c2
+ *   [21] XY_c2
+ *   [22] XZ_c2
+ *   [23] YY_c2
+ *   [24] YZ_c2
+ *   [25] ZZ_c2
+ *   [26] MX_c2
+ *   [27] MY_c2
+ *   [28] MZ_c2
+ *   [29] M_c2
  */
 
 #define omni_NQ 3
 #define omni_NP 7
+#define omni_NTHETA 30
 #define omni_P_g 0
 #define omni_P_L1 1
 #define omni_P_L2 2
@@ -39,6 +72,7 @@ extern "C" {
 extern const char *const omni_coordinate_names[omni_NQ];
 extern const char *const omni_parameter_names[omni_NP];
 extern const double omni_parameter_defaults[omni_NP];
+extern const char *const omni_theta_names[omni_NTHETA];
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 98 operations, sine and cosine of 1 angles. */
@@ -72,7 +106,15 @@ void omni_applied(const double *q, const double *qd, const double *p, double *Q)
  * 156 operations, sine and cosine of 1 angles. */
 void omni_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
-/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * 327 operations, sine and cosine of 1 angles. */
+void omni_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y);
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)
+ * 7 operations. */
+void omni_standard_parameters(const double *p, double *theta);
+
+/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */
 int omni_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd);
 

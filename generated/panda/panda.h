@@ -98,11 +98,84 @@ extern "C" {
  *   [76] Iyz7 = -0.000741 kg*m^2
  *   [77] Izz7 = 0.004815 kg*m^2
  *
- * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) = tau.
+ * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
+ *
+ * Standard parameters theta (regressor column): tau = regressor(q, qd, qdd, p) * standard_parameters(p).
+ *   [0] XX1
+ *   [1] XY1
+ *   [2] XZ1
+ *   [3] YY1
+ *   [4] YZ1
+ *   [5] ZZ1
+ *   [6] MX1
+ *   [7] MY1
+ *   [8] MZ1
+ *   [9] M1
+ *   [10] XX2
+ *   [11] XY2
+ *   [12] XZ2
+ *   [13] YY2
+ *   [14] YZ2
+ *   [15] ZZ2
+ *   [16] MX2
+ *   [17] MY2
+ *   [18] MZ2
+ *   [19] M2
+ *   [20] XX3
+ *   [21] XY3
+ *   [22] XZ3
+ *   [23] YY3
+ *   [24] YZ3
+ *   [25] ZZ3
+ *   [26] MX3
+ *   [27] MY3
+ *   [28] MZ3
+ *   [29] M3
+ *   [30] XX4
+ *   [31] XY4
+ *   [32] XZ4
+ *   [33] YY4
+ *   [34] YZ4
+ *   [35] ZZ4
+ *   [36] MX4
+ *   [37] MY4
+ *   [38] MZ4
+ *   [39] M4
+ *   [40] XX5
+ *   [41] XY5
+ *   [42] XZ5
+ *   [43] YY5
+ *   [44] YZ5
+ *   [45] ZZ5
+ *   [46] MX5
+ *   [47] MY5
+ *   [48] MZ5
+ *   [49] M5
+ *   [50] XX6
+ *   [51] XY6
+ *   [52] XZ6
+ *   [53] YY6
+ *   [54] YZ6
+ *   [55] ZZ6
+ *   [56] MX6
+ *   [57] MY6
+ *   [58] MZ6
+ *   [59] M6
+ *   [60] XX7
+ *   [61] XY7
+ *   [62] XZ7
+ *   [63] YY7
+ *   [64] YZ7
+ *   [65] ZZ7
+ *   [66] MX7
+ *   [67] MY7
+ *   [68] MZ7
+ *   [69] M7
  */
 
 #define panda_NQ 7
 #define panda_NP 78
+#define panda_NTHETA 70
 #define panda_P_g 0
 #define panda_P_d1 1
 #define panda_P_d3 2
@@ -185,6 +258,7 @@ extern "C" {
 extern const char *const panda_coordinate_names[panda_NQ];
 extern const char *const panda_parameter_names[panda_NP];
 extern const double panda_parameter_defaults[panda_NP];
+extern const char *const panda_theta_names[panda_NTHETA];
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 632 operations, sine and cosine of 6 angles. */
@@ -218,7 +292,15 @@ void panda_applied(const double *q, const double *qd, const double *p, double *Q
  * 834 operations, sine and cosine of 6 angles. */
 void panda_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
-/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * 1940 operations, sine and cosine of 6 angles. */
+void panda_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y);
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)
+ * 147 operations. */
+void panda_standard_parameters(const double *p, double *theta);
+
+/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */
 int panda_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd);
 

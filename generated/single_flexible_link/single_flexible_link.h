@@ -24,7 +24,7 @@ extern "C" {
  *   [4] EIv = 88.32 N*m^2 -- bending stiffness, horizontal (69e9 * 1.28e-9)
  *   [5] EIw = 88.32 N*m^2 -- bending stiffness, vertical
  *
- * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) = tau.
+ * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
  */
 
 #define single_flexible_link_NQ 5
@@ -72,7 +72,7 @@ void single_flexible_link_applied(const double *q, const double *qd, const doubl
  * 69 operations. */
 void single_flexible_link_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
-/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.
+/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */
 int single_flexible_link_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd);
 

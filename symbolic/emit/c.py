@@ -6,7 +6,7 @@ import sympy as sp
 
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.emit.c_printer import CPrinter, c_double
-from symbolic.numeric.exported import batched_programs, function_specs, input_symbols, programs
+from symbolic.numeric.exported import batched_programs, function_specs, input_symbols, model_regressor, programs
 from symbolic.emit.naming import check_c_name, comment_text
 from symbolic.emit.templates import render
 
@@ -65,6 +65,7 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
             for i, p in enumerate(model.robot.parameters)
         ],
         "functions": functions,
+        "theta": [] if (reg := model_regressor(model)) is None else [{"index": i, "name": t} for i, t in enumerate(reg.names)],
     }
     return {f"{name}.h": render("model.h.j2", **context), f"{name}.c": render("model.c.j2", **context)}
 

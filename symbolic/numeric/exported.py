@@ -13,10 +13,20 @@ from dataclasses import dataclass
 import sympy as sp
 
 from symbolic.derive.dynamics import DynamicModel
+from symbolic.derive.regressor import Regressor, regressor
+from symbolic.derive.subexpressions import Subexpressions
 
 # Built once per model object (CSE is the slow part), dropped with the model.
 _PROGRAMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _BATCHED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_REGRESSORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def model_regressor(model: DynamicModel) -> Regressor | None:
+    """The parameter regressor of ``model`` (derived once), or None for models it does not cover (beams)."""
+    if model not in _REGRESSORS:
+        _REGRESSORS[model] = None if model.robot.beams else regressor(model.robot)
+    return _REGRESSORS[model]
 
 
 @dataclass(frozen=True)
@@ -28,6 +38,7 @@ class FunctionSpec:
     cols: int
     expressions: tuple[sp.Expr, ...]  # row-major
     doc: str
+    sub: Subexpressions | None = None  # the intermediates the expressions use (default: the model's)
 
 
 def input_symbols(model: DynamicModel) -> dict[str, tuple[sp.Symbol, ...]]:
@@ -63,6 +74,19 @@ def function_specs(model: DynamicModel) -> list[FunctionSpec]:
                      "Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)"),
         FunctionSpec("inverse_dynamics", ("q", "qd", "qdd", "p"), "tau", n, 1, tuple(r.tau),
                      "tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)"),
+    ] + _regressor_specs(model)
+
+
+def _regressor_specs(model: DynamicModel) -> list[FunctionSpec]:
+    reg = model_regressor(model)
+    if reg is None:
+        return []
+    n, t = model.n, len(reg.theta)
+    return [
+        FunctionSpec("regressor", ("q", "qd", "qdd", "p"), "Y", n, t, tuple(reg.Y),
+                     "Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)", reg.sub),
+        FunctionSpec("standard_parameters", ("p",), "theta", t, 1, tuple(reg.theta_expressions),
+                     "theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)"),
     ]
 
 
@@ -72,7 +96,7 @@ def programs(model: DynamicModel) -> dict[str, "Program"]:
 
     cache = _PROGRAMS.get(model)
     if cache is None:
-        cache = _PROGRAMS[model] = {spec.name: build_program(model.sub, spec.expressions) for spec in function_specs(model)}
+        cache = _PROGRAMS[model] = {spec.name: build_program(spec.sub or model.sub, spec.expressions) for spec in function_specs(model)}
     return cache
 
 

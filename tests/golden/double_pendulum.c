@@ -6,6 +6,7 @@
 const char *const double_pendulum_coordinate_names[double_pendulum_NQ] = { "q1", "q2" };
 const char *const double_pendulum_parameter_names[double_pendulum_NP] = { "g", "l1", "l2", "m1", "m2" };
 const double double_pendulum_parameter_defaults[double_pendulum_NP] = { 9.81, 0.5, 0.4, 1.0, 0.8 };
+const char *const double_pendulum_theta_names[double_pendulum_NTHETA] = { "XX1", "XY1", "XZ1", "YY1", "YZ1", "ZZ1", "MX1", "MY1", "MZ1", "M1", "XX2", "XY2", "XZ2", "YY2", "YZ2", "ZZ2", "MX2", "MY2", "MZ2", "M2" };
 
 /* Sine and cosine of n angles: s[i] = sin(x[i]), c[i] = cos(x[i]).
  *
@@ -296,6 +297,108 @@ void double_pendulum_inverse_dynamics(const double *q, const double *qd, const d
     const double v15 = p[1]*v14 + v12;
     tau[0] = v15;
     tau[1] = v12;
+}
+
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * Inputs: q[2] (q1, q2), qd[2] (q1, q2), qdd[2] (q1, q2), p[5] (see double_pendulum_parameter_names); output Y[40]
+ * 58 operations; sine and cosine of 2 angles in one double_pendulum_sincos call. */
+void double_pendulum_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y)
+{
+    double sn[2], cs[2];
+    double_pendulum_sincos(2, q, sn, cs);
+    const double v0 = (qd[0]*qd[0]);
+    const double v1 = p[1]*qdd[0];
+    const double v2 = p[2]*qd[0];
+    const double v3 = sn[0]*p[0];
+    const double v4 = cs[0]*p[0];
+    const double v5 = -p[1]*v0 + v3;
+    const double v6 = v1 + v4;
+    const double v7 = cs[1]*v5 + sn[1]*v6 - qd[0]*v2;
+    const double v8 = cs[1]*v6 - sn[1]*v5 + p[2]*qdd[0];
+    const double v9 = qd[0] + qd[1];
+    const double v10 = qdd[0] + qdd[1];
+    const double v11 = p[2]*(qd[1]*qd[1]) + 2.0*qd[1]*v2 - v7;
+    const double v12 = p[2]*qdd[1] + v8;
+    const double v13 = (v9*v9);
+    const double v14 = v1 + v6;
+    const double v15 = p[1]*v0 + v5;
+    const double v16 = p[1]*v6;
+    const double v17 = p[2]*v10 + v12;
+    const double v18 = cs[1]*v10 - sn[1]*v13;
+    const double v19 = p[1]*v18 + v17;
+    const double v20 = -p[2]*v13 + v11;
+    const double v21 = cs[1]*v13 + sn[1]*v10;
+    const double v22 = -p[1]*v21 + v20;
+    const double v23 = p[2]*v12;
+    const double v24 = -cs[1]*v12 + sn[1]*v11;
+    const double v25 = -p[1]*v24 + v23;
+    Y[0] = 0.0;
+    Y[1] = 0.0;
+    Y[2] = 0.0;
+    Y[3] = 0.0;
+    Y[4] = 0.0;
+    Y[5] = qdd[0];
+    Y[6] = v14;
+    Y[7] = -v15;
+    Y[8] = 0.0;
+    Y[9] = v16;
+    Y[10] = 0.0;
+    Y[11] = 0.0;
+    Y[12] = 0.0;
+    Y[13] = 0.0;
+    Y[14] = 0.0;
+    Y[15] = v10;
+    Y[16] = v19;
+    Y[17] = v22;
+    Y[18] = 0.0;
+    Y[19] = v25;
+    Y[20] = 0.0;
+    Y[21] = 0.0;
+    Y[22] = 0.0;
+    Y[23] = 0.0;
+    Y[24] = 0.0;
+    Y[25] = 0.0;
+    Y[26] = 0.0;
+    Y[27] = 0.0;
+    Y[28] = 0.0;
+    Y[29] = 0.0;
+    Y[30] = 0.0;
+    Y[31] = 0.0;
+    Y[32] = 0.0;
+    Y[33] = 0.0;
+    Y[34] = 0.0;
+    Y[35] = v10;
+    Y[36] = v17;
+    Y[37] = v20;
+    Y[38] = 0.0;
+    Y[39] = v23;
+}
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)
+ * Inputs: p[5] (see double_pendulum_parameter_names); output theta[20]
+ * 0 operations. */
+void double_pendulum_standard_parameters(const double *p, double *theta)
+{
+    theta[0] = 0.0;
+    theta[1] = 0.0;
+    theta[2] = 0.0;
+    theta[3] = 0.0;
+    theta[4] = 0.0;
+    theta[5] = 0.0;
+    theta[6] = 0.0;
+    theta[7] = 0.0;
+    theta[8] = 0.0;
+    theta[9] = p[3];
+    theta[10] = 0.0;
+    theta[11] = 0.0;
+    theta[12] = 0.0;
+    theta[13] = 0.0;
+    theta[14] = 0.0;
+    theta[15] = 0.0;
+    theta[16] = 0.0;
+    theta[17] = 0.0;
+    theta[18] = 0.0;
+    theta[19] = p[4];
 }
 
 int double_pendulum_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)

@@ -20,11 +20,34 @@ extern "C" {
  *   [3] m1 = 1.0 kg
  *   [4] m2 = 0.8 kg
  *
- * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) = tau.
+ * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
+ *
+ * Standard parameters theta (regressor column): tau = regressor(q, qd, qdd, p) * standard_parameters(p).
+ *   [0] XX1
+ *   [1] XY1
+ *   [2] XZ1
+ *   [3] YY1
+ *   [4] YZ1
+ *   [5] ZZ1
+ *   [6] MX1
+ *   [7] MY1
+ *   [8] MZ1
+ *   [9] M1
+ *   [10] XX2
+ *   [11] XY2
+ *   [12] XZ2
+ *   [13] YY2
+ *   [14] YZ2
+ *   [15] ZZ2
+ *   [16] MX2
+ *   [17] MY2
+ *   [18] MZ2
+ *   [19] M2
  */
 
 #define double_pendulum_NQ 2
 #define double_pendulum_NP 5
+#define double_pendulum_NTHETA 20
 #define double_pendulum_P_g 0
 #define double_pendulum_P_l1 1
 #define double_pendulum_P_l2 2
@@ -34,6 +57,7 @@ extern "C" {
 extern const char *const double_pendulum_coordinate_names[double_pendulum_NQ];
 extern const char *const double_pendulum_parameter_names[double_pendulum_NP];
 extern const double double_pendulum_parameter_defaults[double_pendulum_NP];
+extern const char *const double_pendulum_theta_names[double_pendulum_NTHETA];
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 14 operations, sine and cosine of 1 angles. */
@@ -67,7 +91,15 @@ void double_pendulum_applied(const double *q, const double *qd, const double *p,
  * 40 operations, sine and cosine of 2 angles. */
 void double_pendulum_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
-/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction), by Cholesky.
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * 58 operations, sine and cosine of 2 angles. */
+void double_pendulum_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y);
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)
+ * 0 operations. */
+void double_pendulum_standard_parameters(const double *p, double *theta);
+
+/* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */
 int double_pendulum_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd);
 
