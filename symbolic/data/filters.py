@@ -22,6 +22,8 @@ All functions work along ``axis`` (default 0, the sample axis) of arrays of any 
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import scipy.signal
 
@@ -54,8 +56,7 @@ def lowpass(x: np.ndarray, cutoff: float, rate: float, order: int = 4, axis: int
     nyquist = rate / 2.0
     if not 0.0 < cutoff < nyquist:
         raise ValueError(f"cut-off {cutoff:g} Hz must lie between 0 and the Nyquist frequency {nyquist:g} Hz")
-    sos = scipy.signal.butter(order, cutoff / nyquist, output="sos")
-    return _filtfilt(sos, np.asarray(x, dtype=float), 3 * order, axis)
+    return _filtfilt(_butterworth(order, cutoff / nyquist), np.asarray(x, dtype=float), 3 * order, axis)
 
 
 def central_difference(x: np.ndarray, step: float, axis: int = 0) -> np.ndarray:
@@ -87,14 +88,23 @@ def decimate(x: np.ndarray, factor: int, axis: int = 0) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     if factor == 1:
         return x.copy()
-    sos = scipy.signal.cheby1(DECIMATION_ORDER, DECIMATION_RIPPLE, 0.8 / factor, output="sos")
-    filtered = _filtfilt(sos, x, 3 * DECIMATION_ORDER, axis)
+    filtered = _filtfilt(_chebyshev(factor), x, 3 * DECIMATION_ORDER, axis)
     return np.take(filtered, kept_indices(x.shape[axis], factor), axis=axis)
 
 
 def kept_indices(samples: int, factor: int) -> np.ndarray:
     """Indices of the samples :func:`decimate` keeps out of ``samples``."""
     return np.arange((samples - 1) % factor, samples, factor)
+
+
+@functools.lru_cache(maxsize=32)
+def _butterworth(order: int, cutoff: float) -> np.ndarray:
+    return scipy.signal.butter(order, cutoff, output="sos")
+
+
+@functools.lru_cache(maxsize=32)
+def _chebyshev(factor: int) -> np.ndarray:
+    return scipy.signal.cheby1(DECIMATION_ORDER, DECIMATION_RIPPLE, 0.8 / factor, output="sos")
 
 
 def _filtfilt(sos: np.ndarray, x: np.ndarray, padlen: int, axis: int) -> np.ndarray:
