@@ -103,7 +103,7 @@ def resolve_data(name: str, experiment: Path) -> Path:
     the checkout), and the same file works elsewhere with ``SYMBOLIC_DATA_PATH=/path/to/emps``.
     """
     given = Path(name)
-    first = given if given.is_absolute() else experiment.parent / given
+    first = Path(os.path.normpath(given if given.is_absolute() else experiment.parent / given))
     candidates = [first]
     search = [Path(d) for d in os.environ.get(DATA_PATH_VARIABLE, "").split(os.pathsep) if d]
     candidates += [d / given.name for d in search]
