@@ -388,3 +388,5 @@ def test_emps_examples_load(emps: Path) -> None:
     np.testing.assert_array_equal(m.extras["pulses_N"], raw["pulses_N"][:, 0])
     assert m.model == "emps" and m.controller["kind"] == "cascade" and m.identification["bandwidth"] == 20.0
     assert dict(load(robots.example_path("emps_estimation"), coordinates=["q"]).constants)["gtau"] == raw["gtau"][0, 0]
+    # the model the experiments name is the built-in one, and its coordinates are the data's
+    assert robots.load(m.model).coordinates == m.coordinates
