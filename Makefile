@@ -27,6 +27,7 @@ bench:
 	$(PYTHON) bench/derivation.py --out bench/results/derivation.md
 	$(PYTHON) bench/runtime.py --out bench/results/runtime.md
 	$(PYTHON) bench/export.py --out bench/results/export.md
+	$(PYTHON) bench/identification.py --out bench/results/identification.md
 
 clean:
 	rm -rf build dist *.egg-info .pytest_cache .hypothesis

@@ -2,6 +2,8 @@
 
 ``symbolic.robots.names()`` lists them; ``symbolic.robots.load(name)`` returns the validated
 :class:`~symbolic.spec.Robot`; ``symbolic.robots.path(name)`` the model file (to copy and edit).
+Example experiment files (``NAME.experiment.toml``, read by :func:`symbolic.data.load`) sit beside
+the models: ``examples()`` lists them and ``example_path(name)`` gives one.
 """
 
 from __future__ import annotations
@@ -12,9 +14,30 @@ from pathlib import Path
 from symbolic.spec.robot import Robot
 
 
+EXPERIMENT_SUFFIX = ".experiment.toml"
+
+
 def names() -> list[str]:
-    """Names of the built-in robots, sorted."""
-    return sorted(p.name[: -len(".toml")] for p in resources.files(__name__).iterdir() if p.name.endswith(".toml"))
+    """Names of the built-in robots, sorted (experiment files are not robots)."""
+    return sorted(
+        p.name[: -len(".toml")]
+        for p in resources.files(__name__).iterdir()
+        if p.name.endswith(".toml") and not p.name.endswith(EXPERIMENT_SUFFIX)
+    )
+
+
+def examples() -> list[str]:
+    """Names of the example experiment files (``NAME.experiment.toml``), sorted."""
+    return sorted(
+        p.name[: -len(EXPERIMENT_SUFFIX)] for p in resources.files(__name__).iterdir() if p.name.endswith(EXPERIMENT_SUFFIX)
+    )
+
+
+def example_path(name: str) -> Path:
+    """The example experiment file ``name`` (e.g. ``"emps_estimation"``)."""
+    if name not in examples():
+        raise KeyError(f"no example experiment {name!r} (available: {', '.join(examples())})")
+    return Path(str(resources.files(__name__).joinpath(f"{name}{EXPERIMENT_SUFFIX}")))
 
 
 def path(name: str) -> Path:

@@ -1,0 +1,240 @@
+"""Reading and writing data files: CSV with a header line, NumPy ``.npz``, MATLAB ``.mat`` (v5).
+
+A file is read into a :class:`Table`: its vectors (one value per sample), its scalars (MATLAB's
+1×1 variables such as ``gtau``, usable as constants) and the variables that are neither (kept by
+name so that an expression using one gets a precise message).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import tempfile
+import zipfile
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from symbolic.data.errors import DataError
+
+DATA_SUFFIXES = (".csv", ".npz", ".mat")
+MAT_MAGIC = b"MATLAB 5.0 MAT-file"
+ZIP_MAGIC = b"PK\x03\x04"
+
+
+@dataclass
+class Table:
+    """The variables of one data file, by name, in file order."""
+
+    source: str
+    vectors: dict[str, np.ndarray] = field(default_factory=dict)
+    scalars: dict[str, float] = field(default_factory=dict)
+    unusable: dict[str, str] = field(default_factory=dict)
+
+    def names(self) -> list[str]:
+        """Every variable name of the file (vectors, scalars, unusable)."""
+        return [*self.vectors, *self.scalars, *self.unusable]
+
+
+def kind(path: Path) -> str:
+    """``"csv"``, ``"npz"``, ``"mat"`` or ``"experiment"``: by suffix, else by the file's first bytes.
+
+    Raises
+    ------
+    DataError
+        If neither the suffix nor the content tells.
+    """
+    suffix = path.suffix.lower()
+    if suffix in DATA_SUFFIXES:
+        return suffix[1:]
+    if suffix == ".toml":
+        return "experiment"
+    head = _head(path)
+    if head.startswith(MAT_MAGIC):
+        return "mat"
+    if head.startswith(ZIP_MAGIC):
+        return "npz"
+    raise DataError(
+        str(path),
+        "file",
+        f"unknown file type {suffix or '(no suffix)'!r} (allowed: data files .csv with a header line, .npz, "
+        ".mat v5, or an experiment file .toml)",
+    )
+
+
+def _head(path: Path) -> bytes:
+    try:
+        with path.open("rb") as f:
+            return f.read(64)
+    except OSError as exc:
+        raise DataError(str(path), "file", f"cannot read: {exc.strerror}") from None
+
+
+def read(path: Path) -> Table:
+    """Read a data file (``.csv``, ``.npz``, ``.mat``) into a :class:`Table`."""
+    readers = {"csv": read_csv, "npz": read_npz, "mat": read_mat}
+    which = kind(path)
+    if which not in readers:
+        raise DataError(str(path), "file", "expected a data file (.csv, .npz, .mat), got an experiment file")
+    if not path.is_file():
+        raise DataError(str(path), "file", "no such data file")
+    return readers[which](path)
+
+
+def read_csv(path: Path) -> Table:
+    """CSV: lines starting with ``#`` before the header are comments; then a header line of names."""
+    source = str(path)
+    try:
+        text = path.read_bytes().decode("utf-8-sig")
+    except OSError as exc:
+        raise DataError(source, "file", f"cannot read: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise DataError(source, "file", "CSV file is not UTF-8 text") from None
+    lines = text.splitlines()
+    first = next((i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")), None)
+    if first is None:
+        raise DataError(source, "header", "no header line (expected comma-separated column names, e.g. t,q_q,tau_q)")
+    header = [name.strip() for name in next(csv.reader([lines[first]]))]
+    _check_names(header, source)
+    body = [(i + 1, line) for i, line in enumerate(lines[first + 1 :], start=first + 1) if line.strip()]
+    values = _parse_rows(body, header, source)
+    table = Table(source)
+    for j, name in enumerate(header):
+        table.vectors[name] = values[:, j]
+    return table
+
+
+def _check_names(header: list[str], source: str) -> None:
+    seen = set()
+    for j, name in enumerate(header):
+        if not name:
+            raise DataError(source, "header", f"column {j + 1} has no name")
+        if name in seen:
+            raise DataError(source, "header", f"column name {name!r} appears twice")
+        seen.add(name)
+
+
+def _parse_rows(body: list[tuple[int, str]], header: list[str], source: str) -> np.ndarray:
+    if not body:
+        return np.empty((0, len(header)))
+    try:  # fast path; on any problem the slow path below says where
+        values = np.loadtxt(io.StringIO("\n".join(line for _, line in body)), delimiter=",", ndmin=2)
+        if values.shape[1] == len(header):
+            return values
+    except ValueError:
+        pass
+    values = np.empty((len(body), len(header)))
+    for row, (lineno, fields) in enumerate(zip((n for n, _ in body), csv.reader(line for _, line in body))):
+        if len(fields) != len(header):
+            raise DataError(
+                source,
+                f"line {lineno}",
+                f"length mismatch: {len(fields)} fields, the header has {len(header)} ({', '.join(header)})",
+            )
+        for j, text in enumerate(fields):
+            try:
+                values[row, j] = float(text)
+            except ValueError:
+                raise DataError(
+                    source, f"line {lineno} column {header[j]!r}", f"cannot read {text.strip()!r} as a number"
+                ) from None
+    return values
+
+
+def read_npz(path: Path) -> Table:
+    """NumPy ``.npz`` (``numpy.savez``); pickled objects are never loaded."""
+    source = str(path)
+    table = Table(source)
+    try:
+        archive = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        raise DataError(source, "file", f"cannot read as a NumPy .npz archive: {exc}") from None
+    with archive:
+        for name in archive.files:
+            try:
+                value = archive[name]
+            except ValueError:
+                table.unusable[name] = "an array of Python objects (not loaded)"
+                continue
+            _classify(table, name, value)
+    return table
+
+
+def read_mat(path: Path) -> Table:
+    """MATLAB ``.mat`` v5 (``save -v7`` or older) through :func:`scipy.io.loadmat`."""
+    import scipy.io
+
+    source = str(path)
+    table = Table(source)
+    try:
+        contents = scipy.io.loadmat(str(path), squeeze_me=False)
+    except NotImplementedError:
+        raise DataError(
+            source, "file", "MATLAB v7.3 (HDF5) files are not supported; save with -v7 or -v6 in MATLAB"
+        ) from None
+    except (OSError, ValueError, TypeError) as exc:
+        raise DataError(source, "file", f"cannot read as a MATLAB v5 .mat file: {exc}") from None
+    for name, value in contents.items():
+        if not name.startswith("__"):
+            _classify(table, name, value)
+    return table
+
+
+def _classify(table: Table, name: str, value: object) -> None:
+    array = np.asarray(value)
+    if array.dtype.kind not in "biuf":
+        table.unusable[name] = f"of type {array.dtype} (not numbers)"
+    elif array.size == 1:
+        table.scalars[name] = float(array.reshape(()))
+    elif array.ndim == 1 or (array.ndim == 2 and 1 in array.shape):
+        table.vectors[name] = array.astype(float).reshape(-1)
+    else:
+        table.unusable[name] = f"of shape {array.shape} (a signal is a vector, a constant a 1×1 scalar)"
+
+
+def write(columns: Mapping[str, np.ndarray], path: str | Path) -> Path:
+    """Write ``columns`` (name -> vector, in order) as ``.csv`` or ``.npz``, atomically.
+
+    CSV numbers are printed with 17 significant digits (``%.17g``) so that reading them back gives
+    the same doubles; the output is byte-identical for the same input.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".csv", ".npz"):
+        raise DataError(str(path), "file", f"cannot write {suffix or 'a file without suffix'!r} (allowed: .csv, .npz)")
+    names = list(columns)
+    data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names]) if names else np.empty((0, 0))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            if suffix == ".csv":
+                f.write((",".join(names) + "\n").encode())
+                for row in data:
+                    f.write((",".join(_number(v) for v in row) + "\n").encode())
+            else:
+                _write_npz(f, names, data)
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise
+    return path
+
+
+def _write_npz(f: io.BufferedIOBase, names: list[str], data: np.ndarray) -> None:
+    # As numpy.savez, but with a fixed time stamp in the archive so that the bytes are reproducible.
+    with zipfile.ZipFile(f, "w", compression=zipfile.ZIP_STORED) as archive:
+        for j, name in enumerate(names):
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            with archive.open(info, "w", force_zip64=True) as member:
+                np.lib.format.write_array(member, np.ascontiguousarray(data[:, j]), allow_pickle=False)
+
+
+def _number(value: float) -> str:
+    if math.isfinite(value) and value == int(value) and abs(value) < 2**53:
+        return str(int(value))
+    return "%.17g" % value

@@ -1,0 +1,388 @@
+"""Measured data of one experiment: :class:`Measurements`, and the checks that build it.
+
+Canonical signals (the data-file contract): ``t`` (time in seconds) and, for every coordinate ``c``
+of the model, ``q_c`` (position) and ``tau_c`` (generalized force), optionally ``qd_c`` (velocity),
+``qdd_c`` (acceleration) and ``ref_c`` (reference position). Any other signal is kept as an extra
+(e.g. ``pulses_N``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from symbolic.data.errors import DataError
+
+REQUIRED = ("q", "tau")
+"""Per-coordinate signals every data set has."""
+
+OPTIONAL = ("qd", "qdd", "ref")
+"""Per-coordinate signals a data set may have (for all coordinates or none)."""
+
+KINDS = REQUIRED + OPTIONAL
+
+UNIFORM_TOLERANCE = 1e-3
+"""Largest relative deviation of a time step from the mean step for the time to count as uniform.
+
+EMPS's time stamps, stored in single precision, deviate by 1.6e-5 of the 1 ms step; a logger that
+drops or repeats samples deviates by 100 % or more.
+"""
+
+
+def split_name(name: str) -> tuple[str, str] | None:
+    """``("q", "x")`` for ``"q_x"`` and the like; ``None`` for ``t`` and extra signals.
+
+    The prefixes ``q_ qd_ qdd_ tau_ ref_`` are such that no one begins another, so the split is unique.
+    """
+    for kind in KINDS:
+        if name.startswith(kind + "_") and len(name) > len(kind) + 1:
+            return kind, name[len(kind) + 1 :]
+    return None
+
+
+def _readonly(array: np.ndarray) -> np.ndarray:
+    array = np.ascontiguousarray(array, dtype=float)
+    array.setflags(write=False)
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class Measurements:
+    """Uniformly sampled measurements of one experiment, arranged by the model's coordinates.
+
+    Arrays are read-only; per-coordinate arrays are ``samples × N`` with columns in the order of
+    :attr:`coordinates`.
+
+    Attributes
+    ----------
+    t
+        Time stamps in seconds, uniform with step :attr:`sample_period` (``samples``,).
+    coordinates
+        The coordinate names, in column order.
+    q, tau
+        Positions and generalized forces.
+    qd, qdd, ref
+        Measured velocities, accelerations and reference positions, or ``None`` when the data have none.
+    extras
+        Other signals by name (``samples``,), e.g. ``pulses_N``.
+    constants
+        Numbers that came with the data: the 1×1 variables of a ``.mat``/``.npz`` file (EMPS's
+        ``gtau``, ``kp``, ``kv``) and an experiment's ``[constants]``.
+    sample_period
+        The time step in seconds (the mean step of the file's time stamps).
+    source
+        The file given to :func:`symbolic.data.load` (data or experiment file).
+    data_file
+        The data file the numbers were read from.
+    model
+        The experiment's ``model``: a built-in robot name, or a model file's absolute path; ``None``.
+    controller, identification
+        The experiment's ``[controller]`` and ``[identification]`` tables as written (validated by
+        their users: the simulation and the identification), or ``None``.
+    resampled
+        Whether the samples were interpolated onto a uniform time grid.
+    """
+
+    t: np.ndarray
+    coordinates: tuple[str, ...]
+    q: np.ndarray
+    tau: np.ndarray
+    qd: np.ndarray | None = None
+    qdd: np.ndarray | None = None
+    ref: np.ndarray | None = None
+    extras: Mapping[str, np.ndarray] = field(default_factory=dict)
+    constants: Mapping[str, float] = field(default_factory=dict)
+    sample_period: float = 0.0
+    source: Path = Path("<arrays>")
+    data_file: Path = Path("<arrays>")
+    model: str | None = None
+    controller: Mapping[str, Any] | None = None
+    identification: Mapping[str, Any] | None = None
+    resampled: bool = False
+
+    @property
+    def samples(self) -> int:
+        """Number of samples."""
+        return len(self.t)
+
+    @property
+    def rate(self) -> float:
+        """Sampling rate in Hz."""
+        return 1.0 / self.sample_period
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """All signals under their canonical names: ``t``, per coordinate q, qd, qdd, tau, ref, then extras."""
+        out = {"t": self.t}
+        for kind in ("q", "qd", "qdd", "tau", "ref"):
+            values = getattr(self, kind)
+            if values is not None:
+                out.update({f"{kind}_{c}": values[:, j] for j, c in enumerate(self.coordinates)})
+        out.update(self.extras)
+        return out
+
+    @classmethod
+    def from_arrays(
+        cls,
+        t: np.ndarray,
+        coordinates: tuple[str, ...] | list[str],
+        q: np.ndarray,
+        tau: np.ndarray,
+        *,
+        qd: np.ndarray | None = None,
+        qdd: np.ndarray | None = None,
+        ref: np.ndarray | None = None,
+        extras: Mapping[str, np.ndarray] | None = None,
+        resample: bool = False,
+    ) -> Measurements:
+        """Build measurements from arrays (``samples × N`` per coordinate), with the checks of a file."""
+        signals: dict[str, np.ndarray] = {"t": np.asarray(t, dtype=float).reshape(-1)}
+        for kind, values in (("q", q), ("tau", tau), ("qd", qd), ("qdd", qdd), ("ref", ref)):
+            if values is None:
+                continue
+            values = np.asarray(values, dtype=float).reshape(len(values), -1)
+            if values.shape[1] != len(coordinates):
+                raise DataError("<arrays>", kind, f"has {values.shape[1]} columns for {len(coordinates)} coordinates")
+            signals.update({f"{kind}_{c}": values[:, j] for j, c in enumerate(coordinates)})
+        signals.update({k: np.asarray(v, dtype=float).reshape(-1) for k, v in (extras or {}).items()})
+        return assemble(signals, Source("<arrays>", lambda n: f"column '{n}'"), coordinates=tuple(coordinates),
+                        resample=resample)
+
+
+@dataclass(frozen=True)
+class Source:
+    """Where signals come from, for error messages: the file and how to name a signal's key."""
+
+    name: str
+    where: Callable[[str], str]
+    noun: str = "column"
+    container: str = "columns"
+
+
+def assemble(
+    signals: Mapping[str, np.ndarray],
+    origin: Source,
+    *,
+    coordinates: tuple[str, ...] | None = None,
+    rate: float | None = None,
+    resample: bool = False,
+    window: tuple[float | None, float | None] | None = None,
+    **fields: Any,
+) -> Measurements:
+    """Check named signals and arrange them as :class:`Measurements`.
+
+    Parameters
+    ----------
+    signals
+        Canonical and extra signals by name, in order.
+    origin
+        The file, and how to name a signal in a message.
+    coordinates
+        The model's coordinates; ``None`` to take them from the ``q_<c>`` signals in order.
+    rate
+        Sampling rate in Hz when there is no ``t`` signal.
+    resample
+        Interpolate (linearly) onto a uniform grid when the time steps are not uniform.
+    window
+        ``(start, stop)`` in seconds (either may be ``None``): keep the samples in between.
+    fields
+        Further :class:`Measurements` fields (data_file, model, constants, controller, ...).
+    """
+    if "t" not in signals and rate is None:
+        raise DataError(origin.name, origin.container, f"missing {origin.noun} 't' ({_contract()})")
+    coordinates, canonical, extras = _arrange(signals, origin, coordinates)
+    n = _common_length(signals, origin)
+    if "t" in signals:
+        t = signals["t"]
+        _check_time(t, origin)
+    else:
+        t = np.arange(n) / rate
+    start, stop = _window(t, window, origin)
+    t = t[start:stop]
+    for name, values in signals.items():
+        _check_finite(name, values[start:stop], t, start, origin)
+    sample_period = (t[-1] - t[0]) / (len(t) - 1)
+    resampled = False
+    if not _uniform(t, sample_period, origin, allow=resample):
+        uniform = t[0] + sample_period * np.arange(len(t))
+        uniform[-1] = t[-1]  # no extrapolation from rounding
+        signals = {k: np.interp(uniform, t, v[start:stop]) for k, v in signals.items()}
+        t, start, stop, resampled = uniform, 0, len(uniform), True
+
+    def stack(kind: str) -> np.ndarray | None:
+        if kind not in canonical:
+            return None
+        return _readonly(np.column_stack([signals[f"{kind}_{c}"][start:stop] for c in coordinates]))
+
+    fields.setdefault("source", Path(origin.name))
+    fields.setdefault("data_file", fields["source"])
+    fields["constants"] = MappingProxyType(dict(fields.get("constants", {})))
+    return Measurements(
+        t=_readonly(t),
+        coordinates=coordinates,
+        q=stack("q"),
+        tau=stack("tau"),
+        qd=stack("qd"),
+        qdd=stack("qdd"),
+        ref=stack("ref"),
+        extras=MappingProxyType({k: _readonly(signals[k][start:stop]) for k in extras}),
+        sample_period=float(sample_period),
+        resampled=resampled,
+        **fields,
+    )
+
+
+def _arrange(
+    signals: Mapping[str, np.ndarray], source: Source, coordinates: tuple[str, ...] | None
+) -> tuple[tuple[str, ...], set[str], list[str]]:
+    """The coordinates, the per-coordinate kinds present, the extra signal names; checks completeness."""
+    per_kind: dict[str, list[str]] = {kind: [] for kind in KINDS}
+    extras = []
+    for name in signals:
+        split = split_name(name)
+        if split is None:
+            if name != "t":
+                extras.append(name)
+        else:
+            per_kind[split[0]].append(split[1])
+    model_given = coordinates is not None
+    if coordinates is None:
+        coordinates = tuple(per_kind["q"])
+        if not coordinates:
+            raise DataError(source.name, source.container, f"no position {source.noun} q_<coordinate> ({_contract()})")
+    for kind, names in per_kind.items():
+        for c in names:
+            if c not in coordinates:
+                if model_given:
+                    raise DataError(
+                        source.name,
+                        source.where(f"{kind}_{c}"),
+                        f"signal for coordinate {c!r}, which the model does not have (its coordinates: "
+                        f"{', '.join(coordinates)})",
+                    )
+                raise DataError(source.name, source.container, f"missing {source.noun} 'q_{c}' ({_contract()})")
+    for kind in REQUIRED:
+        for c in coordinates:
+            if c not in per_kind[kind]:
+                raise DataError(source.name, source.container, f"missing {source.noun} '{kind}_{c}' ({_contract()})")
+    present = set(REQUIRED)
+    for kind in OPTIONAL:
+        have = [c for c in coordinates if c in per_kind[kind]]
+        if have and len(have) != len(coordinates):
+            lacking = next(c for c in coordinates if c not in have)
+            raise DataError(
+                source.name,
+                source.container,
+                f"missing {source.noun} '{kind}_{lacking}' while '{kind}_{have[0]}' is given: give {kind}_<c> "
+                "for every coordinate or for none",
+            )
+        if have:
+            present.add(kind)
+    return coordinates, present, extras
+
+
+def _contract() -> str:
+    return "required: t, and q_<c>, tau_<c> for every coordinate c; optional: qd_<c>, qdd_<c>, ref_<c>"
+
+
+def _common_length(signals: Mapping[str, np.ndarray], source: Source) -> int:
+    lengths = {name: len(values) for name, values in signals.items()}
+    first = next(iter(lengths))
+    for name, n in lengths.items():
+        if n != lengths[first]:
+            raise DataError(
+                source.name,
+                source.where(name),
+                f"length mismatch: {n} samples, while '{first}' has {lengths[first]} (all signals must have the "
+                "same number of samples)",
+            )
+    n = lengths[first]
+    if n < 2:
+        raise DataError(source.name, source.where(first), f"{n} sample(s): at least 2 are needed")
+    return n
+
+
+def _check_time(t: np.ndarray, source: Source) -> None:
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise DataError(source.name, source.where("t"), f"time is {t[bad[0]]} at sample {bad[0]} (allowed: finite numbers)")
+    steps = np.diff(t)
+    bad = np.flatnonzero(steps <= 0)
+    if bad.size:
+        k = bad[0] + 1
+        raise DataError(
+            source.name,
+            source.where("t"),
+            f"time is not increasing: {t[k - 1]:.9g} s at sample {k - 1}, then {t[k]:.9g} s at sample {k} "
+            f"({bad.size} such step(s); time stamps must increase strictly)",
+        )
+
+
+def _window(t: np.ndarray, window: tuple[float | None, float | None] | None, source: Source) -> tuple[int, int]:
+    if window is None:
+        return 0, len(t)
+    lo, hi = window
+    start = 0 if lo is None else int(np.searchsorted(t, lo, side="left"))
+    stop = len(t) if hi is None else int(np.searchsorted(t, hi, side="right"))
+    if stop - start < 2:
+        raise DataError(
+            source.name,
+            "[window]",
+            f"the window {_interval(lo, hi)} holds {max(stop - start, 0)} sample(s) (at least 2 are needed); "
+            f"the data span {t[0]:.9g} s to {t[-1]:.9g} s",
+        )
+    return start, stop
+
+
+def _interval(lo: float | None, hi: float | None) -> str:
+    return f"[{'-inf' if lo is None else f'{lo:g}'}, {'inf' if hi is None else f'{hi:g}'}] s"
+
+
+def _check_finite(name: str, values: np.ndarray, t: np.ndarray, offset: int, source: Source) -> None:
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        k = bad[0]
+        more = f" and at {bad.size - 1} more sample(s)" if bad.size > 1 else ""
+        raise DataError(
+            source.name,
+            source.where(name),
+            f"value {values[k]} at sample {k + offset} (t = {t[k]:.9g} s){more} (allowed: finite numbers)",
+        )
+
+
+def _uniform(t: np.ndarray, step: float, source: Source, allow: bool) -> bool:
+    """Whether every step is within :data:`UNIFORM_TOLERANCE` of ``step``; if not and not ``allow``, raise."""
+    steps = np.diff(t)
+    deviation = np.abs(steps - step) / step
+    worst = int(np.argmax(deviation))
+    if deviation[worst] <= UNIFORM_TOLERANCE:
+        return True
+    if allow:
+        return False
+    raise DataError(
+        source.name,
+        source.where("t"),
+        f"time step varies from {duration(steps.min(), step)} to {duration(steps.max(), step)} (mean "
+        f"{duration(step, step)}; the "
+        f"largest deviation is at sample {worst + 1}); steps must be uniform to {UNIFORM_TOLERANCE:.1%} — resample "
+        "on request: resample = true in the experiment file, or load(..., resample=True)",
+    )
+
+
+def duration(seconds: float, like: float | None = None) -> str:
+    """A time span in the unit that suits ``like`` (default: itself): ``1 ms``, ``0.9 ms``, ``2.5 s``."""
+    like = seconds if like is None else like
+    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("µs", 1e-6), ("ns", 1e-9)):
+        if abs(like) >= scale or unit == "ns":
+            return f"{seconds / scale:.4g} {unit}"
+    raise AssertionError("unreachable")
+
+
+def isfinite_number(value: Any) -> bool:
+    """Whether ``value`` is an int or float (not bool) and finite."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)

@@ -1,0 +1,238 @@
+"""Ordinary and weighted least squares of IDIM-LS, with the statistics Gautier reports.
+
+For the stacked system ``y = W·β + ρ`` (``r`` rows, ``b`` parameters; Janot et al. 2007 (3)–(7)):
+
+* ``β̂`` minimises ``‖y − W·β‖`` (solved through the SVD of W, never through WᵀW);
+* ``σ_ρ² = ‖y − W·β̂‖² / (r − b)`` — Janot's (5) as printed lacks the square; the unbiased estimate
+  of a variance needs it;
+* covariance ``C = σ_ρ² (WᵀW)⁻¹``, ``σ_i = √C_ii``, relative ``%σ_i = 100·σ_i/|β̂_i|`` (the
+  absolute value, as in the EMPS script; (7) as printed has none);
+* ``cond(W)``, the 2-norm condition number ``s_max/s_min`` of the matrix solved;
+* relative error ``100·‖y − W·β̂‖/‖y‖`` in %, always of the unweighted system.
+
+Weighted LS (Gautier): a first OLS gives per coordinate j ``σ_j² = ‖y_j − W_j·β̂‖²/(r_j − b_j)``
+with ``b_j`` the rank of ``W_j``; rows of coordinate j are divided by ``σ_j`` and the formulas above
+are applied to the weighted system. With one coordinate WLS is OLS.
+
+(6) assumes white residuals. After parallel decimation white force noise is not white any more: the
+anti-aliasing filter passes 0.8 of the new Nyquist band, so σ_ρ² underestimates the low-frequency
+noise density that the estimates feel by κ = n·mean(|H|⁴)/|H(0)|⁴ ≈ 0.85, and σ is about 8 % too
+small (tests/test_identify.py measures it). The publication's σ carry the same bias; it is not
+corrected here (real residuals are dominated by model error, whose spectrum is unknown anyway).
+
+A parameter is flagged as poorly determined when its relative σ exceeds
+:data:`RELATIVE_SIGMA_THRESHOLD` percent (Janot et al. read 10–22 % on viscous friction (Table 3)
+as "no significant viscous friction").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from symbolic.identify.processing import Observation, Processing
+
+RELATIVE_SIGMA_THRESHOLD = 10.0
+"""Percent: a parameter whose relative standard deviation exceeds it is flagged."""
+
+
+@dataclass(frozen=True)
+class ParameterEstimate:
+    """One identified parameter: value, standard deviation, relative standard deviation in %, flag."""
+
+    name: str
+    value: float
+    sigma: float
+    relative_sigma: float
+    poorly_determined: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"value", "sigma", "relative_sigma", "poorly_determined"}`` (relative σ in %)."""
+        return {
+            "value": self.value,
+            "sigma": self.sigma,
+            "relative_sigma": self.relative_sigma,
+            "poorly_determined": self.poorly_determined,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class Identification:
+    """Result of IDIM-LS.
+
+    Attributes
+    ----------
+    names
+        Parameter names, in the order of the regressor's columns.
+    values, sigmas
+        β̂ and the standard deviations σ (arrays, read-only).
+    covariance
+        ``σ_ρ² (WᵀW)⁻¹`` of the system solved.
+    method
+        ``"ols"`` or ``"wls"``.
+    condition_number
+        cond(W) of the system solved (weighted for WLS).
+    relative_error
+        ``100·‖y − W·β̂‖/‖y‖`` (%), unweighted.
+    residual_sigma
+        σ_ρ of the system solved (for WLS, of the weighted one: about 1).
+    coordinate_sigmas
+        Per coordinate, σ_j of the first OLS pass (the WLS weights are their inverses).
+    coordinates
+        Coordinate names.
+    rows
+        r, rows of the stacked system.
+    processing
+        The data treatment applied.
+    threshold
+        The flagging threshold on relative σ (%).
+    """
+
+    names: tuple[str, ...]
+    values: np.ndarray
+    sigmas: np.ndarray
+    covariance: np.ndarray
+    method: str
+    condition_number: float
+    relative_error: float
+    residual_sigma: float
+    coordinate_sigmas: tuple[float, ...]
+    coordinates: tuple[str, ...]
+    rows: int
+    processing: Processing
+    threshold: float = RELATIVE_SIGMA_THRESHOLD
+
+    @property
+    def relative_sigmas(self) -> np.ndarray:
+        """100·σ/|β̂| in percent (infinite for a zero estimate)."""
+        with np.errstate(divide="ignore"):
+            return np.where(self.values != 0, 100.0 * self.sigmas / np.abs(self.values), np.inf)
+
+    @property
+    def parameters(self) -> tuple[ParameterEstimate, ...]:
+        """One :class:`ParameterEstimate` per parameter."""
+        return tuple(
+            ParameterEstimate(n, float(v), float(s), float(r), bool(r > self.threshold))
+            for n, v, s, r in zip(self.names, self.values, self.sigmas, self.relative_sigmas)
+        )
+
+    @property
+    def flagged(self) -> tuple[str, ...]:
+        """Names of the parameters whose relative σ exceeds the threshold."""
+        return tuple(p.name for p in self.parameters if p.poorly_determined)
+
+    def __getitem__(self, name: str) -> ParameterEstimate:
+        return self.parameters[self.names.index(name)]
+
+    def predict(self, observation: Observation) -> np.ndarray:
+        """``W·β̂`` arranged like ``observation.tau`` (samples × N)."""
+        return observation.regressor @ self.values
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data for JSON: parameters by name, statistics, the treatment (relative values in %)."""
+        return {
+            "method": self.method,
+            "parameters": {p.name: p.to_dict() for p in self.parameters},
+            "condition_number": self.condition_number,
+            "relative_error": self.relative_error,
+            "residual_sigma": self.residual_sigma,
+            "coordinate_sigmas": dict(zip(self.coordinates, self.coordinate_sigmas)),
+            "rows": self.rows,
+            "relative_sigma_threshold": self.threshold,
+            "flagged": list(self.flagged),
+            "processing": self.processing.to_dict(),
+        }
+
+    def table(self) -> str:
+        """A plain-text table of the estimates and statistics."""
+        width = max(9, *(len(n) for n in self.names))
+        lines = [f"{'parameter':<{width}}  {'value':>14}  {'sigma':>12}  {'sigma %':>8}"]
+        for p in self.parameters:
+            flag = "  (poorly determined)" if p.poorly_determined else ""
+            lines.append(f"{p.name:<{width}}  {p.value:>14.6g}  {p.sigma:>12.4g}  {p.relative_sigma:>8.3g}{flag}")
+        lines.append(
+            f"{self.method.upper()}: {self.rows} rows, cond(W) = {self.condition_number:.4g}, relative error "
+            f"{self.relative_error:.4g} %"
+        )
+        return "\n".join(lines)
+
+
+class IdentificationError(ValueError):
+    """The observation matrix cannot determine the parameters (rank-deficient, too few rows)."""
+
+
+def solve(
+    observation: Observation,
+    names: tuple[str, ...] | list[str],
+    method: str = "wls",
+    threshold: float = RELATIVE_SIGMA_THRESHOLD,
+) -> Identification:
+    """Least-squares estimate of the parameters of ``observation`` (module docstring)."""
+    if method not in ("ols", "wls"):
+        raise ValueError(f"method must be 'ols' or 'wls', got {method!r}")
+    names = tuple(names)
+    y, W = observation.y, observation.W  # noqa: N806
+    rows, b = W.shape
+    if len(names) != b:
+        raise ValueError(f"{len(names)} parameter names for {b} regressor columns")
+    beta, _, _, sigma = _ols(y, W, names)
+    n, per = len(observation.coordinates), observation.samples
+    coordinate_sigmas = []
+    for j in range(n):
+        rows_j = slice(j * per, (j + 1) * per)
+        dof = per - np.linalg.matrix_rank(W[rows_j])
+        e = y[rows_j] - W[rows_j] @ beta
+        coordinate_sigmas.append(float(np.sqrt(e @ e / dof)) if dof > 0 else float("nan"))
+    weights = np.ones(rows)
+    usable = all(np.isfinite(s) and s > 0 for s in coordinate_sigmas)
+    if method == "wls" and n > 1 and usable:
+        weights = np.repeat(1.0 / np.array(coordinate_sigmas), per)
+        beta, covariance, cond, sigma = _ols(y * weights, W * weights[:, None], names)
+    else:
+        _, covariance, cond, sigma = _ols(y, W, names)
+    residual = y - W @ beta
+    values = _readonly(beta)
+    return Identification(
+        names=names,
+        values=values,
+        sigmas=_readonly(np.sqrt(np.diag(covariance))),
+        covariance=_readonly(covariance),
+        method=method,
+        condition_number=float(cond),
+        relative_error=float(100.0 * np.linalg.norm(residual) / np.linalg.norm(y)),
+        residual_sigma=float(sigma),
+        coordinate_sigmas=tuple(coordinate_sigmas),
+        coordinates=observation.coordinates,
+        rows=rows,
+        processing=observation.processing,
+        threshold=threshold,
+    )
+
+
+def _ols(y: np.ndarray, W: np.ndarray, names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, float, float]:  # noqa: N803
+    """β̂, σ_ρ²(WᵀW)⁻¹, cond(W), σ_ρ by the thin SVD of W."""
+    rows, b = W.shape
+    if rows <= b:
+        raise IdentificationError(f"{rows} equations for {b} parameters: more samples are needed")
+    U, s, Vt = np.linalg.svd(W, full_matrices=False)  # noqa: N806
+    tolerance = max(rows, b) * np.finfo(float).eps * s[0]
+    if s[-1] <= tolerance:
+        null = Vt[-1]
+        involved = [names[i] for i in range(b) if abs(null[i]) > 1e-3 * np.abs(null).max()]
+        raise IdentificationError(
+            f"the observation matrix is rank-deficient (rank {int((s > tolerance).sum())} < {b} parameters): "
+            f"{', '.join(involved)} cannot be separated — use base parameters, or a more exciting trajectory"
+        )
+    beta = Vt.T @ ((U.T @ y) / s)
+    residual = y - W @ beta
+    variance = residual @ residual / (rows - b)
+    covariance = (Vt.T / s**2) @ Vt * variance
+    return beta, covariance, s[0] / s[-1], float(np.sqrt(variance))
+
+
+def _readonly(array: np.ndarray) -> np.ndarray:
+    array = np.array(array, dtype=float)
+    array.setflags(write=False)
+    return array

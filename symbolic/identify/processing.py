@@ -1,0 +1,224 @@
+"""The data treatment of IDIM-LS: from measurements and a regressor to the stacked system ``y = W·β + ρ``.
+
+Steps (Gautier 1997, "Dynamic identification of robots with power model"; the EMPS publication's script):
+
+1. positions low-passed by a zero-phase Butterworth filter (order 4, forward and backward) whose
+   cut-off is 5 × the bandwidth of the dynamics (:class:`Settings`);
+2. q̇ by central differences of the filtered q, q̈ by central differences of q̇ — unless the data have
+   ``qd``/``qdd`` columns, which are then used, low-passed by the same filter;
+3. the regressor evaluated at every sample: ``Y(q, q̇, q̈)``, ``samples × N × P``;
+4. ``border`` samples dropped at each end, where the filter and the one-sided differences distort q,
+   q̇, q̈ (default ``ceil(5·rate/cutoff)``, five periods of the cut-off: 50 samples for EMPS, the
+   publication's choice; the Butterworth's impulse response has then decayed below 1e-5 of its sum);
+5. τ and every column of Y decimated in parallel by the same low-pass and down-sampling
+   (:func:`symbolic.data.filters.decimate`; factor ``round(0.8·f_nyquist/(2·bandwidth))``, so that the
+   decimation filter's cut-off is twice the bandwidth: 10 for EMPS). The decimation filter is linear
+   and applied to both sides alike, so its own border transients keep ``τ = Y·β`` and no further
+   samples need dropping;
+6. stacked coordinate by coordinate: ``y = [τ_1(all samples); τ_2(...); ...]``, W likewise.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from symbolic.data import DataError, Measurements
+from symbolic.data.filters import DECIMATION_ORDER, central_difference, decimate, kept_indices, lowpass
+
+Regressor = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+"""``regressor(q, qd, qdd)`` with ``samples × N`` arrays returns ``Y``, ``samples × N × P``."""
+
+BANDWIDTH_FRACTION = 50.0
+"""Without a stated bandwidth, it is taken as rate / 50 (20 Hz at 1 kHz, EMPS's value)."""
+
+SETTING_KEYS = ("bandwidth", "cutoff", "order", "decimation", "border", "filter_positions")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Choices of the data treatment; ``None`` means: from the experiment's ``[identification]`` table, else the rule.
+
+    Attributes
+    ----------
+    bandwidth
+        Bandwidth of the dynamics in Hz (Gautier's ω_dyn). Default ``rate / 50``.
+    cutoff
+        Cut-off of the position low-pass in Hz. Default ``5 · bandwidth``.
+    order
+        Order of the Butterworth filter (one pass). Default 4.
+    decimation
+        Decimation factor. Default ``round(0.8 · rate/2 / (2 · bandwidth))``, at least 1.
+    border
+        Samples dropped at each end before decimation, or ``(start, end)``. Default ``ceil(5 · rate / cutoff)``
+        (2 without position filtering: the one-sided differences).
+    filter_positions
+        Low-pass the positions (and given velocities, accelerations). Default true.
+    """
+
+    bandwidth: float | None = None
+    cutoff: float | None = None
+    order: int | None = None
+    decimation: int | None = None
+    border: int | tuple[int, int] | None = None
+    filter_positions: bool | None = None
+
+    def merged(self, table: Mapping[str, Any] | None, source: str) -> Settings:
+        """These settings, with the unset ones taken from an experiment's ``[identification]`` table."""
+        if not table:
+            return self
+        given = {}
+        for key, value in table.items():
+            if key not in SETTING_KEYS:
+                raise DataError(source, f"[identification] {key}", f"unknown key (allowed: {', '.join(SETTING_KEYS)})")
+            given[key] = _setting(key, value, source)
+        return Settings(**{k: v if v is not None else given.get(k) for k, v in asdict(self).items()})
+
+    def resolve(self, rate: float, samples: int, source: str = "<settings>") -> Processing:
+        """The concrete treatment for data at ``rate`` Hz with ``samples`` samples."""
+        nyquist = rate / 2.0
+        bandwidth = self.bandwidth if self.bandwidth is not None else rate / BANDWIDTH_FRACTION
+        filtering = self.filter_positions if self.filter_positions is not None else True
+        cutoff = self.cutoff if self.cutoff is not None else 5.0 * bandwidth
+        if filtering and not 0 < cutoff < nyquist:
+            raise DataError(source, "cutoff", f"{cutoff:g} Hz is not below the Nyquist frequency {nyquist:g} Hz of the data")
+        decimation = self.decimation if self.decimation is not None else max(1, math.floor(0.4 * rate / (2 * bandwidth) + 0.5))
+        if self.border is None:
+            border = (math.ceil(5.0 * rate / cutoff),) * 2 if filtering else (2, 2)
+        else:
+            border = (self.border, self.border) if isinstance(self.border, int) else tuple(self.border)
+        kept = samples - border[0] - border[1]
+        # the decimation filter pads 3·8 samples; the position filter 3·order (it sees all samples)
+        if kept <= (3 * DECIMATION_ORDER if decimation > 1 else 1) or samples <= 3 * (self.order or 4):
+            raise DataError(
+                source,
+                "samples",
+                f"{samples} samples are too few: {border[0]} + {border[1]} border samples are dropped and "
+                f"decimation keeps one in {decimation}",
+            )
+        return Processing(
+            rate=rate,
+            bandwidth=bandwidth,
+            cutoff=cutoff if filtering else None,
+            order=self.order if self.order is not None else 4,
+            decimation=decimation,
+            border=(int(border[0]), int(border[1])),
+        )
+
+
+def _setting(key: str, value: Any, source: str) -> Any:
+    where = f"[identification] {key}"
+    if key == "filter_positions":
+        if not isinstance(value, bool):
+            raise DataError(source, where, f"expected true or false, got {value!r}")
+        return value
+    if key == "border" and isinstance(value, list):
+        if len(value) != 2 or not all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in value):
+            raise DataError(source, where, f"expected a sample count or [start, end] counts, got {value!r}")
+        return tuple(value)
+    integer = key in ("order", "decimation", "border")
+    ok = isinstance(value, int) if integer else isinstance(value, (int, float))
+    if not ok or isinstance(value, bool) or not math.isfinite(value) or value < (0 if key == "border" else 1e-300):
+        kind = "a non-negative integer" if key == "border" else "a positive integer" if integer else "a positive number (Hz)"
+        raise DataError(source, where, f"expected {kind}, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class Processing:
+    """The data treatment actually applied (all defaults resolved)."""
+
+    rate: float
+    bandwidth: float
+    cutoff: float | None
+    order: int
+    decimation: int
+    border: tuple[int, int]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain numbers, for JSON."""
+        return {**asdict(self), "border": list(self.border)}
+
+
+@dataclass(frozen=True, eq=False)
+class Observation:
+    """The stacked system ``y = W·β + ρ`` of one data set, and what it was made from.
+
+    Attributes
+    ----------
+    coordinates
+        Coordinate names; rows of ``y`` and ``W`` are grouped by coordinate in this order.
+    t
+        Time of the kept (decimated) samples.
+    tau
+        The decimated generalized forces, ``samples × N``.
+    regressor
+        The decimated regressor, ``samples × N × P``.
+    processing
+        The treatment applied.
+    """
+
+    coordinates: tuple[str, ...]
+    t: np.ndarray
+    tau: np.ndarray
+    regressor: np.ndarray
+    processing: Processing
+
+    @property
+    def y(self) -> np.ndarray:
+        """Stacked forces, coordinate by coordinate (``N·samples``,)."""
+        return self.tau.T.reshape(-1)
+
+    @property
+    def W(self) -> np.ndarray:  # noqa: N802 (the literature's name)
+        """Stacked observation matrix (``N·samples × P``)."""
+        return self.regressor.transpose(1, 0, 2).reshape(-1, self.regressor.shape[2])
+
+    @property
+    def samples(self) -> int:
+        """Kept samples per coordinate."""
+        return len(self.t)
+
+
+def observe(measurements: Measurements, regressor: Regressor, parameters: int, settings: Settings | None = None) -> Observation:
+    """Filter, differentiate, evaluate the regressor, drop borders and decimate (module docstring).
+
+    Parameters
+    ----------
+    measurements
+        The data.
+    regressor
+        ``regressor(q, qd, qdd) -> Y``, ``samples × N × P``.
+    parameters
+        P, the number of parameters (columns of Y), to check the regressor's output.
+    settings
+        Overrides of the treatment; unset ones come from the experiment's ``[identification]`` table.
+    """
+    source = str(measurements.source)
+    settings = (settings or Settings()).merged(measurements.identification, source)
+    p = settings.resolve(measurements.rate, measurements.samples, source)
+    h = measurements.sample_period
+
+    def smooth(x: np.ndarray) -> np.ndarray:
+        return lowpass(x, p.cutoff, p.rate, p.order) if p.cutoff is not None else np.asarray(x, dtype=float)
+
+    q = smooth(measurements.q)
+    qd = smooth(measurements.qd) if measurements.qd is not None else central_difference(q, h)
+    qdd = smooth(measurements.qdd) if measurements.qdd is not None else central_difference(qd, h)
+    Y = np.asarray(regressor(q, qd, qdd), dtype=float)  # noqa: N806
+    expected = (measurements.samples, len(measurements.coordinates), parameters)
+    if Y.shape != expected:
+        raise ValueError(f"the regressor returned an array of shape {Y.shape}, expected {expected} (samples, N, P)")
+    keep = slice(p.border[0], measurements.samples - p.border[1])
+    t = measurements.t[keep]
+    return Observation(
+        coordinates=measurements.coordinates,
+        t=t[kept_indices(len(t), p.decimation)],
+        tau=decimate(measurements.tau[keep], p.decimation),
+        regressor=decimate(Y[keep], p.decimation),
+        processing=p,
+    )
