@@ -9,7 +9,7 @@ Steps (Gautier 1997, "Dynamic identification of robots with power model"; the EM
 3. the regressor evaluated at every sample: ``Y(q, q̇, q̈)``, ``samples × N × P``;
 4. ``border`` samples dropped at each end, where the filter and the one-sided differences distort q,
    q̇, q̈ (default ``ceil(5·rate/cutoff)``, five periods of the cut-off: 50 samples for EMPS, the
-   publication's choice; the Butterworth's impulse response has then decayed below 1e-5 of its sum);
+   publication's choice; the tail of the Butterworth's impulse response beyond it is 1.4e-5 of its sum);
 5. τ and every column of Y decimated in parallel by the same low-pass and down-sampling
    (:func:`symbolic.data.filters.decimate`; factor ``round(0.8·f_nyquist/(2·bandwidth))``, so that the
    decimation filter's cut-off is twice the bandwidth: 10 for EMPS). The decimation filter is linear
