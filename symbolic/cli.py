@@ -25,10 +25,12 @@ from symbolic.spec.robot import Robot
 def resolve(model: str) -> Robot:
     """A model file path, or a built-in robot name."""
     path = Path(model)
-    if path.suffix == ".toml" or path.exists():
+    if path.suffix == ".toml" or path.is_file():
         return load(path)
     if model in robots.names():
         return robots.load(model)
+    if path.exists():
+        return load(path)
     raise ModelError(model, "file", f"no such model file or built-in robot (built-in: {', '.join(robots.names())})")
 
 
@@ -106,6 +108,46 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     return 0
 
 
+def write_text_atomically(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
+    import os
+    import tempfile
+
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.", suffix=".tmp")
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    except OSError as error:
+        raise ModelError(str(path), "--out", f"cannot write: {error.strerror}") from None
+
+
+def cmd_identify(args: argparse.Namespace) -> int:
+    import json
+
+    from symbolic.identify.model import identify_model
+    from symbolic.spec.modelfile import with_parameter_values
+
+    model = derive(resolve(args.model))
+    result = identify_model(model, args.data, experiment=args.experiment, validation=args.validate,
+                            method=args.method, consistent=args.consistent)
+    if args.out:
+        source = Path(model.robot.source)
+        if not source.is_file():
+            raise ModelError(args.model, "--out", "the model has no file to update")
+        text = with_parameter_values(source.read_text(encoding="utf-8"), result.values(), str(source))
+        write_text_atomically(Path(args.out), text)
+    if args.json:
+        out = result.to_dict()
+        out["patched_model"] = args.out
+        print(json.dumps(out, indent=2))
+    else:
+        print(result.table())
+        if args.out:
+            print(f"wrote {args.out}")
+    return 0
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="symbolic", description=__doc__.splitlines()[0])
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
@@ -127,6 +169,17 @@ def parser() -> argparse.ArgumentParser:
                    help="comma-separated families: decoupling, constant_inertia, coriolis, balancing")
     a.add_argument("--design", metavar="PARAMS", help="solve the balancing and decoupling conditions for these free parameters")
     a.set_defaults(func=cmd_analyze)
+    i = sub.add_parser("identify", help="identify the model's parameters from measured data (IDIM-LS)")
+    i.add_argument("model", help="model file (.toml) or built-in robot name")
+    i.add_argument("data", help="data file (CSV, .npz, .mat with canonical columns) or experiment file (.toml)")
+    i.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")
+    i.add_argument("--validate", metavar="DATA2", help="cross-test data or experiment file")
+    i.add_argument("--method", choices=["wls", "ols"], default="wls", help="weighted (default) or ordinary least squares")
+    i.add_argument("--consistent", action="store_true",
+                   help="estimate the model file's parameters by bounded nonlinear least squares (physically valid bodies)")
+    i.add_argument("--out", metavar="FILE.toml", help="write the model file with the identified values")
+    i.add_argument("--json", action="store_true", help="machine-readable result")
+    i.set_defaults(func=cmd_identify)
     ls = sub.add_parser("list", help="list the built-in robots")
     ls.set_defaults(func=cmd_list)
     return p

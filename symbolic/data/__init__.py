@@ -42,7 +42,13 @@ __all__ = [
 ]
 
 
-def load(path: str | Path, coordinates: tuple[str, ...] | list[str] | None = None, *, resample: bool = False) -> Measurements:
+def load(
+    path: str | Path,
+    coordinates: tuple[str, ...] | list[str] | None = None,
+    *,
+    resample: bool = False,
+    experiment: str | Path | None = None,
+) -> Measurements:
     """Load measurements from a data file or an experiment file.
 
     Parameters
@@ -58,6 +64,9 @@ def load(path: str | Path, coordinates: tuple[str, ...] | list[str] | None = Non
         Interpolate linearly onto a uniform time grid (same first and last time, same number of
         samples) when the time steps vary by more than :data:`UNIFORM_TOLERANCE`; without it that is
         an error. An experiment file can ask for it with ``resample = true``.
+    experiment
+        An experiment file whose mapping ([signals], [constants], [window], ...) is applied to the data
+        file ``path`` instead of the file its ``data`` key names (``--experiment`` of the commands).
 
     Raises
     ------
@@ -69,6 +78,8 @@ def load(path: str | Path, coordinates: tuple[str, ...] | list[str] | None = Non
 
     path = Path(path)
     coordinates = None if coordinates is None else tuple(coordinates)
+    if experiment is not None:
+        return load_experiment(Path(experiment), coordinates, resample, data=path)
     if files.kind(path) == "experiment":
         return load_experiment(path, coordinates, resample)
     table = files.read(path)

@@ -55,14 +55,19 @@ TOP_KEYS = ("data", "model", "description", "rate", "resample", "signals", "cons
             "identification")
 
 
-def load_experiment(path: Path, coordinates: tuple[str, ...] | None, resample: bool) -> Measurements:
-    """Read an experiment file and the data file it names; see the module docstring."""
+def load_experiment(path: Path, coordinates: tuple[str, ...] | None, resample: bool, data: Path | None = None) -> Measurements:
+    """Read an experiment file and the data file it names (or ``data`` instead); see the module docstring."""
     source = str(path)
     spec = _read_toml(path)
     unknown = [k for k in spec if k not in TOP_KEYS]
     if unknown:
         raise DataError(source, unknown[0], f"unknown key (allowed: {', '.join(TOP_KEYS)})")
-    data_file = resolve_data(_string(spec, "data", source, required=True), path)
+    if data is not None:
+        if not Path(data).is_file():
+            raise DataError(str(data), "file", "data file not found")
+        data_file = Path(data).resolve()
+    else:
+        data_file = resolve_data(_string(spec, "data", source, required=True), path)
     table = files.read(data_file)
     constants = _constants(spec.get("constants", {}), table, source)
     signals_spec = _table(spec, "signals", source, required=True)

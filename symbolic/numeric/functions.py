@@ -39,3 +39,34 @@ def compile_function(
         return np.array(result, dtype=float).reshape(shape)
 
     return function
+
+
+def compile_vectorized(
+    sub: Subexpressions,
+    arguments: Sequence[Sequence[sp.Symbol]],
+    outputs: sp.Matrix | Sequence[sp.Expr],
+    shape: tuple[int, ...] | None = None,
+) -> Callable[..., np.ndarray]:
+    """Like :func:`compile_function`, evaluated on many samples at once with NumPy.
+
+    Each argument is an array ``samples × len(group)`` (a group that does not vary, such as the
+    parameters, may be a 1-D array); the result is ``samples × shape``. The straight-line program runs
+    once, each statement on whole arrays, so the Python overhead is paid per statement, not per sample.
+    """
+    matrix = sp.Matrix(outputs)
+    shape = shape or (matrix.shape if matrix.shape[1] != 1 else (matrix.shape[0],))
+    flat = list(matrix)
+    program = sub.program(flat)
+    symbols = [list(group) for group in arguments]
+    raw = sp.lambdify(symbols, flat, modules="numpy", cse=lambda exprs: (program, exprs))
+
+    def function(*values) -> np.ndarray:
+        arrays = [np.asarray(v, dtype=float) for v in values]
+        samples = max((a.shape[0] for a in arrays if a.ndim == 2), default=1)
+        columns = [[a[:, k] if a.ndim == 2 else a[k] for k in range(a.shape[-1])] for a in arrays]
+        out = np.empty((samples, len(flat)))
+        for k, value in enumerate(raw(*columns)):
+            out[:, k] = value  # constants broadcast
+        return out.reshape((samples, *shape))
+
+    return function

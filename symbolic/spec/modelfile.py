@@ -218,3 +218,30 @@ class _Reader:
         f = self.table(value, f"[[force]] #{index + 1}", {"name", "coordinate", "expression"}, {"name", "coordinate", "expression"})
         name = self.string(f["name"], f"[[force]] #{index + 1} name")
         return Force(name, self.string(f["coordinate"], f"[[force]] {name!r} coordinate"), f["expression"])
+
+
+def with_parameter_values(text: str, values: Mapping[str, float], source: str = "<string>") -> str:
+    """The model-file ``text`` with the nominal values of ``values`` replaced in ``[parameters]``.
+
+    Comments, order and layout are kept (tomlkit edits the document in place); a parameter written as
+    ``{ value = …, unit = … }`` keeps its unit and description. Unknown names are refused.
+    """
+    import tomlkit
+
+    document = tomlkit.parse(text)
+    table = document.get("parameters")
+    if table is None:
+        raise ModelError(source, "[parameters]", "the model file has no [parameters] table to update")
+    unknown = sorted(set(values) - set(table))
+    if unknown:
+        raise ModelError(source, "[parameters]", f"unknown parameter(s) {unknown}")
+    for name, value in values.items():
+        entry = table[name]
+        number = tomlkit.float_(repr(float(value)))
+        if isinstance(entry, Mapping):
+            entry["value"] = number
+        else:
+            number.trivia.comment_ws, number.trivia.comment = entry.trivia.comment_ws, entry.trivia.comment
+            number.trivia.trail = entry.trivia.trail
+            table[name] = number
+    return tomlkit.dumps(document)

@@ -1,0 +1,273 @@
+"""Identification of a model file's parameters: the symbolic regressor, base parameters, IDIM-LS, and
+the way back to the model file (Janot IV–V; Khalil & Dombre 14; Gautier's IDIM-LS).
+
+:func:`identify_model` evaluates the model's regressor τ = Y·θ (:mod:`symbolic.derive.regressor`) on
+the measured states, keeps the base columns (:mod:`symbolic.numeric.base_parameters`) and solves for
+the base parameters β by the IDIM-LS pipeline of :mod:`symbolic.identify.pipeline`. The model file's
+own parameters follow in two ways:
+
+* directly, where a base parameter is one model parameter up to known factors (EMPS: β = M, Fv, Fc,
+  offset): p = (β − b)/a and σ_p = σ_β/|a| (:attr:`ModelIdentification.parameters`);
+* with ``consistent=True``, by bounded nonlinear least squares over all the parameters that enter θ
+  only (masses, centres of mass, inertias, friction, rotor inertias), starting from the nominal values,
+  with each body kept physically valid: mass ≥ 0, inertia tensor positive semidefinite and satisfying
+  the triangle inequality of its principal moments (penalty residuals), friction coefficients ≥ 0.
+
+Parameters that Y depends on (lengths of the DH table, gravity, Stribeck velocities) are geometry:
+they stay at their values in the model file.
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.optimize
+import sympy as sp
+
+from symbolic.data import Measurements, load
+from symbolic.derive.dynamics import DynamicModel
+from symbolic.derive.regressor import Regressor
+from symbolic.errors import ModelError
+from symbolic.identify.least_squares import Identification
+from symbolic.identify.pipeline import Validation, identify, validate
+from symbolic.identify.processing import Settings, observe
+from symbolic.numeric.base_parameters import BaseParameters, base_parameters, theta_values
+from symbolic.numeric.exported import model_regressor
+from symbolic.numeric.functions import compile_vectorized
+from symbolic.spec.robot import Directional
+
+_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+@dataclass(frozen=True)
+class ModelParameter:
+    """A model-file parameter determined by the data: value, σ, relative σ (%), and how it was found."""
+
+    name: str
+    value: float
+    sigma: float
+    relative_sigma: float
+    nominal: float
+    source: str  # "base parameter <name>" or "consistent fit"
+
+    def to_dict(self) -> dict[str, float]:
+        return {"value": self.value, "sigma": self.sigma, "relative_sigma": self.relative_sigma}
+
+
+@dataclass(frozen=True, eq=False)
+class ModelIdentification:
+    """Identified base parameters of a model and the model-file parameters they determine."""
+
+    model: DynamicModel = field(repr=False)
+    base: BaseParameters = field(repr=False)
+    identification: Identification
+    parameters: dict[str, ModelParameter]
+    validation: Validation | None = None
+
+    def values(self) -> dict[str, float]:
+        """{model parameter: identified value}, for writing back into the model file."""
+        return {name: p.value for name, p in self.parameters.items()}
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON contract of ``symbolic identify --json``."""
+        ident = self.identification
+        base = []
+        for k, name in enumerate(ident.names):
+            estimate = ident.parameters[k]
+            base.append({"name": name, "expression": str(self.base.expressions[k]), "value": estimate.value,
+                         "sigma": estimate.sigma, "relative_sigma": estimate.relative_sigma})
+        return {
+            "model": self.model.name,
+            "parameters": {name: p.to_dict() for name, p in self.parameters.items()},
+            "base_parameters": base,
+            "condition_number": ident.condition_number,
+            "relative_error": ident.relative_error,
+            "validation_relative_error": None if self.validation is None else self.validation.relative_error,
+        }
+
+    def table(self) -> str:
+        """Base parameters with σ, then the model-file parameters they determine."""
+        lines = [self.identification.table()]
+        width = max([9] + [len(n) for n in self.base.names])
+        lines.append("")
+        lines.append("base parameters as combinations of the standard parameters:")
+        lines += [f"  {n:<{width}} = {e}" for n, e in zip(self.base.names, self.base.expressions)]
+        if self.parameters:
+            lines.append("")
+            lines.append(f"{'model parameter':<16}  {'identified':>14}  {'sigma':>12}  {'sigma %':>8}  {'nominal':>12}")
+            for p in self.parameters.values():
+                lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {p.relative_sigma:>8.3g}  {p.nominal:>12.6g}")
+        if self.validation is not None:
+            lines.append(f"validation: relative error {self.validation.relative_error:.4g} %")
+        return "\n".join(lines)
+
+
+def model_base(model: DynamicModel) -> tuple[Regressor, BaseParameters]:
+    """The regressor and base parameters of ``model`` (computed once per model object)."""
+    if model not in _CACHE:
+        reg = model_regressor(model)
+        if reg is None:
+            raise ModelError(model.robot.source, "[[beam]]", "identification does not support flexible links yet "
+                             "(the regressor covers rigid models); identify the rigid part")
+        _CACHE[model] = (reg, base_parameters(model, reg))
+    return _CACHE[model]
+
+
+def base_regressor(model: DynamicModel, p: Sequence[float] | None = None):
+    """``regressor(q, qd, qdd) -> samples × N × len(β)``: the base columns of Y at parameters ``p``."""
+    reg, base = model_base(model)
+    columns = reg.Y.extract(list(range(model.n)), list(base.independent))
+    evaluate = compile_vectorized(reg.sub, [model.coordinates, model.velocities, model.accelerations, model.parameter_symbols],
+                                  columns, (model.n, len(base.independent)))
+    p = np.array(list(model.parameters.values()), float) if p is None else np.asarray(p, float)
+
+    def regressor(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        return evaluate(q, qd, qdd, p)
+
+    return regressor
+
+
+def identify_model(
+    model: DynamicModel,
+    data: str | Path | Measurements,
+    *,
+    experiment: str | Path | None = None,
+    validation: str | Path | Measurements | None = None,
+    settings: Settings | None = None,
+    method: str = "wls",
+    consistent: bool = False,
+) -> ModelIdentification:
+    """IDIM-LS of ``model``'s base parameters on ``data`` (a data or experiment file, or measurements).
+
+    ``experiment`` maps a data file that lacks the canonical columns (its [signals], [window], ...);
+    ``validation`` (a data or experiment file) is the cross-test set, mapped by ``experiment`` too when
+    it is a plain data file and an experiment was given.
+    """
+    coordinates = model.robot.generalized_coordinates
+    reg, base = model_base(model)  # first: a model the regressor cannot cover is refused before reading data
+    measurements = data if isinstance(data, Measurements) else load(data, coordinates, experiment=experiment)
+    regressor = base_regressor(model)
+    ident = identify(measurements, regressor, base.names, settings, method)
+    checked = None
+    if validation is not None:
+        other = validation
+        if not isinstance(validation, Measurements):
+            own = Path(validation).suffix == ".toml"
+            other = load(validation, coordinates, experiment=None if own else experiment)
+        checked = validate(ident, other, regressor, settings)
+    if consistent:
+        observation = observe(measurements, regressor, len(base.names), settings)
+        parameters = consistent_fit(model, reg, base, ident, observation)
+    else:
+        parameters = direct_parameters(model, reg, base, ident)
+    return ModelIdentification(model, base, ident, parameters, checked)
+
+
+def geometric_parameters(model: DynamicModel, reg: Regressor) -> set[sp.Symbol]:
+    """Model parameters that Y depends on (fixed during identification)."""
+    used: set[sp.Symbol] = set()
+    for _, definition in reg.sub.program(list(reg.Y)):
+        used |= definition.free_symbols
+    for e in reg.Y:
+        used |= e.free_symbols
+    return used & set(model.parameter_symbols)
+
+
+def direct_parameters(model: DynamicModel, reg: Regressor, base: BaseParameters, ident: Identification) -> dict[str, ModelParameter]:
+    """Model parameters that a single base parameter determines: β = a·p + b with the other model
+    parameters in β fixed (geometry) — p = (β − b)/a, σ_p = σ_β/|a|."""
+    fixed = geometric_parameters(model, reg)
+    nominal = model.parameters
+    theta = dict(zip(reg.theta, reg.theta_expressions))
+    out: dict[str, ModelParameter] = {}
+    for k, expression in enumerate(base.expressions):
+        in_parameters = sp.expand(expression.xreplace(theta))
+        unknown = in_parameters.free_symbols - fixed
+        if len(unknown) != 1:
+            continue
+        (p,) = unknown
+        a = sp.diff(in_parameters, p)
+        if a.free_symbols & {p} or sp.diff(in_parameters, p, 2) != 0:
+            continue
+        values = {s: v for s, v in nominal.items() if s in fixed}
+        a_value = float(a.xreplace(values))
+        b_value = float(in_parameters.xreplace({p: sp.Integer(0)}).xreplace(values))
+        if a_value == 0:
+            continue
+        estimate = ident.parameters[k]
+        value = (estimate.value - b_value) / a_value
+        sigma = estimate.sigma / abs(a_value)
+        relative = 100.0 * sigma / abs(value) if value != 0 else float("inf")
+        out[p.name] = ModelParameter(p.name, value, sigma, relative, nominal[p], f"base parameter {base.names[k]}")
+    return out
+
+
+def consistent_fit(model, reg: Regressor, base: BaseParameters, ident: Identification, observation) -> dict[str, ModelParameter]:
+    """Bounded nonlinear least squares over the non-geometric model parameters (module docstring)."""
+    fixed = geometric_parameters(model, reg)
+    symbols = list(model.parameter_symbols)
+    free = [s for s in symbols if s not in fixed and any(s in e.free_symbols for e in reg.theta_expressions)]
+    p0 = np.array([model.parameters[s] for s in symbols], float)
+    index = [symbols.index(s) for s in free]
+    theta_of = sp.lambdify([symbols], list(reg.theta_expressions), modules="numpy")
+    lower = np.array([_lower_bound(model, s) for s in free])
+    weights = np.repeat(1.0 / np.asarray(ident.coordinate_sigmas), observation.samples)
+    W, y = observation.W * weights[:, None], observation.y * weights
+    scale = max(np.linalg.norm(y), 1e-300)
+    bodies = _body_checks(model, symbols)
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        p = p0.copy()
+        p[index] = x
+        beta = base.from_theta(np.array(theta_of(p), float))
+        penalty = [1e3 * scale * max(0.0, v) for check in bodies for v in check(p)]
+        return np.concatenate([W @ beta - y, penalty])
+
+    start = np.clip(p0[index], lower, np.inf)
+    fit = scipy.optimize.least_squares(residual, start, bounds=(lower, np.inf), x_scale="jac", method="trf")
+    J = fit.jac[: len(y)]
+    dof = max(len(y) - np.linalg.matrix_rank(J), 1)
+    sigma2 = float(np.sum(fit.fun[: len(y)] ** 2) / dof)
+    covariance = sigma2 * np.linalg.pinv(J.T @ J)
+    out = {}
+    for k, s in enumerate(free):
+        sigma = float(np.sqrt(max(covariance[k, k], 0.0)))
+        value = float(fit.x[k])
+        out[s.name] = ModelParameter(s.name, value, sigma, 100.0 * sigma / abs(value) if value else float("inf"),
+                                     model.parameters[s], "consistent fit")
+    return out
+
+
+def _lower_bound(model: DynamicModel, symbol: sp.Symbol) -> float:
+    """0 for parameters that are masses, friction coefficients or rotor inertias by their use; else −∞."""
+    robot = model.robot
+    positive = {b.mass for b in robot.bodies} | {d.rotor_inertia for d in robot.drives}
+    for f in robot.frictions:
+        for value in (f.viscous, f.coulomb):
+            if isinstance(value, Directional):
+                positive |= {value.positive, value.negative}
+            elif value is not None:
+                positive.add(value)
+        if f.stribeck is not None:
+            positive.add(f.stribeck.static)
+    return 0.0 if symbol in positive else -np.inf
+
+
+def _body_checks(model: DynamicModel, symbols: list[sp.Symbol]):
+    """Per body: a function of p giving violations (> 0) of inertia PSD and the triangle inequality."""
+    checks = []
+    for body in model.robot.bodies:
+        tensor = sp.lambdify([symbols], body.inertia_tensor, modules="numpy")
+
+        def check(p, tensor=tensor):
+            eig = np.linalg.eigvalsh(np.array(tensor(p), float))
+            a, b, c = eig
+            return [-a, c - a - b]
+
+        checks.append(check)
+    return checks
