@@ -12,6 +12,8 @@ own parameters follow in two ways:
   only (masses, centres of mass, inertias, friction, rotor inertias), starting from the nominal values,
   with each body kept physically valid: mass ≥ 0, inertia tensor positive semidefinite and satisfying
   the triangle inequality of its principal moments (penalty residuals), friction coefficients ≥ 0.
+  A weak pull towards the nominal values (:data:`PRIOR_WEIGHT`) fixes the parameters the data cannot
+  separate; only those the data determine (outside the null space of the fit's Jacobian) are reported.
 
 Parameters that Y depends on (lengths of the DH table, gravity, Stribeck velocities) are geometry:
 they stay at their values in the model file.
@@ -42,6 +44,10 @@ from symbolic.numeric.functions import compile_vectorized
 from symbolic.spec.robot import Directional
 
 _CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+PRIOR_WEIGHT = 1e-6
+"""Weight of the pull towards the nominal values in the consistent fit, relative to the weighted data:
+it decides only the parameters the data leave free (which are then reported as not determined)."""
 
 
 @dataclass(frozen=True)
@@ -221,25 +227,33 @@ def consistent_fit(model, reg: Regressor, base: BaseParameters, ident: Identific
     scale = max(np.linalg.norm(y), 1e-300)
     bodies = _body_checks(model, symbols)
 
+    start = np.clip(p0[index], lower, np.inf)
+    typical = np.maximum(np.abs(start), 1e-3 * max(np.abs(start).max(initial=0.0), 1e-12))
+    prior = PRIOR_WEIGHT * scale / np.sqrt(len(free))
+
     def residual(x: np.ndarray) -> np.ndarray:
         p = p0.copy()
         p[index] = x
         beta = base.from_theta(np.array(theta_of(p), float))
         penalty = [1e3 * scale * max(0.0, v) for check in bodies for v in check(p)]
-        return np.concatenate([W @ beta - y, penalty])
+        return np.concatenate([W @ beta - y, penalty, prior * (x - start) / typical])
 
-    start = np.clip(p0[index], lower, np.inf)
-    fit = scipy.optimize.least_squares(residual, start, bounds=(lower, np.inf), x_scale="jac", method="trf")
+    fit = scipy.optimize.least_squares(residual, start, bounds=(lower, np.inf), x_scale=typical, method="trf")
     J = fit.jac[: len(y)]
     dof = max(len(y) - np.linalg.matrix_rank(J), 1)
     sigma2 = float(np.sum(fit.fun[: len(y)] ** 2) / dof)
-    covariance = sigma2 * np.linalg.pinv(J.T @ J)
+    _, s, Vt = np.linalg.svd(J * typical, full_matrices=False)
+    rank = int(np.sum(s > 1e-8 * s.max(initial=0.0)))
+    null = Vt[rank:]
+    covariance = sigma2 * (Vt[:rank].T / s[:rank] ** 2) @ Vt[:rank] * np.outer(typical, typical)
     out = {}
-    for k, s in enumerate(free):
+    for k, symbol in enumerate(free):
+        if null.size and np.linalg.norm(null[:, k]) > 1e-6:
+            continue  # moves without changing τ (or only together with others): not determined by the data
         sigma = float(np.sqrt(max(covariance[k, k], 0.0)))
         value = float(fit.x[k])
-        out[s.name] = ModelParameter(s.name, value, sigma, 100.0 * sigma / abs(value) if value else float("inf"),
-                                     model.parameters[s], "consistent fit")
+        out[symbol.name] = ModelParameter(symbol.name, value, sigma, 100.0 * sigma / abs(value) if value else float("inf"),
+                                          model.parameters[symbol], "consistent fit")
     return out
 
 
