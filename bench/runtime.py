@@ -41,9 +41,11 @@ PAIRS = [
     ("inertia D(q)", "pin_crba", "our_inertia"),
     ("Coriolis matrix", "pin_coriolis", "our_coriolis_matrix"),
     ("gravity", "pin_gravity", "our_gravity"),
+    ("joint-torque regressor", "pin_regressor", "our_regressor"),
 ]
-TARGETS = {"inverse dynamics": 0.15, "inertia D(q)": 0.30, "Coriolis matrix": 0.28, "gravity": 0.08}
-FUNCTION_OF = {"inverse dynamics": "inverse_dynamics", "inertia D(q)": "inertia", "Coriolis matrix": "coriolis_matrix", "gravity": "gravity"}
+TARGETS = {"inverse dynamics": 0.15, "inertia D(q)": 0.30, "Coriolis matrix": 0.28, "gravity": 0.08, "joint-torque regressor": 0.3}
+FUNCTION_OF = {"inverse dynamics": "inverse_dynamics", "inertia D(q)": "inertia", "Coriolis matrix": "coriolis_matrix", "gravity": "gravity",
+               "joint-torque regressor": "regressor"}
 
 
 def prefix() -> Path:
@@ -73,6 +75,7 @@ def cpp_source(name: str, model, states: np.ndarray, rounds: int, calls: int) ->
 #include <pinocchio/multibody.hpp>
 #include <pinocchio/algorithm/rnea.hpp>
 #include <pinocchio/algorithm/crba.hpp>
+#include <pinocchio/algorithm/regressor.hpp>
 #include <chrono>
 #include <cstdio>
 #include <cmath>
@@ -94,8 +97,10 @@ int main() {{
     qd[s] = Eigen::Map<const Eigen::VectorXd>(STATES + s * 3 * N + N, N);
     qdd[s] = Eigen::Map<const Eigen::VectorXd>(STATES + s * 3 * N + 2 * N, N);
   }}
-  double out[N * N];
-  double check = 0.0, worst[4] = {{0, 0, 0, 0}};
+  static double out[N * ({name}_NTHETA > N ? {name}_NTHETA : N)];
+  double theta[{name}_NTHETA];
+  {name}_standard_parameters(p, theta);
+  double check = 0.0, worst[5] = {{0, 0, 0, 0, 0}};
   for (int s = 0; s < S; ++s) {{  // both sides compute the same numbers
     Eigen::VectorXd tau = pinocchio::rnea(model, data, q[s], qd[s], qdd[s]);
     {name}_inverse_dynamics(q[s].data(), qd[s].data(), qdd[s].data(), p, out);
@@ -111,12 +116,15 @@ int main() {{
     Eigen::VectorXd gp = pinocchio::computeGeneralizedGravity(model, data, q[s]);
     {name}_gravity(q[s].data(), p, out);
     for (int i = 0; i < N; ++i) worst[3] = std::fmax(worst[3], std::fabs(out[i] - gp[i]));
+    {name}_regressor(q[s].data(), qd[s].data(), qdd[s].data(), p, out);  // Y theta against rnea
+    for (int i = 0; i < N; ++i) {{ double t = 0; for (int j = 0; j < {name}_NTHETA; ++j) t += out[i * {name}_NTHETA + j] * theta[j]; worst[4] = std::fmax(worst[4], std::fabs(t - tau[i])); }}
   }}
-  std::printf("{{\\"check\\": [%.3e, %.3e, %.3e, %.3e]}}\\n", worst[0], worst[1], worst[2], worst[3]);
-  const char *names[8] = {{"pin_rnea", "our_id", "pin_crba", "our_inertia", "pin_coriolis", "our_coriolis_matrix", "pin_gravity", "our_gravity"}};
+  std::printf("{{\\"check\\": [%.3e, %.3e, %.3e, %.3e, %.3e]}}\\n", worst[0], worst[1], worst[2], worst[3], worst[4]);
+  const char *names[10] = {{"pin_rnea", "our_id", "pin_crba", "our_inertia", "pin_coriolis", "our_coriolis_matrix", "pin_gravity", "our_gravity",
+                            "pin_regressor", "our_regressor"}};
   for (int r = 0; r < {rounds}; ++r) {{
-    double ns[8];
-    for (int step = 0; step < 8; ++step) {{
+    double ns[10];
+    for (int step = 0; step < 10; ++step) {{
       const int k = step ^ (r & 1);  // each pair in alternating order: drifts within a round cancel
       auto start = std::chrono::steady_clock::now();
       for (int c = 0; c < {calls}; ++c) {{
@@ -130,12 +138,14 @@ int main() {{
           case 5: {name}_coriolis_matrix(q[s].data(), qd[s].data(), p, out); check += out[0]; break;
           case 6: check += pinocchio::computeGeneralizedGravity(model, data, q[s])[0]; break;
           case 7: {name}_gravity(q[s].data(), p, out); check += out[0]; break;
+          case 8: check += pinocchio::computeJointTorqueRegressor(model, data, q[s], qd[s], qdd[s])(0, 0); break;
+          case 9: {name}_regressor(q[s].data(), qd[s].data(), qdd[s].data(), p, out); check += out[0]; break;
         }}
       }}
       ns[k] = std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start).count() / {calls};
     }}
     std::printf("{{\\"round\\": %d", r);
-    for (int k = 0; k < 8; ++k) std::printf(", \\"%s\\": %.2f", names[k], ns[k]);
+    for (int k = 0; k < 10; ++k) std::printf(", \\"%s\\": %.2f", names[k], ns[k]);
     std::printf("}}\\n");
   }}
   std::fprintf(stderr, "checksum %g\\n", check);
@@ -234,7 +244,7 @@ def main() -> int:
                 exe, info = built[(name, config)]
                 r = measure(name, exe, info["robot"])
                 lines += [f"### {name}", "",
-                          f"Agreement (max abs difference, τ / D / C·q̇ / g): {', '.join(f'{x:.1e}' for x in r['check'])}", "",
+                          f"Agreement (max abs difference, τ / D / C·q̇ / g / our Y·θ against rnea): {', '.join(f'{x:.1e}' for x in r['check'])}", "",
                           "| function | Pinocchio [ns] | generated C [ns] | ratio | rounds' quartiles | target | operations | angles |",
                           "|---|---|---|---|---|---|---|---|"]
                 for label, pin_ns, our_ns, ratio, (low, high), ops, angles in r["rows"]:
