@@ -170,7 +170,7 @@ def test_no_parameter_c_runs_clean_under_sanitizers(name: str, generated, tmp_pa
 int main(void)
 {{
     double q[{name}_NQ], qd[{name}_NQ], qdd[{name}_NQ], tau[{name}_NQ], back[{name}_NQ];
-    double D[{name}_NQ * {name}_NQ], C[{name}_NQ * {name}_NQ], h[{name}_NQ], g[{name}_NQ], k[{name}_NQ], f[{name}_NQ];
+    double D[{name}_NQ * {name}_NQ], C[{name}_NQ * {name}_NQ], h[{name}_NQ], g[{name}_NQ], k[{name}_NQ], f[{name}_NQ], Q[{name}_NQ];
     const double *parameters[2];
     int i, j;
     parameters[0] = 0;
@@ -185,11 +185,12 @@ int main(void)
         {name}_gravity(q, p, g);
         {name}_stiffness(q, p, k);
         {name}_friction(q, qd, p, f);
+        {name}_applied(q, qd, p, Q);
         {name}_inverse_dynamics(q, qd, qdd, p, tau);
         if ({name}_forward_dynamics(q, qd, tau, p, back) != 0) return 1;
         for (i = 0; i < {name}_NQ; ++i) if (fabs(back[i] - qdd[i]) > 1e-12) return 2;
         if (!(D[0] > 0.0) || {name}_coordinate_names[0] == 0) return 3;
-        (void)C; (void)h; (void)g; (void)k; (void)f;
+        (void)C; (void)h; (void)g; (void)k; (void)f; (void)Q;
     }}
     return 0;
 }}
