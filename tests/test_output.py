@@ -18,6 +18,7 @@ import subprocess
 import sys
 import threading
 import time
+import warnings
 from pathlib import Path
 
 import pytest
@@ -53,6 +54,8 @@ def synthetic(tag: str, count: int = 14) -> dict[str, bytes]:
 
 def test_banners_carry_no_machine_path(tmp_path: Path, monkeypatch) -> None:
     """The same model file given by two absolute paths, written to two directories, gives the same bytes."""
+    monkeypatch.setattr(warnings, "formatwarning", warnings.formatwarning)  # cli.main replaces it
+    monkeypatch.setattr(warnings, "filters", list(warnings.filters))
     outputs = []
     for place in ("first/deep/er", "second"):
         model = tmp_path / place / "pendulum.toml"
