@@ -161,7 +161,8 @@ def test_no_parameter_c_builds_strict_and_matches_reference(name: str, generated
 
 @pytest.mark.parametrize("name", list(MODELS))
 def test_no_parameter_c_runs_clean_under_sanitizers(name: str, generated, tmp_path: Path) -> None:
-    """Every function, with p = NULL and with p = NAME_parameter_defaults, under ASan and UBSan."""
+    """Every function, with p = NULL and with p = NAME_parameter_defaults, under ASan and UBSan; forward
+    dynamics inverts inverse dynamics and the regressor reproduces it (τ = Y θ)."""
     _, directory = generated[name]
     program = tmp_path / "main.c"
     program.write_text(
@@ -171,8 +172,9 @@ int main(void)
 {{
     double q[{name}_NQ], qd[{name}_NQ], qdd[{name}_NQ], tau[{name}_NQ], back[{name}_NQ];
     double D[{name}_NQ * {name}_NQ], C[{name}_NQ * {name}_NQ], h[{name}_NQ], g[{name}_NQ], k[{name}_NQ], f[{name}_NQ], Q[{name}_NQ];
+    double Y[{name}_NQ * {name}_NTHETA], theta[{name}_NTHETA];
     const double *parameters[2];
-    int i, j;
+    int i, j, c;
     parameters[0] = 0;
     parameters[1] = {name}_parameter_defaults;
     if ({name}_NP != 0) return 4;
@@ -189,7 +191,14 @@ int main(void)
         {name}_inverse_dynamics(q, qd, qdd, p, tau);
         if ({name}_forward_dynamics(q, qd, tau, p, back) != 0) return 1;
         for (i = 0; i < {name}_NQ; ++i) if (fabs(back[i] - qdd[i]) > 1e-12) return 2;
-        if (!(D[0] > 0.0) || {name}_coordinate_names[0] == 0) return 3;
+        {name}_regressor(q, qd, qdd, p, Y);
+        {name}_standard_parameters(p, theta);
+        for (i = 0; i < {name}_NQ; ++i) {{ /* tau = Y theta */
+            double t = 0.0;
+            for (c = 0; c < {name}_NTHETA; ++c) t += Y[i * {name}_NTHETA + c] * theta[c];
+            if (fabs(t - tau[i]) > 1e-12 * (1.0 + fabs(tau[i]))) return 5;
+        }}
+        if (!(D[0] > 0.0) || {name}_coordinate_names[0] == 0 || {name}_theta_names[0] == 0) return 3;
         (void)C; (void)h; (void)g; (void)k; (void)f; (void)Q;
     }}
     return 0;
