@@ -2,9 +2,11 @@
 
 Each robot gets ``generated/<name>/``: ``<name>.h``/``<name>.c`` (C), ``<name>_<function>.casadi`` with
 the loader ``<name>_casadi.py`` (CasADi) and ``<name>.md`` (report). The content depends only on the
-model files and this package, never on time, host, path or hash seed; files are written atomically
-(:func:`symbolic.export.write_files`), and files of a previous generation that are no longer produced
-are removed.
+model files and this package, never on time, host, path or hash seed. Each ``generated/<name>/`` is
+replaced as one set (:func:`symbolic.export.write_files` with ``owned=True``, see
+:mod:`symbolic.emit.output`): at every instant it holds exactly the previous generation or exactly
+the new one, so files no longer produced disappear with the previous set; an interrupted run
+leaves each robot's directory complete (some robots regenerated, the rest not).
 """
 
 from __future__ import annotations
@@ -30,11 +32,7 @@ def generate(out: Path, names: list[str] | None = None) -> list[Path]:
             robot = robots.load(name)
         log.info("generating %s", name)
         files = export.render(derive(robot), command=COMMAND)
-        directory = out / name
-        written += export.write_files(files, directory)
-        for stale in sorted(directory.iterdir()):
-            if stale.is_file() and stale.name not in files:
-                stale.unlink()
+        written += export.write_files(files, out / name, owned=True)
     return written
 
 

@@ -69,7 +69,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
         return 2
     robot = resolve(args.model)
     model = derive(robot)
-    command = f"symbolic generate {args.model} --out {args.out}" + (f" --targets {args.targets}" if args.targets != ",".join(export.TARGETS) else "")
+    command = export.regenerate_command(args.model, targets)
     try:
         written = export.generate(model, args.out, targets, command=command)
     except export.ExportError as error:

@@ -101,7 +101,7 @@ void fivebar_flexible_friction(const double *q, const double *qd, const double *
 void fivebar_flexible_applied(const double *q, const double *qd, const double *p, double *Q);
 
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
- * 1156 operations, sine and cosine of 2 angles. */
+ * 1158 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.

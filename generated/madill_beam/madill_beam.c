@@ -23,7 +23,7 @@ void madill_beam_inertia(const double *q, const double *p, double *D)
     const double v8 = p[2]*p[3];
     const double v9 = (0.3333333333333333)*(p[2]*p[2]*p[2])*p[3] + (p[2]*p[2])*p[5] + 8.0*q[1]*q[3]*v3 - q[1]*v4 - q[3]*v4 + p[3]*v0 + p[3]*v1 + p[3]*v2 + v0*v5 + v1*v5 + v2*v5;
     const double v10 = v6*(v7 + 0.5688257437099108*v8);
-    const double v11 = v6*(-v7 + 0.09076678688638695*v8);
+    const double v11 = v6*(-v7 + 0.09076678688638697*v8);
     const double v12 = v6*(v7 + 0.032416374369744434*v8);
     const double v13 = p[3] + v5;
     const double v14 = p[1] + v9;
@@ -126,7 +126,7 @@ void madill_beam_gravity(const double *q, const double *p, double *g)
 {
     (void)q;
     const double v0 = sqrt(p[2]);
-    const double v1 = p[0]*(2.0*p[5]/v0 + 0.7829917560396257*p[3]*v0);
+    const double v1 = p[0]*(2.0*p[5]/v0 + 0.7829917560396258*p[3]*v0);
     g[0] = 0.0;
     g[1] = 0.0;
     g[2] = 0.0;
@@ -140,10 +140,10 @@ void madill_beam_gravity(const double *q, const double *p, double *g)
 void madill_beam_stiffness(const double *q, const double *p, double *k)
 {
     const double v0 = p[4]/(p[2]*p[2]*p[2]*p[2]);
-    const double v1 = 12.36236336832619*v0;
+    const double v1 = 12.362363368326191*v0;
     const double v2 = q[1]*v1;
-    const double v3 = 485.51881851337123*q[2]*v0;
-    const double v4 = 3806.5462663914514*q[3]*v0;
+    const double v3 = 485.51881851337106*q[2]*v0;
+    const double v4 = 3806.546266391451*q[3]*v0;
     const double v5 = q[4]*v1;
     k[0] = 0.0;
     k[1] = v2;
@@ -201,7 +201,7 @@ void madill_beam_inverse_dynamics(const double *q, const double *qd, const doubl
     const double v11 = q[3]*v5;
     const double v12 = v10 + v11 - v9;
     const double v13 = p[4]/(p[2]*p[2]*p[2]*p[2]);
-    const double v14 = 12.36236336832619*v13;
+    const double v14 = 12.362363368326191*v13;
     const double v15 = 2.0*q[1]*p[3] + 2.0*v12;
     const double v16 = qd[1]*v15;
     const double v17 = (0.5)*qd[0];
@@ -215,14 +215,14 @@ void madill_beam_inverse_dynamics(const double *q, const double *qd, const doubl
     const double v25 = qdd[1]*v5;
     const double v26 = (0.3333333333333333)*(p[2]*p[2]*p[2])*p[3] + (p[2]*p[2])*p[5] + 8.0*q[1]*q[3]*v3 - q[1]*v4 - q[3]*v4 + p[3]*v0 + p[3]*v1 + p[3]*v2 + v0*v5 + v1*v5 + v2*v5;
     const double v27 = v6*(v7 + 0.5688257437099108*v8);
-    const double v28 = v6*(-v7 + 0.09076678688638695*v8);
+    const double v28 = v6*(-v7 + 0.09076678688638697*v8);
     const double v29 = v6*(v7 + 0.032416374369744434*v8);
     const double v30 = p[3] + v5;
     const double v31 = p[1] + v26;
-    const double v32 = p[0]*(0.7829917560396257*p[3]*v6 + v7/v6);
+    const double v32 = p[0]*(0.7829917560396258*p[3]*v6 + v7/v6);
     const double v33 = q[1]*v14;
-    const double v34 = 485.51881851337123*q[2]*v13;
-    const double v35 = 3806.5462663914514*q[3]*v13;
+    const double v34 = 485.51881851337106*q[2]*v13;
+    const double v35 = 3806.546266391451*q[3]*v13;
     const double v36 = q[4]*v14;
     const double v37 = qdd[1]*v27 + qdd[2]*v28 + qdd[3]*v29 + qdd[0]*v31 + v16*v17 + v17*v19 + v17*v21 + v17*(v16 + v19 + v21);
     const double v38 = qdd[1]*v30 + qdd[0]*v27 - v15*v24 + v22 + v23 + v33;

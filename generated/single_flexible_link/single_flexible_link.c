@@ -15,7 +15,7 @@ void single_flexible_link_inertia(const double *q, const double *p, double *D)
     const double v0 = pow(p[2], 1.5)*p[3];
     const double v1 = p[3]*((0.3333333333333333)*(p[2]*p[2]*p[2]) + (q[1]*q[1]) + (q[2]*q[2]));
     const double v2 = 0.5688257437099108*v0;
-    const double v3 = 0.09076678688638695*v0;
+    const double v3 = 0.09076678688638697*v0;
     const double v4 = p[1] + v1;
     D[0] = v4;
     D[1] = v2;
@@ -105,7 +105,7 @@ void single_flexible_link_gravity(const double *q, const double *p, double *g)
 {
     (void)q;
     const double v0 = p[0]*sqrt(p[2])*p[3];
-    const double v1 = 0.7829917560396257*v0;
+    const double v1 = 0.7829917560396258*v0;
     const double v2 = 0.4339358951107193*v0;
     g[0] = 0.0;
     g[1] = 0.0;
@@ -122,10 +122,10 @@ void single_flexible_link_stiffness(const double *q, const double *p, double *k)
     const double v0 = 1.0/((p[2]*p[2]*p[2]*p[2]));
     const double v1 = p[4]*v0;
     const double v2 = p[5]*v0;
-    const double v3 = 12.36236336832619*q[1]*v1;
-    const double v4 = 485.51881851337123*q[2]*v1;
-    const double v5 = 12.36236336832619*q[3]*v2;
-    const double v6 = 485.51881851337123*q[4]*v2;
+    const double v3 = 12.362363368326191*q[1]*v1;
+    const double v4 = 485.51881851337106*q[2]*v1;
+    const double v5 = 12.362363368326191*q[3]*v2;
+    const double v6 = 485.51881851337106*q[4]*v2;
     k[0] = 0.0;
     k[1] = v3;
     k[2] = v4;
@@ -182,14 +182,14 @@ void single_flexible_link_inverse_dynamics(const double *q, const double *qd, co
     const double v11 = (0.5)*(qd[0]*qd[0]);
     const double v12 = p[3]*((0.3333333333333333)*(p[2]*p[2]*p[2]) + (q[1]*q[1]) + (q[2]*q[2]));
     const double v13 = 0.5688257437099108*v0;
-    const double v14 = 0.09076678688638695*v0;
+    const double v14 = 0.09076678688638697*v0;
     const double v15 = p[1] + v12;
-    const double v16 = 0.7829917560396257*v2;
+    const double v16 = 0.7829917560396258*v2;
     const double v17 = 0.4339358951107193*v2;
-    const double v18 = 12.36236336832619*q[1]*v4;
-    const double v19 = 485.51881851337123*q[2]*v4;
-    const double v20 = 12.36236336832619*q[3]*v5;
-    const double v21 = 485.51881851337123*q[4]*v5;
+    const double v18 = 12.362363368326191*q[1]*v4;
+    const double v19 = 485.51881851337106*q[2]*v4;
+    const double v20 = 12.362363368326191*q[3]*v5;
+    const double v21 = 485.51881851337106*q[4]*v5;
     const double v22 = qdd[1]*v13 + qdd[2]*v14 + qdd[0]*v15 + v10*v8 + v7*v8 + v8*(v10 + v7);
     const double v23 = qdd[1]*p[3] + qdd[0]*v13 - v11*v6 + v18;
     const double v24 = qdd[2]*p[3] + qdd[0]*v14 - v11*v9 + v19;

@@ -13,8 +13,12 @@ stays a runtime parameter:
     Λᵢ = ∫(φᵢ'')² dx = kᵢ⁴ / l⁴               (3.80), (B.16)
     γ = ∫φψᵀ dx = I (identical shapes in both directions, orthonormal)   (3.71)
 
-The roots kᵢ are found by Brent's method on cos k + 1/cosh k = 0 (the same equation without overflow),
-to machine precision; the closed forms above are checked against quadrature in the tests.
+The roots kᵢ and every constant above are computed with mpmath at PRECISION decimal digits (on
+cos k + 1/cosh k = 0, the same equation without overflow) and kept as SymPy Floats of that precision
+through the derivation, so a constant printed in generated code is rounded to a double once, when it
+is printed. Nothing here goes through numpy, scipy or the C library, whose results may differ in the
+last bit between processors (the generated code must be byte-identical on every machine); the
+closed forms are checked against quadrature in the tests.
 """
 
 from __future__ import annotations
@@ -22,41 +26,33 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
+import mpmath
 import numpy as np
 import sympy as sp
-from scipy.optimize import brentq
 
 from symbolic.spec.robot import BOUNDARIES
 
-
-@lru_cache(maxsize=None)
-def clamped_free_roots(n: int) -> tuple[float, ...]:
-    """The first n roots kᵢ of cos k cosh k = −1 (B.9)."""
-    roots = []
-    for i in range(1, n + 1):
-        centre = (2 * i - 1) * np.pi / 2
-        roots.append(brentq(lambda k: np.cos(k) + 1.0 / np.cosh(k), centre - 1.0, centre + 1.0, xtol=1e-15, rtol=8.9e-16, maxiter=200))
-    return tuple(roots)
+PRECISION = 50
+"""Decimal digits of the mode-shape constants: a double's rounding needs 17; the margin makes a
+constant within 10⁻⁴⁵ of a rounding boundary the only way two precisions could print differently
+(tests/test_constants.py checks that they do not)."""
 
 
 @dataclass(frozen=True)
 class ModeShape:
-    """One normalised clamped-free mode: root k and coefficient σ (dimensionless, on ξ = x/l)."""
+    """One normalised clamped-free mode: root k and coefficient σ (dimensionless, on ξ = x/l), as SymPy
+    Floats of PRECISION digits (``float()`` of either is the double nearest to it)."""
 
-    k: float
-
-    @property
-    def sigma(self) -> float:
-        k = self.k
-        return (np.cosh(k) + np.cos(k)) / (np.sinh(k) + np.sin(k))
+    k: sp.Float
+    sigma: sp.Float
 
     def shape(self, xi, derivative: int = 0):
         """Φ^(d)(ξ) for ξ = x/l, numerically (numpy; the symbolic form below, compiled once)."""
-        return _compiled(self.k, derivative)(np.asarray(xi, dtype=float))
+        return _compiled(self, derivative)(np.asarray(xi, dtype=float))
 
     def symbolic(self, xi: sp.Expr, derivative: int = 0) -> sp.Expr:
         """Φ^(d)(ξ) as a SymPy expression (for evaluation at symbolic positions)."""
-        k, s = sp.Float(self.k, 17), sp.Float(self.sigma, 17)
+        k, s = self.k, self.sigma
         kx = k * xi
         forms = {
             0: sp.cosh(kx) - sp.cos(kx) - s * (sp.sinh(kx) - sp.sin(kx)),
@@ -68,15 +64,33 @@ class ModeShape:
 
 
 @lru_cache(maxsize=None)
-def _compiled(k: float, derivative: int):
+def _compiled(shape: ModeShape, derivative: int):
     xi = sp.Symbol("xi", real=True)
-    return sp.lambdify(xi, ModeShape(k).symbolic(xi, derivative), modules="numpy")
+    return sp.lambdify(xi, shape.symbolic(xi, derivative), modules="numpy")
+
+
+@lru_cache(maxsize=None)
+def exact_modes(n: int, digits: int) -> tuple[ModeShape, ...]:
+    """The first n clamped-free modes, kᵢ the roots of cos k cosh k = −1 (B.9), to ``digits`` digits."""
+    shapes = []
+    with mpmath.workdps(digits):
+        for i in range(1, n + 1):
+            centre = (2 * i - 1) * mpmath.pi / 2  # kᵢ → (2i − 1)π/2; |kᵢ − centre| < 0.31 for all i
+            k = mpmath.findroot(lambda k: mpmath.cos(k) + 1 / mpmath.cosh(k), (centre - 1, centre + 1), solver="anderson")
+            sigma = (mpmath.cosh(k) + mpmath.cos(k)) / (mpmath.sinh(k) + mpmath.sin(k))
+            shapes.append(ModeShape(sp.Float(k, digits), sp.Float(sigma, digits)))
+    return tuple(shapes)
+
+
+def clamped_free_roots(n: int) -> tuple[float, ...]:
+    """The first n roots kᵢ of cos k cosh k = −1 (B.9), each the double nearest to the exact root."""
+    return tuple(float(m.k) for m in exact_modes(n, PRECISION))
 
 
 def modes(n: int, boundary: str = "clamped-free") -> list[ModeShape]:
     if boundary not in BOUNDARIES:
         raise ValueError(f"boundary {boundary!r} not supported (supported: {', '.join(BOUNDARIES)})")
-    return [ModeShape(k) for k in clamped_free_roots(n)]
+    return list(exact_modes(n, PRECISION))
 
 
 @dataclass(frozen=True)
@@ -93,9 +107,9 @@ class ModalConstants:
 def modal_constants(n: int, length: sp.Expr, boundary: str = "clamped-free") -> ModalConstants:
     shapes = modes(n, boundary)
     root = sp.sqrt(length)
-    alpha = tuple(root * sp.Float(2 * m.sigma / m.k, 17) for m in shapes)
-    beta = tuple(length * root * sp.Float(2 / m.k**2, 17) for m in shapes)
-    lam = tuple(sp.Float(m.k**4, 17) / length**4 for m in shapes)
+    alpha = tuple(root * (2 * m.sigma / m.k) for m in shapes)  # Float arithmetic at the Floats' precision
+    beta = tuple(length * root * (2 / m.k**2) for m in shapes)
+    lam = tuple(m.k**4 / length**4 for m in shapes)
     tip = tuple(sp.Integer(2 * (-1) ** i) / root for i in range(len(shapes)))  # Φᵢ(1) = ±2 exactly
     return ModalConstants(alpha, beta, lam, tip, tuple(shapes))
 

@@ -50,7 +50,17 @@ def _entry(model: DynamicModel, expr: sp.Expr, variables, names) -> str | None:
     form = compact(model.sub.expand(expr), variables)
     if sp.count_ops(form) > MAX_OPERATIONS:
         return None
-    return sp.latex(form, symbol_names=names)
+    return _latex(form, names)
+
+
+def _latex(expr: sp.Expr, names=None) -> str:
+    """LaTeX with every Float shown as the double nearest to it (17 significant digits), as in the C.
+
+    The derivation carries the modal constants at 50 digits (symbolic.derive.mode_shapes); they are
+    rounded here once, like the C printer does, instead of being printed with all their digits.
+    """
+    doubles = {f: sp.Float(float(f), 17) for f in expr.atoms(sp.Float)}
+    return sp.latex(expr.xreplace(doubles), symbol_names=names)
 
 
 def _conditions(analysis, names) -> list[dict]:
@@ -63,7 +73,7 @@ def _conditions(analysis, names) -> list[dict]:
             status = f"fails by {check.value:.4g} {c.unit}".rstrip()
             if c.feasible is False:
                 status += " (cannot vanish with the nominal parameter signs)"
-        out.append({"kind": c.kind, "name": c.name, "latex": sp.latex(c.expression, symbol_names=names), "status": status})
+        out.append({"kind": c.kind, "name": c.name, "latex": _latex(c.expression, names), "status": status})
     return out
 
 
