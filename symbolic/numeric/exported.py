@@ -29,7 +29,10 @@ _REGRESSORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 def model_regressor(model: DynamicModel) -> Regressor | None:
     """The parameter regressor of ``model`` (derived once), or None for models it does not cover (beams)."""
     if model not in _REGRESSORS:
+        start = time.perf_counter()
         _REGRESSORS[model] = None if model.robot.beams else regressor(model.robot)
+        elapsed = time.perf_counter() - start
+        log.log(logging.INFO if elapsed > 0.1 else logging.DEBUG, "%s: parameter regressor in %.1f s", model.name, elapsed)
     return _REGRESSORS[model]
 
 
