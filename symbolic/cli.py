@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+import time
 import warnings
 from pathlib import Path
 
@@ -18,7 +19,7 @@ from symbolic import robots
 from symbolic.derive.dynamics import derive
 from symbolic.errors import ModelError, ModelWarning
 from symbolic.spec.modelfile import load
-from symbolic.derive.simplify import compact
+from symbolic.derive.simplify import SIZE_LIMIT, compact, tree_size
 from symbolic.spec.robot import Robot
 
 
@@ -50,13 +51,37 @@ def cmd_derive(args: argparse.Namespace) -> int:
     model = derive(robot)
     print(model.summary())
     if args.show or (args.show is None and model.n <= 3):
-        q = model.coordinates
-        print("\nD(Q) (compact, upper triangle):")
-        for i in range(model.n):
-            for j in range(i, model.n):
-                print(f"  D[{i},{j}] = {sp.sstr(compact(model.D[i, j], q))}")
-        print("\nV_g(Q) =", sp.sstr(compact(model.potential_energy, q)))
+        show(model)
     return 0
+
+
+def show(model) -> None:
+    """Print D(Q) and V_g(Q) compacted; entries too large to expand (above ``SIZE_LIMIT``) in
+    intermediates, whose definitions follow."""
+    log = logging.getLogger(__name__)
+    large: list[sp.Expr] = []
+
+    def text(label: str, reduced: sp.Expr, expanded: sp.Expr) -> str:
+        size = tree_size(expanded)
+        if size > SIZE_LIMIT:
+            large.append(reduced)
+            return f"{sp.sstr(reduced)}    [expanded size {size} > {SIZE_LIMIT}: in intermediates, defined below]"
+        start = time.perf_counter()
+        form = sp.sstr(compact(expanded, model.coordinates))
+        log.log(logging.INFO if time.perf_counter() - start > 1 else logging.DEBUG,
+                "%s: %s compacted in %.1f s", model.name, label, time.perf_counter() - start)
+        return form
+
+    log.info("%s: compacting D(Q) and V_g(Q)", model.name)
+    print("\nD(Q) (compact, upper triangle):")
+    for i in range(model.n):
+        for j in range(i, model.n):
+            print(f"  D[{i},{j}] = {text(f'D[{i},{j}]', model.reduced.D[i, j], model.D[i, j])}")
+    print("\nV_g(Q) =", text("V_g", model.reduced.potential, model.potential_energy))
+    if large:
+        print(f"\nIntermediates of the entries above {SIZE_LIMIT} (compacting them would take minutes):")
+        for symbol, definition in model.sub.program(large):
+            print(f"  {symbol} = {sp.sstr(definition)}")
 
 
 def cmd_generate(args: argparse.Namespace) -> int:
@@ -66,6 +91,11 @@ def cmd_generate(args: argparse.Namespace) -> int:
     unknown = set(targets) - set(export.TARGETS)
     if unknown or not targets:
         print(f"error: --targets: unknown target(s) {sorted(unknown)} (allowed: {', '.join(export.TARGETS)})", file=sys.stderr)
+        return 2
+    try:
+        export.check_output_directory(args.out)  # before the derivation: seconds for a large model
+    except export.ExportError as error:
+        print(f"error: --out: {error}", file=sys.stderr)
         return 2
     robot = resolve(args.model)
     model = derive(robot)

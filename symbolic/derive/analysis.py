@@ -15,21 +15,41 @@ every monomial — a combination of parameters — vanishes; those combinations 
 A factor that is a single parameter (g, a length) is set aside as "assumed non-zero": g = 0 is no
 design. Each condition is checked numerically for a parameter set: its value, the size of its terms
 and whether it holds to a relative tolerance of 1e-9.
+
+Expanding a quantity into monomials costs time and memory in proportion to its expanded size, so
+entries larger than :data:`symbolic.derive.simplify.SIZE_LIMIT` (the Panda's Coriolis rows) are not
+analysed; they are listed in :attr:`Analysis.skipped` and in the output, never dropped silently.
 """
 
 from __future__ import annotations
 
+import logging
 import re
+import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import sympy as sp
 
 from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.simplify import collect_monomials, reduce_pythagoras
+from symbolic.derive.simplify import SIZE_LIMIT, tree_size, trig_monomials
 
 KINDS = ("decoupling", "constant_inertia", "coriolis", "balancing")
 RELATIVE_TOLERANCE = 1e-9
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Skipped:
+    """An entry left out of the analysis: its expanded form is larger than ``SIZE_LIMIT`` tree nodes."""
+
+    name: str
+    kind: str
+    size: int
+
+    def readable(self) -> str:
+        return f"{self.name}: not analysed (expanded size {self.size}, limit {SIZE_LIMIT})"
 
 
 @dataclass(frozen=True)
@@ -81,6 +101,7 @@ class Analysis:
     model: DynamicModel
     conditions: list[Condition]
     values: dict[sp.Symbol, float] = field(default_factory=dict)
+    skipped: list[Skipped] = field(default_factory=list)
 
     def of_kind(self, kind: str) -> list[Condition]:
         return [c for c in self.conditions if c.kind == kind]
@@ -114,15 +135,25 @@ class Analysis:
                     "feasible": c.feasible,
                 }
             )
-        return {"model": self.model.name, "conditions": out}
+        skipped = [{"name": s.name, "kind": s.kind, "size": s.size, "limit": SIZE_LIMIT} for s in self.skipped]
+        return {"model": self.model.name, "conditions": out, "skipped": skipped}
 
     def summary(self) -> str:
         lines = [f"model {self.model.name}: {len(self.conditions)} conditions"]
+        if self.skipped:
+            lines[0] += f"; {len(self.skipped)} entries too large to analyse (expanded size above {SIZE_LIMIT})"
         for kind in KINDS:
             conditions = self.of_kind(kind)
-            if not conditions:
+            skipped = [s for s in self.skipped if s.kind == kind]
+            if not conditions and not skipped:
                 continue
-            lines.append(f"\n{kind}: {'holds' if self.holds(kind) else 'does not hold'} at the given parameters")
+            if not conditions:
+                lines.append(f"\n{kind}: not analysed")
+            else:
+                verdict = "holds" if self.holds(kind) else "does not hold"
+                scope = " for the analysed entries" if skipped else ""
+                lines.append(f"\n{kind}: {verdict}{scope} at the given parameters")
+            lines += [f"  {s.readable()}" for s in skipped]
             for c in conditions:
                 check = c.check(self.values)
                 state = "holds" if check.holds else f"fails by {check.value:.4g} {c.unit}".rstrip() + f" ({check.relative:.2g} of its terms)"
@@ -232,12 +263,22 @@ def decoupling(
     names = model.robot.generalized_coordinates
     units = _units(model)
     conditions: list[Condition] = []
+    skipped: list[Skipped] = []
+
+    def small(kind: str, label: str, expr: sp.Expr) -> bool:
+        """Whether ``expr`` is within the limit; if not, it is recorded as skipped."""
+        size = tree_size(expr)
+        if size <= SIZE_LIMIT:
+            return True
+        skipped.append(Skipped(label, kind, size))
+        return False
 
     def add(kind: str, label: str, expr: sp.Expr, variables, keep_constant: bool = True) -> None:
-        canonical = reduce_pythagoras(expr)
+        if not small(kind, label, expr):
+            return
         groups: dict[sp.Expr, list[sp.Expr]] = {}
         dropped_of: dict[sp.Expr, tuple] = {}
-        for function, coefficient in collect_monomials(canonical, variables).items():
+        for function, coefficient in trig_monomials(expr, variables).items():
             if function == 1 and not keep_constant:
                 continue
             core, dropped = _primitive(coefficient)
@@ -257,18 +298,24 @@ def decoupling(
                 )
             )
 
-    D = model.D
     n = model.n
-    if "decoupling" in kinds:
+
+    def decoupling_family() -> None:
+        D = model.D
         for i in range(n):
             for j in range(i + 1, n):
                 add("decoupling", f"D[{names[i]},{names[j]}] = 0", D[i, j], q)
-    if "constant_inertia" in kinds:
+
+    def constant_inertia_family() -> None:
+        D = model.D
         for i in range(n):
             add("constant_inertia", f"D[{names[i]},{names[i]}] constant", D[i, i], q, keep_constant=False)
-    if "coriolis" in kinds:
+
+    def coriolis_family() -> None:
         h = model.coriolis_vector
         for k in range(n):
+            if not small("coriolis", f"coriolis row {names[k]}", h[k]):
+                continue  # its derivatives are as large
             for j in range(n):
                 if j == k:
                     continue
@@ -276,9 +323,19 @@ def decoupling(
                     derivative = sp.diff(h[k], variable)
                     if derivative != 0:
                         add("coriolis", f"coriolis row {names[k]} free of {what}", derivative, q + qd)
-    if "balancing" in kinds:
+
+    def balancing_family() -> None:
         add("balancing", "V independent of Q", model.potential_energy, q, keep_constant=False)
-    return Analysis(model, conditions, values)
+
+    families = {"decoupling": decoupling_family, "constant_inertia": constant_inertia_family,
+                "coriolis": coriolis_family, "balancing": balancing_family}
+    for kind in KINDS:
+        if kind in kinds:
+            start, before, passed = time.perf_counter(), len(conditions), len(skipped)
+            families[kind]()
+            log.info("%s: %s conditions: %d in %.1f s%s", model.name, kind, len(conditions) - before, time.perf_counter() - start,
+                     f" ({len(skipped) - passed} entries above the size limit skipped)" if len(skipped) > passed else "")
+    return Analysis(model, conditions, values, skipped)
 
 
 # -- counterbalance design -------------------------------------------------------------------
@@ -302,6 +359,9 @@ class Design:
         if self.unmet:
             lines.append("cannot be met:")
             lines += [f"  {c.name}: {c.readable()}" for c in self.unmet]
+        if self.analysis.skipped:
+            lines.append("not taken into account:")
+            lines += [f"  {s.readable()}" for s in self.analysis.skipped]
         return "\n".join(lines)
 
 

@@ -257,6 +257,8 @@ def derive(robot: Robot) -> DynamicModel:
     rigid = robot.coordinate_symbols
     n, m = len(q), len(rigid)
     sub = Subexpressions(q + qd + qdd)
+    log.info("%s: deriving (%d coordinates, %d bodies)", robot.name, n, len(robot.bodies))
+    started = time.perf_counter()
 
     def step(name: str, func):
         start = time.perf_counter()
@@ -312,4 +314,5 @@ def derive(robot: Robot) -> DynamicModel:
     bias = (coriolis_ne + gravity + stiffness + friction - applied).applyfunc(sub.add)
     reduced = ReducedForms(D, dD, C, coriolis, cmat, gravity, potential, tau, coriolis_ne, stiffness, strain,
                            friction, applied, bias)
+    log.info("%s: derived in %.1f s (%d intermediates)", robot.name, time.perf_counter() - started, len(sub))
     return DynamicModel(robot, sub, kin, reduced, timings)

@@ -15,8 +15,11 @@ directory and the output directory as ``<dir>``.
 from __future__ import annotations
 
 import hashlib
+import logging
 import os
+import stat
 import tempfile
+import time
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -82,12 +85,14 @@ def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str |
         from symbolic.numeric.exported import batched_programs, programs
         from symbolic.version import __version__
 
+        start = time.perf_counter()
         batched = batched_programs(model)
         ops = {name: (p.operations, len(batched[name].angles)) for name, p in programs(model).items()}
         analysis = None
         if model.n <= SMALL_MODEL:  # larger models: `symbolic analyze` (minutes of simplification)
             analysis = decoupling(model, kinds=["decoupling", "constant_inertia", "balancing"])
         files[f"{model.name}.md"] = report_markdown(model, head, ops, __version__, analysis).encode()
+        logging.getLogger(__name__).info("%s: report in %.1f s", model.name, time.perf_counter() - start)
     return files
 
 
@@ -112,6 +117,34 @@ def _casadi_files(model: DynamicModel, head: str) -> dict[str, bytes]:
     )
     out[f"{model.name}_casadi.py"] = loader.encode()
     return out
+
+
+def check_output_directory(path: str | os.PathLike) -> None:
+    """Raise :class:`ExportError` unless ``path`` is, or can be created as, a writable directory.
+
+    Nothing is created: this is the check the command line makes before deriving (seconds for a
+    large model), so that a mistyped ``--out`` is reported at once. :func:`write_files` still
+    reports what only the write itself can find out (a full disk, a race).
+    """
+    target = Path(path)
+    existing = target
+    while True:  # the nearest part of the path that exists
+        try:
+            mode = existing.stat().st_mode
+            break
+        except (FileNotFoundError, NotADirectoryError):
+            if existing.parent == existing:
+                raise ExportError(f"output directory {target}: no part of the path exists") from None
+            existing = existing.parent
+        except OSError as error:
+            raise ExportError(f"output directory {target}: cannot check {existing}: {error.strerror}") from None
+    where = "the current directory" if str(existing) == "." else existing
+    if not stat.S_ISDIR(mode):
+        what = "exists and is not a directory" if existing == target else f"cannot be created: {where} is not a directory"
+        raise ExportError(f"output directory {target} {what}")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        what = "is not writable" if existing == target else f"cannot be created: {where} is not writable"
+        raise ExportError(f"output directory {target} {what}")
 
 
 def write_files(files: dict[str, bytes], out: str | os.PathLike, *, owned: bool = False) -> list[Path]:
@@ -156,4 +189,5 @@ def report(model: DynamicModel, out: str | os.PathLike, command: str | None = No
     return generate(model, out, ["report"], command)
 
 
-__all__ = ["ExportError", "ModelError", "TARGETS", "c", "casadi", "generate", "regenerate_command", "render", "report", "write_files"]
+__all__ = ["ExportError", "ModelError", "TARGETS", "c", "casadi", "check_output_directory", "generate", "regenerate_command",
+           "render", "report", "write_files"]

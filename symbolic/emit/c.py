@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import logging
+import time
+
 import sympy as sp
 
 from symbolic.derive.dynamics import DynamicModel
@@ -19,6 +22,7 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
     slots = {s: f"{array}[{i}]" for s, (array, i) in places.items()}
     functions = []
     built = programs(model)
+    start = time.perf_counter()
     batched_all = batched_programs(model)
     for spec in function_specs(model):
         batched = batched_all[spec.name]
@@ -67,7 +71,9 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
         "functions": functions,
         "theta": [] if (reg := model_regressor(model)) is None else [{"index": i, "name": t} for i, t in enumerate(reg.names)],
     }
-    return {f"{name}.h": render("model.h.j2", **context), f"{name}.c": render("model.c.j2", **context)}
+    sources = {f"{name}.h": render("model.h.j2", **context), f"{name}.c": render("model.c.j2", **context)}
+    logging.getLogger(__name__).info("%s: C source printed in %.1f s", model.name, time.perf_counter() - start)
+    return sources
 
 
 def _input_run(angles: tuple[sp.Expr, ...], places: dict[sp.Symbol, tuple[str, int]]) -> str | None:

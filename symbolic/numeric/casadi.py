@@ -9,6 +9,9 @@ CasADi's exact algorithmic derivative of that.
 
 from __future__ import annotations
 
+import logging
+import time
+
 import casadi as ca
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
@@ -94,6 +97,13 @@ def cholesky_solve(D: ca.SX, b: ca.SX) -> ca.SX:
 
 def casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
     """{function name: casadi.Function} for every function of the C ABI plus A and B."""
+    start = time.perf_counter()
+    out = _casadi_functions(model)
+    logging.getLogger(__name__).info("%s: %d CasADi functions in %.1f s", model.name, len(out), time.perf_counter() - start)
+    return out
+
+
+def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
     n, n_p = model.n, len(model.robot.parameters)
     inputs = {name: ca.SX.sym(name, n) for name in ("q", "qd", "qdd", "tau")}
     inputs["p"] = ca.SX.sym("p", n_p)

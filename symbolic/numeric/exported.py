@@ -7,6 +7,8 @@ the two targets compute the same thing.
 
 from __future__ import annotations
 
+import logging
+import time
 import weakref
 from dataclasses import dataclass
 
@@ -15,6 +17,8 @@ import sympy as sp
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.derive.regressor import Regressor, regressor
 from symbolic.derive.subexpressions import Subexpressions
+
+log = logging.getLogger(__name__)
 
 # Built once per model object (CSE is the slow part), dropped with the model.
 _PROGRAMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -25,7 +29,10 @@ _REGRESSORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 def model_regressor(model: DynamicModel) -> Regressor | None:
     """The parameter regressor of ``model`` (derived once), or None for models it does not cover (beams)."""
     if model not in _REGRESSORS:
+        start = time.perf_counter()
         _REGRESSORS[model] = None if model.robot.beams else regressor(model.robot)
+        elapsed = time.perf_counter() - start
+        log.log(logging.INFO if elapsed > 0.1 else logging.DEBUG, "%s: parameter regressor in %.1f s", model.name, elapsed)
     return _REGRESSORS[model]
 
 
@@ -96,7 +103,14 @@ def programs(model: DynamicModel) -> dict[str, "Program"]:
 
     cache = _PROGRAMS.get(model)
     if cache is None:
-        cache = _PROGRAMS[model] = {spec.name: build_program(spec.sub or model.sub, spec.expressions) for spec in function_specs(model)}
+        cache = {}
+        for spec in function_specs(model):
+            start = time.perf_counter()
+            cache[spec.name] = build_program(spec.sub or model.sub, spec.expressions)
+            elapsed = time.perf_counter() - start
+            log.log(logging.INFO if elapsed > 0.1 else logging.DEBUG, "%s: %s program (CSE): %d statements in %.1f s",
+                    model.name, spec.name, len(cache[spec.name].statements), elapsed)
+        _PROGRAMS[model] = cache
     return cache
 
 
