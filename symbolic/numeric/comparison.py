@@ -1,0 +1,229 @@
+"""Where simulation and measurement disagree: per coordinate and signal, relative error, RMS, worst window.
+
+Measured velocity and acceleration come from the data treatment of identification (IDIM-LS,
+:mod:`symbolic.identify.processing`), with the same rules and the same ``[identification]`` keys:
+
+* positions low-passed by a zero-phase Butterworth filter (:func:`symbolic.data.filters.lowpass`,
+  forward and backward) of ``order`` (default 4) at ``cutoff`` (default 5 × ``bandwidth``, the
+  bandwidth defaulting to rate/50: 100 Hz at 1 kHz, EMPS's);
+* q̇ by central differences of the filtered q, q̈ by central differences of q̇ (or the data's own
+  ``qd``/``qdd`` columns, low-passed by the same filter);
+* ``border`` samples left out at each end, where the filter and the one-sided differences distort
+  (default ⌈5·rate/cutoff⌉: 50 at 1 kHz and 100 Hz; 2 without filtering).
+
+The simulated velocity and acceleration are the integrator's state q̇(t_k) and q̈(t_k) = D⁻¹(τ_k − …),
+unfiltered; positions and forces are compared as they are. Over the kept samples, for each signal x:
+
+* relative error ``100·‖x_meas − x_sim‖/‖x_meas‖`` in % (the EMPS publication's definition);
+* RMS of x_meas − x_sim, in the signal's unit;
+* the worst window: the ``window`` seconds (default 1 s) over which the error's RMS is largest.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from symbolic.data import DataError, Measurements
+from symbolic.data.filters import central_difference, lowpass
+
+SIGNALS = ("position", "velocity", "acceleration", "force")
+
+BANDWIDTH_FRACTION = 50.0
+"""Without a stated bandwidth it is rate / 50 (identification's rule)."""
+
+
+@dataclass(frozen=True)
+class Treatment:
+    """The filtering applied to the measured positions (``cutoff`` None: none) and the border left out."""
+
+    cutoff: float | None
+    order: int
+    border: int
+    note: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain values, for JSON."""
+        return {"cutoff": self.cutoff, "order": self.order, "border": self.border}
+
+
+def treatment(measurements: Measurements) -> Treatment:
+    """The treatment for ``measurements``: identification's rules and the experiment's ``[identification]`` table."""
+    table = measurements.identification or {}
+    source = str(measurements.source)
+    rate = measurements.rate
+    bandwidth = _positive(table, "bandwidth", rate / BANDWIDTH_FRACTION, source)
+    cutoff = _positive(table, "cutoff", 5.0 * bandwidth, source)
+    order = table.get("order", 4)
+    if isinstance(order, bool) or not isinstance(order, int) or order < 1:
+        raise DataError(source, "[identification] order", f"expected a positive integer, got {order!r}")
+    filtering = table.get("filter_positions", True)
+    if not isinstance(filtering, bool):
+        raise DataError(source, "[identification] filter_positions", f"expected true or false, got {filtering!r}")
+    note = None
+    if filtering and not cutoff < rate / 2:
+        raise DataError(source, "[identification] cutoff", f"{cutoff:g} Hz is not below the Nyquist frequency "
+                                                           f"{rate / 2:g} Hz of the data")
+    if filtering and measurements.samples <= 3 * order:
+        filtering, note = False, f"{measurements.samples} samples are too few for the low-pass: positions not filtered"
+    border = table.get("border")
+    if isinstance(border, list) and len(border) == 2:
+        border = max(border)
+    if border is None:
+        border = math.ceil(5.0 * rate / cutoff) if filtering else 2
+    if isinstance(border, bool) or not isinstance(border, int) or border < 0:
+        raise DataError(source, "[identification] border", f"expected a sample count ≥ 0, got {border!r}")
+    if measurements.samples - 2 * border < 2:
+        note, border = f"{measurements.samples} samples: no border left out", 0
+    return Treatment(cutoff if filtering else None, order, border, note)
+
+
+def _positive(table: Mapping[str, Any], key: str, default: float, source: str) -> float:
+    value = table.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise DataError(source, f"[identification] {key}", f"expected a positive number (Hz), got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True, eq=False)
+class Motion:
+    """Measured velocity and acceleration (samples × N, the data's coordinates) and how they were obtained."""
+
+    qd: np.ndarray
+    qdd: np.ndarray
+    treatment: Treatment
+
+
+def measured_motion(measurements: Measurements) -> Motion:
+    """q̇ and q̈ of the data by the identification's filtering and central differences (module docstring)."""
+    how = treatment(measurements)
+    h = measurements.sample_period
+
+    def smooth(x: np.ndarray) -> np.ndarray:
+        return lowpass(x, how.cutoff, measurements.rate, how.order) if how.cutoff is not None else np.asarray(x, float)
+
+    q = smooth(measurements.q)
+    qd = smooth(measurements.qd) if measurements.qd is not None else central_difference(q, h)
+    qdd = smooth(measurements.qdd) if measurements.qdd is not None else central_difference(qd, h)
+    return Motion(qd, qdd, how)
+
+
+@dataclass(frozen=True)
+class Statistic:
+    """The disagreement of one signal of one coordinate.
+
+    Attributes
+    ----------
+    relative
+        ``100·‖x_meas − x_sim‖/‖x_meas‖`` in %; ``None`` when the measured signal is zero.
+    rms
+        RMS of the error, in the signal's unit.
+    worst
+        ``(start, stop, rms)``: the window (seconds) with the largest RMS error, and that RMS.
+    """
+
+    relative: float | None
+    rms: float
+    worst: tuple[float, float, float]
+
+
+@dataclass(frozen=True, eq=False)
+class Comparison:
+    """Measured against simulated, per coordinate (the data's) and signal (:data:`SIGNALS`).
+
+    Attributes
+    ----------
+    coordinates
+        The compared coordinates.
+    statistics
+        ``{coordinate: {signal: Statistic}}``.
+    t
+        Time stamps of all samples.
+    measured, simulated
+        ``{signal: samples × N}`` (all samples; statistics use ``kept``).
+    kept
+        ``slice`` of the samples the statistics use (the border left out).
+    treatment
+        The measured data's filtering.
+    window
+        Length of the worst window, seconds.
+    """
+
+    coordinates: tuple[str, ...]
+    statistics: Mapping[str, Mapping[str, Statistic]]
+    t: np.ndarray = field(repr=False)
+    measured: Mapping[str, np.ndarray] = field(repr=False)
+    simulated: Mapping[str, np.ndarray] = field(repr=False)
+    kept: slice
+    treatment: Treatment
+    window: float
+
+    def relative_errors(self) -> dict[str, dict[str, float | None]]:
+        """``{coordinate: {signal: %}}``."""
+        return {c: {s: stat.relative for s, stat in signals.items()} for c, signals in self.statistics.items()}
+
+    def to_dict(self) -> dict[str, Any]:
+        """Relative errors (%), RMS, worst windows and the treatment, for JSON."""
+        return {
+            "relative_error": self.relative_errors(),
+            "rms": {c: {s: stat.rms for s, stat in signals.items()} for c, signals in self.statistics.items()},
+            "worst_window": {c: {s: {"start": stat.worst[0], "stop": stat.worst[1], "rms": stat.worst[2]}
+                                 for s, stat in signals.items()} for c, signals in self.statistics.items()},
+            "window": self.window,
+            "samples_compared": self.kept.stop - self.kept.start,
+            "treatment": self.treatment.to_dict(),
+        }
+
+    def summary(self) -> str:
+        """A table: coordinate, signal, relative error, RMS, worst window."""
+        lines = [f"{'coordinate':12s} {'signal':12s} {'relative %':>11s} {'RMS':>11s}  worst {self.window:g} s window"]
+        for c, signals in self.statistics.items():
+            for s, stat in signals.items():
+                relative = "-" if stat.relative is None else f"{stat.relative:.4g}"
+                start, stop, rms = stat.worst
+                lines.append(f"{c:12s} {s:12s} {relative:>11s} {stat.rms:11.4g}  {start:.3f}–{stop:.3f} s "
+                             f"(RMS {rms:.4g})")
+        return "\n".join(lines)
+
+
+def compare(measured: Measurements, simulated: Measurements, window: float = 1.0) -> Comparison:
+    """Compare a simulation with its log, coordinate by coordinate (module docstring).
+
+    ``simulated`` must have the log's time stamps and every coordinate of the log (extra coordinates,
+    e.g. modal ones, are ignored).
+    """
+    source = str(measured.source)
+    if not (isinstance(window, (int, float)) and math.isfinite(window) and window > 0):
+        raise DataError(source, "window", f"expected a duration in seconds > 0, got {window!r}")
+    if simulated.samples != measured.samples or not np.array_equal(simulated.t, measured.t):
+        raise DataError(source, "t", "the simulation's time stamps differ from the log's")
+    motion = measured_motion(measured)
+    index = [list(simulated.coordinates).index(c) for c in measured.coordinates]
+    meas = {"position": measured.q, "velocity": motion.qd, "acceleration": motion.qdd, "force": measured.tau}
+    sim = {"position": simulated.q[:, index], "velocity": simulated.qd[:, index],
+           "acceleration": simulated.qdd[:, index], "force": simulated.tau[:, index]}
+    border = motion.treatment.border
+    kept = slice(border, measured.samples - border)
+    width = min(max(1, round(window * measured.rate)), kept.stop - kept.start)
+    t = measured.t[kept]
+    statistics = {
+        c: {s: _statistic(meas[s][kept, j], sim[s][kept, j], t, width) for s in SIGNALS}
+        for j, c in enumerate(measured.coordinates)
+    }
+    return Comparison(tuple(measured.coordinates), statistics, measured.t, meas, sim, kept, motion.treatment,
+                      width * measured.sample_period)
+
+
+def _statistic(measured: np.ndarray, simulated: np.ndarray, t: np.ndarray, width: int) -> Statistic:
+    error = measured - simulated
+    norm = float(np.linalg.norm(measured))
+    relative = 100.0 * float(np.linalg.norm(error)) / norm if norm > 0 else None
+    squares = np.concatenate([[0.0], np.cumsum(error**2)])
+    means = (squares[width:] - squares[:-width]) / width
+    start = int(np.argmax(means))
+    worst = (float(t[start]), float(t[start + width - 1]), math.sqrt(max(float(means[start]), 0.0)))
+    return Statistic(relative, math.sqrt(float(np.mean(error**2))), worst)
