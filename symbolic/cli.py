@@ -178,6 +178,35 @@ def cmd_identify(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_simulate(args: argparse.Namespace) -> int:
+    import json
+
+    from symbolic import data
+    from symbolic.numeric import simulate
+    from symbolic.numeric.simulation_figures import MatplotlibMissing, draw
+
+    model = derive(resolve(args.model))
+    measurements = data.load(args.experiment)
+    simulation = simulate(model, measurements, method=args.method, substeps=args.substeps,
+                          friction_velocity=args.friction_velocity)
+    comparison = simulation.compare(window=args.window)
+    files, notes = [], [n for n in (comparison.treatment.note,) if n]
+    if args.out:
+        files.append(simulation.write(args.out))
+        try:
+            files += draw(comparison, Path(args.out), title=f"{model.robot.name}, {Path(args.experiment).name}")
+        except MatplotlibMissing as missing:
+            notes.append(str(missing))
+    if args.json:
+        print(json.dumps({**simulation.to_dict(comparison), "files": [str(f) for f in files], "notes": notes}, indent=2))
+        return 0
+    print(simulation.summary())
+    print(comparison.summary())
+    for line in [*map(str, files), *notes]:
+        print(line)
+    return 0
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="symbolic", description=__doc__.splitlines()[0])
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
@@ -210,6 +239,16 @@ def parser() -> argparse.ArgumentParser:
     i.add_argument("--out", metavar="FILE.toml", help="write the model file with the identified values")
     i.add_argument("--json", action="store_true", help="machine-readable result")
     i.set_defaults(func=cmd_identify)
+    s = sub.add_parser("simulate", help="simulate a model against a measured log with the machine's controller")
+    s.add_argument("model", help="model file (.toml) or built-in robot name")
+    s.add_argument("experiment", help="experiment file (.toml, with [controller]) or data file")
+    s.add_argument("--out", help="folder for simulated.csv and the figures")
+    s.add_argument("--json", action="store_true", help="model, settings and relative errors (%%) as JSON")
+    s.add_argument("--method", default="rk4", help="rk4 (fixed step, default) or a solve_ivp method: Radau, BDF, LSODA")
+    s.add_argument("--substeps", type=int, help="RK4 sub-steps per sample (default: from the spectral radius)")
+    s.add_argument("--friction-velocity", type=float, default=1e-4, help="ε of the smoothed sign tanh(v/ε) (default 1e-4)")
+    s.add_argument("--window", type=float, default=1.0, help="length of the worst window, seconds (default 1)")
+    s.set_defaults(func=cmd_simulate)
     ls = sub.add_parser("list", help="list the built-in robots")
     ls.set_defaults(func=cmd_list)
     return p

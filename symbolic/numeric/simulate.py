@@ -32,8 +32,8 @@ Integration (docs/simulation.md):
 
 Initial state: the measured positions at the first sample; coordinates the data lack start at 0,
 except the modal coordinates of a flexible model, which start at their static gravity sag
-(:func:`symbolic.numeric.statics.residual_imbalance`); velocities from the same filtered central
-differences as the comparison (0 for coordinates the data lack).
+(:func:`symbolic.numeric.statics.residual_imbalance`); velocities: the slope of a parabola fitted to
+the first samples (:func:`initial_velocity`; 0 for coordinates the data lack).
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ from symbolic.derive.dynamics import DynamicModel
 from symbolic.numeric import controller as control
 from symbolic.numeric.casadi import CASADI_MODULE, _CasadiPrinter, cholesky_solve
 from symbolic.numeric.compiled import compile_function
-from symbolic.numeric.comparison import Comparison, compare, measured_motion
+from symbolic.numeric.comparison import Comparison, compare, treatment
 
 LOG = logging.getLogger(__name__)
 
@@ -113,6 +113,45 @@ class Simulation:
     def compare(self, window: float = 1.0) -> Comparison:
         """Per coordinate and signal: relative error, RMS, worst window (:func:`symbolic.numeric.comparison.compare`)."""
         return compare(self.measured, self.simulated, window=window)
+
+    def to_dict(self, comparison: Comparison | None = None) -> dict[str, Any]:
+        """The run's settings and, given a comparison, its statistics (``relative_error`` in %), for JSON."""
+        out: dict[str, Any] = {
+            "model": self.model_name,
+            "data": str(self.measured.source),
+            "samples": self.measured.samples,
+            "controller": self.controller.describe(),
+            "method": self.method,
+            "substeps": self.substeps,
+            "spectral_radius": self.spectral_radius,
+            "friction_velocity": self.friction_velocity,
+            "compiled": self.compiled,
+            "timings": dict(self.timings),
+        }
+        if comparison is not None:
+            out.update(comparison.to_dict())
+        return out
+
+    def summary(self) -> str:
+        """Lines saying what was simulated and how."""
+        how = (f"RK4, {self.substeps} sub-step(s) per sample (spectral radius {self.spectral_radius:.4g} 1/s)"
+               if self.method == "rk4" else f"solve_ivp {self.method}")
+        return "\n".join([
+            f"model {self.model_name}: {self.measured.samples} samples at {self.measured.rate:g} Hz from "
+            f"{self.measured.source}",
+            f"  controller: {self.controller.describe()}",
+            f"  integration: {how}; friction sign tanh(v/{self.friction_velocity:g}); "
+            f"{'compiled' if self.compiled else 'CasADi virtual machine'}; "
+            f"{self.timings.get('integrate', 0.0):.2f} s",
+        ])
+
+    def write(self, folder: str | Path) -> Path:
+        """Write ``folder/simulated.csv`` (canonical columns t, q_c, qd_c, qdd_c, tau_c), atomically."""
+        from symbolic.data import write
+
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        return write(self.simulated, folder / "simulated.csv")
 
 
 def simulate(
@@ -310,10 +349,10 @@ def _initial_state(model: DynamicModel, measurements: Measurements, p: np.ndarra
                             f"expected finite (q0, qd0) with {n} values each ({', '.join(names)})")
         return np.concatenate([q0, qd0])
     x0 = np.zeros(2 * n)
-    motion = measured_motion(measurements)
+    velocity = initial_velocity(measurements)
     for j, c in enumerate(measurements.coordinates):
         x0[names.index(c)] = measurements.q[0, j]
-        x0[n + names.index(c)] = motion.qd[0, j]
+        x0[n + names.index(c)] = velocity[j]
     if model.robot.beams:
         from symbolic.numeric.statics import residual_imbalance
 
@@ -323,6 +362,24 @@ def _initial_state(model: DynamicModel, measurements: Measurements, p: np.ndarra
             if name not in measurements.coordinates:
                 x0[names.index(name)] = value
     return x0
+
+
+def initial_velocity(measurements: Measurements) -> np.ndarray:
+    """Q̇ at the first sample: the data's ``qd`` there, else the slope at t_0 of a least-squares parabola
+    through the first W positions, W = ⌈rate/cutoff⌉ + 1 samples (one period of the comparison's cut-off;
+    at least 3). A zero-phase filter's derivative is biased at the edge by about q̈·(the filter's
+    delay); the parabola absorbs the initial acceleration."""
+    if measurements.qd is not None:
+        return np.asarray(measurements.qd[0], dtype=float)
+    how = treatment(measurements)
+    width = math.ceil(measurements.rate / how.cutoff) + 1 if how.cutoff is not None else 3
+    width = min(max(3, width), measurements.samples)
+    t = measurements.t[:width] - measurements.t[0]
+    if width < 3:
+        return (measurements.q[1] - measurements.q[0]) / (t[1] - t[0])
+    basis = np.column_stack([np.ones(width), t, t**2])
+    coefficients = np.linalg.lstsq(basis, measurements.q[:width], rcond=None)[0]
+    return coefficients[1]
 
 
 # -- fixed step: the closed loop as one mapped CasADi function ------------------------------------------------

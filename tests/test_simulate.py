@@ -1,0 +1,308 @@
+"""The simulator (symbolic.numeric.simulate) against independent references.
+
+* the discrete controller against a loop written here in NumPy, for every kind and feature;
+* the CasADi right-hand side against NumericModel.forward_dynamics (SymPy → math);
+* a closed loop simulated here with SciPy's DOP853 on NumericModel (the "truth"), logged with
+  quantisation and noise, then re-simulated from the log: errors at the noise level (the truth's own
+  errors against the log); with a 10 % mass error, clearly above it;
+* energy conservation without friction and control, for a rigid and a flexible model, at RK4's order;
+* the sub-step from the spectral radius: equal to the highest natural frequency of the flexible
+  five-bar, and stable where one step per sample is not;
+* Coulomb sticking without chatter (smoothed sign), and sliding at the terminal velocity.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq, fsolve
+
+import symbolic
+from symbolic.data import DataError, Measurements
+from symbolic.numeric import controller as control
+from symbolic.numeric import natural_frequencies, simulate
+from symbolic.numeric.comparison import SIGNALS, compare
+from symbolic.numeric.simulate import _plant, initial_velocity
+from conftest import derived
+
+GOLDEN = Path(__file__).parent / "golden"
+
+PENDULUM_FRICTION = """
+[[friction]]
+coordinate = "q1"
+viscous = "0.05"
+
+[[friction]]
+coordinate = "q2"
+viscous = "0.03"
+"""
+
+
+@pytest.fixture(scope="module")
+def pendulum() -> symbolic.DynamicModel:
+    """The golden double pendulum with viscous friction on both joints."""
+    return symbolic.derive(symbolic.loads((GOLDEN / "double_pendulum.toml").read_text() + PENDULUM_FRICTION))
+
+
+# -- the controller ---------------------------------------------------------------------------------------------
+
+
+def reference_loop(kind: str, q: np.ndarray, r: np.ndarray, d: np.ndarray, tau_log: np.ndarray, period: float,
+                   gains: dict, gain: np.ndarray, saturation: np.ndarray, resolution: np.ndarray, taps: np.ndarray,
+                   delay: int) -> np.ndarray:
+    """The [controller] contract written out sample by sample (docs/simulation.md), for one coordinate set."""
+    samples, nc = q.shape
+    measured = np.where(resolution > 0, np.floor(q / np.where(resolution > 0, resolution, 1) + 0.5) * resolution, q)
+    backward = np.zeros((samples, nc))
+    backward[1:] = np.diff(measured, axis=0) / period
+    velocity = np.zeros((samples, nc))
+    for i, w in enumerate(taps):
+        velocity[i:] += w * backward[: samples - i]
+    error = r - measured
+    integral = np.cumsum(error, axis=0) * period
+    u = {
+        "torque": tau_log,
+        "pd": gains["kp"] * error - gains["kd"] * velocity,
+        "pid": gains["kp"] * error - gains["kd"] * velocity + gains.get("ki", 0) * integral,
+        "cascade": gains.get("kv", 0) * (gains["kp"] * error - velocity),
+    }[kind]
+    u = np.clip(u, -saturation, saturation)
+    applied = np.zeros_like(u)
+    applied[delay:] = u[: samples - delay]
+    return gain * (applied + d)
+
+
+@pytest.mark.parametrize("kind", control.KINDS)
+@pytest.mark.parametrize("delay", [0, 2])
+def test_controller_function_is_the_contract(kind: str, delay: int) -> None:
+    rng = np.random.default_rng(7)
+    samples, period = 60, 2e-3
+    names = ("a", "b", "c")  # the model's coordinates; the controller drives c and a, in that order
+    q = np.cumsum(rng.normal(0, 1e-3, (samples, 3)), axis=0)
+    table = {"kind": kind, "coordinates": ["c", "a"], "delay": delay, "gain": [2.0, 0.5], "saturation": [0.4, 1e9],
+             "quantisation": [1e-4, 0.0], "disturbance": ["dist_c", "0.01*t"]}
+    gains = {"kp": np.array([30.0, 10.0]), "kd": np.array([0.3, 0.1]), "ki": np.array([5.0, 1.0]),
+             "kv": np.array([2.0, 4.0])}
+    if kind != "torque":
+        table.update({k: gains[k].tolist() for k in control.GAINS[kind]})
+        table.update({"reference": ["0.01*sin(t)", "ref_a"], "velocity_filter": [0.5, 0.3, 0.2]})
+    t = np.arange(samples) * period
+    log = Measurements.from_arrays(t, ["a", "c"], q[:, [0, 2]], rng.normal(0, 1, (samples, 2)),
+                                   ref=rng.normal(0, 1e-2, (samples, 2)), extras={"dist_c": rng.normal(0, 0.1, samples)})
+    ctrl = control.parse(table, log.coordinates, (), "<test>", names)
+    signals = control.inputs(ctrl, log, names)
+    function = control.controller_function(ctrl, names, period)
+    c = control.constants(ctrl, {})
+    memory = np.zeros(ctrl.memory_size())
+    got = np.empty((samples, 3))
+    for k in range(samples):
+        memory, tau = function(memory, q[k], signals.reference[k], signals.disturbance[k], signals.torque[k], c)
+        got[k] = np.asarray(tau).ravel()
+    expected_r = np.column_stack([0.01 * np.sin(t), log.ref[:, 0]])
+    expected_d = np.column_stack([log.extras["dist_c"], 0.01 * t])
+    taps = np.array([0.5, 0.3, 0.2]) if kind != "torque" else np.array([1.0])
+    expected = reference_loop(kind, q[:, [2, 0]], expected_r, expected_d, log.tau[:, [1, 0]], period, gains,
+                              np.array([2.0, 0.5]), np.array([0.4, 1e9]), np.array([1e-4, 0.0]), taps, delay)
+    np.testing.assert_allclose(got[:, [2, 0]], expected, rtol=1e-12, atol=1e-12)
+    assert np.all(got[:, 1] == 0.0)  # b is not driven
+
+
+def test_gain_may_name_a_parameter() -> None:
+    model = derived("emps")
+    ctrl = control.parse({"kind": "pd", "kp": [1.0], "kd": [0.0], "reference": ["0"], "gain": "gtau"}, ("q",),
+                         model.parameter_symbols, "<test>")
+    c = control.constants(ctrl, dict(zip(model.parameter_symbols, model.parameters.values())))
+    assert c[4] == pytest.approx(35.15)
+
+
+# -- the plant ----------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["janot_branch", "single_flexible_link", "omni"])
+def test_right_hand_side_is_the_forward_dynamics(name: str) -> None:
+    """Away from zero velocity (|q̇| ≥ 0.05, tanh(q̇/1e-4) = sign(q̇) in floating point) the smoothed
+    right-hand side equals NumericModel.forward_dynamics, which has the exact sign."""
+    model = derived(name)
+    num = symbolic.numeric_model(model)
+    plant = _plant(model)
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        q = rng.uniform(-1, 1, model.n) * 0.5
+        qd = rng.choice([-1, 1], model.n) * rng.uniform(0.05, 1.0, model.n)
+        tau = rng.normal(0, 1, model.n)
+        xdot = np.asarray(plant.rhs(np.concatenate([q, qd]), tau, num.p0, 1e-4)).ravel()
+        np.testing.assert_allclose(xdot[: model.n], qd, rtol=0, atol=0)
+        np.testing.assert_allclose(xdot[model.n:], num.forward_dynamics(q, qd, tau), rtol=1e-10, atol=1e-10)
+
+
+# -- self-made truth ---------------------------------------------------------------------------------------------
+
+KP, KD, RESOLUTION = np.array([60.0, 30.0]), np.array([3.0, 1.5]), 1e-5
+SIGMA_Q, SIGMA_TAU = 1e-5, 0.05
+
+
+def truth(model: symbolic.DynamicModel, duration: float = 1.5, rate: float = 1000.0):
+    """PD at ``rate`` with zero-order hold and a quantising sensor, integrated by DOP853 on NumericModel.
+
+    Starts at rest in equilibrium under the held reference (so the log starts at rest), the reference
+    moving after 0.2 s. Returns t, reference, q, q̇, q̈, τ.
+    """
+    num = symbolic.numeric_model(model)
+    h = 1.0 / rate
+    t = np.arange(int(round(duration * rate)) + 1) * h
+    moving = np.clip(t - 0.2, 0, None)
+    ref = np.column_stack([-1.2 + 0.4 * (1 - np.cos(2 * np.pi * 0.5 * moving)),
+                           0.2 + 0.3 * (1 - np.cos(2 * np.pi * 0.8 * moving))])
+    x = np.concatenate([fsolve(lambda q: KP * (ref[0] - q) - num.gravity(q), ref[0], xtol=1e-13), np.zeros(2)])
+    previous = None
+    out = []
+    for k in range(len(t)):
+        measured = np.floor(x[:2] / RESOLUTION + 0.5) * RESOLUTION
+        v = np.zeros(2) if previous is None else (measured - previous) / h
+        tau = KP * (ref[k] - measured) - KD * v
+        previous = measured
+        out.append(np.concatenate([x, num.forward_dynamics(x[:2], x[2:], tau), tau]))
+        x = solve_ivp(lambda s, y: np.concatenate([y[2:], num.forward_dynamics(y[:2], y[2:], tau)]), (0, h), x,
+                      method="DOP853", rtol=1e-11, atol=1e-13).y[:, -1]
+    out = np.array(out)
+    return t, ref, out[:, :2], out[:, 2:4], out[:, 4:6], out[:, 6:]
+
+
+@pytest.mark.slow
+def test_resimulated_log_agrees_to_the_noise_level(pendulum: symbolic.DynamicModel) -> None:
+    t, ref, q, qd, qdd, tau = truth(pendulum)
+    rng = np.random.default_rng(1)
+    logged = np.floor(q / RESOLUTION + 0.5) * RESOLUTION + rng.normal(0, SIGMA_Q, q.shape)
+    log = Measurements.from_arrays(t, ["q1", "q2"], logged, tau + rng.normal(0, SIGMA_TAU, tau.shape), ref=ref)
+    log = dataclasses.replace(log, identification={"bandwidth": 3.0})
+    exact = Measurements.from_arrays(t, ["q1", "q2"], q, tau, qd=qd, qdd=qdd)
+    noise = compare(log, exact).relative_errors()  # the truth itself against its log: the noise level
+    table = {"kind": "pd", "kp": KP.tolist(), "kd": KD.tolist(), "reference": "ref",
+             "quantisation": [RESOLUTION, RESOLUTION]}
+    right = simulate(pendulum, log, controller=table).compare().relative_errors()
+    wrong = simulate(pendulum, log, controller=table, parameters={"m1": 1.1, "m2": 0.88}).compare().relative_errors()
+    for c in ("q1", "q2"):
+        for signal in SIGNALS:
+            assert right[c][signal] <= 1.3 * noise[c][signal], (c, signal, right[c][signal], noise[c][signal])
+            floor = 1.2 if signal == "acceleration" else 5.0  # q̈ is dominated by the controller's quantisation steps
+            assert wrong[c][signal] >= floor * noise[c][signal], (c, signal, wrong[c][signal], noise[c][signal])
+
+
+@pytest.mark.slow
+def test_exact_initial_state_reproduces_the_truth(pendulum: symbolic.DynamicModel) -> None:
+    """From the truth's own initial state, RK4 follows DOP853 to its order: the error falls ~16× per halving."""
+    t, ref, q, qd, qdd, tau = truth(pendulum, duration=0.6)
+    log = Measurements.from_arrays(t, ["q1", "q2"], q, tau, ref=ref)
+    table = {"kind": "pd", "kp": KP.tolist(), "kd": KD.tolist(), "reference": "ref",
+             "quantisation": [RESOLUTION, RESOLUTION]}
+    errors = []
+    for substeps in (1, 2):
+        run = simulate(pendulum, log, controller=table, initial=(q[0], qd[0]), substeps=substeps)
+        np.testing.assert_array_equal(run.simulated.tau, tau)  # the same quantised measurements, sample for sample
+        errors.append(np.abs(run.simulated.q - q).max())
+    assert errors[0] < 1e-9 and 10 < errors[0] / errors[1] < 24, errors
+
+
+def test_stiff_and_fixed_step_agree(pendulum: symbolic.DynamicModel) -> None:
+    t = np.arange(301) * 1e-3
+    ref = np.column_stack([-1.0 + 0.2 * np.sin(5 * t), 0.3 * np.sin(7 * t)])
+    log = Measurements.from_arrays(t, ["q1", "q2"], np.tile(ref[0], (301, 1)), np.zeros((301, 2)), ref=ref)
+    table = {"kind": "pid", "kp": [40.0, 20.0], "kd": [2.0, 1.0], "ki": [5.0, 5.0], "reference": "ref"}
+    start = (ref[0], np.zeros(2))
+    rk4 = simulate(pendulum, log, controller=table, initial=start, substeps=4)
+    vm = simulate(pendulum, log, controller=table, initial=start, substeps=4, compiled=False)
+    radau = simulate(pendulum, log, controller=table, initial=start, method="Radau", rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(vm.simulated.q, rk4.simulated.q, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(radau.simulated.q, rk4.simulated.q, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(radau.simulated.qdd, rk4.simulated.qdd, rtol=0, atol=1e-6)
+
+
+# -- energy -------------------------------------------------------------------------------------------------------
+
+
+def energy_drift(model: symbolic.DynamicModel, substeps: int, modal: float) -> float:
+    """Largest relative change of ½q̇ᵀDq̇ + V + V_strain over 10 s at 1 kHz, unforced, from a moving start."""
+    num = symbolic.numeric_model(model)
+    names = model.robot.generalized_coordinates
+    rigid = len(model.robot.coordinates)
+    t = np.arange(10001) * 1e-3
+    log = Measurements.from_arrays(t, names[:rigid], np.zeros((len(t), rigid)), np.zeros((len(t), rigid)))
+    q0, qd0 = np.full(model.n, modal), np.zeros(model.n)
+    q0[:rigid], qd0[:rigid] = 0.3, 0.5
+    run = simulate(model, log, initial=(q0, qd0), substeps=substeps)
+    order = [list(run.simulated.coordinates).index(c) for c in names]
+    q, qd = run.simulated.q[::50, order], run.simulated.qd[::50, order]
+    energy = np.array([0.5 * v @ num.inertia(x) @ v + num.potential(x) + num.strain_energy(x) for x, v in zip(q, qd)])
+    return float(np.abs(energy - energy[0]).max() / abs(energy[0]))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("name", "substeps", "modal"), [("omni", 1, 0.0), ("single_flexible_link", 20, 1e-3)])
+def test_energy_is_conserved_to_the_integrators_order(name: str, substeps: int, modal: float) -> None:
+    model = derived(name)
+    assert not model.robot.frictions and not model.robot.forces
+    coarse, fine = energy_drift(model, substeps, modal), energy_drift(model, 2 * substeps, modal)
+    assert fine < 1e-3, (coarse, fine)
+    assert coarse / fine > 12, (coarse, fine)  # at least RK4's fourth order (2⁴ = 16; 2⁵ seen: dissipative error)
+
+
+# -- sub-steps -----------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.slow
+def test_substeps_follow_the_highest_natural_frequency() -> None:
+    model = derived("fivebar_flexible")
+    omega = natural_frequencies(model)[0].max()
+    t = np.arange(1001) / 500.0  # 500 Hz: one RK4 step per sample has h·ω = 4.3 > 2.83, unstable
+    log = Measurements.from_arrays(t, ["q0", "q1", "q2"], np.zeros((len(t), 3)), np.zeros((len(t), 3)))
+    start = (np.zeros(model.n), np.zeros(model.n))
+    run = simulate(model, log, initial=start)
+    assert run.spectral_radius == pytest.approx(omega, rel=1e-9)
+    assert run.substeps == math.ceil(omega / 500.0)
+    assert np.isfinite(run.simulated.q).all() and np.abs(run.simulated.q).max() < 1.0
+    with pytest.raises(DataError, match="infinite or NaN"):
+        simulate(model, log, initial=start, substeps=1)
+
+
+# -- friction ------------------------------------------------------------------------------------------------------
+
+
+def pushed(force: float, seconds: float = 2.0) -> Measurements:
+    t = np.arange(int(seconds * 1000) + 1) * 1e-3
+    return Measurements.from_arrays(t, ["q"], np.zeros((len(t), 1)), np.full((len(t), 1), force))
+
+
+def test_coulomb_friction_sticks_without_chatter() -> None:
+    """EMPS pushed by 10 N: with the offset −3.16 N, 13.16 N < Fc = 20.39 N, so it sticks: it creeps at the
+    v of Fv·v + Fc·tanh(v/ε) = 13.16 N (≈ ε·artanh(13.16/20.39)) and the velocity never changes sign."""
+    model = derived("emps")
+    values = {s.name: v for s, v in model.parameters.items()}
+    eps = 1e-4
+    run = simulate(model, pushed(10.0), initial=([0.0], [0.0]), friction_velocity=eps)
+    creep = brentq(lambda v: values["Fv"] * v + values["Fc"] * math.tanh(v / eps) - (10.0 - values["offset"]), 0, 10 * eps,
+                   xtol=1e-16)
+    assert creep < eps * math.atanh((10.0 - values["offset"]) / values["Fc"])
+    v = run.simulated.qd[:, 0]
+    assert np.all(v >= 0) and v.max() <= creep * (1 + 1e-9)
+    assert v[-1] == pytest.approx(creep, rel=1e-6)
+    assert run.simulated.q[-1, 0] < 2.0 * creep
+
+
+def test_coulomb_friction_slides_at_the_terminal_velocity() -> None:
+    model = derived("emps")
+    values = {s.name: v for s, v in model.parameters.items()}
+    run = simulate(model, pushed(60.0, 10.0), initial=([0.0], [0.0]))
+    terminal = (60.0 - values["offset"] - values["Fc"]) / values["Fv"]
+    assert run.simulated.qd[-1, 0] == pytest.approx(terminal, rel=1e-9)
+
+
+def test_initial_velocity_is_the_slope_of_a_parabola() -> None:
+    t = np.arange(200) * 1e-3
+    q = 0.1 + 0.3 * t + 2.0 * t**2
+    log = Measurements.from_arrays(t, ["q"], q[:, None], np.zeros((200, 1)))
+    assert initial_velocity(log)[0] == pytest.approx(0.3, rel=1e-9)
