@@ -28,6 +28,7 @@ bench:
 	$(PYTHON) bench/runtime.py --out bench/results/runtime.md
 	$(PYTHON) bench/export.py --out bench/results/export.md
 	$(PYTHON) bench/identification.py --out bench/results/identification.md
+	$(PYTHON) bench/simulate.py --out bench/results/simulate.md
 
 clean:
 	rm -rf build dist *.egg-info .pytest_cache .hypothesis

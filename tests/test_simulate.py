@@ -306,3 +306,42 @@ def test_initial_velocity_is_the_slope_of_a_parabola() -> None:
     q = 0.1 + 0.3 * t + 2.0 * t**2
     log = Measurements.from_arrays(t, ["q"], q[:, None], np.zeros((200, 1)))
     assert initial_velocity(log)[0] == pytest.approx(0.3, rel=1e-9)
+
+
+# -- Pinocchio ---------------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.slow
+def test_panda_closed_loop_agrees_with_pinocchio_aba() -> None:
+    """The same discrete PD and RK4 steps with Pinocchio's articulated-body algorithm (an independent
+    dynamics): the two trajectories agree to rounding over 1 s."""
+    pin = pytest.importorskip("pinocchio")
+    from reference_pinocchio import build
+
+    model = derived("panda")
+    reference = build(model.robot)
+    workspace = reference.createData()
+    q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+    t = np.arange(1001) * 1e-3
+    ref = q0 + 0.3 * np.sin(2 * np.pi * np.outer(t, np.linspace(0.2, 0.5, 7)))
+    kp, kd = np.array([600.0, 600, 600, 600, 250, 150, 50]), np.array([30.0, 30, 30, 30, 10, 10, 5])
+    coordinates = list(model.robot.coordinates)
+    log = Measurements.from_arrays(t, coordinates, np.tile(q0, (len(t), 1)), np.zeros((len(t), 7)), ref=ref)
+    table = {"kind": "pd", "kp": kp.tolist(), "kd": kd.tolist(), "reference": "ref"}
+    simulated = simulate(model, log, controller=table, initial=(q0, np.zeros(7)), substeps=2).simulated
+    h = 0.5e-3
+    q, v, previous = q0.copy(), np.zeros(7), None
+    worst = 0.0
+    for k in range(len(t)):
+        velocity = np.zeros(7) if previous is None else (q - previous) * 1e3
+        tau = kp * (ref[k] - q) - kd * velocity
+        previous = q.copy()
+        worst = max(worst, np.abs(simulated.q[k] - q).max(), np.abs(simulated.qd[k] - v).max())
+        for _ in range(2):
+            a1 = pin.aba(reference, workspace, q, v, tau)
+            a2 = pin.aba(reference, workspace, q + h / 2 * v, v + h / 2 * a1, tau)
+            a3 = pin.aba(reference, workspace, q + h / 2 * (v + h / 2 * a1), v + h / 2 * a2, tau)
+            a4 = pin.aba(reference, workspace, q + h * (v + h / 2 * a2), v + h * a3, tau)
+            q, v = (q + h / 6 * (v + 2 * (v + h / 2 * a1) + 2 * (v + h / 2 * a2) + (v + h * a3)),
+                    v + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4))
+    assert worst < 1e-11, worst
