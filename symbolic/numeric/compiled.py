@@ -72,7 +72,7 @@ def compile_function(function: ca.Function) -> ca.Function | None:
 
 
 def _build(cc: str, source: str, key: str) -> Path | None:
-    for folder in (cache_folder(), Path(tempfile.gettempdir()) / f"symbolic-{os.getuid()}"):
+    for folder in (cache_folder(), Path(tempfile.gettempdir()) / f"symbolic-{getattr(os, 'getuid', lambda: 0)()}"):
         library = folder / f"simulate_{key}.so"
         if library.is_file():
             return library
