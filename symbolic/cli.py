@@ -181,10 +181,16 @@ def cmd_identify(args: argparse.Namespace) -> int:
 def cmd_simulate(args: argparse.Namespace) -> int:
     import json
 
-    from symbolic import data
+    from symbolic import data, export
     from symbolic.numeric import simulate
     from symbolic.numeric.simulation_figures import MatplotlibMissing, draw
 
+    try:
+        if args.out:
+            export.check_output_directory(args.out)  # before deriving and simulating
+    except export.ExportError as error:
+        print(f"error: --out: {error}", file=sys.stderr)
+        return 2
     model = derive(resolve(args.model))
     measurements = data.load(args.experiment)
     simulation = simulate(model, measurements, method=args.method, substeps=args.substeps,

@@ -179,3 +179,14 @@ def test_one_sample_in_python_is_refused() -> None:
     short = replace(log, t=log.t[:1], q=log.q[:1], tau=log.tau[:1])
     with pytest.raises(data.DataError, match="1 sample"):
         simulate(derived("emps"), short)
+
+
+def test_unwritable_out_is_refused_before_simulating(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from symbolic.cli import main
+
+    experiment = write_experiment(tmp_path, CASCADE)
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    assert main(["-q", "simulate", "emps", str(experiment), "--out", str(blocker / "out")]) == 2
+    assert capsys.readouterr().err.strip() == (f"error: --out: output directory {blocker / 'out'} cannot be created: "
+                                               f"{blocker} is not a directory")
