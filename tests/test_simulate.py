@@ -27,7 +27,7 @@ from symbolic.data import DataError, Measurements
 from symbolic.numeric import controller as control
 from symbolic.numeric import natural_frequencies, simulate
 from symbolic.numeric.comparison import SIGNALS, compare
-from symbolic.numeric.simulate import _plant, initial_velocity
+from symbolic.numeric.simulation import _plant, initial_velocity
 from conftest import derived
 
 GOLDEN = Path(__file__).parent / "golden"

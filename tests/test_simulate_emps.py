@@ -122,7 +122,7 @@ def write_log(folder: Path, samples: int = 50, ref: bool = True) -> Path:
 def write_experiment(folder: Path, controller: str, **log) -> Path:
     write_log(folder, **log)
     path = folder / "run.experiment.toml"
-    path.write_text(f'data = "log.csv"\nmodel = "emps"\n[signals]\nt = "t"\nq_q = "q_q"\ntau_q = "tau_q"\n'
+    path.write_text('data = "log.csv"\nmodel = "emps"\n[signals]\nt = "t"\nq_q = "q_q"\ntau_q = "tau_q"\n'
                     + ('ref_q = "ref_q"\n' if log.get("ref", True) else "") + f"[controller]\n{controller}\n")
     return path
 

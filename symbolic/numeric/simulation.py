@@ -94,6 +94,8 @@ class Simulation:
         The parameter values used, by name.
     compiled
         Whether the closed loop ran as compiled machine code (else CasADi's virtual machine).
+    model_name
+        The model's name.
     timings
         Seconds spent building the functions, compiling, and integrating.
     """
@@ -428,7 +430,8 @@ with its length (0.03 s for 1000 samples, 0.7 s for 10 000), so long logs are ru
 _SAMPLE_FUNCTIONS: weakref.WeakKeyDictionary[Plant, dict] = weakref.WeakKeyDictionary()
 
 
-def _closed_loop(ctrl, plant, names, period, substeps, compiled) -> tuple[ca.Function, bool]:
+def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float, substeps: int,
+                 compiled: bool | None) -> tuple[ca.Function, bool]:
     """The (compiled) sample function, built once per plant and controller structure."""
     key = (ctrl.kind, ctrl.coordinates, ctrl.delay, len(ctrl.velocity_filter), names, period, substeps, compiled)
     cache = _SAMPLE_FUNCTIONS.setdefault(plant, {})
@@ -441,7 +444,9 @@ def _closed_loop(ctrl, plant, names, period, substeps, compiled) -> tuple[ca.Fun
     return cache[key]
 
 
-def _run_fixed_step(ctrl, plant, measurements, signals, x0, p, c, eps, substeps, names, compiled, timings):
+def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measurements, signals: control.Inputs,
+                    x0: np.ndarray, p: np.ndarray, c: np.ndarray, eps: float, substeps: int, names: tuple[str, ...],
+                    compiled: bool | None, timings: dict[str, float]) -> tuple[np.ndarray, bool]:
     started = time.perf_counter()
     function, is_compiled = _closed_loop(ctrl, plant, names, measurements.sample_period, substeps, compiled)
     timings["compile"] = time.perf_counter() - started
@@ -464,7 +469,9 @@ def _run_fixed_step(ctrl, plant, measurements, signals, x0, p, c, eps, substeps,
 # -- solve_ivp from sample to sample -----------------------------------------------------------------------------
 
 
-def _run_solve_ivp(ctrl, plant, measurements, signals, x0, p, c, eps, names, method, rtol, atol):
+def _run_solve_ivp(ctrl: control.Controller, plant: Plant, measurements: Measurements, signals: control.Inputs,
+                   x0: np.ndarray, p: np.ndarray, c: np.ndarray, eps: float, names: tuple[str, ...], method: str,
+                   rtol: float, atol: float) -> np.ndarray:
     from scipy.integrate import solve_ivp
 
     n = plant.n
