@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -167,6 +168,7 @@ def main() -> int:
     ]
     Path(args.out).write_text("\n".join(lines))
     print("\n".join(lines))
+    shutil.rmtree(cache, ignore_errors=True)
     return 0
 
 
