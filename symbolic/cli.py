@@ -143,10 +143,13 @@ def write_text_atomically(path: Path, text: str) -> None:
     import os
     import tempfile
 
+    from symbolic.filemode import default_file_mode
+
     try:
         fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.", suffix=".tmp")
         with os.fdopen(fd, "w", encoding="utf-8") as handle:
             handle.write(text)
+        os.chmod(tmp, default_file_mode())
         os.replace(tmp, path)
     except OSError as error:
         raise ModelError(str(path), "--out", f"cannot write: {error.strerror}") from None

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from symbolic.data.errors import DataError
+from symbolic.filemode import default_file_mode
 
 DATA_SUFFIXES = (".csv", ".npz", ".mat")
 MAT_MAGIC = b"MATLAB 5.0 MAT-file"
@@ -218,6 +219,7 @@ def write(columns: Mapping[str, np.ndarray], path: str | Path) -> Path:
                     f.write((",".join(_number(v) for v in row) + "\n").encode())
             else:
                 _write_npz(f, names, data)
+        os.chmod(tmp, default_file_mode())
         os.replace(tmp, path)
     except BaseException:
         os.unlink(tmp)

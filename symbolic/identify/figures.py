@@ -14,6 +14,7 @@ import tempfile
 from pathlib import Path
 
 
+from symbolic.filemode import default_file_mode
 from symbolic.identify.least_squares import Identification
 from symbolic.identify.pipeline import Validation
 from symbolic.identify.processing import Observation
@@ -66,6 +67,7 @@ def _save(figure: object, path: Path) -> Path:
     os.close(fd)
     try:
         figure.savefig(tmp, format="png", metadata={"Software": None})  # type: ignore[attr-defined]
+        os.chmod(tmp, default_file_mode())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
