@@ -30,7 +30,6 @@ computed element-wise with NumPy. A variable of the file that is 1×1 (MATLAB's 
 
 from __future__ import annotations
 
-import ast
 import os
 import tomllib
 from collections.abc import Mapping
@@ -45,7 +44,7 @@ from symbolic.data import files
 from symbolic.data.errors import DataError
 from symbolic.data.measurements import Measurements, Source, assemble, isfinite_number
 from symbolic.errors import ModelError
-from symbolic.spec.expressions import CONSTANTS, FUNCTIONS, RESERVED_NAMES, parse_expression
+from symbolic.spec.expressions import RESERVED_NAMES, parse_expression, variable_names
 
 DATA_PATH_VARIABLE = "SYMBOLIC_DATA_PATH"
 """Environment variable: folders (separated by ``os.pathsep``) searched for a data file by its name
@@ -237,22 +236,15 @@ def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, 
 
 def _check_names(text: str, table: files.Table, constants: Mapping[str, float], source: str, key: str) -> None:
     """Refuse names that are neither variables of the file nor constants, listing what there is."""
-    try:
-        tree = ast.parse(text.strip(), mode="eval")
-    except SyntaxError:
-        return  # parse_expression reports it
-    called = {id(n.func) for n in ast.walk(tree) if isinstance(n, ast.Call)}
-    for node in ast.walk(tree):
-        if not isinstance(node, ast.Name) or id(node) in called or node.id in CONSTANTS or node.id in FUNCTIONS:
-            continue
-        if node.id in table.unusable:
-            raise DataError(source, key, f"variable {node.id!r} of {Path(table.source).name} is {table.unusable[node.id]}")
-        if node.id not in table.vectors and node.id not in table.scalars and node.id not in constants:
+    for name in variable_names(text):
+        if name in table.unusable:
+            raise DataError(source, key, f"variable {name!r} of {Path(table.source).name} is {table.unusable[name]}")
+        if name not in table.vectors and name not in table.scalars and name not in constants:
             variables = ", ".join([*table.vectors, *table.scalars]) or "none"
             raise DataError(
                 source,
                 key,
-                f"unknown variable {node.id!r} in {text!r} (variables of {Path(table.source).name}: {variables}; "
+                f"unknown variable {name!r} in {text!r} (variables of {Path(table.source).name}: {variables}; "
                 f"[constants]: {', '.join(constants) or 'none'})",
             )
 

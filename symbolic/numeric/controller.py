@@ -37,7 +37,6 @@ compiled code; :func:`parse` validates the table with one-line errors naming the
 
 from __future__ import annotations
 
-import ast
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -49,7 +48,7 @@ import sympy as sp
 
 from symbolic.data import DataError, Measurements
 from symbolic.errors import ModelError
-from symbolic.spec.expressions import CONSTANTS, FUNCTIONS, RESERVED_NAMES, parse_expression
+from symbolic.spec.expressions import RESERVED_NAMES, parse_expression, variable_names
 
 KINDS = ("torque", "pd", "pid", "cascade")
 
@@ -321,15 +320,9 @@ def _taps(table: Mapping[str, Any], source: str) -> np.ndarray:
 
 def _check_names(text: str, symbols: Mapping[str, Any], source: str, key: str, what: str) -> None:
     """Refuse a name that is neither declared nor a constant, listing what is declared."""
-    try:
-        tree = ast.parse(text.strip(), mode="eval")
-    except SyntaxError:
-        return  # parse_expression reports it
-    called = {id(n.func) for n in ast.walk(tree) if isinstance(n, ast.Call)}
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Name) and id(node) not in called and node.id not in symbols \
-                and node.id not in CONSTANTS and node.id not in FUNCTIONS:
-            raise DataError(source, key, f"unknown name {node.id!r} in {text!r} (allowed: {what}: "
+    for name in variable_names(text):
+        if name not in symbols:
+            raise DataError(source, key, f"unknown name {name!r} in {text!r} (allowed: {what}: "
                                          f"{', '.join(symbols) or 'none'})")
 
 

@@ -53,6 +53,21 @@ _UNARY = {ast.USub: lambda a: -a, ast.UAdd: lambda a: a}
 MAX_LENGTH = 10_000
 
 
+def variable_names(text: str) -> list[str]:
+    """The names ``text`` uses as variables (not called, not ``pi`` or a function), in order of appearance.
+
+    For messages that list what the caller could have meant; text that does not parse gives [] (the
+    parser reports it).
+    """
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError:
+        return []
+    called = {id(n.func) for n in ast.walk(tree) if isinstance(n, ast.Call)}
+    return [n.id for n in ast.walk(tree)
+            if isinstance(n, ast.Name) and id(n) not in called and n.id not in CONSTANTS and n.id not in FUNCTIONS]
+
+
 def number(value: float | int, source: str, key: str) -> sp.Expr:
     """Convert a TOML/Python number to an exact SymPy number (0.0825 -> 33/400).
 
