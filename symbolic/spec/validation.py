@@ -16,10 +16,10 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from symbolic.errors import ModelError, ModelWarning
-from symbolic.spec.expressions import RESERVED_NAMES, parse_expression
+from symbolic.errors import ModelError, ModelWarning, shorten
+from symbolic.spec.expressions import RESERVED_NAMES, check_magnitude, check_value, parse_expression
 from symbolic.spec.robot import (
-    BASE, BOUNDARIES, CONVENTIONS, DH_KEYS, FRAME_NAME, IDENTIFIER, INERTIA_KEYS, MODEL_NAME,
+    BASE, BOUNDARIES, C_KEYWORDS, CONVENTIONS, DH_KEYS, FRAME_NAME, IDENTIFIER, INERTIA_KEYS, MODEL_NAME,
     Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Robot, Stribeck,
     coordinate_symbol, velocity_name, velocity_symbol,
 )
@@ -81,26 +81,34 @@ class _Validator:
             unknown = {s.name for s in expr.free_symbols} - set(self.symbols)
             if unknown:
                 raise self.fail(key, f"undeclared symbol(s) {sorted(unknown)}")
+            check_value(expr, self.source, self.robot.keys.get(key, key), shorten(str(expr)))
         else:
             expr = parse_expression(value, self.symbols, self.source, self.robot.keys.get(key, key))
         if allowed is not None:
             bad = {s.name for s in expr.free_symbols} - set(allowed)
             if bad:
                 raise self.fail(key, f"may not depend on {sorted(bad)} (only on {', '.join(sorted(allowed)) or 'numbers'})")
+        if expr.free_symbols <= set(self.values):
+            self.nominal(expr, key)  # constant at given parameters: finite and real, or refused here
         return expr
 
     def nominal(self, expr: sp.Expr, key: str) -> float:
-        value = expr.xreplace(self.values)
-        try:
-            return float(value)
-        except TypeError:
-            raise self.fail(key, f"cannot evaluate {expr} at the nominal parameter values") from None
+        """The value of ``expr`` at the nominal parameters; refused unless finite and real."""
+        value = sp.N(expr.xreplace(self.values), 30)
+        real, imag = value.as_real_imag()
+        if value.has(sp.zoo, sp.nan, sp.oo, -sp.oo) or not (real.is_Number and imag.is_Number) or not real.is_finite:
+            raise self.fail(key, f"{shorten(str(expr))} is not finite at the nominal parameter values")
+        if abs(imag) > 1e-20 * max(1, abs(real)):
+            raise self.fail(key, f"{shorten(str(expr))} is not real at the nominal parameter values (≈ {complex(value):.6g})")
+        return float(real)
 
     def check_name(self) -> None:
         if not isinstance(self.robot.name, str) or not MODEL_NAME.match(self.robot.name):
             raise self.fail(
-                "name", f"model name {self.robot.name!r} is not a lower-case identifier ([a-z][a-z0-9_]*)"
+                "name", f"model name {shorten(str(self.robot.name), 40)} is not a lower-case identifier ([a-z][a-z0-9_]*)"
             )
+        if self.robot.name in C_KEYWORDS:
+            raise self.fail("name", f"model name {self.robot.name!r} is a C keyword (it prefixes the generated C names); choose another name")
 
     def check_names(self) -> None:
         r = self.robot
@@ -125,12 +133,16 @@ class _Validator:
                 raise self.fail(key, f"{name!r} is declared twice (also in {seen[name]})")
             seen[name] = key
         for p in r.parameters:
+            key = f"[parameters] {p.name}"
+            if isinstance(p.value, int) and not isinstance(p.value, bool):
+                check_magnitude(p.value, self.source, self.robot.keys.get(key, key))  # before float() overflows
             try:
                 value = float(p.value)
             except (TypeError, ValueError):
-                raise self.fail(f"[parameters] {p.name}", f"nominal value {p.value!r} is not a number") from None
+                raise self.fail(key, f"nominal value {shorten(repr(p.value), 40)} is not a number") from None
             if not np.isfinite(value):
-                raise self.fail(f"[parameters] {p.name}", f"nominal value {p.value!r} is not finite")
+                raise self.fail(key, f"nominal value {p.value!r} is not finite")
+            check_magnitude(value, self.source, self.robot.keys.get(key, key))
 
     def check_constraints(self) -> None:
         allowed = set(self.robot.coordinates) | {p.name for p in self.robot.parameters}
@@ -154,6 +166,8 @@ class _Validator:
                 raise self.fail(key, f"'{BASE}' is the root frame and cannot be redefined")
             if names.count(f.name) > 1:
                 raise self.fail(key, "frame defined twice")
+            if f.parent == f.name:
+                raise self.fail(f"{key} parent", f"frame {f.name!r} is its own parent")
             if f.parent != BASE and f.parent not in names:
                 raise self.fail(f"{key} parent", f"parent frame {f.parent!r} does not exist (frames: {BASE}, {', '.join(names)})")
             values = {}
