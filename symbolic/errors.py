@@ -18,6 +18,14 @@ def shorten(text: str, limit: int = 80) -> str:
     return f"{text[:SHOWN]!r}… ({len(text)} characters)"
 
 
+def shown(value: object, limit: int = 80) -> str:
+    """Any user value for a one-line message: a string as :func:`shorten` quotes it, anything else by
+    its ``repr``, shortened the same way."""
+    if isinstance(value, str):
+        return shorten(value, limit)
+    return one_line(repr(value), limit)
+
+
 def one_line(text: str, limit: int | None = None) -> str:
     """``text`` with line breaks and other control characters escaped (a key built from a TOML key may
     contain any character), so that every error is one line; shortened past ``limit`` characters."""

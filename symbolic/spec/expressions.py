@@ -23,7 +23,7 @@ from collections.abc import Callable, Mapping
 
 import sympy as sp
 
-from symbolic.errors import ModelError, shorten
+from symbolic.errors import ModelError, shorten, shown
 
 FUNCTIONS: dict[str, tuple[Callable[..., sp.Expr], int]] = {
     "sin": (sp.sin, 1),
@@ -52,6 +52,11 @@ RESERVED_NAMES = frozenset(FUNCTIONS) | frozenset(CONSTANTS)
 _ADDITIVE = (ast.Add, ast.Sub)
 _MULTIPLICATIVE = (ast.Mult, ast.Div)
 _UNARY = {ast.USub: lambda a: -a, ast.UAdd: lambda a: a}
+_OPERATORS = {
+    ast.Mod: "%", ast.FloorDiv: "//", ast.MatMult: "@", ast.BitAnd: "&", ast.BitOr: "|", ast.BitXor: "^",
+    ast.LShift: "<<", ast.RShift: ">>", ast.Invert: "~", ast.Not: "not",
+}
+"""Operators Python parses and the whitelist refuses, by their spelling (for messages)."""
 
 MAX_LENGTH = 2_000
 """Characters per expression. The longest in the built-in robots has 35; 2,000 is room for any
@@ -101,8 +106,8 @@ def check_magnitude(value: float | int, source: str, key: str) -> None:
     if isinstance(value, float) and not math.isfinite(value):
         raise ModelError(source, key, f"expected a finite number, got {value!r}")
     if value != 0 and not sp.Integer(1) / MAX_MAGNITUDE <= abs(sp.Rational(value)) <= MAX_MAGNITUDE:
-        shown = f"{value:.3g}" if isinstance(value, float) else _integer_text(value)
-        raise ModelError(source, key, f"number {shown} is outside the allowed magnitudes 1e-30 to 1e30 (or 0)")
+        text = f"{value:.3g}" if isinstance(value, float) else _integer_text(value)
+        raise ModelError(source, key, f"number {text} is outside the allowed magnitudes 1e-30 to 1e30 (or 0)")
 
 
 def _integer_text(value: int) -> str:
@@ -240,6 +245,8 @@ class _Translator:
             return _UNARY[type(node.op)](self.visit(node.operand, depth))
         if isinstance(node, ast.Call):
             return self.call(node, depth)
+        if isinstance(node, (ast.BinOp, ast.UnaryOp)):
+            raise self.fail(f"operator '{_OPERATORS.get(type(node.op), type(node.op).__name__)}' is not allowed")
         kind = {
             ast.Attribute: "attribute access",
             ast.Lambda: "lambda",
@@ -264,7 +271,7 @@ class _Translator:
     def constant(self, node: ast.Constant) -> sp.Expr:
         value = node.value
         if not isinstance(value, (int, float)) or isinstance(value, bool):
-            raise self.fail(f"literal {shorten(repr(value), 40)} is not a number")
+            raise self.fail(f"literal {shown(value, 40)} is not a number")
         segment = ast.get_source_segment(self.text, node) or ""
         if value == 0 and any(c in "123456789" for c in segment.lower().split("e")[0]):
             raise self.refuse(f"number {shorten(segment, 40)} underflows to 0 (allowed magnitudes: 1e-30 to 1e30, or 0)")
