@@ -105,7 +105,8 @@ def check_magnitude(value: float | int, source: str, key: str) -> None:
     """Refuse a number that is not finite, or not 0 and outside 1e-30 … 1e30 in magnitude."""
     if isinstance(value, float) and not math.isfinite(value):
         raise ModelError(source, key, f"expected a finite number, got {value!r}")
-    if value != 0 and not sp.Integer(1) / MAX_MAGNITUDE <= abs(sp.Rational(value)) <= MAX_MAGNITUDE:
+    exact = sp.Rational(repr(value)) if isinstance(value, float) else sp.Integer(value)  # 1e30 is 10**30, as parsed
+    if value != 0 and not sp.Integer(1) / MAX_MAGNITUDE <= abs(exact) <= MAX_MAGNITUDE:
         text = f"{value:.3g}" if isinstance(value, float) else _integer_text(value)
         raise ModelError(source, key, f"number {text} is outside the allowed magnitudes 1e-30 to 1e30 (or 0)")
 
@@ -114,7 +115,8 @@ def _integer_text(value: int) -> str:
     """An integer for a message, without tripping Python's int-to-text digit limit."""
     if abs(value) < 10**30:
         return str(value)
-    return f"of about {value.bit_length() * math.log10(2):.0f} digits"
+    digits = int(abs(value).bit_length() * math.log10(2))  # exact, or one short (no int-to-text conversion)
+    return f"with {digits + (abs(value) >= 10**digits)} digits"
 
 
 def parse_expression(
@@ -205,6 +207,10 @@ class _Translator:
         allowed = "numbers, declared symbols, + - * / **, parentheses, pi and " + ", ".join(sorted(FUNCTIONS))
         return ModelError(self.source, self.key, f"{what} in expression {shorten(self.text)} (allowed: {allowed})")
 
+    def refuse_part(self, node: ast.AST, problem: str, what: str = "") -> ModelError:
+        """``node`` (and the expression it is part of) with what is wrong with it."""
+        return ModelError(self.source, self.key, f"{what}{self.where(node)} {problem}")
+
     def refuse(self, what: str) -> ModelError:
         """A limit or value problem: what is wrong, in the expression."""
         return ModelError(self.source, self.key, f"{what} in expression {shorten(self.text)}")
@@ -281,12 +287,13 @@ class _Translator:
         base = self.visit(node.left, depth)
         exponent = self.visit(node.right, depth)
         if exponent.free_symbols:
-            raise self.refuse(f"exponent {self.part(node.right)} depends on {', '.join(sorted(s.name for s in exponent.free_symbols))}; exponents must be constant numbers")
+            names = ", ".join(sorted(s.name for s in exponent.free_symbols))
+            raise self.refuse_part(node.right, f"depends on {names}; exponents must be constant numbers", "exponent ")
         size = abs(exponent) if exponent.is_Number else abs(exponent.evalf(30))
         if size > MAX_EXPONENT:
-            raise self.refuse(f"exponent {self.part(node.right)} is larger than {MAX_EXPONENT} in magnitude")
+            raise self.refuse_part(node.right, f"is larger than {MAX_EXPONENT} in magnitude", "exponent ")
         if base == 0 and exponent.is_negative:
-            raise ModelError(self.source, self.key, f"{self.where(node)} divides by zero")
+            raise self.refuse_part(node, "divides by zero")
         return sp.Pow(base, exponent)
 
     def name(self, name: str) -> sp.Expr:
