@@ -4,8 +4,8 @@ The expression parser (:mod:`symbolic.spec.expressions`) refuses what is visibly
 complex within one expression (``l2/0``, ``sqrt(-1)``), and validation evaluates expressions of
 parameters alone. What shows only in the assembled model — a mass ``m1/(l2 - 0.4)`` with
 ``l2 = 0.4`` entering D, a joint angle ``acos(l2 + q2**2)`` with ``l2 = 3`` — is found here:
-:func:`check_values` evaluates the derived D(Q), g(Q), k(Q), friction (when the model has it) and
-τ, in the double-precision arithmetic of the generated code, at the nominal parameters.
+:func:`check_values` evaluates the derived D(Q), g(Q), k(Q), friction, applied forces and τ, in
+the double-precision arithmetic of the generated code, at the nominal parameters.
 
 It runs in the derive layer (called by :func:`symbolic.derive.dynamics.derive`) rather than in
 ``symbolic.numeric`` so that every user of a model — the library, ``derive``, ``analyze`` and
@@ -33,7 +33,7 @@ from symbolic.errors import ModelError
 if TYPE_CHECKING:
     from symbolic.derive.dynamics import DynamicModel
 
-CHECKED = (("D", "D"), ("gravity", "g"), ("stiffness", "k"), ("friction", "friction"), ("tau", "tau"))
+CHECKED = (("D", "D"), ("gravity", "g"), ("stiffness", "k"), ("friction", "friction"), ("applied", "applied"), ("tau", "tau"))
 """Fields of :class:`~symbolic.derive.dynamics.ReducedForms` checked, in order, with their names in
 messages. A field the model does not have is skipped; τ comes last because it contains every term
 of the equations of motion (a Coriolis term not already covered by D, g and k shows there)."""
@@ -53,8 +53,8 @@ _ERRORS = (
 
 
 def check_values(model: DynamicModel) -> None:
-    """Refuse ``model`` if an entry of D, g, k, friction or τ is not finite and real at the nominal
-    parameters at any configuration tried.
+    """Refuse ``model`` if an entry of D, g, k, friction, applied forces or τ is not finite and real at
+    the nominal parameters at every configuration tried.
 
     Raises
     ------

@@ -411,6 +411,7 @@ class _Validator:
                 unknown = {x.name for x in expr.free_symbols} - {x.name for x in symbols.values()}
                 if unknown:
                     raise self.fail(key, f"undeclared symbol(s) {sorted(unknown)}")
+                check_value(expr, self.source, self.robot.keys.get(key, key), shorten(str(expr)))
             else:
                 expr = parse_expression(f.expression, symbols, self.source, self.robot.keys.get(key, key))
             out.append(Force(f.name, c, expr))
