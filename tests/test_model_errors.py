@@ -240,6 +240,11 @@ LIMITS = [
     ("a", "0x" + "f" * 1500, "number with 1807 digits is outside the allowed magnitudes"),
     ("a", "l1*0.0825**100", "'0.0825**100' in expression 'l1*0.0825**100' is outside the allowed magnitudes"),
     ("a", "l1*1.0000000000000002**10", "has more than 100 digits as an exact fraction"),
+    # constants SymPy folds into a coefficient or a power: 2**495 * l1, q2**10000 (each quick: the product's
+    # 495 factors once took seconds to quote)
+    ("a", "l1" + "*2.0" * 495, "holds the number ≈ 1.02E+149 which is outside the allowed magnitudes"),
+    ("a", "l1*1e30*1e30", "holds the number ≈ 1.00E+60 which is outside the allowed magnitudes"),
+    ("theta", "(q2**100)**100", "'(q2**100)**100' has an exponent of 10000, larger than 100 in magnitude"),
     ("a", "exp(1000)*l1", "'exp(1000)' in expression 'exp(1000)*l1' is larger than 1e30 in magnitude"),
     ("a", "acos(2)*l1", "'acos(2)' in expression 'acos(2)*l1' is not real"),
     ("a", "tan(pi/2)*l1", "'tan(pi/2)' in expression 'tan(pi/2)*l1' is not finite"),

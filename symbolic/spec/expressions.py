@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import ast
 import math
+import re
 from collections.abc import Callable, Mapping
 
 import sympy as sp
@@ -164,34 +165,68 @@ def parse_expression(
     return _Translator(symbols, source, key, stripped).visit(tree.body, 0)
 
 
-def check_value(expr: sp.Expr, source: str, key: str, what: str) -> sp.Expr:
+def check_value(expr: sp.Expr, source: str, key: str, what: str | Callable[[], str]) -> sp.Expr:
     """``expr`` if it is finite and real as far as can be seen without values; else a ModelError.
 
     Infinity, NaN and the imaginary unit anywhere in ``expr`` are refused; an expression free of
     symbols is evaluated (mpmath, 30 digits) and must be real and at most 1e30 in magnitude.
-    ``what`` names the offending text in the message.
+    ``what`` names the offending text in the message (a callable is called only for a message).
     """
+    try:
+        return _check_value(expr)
+    except _Refused as refused:
+        raise ModelError(source, key, f"{what() if callable(what) else what} {refused}") from None
+
+
+class _Refused(Exception):
+    """What is wrong with a value, before the message names where it is."""
+
+
+def _check_value(expr: sp.Expr) -> sp.Expr:
     if expr.has(*_NOT_FINITE):
-        raise ModelError(source, key, f"{what} is not finite (division by zero, log(0), …)")
+        raise _Refused("is not finite (division by zero, log(0), …)")
     if expr.has(sp.I):
-        raise ModelError(source, key, f"{what} is not real")
-    if expr.free_symbols or not isinstance(expr, sp.Expr):
+        raise _Refused("is not real")
+    if not isinstance(expr, sp.Expr):
         return expr
     if expr.is_Rational:
-        if expr != 0 and not 1 / MAX_MAGNITUDE <= abs(expr) <= MAX_MAGNITUDE:
-            raise ModelError(source, key, f"{what} is outside the allowed magnitudes 1e-30 to 1e30 (or 0)")
-        if abs(expr.p) >= _DIGITS_BOUND or expr.q >= _DIGITS_BOUND:
-            raise ModelError(source, key, f"{what} has more than {MAX_DIGITS} digits as an exact fraction")
+        _check_number(expr, whole=True)
+        return expr
+    # SymPy folds constants into coefficients and powers: 2.0*2.0*…*l2 is 2**495*l2, (q**100)**100 is q**10000
+    for number in sorted(expr.atoms(sp.Rational), key=abs, reverse=True):
+        _check_number(number, whole=False)
+    for power in expr.atoms(sp.Pow):
+        if power.exp.is_Number and abs(power.exp) > MAX_EXPONENT:
+            raise _Refused(f"has an exponent of {_number_text(power.exp)}, larger than {MAX_EXPONENT} in magnitude")
+    if expr.free_symbols:
         return expr
     value = expr.evalf(30)
     real, imag = value.as_real_imag()
     if not (real.is_finite and imag.is_finite) or value.has(*_NOT_FINITE):
-        raise ModelError(source, key, f"{what} is not finite")
+        raise _Refused("is not finite")
     if imag.is_Number and abs(imag) > 1e-20 * max(1, abs(real)):
-        raise ModelError(source, key, f"{what} is not real (≈ {complex(value):.6g})")
+        raise _Refused(f"is not real (≈ {complex(value):.6g})")
     if real.is_Number and abs(real) > MAX_MAGNITUDE:
-        raise ModelError(source, key, f"{what} is larger than 1e30 in magnitude (≈ {sp.N(real, 3)})")
+        raise _Refused(f"is larger than 1e30 in magnitude (≈ {sp.N(real, 3)})")
     return expr
+
+
+def _check_number(number: sp.Rational, whole: bool) -> None:
+    """Refuse an exact number outside the magnitudes or digits allowed; ``whole``: it is the whole
+    (sub)expression, else a number it holds."""
+    if number != 0 and not 1 / MAX_MAGNITUDE <= abs(number) <= MAX_MAGNITUDE:
+        held = "" if whole else f"holds the number {_number_text(number)} which "
+        raise _Refused(f"{held}is outside the allowed magnitudes 1e-30 to 1e30 (or 0)")
+    if abs(number.p) >= _DIGITS_BOUND or number.q >= _DIGITS_BOUND:
+        held = "has" if whole else "holds a number with"
+        raise _Refused(f"{held} more than {MAX_DIGITS} digits as an exact fraction")
+
+
+def _number_text(number: sp.Rational) -> str:
+    """A short rendering of an exact number for messages (never its thousands of digits)."""
+    if abs(number.p) < 10**15 and number.q < 10**15:
+        return str(number)
+    return f"≈ {sp.N(number, 3)}"
 
 
 class _Translator:
@@ -202,6 +237,7 @@ class _Translator:
         self.source = source
         self.key = key
         self.text = text
+        self.lines = [line.encode() for line in re.split(r"(?<=\r\n)|(?<=\n)|(?<=\r)(?!\n)", text)]
 
     def fail(self, what: str) -> ModelError:
         allowed = "numbers, declared symbols, + - * / **, parentheses, pi and " + ", ".join(sorted(FUNCTIONS))
@@ -215,13 +251,22 @@ class _Translator:
         """A limit or value problem: what is wrong, in the expression."""
         return ModelError(self.source, self.key, f"{what} in expression {shorten(self.text)}")
 
+    def segment(self, node: ast.AST) -> str:
+        """The source text of ``node``. (:func:`ast.get_source_segment` splits the whole text into
+        lines on every call, which made a 1,000-factor product take seconds.)"""
+        if node.lineno == node.end_lineno:
+            return self.lines[node.lineno - 1][node.col_offset:node.end_col_offset].decode()
+        first = self.lines[node.lineno - 1][node.col_offset:]
+        last = self.lines[node.end_lineno - 1][:node.end_col_offset]
+        return b"".join([first, *self.lines[node.lineno:node.end_lineno - 1], last]).decode()
+
     def part(self, node: ast.AST) -> str:
         """The source text of ``node``, quoted and shortened, for messages."""
-        return shorten(ast.get_source_segment(self.text, node) or "", 40)
+        return shorten(self.segment(node), 40)
 
     def where(self, node: ast.AST) -> str:
         """``node``'s text, and the whole expression when ``node`` is only part of it."""
-        if ast.get_source_segment(self.text, node) == self.text:
+        if self.segment(node) == self.text:
             return self.part(node)
         return f"{self.part(node)} in expression {shorten(self.text)}"
 
@@ -231,7 +276,7 @@ class _Translator:
         expr = self.translate(node, depth + 1)
         if isinstance(node, (ast.Name, ast.Constant)) and expr.is_Atom and not expr.is_Number:
             return expr  # a symbol or pi: nothing to check
-        return check_value(expr, self.source, self.key, self.where(node))
+        return check_value(expr, self.source, self.key, lambda: self.where(node))
 
     def translate(self, node: ast.AST, depth: int) -> sp.Expr:
         if isinstance(node, ast.Constant):
@@ -278,7 +323,7 @@ class _Translator:
         value = node.value
         if not isinstance(value, (int, float)) or isinstance(value, bool):
             raise self.fail(f"literal {shown(value, 40)} is not a number")
-        segment = ast.get_source_segment(self.text, node) or ""
+        segment = self.segment(node)
         if value == 0 and any(c in "123456789" for c in segment.lower().split("e")[0]):
             raise self.refuse(f"number {shorten(segment, 40)} underflows to 0 (allowed magnitudes: 1e-30 to 1e30, or 0)")
         return number(value, self.source, self.key)
@@ -313,7 +358,8 @@ class _Translator:
 
     def call(self, node: ast.Call, depth: int) -> sp.Expr:
         if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
-            raise self.fail(f"call of {self.part(node.func)} is not allowed")
+            what = self.segment(node.func)
+            raise self.fail(f"call of '{what}' is not allowed" if len(what) <= 40 else f"call of {shorten(what, 40)} is not allowed")
         if node.keywords:
             raise self.fail("keyword arguments are not allowed")
         function, arity = FUNCTIONS[node.func.id]
