@@ -129,6 +129,10 @@ def cmd_analyze(args: argparse.Namespace) -> int:
             print(f"error: --design: {error}", file=sys.stderr)
             return 2
         print(design.summary())
+        problem = design.problem(free)
+        if problem:  # a design that solves nothing or leaves conditions unmet is a failure, not a result
+            print(f"error: --design: {problem}", file=sys.stderr)
+            return 2
         return 0
     analysis = decoupling(model, kinds=kinds)
     if args.json:
@@ -274,6 +278,9 @@ def main(argv: list[str] | None = None) -> int:
     except ModelError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130  # 128 + SIGINT, what a shell reports for a process ended by Ctrl-C
 
 
 if __name__ == "__main__":

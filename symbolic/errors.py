@@ -6,6 +6,35 @@ what is allowed, so that a user can fix a model file without reading our source.
 
 from __future__ import annotations
 
+SHOWN = 60
+"""Characters of a long piece of user text shown in a message (see :func:`shorten`)."""
+
+
+def shorten(text: str, limit: int = 80) -> str:
+    """``text`` quoted (``repr``) for a one-line message; text longer than ``limit`` shows its first
+    :data:`SHOWN` characters and its length, so an 8 KB expression does not flood the terminal."""
+    if len(text) <= limit:
+        return repr(text)
+    return f"{text[:SHOWN]!r}… ({len(text)} characters)"
+
+
+def shown(value: object, limit: int = 80) -> str:
+    """Any user value for a one-line message: a string as :func:`shorten` quotes it, anything else by
+    its ``repr``, shortened the same way."""
+    if isinstance(value, str):
+        return shorten(value, limit)
+    return one_line(repr(value), limit)
+
+
+def one_line(text: str, limit: int | None = None) -> str:
+    """``text`` with line breaks and other control characters escaped (a key built from a TOML key may
+    contain any character), so that every error is one line; shortened past ``limit`` characters."""
+    if not text.isprintable():
+        text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    if limit is not None and len(text) > limit:
+        return f"{text[:SHOWN]}… ({len(text)} characters)"
+    return text
+
 
 class ModelError(ValueError):
     """A model description (TOML file or Python spec) is invalid.
@@ -24,7 +53,7 @@ class ModelError(ValueError):
         self.source = source
         self.key = key
         self.problem = problem
-        super().__init__(f"{source}: {key}: {problem}")
+        super().__init__(f"{one_line(str(source))}: {one_line(key, 200)}: {one_line(problem)}")
 
 
 class ModelWarning(UserWarning):

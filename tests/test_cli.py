@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
+
+from symbolic import cli, robots
 
 
 def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
@@ -53,3 +58,154 @@ def test_report_of_flexible_model_lists_elastic_terms() -> None:
     model = symbolic.derive(symbolic.robots.load("single_flexible_link"))
     text = symbolic.export.render(model, ["report"])["single_flexible_link.md"].decode()
     assert "Rigid model" not in text and "$$V_s =" in text and r"\nu_{1}^{(\mathrm{link})}" in text
+
+
+# -- issue 15: every refusal one line, exit status 2 -----------------------------------------------
+
+TWO_LINK = """name = "arm"
+coordinates = ["q1", "q2"]
+gravity = ["0", "0", "-g"]
+[parameters]
+g = 9.81
+l1 = 0.5
+l2 = 0.4
+m1 = 1.0
+m2 = 0.5
+[[frame]]
+name = "1"
+parent = "base"
+dh = { theta = "q1", d = "0", a = "l1", alpha = "0" }
+[[frame]]
+name = "2"
+parent = "1"
+dh = { theta = THETA, d = "0", a = A, alpha = "0" }
+[[body]]
+name = "link1"
+frame = "1"
+mass = MASS
+com = ["-l1/2", "0", "0"]
+inertia = { xx = "0.001", yy = "0.02", zz = "0.02" }
+[[body]]
+name = "tip"
+frame = "2"
+mass = "m2"
+"""
+FIELDS = {"THETA": ("theta", "[[frame]] '2' dh.theta"), "A": ("a", "[[frame]] '2' dh.a"), "MASS": ("mass", "[[body]] 'link1' mass")}
+
+
+def two_link(tmp_path: Path, **fields: str) -> Path:
+    """The 2-link model with THETA, A and MASS as given (default q2, l2, m1), written to tmp_path."""
+    values = {"THETA": "q2", "A": "l2", "MASS": "m1"} | fields
+    text = TWO_LINK
+    for name, value in values.items():
+        text = text.replace(f"= {name}", f"= {json.dumps(value)}")
+    path = tmp_path / "arm.toml"
+    path.write_text(text)
+    return path
+
+
+ISSUE_15 = [
+    ("THETA", "q2" + "+q2" * 3300, "is longer than 2000 characters"),
+    ("THETA", "-" * 9000 + "q2", "is longer than 2000 characters"),
+    ("MASS", "0*m1/0", "is not finite"),
+    ("A", "l2*2.0**100000", "is larger than 100 in magnitude"),
+    ("A", "l2/0", "'l2/0' is not finite"),
+    ("A", "l2*sqrt(-1)", "is not real"),
+    ("A", "log(0)", "'log(0)' is not finite"),
+    ("A", "0**-1", "divides by zero"),
+    ("THETA", "q2/0", "'q2/0' is not finite"),
+    ("A", "l2*10**10**10", "is larger than 100 in magnitude"),
+    ("THETA", "q2**10**10", "is larger than 100 in magnitude"),
+]
+
+
+def one_error_line(err: str, path: Path, key: str) -> str:
+    assert "Traceback" not in err
+    assert err.count("\n") == 1 and err.endswith("\n"), err
+    assert err.startswith(f"error: {path}: {key}: "), err
+    return err
+
+
+@pytest.mark.parametrize("command", ["derive", "generate"])
+@pytest.mark.parametrize("field, text, problem", ISSUE_15, ids=lambda v: v[:24] if isinstance(v, str) else None)
+def test_issue_15_models_are_refused_with_one_line(tmp_path: Path, capsys, command: str, field: str, text: str, problem: str) -> None:
+    path = two_link(tmp_path, **{field: text})
+    out = tmp_path / "out"
+    args = ["-q", "derive", "--no-show", str(path)] if command == "derive" else ["-q", "generate", str(path), "--out", str(out)]
+    assert cli.main(args) == 2
+    err = one_error_line(capsys.readouterr().err, path, FIELDS[field][1])
+    assert problem in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "fields, key, problem",
+    [
+        ({"THETA": "q2 + 1/(l1 - 0.5)"}, "D[0,0]", "not finite (division by zero) at the nominal parameters, at q1 = 0, q2 = 0"),
+        ({"THETA": "acos(10*l1 + q2**2)"}, "D[0,1]", "not finite or not real (math domain error"),
+    ],
+)
+def test_model_not_finite_at_the_nominal_parameters_is_refused(tmp_path: Path, capsys, fields: dict, key: str, problem: str) -> None:
+    path = two_link(tmp_path, **fields)
+    assert cli.main(["-q", "generate", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert problem in one_error_line(capsys.readouterr().err, path, key)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    "old, new, key, problem",
+    [
+        ('name = "arm"', 'name = "int"', "name", "model name 'int' is a C keyword"),
+        ('name = "1"\nparent = "base"', 'name = "1"\nparent = "1"', "[[frame]] '1' parent", "frame '1' is its own parent"),
+    ],
+)
+def test_name_and_frame_tree_refused_by_derive(tmp_path: Path, capsys, old: str, new: str, key: str, problem: str) -> None:
+    path = two_link(tmp_path)
+    path.write_text(path.read_text().replace(old, new))
+    assert cli.main(["-q", "derive", str(path)]) == 2
+    assert problem in one_error_line(capsys.readouterr().err, path, key)
+
+
+def test_hostile_model_through_the_installed_command(tmp_path: Path) -> None:
+    """The shape that made `derive` run for minutes, as a user runs it: answered at once, one line, status 2."""
+    path = two_link(tmp_path, A="l2*10**10**10")
+    result = subprocess.run([sys.executable, "-m", "symbolic", "derive", str(path)], capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    one_error_line(result.stderr, path, "[[frame]] '2' dh.a")
+
+
+def test_ctrl_c_prints_interrupted_and_exits_130() -> None:
+    """A real SIGINT half a second into analysing the Panda (minutes of work), after the imports."""
+    code = (
+        "import os, signal, sys\n"
+        "from symbolic import cli\n"
+        "signal.signal(signal.SIGALRM, lambda *_: os.kill(os.getpid(), signal.SIGINT))\n"
+        "signal.setitimer(signal.ITIMER_REAL, 0.5)\n"
+        "sys.exit(cli.main(['-q', 'analyze', 'panda']))\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert (result.returncode, result.stderr, result.stdout) == (130, "interrupted\n", "")
+
+
+@pytest.mark.parametrize(
+    "l_cr, design, status, message",
+    [
+        (None, "l_cr,l_c3,l_c1", 0, ""),
+        (None, "g", 2, "error: --design: no balancing or decoupling condition determines g (parameters in the conditions: l1, l2, "),
+        (None, "l_c1,J0", 2, "error: --design: no balancing or decoupling condition determines J0"),
+        # Madill's five-bar with l_cr = 0.1: l_c1 alone cannot balance it (test_analysis)
+        ("0.1", "l_c1", 2, "error: --design: 2 condition(s) cannot be met with the free parameters l_c1: D[q1,q2] = 0; V independent of Q #2"),
+    ],
+)
+def test_analyze_design_that_solves_nothing_or_cannot_be_met_fails(
+    tmp_path: Path, capsys, l_cr: str | None, design: str, status: int, message: str
+) -> None:
+    model = "fivebar"
+    if l_cr is not None:
+        text = (Path(robots.__file__).parent / "fivebar.toml").read_text()
+        assert "l_cr = { value = 0.162," in text
+        model = str(tmp_path / "fivebar.toml")
+        Path(model).write_text(text.replace("l_cr = { value = 0.162,", f"l_cr = {{ value = {l_cr},"))
+    assert cli.main(["-q", "analyze", model, "--design", design]) == status
+    err = capsys.readouterr().err
+    assert err.startswith(message) and err.count("\n") == (1 if status else 0), err

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import warnings
 from pathlib import Path
 
 import pytest
 
 import symbolic
+from deadline import within
 from symbolic.errors import ModelError, ModelWarning
 from symbolic.spec.expressions import parse_expression
 
@@ -197,3 +199,139 @@ def test_python_spec_equals_file(tmp_path: Path) -> None:
             gravity=(0, 0, "-g"),
         ))
     assert robot == symbolic.load(write(tmp_path, VALID))
+
+
+# -- issue 15: hostile expressions, limits, values at the nominal parameters --------------------------
+
+KEYS = {"theta": "[[frame]] '2' dh.theta", "a": "[[frame]] '2' dh.a", "mass": "[[body]] 'link1' mass"}
+
+
+def with_field(field: str, text: str) -> str:
+    """VALID with frame 2's theta or a, or link 1's mass, replaced by ``text``."""
+    value = json.dumps(text)
+    if field == "theta":
+        return VALID.replace('theta = "q2"', f"theta = {value}")
+    if field == "a":
+        return VALID.replace('{ theta = "q2", d = "0", a = "l1", alpha = "0" }', f'{{ theta = "q2", d = "0", a = {value}, alpha = "0" }}')
+    return VALID.replace('mass = "m1"', f"mass = {value}")
+
+
+ISSUE_15 = [
+    ("theta", "q2" + "+q2" * 3300, "is longer than 2000 characters"),  # was RecursionError
+    ("theta", "-" * 9000 + "q2", "is longer than 2000 characters"),  # was MemoryError
+    ("mass", "0*m1/0", "'0*m1/0' is not finite"),  # was TypeError in derive
+    ("a", "l1*2.0**100000", "exponent '100000' in expression 'l1*2.0**100000' is larger than 100 in magnitude"),  # was ValueError
+    ("a", "l1/0", "'l1/0' is not finite"),  # was PrintMethodNotImplementedError in generate
+    ("a", "l1*sqrt(-1)", "'sqrt(-1)' in expression 'l1*sqrt(-1)' is not real"),  # was TypeError in generate
+    ("a", "log(0)*l1", "'log(0)' in expression 'log(0)*l1' is not finite"),  # D held zoo
+    ("a", "0**-1", "'0**-1' divides by zero"),
+    ("theta", "q2/0", "'q2/0' is not finite"),
+    ("a", "l1*10**10**10", "exponent '10**10' in expression 'l1*10**10**10' is larger than 100"),  # hung for minutes
+    ("theta", "q2**10**10", "exponent '10**10' in expression 'q2**10**10' is larger than 100"),  # was pow(q[1], 1e10)
+]
+LIMITS = [
+    ("theta", "-" * 50 + "q2", "nesting deeper than 50 levels"),
+    ("theta", "sin(" * 50 + "q2" + ")" * 50, "nesting deeper than 50 levels"),
+    ("theta", "q2**l1", "exponent 'l1' in expression 'q2**l1' depends on l1; exponents must be constant numbers"),
+    ("a", "l1*1e31", "number 1e+31 is outside the allowed magnitudes 1e-30 to 1e30"),
+    ("a", "l1*1e-31", "number 1e-31 is outside the allowed magnitudes"),
+    ("a", "l1*1e-400", "number '1e-400' underflows to 0"),
+    ("a", "l1*" + "9" * 40, "number with 40 digits is outside the allowed magnitudes"),
+    ("a", "0x" + "f" * 1500, "number with 1807 digits is outside the allowed magnitudes"),
+    ("a", "l1*0.0825**100", "'0.0825**100' in expression 'l1*0.0825**100' is outside the allowed magnitudes"),
+    ("a", "l1*1.0000000000000002**10", "has more than 100 digits as an exact fraction"),
+    # constants SymPy folds into a coefficient or a power: 2**495 * l1, q2**10000 (each quick: the product's
+    # 495 factors once took seconds to quote)
+    ("a", "l1" + "*2.0" * 495, "holds the number ≈ 1.02E+149 which is outside the allowed magnitudes"),
+    ("a", "l1*1e30*1e30", "holds the number ≈ 1.00E+60 which is outside the allowed magnitudes"),
+    ("theta", "(q2**100)**100", "'(q2**100)**100' has an exponent of 10000, larger than 100 in magnitude"),
+    ("a", "exp(1000)*l1", "'exp(1000)' in expression 'exp(1000)*l1' is larger than 1e30 in magnitude"),
+    ("a", "acos(2)*l1", "'acos(2)' in expression 'acos(2)*l1' is not real"),
+    ("a", "tan(pi/2)*l1", "'tan(pi/2)' in expression 'tan(pi/2)*l1' is not finite"),
+    ("a", "atan2(0, 0)", "'atan2(0, 0)' is not finite"),
+    ("theta", "q2 % 2", "operator '%' is not allowed"),
+    ("theta", "abs(q2)", "'Abs(q2)' depends on a coordinate; abs and sign are not differentiable at 0"),
+    ("mass", "m1/(l1 - 0.5)", "'m1/(l1 - 1/2)' is not finite at the nominal parameter values"),
+    ("a", "sqrt(l1 - 1)", "'sqrt(l1 - 1)' is not real at the nominal parameter values"),
+]
+
+
+@pytest.mark.parametrize("field, text, problem", ISSUE_15 + LIMITS, ids=lambda v: v[:30] if isinstance(v, str) else None)
+def test_hostile_expression_is_refused_quickly_with_one_line(tmp_path: Path, field: str, text: str, problem: str) -> None:
+    with within(5.0, text):
+        error = refused(tmp_path, with_field(field, text))
+    message = str(error)
+    assert KEYS[field] in message and problem in message, message
+    assert "\n" not in message and len(message) < 400, "one line, the expression shortened"
+
+
+@pytest.mark.parametrize(
+    "field, text, expected",
+    [
+        ("theta", "-" * 49 + "q2", "-q2"),  # 50 levels: the deepest accepted
+        ("theta", "q2" + "+q2" * 599, "600*q2"),  # 1,799 characters: a long chain costs no depth
+        ("theta", "q2**100", "q2**100"),
+        ("a", "2.1e11*l1*1e-11", "21*l1/10"),
+        ("a", "10**-6*l1 + 1e30*0", "l1/1000000"),
+        ("a", "l1*1.0000000000000002**5", None),  # 81 digits: within the limit
+        ("mass", "m1*(sin(1)**2 + cos(1)**2)", "m1*(cos(1)**2 + sin(1)**2)"),  # 1 in exact arithmetic
+    ],
+)
+def test_expressions_at_the_limits_are_accepted(tmp_path: Path, field: str, text: str, expected: str | None) -> None:
+    robot = symbolic.load(write(tmp_path, with_field(field, text)))
+    value = {"theta": lambda: robot.frame("2").theta, "a": lambda: robot.frame("2").a, "mass": lambda: robot.bodies[0].mass}[field]()
+    if expected is not None:
+        assert str(value) == expected
+
+
+def test_long_expression_is_shown_shortened(tmp_path: Path) -> None:
+    """An error on a 4,000-level expression shows its first 60 characters and its length, not 8 KB."""
+    error = refused(tmp_path, with_field("theta", "(" * 4000 + "q2" + ")" * 4000))
+    assert f"{'(' * 60!r}… (8002 characters)" in str(error) and len(str(error)) < 300
+    error = refused(tmp_path, with_field("theta", "q2" + "+q2" * 600 + "+q7"))
+    assert "undeclared symbol 'q7'" in str(error) and "… (1805 characters)" in str(error) and len(str(error)) < 400
+
+
+def test_model_name_that_is_a_c_keyword_is_refused_on_load(tmp_path: Path) -> None:
+    error = refused(tmp_path, VALID.replace('name = "arm"', 'name = "int"'))
+    assert error.key == "name" and "model name 'int' is a C keyword" in str(error)
+
+
+def test_frame_that_is_its_own_parent(tmp_path: Path) -> None:
+    error = refused(tmp_path, VALID.replace('name = "1"\nparent = "base"', 'name = "1"\nparent = "1"'))
+    assert "[[frame]] '1' parent: frame '1' is its own parent" in str(error) and "cycle" not in str(error)
+
+
+@pytest.mark.parametrize(
+    "old, new, key, problem",
+    [
+        ("m2 = 0.5", "m2 = 1" + "0" * 400, "[parameters] m2", "number with 401 digits is outside the allowed magnitudes"),
+        ("m2 = 0.5", "m2 = 1e-40", "[parameters] m2", "outside the allowed magnitudes 1e-30 to 1e30"),
+        ("m2 = 0.5", 'm2 = 0.5\n"a\\nb" = 1.0', "[parameters]", "'a\\nb' is not an identifier"),
+    ],
+)
+def test_parameter_values_and_names(tmp_path: Path, old: str, new: str, key: str, problem: str) -> None:
+    error = refused(tmp_path, VALID.replace(old, new))
+    assert key in str(error) and problem in str(error) and "\n" not in str(error), str(error)
+
+
+@pytest.mark.parametrize(
+    "theta, entry, problem",
+    [
+        ("q2 + 1/(l1 - 0.5)", "D[0,0]", "not finite (division by zero)"),  # l1 = 0.5: singular at the nominal values only
+        ("acos(10*l1 + q2**2)", "D[0,1]", "not finite or not real (math domain error"),  # acos(5 + q2²): never real
+    ],
+)
+def test_derived_model_not_finite_at_the_nominal_parameters_is_refused(tmp_path: Path, theta: str, entry: str, problem: str) -> None:
+    robot = symbolic.load(write(tmp_path, with_field("theta", theta)))  # each expression is fine symbolically
+    with pytest.raises(ModelError) as info:
+        symbolic.derive(robot)
+    message = str(info.value)
+    assert message.startswith(f"{tmp_path / 'model.toml'}: {entry}: {problem}"), message
+    assert "at the nominal parameters, at q1 = 0, q2 = 0 and at 3 other configurations tried" in message
+
+
+def test_expression_defined_on_part_of_a_joint_range_is_accepted(tmp_path: Path) -> None:
+    """sqrt(q2) is complex for q2 < 0, but not at every configuration tried: the model may be used for q2 > 0."""
+    model = symbolic.derive(symbolic.load(write(tmp_path, with_field("theta", "sqrt(q2)"))))
+    assert model.n == 2

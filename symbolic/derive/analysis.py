@@ -24,6 +24,7 @@ analysed; they are listed in :attr:`Analysis.skipped` and in the output, never d
 from __future__ import annotations
 
 import logging
+import math
 import re
 import time
 from collections.abc import Iterable, Mapping, Sequence
@@ -353,6 +354,22 @@ class Design:
     @property
     def feasible(self) -> bool:
         return not self.unmet
+
+    def problem(self, free: Sequence[str]) -> str | None:
+        """Why this design does not do what was asked for the ``free`` parameters, or None.
+
+        A free parameter that no condition determines (it appears in none, or its solution depends on
+        another that is undetermined) is reported first, then the conditions that cannot be met.
+        """
+        undetermined = [name for name in free if not math.isfinite(self.values.get(name, math.nan))]
+        if undetermined:
+            used = sorted({s.name for c in self.analysis.conditions for s in c.expression.free_symbols})
+            return (f"no {' or '.join(sorted({c.kind for c in self.analysis.conditions})) or 'analysis'} condition determines "
+                    f"{', '.join(undetermined)} (parameters in the conditions: {', '.join(used) or 'none'})")
+        if self.unmet:
+            return (f"{len(self.unmet)} condition(s) cannot be met with the free parameters {', '.join(free)}: "
+                    + "; ".join(c.name for c in self.unmet))
+        return None
 
     def summary(self) -> str:
         lines = [f"{k} = {v:.6g}" for k, v in self.values.items()]

@@ -34,6 +34,7 @@ from symbolic.derive.newton_euler import inverse_dynamics
 from symbolic.spec.validation import validate
 from symbolic.spec.robot import Robot, acceleration_symbol, coordinate_symbol, velocity_symbol
 from symbolic.derive.subexpressions import Subexpressions
+from symbolic.derive.validity import check_values
 
 log = logging.getLogger(__name__)
 
@@ -314,5 +315,7 @@ def derive(robot: Robot) -> DynamicModel:
     bias = (coriolis_ne + gravity + stiffness + friction - applied).applyfunc(sub.add)
     reduced = ReducedForms(D, dD, C, coriolis, cmat, gravity, potential, tau, coriolis_ne, stiffness, strain,
                            friction, applied, bias)
+    model = DynamicModel(robot, sub, kin, reduced, timings)
+    step("value check", lambda: check_values(model))
     log.info("%s: derived in %.1f s (%d intermediates)", robot.name, time.perf_counter() - started, len(sub))
-    return DynamicModel(robot, sub, kin, reduced, timings)
+    return model

@@ -12,11 +12,7 @@ from collections.abc import Mapping
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
-C_KEYWORDS = frozenset(
-    """auto break case char const continue default do double else enum extern float for goto if inline int long
-    register restrict return short signed sizeof static struct switch typedef union unsigned void volatile while
-    _Bool _Complex _Imaginary bool true false main NULL""".split()
-)
+from symbolic.spec.robot import C_KEYWORDS  # noqa: F401  (defined by the spec, which refuses them as model names)
 
 
 def c_double(value: sp.Rational | int) -> str:

@@ -11,7 +11,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from symbolic.errors import ModelError
+from symbolic.errors import ModelError, shown
+from symbolic.spec.expressions import check_magnitude
 from symbolic.spec.validation import validate
 from symbolic.spec.robot import (
     DH_KEYS, INERTIA_KEYS, Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Parameter,
@@ -127,7 +128,8 @@ class _Reader:
             else:
                 number, unit, text = value, "", ""
             if isinstance(number, bool) or not isinstance(number, (int, float)):
-                raise self.fail(key, f"nominal value must be a number, got {number!r}")
+                raise self.fail(key, f"nominal value must be a number, got {shown(number, 40)}")
+            check_magnitude(number, self.source, key)  # a TOML integer may be too large for float()
             out.append(Parameter(name, float(number), self.string(unit, f"{key} unit"), self.string(text, f"{key} description")))
         return tuple(out)
 

@@ -29,6 +29,12 @@ DH_KEYS = ("theta", "d", "a", "alpha")
 BOUNDARIES = ("clamped-free",)
 """Beam boundary conditions whose mode shapes :mod:`symbolic.derive.mode_shapes` provides."""
 BASE = "base"
+C_KEYWORDS = frozenset(
+    """auto break case char const continue default do double else enum extern float for goto if inline int long
+    register restrict return short signed sizeof static struct switch typedef union unsigned void volatile while
+    _Bool _Complex _Imaginary bool true false main NULL""".split()
+)
+"""Names a model may not have: the model name prefixes every C identifier generated for it."""
 
 ExprLike = str | int | float | sp.Expr
 

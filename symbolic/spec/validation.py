@@ -16,13 +16,21 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from symbolic.errors import ModelError, ModelWarning
-from symbolic.spec.expressions import RESERVED_NAMES, parse_expression
+from symbolic.errors import ModelError, ModelWarning, shorten, shown
+from symbolic.spec.expressions import RESERVED_NAMES, check_magnitude, check_value, parse_expression
 from symbolic.spec.robot import (
-    BASE, BOUNDARIES, CONVENTIONS, DH_KEYS, FRAME_NAME, IDENTIFIER, INERTIA_KEYS, MODEL_NAME,
+    BASE, BOUNDARIES, C_KEYWORDS, CONVENTIONS, DH_KEYS, FRAME_NAME, IDENTIFIER, INERTIA_KEYS, MODEL_NAME,
     Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Robot, Stribeck,
     coordinate_symbol, velocity_name, velocity_symbol,
 )
+
+
+MAX_MODES = 6
+"""Assumed modes per beam direction (:mod:`symbolic.derive.mode_shapes` is accurate up to 6)."""
+
+
+def _modes_ok(beam: Beam) -> bool:
+    return all(isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= MAX_MODES for n in (beam.modes_v, beam.modes_w))
 
 
 def validate(robot: Robot) -> Robot:
@@ -55,7 +63,7 @@ class _Validator:
         r = self.robot
         self.check_name()
         if r.convention not in CONVENTIONS:
-            raise self.fail("convention", f"unknown DH convention {r.convention!r} (allowed: {', '.join(CONVENTIONS)})")
+            raise self.fail("convention", f"unknown DH convention {shown(r.convention, 40)} (allowed: {', '.join(CONVENTIONS)})")
         self.set("coordinates", tuple(r.coordinates))
         self.set("parameters", tuple(r.parameters))
         self.check_names()
@@ -81,26 +89,38 @@ class _Validator:
             unknown = {s.name for s in expr.free_symbols} - set(self.symbols)
             if unknown:
                 raise self.fail(key, f"undeclared symbol(s) {sorted(unknown)}")
+            check_value(expr, self.source, self.robot.keys.get(key, key), shorten(str(expr)))
         else:
             expr = parse_expression(value, self.symbols, self.source, self.robot.keys.get(key, key))
         if allowed is not None:
             bad = {s.name for s in expr.free_symbols} - set(allowed)
             if bad:
                 raise self.fail(key, f"may not depend on {sorted(bad)} (only on {', '.join(sorted(allowed)) or 'numbers'})")
+        if expr.free_symbols <= set(self.values):
+            self.nominal(expr, key)  # constant at given parameters: finite and real, or refused here
+        kinks = sorted((a for a in expr.atoms(sp.Abs, sp.sign) if a.free_symbols - set(self.values)), key=str)
+        if kinks:
+            raise self.fail(key, f"{shorten(str(kinks[0]), 40)} depends on a coordinate; abs and sign are not differentiable at 0 "
+                                 "and the equations of motion differentiate coordinate expressions twice (use them on parameters only)")
         return expr
 
     def nominal(self, expr: sp.Expr, key: str) -> float:
-        value = expr.xreplace(self.values)
-        try:
-            return float(value)
-        except TypeError:
-            raise self.fail(key, f"cannot evaluate {expr} at the nominal parameter values") from None
+        """The value of ``expr`` at the nominal parameters; refused unless finite and real."""
+        value = sp.N(expr.xreplace(self.values), 30)
+        real, imag = value.as_real_imag()
+        if value.has(sp.zoo, sp.nan, sp.oo, -sp.oo) or not (real.is_Number and imag.is_Number) or not real.is_finite:
+            raise self.fail(key, f"{shorten(str(expr))} is not finite at the nominal parameter values")
+        if abs(imag) > 1e-20 * max(1, abs(real)):
+            raise self.fail(key, f"{shorten(str(expr))} is not real at the nominal parameter values (≈ {complex(value):.6g})")
+        return float(real)
 
     def check_name(self) -> None:
         if not isinstance(self.robot.name, str) or not MODEL_NAME.match(self.robot.name):
             raise self.fail(
-                "name", f"model name {self.robot.name!r} is not a lower-case identifier ([a-z][a-z0-9_]*)"
+                "name", f"model name {shown(self.robot.name, 40)} is not a lower-case identifier ([a-z][a-z0-9_]*)"
             )
+        if self.robot.name in C_KEYWORDS:
+            raise self.fail("name", f"model name {shown(self.robot.name, 40)} is a C keyword (it prefixes the generated C names); choose another name")
 
     def check_names(self) -> None:
         r = self.robot
@@ -110,27 +130,31 @@ class _Validator:
         names = [(c, "coordinates") for c in r.coordinates]
         names += [(c.coordinate, "[[constraint]] coordinate") for c in r.constraints]
         names += [(p.name, "[parameters]") for p in r.parameters]
-        names += [(n, f"[[beam]] {b.name!r} modal coordinate") for b in r.beams for n in (b.nu + b.eta)
-                  if isinstance(b.modes_v, int) and isinstance(b.modes_w, int)]
+        # beams with a bad number of modes are reported by check_beams; their names cannot be listed
+        names += [(n, f"[[beam]] {b.name!r} modal coordinate") for b in r.beams if _modes_ok(b) for n in (b.nu + b.eta)]
         for name, key in names:
             if not isinstance(name, str) or not IDENTIFIER.match(name):
-                raise self.fail(key, f"{name!r} is not an identifier ([A-Za-z][A-Za-z0-9_]*)")
+                raise self.fail(key, f"{shown(name, 40)} is not an identifier ([A-Za-z][A-Za-z0-9_]*)")
             if name in RESERVED_NAMES:
-                raise self.fail(key, f"{name!r} is reserved (a function or constant name)")
+                raise self.fail(key, f"{shown(name, 40)} is reserved (a function or constant name)")
             if name.endswith("_dot") or name.endswith("_ddot"):
-                raise self.fail(key, f"{name!r}: names ending in _dot/_ddot are reserved for velocities")
+                raise self.fail(key, f"{shown(name, 40)}: names ending in _dot/_ddot are reserved for velocities")
             if name.startswith("qd_") or name.startswith("qdd_"):
-                raise self.fail(key, f"{name!r}: names starting with qd_/qdd_ are reserved for velocities and accelerations")
+                raise self.fail(key, f"{shown(name, 40)}: names starting with qd_/qdd_ are reserved for velocities and accelerations")
             if name in seen:
-                raise self.fail(key, f"{name!r} is declared twice (also in {seen[name]})")
+                raise self.fail(key, f"{shown(name, 40)} is declared twice (also in {seen[name]})")
             seen[name] = key
         for p in r.parameters:
+            key = f"[parameters] {p.name}"
+            if isinstance(p.value, int) and not isinstance(p.value, bool):
+                check_magnitude(p.value, self.source, self.robot.keys.get(key, key))  # before float() overflows
             try:
                 value = float(p.value)
             except (TypeError, ValueError):
-                raise self.fail(f"[parameters] {p.name}", f"nominal value {p.value!r} is not a number") from None
+                raise self.fail(key, f"nominal value {shown(p.value, 40)} is not a number") from None
             if not np.isfinite(value):
-                raise self.fail(f"[parameters] {p.name}", f"nominal value {p.value!r} is not finite")
+                raise self.fail(key, f"nominal value {shown(p.value, 40)} is not finite")
+            check_magnitude(value, self.source, self.robot.keys.get(key, key))
 
     def check_constraints(self) -> None:
         allowed = set(self.robot.coordinates) | {p.name for p in self.robot.parameters}
@@ -154,8 +178,10 @@ class _Validator:
                 raise self.fail(key, f"'{BASE}' is the root frame and cannot be redefined")
             if names.count(f.name) > 1:
                 raise self.fail(key, "frame defined twice")
+            if f.parent == f.name:
+                raise self.fail(f"{key} parent", f"frame {shown(f.name, 40)} is its own parent")
             if f.parent != BASE and f.parent not in names:
-                raise self.fail(f"{key} parent", f"parent frame {f.parent!r} does not exist (frames: {BASE}, {', '.join(names)})")
+                raise self.fail(f"{key} parent", f"parent frame {shown(f.parent, 40)} does not exist (frames: {BASE}, {', '.join(names)})")
             values = {}
             for k in DH_KEYS:
                 allowed = coordinates | parameters if k in ("theta", "d") else parameters
@@ -188,7 +214,7 @@ class _Validator:
                 raise self.fail(key, "body defined twice")
             names.add(b.name)
             if b.frame not in frames:
-                raise self.fail(f"{key} frame", f"frame {b.frame!r} does not exist (frames: {', '.join(sorted(frames))})")
+                raise self.fail(f"{key} frame", f"frame {shown(b.frame, 40)} does not exist (frames: {', '.join(sorted(frames))})")
             mass = self.expr(b.mass, f"{key} mass", parameters)
             m = self.nominal(mass, f"{key} mass")
             if m < 0:
@@ -219,15 +245,15 @@ class _Validator:
                 raise self.fail(key, "beam defined twice")
             names.add(b.name)
             if b.frame not in frames:
-                raise self.fail(f"{key} frame", f"frame {b.frame!r} does not exist (frames: {', '.join(sorted(frames))})")
+                raise self.fail(f"{key} frame", f"frame {shown(b.frame, 40)} does not exist (frames: {', '.join(sorted(frames))})")
             for attr in ("modes_v", "modes_w"):
                 n = getattr(b, attr)
                 if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-                    raise self.fail(f"{key} {attr}", f"number of modes must be an integer >= 1, got {n!r}")
-                if n > 6:
-                    raise self.fail(f"{key} {attr}", f"at most 6 modes per direction are supported (the mode shapes lose precision beyond), got {n}")
+                    raise self.fail(f"{key} {attr}", f"number of modes must be an integer >= 1, got {shown(n, 40)}")
+                if n > MAX_MODES:
+                    raise self.fail(f"{key} {attr}", f"at most {MAX_MODES} modes per direction are supported (the mode shapes lose precision beyond), got {n}")
             if b.boundary not in BOUNDARIES:
-                raise self.fail(f"{key} boundary", f"boundary {b.boundary!r} is not supported (supported: {', '.join(BOUNDARIES)})")
+                raise self.fail(f"{key} boundary", f"boundary {shown(b.boundary, 40)} is not supported (supported: {', '.join(BOUNDARIES)})")
             values = {}
             for attr in ("length", "density", "EI_v", "EI_w"):
                 expr = self.expr(getattr(b, attr), f"{key} {attr}", parameters)
@@ -274,7 +300,7 @@ class _Validator:
             return
         frames = {f.name for f in self.robot.frames} | {BASE}
         if ee.frame not in frames:
-            raise self.fail("end_effector frame", f"frame {ee.frame!r} does not exist")
+            raise self.fail("end_effector frame", f"frame {shown(ee.frame, 40)} does not exist")
         params = {p.name for p in self.robot.parameters}
         point = tuple(self.expr(x, f"end_effector point[{i}]", params) for i, x in enumerate(ee.point))
         if len(point) != 3:
@@ -291,11 +317,11 @@ class _Validator:
         for c in r.coordinates:
             if coordinate_symbol(c) not in used:
                 raise self.fail(
-                    "coordinates", f"coordinate {c!r} is not used by any frame (every coordinate must move a frame)"
+                    "coordinates", f"coordinate {shown(c, 40)} is not used by any frame (every coordinate must move a frame)"
                 )
         for c in r.constraints:
             if not any(coordinate_symbol(c.coordinate) in getattr(f, k).free_symbols for f in r.frames for k in ("theta", "d")):
-                raise self.fail(f"[[constraint]] {c.coordinate}", f"constrained coordinate {c.coordinate!r} is not used by any frame")
+                raise self.fail(f"[[constraint]] {c.coordinate}", f"constrained coordinate {shown(c.coordinate, 40)} is not used by any frame")
 
     # -- friction, drives and applied forces (docs/model-format.md) -------------------------
     def actuated_coordinates(self) -> dict[str, str]:
@@ -307,7 +333,7 @@ class _Validator:
 
     def coordinate_of(self, entry: str, coordinate: Any, allowed: Mapping[str, str]) -> str:
         if not isinstance(coordinate, str) or coordinate not in allowed:
-            raise self.fail(f"{entry} coordinate", f"unknown coordinate {coordinate!r} (coordinates: {', '.join(allowed)})")
+            raise self.fail(f"{entry} coordinate", f"unknown coordinate {shown(coordinate, 40)} (coordinates: {', '.join(allowed)})")
         return coordinate
 
     def coefficient(self, value: Any, key: str, minimum: float | None = 0.0, strict: bool = False) -> sp.Expr:
@@ -385,6 +411,7 @@ class _Validator:
                 unknown = {x.name for x in expr.free_symbols} - {x.name for x in symbols.values()}
                 if unknown:
                     raise self.fail(key, f"undeclared symbol(s) {sorted(unknown)}")
+                check_value(expr, self.source, self.robot.keys.get(key, key), shorten(str(expr)))
             else:
                 expr = parse_expression(f.expression, symbols, self.source, self.robot.keys.get(key, key))
             out.append(Force(f.name, c, expr))
