@@ -1,0 +1,546 @@
+"""Forward selection of catalogue effects (docs/workflow.md, "Name").
+
+Each round starts from the current model — the nominal model's free base parameters and the effects
+accepted so far — fitted by IDIM-LS weighted least squares on the estimation data; the weights
+1/σ_j of that fit are used for every candidate of the round. A candidate is one effect on one
+coordinate. It is fitted jointly with everything in the current model (re-identification: the
+residual alone would be wrong when the effect is partly collinear with the model's own terms), and
+scored by:
+
+* the F-test of the added parameters (a nonlinear parameter counts as one), with the sample count
+  divided by the residual's integrated autocorrelation time (:mod:`symbolic.workflow.statistics`);
+  the p-value must be below ``alpha / m``, Bonferroni over the m trials of the round (a nonlinear
+  effect's grid counts as many trials as it has independent values);
+* the held-out error: residual power on the validation data (``--validate``) or by cross-validation
+  over ``FOLDS`` contiguous time blocks of the estimation data; it must fall by at least
+  ``min_gain`` (a fraction of what is left);
+* ΔBIC with the effective sample count, which must be negative; it ranks the eligible candidates;
+* its parameters must be physical (friction opposing motion, a positive stiffness, ...).
+
+Basic effects are tried first; refinements of a friction term the model has (direction dependence,
+Stribeck) only when no basic effect is eligible. Candidates that explain the data equally — their
+explained residual power within ``TIE_TOLERANCE`` of the best's — tie: the one with fewer parameters
+(roles) is named and the others are reported. Columns already in the span of the current model are
+not candidates (an optional column, a spring's constant beside an offset, is dropped instead).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.optimize
+
+from symbolic.identify.least_squares import Identification
+from symbolic.workflow.dataset import DataSet
+from symbolic.workflow.effects import EFFECTS, Context, Effect
+from symbolic.workflow.statistics import f_test, pooled_autocorrelation_time
+from symbolic.workflow.terms import ModelTerms, wls
+
+ALPHA = 1e-3
+"""Family-wise significance level of one round (Bonferroni over its trials)."""
+MIN_HELD_OUT_GAIN = 0.01
+"""An effect must remove at least this fraction of the held-out residual power that is left."""
+TIE_TOLERANCE = 0.01
+"""Two candidates whose explained residual power differs by less than this fraction of the best's tie."""
+FOLDS = 5
+"""Contiguous time blocks of the cross-validation (without validation data)."""
+COLLINEAR = 1e-6
+"""A column whose part outside the current model's span is below this fraction of its norm is in the model."""
+REFERENCE = 1e-9
+"""A model column equal to an effect's reference column up to this relative difference holds its coefficient."""
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The search's thresholds (module docstring)."""
+
+    alpha: float = ALPHA
+    min_gain: float = MIN_HELD_OUT_GAIN
+    tie: float = TIE_TOLERANCE
+    folds: int = FOLDS
+    max_effects: int = 12
+
+
+@dataclass(eq=False)
+class Candidate:
+    """One effect on one coordinate, fitted in one round."""
+
+    effect: Effect
+    j: int
+    coordinate: str
+    status: str = "tested"
+    """``tested``, ``not applicable``, ``in the model`` or ``needs <term>``."""
+    reason: str = ""
+    value: float | None = None
+    trials: float = 1.0
+    kept: tuple[int, ...] = ()
+    width: int = 0
+    added: int = 0
+    rss0: float = 0.0
+    rss1: float = 0.0
+    tau: float = 1.0
+    F: float = 0.0
+    p_value: float = 1.0
+    delta_bic: float = 0.0
+    held_out0: float = 0.0
+    held_out1: float = 0.0
+    coefficients: np.ndarray | None = field(default=None, repr=False)
+    model_coefficients: np.ndarray | None = field(default=None, repr=False)
+    reference: float | None = None
+    roles: dict[str, float | None] = field(default_factory=dict)
+    invalid: str | None = None
+    failed: list[str] = field(default_factory=list)
+
+    @property
+    def explained(self) -> float:
+        return self.rss0 - self.rss1
+
+    @property
+    def share(self) -> float:
+        """Fraction of the remaining (weighted) residual power the effect explains."""
+        return self.explained / self.rss0 if self.rss0 > 0 else 0.0
+
+    @property
+    def gain(self) -> float:
+        """Fraction of the held-out residual power removed."""
+        return 1.0 - self.held_out1 / self.held_out0 if self.held_out0 > 0 else 0.0
+
+    @property
+    def eligible(self) -> bool:
+        return self.status == "tested" and not self.failed
+
+    def label(self) -> str:
+        return f"{self.effect.name} on {self.coordinate}"
+
+    def summary(self) -> dict[str, Any]:
+        """Plain data for the report and the JSON."""
+        out: dict[str, Any] = {"effect": self.effect.name, "coordinate": self.coordinate, "status": self.status}
+        if self.status != "tested":
+            out["reason"] = self.reason
+            return out
+        out.update({
+            "parameters": dict(self.roles),
+            "explained_share": self.share,
+            "F": self.F,
+            "p_value": self.p_value,
+            "trials": self.trials,
+            "autocorrelation_time": self.tau,
+            "delta_bic": self.delta_bic,
+            "held_out_gain": self.gain,
+            "accepted_if": [] if not self.failed else self.failed,
+        })
+        return out
+
+
+@dataclass(eq=False)
+class Accepted:
+    """An accepted effect: the candidate as accepted, its columns, and what tied with it."""
+
+    candidate: Candidate
+    round: int
+    columns: dict[str, np.ndarray] = field(repr=False)
+    """Per data-set role, the reduced columns that were kept, ``samples × N × k``."""
+    alternatives: list[Candidate] = field(default_factory=list)
+    threshold: float = 0.0
+
+    @property
+    def effect(self) -> Effect:
+        return self.candidate.effect
+
+
+@dataclass(eq=False)
+class Round:
+    """One round: every candidate considered and what was accepted (``None`` at the end)."""
+
+    number: int
+    candidates: list[Candidate]
+    accepted: Accepted | None
+    threshold: float
+    phase: str
+
+
+@dataclass(eq=False)
+class Design:
+    """The current model on both data sets: columns (unweighted, reduced), the weights and the fit."""
+
+    terms: ModelTerms
+    sets: dict[str, DataSet]
+    accepted: list[Accepted]
+    columns: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    known: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    identification: Identification | None = None
+    weights: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        free = self.terms.free
+        for role, data in self.sets.items():
+            parts = [self.terms.columns(data)[:, :, free]] + [a.columns[role] for a in self.accepted]
+            self.columns[role] = np.concatenate(parts, axis=2)
+            self.known[role] = self.terms.known(data)
+        names = list(self.terms.free_names) + [f"{a.effect.name}:{a.candidate.coordinate}:{k}"
+                                               for a in self.accepted for k in range(a.columns["estimation"].shape[2])]
+        self.identification = wls(self.sets["estimation"], self.columns["estimation"], self.known["estimation"], names)
+        self.weights = 1.0 / np.asarray(self.identification.coordinate_sigmas)
+
+    @property
+    def size(self) -> int:
+        return self.columns["estimation"].shape[2]
+
+    def predicted(self, role: str) -> np.ndarray:
+        """τ of the current model on a data set (fixed terms included), ``samples × N``."""
+        data = self.sets[role]
+        return data.tau - self.known[role] + self.columns[role] @ self.identification.values
+
+    def weighted(self, role: str, x: np.ndarray) -> np.ndarray:
+        """``samples × N [× k]`` weighted by coordinate and stacked."""
+        data = self.sets[role]
+        w = self.weights.reshape((1, -1) + (1,) * (x.ndim - 2))
+        return data.stack(x * w)
+
+
+class Search:
+    """Forward selection over ``effects`` (module docstring)."""
+
+    def __init__(self, terms: ModelTerms, estimation: DataSet, validation: DataSet, *, cross_validate: bool,
+                 effects: Sequence[Effect] | None = None, settings: Settings | None = None) -> None:
+        self.terms = terms
+        self.sets = {"estimation": estimation, "validation": validation}
+        self.cross_validate = cross_validate
+        self.effects = list(EFFECTS.values()) if effects is None else list(effects)
+        self.settings = settings or Settings()
+        s = estimation.states
+        p = s.processing
+        inner = slice(p.border[0], len(s.q) - p.border[1])
+        passband = 0.4 * p.rate / p.decimation
+        if p.cutoff is not None:
+            passband = min(passband, p.cutoff)
+        self.context = Context(terms.model.robot, estimation.coordinates, s.q[inner], s.qd[inner], s.qdd[inner], passband)
+        self.rounds: list[Round] = []
+        self.accepted: list[Accepted] = []
+
+    # -- the loop -----------------------------------------------------------------------------
+    def run(self) -> list[Accepted]:
+        """Rounds until no candidate is eligible (or ``max_effects`` are accepted)."""
+        while len(self.accepted) < self.settings.max_effects:
+            design = Design(self.terms, self.sets, self.accepted)
+            chosen = self.round(design)
+            if chosen is None:
+                break
+            self.accepted.append(chosen)
+        self.final = Design(self.terms, self.sets, self.accepted)
+        return self.accepted
+
+    def round(self, design: Design) -> Accepted | None:
+        number = len(self.rounds) + 1
+        state = _RoundState(self, design)
+        candidates = [state.evaluate(effect, j) for effect in self.effects for j in range(len(self.context.coordinates))]
+        tested = [c for c in candidates if c.status == "tested"]
+        trials = sum(c.trials for c in tested)
+        threshold = self.settings.alpha / max(trials, 1.0)
+        for c in tested:
+            state.judge(c, threshold)
+        chosen, phase = None, "basic"
+        for phase in ("basic", "refinement"):
+            pool = [c for c in tested if c.eligible and (c.effect.refines is None) == (phase == "basic")]
+            if pool:
+                best = min(pool, key=lambda c: c.delta_bic)
+                ties = [c for c in tested if c is not best and c.invalid is None
+                        and abs(c.explained - best.explained) <= self.settings.tie * best.explained]
+                group = [best] + [c for c in ties if c.eligible and (c.effect.refines is None) == (phase == "basic")]
+                order = {e.name: k for k, e in enumerate(self.effects)}
+                chosen = min(group, key=lambda c: (len(c.effect.roles), c.delta_bic, order.get(c.effect.name, 0)))
+                alternatives = [c for c in [best] + ties if c is not chosen]
+                break
+        if chosen is None:
+            self.rounds.append(Round(number, candidates, None, threshold, "none"))
+            return None
+        columns = {role: state.columns(chosen.effect, chosen.j, chosen.value, role)[:, :, list(chosen.kept)]
+                   for role in self.sets}
+        accepted = Accepted(chosen, number, columns, alternatives, threshold)
+        self.rounds.append(Round(number, candidates, accepted, threshold, phase))
+        return accepted
+
+    # -- the final model ----------------------------------------------------------------------
+    def final_effects(self) -> list[dict[str, Any]]:
+        """For each accepted effect: roles and σ from the final joint fit, and its partial test there."""
+        design = self.final
+        ident = design.identification
+        base = len(self.terms.free_names)
+        start = base
+        y = design.weighted("estimation", design.known["estimation"])
+        X = design.weighted("estimation", design.columns["estimation"])
+        rss = float(np.sum((y - X @ ident.values) ** 2))
+        tau = pooled_autocorrelation_time((y - X @ ident.values).reshape(len(design.weights), -1).T)
+        out = []
+        for a in self.accepted:
+            c = a.candidate
+            k = a.columns["estimation"].shape[2]
+            block = list(range(start, start + k))
+            start += k
+            reference_map = _reference_map(self, design, c.effect, c.j)
+            roles, sigmas = _roles_with_sigma(c, ident.values, ident.covariance * tau, block, reference_map)
+            rest = [i for i in range(X.shape[1]) if i not in block]
+            coef = np.linalg.lstsq(X[:, rest], y, rcond=None)[0]
+            rss_without = float(np.sum((y - X[:, rest] @ coef) ** 2))
+            added = k + (1 if c.effect.nonlinear else 0)
+            _, p = f_test(rss_without, rss, len(y), X.shape[1] - added, added, tau)
+            out.append({"roles": roles, "sigmas": sigmas, "coefficients_full": _expand(c, ident.values[block]),
+                        "p_value": p, "reference": _reference_value(reference_map, ident.values)})
+        return out
+
+
+def _roles_with_sigma(c: Candidate, values: np.ndarray, covariance: np.ndarray, block: list[int],
+                      reference_map: list[tuple[int, float]] | None) -> tuple[dict, dict]:
+    """Roles at ``values`` and their σ by the delta method (numerical Jacobian over the coefficients)."""
+    def roles(v: np.ndarray) -> dict[str, float | None]:
+        coefficients = _expand(c, v[block])
+        return c.effect.roles_of(coefficients, c.value, _reference_value(reference_map, v))
+
+    centre = roles(values)
+    involved = sorted(set(block) | {i for i, _ in (reference_map or [])})
+    sigmas: dict[str, float | None] = {}
+    jac = {name: np.zeros(len(values)) for name in centre}
+    for i in involved:
+        step = 1e-6 * max(abs(values[i]), 1e-12) + 1e-12
+        shifted = values.copy()
+        shifted[i] += step
+        moved = roles(shifted)
+        for name in centre:
+            if centre[name] is not None and moved[name] is not None:
+                jac[name][i] = (moved[name] - centre[name]) / step
+    for name, value in centre.items():
+        sigmas[name] = None if value is None else float(np.sqrt(max(jac[name] @ covariance @ jac[name], 0.0)))
+    return centre, sigmas
+
+
+def _expand(c: Candidate, kept_values: np.ndarray) -> np.ndarray:
+    """The effect's coefficient vector with NaN for the columns it did not keep."""
+    full = np.full(c.width, np.nan)
+    full[list(c.kept)] = kept_values
+    return full
+
+
+def _reference_value(reference_map: list[tuple[int, float]] | None, values: np.ndarray) -> float | None:
+    if reference_map is None:
+        return None
+    return float(sum(values[i] * scale if i >= 0 else scale for i, scale in reference_map))
+
+
+def _reference_map(search: Search, design: Design, effect: Effect, j: int) -> list[tuple[int, float]] | None:
+    """How the effect's reference coefficient follows from the design's coefficients: pairs (column,
+    factor); a fixed column contributes (−1, its fixed value × factor). ``None`` when no column matches."""
+    s = design.sets["estimation"].states
+    column = effect.reference_column(s.q, s.qd, s.qdd, j)
+    if column is None:
+        return None
+    data = design.sets["estimation"]
+    r = data.stack(data.reduce(column))
+    rr = float(r @ r)
+    if rr <= 0:
+        return None
+    pairs: list[tuple[int, float]] = []
+    X = data.stack(design.columns["estimation"])
+    for i in range(X.shape[1]):
+        factor = _proportional(X[:, i], r, rr)
+        if factor is not None:
+            pairs.append((i, factor))
+    terms = search.terms
+    fixed = np.flatnonzero(~terms.free)
+    if fixed.size:
+        F = data.stack(terms.columns(data)[:, :, fixed])
+        for k, i in enumerate(fixed):
+            factor = _proportional(F[:, k], r, rr)
+            if factor is not None:
+                pairs.append((-1, factor * terms.nominal[i]))
+    return pairs or None
+
+
+def _proportional(x: np.ndarray, r: np.ndarray, rr: float) -> float | None:
+    """α when ``x = α·r`` (to :data:`REFERENCE`), else ``None``."""
+    norm = float(np.linalg.norm(x))
+    if norm == 0:
+        return None
+    alpha = float(x @ r) / rr
+    return alpha if np.linalg.norm(x - alpha * r) <= REFERENCE * norm else None
+
+
+class _RoundState:
+    """The weighted arrays of one round and the evaluation of its candidates."""
+
+    CHUNK = 64
+    """Grid values whose columns are filtered together."""
+
+    def __init__(self, search: Search, design: Design) -> None:
+        self.search = search
+        self.design = design
+        self.y = design.weighted("estimation", design.known["estimation"])
+        self.X = design.weighted("estimation", design.columns["estimation"])
+        self.coef = np.asarray(design.identification.values)
+        self.r0 = self.y - self.X @ self.coef
+        self.rss0 = float(self.r0 @ self.r0)
+        self.Q = np.linalg.qr(self.X)[0]
+        data = design.sets["estimation"]
+        self.n_samples, self.n = data.samples, len(data.coordinates)
+        if search.cross_validate:
+            blocks = np.array_split(np.arange(self.n_samples), search.settings.folds)
+            self.folds = [np.concatenate([j * self.n_samples + b for j in range(self.n)]) for b in blocks]
+            self.held_out0 = self.cross_validated(self.X)
+        else:
+            self.yv = design.weighted("validation", design.known["validation"])
+            self.Xv = design.weighted("validation", design.columns["validation"])
+            self.held_out0 = float(np.sum((self.yv - self.Xv @ self.coef) ** 2))
+        self._cache: dict = {}
+
+    # columns of an effect on one data set, reduced (samples × N × k)
+    def columns(self, effect: Effect, j: int, value: float | None, role: str) -> np.ndarray:
+        key = (effect.name, j, value, role)
+        if key not in self._cache:
+            self._cache[key] = self.batch(effect, j, [value], role)[0]
+        return self._cache[key]
+
+    def batch(self, effect: Effect, j: int, values: Sequence[float | None], role: str) -> list[np.ndarray]:
+        """Reduced columns for several values of the nonlinear parameter, filtered in one pass; only the
+        coordinates an effect acts on are filtered (the others stay zero)."""
+        s = self.design.sets[role].states
+        raw = [effect.columns(s.q, s.qd, s.qdd, j, v) for v in values]
+        widths = [r.shape[2] for r in raw]
+        stacked = np.concatenate(raw, axis=2)
+        rows = np.flatnonzero(np.any(stacked != 0, axis=(0, 2)))
+        if rows.size == 0:
+            rows = np.array([j])
+        reduced = self.design.sets[role].reduce(stacked[:, rows, :])
+        out = np.zeros((reduced.shape[0], stacked.shape[1], stacked.shape[2]))
+        out[:, rows, :] = reduced
+        return np.split(out, np.cumsum(widths)[:-1], axis=2)
+
+    def cross_validated(self, X: np.ndarray) -> float:
+        total = 0.0
+        every = np.ones(len(self.y), bool)
+        for rows in self.folds:
+            train = every.copy()
+            train[rows] = False
+            coef = np.linalg.lstsq(X[train], self.y[train], rcond=None)[0]
+            e = self.y[rows] - X[rows] @ coef
+            total += float(e @ e)
+        return total
+
+    def project(self, Z: np.ndarray, optional: tuple[int, ...]) -> tuple[np.ndarray | None, tuple[int, ...], str]:
+        """Orthonormal basis of the candidate's columns outside the model's span, the columns kept,
+        and why not when a required column is already in the model."""
+        basis: list[np.ndarray] = []
+        kept = []
+        for i in range(Z.shape[1]):
+            z = Z[:, i]
+            norm = float(np.linalg.norm(z))
+            if norm == 0:
+                if i in optional:
+                    continue
+                return None, (), "its column vanishes on these data"
+            z = z - self.Q @ (self.Q.T @ z)
+            for b in basis:
+                z = z - b * (b @ z)
+            rest = float(np.linalg.norm(z))
+            if rest <= COLLINEAR * norm:
+                if i in optional:
+                    continue
+                return None, (), "the model already holds it (its column is in the span of the model's terms)"
+            basis.append(z / rest)
+            kept.append(i)
+        if not basis:
+            return None, (), "the model already holds it"
+        return np.stack(basis, axis=1), tuple(kept), ""
+
+    def explained(self, effect: Effect, j: int, value: float | None, columns: np.ndarray | None = None) -> float:
+        """Residual power the effect explains at ``value`` (jointly with the model's terms)."""
+        if columns is None:
+            columns = self.batch(effect, j, [value], "estimation")[0]
+        basis, _, _ = self.project(self.design.weighted("estimation", columns), effect.optional)
+        if basis is None:
+            return 0.0
+        return float(np.sum((basis.T @ self.r0) ** 2))
+
+    def evaluate(self, effect: Effect, j: int) -> Candidate:
+        search = self.search
+        coordinate = search.context.coordinates[j]
+        c = Candidate(effect, j, coordinate)
+        taken = [a for a in search.accepted if a.candidate.j == j]
+        if any(a.effect.name == effect.name for a in taken) and not getattr(effect, "repeatable", False):
+            c.status, c.reason = "in the model", "accepted in an earlier round"
+            return c
+        exclusive = {"stribeck": "asymmetric_coulomb", "asymmetric_coulomb": "stribeck"}
+        if any(a.effect.name == exclusive.get(effect.name) for a in taken):
+            c.status, c.reason = "not applicable", f"{exclusive[effect.name]} was accepted on {coordinate}"
+            return c
+        reason = effect.applicable(search.context, j)
+        if reason:
+            c.status, c.reason = "not applicable", reason
+            return c
+        reference_map = _reference_map(search, self.design, effect, j)
+        if effect.refines and reference_map is None:
+            c.status, c.reason = f"needs {effect.refines}", f"the model has no {effect.refines} friction on {coordinate}"
+            return c
+        if effect.nonlinear:
+            grid = effect.grid(search.context, j)
+            if grid is None:
+                c.status, c.reason = "not applicable", f"the data give no range for its {effect.nonlinear}"
+                return c
+            values, c.trials = grid
+            c.value = self.scan(effect, j, values)
+        Z = self.design.weighted("estimation", self.columns(effect, j, c.value, "estimation"))
+        basis, kept, why = self.project(Z, effect.optional)
+        if basis is None:
+            c.status, c.reason = "in the model", why
+            return c
+        c.kept, c.width = kept, Z.shape[1]
+        c.added = len(kept) + (1 if effect.nonlinear else 0)
+        r1 = self.r0 - basis @ (basis.T @ self.r0)
+        c.rss0, c.rss1 = self.rss0, float(r1 @ r1)
+        c.tau = pooled_autocorrelation_time(r1.reshape(self.n, self.n_samples).T)
+        c.F, c.p_value = f_test(c.rss0, c.rss1, len(self.y), self.X.shape[1], c.added, c.tau)
+        effective = len(self.y) / c.tau
+        c.delta_bic = effective * math.log(max(c.rss1, 1e-300) / c.rss0) + c.added * math.log(effective)
+        X1 = np.concatenate([self.X, Z[:, list(kept)]], axis=1)
+        coef = np.linalg.lstsq(X1, self.y, rcond=None)[0]
+        c.model_coefficients = coef
+        c.coefficients = _expand(c, coef[self.X.shape[1]:])
+        if search.cross_validate:
+            c.held_out0, c.held_out1 = self.held_out0, self.cross_validated(X1)
+        else:
+            Zv = self.design.weighted("validation", self.columns(effect, j, c.value, "validation"))[:, list(kept)]
+            e = self.yv - np.concatenate([self.Xv, Zv], axis=1) @ coef
+            c.held_out0, c.held_out1 = self.held_out0, float(e @ e)
+        c.reference = _reference_value(reference_map, coef)
+        c.roles = effect.roles_of(c.coefficients, c.value, c.reference)
+        c.invalid = effect.check(c.roles, c.reference, search.context, j)
+        return c
+
+    def scan(self, effect: Effect, j: int, values: np.ndarray) -> float:
+        """The nonlinear parameter explaining most: the best grid value, refined between its neighbours."""
+        explained = []
+        for chunk in np.array_split(values, max(1, math.ceil(len(values) / self.CHUNK))):
+            columns = self.batch(effect, j, [float(v) for v in chunk], "estimation")
+            explained += [self.explained(effect, j, float(v), z) for v, z in zip(chunk, columns)]
+        best = int(np.argmax(explained))
+        low, high = values[max(best - 1, 0)], values[min(best + 1, len(values) - 1)]
+        if high <= low:
+            return float(values[best])
+        result = scipy.optimize.minimize_scalar(
+            lambda x: -self.explained(effect, j, float(math.exp(x))),
+            bounds=(math.log(low), math.log(high)), method="bounded", options={"xatol": 1e-4})
+        return float(math.exp(result.x)) if -result.fun >= explained[best] else float(values[best])
+
+    def judge(self, c: Candidate, threshold: float) -> None:
+        s = self.search.settings
+        if c.invalid:
+            c.failed.append(f"physical: {c.invalid}")
+        if not c.p_value < threshold:
+            c.failed.append(f"significance: p = {c.p_value:.3g} is not below {threshold:.3g}")
+        if c.gain < s.min_gain:
+            c.failed.append(f"held-out: removes {100 * c.gain:.3g} % of the held-out residual power "
+                            f"(at least {100 * s.min_gain:g} % needed)")
+        if not c.delta_bic < 0:
+            c.failed.append(f"BIC: ΔBIC = {c.delta_bic:.3g} is not negative")
