@@ -121,6 +121,9 @@ class Diagnosis:
                         "left": self.where_after["left"]},
             "where": _plain(self.where_before),
             "rejected": [] if last is None else [c.summary() for c in last.candidates if c.status == "tested"],
+            "removed": [{"effect": a.candidate.effect.name, "coordinate": a.candidate.coordinate, "round": a.round,
+                         "parameters": dict(a.candidate.roles), "final_p_value": p, "explained_by": others}
+                        for a, p, others in self.search.removed],
             "not_supported": dict(NOT_SUPPORTED),
             "seconds": dict(self.seconds),
             "notes": list(self.notes),
@@ -230,11 +233,10 @@ def diagnose(
     where_after = localise(estimation, after.predicted["estimation"])
     for a, final, parameters in zip(accepted, finals, written):
         found.append(_found(a, final, parameters, selection, validation is None))
-    offsets = [f for f in found if not f.evidence["still_significant"]]
-    for f in offsets:
-        notes.append(f"{f.effect} on {f.coordinate} is no longer significant once the later effects are in the model "
-                     f"(p = {f.evidence['final_p_value']:.3g}): it was named at round {f.evidence['round']} with "
-                     f"{_roles_text(f.evidence['at_acceptance'])}, and the final fit gives {_roles_text(f.parameters)}")
+    for gone, p_value, others in selection.removed:
+        c = gone.candidate
+        notes.append(f"{c.label()} was accepted at round {gone.round} ({_roles_text(c.roles)}) and removed at the end: "
+                     f"with {others} in the model it is not significant any more (p = {p_value:.3g})")
     diagnosis = Diagnosis(model, sets, held_out, before, where_before, selection, tuple(found), patched_text,
                           patched_path, after, where_after, simulate is not None, seconds, tuple(notes))
     if out is not None:
@@ -303,7 +305,7 @@ def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Searc
     alpha = search.settings.alpha
     evidence = {
         "round": a.round,
-        "phase": "refinement" if c.effect.refines else "basic",
+        "refines": c.effect.refines,
         "explained_share": c.share,
         "F": c.F,
         "p_value": c.p_value,

@@ -13,7 +13,7 @@ Each effect is a named, parametrised term that a model file can hold. It says
 
 A *refinement* (``refines = "viscous"`` or ``"coulomb"``) changes a friction term the model already has
 on that coordinate (direction dependence, a Stribeck rise); it receives that term's current coefficient
-as ``reference`` and is tried only when no basic effect is significant (:mod:`symbolic.workflow.search`).
+as ``reference`` and is a candidate only when the model (or an accepted effect) has that term.
 
 Adding an effect: subclass :class:`Effect`, set ``name``, ``roles``, ``summary``, ``axis``; implement
 ``columns``, ``roles_of`` and ``patch`` (and ``applicable``, ``grid``, ``check`` where needed); then
@@ -50,6 +50,8 @@ class Context:
     qdd: np.ndarray
     passband: float
     """Highest frequency (Hz) that the treatment keeps: the decimation filter's pass band."""
+    kept_period: float
+    """Time between two kept (decimated) samples (s)."""
 
     def kind(self, coordinate: str) -> str:
         """``"revolute"`` (the coordinate is in a DH θ), ``"prismatic"`` (in a d) or ``"modal"``."""
@@ -247,12 +249,21 @@ class Stribeck(Effect):
         return None
 
     def grid(self, context, j):
-        top = float(np.max(np.abs(context.qd[:, j])))
+        v = np.abs(context.qd[:, j])
+        top = float(v.max())
         if top <= 0:
             return None
-        # from 0.3 % to 30 % of the largest speed: below, hardly a sample is slow enough; above, the
-        # exponential is a smooth function of q̇ that viscous friction already describes
-        return np.geomspace(0.003 * top, 0.3 * top, self.GRID), 2.0 * math.log10(100.0)
+        # Not below the speed the axis passes through between two kept samples at its reversals: a
+        # narrower rise would rest on one or two samples per reversal, where the velocity estimate and
+        # its sign are least reliable (a sign that flips a sample early or late looks like a Stribeck
+        # term of vanishing width). Not above 30 % of the largest speed: a wider exponential is a smooth
+        # function of q̇ that viscous friction already describes.
+        near = v < 0.05 * np.percentile(v, 95)
+        step = float(np.median(np.abs(context.qdd[near, j]))) * context.kept_period if near.any() else 0.0
+        low, high = max(0.003 * top, 2.0 * step), 0.3 * top
+        if high <= low:
+            return None
+        return np.geomspace(low, high, self.GRID), 2.0 * math.log10(high / low)
 
     def columns(self, q, qd, qdd, j, value):
         v = qd[:, j]

@@ -39,8 +39,7 @@ def _candidate_row(c: Candidate, chosen: Candidate | None) -> list[Any]:
     if c is chosen:
         verdict = "**accepted**"
     elif not c.failed:
-        verdict = "qualifies, not chosen (" + ("refinement: a basic effect qualifies" if c.effect.refines and chosen is not None
-                                               and not chosen.effect.refines else "another ranks first or ties with fewer parameters") + ")"
+        verdict = "qualifies, not chosen (another has a lower ΔBIC or ties with fewer parameters)"
     else:
         verdict = "; ".join(c.failed)
     return [c.effect.name, c.coordinate, _roles(c.roles), f"{100 * c.share:.3g} %", _g(c.p_value, 3),
@@ -91,9 +90,9 @@ def markdown(d: Diagnosis) -> str:
     held = "cross-validation over contiguous time blocks" if d.search.cross_validate else "the validation data"
     lines += [f"Forward selection over the catalogue; a candidate is accepted when its parameters are physical, its "
               f"F-test (autocorrelation-corrected) gives p below {s.alpha:g} divided by the round's trials (Bonferroni), it "
-              f"removes at least {100 * s.min_gain:g} % of the held-out residual power ({held}) and ΔBIC < 0. "
-              f"Refinements of a friction term are tried when no basic effect qualifies; ties within "
-              f"{100 * s.tie:g} % of explained power go to the effect with fewer parameters.", ""]
+              f"removes at least {100 * s.min_gain:g} % of the held-out residual power ({held}) and ΔBIC < 0; the "
+              f"lowest ΔBIC is accepted; candidates whose fits differ by at most {s.tie:g} in n_eff·|ln(RSS₁/RSS₂)| tie "
+              f"and the one with fewer parameters is named. At the end, effects that later ones made insignificant are removed.", ""]
     if d.found:
         rows = [[f.effect, f.coordinate, _roles(f.parameters, f.sigmas), _roles(f.model_parameters),
                  f"{100 * f.evidence['explained_share']:.3g} %", _g(f.evidence["p_value"], 3),
@@ -106,7 +105,7 @@ def markdown(d: Diagnosis) -> str:
         lines.append("**No significant missing effect.**")
     lines.append("")
     for r in d.search.rounds:
-        title = f"Round {r.number}: " + (f"accepted {r.accepted.candidate.label()} ({r.phase})" if r.accepted else "nothing qualifies")
+        title = f"Round {r.number}: " + (f"accepted {r.accepted.candidate.label()}" if r.accepted else "nothing qualifies")
         lines += [f"### {title}", "", f"Bonferroni threshold {r.threshold:.3g}.", ""]
         lines += _table(["effect", "coordinate", "parameters", "explained", "p", "held-out gain", "ΔBIC", "verdict"],
                         [_candidate_row(c, r.accepted.candidate if r.accepted else None) for c in r.candidates])

@@ -14,14 +14,18 @@ scored by:
 * the held-out error: residual power on the validation data (``--validate``) or by cross-validation
   over ``FOLDS`` contiguous time blocks of the estimation data; it must fall by at least
   ``min_gain`` (a fraction of what is left);
-* ΔBIC with the effective sample count, which must be negative; it ranks the eligible candidates;
+* ΔBIC = n_eff·ln(RSS₁/RSS₀) + k·ln(n_eff), which must be negative; it ranks the eligible candidates
+  (one n_eff for the round: that of the best-explained candidate's residual);
 * its parameters must be physical (friction opposing motion, a positive stiffness, ...).
 
-Basic effects are tried first; refinements of a friction term the model has (direction dependence,
-Stribeck) only when no basic effect is eligible. Candidates that explain the data equally — their
-explained residual power within ``TIE_TOLERANCE`` of the best's — tie: the one with fewer parameters
-(roles) is named and the others are reported. Columns already in the span of the current model are
+Among the eligible candidates the lowest ΔBIC wins. Candidates that explain the data equally — twice
+their log-likelihood difference n_eff·|ln(RSS₁/RSS₂)| at most ``TIE_TOLERANCE`` — tie: the one with
+fewer parameters (roles) is named and the others are reported. Columns already in the span of the current model are
 not candidates (an optional column, a spring's constant beside an offset, is dropped instead).
+
+The rounds repeat on the new residual until no candidate is eligible. Then backward elimination: an
+accepted effect that later ones made insignificant (partial F-test in the joint fit, p not below
+``alpha`` over the number accepted) is removed, the least significant first, and reported as such.
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 import scipy.optimize
 
 from symbolic.identify.least_squares import Identification
@@ -44,8 +49,9 @@ ALPHA = 1e-3
 """Family-wise significance level of one round (Bonferroni over its trials)."""
 MIN_HELD_OUT_GAIN = 0.01
 """An effect must remove at least this fraction of the held-out residual power that is left."""
-TIE_TOLERANCE = 0.01
-"""Two candidates whose explained residual power differs by less than this fraction of the best's tie."""
+TIE_TOLERANCE = 2.0
+"""Two candidates tie when n_eff·|ln(RSS₁/RSS₂)| (twice their log-likelihood difference) is at most this:
+a difference of 2 on the BIC scale is "not worth more than a bare mention" (Kass and Raftery 1995)."""
 FOLDS = 5
 """Contiguous time blocks of the cross-validation (without validation data)."""
 COLLINEAR = 1e-6
@@ -160,7 +166,6 @@ class Round:
     candidates: list[Candidate]
     accepted: Accepted | None
     threshold: float
-    phase: str
 
 
 @dataclass(eq=False)
@@ -218,19 +223,22 @@ class Search:
         passband = 0.4 * p.rate / p.decimation
         if p.cutoff is not None:
             passband = min(passband, p.cutoff)
-        self.context = Context(terms.model.robot, estimation.coordinates, s.q[inner], s.qd[inner], s.qdd[inner], passband)
+        self.context = Context(terms.model.robot, estimation.coordinates, s.q[inner], s.qd[inner], s.qdd[inner], passband,
+                               p.decimation / p.rate)
         self.rounds: list[Round] = []
         self.accepted: list[Accepted] = []
 
     # -- the loop -----------------------------------------------------------------------------
     def run(self) -> list[Accepted]:
-        """Rounds until no candidate is eligible (or ``max_effects`` are accepted)."""
+        """Rounds until no candidate is eligible (or ``max_effects`` are accepted), then backward
+        elimination of the accepted effects that later ones made insignificant."""
         while len(self.accepted) < self.settings.max_effects:
             design = Design(self.terms, self.sets, self.accepted)
             chosen = self.round(design)
             if chosen is None:
                 break
             self.accepted.append(chosen)
+        self.eliminate()
         self.final = Design(self.terms, self.sets, self.accepted)
         return self.accepted
 
@@ -241,55 +249,79 @@ class Search:
         tested = [c for c in candidates if c.status == "tested"]
         trials = sum(c.trials for c in tested)
         threshold = self.settings.alpha / max(trials, 1.0)
+        # one effective sample count for the round, from the best-explained residual: BIC compares
+        # models of the same data, and a candidate that leaves a coloured residual must not gain by it
+        effective = len(state.y) / min(tested, key=lambda c: c.rss1).tau if tested else 1.0
         for c in tested:
+            c.delta_bic = effective * math.log(max(c.rss1, 1e-300) / c.rss0) + c.added * math.log(effective)
             state.judge(c, threshold)
-        chosen, phase = None, "basic"
-        for phase in ("basic", "refinement"):
-            pool = [c for c in tested if c.eligible and (c.effect.refines is None) == (phase == "basic")]
-            if pool:
-                best = min(pool, key=lambda c: c.delta_bic)
-                ties = [c for c in tested if c is not best and c.invalid is None
-                        and abs(c.explained - best.explained) <= self.settings.tie * best.explained]
-                group = [best] + [c for c in ties if c.eligible and (c.effect.refines is None) == (phase == "basic")]
-                order = {e.name: k for k, e in enumerate(self.effects)}
-                chosen = min(group, key=lambda c: (len(c.effect.roles), c.delta_bic, order.get(c.effect.name, 0)))
-                alternatives = [c for c in [best] + ties if c is not chosen]
-                break
-        if chosen is None:
-            self.rounds.append(Round(number, candidates, None, threshold, "none"))
+        pool = [c for c in tested if c.eligible]
+        if not pool:
+            self.rounds.append(Round(number, candidates, None, threshold))
             return None
+        best = min(pool, key=lambda c: c.delta_bic)
+        ties = [c for c in tested if c is not best and c.invalid is None
+                and effective * abs(math.log(max(c.rss1, 1e-300) / max(best.rss1, 1e-300))) <= self.settings.tie]
+        order = {e.name: k for k, e in enumerate(self.effects)}
+        group = [best] + [c for c in ties if c.eligible]
+        chosen = min(group, key=lambda c: (len(c.effect.roles), c.delta_bic, order.get(c.effect.name, 0)))
+        alternatives = [c for c in [best] + ties if c is not chosen]
         columns = {role: state.columns(chosen.effect, chosen.j, chosen.value, role)[:, :, list(chosen.kept)]
                    for role in self.sets}
         accepted = Accepted(chosen, number, columns, alternatives, threshold)
-        self.rounds.append(Round(number, candidates, accepted, threshold, phase))
+        self.rounds.append(Round(number, candidates, accepted, threshold))
         return accepted
+
+    def eliminate(self) -> None:
+        """Remove, one at a time, the accepted effect least significant in the joint fit of all of them
+        while its partial F-test's p is not below ``alpha`` / (number accepted)."""
+        self.removed: list[tuple[Accepted, float, str]] = []
+        while self.accepted:
+            design = Design(self.terms, self.sets, self.accepted)
+            tests = [self.partial(design, k) for k in range(len(self.accepted))]
+            worst = int(np.argmax(tests))
+            if tests[worst] < self.settings.alpha / len(self.accepted):
+                return
+            gone = self.accepted.pop(worst)
+            others = ", ".join(a.candidate.label() for a in self.accepted) or "nothing else"
+            self.removed.append((gone, tests[worst], others))
+
+    def partial(self, design: Design, k: int) -> float:
+        """p-value of accepted effect ``k`` in ``design``: the autocorrelation-corrected F-test of removing it."""
+        y = design.weighted("estimation", design.known["estimation"])
+        X = design.weighted("estimation", design.columns["estimation"])
+        residual = y - X @ design.identification.values
+        rss = float(residual @ residual)
+        tau = pooled_autocorrelation_time(residual.reshape(len(design.weights), -1).T)
+        block = self.block(k)
+        rest = [i for i in range(X.shape[1]) if i not in block]
+        coef = np.linalg.lstsq(X[:, rest], y, rcond=None)[0]
+        rss_without = float(np.sum((y - X[:, rest] @ coef) ** 2))
+        c = self.accepted[k].candidate
+        added = len(block) + (1 if c.effect.nonlinear else 0)
+        return f_test(rss_without, rss, len(y), X.shape[1] - added, added, tau)[1]
+
+    def block(self, k: int) -> list[int]:
+        """Columns of accepted effect ``k`` in the design."""
+        start = len(self.terms.free_names) + sum(a.columns["estimation"].shape[2] for a in self.accepted[:k])
+        return list(range(start, start + self.accepted[k].columns["estimation"].shape[2]))
 
     # -- the final model ----------------------------------------------------------------------
     def final_effects(self) -> list[dict[str, Any]]:
         """For each accepted effect: roles and σ from the final joint fit, and its partial test there."""
         design = self.final
         ident = design.identification
-        base = len(self.terms.free_names)
-        start = base
         y = design.weighted("estimation", design.known["estimation"])
         X = design.weighted("estimation", design.columns["estimation"])
-        rss = float(np.sum((y - X @ ident.values) ** 2))
         tau = pooled_autocorrelation_time((y - X @ ident.values).reshape(len(design.weights), -1).T)
         out = []
-        for a in self.accepted:
+        for k, a in enumerate(self.accepted):
             c = a.candidate
-            k = a.columns["estimation"].shape[2]
-            block = list(range(start, start + k))
-            start += k
+            block = self.block(k)
             reference_map = _reference_map(self, design, c.effect, c.j)
             roles, sigmas = _roles_with_sigma(c, ident.values, ident.covariance * tau, block, reference_map)
-            rest = [i for i in range(X.shape[1]) if i not in block]
-            coef = np.linalg.lstsq(X[:, rest], y, rcond=None)[0]
-            rss_without = float(np.sum((y - X[:, rest] @ coef) ** 2))
-            added = k + (1 if c.effect.nonlinear else 0)
-            _, p = f_test(rss_without, rss, len(y), X.shape[1] - added, added, tau)
             out.append({"roles": roles, "sigmas": sigmas, "coefficients_full": _expand(c, ident.values[block]),
-                        "p_value": p, "reference": _reference_value(reference_map, ident.values)})
+                        "p_value": self.partial(design, k), "reference": _reference_value(reference_map, ident.values)})
         return out
 
 
@@ -315,6 +347,18 @@ def _roles_with_sigma(c: Candidate, values: np.ndarray, covariance: np.ndarray, 
     for name, value in centre.items():
         sigmas[name] = None if value is None else float(np.sqrt(max(jac[name] @ covariance @ jac[name], 0.0)))
     return centre, sigmas
+
+
+def _solve(gram: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """Least-squares coefficients from the normal equations, columns scaled to unit norm (the candidate
+    systems are small and well conditioned once scaled; the SVD is kept for the identification itself)."""
+    scale = np.sqrt(np.clip(np.diag(gram), 1e-300, None))
+    scaled = gram / np.outer(scale, scale)
+    try:
+        x = scipy.linalg.solve(scaled, right / scale, assume_a="pos", check_finite=False)
+    except (np.linalg.LinAlgError, scipy.linalg.LinAlgError):
+        x = np.linalg.lstsq(scaled, right / scale, rcond=None)[0]
+    return x / scale
 
 
 def _expand(c: Candidate, kept_values: np.ndarray) -> np.ndarray:
@@ -418,13 +462,14 @@ class _RoundState:
         return np.split(out, np.cumsum(widths)[:-1], axis=2)
 
     def cross_validated(self, X: np.ndarray) -> float:
+        """Residual power of the held-out blocks, each predicted by the fit on the others (normal
+        equations of the column-scaled system: the folds only change a small Gram matrix)."""
+        gram, right = X.T @ X, X.T @ self.y
         total = 0.0
-        every = np.ones(len(self.y), bool)
         for rows in self.folds:
-            train = every.copy()
-            train[rows] = False
-            coef = np.linalg.lstsq(X[train], self.y[train], rcond=None)[0]
-            e = self.y[rows] - X[rows] @ coef
+            Xf, yf = X[rows], self.y[rows]
+            coef = _solve(gram - Xf.T @ Xf, right - Xf.T @ yf)
+            e = yf - Xf @ coef
             total += float(e @ e)
         return total
 
@@ -501,10 +546,8 @@ class _RoundState:
         c.rss0, c.rss1 = self.rss0, float(r1 @ r1)
         c.tau = pooled_autocorrelation_time(r1.reshape(self.n, self.n_samples).T)
         c.F, c.p_value = f_test(c.rss0, c.rss1, len(self.y), self.X.shape[1], c.added, c.tau)
-        effective = len(self.y) / c.tau
-        c.delta_bic = effective * math.log(max(c.rss1, 1e-300) / c.rss0) + c.added * math.log(effective)
         X1 = np.concatenate([self.X, Z[:, list(kept)]], axis=1)
-        coef = np.linalg.lstsq(X1, self.y, rcond=None)[0]
+        coef = _solve(X1.T @ X1, X1.T @ self.y)
         c.model_coefficients = coef
         c.coefficients = _expand(c, coef[self.X.shape[1]:])
         if search.cross_validate:
