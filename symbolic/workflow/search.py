@@ -179,6 +179,7 @@ class Design:
     known: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     identification: Identification | None = None
     weights: np.ndarray | None = None
+    _stacked: np.ndarray | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         free = self.terms.free
@@ -194,6 +195,12 @@ class Design:
     @property
     def size(self) -> int:
         return self.columns["estimation"].shape[2]
+
+    def stacked(self) -> np.ndarray:
+        """The estimation columns stacked (unweighted), computed once."""
+        if self._stacked is None:
+            self._stacked = self.sets["estimation"].stack(self.columns["estimation"])
+        return self._stacked
 
     def predicted(self, role: str) -> np.ndarray:
         """τ of the current model on a data set (fixed terms included), ``samples × N``."""
@@ -377,43 +384,49 @@ def _reference_value(reference_map: list[tuple[int, float]] | None, values: np.n
 def _reference_map(search: Search, design: Design, effect: Effect, j: int) -> list[tuple[int, float]] | None:
     """How the effect's reference coefficient follows from the design's coefficients: pairs (column,
     factor); a fixed column contributes (−1, its fixed value × factor). ``None`` when no column matches."""
-    s = design.sets["estimation"].states
+    data = design.sets["estimation"]
+    s = data.states
     column = effect.reference_column(s.q, s.qd, s.qdd, j)
     if column is None:
         return None
-    data = design.sets["estimation"]
     r = data.stack(data.reduce(column))
-    rr = float(r @ r)
-    if rr <= 0:
+    support = r != 0
+    if not support.any():
         return None
     pairs: list[tuple[int, float]] = []
-    X = data.stack(design.columns["estimation"])
-    for i in range(X.shape[1]):
-        factor = _proportional(X[:, i], r, rr)
-        if factor is not None:
-            pairs.append((i, factor))
+    for i, factor in _proportional(design.stacked(), r, support):
+        pairs.append((i, factor))
     terms = search.terms
     fixed = np.flatnonzero(~terms.free)
     if fixed.size:
         F = data.stack(terms.columns(data)[:, :, fixed])
-        for k, i in enumerate(fixed):
-            factor = _proportional(F[:, k], r, rr)
-            if factor is not None:
-                pairs.append((-1, factor * terms.nominal[i]))
+        for k, factor in _proportional(F, r, support):
+            pairs.append((-1, factor * terms.nominal[fixed[k]]))
     return pairs or None
 
 
-def _proportional(x: np.ndarray, r: np.ndarray, rr: float) -> float | None:
-    """α when ``x = α·r`` (to :data:`REFERENCE`), else ``None``."""
-    norm = float(np.linalg.norm(x))
-    if norm == 0:
-        return None
-    alpha = float(x @ r) / rr
-    return alpha if np.linalg.norm(x - alpha * r) <= REFERENCE * norm else None
+def _proportional(X: np.ndarray, r: np.ndarray, support: np.ndarray) -> list[tuple[int, float]]:
+    """(i, α) for the columns of X equal to α·r (to :data:`REFERENCE`); only columns that vanish where r
+    does are compared in full."""
+    norms = np.sqrt(np.einsum("ij,ij->j", X, X))
+    outside = np.sqrt(np.einsum("ij,ij->j", X[~support], X[~support]))
+    rr = float(r @ r)
+    out = []
+    for i in np.flatnonzero((norms > 0) & (outside <= REFERENCE * norms)):
+        x = X[support, i]
+        alpha = float(x @ r[support]) / rr
+        if np.linalg.norm(x - alpha * r[support]) <= REFERENCE * norms[i]:
+            out.append((int(i), alpha))
+    return out
 
 
 class _RoundState:
-    """The weighted arrays of one round and the evaluation of its candidates."""
+    """The weighted arrays of one round and the evaluation of its candidates.
+
+    A candidate's columns act on few rows of the stacked system (those of its coordinate), so every
+    product with them is taken on those rows only; the model's part is handled through the
+    orthonormal basis Q of its columns (``r0 ⊥ Q``) and small Gram matrices.
+    """
 
     CHUNK = 64
     """Grid values whose columns are filtered together."""
@@ -427,12 +440,18 @@ class _RoundState:
         self.r0 = self.y - self.X @ self.coef
         self.rss0 = float(self.r0 @ self.r0)
         self.Q = np.linalg.qr(self.X)[0]
+        self.gram, self.right = self.X.T @ self.X, self.X.T @ self.y
         data = design.sets["estimation"]
         self.n_samples, self.n = data.samples, len(data.coordinates)
         if search.cross_validate:
             blocks = np.array_split(np.arange(self.n_samples), search.settings.folds)
-            self.folds = [np.concatenate([j * self.n_samples + b for j in range(self.n)]) for b in blocks]
-            self.held_out0 = self.cross_validated(self.X)
+            self.fold_of = np.empty(len(self.y), int)
+            for f, b in enumerate(blocks):
+                for j in range(self.n):
+                    self.fold_of[j * self.n_samples + b] = f
+            self.folds = [np.flatnonzero(self.fold_of == f) for f in range(len(blocks))]
+            self.fold_gram = [(self.X[rows].T @ self.X[rows], self.X[rows].T @ self.y[rows]) for rows in self.folds]
+            self.held_out0 = self.cross_validated(None)
         else:
             self.yv = design.weighted("validation", design.known["validation"])
             self.Xv = design.weighted("validation", design.columns["validation"])
@@ -461,52 +480,69 @@ class _RoundState:
         out[:, rows, :] = reduced
         return np.split(out, np.cumsum(widths)[:-1], axis=2)
 
-    def cross_validated(self, X: np.ndarray) -> float:
+    def cross_validated(self, extra: tuple[np.ndarray, np.ndarray] | None) -> float:
         """Residual power of the held-out blocks, each predicted by the fit on the others (normal
-        equations of the column-scaled system: the folds only change a small Gram matrix)."""
-        gram, right = X.T @ X, X.T @ self.y
+        equations: a fold only subtracts its own small Gram blocks). ``extra`` = (rows, Z[rows]) adds a
+        candidate's columns, non-zero on ``rows`` only."""
         total = 0.0
-        for rows in self.folds:
-            Xf, yf = X[rows], self.y[rows]
-            coef = _solve(gram - Xf.T @ Xf, right - Xf.T @ yf)
-            e = yf - Xf @ coef
+        if extra is not None:
+            rows, Zr = extra
+            cross, zz, zy = self.X[rows].T @ Zr, Zr.T @ Zr, Zr.T @ self.y[rows]
+            gram = np.block([[self.gram, cross], [cross.T, zz]])
+            right = np.concatenate([self.right, zy])
+        for f, fold in enumerate(self.folds):
+            g, b = self.fold_gram[f]
+            if extra is None:
+                coef = _solve(self.gram - g, self.right - b)
+                e = self.y[fold] - self.X[fold] @ coef
+            else:
+                inside = rows[self.fold_of[rows] == f]
+                Zf = Zr[self.fold_of[rows] == f]
+                cf = self.X[inside].T @ Zf
+                gf = np.block([[g, cf], [cf.T, Zf.T @ Zf]])
+                bf = np.concatenate([b, Zf.T @ self.y[inside]])
+                coef = _solve(gram - gf, right - bf)
+                p = self.X.shape[1]
+                e = self.y[fold] - self.X[fold] @ coef[:p]
+                position = np.searchsorted(fold, inside)
+                e[position] -= Zf @ coef[p:]
             total += float(e @ e)
         return total
 
-    def project(self, Z: np.ndarray, optional: tuple[int, ...]) -> tuple[np.ndarray | None, tuple[int, ...], str]:
-        """Orthonormal basis of the candidate's columns outside the model's span, the columns kept,
-        and why not when a required column is already in the model."""
-        basis: list[np.ndarray] = []
-        kept = []
+    def project(self, Z: np.ndarray, optional: tuple[int, ...]):
+        """The candidate's columns outside the model's span: (rows, kept columns, a = QᵀZ, G = Z⊥ᵀZ⊥,
+        b = Zᵀr0) on the kept columns, or (None, reason) when a required column is already in the model."""
+        rows = np.flatnonzero(np.any(Z != 0, axis=1))
+        Zr = Z[rows]
+        a = self.Q[rows].T @ Zr
+        G = Zr.T @ Zr - a.T @ a
+        norms = np.einsum("ij,ij->j", Zr, Zr)
+        kept: list[int] = []
         for i in range(Z.shape[1]):
-            z = Z[:, i]
-            norm = float(np.linalg.norm(z))
-            if norm == 0:
+            rest = G[i, i]
+            if kept and norms[i] > 0:
+                g = G[i, kept]
+                rest -= g @ np.linalg.solve(G[np.ix_(kept, kept)], g)
+            if norms[i] == 0 or rest <= COLLINEAR**2 * norms[i]:
                 if i in optional:
                     continue
-                return None, (), "its column vanishes on these data"
-            z = z - self.Q @ (self.Q.T @ z)
-            for b in basis:
-                z = z - b * (b @ z)
-            rest = float(np.linalg.norm(z))
-            if rest <= COLLINEAR * norm:
-                if i in optional:
-                    continue
-                return None, (), "the model already holds it (its column is in the span of the model's terms)"
-            basis.append(z / rest)
+                why = "its column vanishes on these data" if norms[i] == 0 else \
+                    "the model already holds it (its column is in the span of the model's terms)"
+                return None, why
             kept.append(i)
-        if not basis:
-            return None, (), "the model already holds it"
-        return np.stack(basis, axis=1), tuple(kept), ""
+        if not kept:
+            return None, "the model already holds it"
+        return (rows, tuple(kept), a[:, kept], G[np.ix_(kept, kept)], Zr[:, kept].T @ self.r0[rows]), ""
 
     def explained(self, effect: Effect, j: int, value: float | None, columns: np.ndarray | None = None) -> float:
         """Residual power the effect explains at ``value`` (jointly with the model's terms)."""
         if columns is None:
             columns = self.batch(effect, j, [value], "estimation")[0]
-        basis, _, _ = self.project(self.design.weighted("estimation", columns), effect.optional)
-        if basis is None:
+        parts, _ = self.project(self.design.weighted("estimation", columns), effect.optional)
+        if parts is None:
             return 0.0
-        return float(np.sum((basis.T @ self.r0) ** 2))
+        _, _, _, G, b = parts
+        return float(b @ np.linalg.solve(G, b))
 
     def evaluate(self, effect: Effect, j: int) -> Candidate:
         search = self.search
@@ -536,22 +572,26 @@ class _RoundState:
             values, c.trials = grid
             c.value = self.scan(effect, j, values)
         Z = self.design.weighted("estimation", self.columns(effect, j, c.value, "estimation"))
-        basis, kept, why = self.project(Z, effect.optional)
-        if basis is None:
+        parts, why = self.project(Z, effect.optional)
+        if parts is None:
             c.status, c.reason = "in the model", why
             return c
+        rows, kept, a, G, b = parts
         c.kept, c.width = kept, Z.shape[1]
         c.added = len(kept) + (1 if effect.nonlinear else 0)
-        r1 = self.r0 - basis @ (basis.T @ self.r0)
+        step = np.linalg.solve(G, b)
+        r1 = self.r0 - self.Q @ (-(a @ step))
+        r1[rows] -= Z[np.ix_(rows, kept)] @ step
         c.rss0, c.rss1 = self.rss0, float(r1 @ r1)
         c.tau = pooled_autocorrelation_time(r1.reshape(self.n, self.n_samples).T)
         c.F, c.p_value = f_test(c.rss0, c.rss1, len(self.y), self.X.shape[1], c.added, c.tau)
-        X1 = np.concatenate([self.X, Z[:, list(kept)]], axis=1)
-        coef = _solve(X1.T @ X1, X1.T @ self.y)
+        Zr = Z[np.ix_(rows, kept)]
+        cross = self.X[rows].T @ Zr
+        coef = _solve(np.block([[self.gram, cross], [cross.T, Zr.T @ Zr]]), np.concatenate([self.right, Zr.T @ self.y[rows]]))
         c.model_coefficients = coef
         c.coefficients = _expand(c, coef[self.X.shape[1]:])
         if search.cross_validate:
-            c.held_out0, c.held_out1 = self.held_out0, self.cross_validated(X1)
+            c.held_out0, c.held_out1 = self.held_out0, self.cross_validated((rows, Zr))
         else:
             Zv = self.design.weighted("validation", self.columns(effect, j, c.value, "validation"))[:, list(kept)]
             e = self.yv - np.concatenate([self.Xv, Zv], axis=1) @ coef
