@@ -223,10 +223,18 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 def cmd_diagnose(args: argparse.Namespace) -> int:
     import json
 
-    from symbolic.workflow import diagnose
+    from symbolic.workflow import EFFECTS, diagnose
 
+    effects = None
+    if args.effects is not None:
+        names = [n.strip() for n in args.effects.split(",") if n.strip()]
+        unknown = sorted(set(names) - set(EFFECTS))
+        if unknown or not names:
+            print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join(EFFECTS)})", file=sys.stderr)
+            return 2
+        effects = [EFFECTS[n] for n in names]
     model = derive(resolve(args.model))
-    result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out)
+    result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects)
     if args.json:
         print(json.dumps(result.to_dict(), indent=2))
         return 0
@@ -290,6 +298,7 @@ def parser() -> argparse.ArgumentParser:
     w.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")
     w.add_argument("--validate", metavar="DATA2", help="held-out data or experiment file (default: the last fifth of DATA)")
     w.add_argument("--out", metavar="DIR", required=True, help="folder for report.md, the figures and <model>_patched.toml")
+    w.add_argument("--effects", metavar="NAMES", help="search only these catalogue effects (comma-separated; default: all)")
     w.add_argument("--json", action="store_true", help="machine-readable result")
     w.set_defaults(func=cmd_diagnose)
     ls = sub.add_parser("list", help="list the built-in robots")
