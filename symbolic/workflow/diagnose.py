@@ -125,7 +125,6 @@ class Diagnosis:
                          "parameters": dict(a.candidate.roles), "final_p_value": p, "explained_by": others}
                         for a, p, others in self.search.removed],
             "not_supported": dict(NOT_SUPPORTED),
-            "seconds": dict(self.seconds),
             "notes": list(self.notes),
             "figures": [str(p) for p in self.figures],
         }
@@ -339,24 +338,22 @@ def _plain(value: Any) -> Any:
 
 
 def _write(diagnosis: Diagnosis, folder: Path, figures: bool) -> Diagnosis:
-    """Write the patched model, the figures and report.md into ``folder``."""
+    """Write the patched model, the figures and report.md into ``folder``, all or nothing."""
     import dataclasses
 
     from symbolic.emit import ExportError, write_files
 
-    drawn: tuple[Path, ...] = ()
+    pictures: dict[str, bytes] = {}
     notes = list(diagnosis.notes)
     if figures:
         from symbolic.workflow import figures as drawing
 
         try:
-            drawn = drawing.draw(diagnosis, folder)
+            pictures = drawing.draw(diagnosis)
         except drawing.MatplotlibMissing as missing:
             notes.append(str(missing))
-        except OSError as error:
-            raise ModelError(str(folder), "--out", f"cannot write figures: {error.strerror or error}") from None
-    diagnosis = dataclasses.replace(diagnosis, figures=drawn, notes=tuple(notes))
-    files = {"report.md": diagnosis.report().encode("utf-8")}
+    diagnosis = dataclasses.replace(diagnosis, figures=tuple(folder / name for name in pictures), notes=tuple(notes))
+    files = {"report.md": diagnosis.report().encode("utf-8"), **pictures}
     if diagnosis.patched_text is not None and diagnosis.patched_path is not None:
         files[diagnosis.patched_path.name] = diagnosis.patched_text.encode("utf-8")
     try:

@@ -8,7 +8,7 @@
 
 from __future__ import annotations
 
-from pathlib import Path
+import io
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -23,8 +23,8 @@ class MatplotlibMissing(RuntimeError):
     """matplotlib is not installed: no figures."""
 
 
-def draw(d: Diagnosis, folder: Path) -> tuple[Path, ...]:
-    """Write the figures into ``folder``; return their paths."""
+def draw(d: Diagnosis) -> dict[str, bytes]:
+    """The figures as PNG bytes by file name (written with the report, all at once)."""
     try:
         import matplotlib
 
@@ -32,11 +32,10 @@ def draw(d: Diagnosis, folder: Path) -> tuple[Path, ...]:
         from matplotlib.figure import Figure
     except ImportError:
         raise MatplotlibMissing("figures skipped: matplotlib is not installed (pip install 'symbolic[plot]')") from None
-    folder.mkdir(parents=True, exist_ok=True)
     est = d.sets["estimation"]
     before = est.tau - d.before.predicted["estimation"]
     after = est.tau - d.after.predicted["estimation"]
-    written = []
+    written: dict[str, bytes] = {}
     rate = 1.0 / float(np.mean(np.diff(est.t)))
     for j, c in enumerate(est.coordinates):
         fig = Figure(figsize=(9, 6))
@@ -52,7 +51,7 @@ def draw(d: Diagnosis, folder: Path) -> tuple[Path, ...]:
         bottom.set_ylabel("residual")
         bottom.legend(loc="upper right")
         fig.tight_layout()
-        written.append(_save(fig, folder / f"residual_{c}.png"))
+        written[f"residual_{c}.png"] = _png(fig)
         fig = Figure(figsize=(9, 4))
         ax = fig.add_subplot(1, 1, 1)
         for label, r in (("nominal model", before[:, j]), ("patched model", after[:, j])):
@@ -64,7 +63,7 @@ def draw(d: Diagnosis, folder: Path) -> tuple[Path, ...]:
         ax.set_ylabel("residual PSD")
         ax.legend(loc="upper right")
         fig.tight_layout()
-        written.append(_save(fig, folder / f"spectrum_{c}.png"))
+        written[f"spectrum_{c}.png"] = _png(fig)
     design = d.search.final
     final = est.tau - design.predicted("estimation")
     start = len(d.search.terms.free_names)
@@ -86,10 +85,11 @@ def draw(d: Diagnosis, folder: Path) -> tuple[Path, ...]:
         ax.set_title(f"{a.effect.name} on {a.candidate.coordinate}")
         ax.legend(loc="upper right")
         fig.tight_layout()
-        written.append(_save(fig, folder / f"effect_{k}_{a.effect.name}_{a.candidate.coordinate}.png"))
-    return tuple(written)
+        written[f"effect_{k}_{a.effect.name}_{a.candidate.coordinate}.png"] = _png(fig)
+    return written
 
 
-def _save(fig, path: Path) -> Path:
-    fig.savefig(path, dpi=100, metadata={"Software": None})
-    return path
+def _png(fig) -> bytes:
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
+    return buffer.getvalue()

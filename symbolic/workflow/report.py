@@ -126,5 +126,4 @@ def markdown(d: Diagnosis) -> str:
         lines += ["## Figures", ""]
         lines += [f"![{f.stem}]({f.name})" for f in d.figures]
         lines.append("")
-    lines += ["Timing: " + ", ".join(f"{k} {v:.2f} s" for k, v in d.seconds.items()) + "."]
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines).rstrip("\n") + "\n"
