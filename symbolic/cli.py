@@ -234,7 +234,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
             return 2
         effects = [EFFECTS[n] for n in names]
     model = derive(resolve(args.model))
-    result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects)
+    result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects,
+                      simulate=args.simulate or None)
     if args.json:
         print(json.dumps(result.to_dict(), indent=2))
         return 0
@@ -298,6 +299,8 @@ def parser() -> argparse.ArgumentParser:
     w.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")
     w.add_argument("--validate", metavar="DATA2", help="held-out data or experiment file (default: the last fifth of DATA)")
     w.add_argument("--out", metavar="DIR", required=True, help="folder for report.md, the figures and <model>_patched.toml")
+    w.add_argument("--simulate", action="store_true",
+                   help="measure the gap on the simulated controller output (the experiment's [controller]) instead of the inverse model")
     w.add_argument("--effects", metavar="NAMES", help="search only these catalogue effects (comma-separated; default: all)")
     w.add_argument("--json", action="store_true", help="machine-readable result")
     w.set_defaults(func=cmd_diagnose)

@@ -146,7 +146,7 @@ def diagnose(
     settings: Settings | None = None,
     search: SearchSettings | None = None,
     effects: Sequence[Effect] | None = None,
-    simulate: Simulator | None = None,
+    simulate: Simulator | bool | None = None,
     figures: bool = True,
 ) -> Diagnosis:
     """Find where ``model`` and ``data`` disagree, name the missing effects, patch the model file.
@@ -170,7 +170,9 @@ def diagnose(
     effects
         The catalogue to search (default: every registered effect, :data:`EFFECTS`).
     simulate
-        The simulated path (:data:`Simulator`); ``None`` measures the gap with the inverse model.
+        The simulated path (:data:`Simulator`; ``True``: :func:`simulated_path` with the estimation
+        experiment's controller); ``None`` measures the gap with the inverse model. The search itself
+        always works on the inverse model (IDIM-LS).
     figures
         Draw PNG figures into ``out`` when matplotlib is installed.
     """
@@ -188,6 +190,8 @@ def diagnose(
     coordinates = model.robot.generalized_coordinates
     log.info("diagnose %s: loading and treating the data", model.name)
     estimation, held, held_out = load_sets(coordinates, data, experiment, validation, settings)
+    if simulate is True:
+        simulate = simulated_path(estimation.measurements.controller)
     sets = {"estimation": estimation, "validation": held}
     lap("data")
     before = _fit(model, sets, simulate)
@@ -237,11 +241,37 @@ def diagnose(
         notes.append(f"{c.label()} was accepted at round {gone.round} ({_roles_text(c.roles)}) and removed at the end: "
                      f"with {others} in the model it is not significant any more (p = {p_value:.3g})")
     diagnosis = Diagnosis(model, sets, held_out, before, where_before, selection, tuple(found), patched_text,
-                          patched_path, after, where_after, simulate is not None, seconds, tuple(notes))
+                          patched_path, after, where_after, bool(simulate), seconds, tuple(notes))
     if out is not None:
         diagnosis = _write(diagnosis, Path(out), figures)
     lap("report")
     return diagnosis
+
+
+def simulated_path(controller: Any = None) -> Simulator:
+    """The simulated path for ``diagnose(simulate=...)``: the model run by :func:`symbolic.numeric.simulation.simulate`
+    in the experiment's ``[controller]`` loop, τ_model its controller output.
+
+    A data set without a ``[controller]`` of its own (the held-out data of an experiment) is driven by
+    ``controller`` (the estimation experiment's); with neither, the simulation would replay the
+    measured forces, which measures nothing, and this is refused.
+    """
+
+    def simulate(model: DynamicModel, p: np.ndarray, measurements: Measurements) -> np.ndarray:
+        from symbolic.numeric.simulation import simulate as run
+
+        table = measurements.controller if measurements.controller is not None else controller
+        if table is None:
+            raise DataError(str(measurements.source), "[controller]",
+                            "the simulated path needs the experiment's controller (none declared); "
+                            "leave out --simulate to compare with the inverse model")
+        result = run(model, measurements, controller=table,
+                     parameters={s.name: float(v) for s, v in zip(model.parameter_symbols, p)})
+        simulated = result.simulated
+        order = [list(simulated.coordinates).index(c) for c in measurements.coordinates]
+        return np.asarray(simulated.tau)[:, order]
+
+    return simulate
 
 
 def _derived(model: DynamicModel | Robot | str | Path) -> DynamicModel:
@@ -265,7 +295,7 @@ def _fit(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | No
         nominal = fit_nominal(model_terms(model), estimation)
     except IdentificationError as error:
         raise DataError(str(estimation.measurements.source), "identification", str(error)) from None
-    if simulate is None:
+    if not simulate:
         predicted = {role: nominal.predict(data) for role, data in sets.items()}
     else:
         p = np.array([model.parameters[s] for s in model.parameter_symbols], float)

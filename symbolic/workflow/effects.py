@@ -436,7 +436,7 @@ EFFECTS: dict[str, Effect] = {}
 
 NOT_SUPPORTED = {
     "payload": "a point mass at the model's end_effector: needs the regressor of an added body (not yet)",
-    "flexible_mode": "an unmodelled resonance: needs the simulated path and a beam or compliant drive in the patch (not yet)",
+    "flexible_mode": "an unmodelled resonance: needs the simulation error's spectrum and a beam or compliant drive in the patch (not yet)",
 }
 """Contract identifiers not implemented yet, with the reason (listed in the report and the JSON)."""
 
