@@ -29,6 +29,7 @@ bench:
 	$(PYTHON) bench/export.py --out bench/results/export.md
 	$(PYTHON) bench/identification.py --out bench/results/identification.md
 	$(PYTHON) bench/simulate.py --out bench/results/simulate.md
+	$(PYTHON) bench/diagnose.py --out bench/results/diagnose.md
 
 clean:
 	rm -rf build dist *.egg-info .pytest_cache .hypothesis

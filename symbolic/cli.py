@@ -220,6 +220,37 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_diagnose(args: argparse.Namespace) -> int:
+    import json
+
+    from symbolic.workflow import EFFECTS, diagnose
+
+    effects = None
+    if args.effects is not None:
+        names = [n.strip() for n in args.effects.split(",") if n.strip()]
+        unknown = sorted(set(names) - set(EFFECTS))
+        if unknown or not names:
+            print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join(EFFECTS)})", file=sys.stderr)
+            return 2
+        effects = [EFFECTS[n] for n in names]
+    model = derive(resolve(args.model))
+    result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects,
+                      simulate=args.simulate or None)
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=2))
+        return 0
+    gap = lambda fit: f"{fit.gap['estimation']:.4g} % (estimation), {fit.gap['validation']:.4g} % (held out)"  # noqa: E731
+    print(f"gap before: {gap(result.before)}")
+    if not result.found:
+        print("no significant missing effect")
+    for f in result.found:
+        values = ", ".join(f"{k} = {v:.6g}" if v is not None else f"{k} not determined" for k, v in f.parameters.items())
+        print(f"found {f.effect} on {f.coordinate}: {values}")
+    print(f"gap after:  {gap(result.after)}")
+    print(f"wrote {args.out}/report.md" + (f" and {result.patched_path}" if result.patched_path else ""))
+    return 0
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="symbolic", description=__doc__.splitlines()[0])
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
@@ -262,6 +293,17 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--friction-velocity", type=float, default=1e-4, help="ε of the smoothed sign tanh(v/ε) (default 1e-4)")
     s.add_argument("--window", type=float, default=1.0, help="length of the worst window, seconds (default 1)")
     s.set_defaults(func=cmd_simulate)
+    w = sub.add_parser("diagnose", help="find the effects the model misses in measured data and patch the model file")
+    w.add_argument("model", help="model file (.toml) or built-in robot name")
+    w.add_argument("data", help="data file (CSV, .npz, .mat with canonical columns) or experiment file (.toml)")
+    w.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")
+    w.add_argument("--validate", metavar="DATA2", help="held-out data or experiment file (default: the last fifth of DATA)")
+    w.add_argument("--out", metavar="DIR", required=True, help="folder for report.md, the figures and <model>_patched.toml")
+    w.add_argument("--simulate", action="store_true",
+                   help="measure the gap on the simulated controller output (the experiment's [controller]) instead of the inverse model")
+    w.add_argument("--effects", metavar="NAMES", help="search only these catalogue effects (comma-separated; default: all)")
+    w.add_argument("--json", action="store_true", help="machine-readable result")
+    w.set_defaults(func=cmd_diagnose)
     ls = sub.add_parser("list", help="list the built-in robots")
     ls.set_defaults(func=cmd_list)
     return p

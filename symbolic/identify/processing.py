@@ -143,6 +143,57 @@ class Processing:
         """Plain numbers, for JSON."""
         return {**asdict(self), "border": list(self.border)}
 
+    def reduce(self, x: np.ndarray) -> np.ndarray:
+        """Steps 4–5 on any signal sampled like the data (``samples × …``): border dropped, decimated.
+
+        Applied to τ and to every regressor column alike, as :func:`observe` does.
+        """
+        x = np.asarray(x, dtype=float)
+        return decimate(x[self.border[0] : x.shape[0] - self.border[1]], self.decimation)
+
+    def reduce_times(self, t: np.ndarray) -> np.ndarray:
+        """The time stamps of the samples :meth:`reduce` keeps."""
+        t = np.asarray(t, dtype=float)[self.border[0] : len(t) - self.border[1]]
+        return t[kept_indices(len(t), self.decimation)]
+
+
+@dataclass(frozen=True, eq=False)
+class States:
+    """Steps 1–2: positions, velocities and accelerations as IDIM-LS sees them, at every sample.
+
+    Attributes
+    ----------
+    q, qd, qdd
+        Filtered positions and their central differences (or the filtered measured ``qd``/``qdd``),
+        ``samples × N``, before the border is dropped.
+    processing
+        The treatment, all defaults resolved; :meth:`Processing.reduce` applies steps 4–5.
+    """
+
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    processing: Processing
+
+
+def states(measurements: Measurements, settings: Settings | None = None) -> States:
+    """Steps 1–2 of the treatment (module docstring) on ``measurements``.
+
+    ``settings`` override the treatment; unset fields come from the experiment's ``[identification]`` table.
+    """
+    source = str(measurements.source)
+    settings = (settings or Settings()).merged(measurements.identification, source)
+    p = settings.resolve(measurements.rate, measurements.samples, source)
+    h = measurements.sample_period
+
+    def smooth(x: np.ndarray) -> np.ndarray:
+        return lowpass(x, p.cutoff, p.rate, p.order) if p.cutoff is not None else np.asarray(x, dtype=float)
+
+    q = smooth(measurements.q)
+    qd = smooth(measurements.qd) if measurements.qd is not None else central_difference(q, h)
+    qdd = smooth(measurements.qdd) if measurements.qdd is not None else central_difference(qd, h)
+    return States(q, qd, qdd, p)
+
 
 @dataclass(frozen=True, eq=False)
 class Observation:
@@ -198,27 +249,16 @@ def observe(measurements: Measurements, regressor: Regressor, parameters: int, s
     settings
         Overrides of the treatment; unset ones come from the experiment's ``[identification]`` table.
     """
-    source = str(measurements.source)
-    settings = (settings or Settings()).merged(measurements.identification, source)
-    p = settings.resolve(measurements.rate, measurements.samples, source)
-    h = measurements.sample_period
-
-    def smooth(x: np.ndarray) -> np.ndarray:
-        return lowpass(x, p.cutoff, p.rate, p.order) if p.cutoff is not None else np.asarray(x, dtype=float)
-
-    q = smooth(measurements.q)
-    qd = smooth(measurements.qd) if measurements.qd is not None else central_difference(q, h)
-    qdd = smooth(measurements.qdd) if measurements.qdd is not None else central_difference(qd, h)
-    Y = np.asarray(regressor(q, qd, qdd), dtype=float)  # noqa: N806
+    treated = states(measurements, settings)
+    p = treated.processing
+    Y = np.asarray(regressor(treated.q, treated.qd, treated.qdd), dtype=float)  # noqa: N806
     expected = (measurements.samples, len(measurements.coordinates), parameters)
     if Y.shape != expected:
         raise ValueError(f"the regressor returned an array of shape {Y.shape}, expected {expected} (samples, N, P)")
-    keep = slice(p.border[0], measurements.samples - p.border[1])
-    t = measurements.t[keep]
     return Observation(
         coordinates=measurements.coordinates,
-        t=t[kept_indices(len(t), p.decimation)],
-        tau=decimate(measurements.tau[keep], p.decimation),
-        regressor=decimate(Y[keep], p.decimation),
+        t=p.reduce_times(measurements.t),
+        tau=p.reduce(measurements.tau),
+        regressor=p.reduce(Y),
         processing=p,
     )

@@ -1,0 +1,19 @@
+"""The discrepancy workflow: where a model and measurements disagree, which physical effect is missing,
+the model file patched with it, and the gap before and after (docs/workflow.md).
+
+>>> from symbolic.workflow import diagnose
+>>> result = diagnose("axis.toml", "log.csv", out="diagnosis")      # doctest: +SKIP
+>>> [(f.effect, f.coordinate, f.parameters) for f in result.found]  # doctest: +SKIP
+[('coulomb', 'q', {'coulomb': 20.39})]
+
+The catalogue of effects is :data:`EFFECTS`; :func:`register` adds one (:class:`Effect`).
+"""
+
+from __future__ import annotations
+
+from symbolic.workflow.diagnose import Diagnosis, Found, Simulator, diagnose, simulated_path
+from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Context, Effect, register
+from symbolic.workflow.search import Settings as SearchSettings
+
+__all__ = ["EFFECTS", "NOT_SUPPORTED", "Context", "Diagnosis", "Effect", "Found", "SearchSettings", "Simulator",
+           "diagnose", "register", "simulated_path"]

@@ -1,0 +1,131 @@
+"""Data sets as the workflow sees them: measurements through the IDIM-LS treatment, and the held-out split.
+
+Every signal the workflow compares — measured τ, the model's regressor columns, a candidate effect's
+columns — goes through the same treatment as in identification (:mod:`symbolic.identify.processing`):
+positions low-passed, differentiated, the border dropped and everything decimated in parallel. A
+candidate's column is therefore computed from the filtered states at every sample and then reduced
+exactly like the regressor, so that adding it to the model and re-identifying gives the same numbers.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from symbolic.data import DataError, Measurements, load
+from symbolic.identify.processing import Settings, States, states
+
+HOLDOUT_FRACTION = 0.2
+"""Without a validation data set, the last fifth of the estimation data (in time) is held out."""
+
+
+@dataclass(frozen=True, eq=False)
+class DataSet:
+    """One data set after the IDIM-LS treatment.
+
+    Attributes
+    ----------
+    role
+        ``"estimation"`` or ``"validation"``.
+    measurements
+        The measurements it was made from.
+    states
+        Filtered q, q̇, q̈ at every sample (before the border is dropped) and the treatment.
+    t, tau
+        Time and measured generalized forces of the kept (decimated) samples; ``tau`` is ``samples × N``.
+    q, qd, qdd
+        The filtered states reduced like τ (for plots and localisation).
+    """
+
+    role: str
+    measurements: Measurements = field(repr=False)
+    states: States = field(repr=False)
+    t: np.ndarray = field(repr=False)
+    tau: np.ndarray = field(repr=False)
+    q: np.ndarray = field(repr=False)
+    qd: np.ndarray = field(repr=False)
+    qdd: np.ndarray = field(repr=False)
+
+    @property
+    def coordinates(self) -> tuple[str, ...]:
+        return self.measurements.coordinates
+
+    @property
+    def samples(self) -> int:
+        """Kept samples per coordinate."""
+        return len(self.t)
+
+    def reduce(self, x: np.ndarray) -> np.ndarray:
+        """A signal sampled like the measurements (``samples × …``), border dropped and decimated."""
+        return self.states.processing.reduce(x)
+
+    def stack(self, x: np.ndarray) -> np.ndarray:
+        """Reduced ``samples × N [× k]`` arranged as the stacked system: coordinate by coordinate."""
+        x = np.asarray(x, dtype=float)
+        return x.transpose(1, 0, *range(2, x.ndim)).reshape(-1, *x.shape[2:])
+
+
+def treat(measurements: Measurements, role: str, settings: Settings | None = None) -> DataSet:
+    """The IDIM-LS treatment of ``measurements`` (steps 1–2 at every sample; τ and states reduced)."""
+    s = states(measurements, settings)
+    p = s.processing
+    return DataSet(role, measurements, s, p.reduce_times(measurements.t), p.reduce(measurements.tau),
+                   p.reduce(s.q), p.reduce(s.qd), p.reduce(s.qdd))
+
+
+def time_slice(measurements: Measurements, start: int, stop: int) -> Measurements:
+    """Samples ``start:stop`` of ``measurements`` (every per-sample signal cut alike)."""
+    cut = {}
+    for name in ("t", "q", "tau", "qd", "qdd", "ref"):
+        value = getattr(measurements, name)
+        cut[name] = None if value is None else _readonly(value[start:stop])
+    extras = {k: _readonly(v[start:stop]) for k, v in measurements.extras.items()}
+    return dataclasses.replace(measurements, extras=extras, **cut)
+
+
+def split(measurements: Measurements, fraction: float = HOLDOUT_FRACTION) -> tuple[Measurements, Measurements]:
+    """The first ``1 − fraction`` of the samples and the last ``fraction`` (contiguous blocks in time)."""
+    cut = int(round(measurements.samples * (1.0 - fraction)))
+    return time_slice(measurements, 0, cut), time_slice(measurements, cut, measurements.samples)
+
+
+def load_sets(
+    coordinates: tuple[str, ...],
+    data: str | Path | Measurements,
+    experiment: str | Path | None = None,
+    validation: str | Path | Measurements | None = None,
+    settings: Settings | None = None,
+) -> tuple[DataSet, DataSet, str]:
+    """Estimation and held-out data sets, and a sentence saying where the held-out data come from.
+
+    ``validation`` (a data or experiment file) is mapped by ``experiment`` too when it is a plain data
+    file, as in ``symbolic identify``; without it the last :data:`HOLDOUT_FRACTION` of ``data`` in time
+    is held out and the rest is the estimation set.
+    """
+    measurements = data if isinstance(data, Measurements) else load(data, coordinates, experiment=experiment)
+    if validation is None:
+        first, last = split(measurements)
+        held_out = (f"the last {100 * HOLDOUT_FRACTION:g} % of the data in time "
+                    f"({last.t[0]:.6g} s to {last.t[-1]:.6g} s), not used for estimation")
+        try:
+            return treat(first, "estimation", settings), treat(last, "validation", settings), held_out
+        except DataError as error:
+            raise DataError(str(measurements.source), "samples",
+                            f"too few samples to hold out the last {100 * HOLDOUT_FRACTION:g} % ({error.problem}); "
+                            "give a validation data set (--validate)") from None
+    if isinstance(validation, Measurements):
+        other = validation
+    else:
+        own = Path(validation).suffix == ".toml"
+        other = load(validation, coordinates, experiment=None if own else experiment)
+    held_out = f"the validation data {other.source}"
+    return treat(measurements, "estimation", settings), treat(other, "validation", settings), held_out
+
+
+def _readonly(array: np.ndarray) -> np.ndarray:
+    array = np.array(array, dtype=float)
+    array.setflags(write=False)
+    return array

@@ -1,0 +1,393 @@
+"""``symbolic diagnose``: gap, where, name, patch, shrink (docs/workflow.md).
+
+1. **Gap.** The nominal model's own ``[parameters]`` are identified on the estimation data (IDIM-LS,
+   :mod:`symbolic.workflow.terms`; numbers written inline stay fixed) and the headline gap
+   ‖τ_meas − τ_model‖/‖τ_meas‖ (%) is measured on the estimation data and on held-out data
+   (``validation``, else the last fifth of the data in time), per coordinate as well. τ_model is the
+   inverse-dynamics prediction at the measured (filtered) states; a ``simulate`` callable, when given
+   (a controller is declared), replaces it by the simulated controller output.
+2. **Where.** :func:`symbolic.workflow.where.localise` on the estimation residual.
+3. **Name.** Forward selection over the catalogue (:mod:`symbolic.workflow.search`).
+4. **Patch.** The model file with the accepted effects and the re-identified values
+   (:mod:`symbolic.workflow.patch`), ``<out>/<model name>_patched.toml``.
+5. **Shrink.** The patched file is loaded, derived and identified like the nominal model, and the gap
+   measured again.
+6. **Report.** ``<out>/report.md`` with figures (:mod:`symbolic.workflow.report`) and the JSON contract
+   (:meth:`Diagnosis.to_dict`).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from symbolic.data import DataError, Measurements
+from symbolic.derive.dynamics import DynamicModel, derive
+from symbolic.errors import ModelError
+from symbolic.identify.least_squares import IdentificationError
+from symbolic.identify.processing import Settings
+from symbolic.spec.modelfile import load as load_model
+from symbolic.spec.modelfile import loads, with_parameter_values
+from symbolic.spec.robot import Robot
+from symbolic.workflow.dataset import DataSet, load_sets
+from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
+from symbolic.workflow.patch import Editor
+from symbolic.workflow.search import Search
+from symbolic.workflow.search import Settings as SearchSettings
+from symbolic.workflow.terms import NominalFit, coordinate_gaps, fit_nominal, model_terms, relative_gap
+from symbolic.workflow.where import localise
+
+log = logging.getLogger("symbolic")
+
+Simulator = Callable[[DynamicModel, np.ndarray, Measurements], np.ndarray]
+"""``simulate(model, p, measurements) -> τ_model``: the model (parameter values ``p`` in the order of
+``model.parameter_symbols``) run the way ``measurements`` were produced (their experiment's controller
+and reference); returns the controller's output, ``samples × N`` at the measurements' samples."""
+
+
+@dataclass(frozen=True)
+class Found:
+    """An accepted effect: role parameters (final joint fit) and σ, the model-file parameters written, evidence."""
+
+    effect: str
+    coordinate: str
+    parameters: dict[str, float | None]
+    sigmas: dict[str, float | None]
+    model_parameters: dict[str, float]
+    evidence: dict[str, Any]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"effect": self.effect, "coordinate": self.coordinate, "parameters": dict(self.parameters),
+                "model_parameters": dict(self.model_parameters), "evidence": {**self.evidence, "sigma": dict(self.sigmas)}}
+
+
+@dataclass(frozen=True, eq=False)
+class Fit:
+    """A model identified on the estimation data and its gaps."""
+
+    model: DynamicModel = field(repr=False)
+    nominal: NominalFit = field(repr=False)
+    predicted: dict[str, np.ndarray] = field(repr=False)
+    gap: dict[str, float]
+    detail: dict[str, dict[str, float]]
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnosis:
+    """What :func:`diagnose` found (module docstring); :meth:`to_dict` is the ``--json`` contract."""
+
+    model: DynamicModel = field(repr=False)
+    sets: dict[str, DataSet] = field(repr=False)
+    held_out: str
+    before: Fit = field(repr=False)
+    where_before: dict[str, Any] = field(repr=False)
+    search: Search = field(repr=False)
+    found: tuple[Found, ...]
+    patched_text: str | None = field(repr=False)
+    patched_path: Path | None
+    after: Fit = field(repr=False)
+    where_after: dict[str, Any] = field(repr=False)
+    simulated: bool = False
+    seconds: dict[str, float] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    figures: tuple[Path, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON contract: model, found, gap_before, gap_after, gap_detail, patched_model (and more)."""
+        def detail(fit: Fit) -> dict[str, Any]:
+            return {role: {"force": fit.detail[role], "position": None, "velocity": None} for role in fit.detail}
+
+        last = self.search.rounds[-1] if self.search.rounds else None
+        return {
+            "model": self.model.name,
+            "found": [f.to_dict() for f in self.found],
+            "gap_before": dict(self.before.gap),
+            "gap_after": dict(self.after.gap),
+            "gap_detail": {"before": detail(self.before), "after": detail(self.after),
+                           "signals": "force" if not self.simulated else "force (simulated controller output)",
+                           "note": None if self.simulated else
+                           "position and velocity gaps need the simulated path (a declared controller); "
+                           "the inverse model compares forces"},
+            "patched_model": None if self.patched_path is None else str(self.patched_path),
+            "held_out": self.held_out,
+            "path": "simulated" if self.simulated else "inverse",
+            "verdict": {"before": self.where_before["verdict"], "after": self.where_after["verdict"],
+                        "left": self.where_after["left"]},
+            "where": _plain(self.where_before),
+            "rejected": [] if last is None else [c.summary() for c in last.candidates if c.status == "tested"],
+            "removed": [{"effect": a.candidate.effect.name, "coordinate": a.candidate.coordinate, "round": a.round,
+                         "parameters": dict(a.candidate.roles), "final_p_value": p, "explained_by": others}
+                        for a, p, others in self.search.removed],
+            "not_supported": dict(NOT_SUPPORTED),
+            "notes": list(self.notes),
+            "figures": [str(p) for p in self.figures],
+        }
+
+    def report(self) -> str:
+        """The Markdown report (``report.md``)."""
+        from symbolic.workflow.report import markdown
+
+        return markdown(self)
+
+
+def diagnose(
+    model: DynamicModel | Robot | str | Path,
+    data: str | Path | Measurements,
+    *,
+    experiment: str | Path | None = None,
+    validation: str | Path | Measurements | None = None,
+    out: str | Path | None = None,
+    settings: Settings | None = None,
+    search: SearchSettings | None = None,
+    effects: Sequence[Effect] | None = None,
+    simulate: Simulator | bool | None = None,
+    figures: bool = True,
+) -> Diagnosis:
+    """Find where ``model`` and ``data`` disagree, name the missing effects, patch the model file.
+
+    Parameters
+    ----------
+    model
+        A derived model, a validated robot, or a model file (its file is what gets patched).
+    data
+        A data or experiment file, or measurements (the estimation data).
+    experiment
+        An experiment file mapping a plain data file's variables onto the canonical signals.
+    validation
+        Held-out data (data or experiment file, or measurements); default: the last fifth of ``data``.
+    out
+        Folder for ``<model name>_patched.toml``, ``report.md`` and the figures (nothing is written without it).
+    settings
+        The IDIM-LS treatment (bandwidth, cut-off, ...); default from the experiment or the rules.
+    search
+        Thresholds of the search (:class:`symbolic.workflow.search.Settings`).
+    effects
+        The catalogue to search (default: every registered effect, :data:`EFFECTS`).
+    simulate
+        The simulated path (:data:`Simulator`; ``True``: :func:`simulated_path` with the estimation
+        experiment's controller); ``None`` measures the gap with the inverse model. The search itself
+        always works on the inverse model (IDIM-LS).
+    figures
+        Draw PNG figures into ``out`` when matplotlib is installed.
+    """
+    clock = time.perf_counter()
+    seconds: dict[str, float] = {}
+
+    def lap(name: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        seconds[name] = now - clock
+        clock = now
+
+    model = _derived(model)
+    source = Path(model.robot.source)
+    coordinates = model.robot.generalized_coordinates
+    log.info("diagnose %s: loading and treating the data", model.name)
+    estimation, held, held_out = load_sets(coordinates, data, experiment, validation, settings)
+    if simulate is True:
+        simulate = simulated_path(estimation.measurements.controller)
+    sets = {"estimation": estimation, "validation": held}
+    lap("data")
+    before = _fit(model, sets, simulate)
+    where_before = localise(estimation, before.predicted["estimation"])
+    lap("gap")
+    log.info("diagnose %s: gap %.4g %% (estimation), %.4g %% (held out); searching the catalogue",
+             model.name, before.gap["estimation"], before.gap["validation"])
+    selection = Search(before.nominal.terms, estimation, held, cross_validate=validation is None,
+                       effects=list(EFFECTS.values()) if effects is None else effects, settings=search)
+    accepted = selection.run()
+    finals = selection.final_effects()
+    lap("search")
+    notes: list[str] = []
+    found: list[Found] = []
+    patched_text = patched_path = None
+    if source.is_file():
+        editor = Editor(source.read_text(encoding="utf-8"), model.robot, str(source))
+        written = []
+        for a, final in zip(accepted, finals):
+            c = a.candidate
+            editor.note(_evidence_comment(a, final, selection))
+            label = f"symbolic diagnose: {c.effect.name} on {c.coordinate}"
+            written.append(c.effect.patch(editor, selection.context, c.j, final["roles"], final["coefficients_full"],
+                                          c.value, label))
+        name = f"{model.name}_patched.toml"
+        target = Path(out) / name if out is not None else Path(name)
+        try:
+            patched = derive(loads(editor.text(), str(target)))
+        except ModelError as error:
+            raise ModelError(str(source), "patch", f"the patched model does not load ({error}); this is a bug of the workflow") from None
+        after = _fit(patched, sets, simulate)
+        own = {k: v.value for k, v in after.nominal.parameters.items() if k in {p.name for p in model.robot.parameters}}
+        patched_text = with_parameter_values(editor.text(), own, str(target))
+        patched_path = target if out is not None else None
+    else:
+        notes.append(f"the model has no file ({model.robot.source}) to patch: the gap after is that of the search's final fit")
+        written = [{} for _ in accepted]
+        design = selection.final
+        predicted = {role: design.predicted(role) for role in sets}
+        after = Fit(model, before.nominal, predicted, _gaps(sets, predicted)[0], _gaps(sets, predicted)[1])
+    lap("patch and shrink")
+    where_after = localise(estimation, after.predicted["estimation"])
+    for a, final, parameters in zip(accepted, finals, written):
+        found.append(_found(a, final, parameters, selection, validation is None))
+    for gone, p_value, others in selection.removed:
+        c = gone.candidate
+        notes.append(f"{c.label()} was accepted at round {gone.round} ({_roles_text(c.roles)}) and removed at the end: "
+                     f"with {others} in the model it is not significant any more (p = {p_value:.3g})")
+    diagnosis = Diagnosis(model, sets, held_out, before, where_before, selection, tuple(found), patched_text,
+                          patched_path, after, where_after, bool(simulate), seconds, tuple(notes))
+    if out is not None:
+        diagnosis = _write(diagnosis, Path(out), figures)
+    lap("report")
+    return diagnosis
+
+
+def simulated_path(controller: Any = None) -> Simulator:
+    """The simulated path for ``diagnose(simulate=...)``: the model run by :func:`symbolic.numeric.simulation.simulate`
+    in the experiment's ``[controller]`` loop, τ_model its controller output.
+
+    A data set without a ``[controller]`` of its own (the held-out data of an experiment) is driven by
+    ``controller`` (the estimation experiment's); with neither, the simulation would replay the
+    measured forces, which measures nothing, and this is refused.
+    """
+
+    def simulate(model: DynamicModel, p: np.ndarray, measurements: Measurements) -> np.ndarray:
+        from symbolic.numeric.simulation import simulate as run
+
+        table = measurements.controller if measurements.controller is not None else controller
+        if table is None:
+            raise DataError(str(measurements.source), "[controller]",
+                            "the simulated path needs the experiment's controller (none declared); "
+                            "leave out --simulate to compare with the inverse model")
+        result = run(model, measurements, controller=table,
+                     parameters={s.name: float(v) for s, v in zip(model.parameter_symbols, p)})
+        simulated = result.simulated
+        order = [list(simulated.coordinates).index(c) for c in measurements.coordinates]
+        return np.asarray(simulated.tau)[:, order]
+
+    return simulate
+
+
+def _derived(model: DynamicModel | Robot | str | Path) -> DynamicModel:
+    if isinstance(model, DynamicModel):
+        return model
+    if isinstance(model, Robot):
+        return derive(model)
+    return derive(load_model(model))
+
+
+def _gaps(sets: dict[str, DataSet], predicted: dict[str, np.ndarray]) -> tuple[dict[str, float], dict[str, dict[str, float]]]:
+    gap = {role: relative_gap(data.tau, predicted[role]) for role, data in sets.items()}
+    detail = {role: coordinate_gaps(data, predicted[role]) for role, data in sets.items()}
+    return gap, detail
+
+
+def _fit(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | None) -> Fit:
+    """Identify ``model`` on the estimation set; τ_model on both sets by the inverse model or ``simulate``."""
+    estimation = sets["estimation"]
+    try:
+        nominal = fit_nominal(model_terms(model), estimation)
+    except IdentificationError as error:
+        raise DataError(str(estimation.measurements.source), "identification", str(error)) from None
+    if not simulate:
+        predicted = {role: nominal.predict(data) for role, data in sets.items()}
+    else:
+        p = np.array([model.parameters[s] for s in model.parameter_symbols], float)
+        names = [s.name for s in model.parameter_symbols]
+        for name, estimate in nominal.parameters.items():
+            p[names.index(name)] = estimate.value
+        predicted = {}
+        for role, data in sets.items():
+            tau = np.asarray(simulate(model, p, data.measurements), dtype=float)
+            if tau.shape != data.measurements.tau.shape:
+                raise ValueError(f"simulate returned shape {tau.shape}, expected {data.measurements.tau.shape}")
+            predicted[role] = data.reduce(tau)
+    gap, detail = _gaps(sets, predicted)
+    return Fit(model, nominal, predicted, gap, detail)
+
+
+def _roles_text(roles: dict[str, float | None]) -> str:
+    return ", ".join(f"{k} = {v:.4g}" if v is not None else f"{k} not determined" for k, v in roles.items())
+
+
+def _evidence_comment(a, final: dict[str, Any], search: Search) -> str:
+    c = a.candidate
+    held = "cross-validation" if search.cross_validate else "validation data"
+    text = (f"symbolic diagnose found {c.effect.name} on {c.coordinate} ({c.effect.summary}): "
+            f"{_roles_text(final['roles'])}. Evidence: explains {100 * c.share:.3g} % of the residual power left "
+            f"at round {a.round}, F-test p = {c.p_value:.3g} (Bonferroni threshold {a.threshold:.3g}, "
+            f"autocorrelation time {c.tau:.3g}), ΔBIC = {c.delta_bic:.4g}, removes {100 * c.gain:.3g} % of the "
+            f"held-out residual power ({held}).")
+    if a.alternatives:
+        text += " Explained equally by: " + ", ".join(x.label() for x in a.alternatives) + " (fewer parameters named)."
+    return text
+
+
+def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Search, cross: bool) -> Found:
+    c = a.candidate
+    alpha = search.settings.alpha
+    evidence = {
+        "round": a.round,
+        "refines": c.effect.refines,
+        "explained_share": c.share,
+        "F": c.F,
+        "p_value": c.p_value,
+        "threshold": a.threshold,
+        "autocorrelation_time": c.tau,
+        "delta_bic": c.delta_bic,
+        "held_out": "cross-validation over time blocks" if cross else "validation data",
+        "held_out_gain": c.gain,
+        "at_acceptance": dict(c.roles),
+        "final_p_value": final["p_value"],
+        "still_significant": bool(final["p_value"] < alpha),
+        "alternatives": [{"effect": x.effect.name, "coordinate": x.coordinate, "parameters": dict(x.roles),
+                          "explained_share": x.share} for x in a.alternatives],
+    }
+    if c.effect.nonlinear:
+        evidence["nonlinear"] = {c.effect.nonlinear: c.value}
+    if c.effect.name in ("gravity", "periodic"):
+        evidence["phase_rad"] = float(np.arctan2(final["coefficients_full"][1], final["coefficients_full"][0]))
+    return Found(c.effect.name, c.coordinate, dict(final["roles"]), dict(final["sigmas"]), dict(parameters), evidence)
+
+
+def _plain(value: Any) -> Any:
+    """JSON-ready copy: NumPy numbers to floats, bin edges and means kept."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _write(diagnosis: Diagnosis, folder: Path, figures: bool) -> Diagnosis:
+    """Write the patched model, the figures and report.md into ``folder``, all or nothing."""
+    import dataclasses
+
+    from symbolic.emit import ExportError, write_files
+
+    pictures: dict[str, bytes] = {}
+    notes = list(diagnosis.notes)
+    if figures:
+        from symbolic.workflow import figures as drawing
+
+        try:
+            pictures = drawing.draw(diagnosis)
+        except drawing.MatplotlibMissing as missing:
+            notes.append(str(missing))
+    diagnosis = dataclasses.replace(diagnosis, figures=tuple(folder / name for name in pictures), notes=tuple(notes))
+    files = {"report.md": diagnosis.report().encode("utf-8"), **pictures}
+    if diagnosis.patched_text is not None and diagnosis.patched_path is not None:
+        files[diagnosis.patched_path.name] = diagnosis.patched_text.encode("utf-8")
+    try:
+        write_files(files, folder)
+    except ExportError as error:
+        raise ModelError(str(folder), "--out", str(error)) from None
+    return diagnosis

@@ -1,0 +1,464 @@
+"""The catalogue of physical effects the workflow can name, and the registry a user adds to.
+
+Each effect is a named, parametrised term that a model file can hold. It says
+
+* on which coordinates it can act (:meth:`Effect.applicable`);
+* its columns: the term is ``columns(q, q̇, q̈) · c`` on the τ side (what the actuators must supply in
+  addition), linear in the coefficients ``c``; an effect with one nonlinear parameter (a Stribeck
+  velocity, a period) gives a grid of values for it (:meth:`Effect.grid`), and the search fits ``c``
+  at each value and refines the best;
+* its parameters under the role names of the JSON contract (:meth:`Effect.roles_of`), whether they
+  are physical (:meth:`Effect.check`), and how it is written into the model file (:meth:`Effect.patch`:
+  ``[[friction]]``, ``[[force]]`` or ``[[drive]]`` entries and new ``[parameters]``).
+
+A *refinement* (``refines = "viscous"`` or ``"coulomb"``) changes a friction term the model already has
+on that coordinate (direction dependence, a Stribeck rise); it receives that term's current coefficient
+as ``reference`` and is a candidate only when the model (or an accepted effect) has that term.
+
+Adding an effect: subclass :class:`Effect`, set ``name``, ``roles``, ``summary``, ``axis``; implement
+``columns``, ``roles_of`` and ``patch`` (and ``applicable``, ``grid``, ``check`` where needed); then
+``register(MyEffect())``. The search and the report use only this interface.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+import sympy as sp
+
+from symbolic.spec.robot import Directional, Robot, coordinate_symbol
+
+if TYPE_CHECKING:
+    from symbolic.workflow.patch import Editor
+
+Roles = dict[str, float | None]
+
+
+@dataclass(frozen=True, eq=False)
+class Context:
+    """What an effect may know: the model's robot, its coordinates and what kind each is, and the
+    estimation data's filtered states at every sample (``samples × N``)."""
+
+    robot: Robot
+    coordinates: tuple[str, ...]
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    passband: float
+    """Highest frequency (Hz) that the treatment keeps: the decimation filter's pass band."""
+    kept_period: float
+    """Time between two kept (decimated) samples (s)."""
+
+    def kind(self, coordinate: str) -> str:
+        """``"revolute"`` (the coordinate is in a DH θ), ``"prismatic"`` (in a d) or ``"modal"``."""
+        symbol = coordinate_symbol(coordinate)
+        substitution = self.robot.constraint_substitution
+        for frame in self.robot.frames:
+            theta = sp.sympify(frame.theta).xreplace(substitution)
+            if symbol in theta.free_symbols:
+                return "revolute"
+        return "prismatic" if coordinate in self.robot.coordinates else "modal"
+
+
+def on_row(j: int, n: int, columns: list[np.ndarray]) -> np.ndarray:
+    """``samples × n × k``: the given per-sample columns acting on coordinate ``j`` only."""
+    out = np.zeros((len(columns[0]), n, len(columns)))
+    for k, column in enumerate(columns):
+        out[:, j, k] = column
+    return out
+
+
+class Effect:
+    """Base class of catalogue entries (module docstring)."""
+
+    name: ClassVar[str]
+    roles: ClassVar[tuple[str, ...]]
+    summary: ClassVar[str]
+    axis: ClassVar[str] = "velocity"
+    """The state the effect is a function of, for the report's figure: position, velocity or acceleration."""
+    refines: ClassVar[str | None] = None
+    nonlinear: ClassVar[str | None] = None
+    """The role of the nonlinear parameter, if the effect has one (its grid comes from :meth:`grid`)."""
+    optional: ClassVar[tuple[int, ...]] = ()
+    """Columns that the model may already hold (e.g. a spring's constant when there is an offset)."""
+
+    def applicable(self, context: Context, j: int) -> str | None:
+        """``None`` when the effect can act on coordinate ``j``, else the reason why not."""
+        return None
+
+    def grid(self, context: Context, j: int) -> tuple[np.ndarray, float] | None:
+        """For a nonlinear effect: the values of its nonlinear parameter to scan (increasing) and the
+        number of independent trials they amount to (for the multiple-testing correction)."""
+        return None
+
+    def columns(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, j: int, value: float | None) -> np.ndarray:
+        """The effect's columns, ``samples × N × k``, at states ``samples × N``."""
+        raise NotImplementedError
+
+    def reference_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, j: int) -> np.ndarray | None:
+        """The column (``samples × N``) of the model's term whose current coefficient the effect needs
+        (``reference``: e.g. the Coulomb level a Stribeck rise starts from), or ``None``."""
+        return None
+
+    def roles_of(self, c: np.ndarray, value: float | None, reference: float | None) -> Roles:
+        """Parameters by role from the coefficients ``c`` (NaN for an absorbed optional column)."""
+        raise NotImplementedError
+
+    def check(self, roles: Roles, reference: float | None, context: Context, j: int) -> str | None:
+        """``None`` when the parameters are physical, else why not (then the effect is not accepted)."""
+        return None
+
+    def patch(self, editor: Editor, context: Context, j: int, roles: Roles, c: np.ndarray, value: float | None,
+              comment: str) -> dict[str, float]:
+        """Write the effect on coordinate ``j`` into the model file; return the parameters written."""
+        raise NotImplementedError
+
+
+def _nonnegative(roles: Roles, *names: str) -> str | None:
+    bad = [f"{n} = {roles[n]:.4g}" for n in names if roles[n] is not None and roles[n] < 0]
+    return f"negative {', '.join(bad)} (friction opposes motion)" if bad else None
+
+
+class _FrictionTerm(Effect):
+    """A friction coefficient missing from the model: ``key`` of the coordinate's [[friction]] table."""
+
+    key: ClassVar[str]
+    stem: ClassVar[str]
+
+    def applicable(self, context: Context, j: int) -> str | None:
+        c = context.coordinates[j]
+        for f in context.robot.frictions:
+            if f.coordinate == c and isinstance(getattr(f, self.key), Directional):
+                return f"the model's {self.key} friction on {c} is direction-dependent"
+        return None
+
+    def reference_column(self, q, qd, qdd, j):
+        return self.columns(q, qd, qdd, j, None)[:, :, 0]  # a coefficient written inline (fixed) is added to
+
+    def roles_of(self, c: np.ndarray, value: float | None, reference: float | None) -> Roles:
+        return {self.roles[0]: float(c[0])}
+
+    def check(self, roles, reference, context, j):
+        total = dict(roles)
+        total[self.roles[0]] = roles[self.roles[0]] + (reference or 0.0)
+        return _nonnegative(total, self.roles[0])
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        coordinate = context.coordinates[j]
+        name = editor.parameter(f"{self.stem}_{coordinate}", roles[self.roles[0]], comment)
+        old = editor.friction_value(coordinate, self.key)
+        editor.set_friction(coordinate, self.key, name if old is None else f"{old} + {name}", comment)
+        return {name: roles[self.roles[0]]}
+
+
+class Coulomb(_FrictionTerm):
+    name, roles, key, stem = "coulomb", ("coulomb",), "coulomb", "Fc"
+    summary = "Coulomb friction Fc·sign(q̇)"
+
+    def columns(self, q, qd, qdd, j, value):
+        return on_row(j, q.shape[1], [np.sign(qd[:, j])])
+
+
+class Viscous(_FrictionTerm):
+    name, roles, key, stem = "viscous", ("viscous",), "viscous", "Fv"
+    summary = "viscous friction Fv·q̇"
+
+    def columns(self, q, qd, qdd, j, value):
+        return on_row(j, q.shape[1], [qd[:, j]])
+
+
+class Offset(_FrictionTerm):
+    name, roles, key, stem = "offset", ("offset",), "offset", "offset"
+    summary = "constant generalized force (drive offset, unmodelled constant load)"
+
+    def columns(self, q, qd, qdd, j, value):
+        return on_row(j, q.shape[1], [np.ones(len(q))])
+
+    def reference_column(self, q, qd, qdd, j):
+        return None
+
+    def check(self, roles, reference, context, j):
+        return None
+
+
+class _Asymmetric(Effect):
+    """Direction dependence of a friction coefficient the model has: ``positive``/``negative`` are the
+    total coefficients for q̇ > 0 and q̇ < 0; the column is the half-difference's."""
+
+    roles = ("positive", "negative")
+    key: ClassVar[str]
+    stems: ClassVar[tuple[str, str]]
+
+    def applicable(self, context, j):
+        c = context.coordinates[j]
+        for f in context.robot.frictions:
+            if f.coordinate == c and f.stribeck is not None and self.key == "coulomb":
+                return f"the model's Coulomb friction on {c} has a Stribeck rise"
+        return None
+
+    def reference_column(self, q, qd, qdd, j):
+        v = qd[:, j]
+        return on_row(j, q.shape[1], [v if self.key == "viscous" else np.sign(v)])[:, :, 0]
+
+    def roles_of(self, c, value, reference):
+        return {"positive": reference + float(c[0]), "negative": reference - float(c[0])}
+
+    def check(self, roles, reference, context, j):
+        return _nonnegative(roles, "positive", "negative")
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        coordinate = context.coordinates[j]
+        positive = editor.parameter(f"{self.stems[0]}_{coordinate}", roles["positive"], comment)
+        negative = editor.parameter(f"{self.stems[1]}_{coordinate}", roles["negative"], comment)
+        editor.set_friction(coordinate, self.key, {"positive": positive, "negative": negative}, comment)
+        return {positive: roles["positive"], negative: roles["negative"]}
+
+
+class AsymmetricViscous(_Asymmetric):
+    name, refines, key, stems = "asymmetric_viscous", "viscous", "viscous", ("Fvp", "Fvn")
+    summary = "direction-dependent viscous friction Fv⁺·q̇ (q̇ > 0), Fv⁻·q̇ (q̇ < 0)"
+
+    def columns(self, q, qd, qdd, j, value):
+        return on_row(j, q.shape[1], [np.abs(qd[:, j])])
+
+
+class AsymmetricCoulomb(_Asymmetric):
+    name, refines, key, stems = "asymmetric_coulomb", "coulomb", "coulomb", ("Fcp", "Fcn")
+    summary = "direction-dependent Coulomb friction Fc⁺ (q̇ > 0), −Fc⁻ (q̇ < 0)"
+
+    def columns(self, q, qd, qdd, j, value):
+        return on_row(j, q.shape[1], [np.ones(len(q))])
+
+
+class Stribeck(Effect):
+    """(Fc + (Fs − Fc)·exp(−(q̇/vs)²))·sign(q̇): the column exp(−(q̇/vs)²)·sign(q̇) with coefficient Fs − Fc."""
+
+    name, roles, refines, nonlinear = "stribeck", ("static", "velocity"), "coulomb", "velocity"
+    summary = "Stribeck rise of the Coulomb level at low speed: static level Fs, velocity scale vs"
+    GRID = 32
+
+    def applicable(self, context, j):
+        c = context.coordinates[j]
+        for f in context.robot.frictions:
+            if f.coordinate == c and f.stribeck is not None:
+                return f"the model already has a Stribeck term on {c}"
+        return None
+
+    def grid(self, context, j):
+        v = np.abs(context.qd[:, j])
+        top = float(v.max())
+        if top <= 0:
+            return None
+        # Not below the speed the axis passes through between two kept samples at its reversals: a
+        # narrower rise would rest on one or two samples per reversal, where the velocity estimate and
+        # its sign are least reliable (a sign that flips a sample early or late looks like a Stribeck
+        # term of vanishing width). Not above 30 % of the largest speed: a wider exponential is a smooth
+        # function of q̇ that viscous friction already describes.
+        near = v < 0.05 * np.percentile(v, 95)
+        step = float(np.median(np.abs(context.qdd[near, j]))) * context.kept_period if near.any() else 0.0
+        low, high = max(0.003 * top, 2.0 * step), 0.3 * top
+        if high <= low:
+            return None
+        return np.geomspace(low, high, self.GRID), 2.0 * math.log10(high / low)
+
+    def columns(self, q, qd, qdd, j, value):
+        v = qd[:, j]
+        return on_row(j, q.shape[1], [np.exp(-((v / value) ** 2)) * np.sign(v)])
+
+    def reference_column(self, q, qd, qdd, j):
+        return on_row(j, q.shape[1], [np.sign(qd[:, j])])[:, :, 0]
+
+    def roles_of(self, c, value, reference):
+        return {"static": reference + float(c[0]), "velocity": float(value)}
+
+    def check(self, roles, reference, context, j):
+        if roles["static"] <= reference:
+            return f"static level {roles['static']:.4g} is not above the Coulomb level {reference:.4g}"
+        return _nonnegative(roles, "static")
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        coordinate = context.coordinates[j]
+        static = editor.parameter(f"Fs_{coordinate}", roles["static"], comment)
+        velocity = editor.parameter(f"vs_{coordinate}", roles["velocity"], comment)
+        editor.set_friction(coordinate, "stribeck", {"static": static, "velocity": velocity}, comment)
+        return {static: roles["static"], velocity: roles["velocity"]}
+
+
+class Spring(Effect):
+    """Elastic return to a rest position: the force on the system −k·(q − q0), τ side k·q − k·q0."""
+
+    name, roles, axis, optional = "spring", ("stiffness", "rest_position"), "position", (1,)
+    summary = "elastic return to a rest position (a cable, a gas spring): −k·(q − q0)"
+
+    def columns(self, q, qd, qdd, j, value):
+        return on_row(j, q.shape[1], [q[:, j], np.ones(len(q))])
+
+    def roles_of(self, c, value, reference):
+        k = float(c[0])
+        rest = None if np.isnan(c[1]) or k == 0 else float(-c[1] / k)
+        return {"stiffness": k, "rest_position": rest}
+
+    def check(self, roles, reference, context, j):
+        return None if roles["stiffness"] > 0 else f"stiffness {roles['stiffness']:.4g} is not positive"
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        coordinate = context.coordinates[j]
+        k = editor.parameter(f"k_{coordinate}", roles["stiffness"], comment)
+        if roles["rest_position"] is None:
+            editor.add_force(f"spring_{coordinate}", coordinate, f"-{k}*{coordinate}",
+                             comment + "; its rest position is not separable from the offset on this coordinate")
+            return {k: roles["stiffness"]}
+        q0 = editor.parameter(f"q0_{coordinate}", roles["rest_position"], comment)
+        editor.add_force(f"spring_{coordinate}", coordinate, f"-{k}*({coordinate} - {q0})", comment)
+        return {k: roles["stiffness"], q0: roles["rest_position"]}
+
+
+class _Sinusoid(Effect):
+    """A term a·sin(x) + b·cos(x) = A·sin(x + φ), A = √(a² + b²), φ = atan2(b, a)."""
+
+    @staticmethod
+    def polar(c: np.ndarray) -> tuple[float, float]:
+        return float(math.hypot(c[0], c[1])), float(math.atan2(c[1], c[0]))
+
+
+class Gravity(_Sinusoid):
+    """An unbalanced or missing mass moment about a revolute coordinate: moment·sin(q + phase) on the τ side."""
+
+    name, roles, axis = "gravity", ("moment", "phase"), "position"
+    summary = "unbalanced or missing mass moment m·g·l about a revolute coordinate: moment·sin(q + phase)"
+
+    def applicable(self, context, j):
+        kind = context.kind(context.coordinates[j])
+        return None if kind == "revolute" else f"{context.coordinates[j]} is {kind}, not revolute"
+
+    def columns(self, q, qd, qdd, j, value):
+        return on_row(j, q.shape[1], [np.sin(q[:, j]), np.cos(q[:, j])])
+
+    def roles_of(self, c, value, reference):
+        moment, phase = self.polar(c)
+        return {"moment": moment, "phase": phase}
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        coordinate = context.coordinates[j]
+        a = editor.parameter(f"Gs_{coordinate}", float(c[0]), comment + f"; moment·cos(phase)")
+        b = editor.parameter(f"Gc_{coordinate}", float(c[1]), comment + f"; moment·sin(phase)")
+        editor.add_force(f"gravity_{coordinate}", coordinate, f"-({a}*sin({coordinate}) + {b}*cos({coordinate}))", comment)
+        return {a: float(c[0]), b: float(c[1])}
+
+
+class Periodic(_Sinusoid):
+    """A disturbance periodic in position (cogging, a screw's or a gear's period): A·sin(2π·q/P + φ)."""
+
+    name, roles, axis, nonlinear = "periodic", ("amplitude", "period"), "position", "period"
+    summary = "disturbance periodic in position (cogging, screw or gear period): amplitude·sin(2π·q/period + φ)"
+    OVERSAMPLING = 4
+    MAX_GRID = 4000
+
+    def grid(self, context, j):
+        q, v = context.q[:, j], np.abs(context.qd[:, j])
+        span = float(q.max() - q.min())
+        fast = float(np.percentile(v, 90))
+        if span <= 0 or fast <= 0:
+            return None
+        # at least two periods over the range travelled (else it is a spring or gravity), and no faster in
+        # time than the treatment keeps at the usual speed
+        low, high = 2.0 / span, context.passband / fast
+        if high <= low:
+            return None
+        count = min(int(math.ceil((high - low) * span * self.OVERSAMPLING)) + 1, self.MAX_GRID)
+        frequencies = np.linspace(low, high, count)
+        return 1.0 / frequencies[::-1], max(count / self.OVERSAMPLING, 1.0)
+
+    def columns(self, q, qd, qdd, j, value):
+        x = 2.0 * math.pi * q[:, j] / value
+        return on_row(j, q.shape[1], [np.sin(x), np.cos(x)])
+
+    def roles_of(self, c, value, reference):
+        amplitude, _ = self.polar(c)
+        return {"amplitude": amplitude, "period": float(value)}
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        coordinate = context.coordinates[j]
+        period = repr(float(value))
+        a = editor.parameter(f"Ps_{coordinate}", float(c[0]), comment)
+        b = editor.parameter(f"Pc_{coordinate}", float(c[1]), comment)
+        x = f"2*pi*{coordinate}/{period}"
+        editor.add_force(f"periodic_{coordinate}", coordinate, f"-({a}*sin({x}) + {b}*cos({x}))", comment)
+        return {a: float(c[0]), b: float(c[1])}
+
+
+class Inertia(Effect):
+    """An inertia error on one coordinate: ΔI·q̈ on its own row, written as a drive's rotor inertia."""
+
+    name, roles, axis = "inertia", ("inertia",), "acceleration"
+    summary = "inertia error on one coordinate (a rotor, a coupling): ΔI·q̈, as a [[drive]] rotor inertia"
+
+    def applicable(self, context, j):
+        c = context.coordinates[j]
+        return None if c in context.robot.coordinates else f"{c} is a modal coordinate"
+
+    def columns(self, q, qd, qdd, j, value):
+        return on_row(j, q.shape[1], [qdd[:, j]])
+
+    def roles_of(self, c, value, reference):
+        return {"inertia": float(c[0])}
+
+    def check(self, roles, reference, context, j):
+        rotor, ratio = _drive(context, j)
+        if rotor * ratio**2 + roles["inertia"] >= 0:
+            return None
+        return f"an inertia change of {roles['inertia']:.4g} would make the rotor inertia on {context.coordinates[j]} negative"
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        coordinate = context.coordinates[j]
+        _, ratio = _drive(context, j)
+        name = editor.parameter(f"Ia_{coordinate}", roles["inertia"] / ratio**2, comment)
+        old = editor.drive_value(coordinate, "rotor_inertia")
+        editor.set_drive(coordinate, "rotor_inertia", name if old is None else f"{old} + {name}", comment)
+        return {name: roles["inertia"] / ratio**2}
+
+
+def _drive(context: Context, j: int) -> tuple[float, float]:
+    """Nominal rotor inertia and ratio of the coordinate's [[drive]] (0 and 1 without one)."""
+    values = context.robot.parameter_values
+    for d in context.robot.drives:
+        if d.coordinate == context.coordinates[j]:
+            return float(sp.sympify(d.rotor_inertia).xreplace(values)), float(sp.sympify(d.ratio).xreplace(values))
+    return 0.0, 1.0
+
+
+EFFECTS: dict[str, Effect] = {}
+"""The catalogue, by name, in the order the search tries them (ties are broken by this order last)."""
+
+NOT_SUPPORTED = {
+    "payload": "a point mass at the model's end_effector: needs the regressor of an added body (not yet)",
+    "flexible_mode": "an unmodelled resonance: needs the simulation error's spectrum and a beam or compliant drive in the patch (not yet)",
+}
+"""Contract identifiers not implemented yet, with the reason (listed in the report and the JSON)."""
+
+
+def register(effect: Effect) -> Effect:
+    """Add ``effect`` to the catalogue (its ``name`` must be new)."""
+    for attribute in ("name", "roles", "summary"):
+        if not hasattr(effect, attribute):
+            raise TypeError(f"an effect needs a class attribute {attribute!r}")
+    if effect.name in EFFECTS:
+        raise ValueError(f"effect {effect.name!r} is already in the catalogue")
+    EFFECTS[effect.name] = effect
+    return effect
+
+
+for _effect in (Coulomb(), Viscous(), Offset(), Spring(), Gravity(), Inertia(), Periodic(),
+                AsymmetricViscous(), AsymmetricCoulomb(), Stribeck()):
+    register(_effect)
+
+
+def catalogue(names: Mapping[str, Effect] | None = None) -> list[dict[str, object]]:
+    """The catalogue as plain data (for the report and the JSON)."""
+    effects = EFFECTS if names is None else names
+    return [{"effect": e.name, "roles": list(e.roles), "summary": e.summary, "refines": e.refines}
+            for e in effects.values()]

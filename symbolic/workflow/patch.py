@@ -1,0 +1,156 @@
+"""Writing found effects into the model file: new entries and parameters, comments and layout kept.
+
+The model file is edited as a TOML document with tomlkit (as ``symbolic identify --out`` does), so its
+comments, order and formatting survive; effects add keys to the coordinate's ``[[friction]]`` or
+``[[drive]]`` table (creating it at the end of the file if there is none), append ``[[force]]`` tables,
+and add their parameters at the end of ``[parameters]``. Every added key, table and parameter carries a
+comment saying what was found and on which evidence.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from typing import Any
+
+import tomlkit
+
+from symbolic.errors import ModelError
+from symbolic.spec.robot import Robot
+
+_RESERVED = {"pi", "E", "I", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "sqrt",
+             "exp", "log", "abs", "sign"}
+
+
+class Editor:
+    """A model file's TOML document being patched (module docstring)."""
+
+    def __init__(self, text: str, robot: Robot, source: str) -> None:
+        self.document = tomlkit.parse(text)
+        self.source = source
+        if "parameters" not in self.document:
+            self.document.add("parameters", tomlkit.table())
+        self.taken = set(self.document["parameters"]) | set(robot.generalized_coordinates) | \
+            set(robot.constrained_coordinates) | _RESERVED
+        self.forces = {str(f["name"]) for f in self.document.get("force", []) if "name" in f}
+        self.added = self.closed = False
+
+    def text(self) -> str:
+        """The patched document (a blank line closes the parameters an effect added)."""
+        table = self.document["parameters"]
+        if self.added and not self.closed:
+            table.add(tomlkit.nl())
+            self.closed = True
+        return tomlkit.dumps(self.document)
+
+    # -- parameters ---------------------------------------------------------------------------------
+    def note(self, comment: str) -> None:
+        """A block comment at the end of ``[parameters]`` (before the parameters an effect adds next)."""
+        table = self.document["parameters"]
+        for line in _lines(comment):
+            table.add(tomlkit.comment(line))
+
+    def parameter(self, stem: str, value: float, comment: str) -> str:
+        """Add a parameter named ``stem`` (or ``stem_2``, ... if taken) with ``value``; return its name."""
+        name = _unique(re.sub(r"[^A-Za-z0-9_]", "_", stem), self.taken)
+        self.taken.add(name)
+        item = tomlkit.item(float(value))
+        item.comment(comment)
+        self.document["parameters"].add(name, item)
+        self.added = True
+        return name
+
+    # -- entries ------------------------------------------------------------------------------------
+    def _entry(self, kind: str, coordinate: str, create: bool, comment: str) -> Any:
+        tables = self.document.get(kind)
+        if tables is not None:
+            for table in tables:
+                if table.get("coordinate") == coordinate:
+                    return table
+        if not create:
+            return None
+        table = tomlkit.table()
+        for line in _lines(comment):
+            table.add(tomlkit.comment(line))
+        table.add("coordinate", coordinate)
+        if tables is None:
+            tables = tomlkit.aot()
+            self.document.add(kind, tables)
+        tables.append(table)
+        return table
+
+    def _value(self, kind: str, coordinate: str, key: str) -> str | None:
+        table = self._entry(kind, coordinate, False, "")
+        if table is None or key not in table:
+            return None
+        value = table[key]
+        if isinstance(value, Mapping):
+            raise ModelError(self.source, f"[[{kind}]] {coordinate!r} {key}", "is a table; the effect cannot be added to it")
+        return str(value) if isinstance(value, str) else repr(float(value))
+
+    def _set(self, kind: str, coordinate: str, key: str, value: str | Mapping[str, str], comment: str) -> None:
+        table = self._entry(kind, coordinate, True, comment)
+        if isinstance(value, Mapping):
+            item = tomlkit.inline_table()
+            item.update(dict(value))
+        else:
+            item = tomlkit.item(value)
+        if not isinstance(table, tomlkit.items.InlineTable):
+            item.comment(comment)
+        table[key] = item
+
+    def friction_value(self, coordinate: str, key: str) -> str | None:
+        """The expression written for ``key`` in the coordinate's [[friction]] table, or ``None``."""
+        return self._value("friction", coordinate, key)
+
+    def set_friction(self, coordinate: str, key: str, value: str | Mapping[str, str], comment: str) -> None:
+        """Set ``key`` of the coordinate's [[friction]] table (created if missing)."""
+        self._set("friction", coordinate, key, value, comment)
+
+    def drive_value(self, coordinate: str, key: str) -> str | None:
+        """The expression written for ``key`` in the coordinate's [[drive]] table, or ``None``."""
+        return self._value("drive", coordinate, key)
+
+    def set_drive(self, coordinate: str, key: str, value: str, comment: str) -> None:
+        """Set ``key`` of the coordinate's [[drive]] table (created if missing)."""
+        self._set("drive", coordinate, key, value, comment)
+
+    def add_force(self, stem: str, coordinate: str, expression: str, comment: str) -> str:
+        """Append a [[force]] table; return its (unique) name."""
+        name = _unique(stem, self.forces)
+        self.forces.add(name)
+        table = tomlkit.table()
+        for line in _lines(comment):
+            table.add(tomlkit.comment(line))
+        table.add("name", name)
+        table.add("coordinate", coordinate)
+        table.add("expression", expression)
+        tables = self.document.get("force")
+        if tables is None:
+            tables = tomlkit.aot()
+            self.document.add("force", tables)
+        tables.append(table)
+        return name
+
+
+def _unique(stem: str, taken: set[str]) -> str:
+    if stem not in taken:
+        return stem
+    k = 2
+    while f"{stem}_{k}" in taken:
+        k += 1
+    return f"{stem}_{k}"
+
+
+def _lines(comment: str, width: int = 100) -> list[str]:
+    """A comment wrapped into lines of at most ``width`` characters."""
+    words, lines, line = comment.split(), [], ""
+    for word in words:
+        if line and len(line) + 1 + len(word) > width:
+            lines.append(line)
+            line = word
+        else:
+            line = f"{line} {word}" if line else word
+    if line:
+        lines.append(line)
+    return lines

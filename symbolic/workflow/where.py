@@ -1,0 +1,140 @@
+"""Where the residual is: by coordinate, state, time and frequency; whether anything is left to explain.
+
+For each coordinate of the residual τ_meas − τ_model (on the estimation data, at the decimated samples):
+
+* its power and its share of the whole;
+* against position, velocity and acceleration: the residual's mean in ``BINS`` quantile bins of the
+  state and the share of its variance those means explain (the correlation ratio η²), with the one-way
+  ANOVA F-test on n/τ_int effective samples; against the sign of the velocity: the two means;
+* near velocity reversals (|q̇| below ``REVERSAL`` of its 95th percentile) and away from them: rms;
+* in ``WINDOWS`` equal time windows: rms per window;
+* its spectrum (Welch) and the peaks that stand ``PEAK_RATIO`` times above the median level;
+* whiteness (Ljung–Box) and its integrated autocorrelation time.
+
+The residual is *explained* when it is white at ``alpha`` (Ljung–Box) and no state dependence is
+significant at ``alpha`` divided by the number of tests (Bonferroni); otherwise something is left.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.signal
+import scipy.stats
+
+from symbolic.workflow.dataset import DataSet
+from symbolic.workflow.statistics import autocorrelation_time, ljung_box
+
+BINS = 10
+WINDOWS = 10
+REVERSAL = 0.05
+PEAK_RATIO = 10.0
+ALPHA = 1e-3
+
+
+def _binned(state: np.ndarray, r: np.ndarray, tau: float) -> dict[str, Any]:
+    """Means of ``r`` in quantile bins of ``state``, η² and its p-value."""
+    edges = np.unique(np.quantile(state, np.linspace(0, 1, BINS + 1)))
+    if len(edges) < 3:
+        return {"edges": edges.tolist(), "means": [], "eta_squared": 0.0, "p_value": 1.0}
+    index = np.clip(np.searchsorted(edges, state, side="right") - 1, 0, len(edges) - 2)
+    groups = len(edges) - 1
+    counts = np.bincount(index, minlength=groups)
+    sums = np.bincount(index, weights=r, minlength=groups)
+    means = np.divide(sums, counts, out=np.zeros(groups), where=counts > 0)
+    total = float(np.sum((r - r.mean()) ** 2))
+    between = float(np.sum(counts * (means - r.mean()) ** 2))
+    eta = between / total if total > 0 else 0.0
+    n_eff = len(r) / tau
+    dof = n_eff - groups
+    if eta >= 1.0 or dof <= 0:
+        p = 0.0 if eta >= 1.0 else 1.0
+    else:
+        p = float(scipy.stats.f.sf((eta / (groups - 1)) / ((1 - eta) / dof), groups - 1, dof))
+    return {"edges": edges.tolist(), "means": means.tolist(), "eta_squared": eta, "p_value": p}
+
+
+def spectrum(r: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray]:
+    """Welch power spectral density of ``r`` (segments of up to 256 samples)."""
+    segment = int(min(256, max(16, len(r) // 4)))
+    return scipy.signal.welch(r, fs=rate, nperseg=min(segment, len(r)), detrend="constant")
+
+
+def peaks(frequency: np.ndarray, psd: np.ndarray, count: int = 3) -> list[dict[str, float]]:
+    """Spectral peaks standing :data:`PEAK_RATIO` times above the median level, strongest first."""
+    level = float(np.median(psd[1:])) if len(psd) > 2 else 0.0
+    if level <= 0:
+        return []
+    found, _ = scipy.signal.find_peaks(psd, height=PEAK_RATIO * level)
+    found = sorted(found, key=lambda k: -psd[k])[:count]
+    return [{"frequency_hz": float(frequency[k]), "ratio_to_median": float(psd[k] / level)} for k in found]
+
+
+def coordinate_report(data: DataSet, residual: np.ndarray, j: int) -> dict[str, Any]:
+    """The localisation of the residual of coordinate ``j`` (module docstring)."""
+    r = residual[:, j]
+    tau = autocorrelation_time(r)
+    q, qd, qdd = data.q[:, j], data.qd[:, j], data.qdd[:, j]
+    measured = data.tau[:, j]
+    out: dict[str, Any] = {
+        "rms": float(np.sqrt(np.mean(r**2))),
+        "relative": float(100 * np.linalg.norm(r) / np.linalg.norm(measured)) if np.any(measured) else 0.0,
+        "autocorrelation_time": tau,
+        "position": _binned(q, r, tau),
+        "velocity": _binned(qd, r, tau),
+        "acceleration": _binned(qdd, r, tau),
+    }
+    positive, negative = r[qd > 0], r[qd < 0]
+    if len(positive) > 1 and len(negative) > 1:
+        difference = float(positive.mean() - negative.mean())
+        error = np.sqrt(tau * (positive.var() / len(positive) + negative.var() / len(negative)))
+        p = float(2 * scipy.stats.norm.sf(abs(difference) / error)) if error > 0 else 0.0
+        out["sign"] = {"positive_mean": float(positive.mean()), "negative_mean": float(negative.mean()),
+                       "difference": difference, "p_value": p}
+    else:
+        out["sign"] = {"positive_mean": None, "negative_mean": None, "difference": None, "p_value": 1.0}
+    scale = np.percentile(np.abs(qd), 95)
+    near = np.abs(qd) < REVERSAL * scale if scale > 0 else np.zeros(len(qd), bool)
+    out["reversals"] = {
+        "fraction": float(near.mean()),
+        "rms_near": float(np.sqrt(np.mean(r[near] ** 2))) if near.any() else None,
+        "rms_away": float(np.sqrt(np.mean(r[~near] ** 2))) if (~near).any() else None,
+    }
+    windows = np.array_split(np.arange(len(r)), min(WINDOWS, len(r)))
+    out["time"] = [{"start": float(data.t[w[0]]), "stop": float(data.t[w[-1]]), "rms": float(np.sqrt(np.mean(r[w] ** 2)))}
+                   for w in windows if len(w)]
+    rate = 1.0 / float(np.mean(np.diff(data.t))) if len(data.t) > 1 else 1.0
+    frequency, psd = spectrum(r, rate)
+    out["spectrum"] = {"peaks": peaks(frequency, psd), "resolution_hz": float(frequency[1] - frequency[0]) if len(frequency) > 1 else None}
+    q_stat, p_white, lags = ljung_box(r)
+    out["whiteness"] = {"ljung_box_q": q_stat, "lags": lags, "p_value": p_white}
+    return out
+
+
+def localise(data: DataSet, predicted: np.ndarray, alpha: float = ALPHA) -> dict[str, Any]:
+    """Residual localisation on every coordinate and the verdict (module docstring)."""
+    residual = data.tau - predicted
+    total = float(np.sum(residual**2))
+    coordinates = {}
+    tests = []
+    for j, c in enumerate(data.coordinates):
+        report = coordinate_report(data, residual, j)
+        report["share"] = float(np.sum(residual[:, j] ** 2) / total) if total > 0 else 0.0
+        coordinates[c] = report
+        tests += [(c, kind, report[kind]["p_value"]) for kind in ("position", "velocity", "acceleration", "sign")]
+    limit = alpha / max(len(tests), 1)
+    dependent = [f"{kind} on {c} (p = {p:.2g})" for c, kind, p in tests if p < limit]
+    coloured = [f"{c} (Ljung–Box p = {r['whiteness']['p_value']:.2g}, τ_int = {r['autocorrelation_time']:.3g})"
+                for c, r in coordinates.items() if r["whiteness"]["p_value"] < alpha]
+    left = bool(dependent or coloured)
+    if left:
+        parts = []
+        if dependent:
+            parts.append("depends on " + ", ".join(dependent))
+        if coloured:
+            parts.append("is not white on " + ", ".join(coloured))
+        verdict = "something is left to explain: the residual " + "; ".join(parts)
+    else:
+        verdict = "nothing is left to explain: the residual is white and does not depend on the states"
+    return {"coordinates": coordinates, "left": left, "verdict": verdict, "dependent": dependent, "coloured": coloured}

@@ -1,0 +1,113 @@
+"""Parts of the discrepancy workflow against independent references: the residual statistics, the
+localisation, the data split, byte-identical output, a model given without a file.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.stats
+
+import symbolic
+import workflow_cases as cases
+from symbolic.workflow import diagnose
+from symbolic.workflow.dataset import split, time_slice
+from symbolic.workflow.statistics import autocorrelation, autocorrelation_time, f_test, ljung_box
+
+
+def ar1(n: int, phi: float, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    e = rng.normal(size=n + 200)
+    x = np.zeros_like(e)
+    for k in range(1, len(e)):
+        x[k] = phi * x[k - 1] + e[k]
+    return x[200:]
+
+
+def test_autocorrelation_matches_the_direct_sum() -> None:
+    x = np.random.default_rng(0).normal(size=500).cumsum()
+    direct = np.correlate(x - x.mean(), x - x.mean(), "full")[499:] / np.sum((x - x.mean()) ** 2)
+    assert np.allclose(autocorrelation(x, 40), direct[:41], atol=1e-12)
+
+
+@pytest.mark.parametrize("phi", [0.0, 0.5, 0.8])
+def test_autocorrelation_time_of_an_ar1_series(phi: float) -> None:
+    """τ_int = (1 + φ)/(1 − φ) for AR(1) (1, 3, 9), within 10 %."""
+    assert autocorrelation_time(ar1(200_000, phi, 1)) == pytest.approx((1 + phi) / (1 - phi), rel=0.1)
+
+
+def test_ljung_box_by_its_formula() -> None:
+    x = ar1(2000, 0.3, 2)
+    q, p, lags = ljung_box(x, 10)
+    xc = x - x.mean()
+    rho = [np.sum(xc[k:] * xc[:-k]) / np.sum(xc * xc) for k in range(1, 11)]
+    expected = 2000 * 2002 * sum(r**2 / (2000 - k) for k, r in enumerate(rho, start=1))
+    assert q == pytest.approx(expected, rel=1e-10)
+    assert p == pytest.approx(scipy.stats.chi2.sf(expected, 10), rel=1e-9)
+
+
+def test_corrected_f_test_holds_its_level_on_coloured_noise() -> None:
+    """Adding a slowly varying regressor that does not act: with AR(1) noise (φ = 0.8) the plain F-test
+    rejects far more often than its level; divided by τ_int it stays near 5 %."""
+    rng = np.random.default_rng(3)
+    n, trials = 2000, 300
+    t = np.linspace(0, 1, n)
+    X = np.column_stack([np.ones(n), np.sin(2 * np.pi * t)])
+    plain = corrected = 0
+    for trial in range(trials):
+        y = ar1(n, 0.8, 100 + trial)
+        z = np.sin(2 * np.pi * 3 * t + rng.uniform(0, 2 * np.pi))
+        r0 = y - X @ np.linalg.lstsq(X, y, rcond=None)[0]
+        X1 = np.column_stack([X, z])
+        r1 = y - X1 @ np.linalg.lstsq(X1, y, rcond=None)[0]
+        rss0, rss1 = r0 @ r0, r1 @ r1
+        plain += f_test(rss0, rss1, n, 2, 1, 1.0)[1] < 0.05
+        corrected += f_test(rss0, rss1, n, 2, 1, autocorrelation_time(r1))[1] < 0.05
+    assert plain / trials > 0.3
+    assert corrected / trials < 0.1
+
+
+def test_split_and_slice_keep_every_signal() -> None:
+    m = cases.measurements(cases.axis(), 1, 0.0, seconds=2.0)
+    first, last = split(m)
+    assert first.samples + last.samples == m.samples
+    assert last.t[0] > first.t[-1] and last.samples == round(0.2 * m.samples)
+    cut = time_slice(m, 10, 20)
+    assert np.array_equal(cut.q, m.q[10:20]) and np.array_equal(cut.tau, m.tau[10:20]) and cut.sample_period == m.sample_period
+
+
+def test_where_points_at_velocity_for_a_missing_coulomb_term(tmp_path: Path) -> None:
+    model, truth = cases.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'), cases.axis()
+    d = diagnose(cases.model_file(tmp_path, model), cases.measurements(truth, 1, 0.01), figures=False)
+    where = d.where_before["coordinates"]["q"]
+    eta = {kind: where[kind]["eta_squared"] for kind in ("position", "velocity", "acceleration")}
+    assert max(eta, key=eta.get) == "velocity" and eta["velocity"] > 0.5, eta
+    assert where["sign"]["difference"] > 0 and where["sign"]["p_value"] < 1e-6
+    assert d.where_before["left"] and "velocity on q" in d.where_before["verdict"]
+    assert not d.where_after["dependent"]
+
+
+def test_output_is_byte_identical_from_run_to_run(tmp_path: Path) -> None:
+    model, truth = cases.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'), cases.axis()
+    data, path = cases.measurements(truth, 1, 0.01), cases.model_file(tmp_path, model)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", symbolic.ModelWarning)
+        first = diagnose(path, data, out=tmp_path / "a")
+        diagnose(path, data, out=tmp_path / "b")
+    names = sorted(p.name for p in (tmp_path / "a").iterdir())
+    assert "report.md" in names and "axis_patched.toml" in names
+    assert names == sorted(p.name for p in (tmp_path / "b").iterdir())
+    for name in names:
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+    assert sorted(f.name for f in first.figures) == [n for n in names if n.endswith(".png")]
+
+
+def test_a_model_without_a_file_is_diagnosed_but_not_patched() -> None:
+    robot = symbolic.loads(cases.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'), "<python>")
+    d = diagnose(robot, cases.measurements(cases.axis(), 1, 0.01))
+    assert [f.effect for f in d.found] == ["coulomb"] and d.patched_path is None and d.patched_text is None
+    assert d.after.gap["validation"] < 0.1 * d.before.gap["validation"]
+    assert any("no file" in note for note in d.notes)
