@@ -174,14 +174,23 @@ def cmd_identify(args: argparse.Namespace) -> int:
             raise ModelError(args.model, "--out", "the model has no file to update")
         text = with_parameter_values(source.read_text(encoding="utf-8"), result.values(), str(source))
         write_text_atomically(Path(args.out), text)
+    figures: list[str] = []
+    if args.figures:
+        from symbolic.identify.figures import MatplotlibMissing
+
+        try:
+            figures = [str(path) for path in result.figures(args.figures)]
+        except MatplotlibMissing as missing:
+            print(f"warning: {missing}", file=sys.stderr)
     if args.json:
         out = result.to_dict()
         out["patched_model"] = args.out
+        out["figures"] = figures
         print(json.dumps(out, indent=2))
     else:
         print(result.table())
-        if args.out:
-            print(f"wrote {args.out}")
+        for path in [args.out, *figures] if args.out else figures:
+            print(f"wrote {path}")
     return 0
 
 
@@ -281,6 +290,7 @@ def parser() -> argparse.ArgumentParser:
     i.add_argument("--consistent", action="store_true",
                    help="estimate the model file's parameters by bounded nonlinear least squares (physically valid bodies)")
     i.add_argument("--out", metavar="FILE.toml", help="write the model file with the identified values")
+    i.add_argument("--figures", metavar="DIR", help="PNG figures: measured vs predicted force and the residual per coordinate")
     i.add_argument("--json", action="store_true", help="machine-readable result")
     i.set_defaults(func=cmd_identify)
     s = sub.add_parser("simulate", help="simulate a model against a measured log with the machine's controller")

@@ -176,3 +176,15 @@ def test_consistent_fit_keeps_bodies_valid_and_recovers_what_the_data_determine(
         assert abs(estimate.value - p[names.index(name)]) <= 3 * estimate.sigma, name
         if name.startswith("m"):
             assert estimate.value >= 0
+
+
+def test_cli_identify_draws_figures(tmp_path: Path, capsys) -> None:
+    pytest.importorskip("matplotlib")
+    model = symbolic.derive(robots.load("emps"))
+    m = measurements(model, numeric_model(model).p0, seed=2, noise=0.01, seconds=10.0, rate=200.0)
+    data = tmp_path / "log.csv"
+    symbolic.data.write(m, data)
+    assert main(["-q", "identify", "emps", str(data), "--figures", str(tmp_path / "fig")]) == 0
+    png = tmp_path / "fig" / "identification_q.png"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert f"wrote {png}" in capsys.readouterr().out

@@ -35,9 +35,9 @@ from symbolic.data import Measurements, load
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.derive.regressor import Regressor
 from symbolic.errors import ModelError
-from symbolic.identify.least_squares import Identification
-from symbolic.identify.pipeline import Validation, identify, validate
-from symbolic.identify.processing import Settings, observe
+from symbolic.identify.least_squares import Identification, solve
+from symbolic.identify.pipeline import Validation, validate
+from symbolic.identify.processing import Observation, Settings, observe
 from symbolic.numeric.base_parameters import BaseParameters, base_parameters, theta_values
 from symbolic.numeric.exported import model_regressor
 from symbolic.numeric.functions import compile_vectorized
@@ -74,6 +74,16 @@ class ModelIdentification:
     identification: Identification
     parameters: dict[str, ModelParameter]
     validation: Validation | None = None
+    observation: Observation | None = field(default=None, repr=False)
+
+    def figures(self, folder: str | Path) -> tuple[Path, ...]:
+        """PNG figures of measured vs predicted τ and the residual per coordinate (and of the cross-test).
+
+        Raises :class:`symbolic.identify.figures.MatplotlibMissing` without matplotlib.
+        """
+        from symbolic.identify.figures import draw
+
+        return draw(self.identification, self.observation, Path(folder), self.validation)
 
     def values(self) -> dict[str, float]:
         """{model parameter: identified value}, for writing back into the model file."""
@@ -158,7 +168,8 @@ def identify_model(
     reg, base = model_base(model)  # first: a model the regressor cannot cover is refused before reading data
     measurements = data if isinstance(data, Measurements) else load(data, coordinates, experiment=experiment)
     regressor = base_regressor(model)
-    ident = identify(measurements, regressor, base.names, settings, method)
+    observation = observe(measurements, regressor, len(base.names), settings)
+    ident = solve(observation, base.names, method)
     checked = None
     if validation is not None:
         other = validation
@@ -167,11 +178,10 @@ def identify_model(
             other = load(validation, coordinates, experiment=None if own else experiment)
         checked = validate(ident, other, regressor, settings)
     if consistent:
-        observation = observe(measurements, regressor, len(base.names), settings)
         parameters = consistent_fit(model, reg, base, ident, observation)
     else:
         parameters = direct_parameters(model, reg, base, ident)
-    return ModelIdentification(model, base, ident, parameters, checked)
+    return ModelIdentification(model, base, ident, parameters, checked, observation)
 
 
 def geometric_parameters(model: DynamicModel, reg: Regressor) -> set[sp.Symbol]:
