@@ -10,8 +10,6 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
-import tempfile
 import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -20,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from symbolic.data.errors import DataError
-from symbolic.filemode import default_file_mode
+from symbolic.writing import replacing
 
 DATA_SUFFIXES = (".csv", ".npz", ".mat")
 MAT_MAGIC = b"MATLAB 5.0 MAT-file"
@@ -210,20 +208,13 @@ def write(columns: Mapping[str, np.ndarray], path: str | Path) -> Path:
     names = list(columns)
     data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names]) if names else np.empty((0, 0))
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            if suffix == ".csv":
-                f.write((",".join(names) + "\n").encode())
-                for row in data:
-                    f.write((",".join(_number(v) for v in row) + "\n").encode())
-            else:
-                _write_npz(f, names, data)
-        os.chmod(tmp, default_file_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    with replacing(path) as temporary, open(temporary, "wb") as f:
+        if suffix == ".csv":
+            f.write((",".join(names) + "\n").encode())
+            for row in data:
+                f.write((",".join(_number(v) for v in row) + "\n").encode())
+        else:
+            _write_npz(f, names, data)
     return path
 
 

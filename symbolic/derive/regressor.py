@@ -97,7 +97,8 @@ def regressor(robot: Robot) -> Regressor:
         raise ModelError(robot.source, "[[beam]]", "the parameter regressor does not support flexible links yet "
                          "(beam parameters enter through modal constants that are not linear); identify the rigid part")
     inertial = _inertial_parameters(robot)
-    extra = _drive_parameters(robot) + _friction_parameters(robot) + _force_parameters(robot)
+    drives, frictions, forces = _drive_parameters(robot), _friction_parameters(robot), _force_parameters(robot)
+    extra = drives + frictions + forces
     theta = tuple(t for frame in inertial.values() for t, _ in frame) + tuple(t for t, _, _ in extra)
     names = robot.generalized_coordinates
     q = tuple(coordinate_symbol(c) for c in names)
@@ -111,12 +112,9 @@ def regressor(robot: Robot) -> Regressor:
     tau = tau + sum((column * t for t, column, _ in extra), sp.zeros(len(names), 1))
     Y = sp.Matrix(len(names), len(theta), lambda i, k: sub.add(sub.diff(tau[i], theta[k])))
     expressions = tuple(e for frame in inertial.values() for _, e in frame) + tuple(e for _, _, e in extra)
-    kinds = tuple(["inertial"] * sum(len(f) for f in inertial.values())) + tuple(_kind(t.name) for t, _, _ in extra)
+    kinds = tuple(["inertial"] * sum(len(f) for f in inertial.values())) + tuple(kind for kind, part in
+                                                                             (("drive", drives), ("friction", frictions), ("force", forces)) for _ in part)
     return Regressor(robot, theta, expressions, Y, sub, kinds)
-
-
-def _kind(name: str) -> str:
-    return "drive" if name.startswith("Ia") else "friction" if re.match(r"^(Fv|Fc|Fs|off)", name) else "force"
 
 
 def _inertial_parameters(robot: Robot) -> dict[str, list[tuple[sp.Symbol, sp.Expr]]]:

@@ -9,13 +9,11 @@ same files with the same matplotlib.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 
-from symbolic.filemode import default_file_mode
 from symbolic.identify.least_squares import Identification
+from symbolic.writing import replacing, safe_stem
 from symbolic.identify.pipeline import Validation
 from symbolic.identify.processing import Observation
 
@@ -54,24 +52,13 @@ def draw(
             bottom.set_xlabel("t [s]")
             for axes in (top, bottom):
                 axes.grid(True, linewidth=0.3)
-            written.append(_save(figure, folder / f"{stem}_{_safe(c)}.png"))
+            written.append(_save(figure, folder / f"{stem}_{safe_stem(c)}.png"))
     return tuple(written)
 
 
-def _safe(name: str) -> str:
-    return "".join(ch if ch.isalnum() or ch in "_-" else "_" for ch in name)
-
-
 def _save(figure: object, path: Path) -> Path:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
-        figure.savefig(tmp, format="png", metadata={"Software": None})  # type: ignore[attr-defined]
-        os.chmod(tmp, default_file_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with replacing(path, suffix=".png") as temporary:
+        figure.savefig(temporary, format="png", metadata={"Software": None})  # type: ignore[attr-defined]
     return path
 
 

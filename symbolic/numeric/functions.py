@@ -15,6 +15,18 @@ import sympy as sp
 from symbolic.derive.subexpressions import Subexpressions
 
 
+def _lambdified(sub: Subexpressions, arguments, outputs, shape, module: str):
+    """lambdify of ``outputs`` with the intermediates' straight-line program as its CSE list; the flat
+    outputs and the result shape (default that of ``outputs``, a column giving 1-D)."""
+    matrix = sp.Matrix(outputs)
+    if shape is None:
+        shape = matrix.shape if matrix.shape[1] != 1 else (matrix.shape[0],)
+    flat = list(matrix)
+    program = sub.program(flat)
+    symbols = [list(group) for group in arguments]
+    return sp.lambdify(symbols, flat, modules=module, cse=lambda exprs: (program, exprs)), flat, shape
+
+
 def compile_function(
     sub: Subexpressions,
     arguments: Sequence[Sequence[sp.Symbol]],
@@ -26,13 +38,7 @@ def compile_function(
     The returned array has ``shape``; by default that of ``outputs``, a column giving a 1-D array
     (pass ``shape=(n, n)`` for a matrix that may be 1×1).
     """
-    matrix = sp.Matrix(outputs)
-    if shape is None:
-        shape = matrix.shape if matrix.shape[1] != 1 else (matrix.shape[0],)
-    flat = list(matrix)
-    program = sub.program(flat)
-    symbols = [list(group) for group in arguments]
-    raw = sp.lambdify(symbols, flat, modules="math", cse=lambda exprs: (program, exprs))
+    raw, flat, shape = _lambdified(sub, arguments, outputs, shape, "math")
 
     def function(*values: Sequence[float]) -> np.ndarray:
         result = raw(*[list(map(float, np.ravel(v))) for v in values])
@@ -53,12 +59,7 @@ def compile_vectorized(
     parameters, may be a 1-D array); the result is ``samples × shape``. The straight-line program runs
     once, each statement on whole arrays, so the Python overhead is paid per statement, not per sample.
     """
-    matrix = sp.Matrix(outputs)
-    shape = shape or (matrix.shape if matrix.shape[1] != 1 else (matrix.shape[0],))
-    flat = list(matrix)
-    program = sub.program(flat)
-    symbols = [list(group) for group in arguments]
-    raw = sp.lambdify(symbols, flat, modules="numpy", cse=lambda exprs: (program, exprs))
+    raw, flat, shape = _lambdified(sub, arguments, outputs, shape, "numpy")
 
     def function(*values) -> np.ndarray:
         arrays = [np.asarray(v, dtype=float) for v in values]

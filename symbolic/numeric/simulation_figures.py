@@ -10,11 +10,10 @@ version.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 from symbolic.numeric.comparison import SIGNALS, Comparison
+from symbolic.writing import replacing, safe_stem
 
 UNITS = {"position": "q", "velocity": "q̇", "acceleration": "q̈", "force": "τ"}
 
@@ -64,28 +63,11 @@ def draw(comparison: Comparison, folder: Path, title: str = "") -> tuple[Path, .
             what = "measured and simulated" if kind == "signals" else "measured − simulated"
             axes[0].set_title(f"{title + ': ' if title else ''}{what}, coordinate {c}")
             stem = "simulation" if kind == "signals" else "simulation_error"
-            written.append(_save(figure, folder / f"{stem}_{_safe(c)}.png"))
+            written.append(_save(figure, folder / f"{stem}_{safe_stem(c)}.png"))
     return tuple(written)
 
 
-def _safe(name: str) -> str:
-    return "".join(ch if ch.isalnum() or ch in "_-" else "_" for ch in name)
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
 def _save(figure: object, path: Path) -> Path:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a figure is as readable as any file written
-        figure.savefig(tmp, format="png", metadata={"Software": None})  # type: ignore[attr-defined]
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with replacing(path, suffix=".png") as temporary:
+        figure.savefig(temporary, format="png", metadata={"Software": None})  # type: ignore[attr-defined]
     return path
