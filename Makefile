@@ -16,10 +16,11 @@ test-fast:
 # Regenerate generated/ from the built-in robots (byte-identical from run to run).
 generate:
 	$(PYTHON) -m symbolic.builtin_outputs generated
+	$(PYTHON) -m symbolic -q reproduce --markdown docs/reproduction.md
 
 # Fails when the committed generated/ differs from a fresh generation.
 check-generated: generate
-	@git diff --exit-code --stat -- generated/ || (echo "generated/ is stale: run 'make generate' and commit" >&2; exit 1)
+	@git diff --exit-code --stat -- generated/ docs/reproduction.md || (echo "generated/ or docs/reproduction.md is stale: run 'make generate' and commit" >&2; exit 1)
 	@test -z "$$(git status --porcelain --untracked-files=all -- generated/)" || (git status --short -- generated/; echo "generated/ has untracked files: run 'make generate' and commit" >&2; exit 1)
 
 bench:

@@ -21,6 +21,7 @@ from symbolic.errors import ModelError, ModelWarning
 from symbolic.spec.modelfile import load
 from symbolic.derive.simplify import SIZE_LIMIT, compact, tree_size
 from symbolic.spec.robot import Robot
+from symbolic.reproduction.item import SOURCES as REPRODUCTION_SOURCES
 
 
 def resolve(model: str) -> Robot:
@@ -254,6 +255,28 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    from symbolic import reproduction
+    from symbolic.reproduction import render
+    from symbolic.writing import replacing
+
+    sources = tuple(n.strip() for n in args.sources.split(",") if n.strip())
+    unknown = sorted(set(sources) - set(REPRODUCTION_SOURCES))
+    if unknown or not sources:
+        print(f"error: --sources: unknown source(s) {unknown} (one of {', '.join(REPRODUCTION_SOURCES)})", file=sys.stderr)
+        return 2
+    items = reproduction.table(sources)
+    if args.markdown:
+        with replacing(args.markdown) as temporary:
+            temporary.write_text(render.markdown(items), encoding="utf-8")
+    if args.json:
+        print(render.to_json(items))
+    elif not args.markdown:
+        for i in items:
+            print(f"{i.source:7s} {i.item[:60]:60s} {i.status}")
+    return 0
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="symbolic", description=__doc__.splitlines()[0])
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
@@ -308,6 +331,12 @@ def parser() -> argparse.ArgumentParser:
     w.add_argument("--effects", metavar="NAMES", help="search only these catalogue effects (comma-separated; default: all)")
     w.add_argument("--json", action="store_true", help="machine-readable result")
     w.set_defaults(func=cmd_diagnose)
+    r = sub.add_parser("reproduce", help="recompute every checkable number of the seed documents and compare")
+    r.add_argument("--json", action="store_true", help='{"items": [{"source", "item", "published", "ours", "unit", ...}]}')
+    r.add_argument("--markdown", metavar="FILE", help="write the table as Markdown (docs/reproduction.md is this)")
+    r.add_argument("--sources", default=",".join(REPRODUCTION_SOURCES),
+                   help=f"comma-separated subset of {','.join(REPRODUCTION_SOURCES)} (default: all)")
+    r.set_defaults(func=cmd_reproduce)
     ls = sub.add_parser("list", help="list the built-in robots")
     ls.set_defaults(func=cmd_list)
     return p

@@ -23,6 +23,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("symbolic.emit",),
     ("symbolic.identify",),
     ("symbolic.workflow",),
+    ("symbolic.reproduction",),  # the seeds' numbers recomputed through the layers below
     ("symbolic", "symbolic.cli", "symbolic.__main__", "symbolic.builtin_outputs"),  # applications on top
 )
 
