@@ -35,6 +35,7 @@ from symbolic.data import Measurements, load
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.derive.regressor import Regressor
 from symbolic.errors import ModelError
+from symbolic.identify.compiled_regressor import compiled_batch
 from symbolic.identify.least_squares import Identification, solve
 from symbolic.identify.pipeline import Validation, validate
 from symbolic.identify.processing import Observation, Settings, observe
@@ -134,15 +135,33 @@ def model_base(model: DynamicModel) -> tuple[Regressor, BaseParameters]:
     return _CACHE[model]
 
 
-def base_regressor(model: DynamicModel, p: Sequence[float] | None = None):
-    """``regressor(q, qd, qdd) -> samples × N × len(β)``: the base columns of Y at parameters ``p``."""
+COMPILE_WORK = 2_000_000
+"""Samples × statements above which the base regressor is evaluated by compiled C (when a compiler is
+there): below it (EMPS: 25 000 samples × 6 statements) NumPy is fast enough and compiling (0.2–1 s, once
+per machine) would cost more than it saves."""
+
+
+def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compiled: bool | None = None):
+    """``regressor(q, qd, qdd) -> samples × N × len(β)``: the base columns of Y at parameters ``p``.
+
+    ``compiled``: True evaluates through a C loop (:mod:`symbolic.identify.compiled_regressor`), False
+    through NumPy; None (default) chooses C for large work (:data:`COMPILE_WORK`) when a compiler is found.
+    """
     reg, base = model_base(model)
     columns = reg.Y.extract(list(range(model.n)), list(base.independent))
-    evaluate = compile_vectorized(reg.sub, [model.coordinates, model.velocities, model.accelerations, model.parameter_symbols],
-                                  columns, (model.n, len(base.independent)))
+    groups = [model.coordinates, model.velocities, model.accelerations]
+    evaluate = compile_vectorized(reg.sub, [*groups, model.parameter_symbols], columns, (model.n, len(base.independent)))
     p = np.array(list(model.parameters.values()), float) if p is None else np.asarray(p, float)
+    statements = len(reg.sub.program(list(columns)))
+    fast: dict[str, Any] = {}
 
     def regressor(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        samples = np.shape(q)[0]
+        if compiled or (compiled is None and samples * statements > COMPILE_WORK):
+            if "c" not in fast:
+                fast["c"] = compiled_batch(reg.sub, groups, model.parameter_symbols, columns)
+            if fast["c"] is not None:
+                return fast["c"](q, qd, qdd, p)
         return evaluate(q, qd, qdd, p)
 
     return regressor

@@ -71,9 +71,23 @@ def compile_function(function: ca.Function) -> ca.Function | None:
     return loaded
 
 
-def _build(cc: str, source: str, key: str) -> Path | None:
+def shared_library(source: str, prefix: str) -> Path | None:
+    """``source`` (C99) compiled to a shared library in the cache folder, or ``None`` without a compiler.
+
+    The file is ``<prefix>_<hash>.so``, the hash of the source and the compiler command, so an unchanged
+    source is compiled once per machine.
+    """
+    cc = compiler()
+    if cc is None:
+        LOG.info("no C compiler found: %s is evaluated without compiled code (slower)", prefix)
+        return None
+    key = hashlib.sha256("\0".join([source, Path(cc).name, *FLAGS]).encode()).hexdigest()[:24]
+    return _build(cc, source, key, prefix)
+
+
+def _build(cc: str, source: str, key: str, prefix: str = "simulate") -> Path | None:
     for folder in (cache_folder(), Path(tempfile.gettempdir()) / f"symbolic-{getattr(os, 'getuid', lambda: 0)()}"):
-        library = folder / f"simulate_{key}.so"
+        library = folder / f"{prefix}_{key}.so"
         if library.is_file():
             return library
         try:
@@ -82,7 +96,7 @@ def _build(cc: str, source: str, key: str) -> Path | None:
         except OSError as error:
             LOG.info("cannot write compiled code to %s (%s)", folder, error)
         except subprocess.CalledProcessError as error:
-            LOG.warning("compiling the simulation failed (%s); CasADi's virtual machine is used instead",
+            LOG.warning("compiling %s failed (%s); it is evaluated without compiled code", prefix,
                         error.stderr.strip().splitlines()[-1:] if error.stderr else error)
             return None
     return None
