@@ -209,3 +209,32 @@ def test_analyze_design_that_solves_nothing_or_cannot_be_met_fails(
     assert cli.main(["-q", "analyze", model, "--design", design]) == status
     err = capsys.readouterr().err
     assert err.startswith(message) and err.count("\n") == (1 if status else 0), err
+
+
+def test_ctrl_c_during_start_up_prints_interrupted_and_exits_130() -> None:
+    """A SIGINT while the package is still importing (before symbolic.cli.main runs) is answered the same way."""
+    code = (
+        "import os, signal, sys, builtins\n"
+        "real = builtins.__import__\n"
+        "def slow(name, *a, **k):\n"
+        "    if name == 'sympy': os.kill(os.getpid(), signal.SIGINT)\n"
+        "    return real(name, *a, **k)\n"
+        "builtins.__import__ = slow\n"
+        "import symbolic_launcher\n"
+        "sys.exit(symbolic_launcher.main())\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code, "list"], capture_output=True, text=True, timeout=120)
+    assert (result.returncode, result.stderr, result.stdout) == (130, "interrupted\n", "")
+
+
+def test_a_closed_pipe_ends_quietly() -> None:
+    """`symbolic list | head -1`: the reader has gone; no traceback, status 1 (as Python's docs advise)."""
+    import os
+
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        result = subprocess.run([sys.executable, "-m", "symbolic", "list"], stdout=write, stderr=subprocess.PIPE, text=True, timeout=120)
+    finally:
+        os.close(write)
+    assert (result.returncode, result.stderr) == (1, "")
