@@ -1,0 +1,214 @@
+"""Milne et al.'s sinusoidal steady-state identification (2.2.4–2.2.5) and yaw-inertia model (2.1.2, 2.2.6).
+
+Truth is made here, independently of the code under test: the steady state of Milne (13) in closed
+form, θ = A_r|H| sin(ωt + ψ + ∠H) with H(jω) = β/(β − ω² + jCω), written as samples (and as an
+experiment file with a ``[controller]``).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from symbolic import data
+from symbolic.data import DataError, Measurements
+from symbolic.identify import sine
+
+FREQUENCIES = (1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0)  # Milne 2.4.2
+C_TRUE, BETA_TRUE = 6.275, 445.6  # Milne Table 9 (fitted), for plausible magnitudes
+AR = 0.07
+
+
+def closed_form(t: np.ndarray, frequency: float, *, C: float = C_TRUE, beta: float = BETA_TRUE, ar: float = AR,
+                psi: float = 0.4, bias: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """(reference, response) of Milne (13) in steady state, the reference A_r sin(ωt + ψ)."""
+    w = 2 * np.pi * frequency
+    H = beta / (beta - w**2 + 1j * C * w)
+    return ar * np.sin(w * t + psi), ar * abs(H) * np.sin(w * t + psi + np.angle(H)) + bias
+
+
+def expected_a1_a2(frequency: float, C: float = C_TRUE, beta: float = BETA_TRUE, ar: float = AR) -> tuple[float, float]:
+    w = 2 * np.pi * frequency
+    H = beta / (beta - w**2 + 1j * C * w)
+    return ar * abs(H) * math.sin(np.angle(H)), ar * abs(H) * math.cos(np.angle(H))
+
+
+# ------------------------------------------------------------------------------------- sine fits
+
+
+def test_fit_sine_recovers_coefficients_over_whole_periods() -> None:
+    t = np.arange(0, 4, 1e-3)
+    y = 0.3 * np.cos(2 * np.pi * 2.5 * t) - 0.2 * np.sin(2 * np.pi * 2.5 * t) + 0.05
+    y[:1000] += np.exp(-t[:1000] * 5)  # a transient in the discarded half
+    fit = sine.fit_sine(t, y, 2.5)
+    assert (fit.a_cos, fit.a_sin, fit.offset) == pytest.approx((0.3, -0.2, 0.05), abs=1e-12)
+    assert fit.periods == 5  # 2 s after the default transient (half) at 2.5 Hz
+    assert fit.stop == t[-1] and fit.start == pytest.approx(t[-1] - 2.0 + 1e-3, abs=1e-12)
+
+
+def test_response_rotated_into_the_reference_phase() -> None:
+    t = np.arange(0, 6, 1e-3)
+    for psi in (0.0, 0.4, -2.0):
+        r, q = closed_form(t, 3.0, psi=psi, bias=0.02)
+        response = sine.steady_state_response(t, q, r, 3.0)
+        assert (response.a1, response.a2) == pytest.approx(expected_a1_a2(3.0), abs=1e-13)
+        assert response.reference_amplitude == pytest.approx(AR, rel=1e-12)
+        assert response.offset == pytest.approx(0.02, abs=1e-12)
+
+
+@pytest.mark.parametrize("frequency", FREQUENCIES)
+def test_local_parameters_exact_without_noise(frequency: float) -> None:
+    t = np.arange(0, 8, 1e-3)
+    r, q = closed_form(t, frequency)
+    p = sine.response_parameters(sine.steady_state_response(t, q, r, frequency))
+    assert p.valid
+    assert p.C == pytest.approx(C_TRUE, rel=1e-9)
+    assert p.beta == pytest.approx(BETA_TRUE, rel=1e-9)
+
+
+def test_local_parameters_satisfy_corrected_18() -> None:
+    """(19)–(20) solve (18) with −ωA₁C in its second row (Milne prints +)."""
+    w = 2 * np.pi * 2.0
+    a1, a2 = expected_a1_a2(2.0)
+    p = sine.local_parameters(2.0, a1, a2, AR)
+    assert -w**2 * a1 + w * a2 * p.C + a1 * p.beta == pytest.approx(0, abs=1e-12)
+    assert -w**2 * a2 - w * a1 * p.C + (a2 - AR) * p.beta == pytest.approx(0, abs=1e-12)
+    # with the printed +ωA₁C the same C, β leave a residual of 2ωA₁C
+    assert abs(-w**2 * a2 + w * a1 * p.C + (a2 - AR) * p.beta) > 1e-3
+
+
+def test_exclusion_rule() -> None:
+    """A_r A₂ > A₁² + A₂² (too much phase lag for the amplitude): C_data, β_data < 0, excluded."""
+    p = sine.local_parameters(1.5, -0.01, 0.06, 0.07)  # 0.07·0.06 > 0.01² + 0.06²
+    assert not p.valid and p.C < 0 and p.beta < 0
+    assert sine.local_parameters(1.5, -0.01, 0.08, 0.07).valid
+
+
+def test_global_fit_exact_without_noise() -> None:
+    pairs = [expected_a1_a2(f) for f in FREQUENCIES]
+    fit = sine.global_linear_fit(FREQUENCIES, [a for a, _ in pairs], [b for _, b in pairs], AR)
+    assert fit.C == pytest.approx(C_TRUE, rel=1e-12)
+    assert fit.beta == pytest.approx(BETA_TRUE, rel=1e-12)
+    assert fit.sigma_C < 1e-9 * C_TRUE
+
+
+def test_global_fit_within_its_statistics_with_noise() -> None:
+    """Position noise of σ_q: the errors of C_linear, β_linear, in units of the stated σ, have unit spread."""
+    rng = np.random.default_rng(14)
+    t = np.arange(0, 6, 2e-3)
+    clean = [closed_form(t, f, psi=0.0) for f in FREQUENCIES]
+    z_C, z_beta = [], []
+    for _ in range(300):
+        responses = [sine.steady_state_response(t, q + rng.normal(0, 2e-3, t.size), r, f)
+                     for f, (r, q) in zip(FREQUENCIES, clean)]
+        fit = sine.fit_responses(responses)
+        z_C.append((fit.C - C_TRUE) / fit.sigma_C)
+        z_beta.append((fit.beta - BETA_TRUE) / fit.sigma_beta)
+    for z in (np.array(z_C), np.array(z_beta)):
+        assert abs(z.mean()) < 0.25  # no bias beyond 0.25 σ
+        assert 0.8 < z.std() < 1.25  # σ estimated from 16 degrees of freedom per fit; 300 fits
+
+
+# ----------------------------------------------------------------------------------- logs and files
+
+
+def write_run(folder: Path, frequency: float, *, kd: float = 0.0, kp: float = 2.0, constants: bool = True,
+              controller: str | None = None, t: np.ndarray | None = None) -> Path:
+    """A CSV of the closed-form steady state and an experiment file with a pd [controller]."""
+    t = np.arange(0, 8, 1e-3) if t is None else t
+    # With kd on the measurement the loop's damping is C + β kd/kp (Milne (12)).
+    r, q = closed_form(t, frequency, C=C_TRUE + BETA_TRUE * kd / kp)
+    csv = folder / f"run_{frequency:g}.csv"
+    m = Measurements.from_arrays(t, ["yaw"], q[:, None], np.zeros((t.size, 1)), ref=r[:, None])
+    data.write(m, csv)
+    table = controller if controller is not None else (
+        f'[controller]\nkind = "pd"\nkp = [{kp}]\nkd = [{kd}]\nreference = "ref"\n')
+    text = f'data = "{csv.name}"\n[signals]\nt = "t"\nq_yaw = "q_yaw"\ntau_yaw = "tau_yaw"\nref_yaw = "ref_yaw"\n'
+    if constants:
+        text += f"[constants]\nfrequency = {frequency}\n"
+    path = folder / f"run_{frequency:g}.experiment.toml"
+    path.write_text(text + table)
+    return path
+
+
+def test_identify_joint_from_experiment_files(tmp_path: Path) -> None:
+    logs = [data.load(write_run(tmp_path, f)) for f in FREQUENCIES]
+    result = sine.identify_joint(logs)  # frequencies from [constants] frequency
+    assert result.kp == 2.0 and result.coordinate == "yaw"
+    assert [p.C for p in result.local] == pytest.approx([C_TRUE] * len(FREQUENCIES), rel=1e-9)
+    assert result.linear.C == pytest.approx(C_TRUE, rel=1e-9)
+    assert result.beta_tilde == pytest.approx(BETA_TRUE / 2.0, rel=1e-9)
+
+
+def test_identify_joint_removes_derivative_on_measurement(tmp_path: Path) -> None:
+    logs = [data.load(write_run(tmp_path, f, kd=0.01, constants=False)) for f in FREQUENCIES[:4]]
+    result = sine.identify_joint(logs, FREQUENCIES[:4], "yaw")
+    assert result.linear.C == pytest.approx(C_TRUE, rel=1e-9)
+    assert [p.C for p in result.local] == pytest.approx([C_TRUE] * 4, rel=1e-9)
+
+
+# ------------------------------------------------------------------------------------------ bad input
+
+
+def one_line(error: pytest.ExceptionInfo) -> str:
+    text = str(error.value)
+    assert "\n" not in text
+    return text
+
+
+def test_too_few_periods() -> None:
+    t = np.arange(0, 1, 1e-3)
+    r, q = closed_form(t, 1.5)
+    with pytest.raises(DataError) as e:
+        sine.steady_state_response(t, q, r, 1.5)
+    assert "at least 2 whole periods" in one_line(e)
+
+
+def test_non_uniform_time() -> None:
+    t = np.arange(0, 4, 1e-3)
+    t[100:] += 5e-4
+    r, q = closed_form(t, 2.0)
+    with pytest.raises(DataError) as e:
+        sine.steady_state_response(t, q, r, 2.0)
+    assert "uniform" in one_line(e)
+
+
+@pytest.mark.parametrize("frequency", [None, 0.0, -2.0, math.nan, "2"])
+def test_bad_frequency(frequency: object) -> None:
+    t = np.arange(0, 4, 1e-3)
+    with pytest.raises(DataError) as e:
+        sine.fit_sine(t, np.sin(t), frequency)  # type: ignore[arg-type]
+    assert "frequency" in one_line(e)
+
+
+def test_frequency_not_given(tmp_path: Path) -> None:
+    logs = [data.load(write_run(tmp_path, 2.0, constants=False))]
+    with pytest.raises(DataError) as e:
+        sine.identify_joint(logs)
+    assert "frequency: not given" in one_line(e)
+    with pytest.raises(DataError) as e:
+        sine.identify_joint(logs, [2.0, 3.0])
+    assert "2 given for 1 log" in one_line(e)
+
+
+@pytest.mark.parametrize("controller, message", [
+    ("", "[controller]: missing"),
+    ('[controller]\nkind = "cascade"\nkp = [1.0]\nkv = [1.0]\n', "needs a proportional loop"),
+    ('[controller]\nkind = "pid"\nkp = [1.0]\nkd = [0.0]\nki = [3.0]\n', "integral term"),
+    ('[controller]\nkind = "pd"\nkp = [0.0]\nkd = [0.0]\n', "must be > 0"),
+])
+def test_bad_controller(tmp_path: Path, controller: str, message: str) -> None:
+    log = data.load(write_run(tmp_path, 2.0, controller=controller))
+    with pytest.raises(DataError) as e:
+        sine.identify_joint([log])
+    assert message in one_line(e)
+
+
+def test_reference_without_the_frequency() -> None:
+    t = np.arange(0, 4, 1e-3)
+    with pytest.raises(DataError) as e:
+        sine.steady_state_response(t, np.sin(t), np.sin(2 * np.pi * 3.0 * t), 2.0)
+    assert "no component at 2 Hz" in one_line(e)
