@@ -12,10 +12,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import sympy as sp
 
 from symbolic import data
 from symbolic.data import DataError, Measurements
+from symbolic.derive import DynamicModel, derive
+from symbolic.derive.yaw_inertia import inertia_form
+from symbolic.errors import ModelError
 from symbolic.identify import sine
+from symbolic.identify.inertia_model import damping_ratio, fit_inertia_model
+from symbolic.spec import robots
 
 FREQUENCIES = (1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0)  # Milne 2.4.2
 C_TRUE, BETA_TRUE = 6.275, 445.6  # Milne Table 9 (fitted), for plausible magnitudes
@@ -212,3 +218,84 @@ def test_reference_without_the_frequency() -> None:
     with pytest.raises(DataError) as e:
         sine.steady_state_response(t, np.sin(t), np.sin(2 * np.pi * 3.0 * t), 2.0)
     assert "no component at 2 Hz" in one_line(e)
+
+
+# ------------------------------------------------------------------------------ yaw-inertia model (6)
+
+TABLE3_TRUE_ANGLES = [(21.54, 69.54), (20.55, 88.54), (19.31, 112.44), (40.68, 68.52), (39.83, 87.63),
+                      (39.16, 111.98), (60.68, 67.62), (60.08, 87.00), (59.56, 111.45)]  # Milne Table 3, degrees
+
+
+@pytest.fixture(scope="module")
+def omni() -> DynamicModel:
+    return derive(robots.load("omni"))
+
+
+def test_omni_yaw_inertia_is_milne_5(omni: DynamicModel) -> None:
+    """The extraction gives the thin-rod coefficients of Milne (5), expanded by hand."""
+    form = inertia_form(omni, "theta", "gamma1", "gamma2", "gamma_offs")
+    by_name = {p.name: p for p in omni.parameter_symbols}
+    L1, L2, m1, m2, I_base = (by_name[n] for n in ("L1", "L2", "m1", "m2", "I_base"))
+    hand = (I_base, m1 * L1**2 / 3 + m2 * L1**2, m2 * L2**2 / 12 + m2 * L2**2 / 4, m2 * L1 * L2)
+    assert [sp.simplify(a - b) for a, b in zip(form.coefficients, hand)] == [0, 0, 0, 0]
+
+
+def test_omni_yaw_inertia_agrees_with_D_numerically(omni: DynamicModel) -> None:
+    form = inertia_form(omni, "theta", "gamma1", "gamma2", "gamma_offs")
+    symbols = [*omni.coordinates, *omni.parameter_symbols]
+    d = sp.lambdify(symbols, omni.D[0, 0], "math")
+    e = sp.lambdify(symbols, form.expression(), "math")
+    rng = np.random.default_rng(6)
+    for _ in range(50):
+        q = rng.uniform(-np.pi, np.pi, 3)
+        p = [v * rng.uniform(0.5, 2.0) for v in omni.parameters.values()]
+        p[-1] = rng.uniform(-0.5, 0.5)  # gamma_offs, 0 in the model file
+        assert abs(d(*q, *p) - e(*q, *p)) <= 1e-12 * abs(d(*q, *p))
+
+
+def test_inertia_form_refuses_other_forms(omni: DynamicModel) -> None:
+    with pytest.raises(ModelError) as e:
+        inertia_form(omni, "theta", "gamma1", "gamma2")  # without the offset γ_offs remains
+    assert "not of Milne's form (6)" in one_line(e)
+    with pytest.raises(ModelError) as e:
+        inertia_form(omni, "gamma1", "theta", "gamma2")
+    assert "D[gamma1, gamma1]: not of Milne's form (6)" in one_line(e)
+    with pytest.raises(ModelError) as e:
+        inertia_form(omni, "yaw", "gamma1", "gamma2")
+    assert "unknown coordinate 'yaw'" in one_line(e)
+    with pytest.raises(ModelError) as e:
+        inertia_form(omni, "theta", "gamma1", "gamma2", "offset")
+    assert "unknown parameter 'offset'" in one_line(e)
+
+
+def test_inertia_model_recovered_from_the_omni_D(omni: DynamicModel) -> None:
+    """β̃ = 1/D[yaw, yaw], C = 1/(C̄₀ D[yaw, yaw]) of the derived model at Table 1's configurations."""
+    values = dict(omni.parameters)
+    values.update({sp.Symbol("m1"): 0.045, sp.Symbol("m2"): 0.052, sp.Symbol("I_base"): 1.4e-3,
+                   sp.Symbol("gamma_offs"): math.radians(9.931)})
+    values = {next(p for p in omni.parameter_symbols if p.name == str(k)): v for k, v in values.items()}
+    d = sp.lambdify(omni.coordinates, omni.D[0, 0].subs(values), "numpy")
+    g1, g2 = np.radians(np.array(TABLE3_TRUE_ANGLES)).T
+    inertia_values = d(np.zeros_like(g1), g1, g2)
+    c0 = 36.7
+    fit = fit_inertia_model(g1, g2, 1 / (c0 * inertia_values), 1 / inertia_values)
+    expected = inertia_form(omni, "theta", "gamma1", "gamma2", "gamma_offs").values(values)
+    assert fit.model.coefficients == pytest.approx(expected, rel=0.02)
+    assert fit.model.offset == pytest.approx(math.radians(9.931), rel=0.02)
+    assert fit.model.c0 == pytest.approx(c0, rel=0.02)
+    assert fit.model.valid
+
+
+def test_damping_ratio_is_regression_through_origin() -> None:
+    C = np.array([5.0, 6.0, 7.0])
+    assert damping_ratio(C, 36.0 * C) == pytest.approx(36.0, rel=1e-15)
+    assert damping_ratio([1.0, 2.0], [30.0, 80.0]) == pytest.approx((30 + 160) / 5)
+
+
+def test_inertia_fit_bad_input() -> None:
+    with pytest.raises(DataError) as e:
+        fit_inertia_model([0.1] * 5, [0.2] * 5, [1.0] * 5, [1.0] * 5)
+    assert "at least 6" in one_line(e)
+    with pytest.raises(DataError) as e:
+        fit_inertia_model([0.1] * 6, [0.2] * 6, [1.0] * 5 + [-1.0], [1.0] * 6)
+    assert "must be positive" in one_line(e)
