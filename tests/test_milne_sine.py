@@ -20,7 +20,8 @@ from symbolic.derive import DynamicModel, derive
 from symbolic.derive.yaw_inertia import inertia_form
 from symbolic.errors import ModelError
 from symbolic.identify import sine
-from symbolic.identify.inertia_model import damping_ratio, fit_inertia_model
+from symbolic.identify.inertia_model import damping_ratio, fit_inertia_model, inertia
+from symbolic.reproduction import milne, milne_sine
 from symbolic.spec import robots
 
 FREQUENCIES = (1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0)  # Milne 2.4.2
@@ -299,3 +300,42 @@ def test_inertia_fit_bad_input() -> None:
     with pytest.raises(DataError) as e:
         fit_inertia_model([0.1] * 6, [0.2] * 6, [1.0] * 5 + [-1.0], [1.0] * 6)
     assert "must be positive" in one_line(e)
+
+
+# ---------------------------------------------------------------------------------- reproduction
+
+
+def test_table5_determines_table4_one_row_up() -> None:
+    """Table 5's modelled β̃ = 1/I fix the inertias of (6) linearly: Table 4's values, one row up."""
+    g1, g2 = np.radians([[float(r[2]), float(r[3])] for r in milne_sine.TABLE3]).T
+    inertia_values = 1 / np.array([float(b) for _, b in milne_sine.TABLE5_MODELLED])
+    offset = math.radians(float(milne_sine.TABLE4["gamma_offs"]))
+    basis = np.column_stack([inertia([1, 0, 0, 0], offset, g1, g2), inertia([0, 1, 0, 0], offset, g1, g2),
+                             inertia([0, 0, 1, 0], offset, g1, g2), inertia([0, 0, 0, 1], offset, g1, g2)])
+    coefficients, *_ = np.linalg.lstsq(basis, inertia_values, rcond=None)
+    assert np.max(np.abs(basis @ coefficients / inertia_values - 1)) < 1e-4  # Table 5's rounding
+    printed = milne_sine.TABLE4
+    assert coefficients[:3] == pytest.approx([float(printed[k]) for k in ("I1", "I2", "I3")], rel=1e-3)
+    assert all(abs(c / float(printed["I_base"]) - 1) > 0.1 for c in coefficients)  # 1.063e-3 fits none (nearest: I2, 12 % off)
+
+
+def test_sine_identification_items() -> None:
+    found = {i.item: i for i in milne.sine_identification_items()}
+    assert all(i.source == "milne" for i in found.values())
+    assert found["Table 3 C̄0 ratio"].status == "matches"
+    assert found["Table 5 modelled C_linear, β̃_linear"].status.startswith("matches after correcting Table 4")
+    assert len(found["Table 5 modelled C_linear, β̃_linear"].ours) == 18
+    assert found["3.3 linear resonant frequency"].status == "matches"
+    assert found["Table 4 I_base, I1, I2, γ_offs, C̄0 fitted to Table 3"].status == "differs"
+    assert found["Table 3 fitted C_linear, β̃_linear (22)"].status.startswith("not reproducible")
+
+
+def test_table4_as_printed_does_not_give_table5() -> None:
+    printed = np.array([float(x) for row in milne_sine.TABLE5_MODELLED for x in row])
+    assert np.max(np.abs(milne_sine._as_printed_table5() / printed - 1)) > 0.5
+
+
+def test_rounding_tolerance_of_a_sum() -> None:
+    """x + y from "1.00" and "2.0": half units 0.005 + 0.05, plus the output's own 0.05 for "3.0"."""
+    tolerance = milne_sine.rounding_tolerance(lambda v: v["x"] + v["y"], {"x": "1.00", "y": "2.0"}, ["3.0"])
+    assert tolerance == pytest.approx((0.005 + 0.05 + 0.05) / 3.0)

@@ -198,8 +198,8 @@ class GlobalLinearFit:
 
     @property
     def natural_frequency(self) -> float:
-        """√β_linear/(2π) in Hz: where the phase of (21) crosses −90° (Milne's "linear resonant frequency")."""
-        return math.sqrt(self.beta) / (2.0 * math.pi) if self.beta > 0 else math.nan
+        """:func:`natural_frequency` of β_linear (Hz): Milne's "linear resonant frequency"."""
+        return natural_frequency(self.beta)
 
 
 @dataclass(frozen=True)
@@ -231,6 +231,21 @@ class JointIdentification:
     def beta_tilde(self) -> float:
         """β̃_linear = β_linear/k_p (Milne (26))."""
         return self.linear.beta / self.kp
+
+
+def natural_frequency(beta: float) -> float:
+    """√β/(2π) in Hz: the undamped natural frequency of (13)/(21), where its phase crosses −90°.
+
+    Milne 3.3's "linear resonant frequency of 3.4 Hz" is this for Table 9's β_linear = 445.6 (3.36 Hz);
+    the magnitude peak (:func:`peak_frequency`) is lower. NaN for β ≤ 0.
+    """
+    return math.sqrt(beta) / (2.0 * math.pi) if beta > 0 else math.nan
+
+
+def peak_frequency(C: float, beta: float) -> float:
+    """Frequency of the magnitude peak of β/(β − ω² + jCω) in Hz, √(β − C²/2)/(2π); NaN when it has none."""
+    squared = beta - 0.5 * C * C
+    return math.sqrt(squared) / (2.0 * math.pi) if beta > 0 and squared > 0 else math.nan
 
 
 def fit_sine(
