@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -76,10 +77,20 @@ class AlphaCoefficients:
         """β̃(α) (Milne (41)), held at β̃₀ below ᾱ₀ and at β̃₁ above ᾱ₁."""
         return np.interp(np.asarray(alpha, dtype=float), self.torque_breakpoints, self.torque_values)
 
-    @property
+    @cached_property
     def knots(self) -> np.ndarray:
         """All break points of C and β̃, sorted and unique: between them both are linear in α."""
         return np.unique(np.array(self.damping_breakpoints + self.torque_breakpoints))
+
+    @cached_property
+    def damping_at_knots(self) -> np.ndarray:
+        """C at :attr:`knots`."""
+        return self.damping(self.knots)
+
+    @cached_property
+    def torque_at_knots(self) -> np.ndarray:
+        """β̃ at :attr:`knots`."""
+        return self.torque_constant(self.knots)
 
 
 @dataclass(frozen=True)

@@ -42,6 +42,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -95,6 +96,10 @@ class Reference:
         object.__setattr__(self, "amplitude", tuple(float(x) for x in a))
         object.__setattr__(self, "frequency", tuple(float(x) for x in f))
 
+    @cached_property
+    def _arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.asarray(self.amplitude), np.asarray(self.frequency)
+
     @property
     def runs(self) -> int:
         """Number of signals in the batch."""
@@ -102,14 +107,14 @@ class Reference:
 
     def signals(self, t: float, held: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(r, ṙ, r̈) at time t; a square wave takes its level at ``held`` (the step's start)."""
-        a = np.asarray(self.amplitude)
-        w = 2.0 * math.pi * np.asarray(self.frequency)
+        a, f = self._arrays
+        w = 2.0 * math.pi * f
         if self.kind == "sine":
             s, c = np.sin(w * t), np.cos(w * t)
             return a * s, a * w * c, -a * w * w * s
         at = t if held is None else held
         # half periods elapsed; the small offset keeps a jump time (a multiple of h) on its new level
-        half = np.floor(2.0 * np.asarray(self.frequency) * at + 1e-9)
+        half = np.floor(2.0 * f * at + 1e-9)
         level = np.where(half % 2 == 0, a, -a)
         zero = np.zeros_like(a)
         return level, zero, zero
@@ -175,23 +180,26 @@ def solve_alpha(coefficients: AlphaCoefficients, kp: float, v: ArrayLike, vd: Ar
     """
     v, vd, rdd, phi, preferred = np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, dtype=float))
                                                        for x in (v, vd, rdd, phi, preferred)))
-    knots = coefficients.knots
-    c_k = coefficients.damping(knots)
-    b_k = coefficients.torque_constant(knots)
-    base = (vd * vd - kp * v * rdd)[:, None]
-    f_k = base + (kp * v)[:, None] * (b_k[None, :] * v[:, None] - c_k[None, :] * phi[:, None])
-    h_k = knots[None, :] - f_k                   # α − F(α) at the knots; slope 1 outside them
-    candidates = [np.where(h_k[:, 0] > 0, f_k[:, 0], np.nan),      # root below the first knot: α = F(knot₀)
-                  np.where(h_k[:, -1] < 0, f_k[:, -1], np.nan)]    # root above the last knot
-    candidates += [np.where(h_k[:, j] == 0, knots[j], np.nan) for j in range(knots.size)]
-    for j in range(knots.size - 1):
-        lo, hi = h_k[:, j], h_k[:, j + 1]
-        crossing = (lo * hi < 0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            root = knots[j] + (knots[j + 1] - knots[j]) * lo / (lo - hi)
-        candidates.append(np.where(crossing, root, np.nan))
-    roots = np.stack(candidates, axis=1)
-    distance = np.where(np.isnan(roots), np.inf, np.abs(roots - preferred[:, None]))
+    return _solve(coefficients.knots, coefficients.damping_at_knots, coefficients.torque_at_knots, kp,
+                  v, vd, rdd, phi, preferred)
+
+
+def _solve(knots: np.ndarray, c_k: np.ndarray, b_k: np.ndarray, kp: float, v: np.ndarray, vd: np.ndarray,
+           rdd: np.ndarray, phi: np.ndarray, preferred: np.ndarray) -> np.ndarray:
+    """:func:`solve_alpha` on 1-D arrays of equal length, C and β̃ given at their knots (no checks: the hot loop)."""
+    f_k = (vd * vd - kp * v * rdd)[:, None] + (kp * v)[:, None] * (b_k * v[:, None] - c_k * phi[:, None])
+    h_k = knots - f_k                            # α − F(α) at the knots; slope 1 outside them
+    lo, hi = h_k[:, :-1], h_k[:, 1:]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inner = np.where(lo * hi < 0, knots[:-1] + (knots[1:] - knots[:-1]) * lo / (lo - hi), np.nan)
+    roots = np.concatenate([
+        np.where(h_k[:, :1] > 0, f_k[:, :1], np.nan),      # below the first knot: α = F(knot₀) < knot₀
+        np.where(h_k[:, -1:] < 0, f_k[:, -1:], np.nan),    # above the last knot
+        np.where(h_k == 0, knots, np.nan),                 # on a knot
+        inner,                                             # inside a linear piece
+    ], axis=1)
+    distance = np.abs(roots - preferred[:, None])
+    distance[np.isnan(roots)] = np.inf
     return roots[np.arange(roots.shape[0]), np.argmin(distance, axis=1)]
 
 
@@ -276,11 +284,13 @@ def simulate(coefficients: AlphaCoefficients, kp: float, reference: Reference, d
     theta = np.broadcast_to(np.asarray(theta0, dtype=float), (runs,)).copy()
     phi = np.broadcast_to(np.asarray(phi0, dtype=float), (runs,)).copy()
 
+    knots, c_k, b_k = coefficients.knots, coefficients.damping_at_knots, coefficients.torque_at_knots
+
     def stage(t: float, held: float, th: np.ndarray, ph: np.ndarray, preferred: np.ndarray):
         r, rd, rdd = reference.signals(t, held)
         v = kp * (r - th)
         vd = kp * (rd - ph)
-        alpha = solve_alpha(coefficients, kp, v, vd, rdd, ph, preferred)
+        alpha = _solve(knots, c_k, b_k, kp, v, vd, rdd, ph, preferred)
         phid = -coefficients.damping(alpha) * ph + coefficients.torque_constant(alpha) * v
         return phid, alpha, v, r
 
