@@ -9,11 +9,13 @@ with a filtered energy) integrated by its own Runge–Kutta loop in this file.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from symbolic.data import DataError
+from symbolic import data
+from symbolic.data import DataError, Measurements
 from symbolic.identify import sine
 from symbolic.identify.alpha_comparison import frequency_response_errors, magnitude_and_phase, step_errors
 from symbolic.identify.alpha_fit import (
@@ -22,6 +24,7 @@ from symbolic.identify.alpha_fit import (
     fit_damping,
     fit_inertia_dependence,
     fit_torque_constant,
+    joint_alpha_data,
 )
 from symbolic.numeric.alpha_damping import AlphaCoefficients, AlphaInertiaModel
 from symbolic.numeric.alpha_invariant import alpha_invariant, cycle_average, sine_alpha
@@ -278,6 +281,34 @@ def test_alpha_coefficients_recovered_within_5_percent() -> None:
     model = fit_inertia_dependence(inertias, fitted)
     assert np.allclose(model.damping_inverse, TRUE_MODEL.damping_inverse, rtol=0.05)
     assert np.allclose(model.torque_inverse, TRUE_MODEL.torque_inverse, rtol=0.05)
+
+
+@pytest.mark.slow
+def test_alpha_model_from_experiment_files(tmp_path: Path) -> None:
+    """The user's path: one log per frequency (CSV + experiment file with a P [controller]) → the model."""
+    truth = TRUE_MODEL.at(INERTIA)
+    freqs = FREQUENCIES * 2
+    amps = (0.07,) * len(FREQUENCIES) + (0.14,) * len(FREQUENCIES)
+    response = simulate(truth, KP, Reference("sine", amps, freqs), 8.0)
+    logs = []
+    for k, (f, a) in enumerate(zip(freqs, amps)):
+        csv = tmp_path / f"run_{k}.csv"
+        m = Measurements.from_arrays(response.t, ["yaw"], response.theta[k][:, None],
+                                     np.zeros((response.t.size, 1)), ref=response.reference[k][:, None])
+        data.write(m, csv)
+        experiment = tmp_path / f"run_{k}.experiment.toml"
+        experiment.write_text(f'data = "{csv.name}"\n[signals]\nt = "t"\nq_yaw = "q_yaw"\ntau_yaw = "tau_yaw"\n'
+                              f'ref_yaw = "ref_yaw"\n[constants]\nfrequency = {f}\n'
+                              f'[controller]\nkind = "pd"\nkp = [{KP}]\nreference = "ref"\n')
+        logs.append(data.load(experiment))
+    joint = sine.identify_joint(logs, transient=5.0)
+    model = fit_alpha_model(joint_alpha_data(joint), GRID, TORQUE_BREAKS)
+    assert model.damping_breakpoints == BREAKS
+    assert np.allclose(model.damping_values, truth.damping_values, rtol=1e-3)
+    assert np.allclose(model.torque_values, truth.torque_values, rtol=1e-3)
+    experiment.write_text(experiment.read_text().replace('kp = [2.0]', 'kp = [2.0]\nkd = [0.01]'))
+    with pytest.raises(DataError, match=r"\[controller\] kd: is 0.01: the α-invariant model"):
+        joint_alpha_data(sine.identify_joint([data.load(experiment)], transient=5.0))
 
 
 def test_fits_are_exact_on_exact_data() -> None:

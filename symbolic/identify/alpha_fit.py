@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from symbolic.data import DataError
-from symbolic.identify.sine import SteadyStateResponse, response_parameters
+from symbolic.identify.sine import JointIdentification, SteadyStateResponse, response_parameters
 from symbolic.numeric.alpha_damping import AlphaCoefficients, AlphaInertiaModel
 from symbolic.numeric.alpha_invariant import sine_alpha
 
@@ -111,6 +111,21 @@ def alpha_data(responses: Sequence[SteadyStateResponse], kp: float) -> AlphaData
         raise DataError(SOURCE, "responses", "no frequency passes Milne's rule (C_data, β_data positive)")
     f, a, c, b = (tuple(x) for x in zip(*kept))
     return AlphaData(f, a, c, b, tuple(excluded))
+
+
+def joint_alpha_data(joint: JointIdentification) -> AlphaData:
+    """:func:`alpha_data` of a joint identified from logs (:func:`symbolic.identify.sine.identify_joint`).
+
+    Raises
+    ------
+    DataError
+        When the logs' controller has a derivative gain: the α-invariant model (43) and (36) assume the
+        pure P law v = k_p(r − θ) of Milne (13) (k_i = k_d = 0).
+    """
+    if joint.kd != 0:
+        raise DataError("<logs>", "[controller] kd", f"is {joint.kd:g}: the α-invariant model (Milne (13), (36), "
+                        "(43)) needs a P controller (kd = 0)")
+    return alpha_data(joint.responses, joint.kp)
 
 
 def fit_torque_constant(alpha: ArrayLike, torque_constant: ArrayLike,
