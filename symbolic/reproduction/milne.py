@@ -78,7 +78,7 @@ def alpha_invariant_items() -> list[Item]:
     # Table 10 I: by (25) β̃_linear(I) = 1/I, so Table 5's modelled β̃_linear at 65°/90° fixes I.
     inertia_from_table5 = 1.0 / float(table5_beta_tilde_65_90)
     found.append(compare(
-        "milne", "Table 10 I", table10_inertia, inertia_from_table5, "kg m^2",
+        "milne", "Table 10 I", table10_inertia, inertia_from_table5, "kg m²",
         tolerance=chain(table10_inertia, table5_beta_tilde_65_90),
         how="I = 1/β̃_linear(I) by (25), with Table 5's modelled β̃_linear = 229.04 at γ₁ = 65°, γ₂ = 90° "
             "(tolerance: the rounding of both printed numbers)."))
@@ -105,7 +105,7 @@ def alpha_invariant_items() -> list[Item]:
             "as printed gives C0…C3 = " + ", ".join(f"{c:.4g}" for c in printed_at_i.damping_values)
             + ", Table 10's values in reverse order (tolerance: rounding of I, C_k1 and the printed C_k)."))
     found.append(compare(
-        "milne", "Table 10 β̃0, β̃1", table10_torque, at_i.torque_values, "rad/(V s^2)",
+        "milne", "Table 10 β̃0, β̃1", table10_torque, at_i.torque_values, "rad/(V s²)",
         tolerance=chain(table10_inertia, tuple(row[2] for row in table6), table10_torque),
         correcting="Table 6's rows, swapped (β̃01 = 0.8558 at ᾱ = 0, β̃11 = 1.3405 at ᾱ = 250)",
         how="β̃_k = 1/(β̃_k1·I) (42) via AlphaInertiaModel(...).at(I) with I = 0.004366; Table 6 as printed gives "
