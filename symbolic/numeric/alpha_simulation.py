@@ -230,9 +230,7 @@ def iterate_alpha(coefficients: AlphaCoefficients, kp: float, v: ArrayLike, vd: 
         When the rule (46) is not met within ``iterations``.
     """
     v, vd, rdd, phi = np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, dtype=float)) for x in (v, vd, rdd, phi)))
-    c_lin, b_lin = linear
-    vdd = kp * (rdd - (-c_lin * phi + b_lin * v))                 # (45), corrected
-    previous = vd * vd - v * vdd
+    previous = iterate_start(kp, v, vd, rdd, phi, linear)
     for i in range(1, iterations + 1):
         alpha = loop_function(coefficients, kp, v, vd, rdd, phi, previous)   # (44), corrected
         if np.all(np.abs(alpha - previous) < np.maximum(absolute, relative * np.abs(alpha))):
@@ -265,6 +263,50 @@ def simulate(coefficients: AlphaCoefficients, kp: float, reference: Reference, d
     -------
     AlphaResponse
     """
+    count = _check_simulation(kp, reference, duration, step)
+    runs = reference.runs
+    if theta0 is None:
+        theta0 = -np.asarray(reference.amplitude) if reference.kind == "square" else np.zeros(runs)
+    theta = np.broadcast_to(np.asarray(theta0, dtype=float), (runs,)).copy()
+    phi = np.broadcast_to(np.asarray(phi0, dtype=float), (runs,)).copy()
+    knots, c_k, b_k = coefficients.knots, coefficients.damping_at_knots, coefficients.torque_at_knots
+
+    def stage(t: float, held: float, th: np.ndarray, ph: np.ndarray, preferred: np.ndarray):
+        """Φ̇ and the loop's α, v, r at one Runge–Kutta stage (r of a square wave held at the step's start)."""
+        r, rd, rdd = reference.signals(t, held)
+        v = kp * (r - th)
+        alpha = _solve(knots, c_k, b_k, kp, v, kp * (rd - ph), rdd, ph, preferred)
+        return -coefficients.damping(alpha) * ph + coefficients.torque_constant(alpha) * v, alpha, v, r
+
+    out = {name: np.empty((runs, count + 1)) for name in ("theta", "phi", "command", "alpha", "reference")}
+    # The first root is chosen near Milne's first approximation (44)–(45), with the model's C and β̃ at the
+    # middle of its break points standing in for the linear model (from rest it is the unique root anyway).
+    r0, rd0, rdd0 = reference.signals(0.0, 0.0)
+    middle = float(np.mean(knots))
+    preferred = iterate_start(kp, kp * (r0 - theta), kp * (rd0 - phi), rdd0, phi,
+                              (float(coefficients.damping(middle)), float(coefficients.torque_constant(middle))))
+    for n in range(count + 1):
+        t = n * step
+        k1, preferred, v, r = stage(t, t, theta, phi, preferred)
+        for name, value in (("theta", theta), ("phi", phi), ("command", v), ("alpha", preferred), ("reference", r)):
+            out[name][:, n] = value
+        if n == count:
+            break
+        # classical RK4 on (θ, Φ): the θ-slopes are the stage velocities
+        phi2 = phi + step / 2 * k1
+        k2 = stage(t + step / 2, t, theta + step / 2 * phi, phi2, preferred)[0]
+        phi3 = phi + step / 2 * k2
+        k3 = stage(t + step / 2, t, theta + step / 2 * phi2, phi3, preferred)[0]
+        phi4 = phi + step * k3
+        k4 = stage(t + step, t, theta + step * phi3, phi4, preferred)[0]
+        theta = theta + step / 6 * (phi + 2 * phi2 + 2 * phi3 + phi4)
+        phi = phi + step / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return AlphaResponse(np.arange(count + 1) * step, out["theta"], out["phi"], out["command"], out["alpha"],
+                         out["reference"])
+
+
+def _check_simulation(kp: float, reference: Reference, duration: float, step: float) -> int:
+    """The number of steps, after one-line errors for a bad gain, step or duration."""
     _check_positive(kp, "kp")
     _check_positive(step, "step")
     _check_positive(duration, "duration")
@@ -277,53 +319,12 @@ def simulate(coefficients: AlphaCoefficients, kp: float, reference: Reference, d
             if abs(halves - round(halves)) > 1e-9 * halves:
                 raise DataError(SOURCE, "step", f"half the square wave's period ({1 / (2 * f)!r} s) "
                                 f"is not a whole number of steps of {step!r} s")
-    runs = reference.runs
-    amplitude = np.asarray(reference.amplitude)
-    if theta0 is None:
-        theta0 = -amplitude if reference.kind == "square" else np.zeros(runs)
-    theta = np.broadcast_to(np.asarray(theta0, dtype=float), (runs,)).copy()
-    phi = np.broadcast_to(np.asarray(phi0, dtype=float), (runs,)).copy()
-
-    knots, c_k, b_k = coefficients.knots, coefficients.damping_at_knots, coefficients.torque_at_knots
-
-    def stage(t: float, held: float, th: np.ndarray, ph: np.ndarray, preferred: np.ndarray):
-        r, rd, rdd = reference.signals(t, held)
-        v = kp * (r - th)
-        vd = kp * (rd - ph)
-        alpha = _solve(knots, c_k, b_k, kp, v, vd, rdd, ph, preferred)
-        phid = -coefficients.damping(alpha) * ph + coefficients.torque_constant(alpha) * v
-        return phid, alpha, v, r
-
-    out = {name: np.empty((runs, count + 1)) for name in ("theta", "phi", "command", "alpha", "reference")}
-    r0, rd0, rdd0 = reference.signals(0.0, 0.0)
-    v0 = kp * (r0 - theta)
-    middle = float(np.mean(coefficients.knots))
-    start = np.asarray(iterate_start(coefficients, kp, v0, kp * (rd0 - phi), rdd0, phi,
-                                     (float(coefficients.damping(middle)), float(coefficients.torque_constant(middle)))))
-    preferred = start
-    for n in range(count + 1):
-        t = n * step
-        k1, alpha, v, r = stage(t, t, theta, phi, preferred)
-        for name, value in (("theta", theta), ("phi", phi), ("command", v), ("alpha", alpha), ("reference", r)):
-            out[name][:, n] = value
-        if n == count:
-            break
-        preferred = alpha
-        k2 = stage(t + step / 2, t, theta + step / 2 * phi, phi + step / 2 * k1, preferred)[0]
-        phi2 = phi + step / 2 * k1
-        k3 = stage(t + step / 2, t, theta + step / 2 * phi2, phi + step / 2 * k2, preferred)[0]
-        phi3 = phi + step / 2 * k2
-        k4 = stage(t + step, t, theta + step * phi3, phi + step * k3, preferred)[0]
-        phi4 = phi + step * k3
-        theta = theta + step / 6 * (phi + 2 * phi2 + 2 * phi3 + phi4)
-        phi = phi + step / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    t = np.arange(count + 1) * step
-    return AlphaResponse(t, out["theta"], out["phi"], out["command"], out["alpha"], out["reference"])
+    return count
 
 
-def iterate_start(coefficients: AlphaCoefficients, kp: float, v: ArrayLike, vd: ArrayLike, rdd: ArrayLike,
-                  phi: ArrayLike, linear: tuple[float, float]) -> np.ndarray:
-    """α^(1) of Milne (44) from the linear start (45), corrected: the first approximation of the loop."""
+def iterate_start(kp: float, v: ArrayLike, vd: ArrayLike, rdd: ArrayLike, phi: ArrayLike,
+                  linear: tuple[float, float]) -> np.ndarray:
+    """α^(1) of Milne (44) from the linear start (45), corrected: v̇² − v·k_p(r̈ − Φ̇_lin), Φ̇_lin = −C_lin Φ + β̃_lin v."""
     v, vd, rdd, phi = (np.asarray(x, dtype=float) for x in (v, vd, rdd, phi))
     c_lin, b_lin = linear
     return vd * vd - v * kp * (rdd - (-c_lin * phi + b_lin * v))
