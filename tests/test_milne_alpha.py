@@ -252,7 +252,8 @@ def test_steady_state_under_a_sine_has_constant_alpha_and_36() -> None:
 # ------------------------------------------------------------------------------------ identification
 
 def measured_sweep(coefficients: AlphaCoefficients, amplitudes: tuple[float, ...], rng: np.random.Generator,
-                   *, noise: float = 2e-4, quantum: float = 1e-3, duration: float = 8.0) -> list[sine.SteadyStateResponse]:
+                   *, noise: float = 2e-4, quantum: float = 1e-3,
+                   duration: float = 8.0) -> list[sine.SteadyStateResponse]:
     """Sine sweeps of the α-model itself, with encoder quantisation and white noise, fitted by (14)–(15)."""
     freqs = FREQUENCIES * len(amplitudes)
     amps = tuple(a for a in amplitudes for _ in FREQUENCIES)

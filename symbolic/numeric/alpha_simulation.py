@@ -324,7 +324,10 @@ def _check_simulation(kp: float, reference: Reference, duration: float, step: fl
 
 def iterate_start(kp: float, v: ArrayLike, vd: ArrayLike, rdd: ArrayLike, phi: ArrayLike,
                   linear: tuple[float, float]) -> np.ndarray:
-    """α^(1) of Milne (44) from the linear start (45), corrected: v̇² − v·k_p(r̈ − Φ̇_lin), Φ̇_lin = −C_lin Φ + β̃_lin v."""
+    """α^(1) of Milne (44) from the linear start (45), corrected.
+
+    α^(1) = v̇² − v·k_p(r̈ − Φ̇_lin) with Φ̇_lin = −C_linear Φ + β̃_linear v, ``linear`` = (C_linear, β̃_linear).
+    """
     v, vd, rdd, phi = (np.asarray(x, dtype=float) for x in (v, vd, rdd, phi))
     c_lin, b_lin = linear
     return vd * vd - v * kp * (rdd - (-c_lin * phi + b_lin * v))

@@ -147,7 +147,8 @@ def alpha_invariant_items() -> list[Item]:
         tuple(means), "rad", tolerance=2 * printed_tolerance(table11_summary),
         correcting="the row label: the printed \"Medians\" are the column means",
         how="Column means of Table 11's 25 printed rows; the column medians are "
-            + ", ".join(f"{m:.4f}" for m in medians) + " (tolerance: the rows and the summary are rounded to the same digit, half a unit each)."))
+            + ", ".join(f"{m:.4f}" for m in medians)
+            + " (tolerance: the rows and the summary are rounded to the same digit, half a unit each)."))
     found.append(compare(
         "milne", "3.4 \"2.6 times more accurate\"", accuracy_ratio,
         means[0] / means[2], "", correcting="Table 11's summary label (means, as above)",
