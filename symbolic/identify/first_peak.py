@@ -165,8 +165,8 @@ class FirstPeak:
             "slope": c.slope, "r_intercept": c.intercept, "peak_time": c.peak_time,
             "zeta": c.zeta, "omega_n": c.omega_n, "J": self.J, "B": self.B, "f": self.f,
             "B_loop": c.B, "hold_damping": self.hold_damping, "derivative_damping": self.derivative_damping,
-            "steps": [{"time": s.time, "size": s.size, "start": s.start, "peak": s.peak, "peak_time": s.peak_time}
-                      for s in self.steps],
+            "steps": [{"time": s.time, "size": s.size, "start": s.start, "peak": s.peak,
+                       "peak_time": s.peak_time if math.isfinite(s.peak_time) else None} for s in self.steps],
             "rejected": [{"time": t, "why": why} for t, why in self.rejected],
         }
 
@@ -224,8 +224,7 @@ def identify(
     period = float(np.mean(np.diff(t)))
     if period <= 0:
         raise DataError(source, "t", "time is not increasing")
-    steps, rejected = _find_steps(t, q, r, gain, source, coordinate)
-    usable = [s for s in steps if isinstance(s, Step)]
+    usable, rejected = _find_steps(t, q, r, source, coordinate)
     if len(usable) < 2:
         reasons = "; ".join(f"t = {a:.6g} s: {why}" for a, why in rejected) or "none rejected"
         raise DataError(source, coordinate, f"{len(usable)} usable step response(s) with a first peak "
@@ -254,8 +253,9 @@ def identify(
                      source=source, notes=tuple(notes))
 
 
-def _find_steps(t: np.ndarray, q: np.ndarray, r: np.ndarray, gain: float, source: str,
+def _find_steps(t: np.ndarray, q: np.ndarray, r: np.ndarray, source: str,
                 coordinate: str) -> tuple[list[Step], list[tuple[float, str]]]:
+    """The usable steps (changes of the reference) and, for the others, their time and why not."""
     scale = max(float(np.max(np.abs(r))), float(np.ptp(r)), 1e-300)
     changes = np.flatnonzero(np.abs(np.diff(r)) > 1e-12 * scale) + 1
     if changes.size == 0:
