@@ -278,6 +278,16 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_first_peak(args: argparse.Namespace) -> int:
+    import json
+
+    from symbolic.identify.first_peak import identify_experiment
+
+    result = identify_experiment(args.experiment, args.coordinate)
+    print(json.dumps(result.to_dict(), indent=2) if args.json else result.summary())
+    return 0
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="symbolic", description=__doc__.splitlines()[0])
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
@@ -338,6 +348,11 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--sources", default=",".join(REPRODUCTION_SOURCES),
                    help=f"comma-separated subset of {','.join(REPRODUCTION_SOURCES)} (default: all)")
     r.set_defaults(func=cmd_reproduce)
+    fp = sub.add_parser("first-peak", help="Coulomb friction, inertia and damping of one joint from P-control step responses (Madill 5.3)")
+    fp.add_argument("experiment", help='experiment file (.toml) with [controller] kind = "pd", kp, gain and the reference')
+    fp.add_argument("--coordinate", help="the joint to identify (default: the controller's only coordinate)")
+    fp.add_argument("--json", action="store_true", help="machine-readable result")
+    fp.set_defaults(func=cmd_first_peak)
     ls = sub.add_parser("list", help="list the built-in robots")
     ls.set_defaults(func=cmd_list)
     return p
