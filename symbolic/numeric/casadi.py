@@ -17,7 +17,7 @@ import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
 from symbolic.derive.dynamics import DynamicModel
-from symbolic.numeric.exported import SOLVED_INPUT_SIZES, FunctionSpec, function_specs, input_symbols, programs
+from symbolic.numeric.exported import SOLVED_INPUT_SIZES, FunctionSpec, function_specs, input_symbols, programs, solved_specs
 
 CASADI_MODULE = {
     "sin": ca.sin,
@@ -172,7 +172,8 @@ def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
     xdot = ca.vertcat(qd, qdd)
     out["A"] = ca.Function("A", [q, qd, tau, p], [ca.jacobian(xdot, x)], ["q", "qd", "tau", "p"], ["A"])
     out["B"] = ca.Function("B", [q, qd, tau, p], [ca.jacobian(xdot, tau)], ["q", "qd", "tau", "p"], ["B"])
-    if "end_effector_jacobian" in values:
+    solved = {spec.name for spec in solved_specs(model)}
+    if {"operational_inertia", "apparent_mass"} <= solved:  # declared with the end effector's Jacobian
         u = ca.SX.sym("u", SOLVED_INPUT_SIZES["u"])
         lam, mass = handle_functions(values["inertia"], values["end_effector_jacobian"], u)
         out["operational_inertia"] = ca.Function("operational_inertia", [q, p], [lam], ["q", "p"], ["Lambda"])
