@@ -135,18 +135,11 @@ void emps_standard_parameters(const double *p, double *theta)
     theta[12] = p[3];
 }
 
-int emps_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).
+ * Returns 0 on success, 1 when D is not positive definite (or holds a NaN). */
+static int emps_cholesky(double *D)
 {
-    double D[1 * 1];
-    double b[1];
-    const double zero[1] = { 0.0 };
     int i, j, k;
-    emps_inertia(q, p, D);
-    emps_inverse_dynamics(q, qd, zero, p, b);
-    for (i = 0; i < 1; ++i) {
-        b[i] = tau[i] - b[i];
-    }
-    /* Cholesky factor D = L L^T, L stored in the lower triangle of D */
     for (j = 0; j < 1; ++j) {
         double s = D[j * 1 + j];
         for (k = 0; k < j; ++k) {
@@ -164,6 +157,23 @@ int emps_forward_dynamics(const double *q, const double *qd, const double *tau, 
             }
             D[i * 1 + j] = t / s;
         }
+    }
+    return 0;
+}
+
+int emps_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[1 * 1];
+    double b[1];
+    const double zero[1] = { 0.0 };
+    int i, k;
+    emps_inertia(q, p, D);
+    emps_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 1; ++i) {
+        b[i] = tau[i] - b[i];
+    }
+    if (emps_cholesky(D) != 0) {
+        return 1;
     }
     for (i = 0; i < 1; ++i) { /* L y = b */
         double t = b[i];

@@ -148,6 +148,10 @@ void fivebar_applied(const double *q, const double *qd, const double *p, double 
  * 278 operations, sine and cosine of 2 angles. */
 void fivebar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
+/* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
+ * 58 operations, sine and cosine of 2 angles. */
+void fivebar_end_effector_jacobian(const double *q, const double *p, double *J);
+
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
  * 601 operations, sine and cosine of 2 angles. */
 void fivebar_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y);
@@ -159,6 +163,12 @@ void fivebar_standard_parameters(const double *p, double *theta);
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */
 int fivebar_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd);
+/* Operational-space (apparent) inertia Lambda = (J D^-1 J^T)^-1 at the end effector, 3*3 row-major, kg (linear part; Janot's M_op = J^-T D J^-1 for a square J)
+ * Returns 0 on success, 1 when D(q) is not positive definite, 2 when J D^-1 J^T is singular (a Cholesky pivot not above 1e-12 times its trace: J of rank below 3); Lambda is then left unspecified. */
+int fivebar_operational_inertia(const double *q, const double *p, double *Lambda);
+/* Apparent mass m = u.u / (u^T J D^-1 J^T u) felt pushing the end effector along u[3] (any length; base frame), the point free in the other directions, kg
+ * Returns 0 on success, 1 when D(q) is not positive definite (m unspecified), 2 when u is zero (m unspecified), 3 when the point cannot move along u (m = INFINITY). */
+int fivebar_apparent_mass(const double *q, const double *u, const double *p, double *m);
 
 #ifdef __cplusplus
 }

@@ -1509,18 +1509,69 @@ void fivebar_flexible_inverse_dynamics(const double *q, const double *qd, const 
     tau[6] = v401;
 }
 
-int fivebar_flexible_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
+ * Inputs: q[7] (q0, q1, q2, link5_nu1, link5_nu2, link5_eta1, link5_eta2), p[21] (see fivebar_flexible_parameter_names); output J[21]
+ * 58 operations; sine and cosine of 2 angles in one fivebar_flexible_sincos call. */
+void fivebar_flexible_end_effector_jacobian(const double *q, const double *p, double *J)
 {
-    double D[7 * 7];
-    double b[7];
-    const double zero[7] = { 0.0 };
+    double sn[2], cs[2];
+    fivebar_flexible_sincos(2, q, sn, cs);
+    const double v0 = q[1] - q[2];
+    const double v1 = p[3] + p[4];
+    const double v2 = cos(v0);
+    const double v3 = sin(v0);
+    const double v4 = cs[1]*v2 + sn[1]*v3;
+    const double v5 = cs[1]*p[1];
+    const double v6 = -p[3]*v4 + v5;
+    const double v7 = p[4]*v4 - v6;
+    const double v8 = p[1]*v3;
+    const double v9 = cs[0]*cs[1];
+    const double v10 = cs[0]*sn[1];
+    const double v11 = cs[1]*sn[0];
+    const double v12 = sn[0]*sn[1];
+    const double v13 = -cs[1]*v3 + sn[1]*v2;
+    const double v14 = v10*v3 + v2*v9;
+    const double v15 = v10*v2 - v3*v9;
+    const double v16 = v11*v2 + v12*v3;
+    const double v17 = -v11*v3 + v12*v2;
+    const double v18 = p[1]*v2 - p[3];
+    const double v19 = p[3] + v18;
+    const double v20 = v14*v8 + v15*v19;
+    const double v21 = v1*v15;
+    const double v22 = sn[0]*v7;
+    const double v23 = v16*v8 + v17*v19;
+    const double v24 = v1*v17;
+    const double v25 = cs[0]*v7;
+    const double v26 = v13*v8 - v19*v4;
+    const double v27 = v1*v4;
+    J[0] = v22;
+    J[1] = -v20;
+    J[2] = v21;
+    J[3] = 0.0;
+    J[4] = 0.0;
+    J[5] = 0.0;
+    J[6] = 0.0;
+    J[7] = -v25;
+    J[8] = -v23;
+    J[9] = v24;
+    J[10] = 0.0;
+    J[11] = 0.0;
+    J[12] = 0.0;
+    J[13] = 0.0;
+    J[14] = 0.0;
+    J[15] = -v26;
+    J[16] = -v27;
+    J[17] = 0.0;
+    J[18] = 0.0;
+    J[19] = 0.0;
+    J[20] = 0.0;
+}
+
+/* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).
+ * Returns 0 on success, 1 when D is not positive definite (or holds a NaN). */
+static int fivebar_flexible_cholesky(double *D)
+{
     int i, j, k;
-    fivebar_flexible_inertia(q, p, D);
-    fivebar_flexible_inverse_dynamics(q, qd, zero, p, b);
-    for (i = 0; i < 7; ++i) {
-        b[i] = tau[i] - b[i];
-    }
-    /* Cholesky factor D = L L^T, L stored in the lower triangle of D */
     for (j = 0; j < 7; ++j) {
         double s = D[j * 7 + j];
         for (k = 0; k < j; ++k) {
@@ -1539,6 +1590,23 @@ int fivebar_flexible_forward_dynamics(const double *q, const double *qd, const d
             D[i * 7 + j] = t / s;
         }
     }
+    return 0;
+}
+
+int fivebar_flexible_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[7 * 7];
+    double b[7];
+    const double zero[7] = { 0.0 };
+    int i, k;
+    fivebar_flexible_inertia(q, p, D);
+    fivebar_flexible_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 7; ++i) {
+        b[i] = tau[i] - b[i];
+    }
+    if (fivebar_flexible_cholesky(D) != 0) {
+        return 1;
+    }
     for (i = 0; i < 7; ++i) { /* L y = b */
         double t = b[i];
         for (k = 0; k < i; ++k) {
@@ -1553,5 +1621,111 @@ int fivebar_flexible_forward_dynamics(const double *q, const double *qd, const d
         }
         qdd[i] = t / D[i * 7 + i];
     }
+    return 0;
+}
+
+/* W = L^-1 J^T (NQ*3, row-major) with D(q) = L L^T, so that J D^-1 J^T = W^T W (symmetric by construction).
+ * Returns 0 on success, 1 when D(q) is not positive definite. */
+static int fivebar_flexible_handle_weights(const double *q, const double *p, double *W)
+{
+    double D[7 * 7];
+    double J[3 * 7];
+    int c, i, k;
+    fivebar_flexible_inertia(q, p, D);
+    if (fivebar_flexible_cholesky(D) != 0) {
+        return 1;
+    }
+    fivebar_flexible_end_effector_jacobian(q, p, J);
+    for (c = 0; c < 3; ++c) {
+        for (i = 0; i < 7; ++i) { /* L w = column c of J^T */
+            double t = J[c * 7 + i];
+            for (k = 0; k < i; ++k) {
+                t -= D[i * 7 + k] * W[k * 3 + c];
+            }
+            W[i * 3 + c] = t / D[i * 7 + i];
+        }
+    }
+    return 0;
+}
+
+int fivebar_flexible_operational_inertia(const double *q, const double *p, double *Lambda)
+{
+    double W[7 * 3];
+    double M[9], R[9] = { 0.0 };
+    double trace;
+    int a, b, i, k;
+    if (fivebar_flexible_handle_weights(q, p, W) != 0) {
+        return 1;
+    }
+    for (a = 0; a < 3; ++a) { /* M = W^T W = J D^-1 J^T */
+        for (b = 0; b < 3; ++b) {
+            double t = 0.0;
+            for (i = 0; i < 7; ++i) {
+                t += W[i * 3 + a] * W[i * 3 + b];
+            }
+            M[a * 3 + b] = t;
+        }
+    }
+    trace = M[0] + M[4] + M[8];
+    for (b = 0; b < 3; ++b) { /* M = L L^T, L in the lower triangle of M */
+        double s = M[b * 3 + b];
+        for (k = 0; k < b; ++k) {
+            s -= M[b * 3 + k] * M[b * 3 + k];
+        }
+        if (!(s > 1e-12 * trace)) {
+            return 2; /* singular: J of rank below 3 here */
+        }
+        s = sqrt(s);
+        M[b * 3 + b] = s;
+        for (a = b + 1; a < 3; ++a) {
+            double t = M[a * 3 + b];
+            for (k = 0; k < b; ++k) {
+                t -= M[a * 3 + k] * M[b * 3 + k];
+            }
+            M[a * 3 + b] = t / s;
+        }
+    }
+    for (b = 0; b < 3; ++b) { /* R = L^-1, column by column (lower triangular) */
+        for (a = b; a < 3; ++a) {
+            double t = (a == b) ? 1.0 : 0.0;
+            for (k = b; k < a; ++k) {
+                t -= M[a * 3 + k] * R[k * 3 + b];
+            }
+            R[a * 3 + b] = t / M[a * 3 + a];
+        }
+    }
+    for (a = 0; a < 3; ++a) { /* Lambda = R^T R = (L L^T)^-1 */
+        for (b = 0; b < 3; ++b) {
+            double t = 0.0;
+            for (k = 0; k < 3; ++k) {
+                t += R[k * 3 + a] * R[k * 3 + b];
+            }
+            Lambda[a * 3 + b] = t;
+        }
+    }
+    return 0;
+}
+
+int fivebar_flexible_apparent_mass(const double *q, const double *u, const double *p, double *m)
+{
+    double W[7 * 3];
+    const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+    double s = 0.0;
+    int i;
+    if (!(uu > 0.0)) {
+        return 2;
+    }
+    if (fivebar_flexible_handle_weights(q, p, W) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 7; ++i) { /* s = |W u|^2 = u^T J D^-1 J^T u */
+        const double w = W[i * 3] * u[0] + W[i * 3 + 1] * u[1] + W[i * 3 + 2] * u[2];
+        s += w * w;
+    }
+    if (!(s > 0.0)) {
+        *m = INFINITY;
+        return 3;
+    }
+    *m = uu / s;
     return 0;
 }

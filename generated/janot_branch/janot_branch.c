@@ -895,6 +895,60 @@ void janot_branch_inverse_dynamics(const double *q, const double *qd, const doub
     tau[2] = v184;
 }
 
+/* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
+ * Inputs: q[3] (q1, q2, q5), p[48] (see janot_branch_parameter_names); output J[9]
+ * 88 operations; sine and cosine of 3 angles in one janot_branch_sincos call. */
+void janot_branch_end_effector_jacobian(const double *q, const double *p, double *J)
+{
+    double sn[3], cs[3];
+    janot_branch_sincos(3, q, sn, cs);
+    const double v0 = q[1] - q[2];
+    const double v1 = cos(v0);
+    const double v2 = sin(v0);
+    const double v3 = cs[1]*v2 - sn[1]*v1;
+    const double v4 = cs[1]*v1 + sn[1]*v2;
+    const double v5 = cs[2]*v3 + sn[2]*v4;
+    const double v6 = cs[1]*p[1];
+    const double v7 = p[2]*v4 + v6;
+    const double v8 = p[2]*v5 + v7;
+    const double v9 = cs[0]*cs[1];
+    const double v10 = cs[0]*sn[1];
+    const double v11 = cs[1]*sn[0];
+    const double v12 = sn[0]*sn[1];
+    const double v13 = p[1]*v1;
+    const double v14 = p[1]*v2;
+    const double v15 = v1*v9 + v10*v2;
+    const double v16 = -v1*v10 + v2*v9;
+    const double v17 = v1*v11 + v12*v2;
+    const double v18 = -v1*v12 + v11*v2;
+    const double v19 = sn[2]*p[2];
+    const double v20 = cs[2]*p[2];
+    const double v21 = -cs[2]*v4 + sn[2]*v3;
+    const double v22 = cs[2]*v13 - sn[2]*v14;
+    const double v23 = cs[2]*v14 + sn[2]*v13;
+    const double v24 = cs[2]*v16 + sn[2]*v15;
+    const double v25 = cs[2]*v15 - sn[2]*v16;
+    const double v26 = cs[2]*v18 + sn[2]*v17;
+    const double v27 = cs[2]*v17 - sn[2]*v18;
+    const double v28 = v22*v24 - v23*v25;
+    const double v29 = v19*v25 - v20*v24;
+    const double v30 = sn[0]*v8;
+    const double v31 = v22*v26 - v23*v27;
+    const double v32 = v19*v27 - v20*v26;
+    const double v33 = cs[0]*v8;
+    const double v34 = v21*v22 - v23*v5;
+    const double v35 = v19*v5 - v20*v21;
+    J[0] = -v30;
+    J[1] = v28;
+    J[2] = -v29;
+    J[3] = v33;
+    J[4] = v31;
+    J[5] = -v32;
+    J[6] = 0.0;
+    J[7] = v34;
+    J[8] = -v35;
+}
+
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
  * Inputs: q[3] (q1, q2, q5), qd[3] (q1, q2, q5), qdd[3] (q1, q2, q5), p[48] (see janot_branch_parameter_names); output Y[222]
  * 695 operations; sine and cosine of 3 angles in one janot_branch_sincos call. */
@@ -1571,18 +1625,11 @@ void janot_branch_standard_parameters(const double *p, double *theta)
     theta[73] = p[44];
 }
 
-int janot_branch_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).
+ * Returns 0 on success, 1 when D is not positive definite (or holds a NaN). */
+static int janot_branch_cholesky(double *D)
 {
-    double D[3 * 3];
-    double b[3];
-    const double zero[3] = { 0.0 };
     int i, j, k;
-    janot_branch_inertia(q, p, D);
-    janot_branch_inverse_dynamics(q, qd, zero, p, b);
-    for (i = 0; i < 3; ++i) {
-        b[i] = tau[i] - b[i];
-    }
-    /* Cholesky factor D = L L^T, L stored in the lower triangle of D */
     for (j = 0; j < 3; ++j) {
         double s = D[j * 3 + j];
         for (k = 0; k < j; ++k) {
@@ -1601,6 +1648,23 @@ int janot_branch_forward_dynamics(const double *q, const double *qd, const doubl
             D[i * 3 + j] = t / s;
         }
     }
+    return 0;
+}
+
+int janot_branch_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[3 * 3];
+    double b[3];
+    const double zero[3] = { 0.0 };
+    int i, k;
+    janot_branch_inertia(q, p, D);
+    janot_branch_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 3; ++i) {
+        b[i] = tau[i] - b[i];
+    }
+    if (janot_branch_cholesky(D) != 0) {
+        return 1;
+    }
     for (i = 0; i < 3; ++i) { /* L y = b */
         double t = b[i];
         for (k = 0; k < i; ++k) {
@@ -1615,5 +1679,111 @@ int janot_branch_forward_dynamics(const double *q, const double *qd, const doubl
         }
         qdd[i] = t / D[i * 3 + i];
     }
+    return 0;
+}
+
+/* W = L^-1 J^T (NQ*3, row-major) with D(q) = L L^T, so that J D^-1 J^T = W^T W (symmetric by construction).
+ * Returns 0 on success, 1 when D(q) is not positive definite. */
+static int janot_branch_handle_weights(const double *q, const double *p, double *W)
+{
+    double D[3 * 3];
+    double J[3 * 3];
+    int c, i, k;
+    janot_branch_inertia(q, p, D);
+    if (janot_branch_cholesky(D) != 0) {
+        return 1;
+    }
+    janot_branch_end_effector_jacobian(q, p, J);
+    for (c = 0; c < 3; ++c) {
+        for (i = 0; i < 3; ++i) { /* L w = column c of J^T */
+            double t = J[c * 3 + i];
+            for (k = 0; k < i; ++k) {
+                t -= D[i * 3 + k] * W[k * 3 + c];
+            }
+            W[i * 3 + c] = t / D[i * 3 + i];
+        }
+    }
+    return 0;
+}
+
+int janot_branch_operational_inertia(const double *q, const double *p, double *Lambda)
+{
+    double W[3 * 3];
+    double M[9], R[9] = { 0.0 };
+    double trace;
+    int a, b, i, k;
+    if (janot_branch_handle_weights(q, p, W) != 0) {
+        return 1;
+    }
+    for (a = 0; a < 3; ++a) { /* M = W^T W = J D^-1 J^T */
+        for (b = 0; b < 3; ++b) {
+            double t = 0.0;
+            for (i = 0; i < 3; ++i) {
+                t += W[i * 3 + a] * W[i * 3 + b];
+            }
+            M[a * 3 + b] = t;
+        }
+    }
+    trace = M[0] + M[4] + M[8];
+    for (b = 0; b < 3; ++b) { /* M = L L^T, L in the lower triangle of M */
+        double s = M[b * 3 + b];
+        for (k = 0; k < b; ++k) {
+            s -= M[b * 3 + k] * M[b * 3 + k];
+        }
+        if (!(s > 1e-12 * trace)) {
+            return 2; /* singular: J of rank below 3 here */
+        }
+        s = sqrt(s);
+        M[b * 3 + b] = s;
+        for (a = b + 1; a < 3; ++a) {
+            double t = M[a * 3 + b];
+            for (k = 0; k < b; ++k) {
+                t -= M[a * 3 + k] * M[b * 3 + k];
+            }
+            M[a * 3 + b] = t / s;
+        }
+    }
+    for (b = 0; b < 3; ++b) { /* R = L^-1, column by column (lower triangular) */
+        for (a = b; a < 3; ++a) {
+            double t = (a == b) ? 1.0 : 0.0;
+            for (k = b; k < a; ++k) {
+                t -= M[a * 3 + k] * R[k * 3 + b];
+            }
+            R[a * 3 + b] = t / M[a * 3 + a];
+        }
+    }
+    for (a = 0; a < 3; ++a) { /* Lambda = R^T R = (L L^T)^-1 */
+        for (b = 0; b < 3; ++b) {
+            double t = 0.0;
+            for (k = 0; k < 3; ++k) {
+                t += R[k * 3 + a] * R[k * 3 + b];
+            }
+            Lambda[a * 3 + b] = t;
+        }
+    }
+    return 0;
+}
+
+int janot_branch_apparent_mass(const double *q, const double *u, const double *p, double *m)
+{
+    double W[3 * 3];
+    const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+    double s = 0.0;
+    int i;
+    if (!(uu > 0.0)) {
+        return 2;
+    }
+    if (janot_branch_handle_weights(q, p, W) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 3; ++i) { /* s = |W u|^2 = u^T J D^-1 J^T u */
+        const double w = W[i * 3] * u[0] + W[i * 3 + 1] * u[1] + W[i * 3 + 2] * u[2];
+        s += w * w;
+    }
+    if (!(s > 0.0)) {
+        *m = INFINITY;
+        return 3;
+    }
+    *m = uu / s;
     return 0;
 }

@@ -236,18 +236,11 @@ void madill_beam_inverse_dynamics(const double *q, const double *qd, const doubl
     tau[4] = v41;
 }
 
-int madill_beam_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).
+ * Returns 0 on success, 1 when D is not positive definite (or holds a NaN). */
+static int madill_beam_cholesky(double *D)
 {
-    double D[5 * 5];
-    double b[5];
-    const double zero[5] = { 0.0 };
     int i, j, k;
-    madill_beam_inertia(q, p, D);
-    madill_beam_inverse_dynamics(q, qd, zero, p, b);
-    for (i = 0; i < 5; ++i) {
-        b[i] = tau[i] - b[i];
-    }
-    /* Cholesky factor D = L L^T, L stored in the lower triangle of D */
     for (j = 0; j < 5; ++j) {
         double s = D[j * 5 + j];
         for (k = 0; k < j; ++k) {
@@ -265,6 +258,23 @@ int madill_beam_forward_dynamics(const double *q, const double *qd, const double
             }
             D[i * 5 + j] = t / s;
         }
+    }
+    return 0;
+}
+
+int madill_beam_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[5 * 5];
+    double b[5];
+    const double zero[5] = { 0.0 };
+    int i, k;
+    madill_beam_inertia(q, p, D);
+    madill_beam_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 5; ++i) {
+        b[i] = tau[i] - b[i];
+    }
+    if (madill_beam_cholesky(D) != 0) {
+        return 1;
     }
     for (i = 0; i < 5; ++i) { /* L y = b */
         double t = b[i];

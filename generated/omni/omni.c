@@ -544,6 +544,50 @@ void omni_inverse_dynamics(const double *q, const double *qd, const double *qdd,
     tau[2] = v60;
 }
 
+/* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
+ * Inputs: q[3] (theta, gamma1, gamma2), p[7] (see omni_parameter_names); output J[9]
+ * 58 operations; sine and cosine of 2 angles in one omni_sincos call. */
+void omni_end_effector_jacobian(const double *q, const double *p, double *J)
+{
+    double sn[2], cs[2];
+    omni_sincos(2, q, sn, cs);
+    const double v0 = 2.0*q[1] + q[2] + p[6];
+    const double v1 = cos(v0);
+    const double v2 = sin(v0);
+    const double v3 = cs[1]*v1 + sn[1]*v2;
+    const double v4 = p[2]*v3;
+    const double v5 = cs[0]*cs[1];
+    const double v6 = cs[0]*sn[1];
+    const double v7 = cs[1]*sn[0];
+    const double v8 = sn[0]*sn[1];
+    const double v9 = p[1]*cs[1];
+    const double v10 = p[1]*v2;
+    const double v11 = -cs[1]*v2 + sn[1]*v1;
+    const double v12 = v1*v5 + v2*v6;
+    const double v13 = v1*v6 - v2*v5;
+    const double v14 = v1*v7 + v2*v8;
+    const double v15 = v1*v8 - v2*v7;
+    const double v16 = p[1]*v1 - p[2];
+    const double v17 = 2.0*p[2] + v16;
+    const double v18 = v4 - v9;
+    const double v19 = v10*v12 + v13*v17;
+    const double v20 = p[2]*v13;
+    const double v21 = sn[0]*v18;
+    const double v22 = v10*v14 + v15*v17;
+    const double v23 = p[2]*v15;
+    const double v24 = cs[0]*v18;
+    const double v25 = v10*v11 - v17*v3;
+    J[0] = v21;
+    J[1] = -v19;
+    J[2] = -v20;
+    J[3] = -v24;
+    J[4] = -v22;
+    J[5] = -v23;
+    J[6] = 0.0;
+    J[7] = -v25;
+    J[8] = v4;
+}
+
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
  * Inputs: q[3] (theta, gamma1, gamma2), qd[3] (theta, gamma1, gamma2), qdd[3] (theta, gamma1, gamma2), p[7] (see omni_parameter_names); output Y[90]
  * 327 operations; sine and cosine of 1 angles in one omni_sincos call. */
@@ -856,18 +900,11 @@ void omni_standard_parameters(const double *p, double *theta)
     theta[29] = p[4];
 }
 
-int omni_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).
+ * Returns 0 on success, 1 when D is not positive definite (or holds a NaN). */
+static int omni_cholesky(double *D)
 {
-    double D[3 * 3];
-    double b[3];
-    const double zero[3] = { 0.0 };
     int i, j, k;
-    omni_inertia(q, p, D);
-    omni_inverse_dynamics(q, qd, zero, p, b);
-    for (i = 0; i < 3; ++i) {
-        b[i] = tau[i] - b[i];
-    }
-    /* Cholesky factor D = L L^T, L stored in the lower triangle of D */
     for (j = 0; j < 3; ++j) {
         double s = D[j * 3 + j];
         for (k = 0; k < j; ++k) {
@@ -886,6 +923,23 @@ int omni_forward_dynamics(const double *q, const double *qd, const double *tau, 
             D[i * 3 + j] = t / s;
         }
     }
+    return 0;
+}
+
+int omni_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[3 * 3];
+    double b[3];
+    const double zero[3] = { 0.0 };
+    int i, k;
+    omni_inertia(q, p, D);
+    omni_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 3; ++i) {
+        b[i] = tau[i] - b[i];
+    }
+    if (omni_cholesky(D) != 0) {
+        return 1;
+    }
     for (i = 0; i < 3; ++i) { /* L y = b */
         double t = b[i];
         for (k = 0; k < i; ++k) {
@@ -900,5 +954,111 @@ int omni_forward_dynamics(const double *q, const double *qd, const double *tau, 
         }
         qdd[i] = t / D[i * 3 + i];
     }
+    return 0;
+}
+
+/* W = L^-1 J^T (NQ*3, row-major) with D(q) = L L^T, so that J D^-1 J^T = W^T W (symmetric by construction).
+ * Returns 0 on success, 1 when D(q) is not positive definite. */
+static int omni_handle_weights(const double *q, const double *p, double *W)
+{
+    double D[3 * 3];
+    double J[3 * 3];
+    int c, i, k;
+    omni_inertia(q, p, D);
+    if (omni_cholesky(D) != 0) {
+        return 1;
+    }
+    omni_end_effector_jacobian(q, p, J);
+    for (c = 0; c < 3; ++c) {
+        for (i = 0; i < 3; ++i) { /* L w = column c of J^T */
+            double t = J[c * 3 + i];
+            for (k = 0; k < i; ++k) {
+                t -= D[i * 3 + k] * W[k * 3 + c];
+            }
+            W[i * 3 + c] = t / D[i * 3 + i];
+        }
+    }
+    return 0;
+}
+
+int omni_operational_inertia(const double *q, const double *p, double *Lambda)
+{
+    double W[3 * 3];
+    double M[9], R[9] = { 0.0 };
+    double trace;
+    int a, b, i, k;
+    if (omni_handle_weights(q, p, W) != 0) {
+        return 1;
+    }
+    for (a = 0; a < 3; ++a) { /* M = W^T W = J D^-1 J^T */
+        for (b = 0; b < 3; ++b) {
+            double t = 0.0;
+            for (i = 0; i < 3; ++i) {
+                t += W[i * 3 + a] * W[i * 3 + b];
+            }
+            M[a * 3 + b] = t;
+        }
+    }
+    trace = M[0] + M[4] + M[8];
+    for (b = 0; b < 3; ++b) { /* M = L L^T, L in the lower triangle of M */
+        double s = M[b * 3 + b];
+        for (k = 0; k < b; ++k) {
+            s -= M[b * 3 + k] * M[b * 3 + k];
+        }
+        if (!(s > 1e-12 * trace)) {
+            return 2; /* singular: J of rank below 3 here */
+        }
+        s = sqrt(s);
+        M[b * 3 + b] = s;
+        for (a = b + 1; a < 3; ++a) {
+            double t = M[a * 3 + b];
+            for (k = 0; k < b; ++k) {
+                t -= M[a * 3 + k] * M[b * 3 + k];
+            }
+            M[a * 3 + b] = t / s;
+        }
+    }
+    for (b = 0; b < 3; ++b) { /* R = L^-1, column by column (lower triangular) */
+        for (a = b; a < 3; ++a) {
+            double t = (a == b) ? 1.0 : 0.0;
+            for (k = b; k < a; ++k) {
+                t -= M[a * 3 + k] * R[k * 3 + b];
+            }
+            R[a * 3 + b] = t / M[a * 3 + a];
+        }
+    }
+    for (a = 0; a < 3; ++a) { /* Lambda = R^T R = (L L^T)^-1 */
+        for (b = 0; b < 3; ++b) {
+            double t = 0.0;
+            for (k = 0; k < 3; ++k) {
+                t += R[k * 3 + a] * R[k * 3 + b];
+            }
+            Lambda[a * 3 + b] = t;
+        }
+    }
+    return 0;
+}
+
+int omni_apparent_mass(const double *q, const double *u, const double *p, double *m)
+{
+    double W[3 * 3];
+    const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+    double s = 0.0;
+    int i;
+    if (!(uu > 0.0)) {
+        return 2;
+    }
+    if (omni_handle_weights(q, p, W) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 3; ++i) { /* s = |W u|^2 = u^T J D^-1 J^T u */
+        const double w = W[i * 3] * u[0] + W[i * 3 + 1] * u[1] + W[i * 3 + 2] * u[2];
+        s += w * w;
+    }
+    if (!(s > 0.0)) {
+        *m = INFINITY;
+        return 3;
+    }
+    *m = uu / s;
     return 0;
 }

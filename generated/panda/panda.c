@@ -1993,6 +1993,177 @@ void panda_inverse_dynamics(const double *q, const double *qd, const double *qdd
     tau[6] = -v221;
 }
 
+/* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
+ * Inputs: q[7] (q1, q2, q3, q4, q5, q6, q7), p[78] (see panda_parameter_names); output J[21]
+ * 384 operations; sine and cosine of 7 angles in one panda_sincos call. */
+void panda_end_effector_jacobian(const double *q, const double *p, double *J)
+{
+    double sn[7], cs[7];
+    panda_sincos(7, q, sn, cs);
+    const double v0 = cs[2]*sn[1];
+    const double v1 = cs[1]*cs[3] + sn[3]*v0;
+    const double v2 = sn[1]*sn[2];
+    const double v3 = -cs[1]*sn[3] + cs[3]*v0;
+    const double v4 = -cs[4]*v3 + sn[4]*v2;
+    const double v5 = cs[5]*v1 - sn[5]*v4;
+    const double v6 = p[6]*v5;
+    const double v7 = cs[4]*v2 + sn[4]*v3;
+    const double v8 = cs[5]*v4 + sn[5]*v1;
+    const double v9 = cs[6]*v7 + sn[6]*v8;
+    const double v10 = p[7]*v9;
+    const double v11 = sn[1]*p[2];
+    const double v12 = sn[2]*v11;
+    const double v13 = p[3]*v2;
+    const double v14 = cs[3]*v13 + sn[3]*v12;
+    const double v15 = p[4]*v2 + v14;
+    const double v16 = cs[3]*v12 - sn[3]*v13;
+    const double v17 = p[5]*v2 + v16;
+    const double v18 = cs[2]*v11;
+    const double v19 = cs[1]*p[3] + v18;
+    const double v20 = p[4]*v1 + p[5]*v3 + v19;
+    const double v21 = cs[4]*v17 + sn[4]*v20;
+    const double v22 = -cs[5]*v21 + sn[5]*v15;
+    const double v23 = cs[4]*v20 - sn[4]*v17;
+    const double v24 = v23 + v6;
+    const double v25 = cs[6]*v22 + sn[6]*v24;
+    const double v26 = v10 + v25;
+    const double v27 = cs[6]*v8 - sn[6]*v7;
+    const double v28 = p[7]*v27;
+    const double v29 = cs[6]*v24 - sn[6]*v22;
+    const double v30 = v28 + v29;
+    const double v31 = cs[3]*sn[2];
+    const double v32 = -cs[2]*cs[4] + sn[4]*v31;
+    const double v33 = sn[2]*sn[3];
+    const double v34 = cs[2]*sn[4] + cs[4]*v31;
+    const double v35 = -cs[5]*v34 + sn[5]*v33;
+    const double v36 = cs[6]*v35 - sn[6]*v32;
+    const double v37 = cs[2]*p[2];
+    const double v38 = cs[2]*p[3];
+    const double v39 = cs[3]*v38 + sn[3]*v37;
+    const double v40 = cs[2]*p[4] + v39;
+    const double v41 = cs[3]*v37 - sn[3]*v38;
+    const double v42 = cs[2]*p[5] + v41;
+    const double v43 = sn[2]*p[2];
+    const double v44 = p[4]*v33 + p[5]*v31 + v43;
+    const double v45 = cs[4]*v42 - sn[4]*v44;
+    const double v46 = -cs[5]*v45 + sn[5]*v40;
+    const double v47 = cs[4]*v44 + sn[4]*v42;
+    const double v48 = cs[5]*v33 + sn[5]*v34;
+    const double v49 = p[6]*v48 + v47;
+    const double v50 = cs[6]*v49 + sn[6]*v46;
+    const double v51 = p[7]*v36 + v50;
+    const double v52 = cs[6]*v32 + sn[6]*v35;
+    const double v53 = cs[6]*v46 - sn[6]*v49;
+    const double v54 = p[7]*v52 - v53;
+    const double v55 = sn[3]*sn[4];
+    const double v56 = cs[4]*sn[3];
+    const double v57 = cs[3]*sn[5] + cs[5]*v56;
+    const double v58 = cs[6]*v55 - sn[6]*v57;
+    const double v59 = cs[3]*p[4] - sn[3]*p[5] + p[3];
+    const double v60 = sn[4]*v59;
+    const double v61 = cs[5]*v60;
+    const double v62 = cs[4]*v59;
+    const double v63 = cs[3]*cs[5] - sn[5]*v56;
+    const double v64 = p[6]*v63 + v62;
+    const double v65 = cs[6]*v61 - sn[6]*v64;
+    const double v66 = p[7]*v58 + v65;
+    const double v67 = cs[6]*v57 + sn[6]*v55;
+    const double v68 = cs[6]*v64 + sn[6]*v61;
+    const double v69 = p[7]*v67 + v68;
+    const double v70 = cs[5]*sn[4];
+    const double v71 = cs[4]*cs[6] + sn[6]*v70;
+    const double v72 = cs[4]*p[5];
+    const double v73 = cs[5]*v72 - sn[5]*p[4];
+    const double v74 = sn[4]*p[5];
+    const double v75 = sn[4]*sn[5];
+    const double v76 = p[6]*v75 + v74;
+    const double v77 = cs[6]*v73 + sn[6]*v76;
+    const double v78 = p[7]*v71 - v77;
+    const double v79 = -cs[4]*sn[6] + cs[6]*v70;
+    const double v80 = cs[6]*v76 - sn[6]*v73;
+    const double v81 = p[7]*v79 - v80;
+    const double v82 = sn[5]*sn[6];
+    const double v83 = cs[5]*p[6];
+    const double v84 = sn[6]*v83;
+    const double v85 = p[7]*v82 + v84;
+    const double v86 = cs[6]*sn[5];
+    const double v87 = cs[6]*v83;
+    const double v88 = p[7]*v86 + v87;
+    const double v89 = cs[6]*p[7];
+    const double v90 = sn[6]*p[7];
+    const double v91 = cs[0]*cs[1];
+    const double v92 = cs[0]*sn[1];
+    const double v93 = cs[1]*sn[0];
+    const double v94 = sn[0]*sn[1];
+    const double v95 = -cs[2]*v91 + sn[0]*sn[2];
+    const double v96 = cs[2]*sn[0] + sn[2]*v91;
+    const double v97 = cs[0]*sn[2] + cs[2]*v93;
+    const double v98 = cs[0]*cs[2] - sn[2]*v93;
+    const double v99 = cs[3]*v95 - sn[3]*v92;
+    const double v100 = cs[3]*v92 + sn[3]*v95;
+    const double v101 = cs[3]*v97 + sn[3]*v94;
+    const double v102 = -cs[3]*v94 + sn[3]*v97;
+    const double v103 = cs[4]*v99 + sn[4]*v96;
+    const double v104 = cs[4]*v96 - sn[4]*v99;
+    const double v105 = cs[4]*v101 + sn[4]*v98;
+    const double v106 = cs[4]*v98 - sn[4]*v101;
+    const double v107 = cs[5]*v15 + sn[5]*v21;
+    const double v108 = cs[5]*v40 + sn[5]*v45;
+    const double v109 = sn[5]*v60;
+    const double v110 = cs[5]*p[4] + sn[5]*v72;
+    const double v111 = -cs[5]*v103 + sn[5]*v100;
+    const double v112 = cs[5]*v100 + sn[5]*v103;
+    const double v113 = -cs[5]*v105 + sn[5]*v102;
+    const double v114 = cs[5]*v102 + sn[5]*v105;
+    const double v115 = p[6]*v7 + v107;
+    const double v116 = p[6]*v32 - v108;
+    const double v117 = p[6]*v55 - v109;
+    const double v118 = cs[4]*p[6] + v110;
+    const double v119 = cs[6]*v111 + sn[6]*v104;
+    const double v120 = cs[6]*v104 - sn[6]*v111;
+    const double v121 = cs[6]*v113 + sn[6]*v106;
+    const double v122 = cs[6]*v106 - sn[6]*v113;
+    const double v123 = -v112*v115 - v119*v26 - v120*v30;
+    const double v124 = v112*v116 + v119*v54 + v120*v51;
+    const double v125 = v112*v117 + v119*v66 - v120*v69;
+    const double v126 = v112*v118 + v119*v78 + v120*v81;
+    const double v127 = -v119*v85 - v120*v88;
+    const double v128 = p[6]*v112 + v119*v89 - v120*v90;
+    const double v129 = -v114*v115 - v121*v26 - v122*v30;
+    const double v130 = v114*v116 + v121*v54 + v122*v51;
+    const double v131 = v114*v117 + v121*v66 - v122*v69;
+    const double v132 = v114*v118 + v121*v78 + v122*v81;
+    const double v133 = -v121*v85 - v122*v88;
+    const double v134 = p[6]*v114 + v121*v89 - v122*v90;
+    const double v135 = v115*v5 + v26*v27 - v30*v9;
+    const double v136 = v116*v5 + v27*v54 - v51*v9;
+    const double v137 = v117*v5 + v27*v66 + v69*v9;
+    const double v138 = v118*v5 + v27*v78 - v81*v9;
+    const double v139 = -v27*v85 + v88*v9;
+    const double v140 = cs[6]*v28 + sn[6]*v10 + v6;
+    J[0] = v123;
+    J[1] = v124;
+    J[2] = v125;
+    J[3] = v126;
+    J[4] = v127;
+    J[5] = v128;
+    J[6] = 0.0;
+    J[7] = -v129;
+    J[8] = -v130;
+    J[9] = -v131;
+    J[10] = -v132;
+    J[11] = -v133;
+    J[12] = -v134;
+    J[13] = 0.0;
+    J[14] = -v135;
+    J[15] = v136;
+    J[16] = v137;
+    J[17] = v138;
+    J[18] = v139;
+    J[19] = v140;
+    J[20] = 0.0;
+}
+
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
  * Inputs: q[7] (q1, q2, q3, q4, q5, q6, q7), qd[7] (q1, q2, q3, q4, q5, q6, q7), qdd[7] (q1, q2, q3, q4, q5, q6, q7), p[78] (see panda_parameter_names); output Y[490]
  * 1940 operations; sine and cosine of 6 angles in one panda_sincos call. */
@@ -3351,18 +3522,11 @@ void panda_standard_parameters(const double *p, double *theta)
     theta[69] = p[68];
 }
 
-int panda_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).
+ * Returns 0 on success, 1 when D is not positive definite (or holds a NaN). */
+static int panda_cholesky(double *D)
 {
-    double D[7 * 7];
-    double b[7];
-    const double zero[7] = { 0.0 };
     int i, j, k;
-    panda_inertia(q, p, D);
-    panda_inverse_dynamics(q, qd, zero, p, b);
-    for (i = 0; i < 7; ++i) {
-        b[i] = tau[i] - b[i];
-    }
-    /* Cholesky factor D = L L^T, L stored in the lower triangle of D */
     for (j = 0; j < 7; ++j) {
         double s = D[j * 7 + j];
         for (k = 0; k < j; ++k) {
@@ -3381,6 +3545,23 @@ int panda_forward_dynamics(const double *q, const double *qd, const double *tau,
             D[i * 7 + j] = t / s;
         }
     }
+    return 0;
+}
+
+int panda_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[7 * 7];
+    double b[7];
+    const double zero[7] = { 0.0 };
+    int i, k;
+    panda_inertia(q, p, D);
+    panda_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 7; ++i) {
+        b[i] = tau[i] - b[i];
+    }
+    if (panda_cholesky(D) != 0) {
+        return 1;
+    }
     for (i = 0; i < 7; ++i) { /* L y = b */
         double t = b[i];
         for (k = 0; k < i; ++k) {
@@ -3395,5 +3576,111 @@ int panda_forward_dynamics(const double *q, const double *qd, const double *tau,
         }
         qdd[i] = t / D[i * 7 + i];
     }
+    return 0;
+}
+
+/* W = L^-1 J^T (NQ*3, row-major) with D(q) = L L^T, so that J D^-1 J^T = W^T W (symmetric by construction).
+ * Returns 0 on success, 1 when D(q) is not positive definite. */
+static int panda_handle_weights(const double *q, const double *p, double *W)
+{
+    double D[7 * 7];
+    double J[3 * 7];
+    int c, i, k;
+    panda_inertia(q, p, D);
+    if (panda_cholesky(D) != 0) {
+        return 1;
+    }
+    panda_end_effector_jacobian(q, p, J);
+    for (c = 0; c < 3; ++c) {
+        for (i = 0; i < 7; ++i) { /* L w = column c of J^T */
+            double t = J[c * 7 + i];
+            for (k = 0; k < i; ++k) {
+                t -= D[i * 7 + k] * W[k * 3 + c];
+            }
+            W[i * 3 + c] = t / D[i * 7 + i];
+        }
+    }
+    return 0;
+}
+
+int panda_operational_inertia(const double *q, const double *p, double *Lambda)
+{
+    double W[7 * 3];
+    double M[9], R[9] = { 0.0 };
+    double trace;
+    int a, b, i, k;
+    if (panda_handle_weights(q, p, W) != 0) {
+        return 1;
+    }
+    for (a = 0; a < 3; ++a) { /* M = W^T W = J D^-1 J^T */
+        for (b = 0; b < 3; ++b) {
+            double t = 0.0;
+            for (i = 0; i < 7; ++i) {
+                t += W[i * 3 + a] * W[i * 3 + b];
+            }
+            M[a * 3 + b] = t;
+        }
+    }
+    trace = M[0] + M[4] + M[8];
+    for (b = 0; b < 3; ++b) { /* M = L L^T, L in the lower triangle of M */
+        double s = M[b * 3 + b];
+        for (k = 0; k < b; ++k) {
+            s -= M[b * 3 + k] * M[b * 3 + k];
+        }
+        if (!(s > 1e-12 * trace)) {
+            return 2; /* singular: J of rank below 3 here */
+        }
+        s = sqrt(s);
+        M[b * 3 + b] = s;
+        for (a = b + 1; a < 3; ++a) {
+            double t = M[a * 3 + b];
+            for (k = 0; k < b; ++k) {
+                t -= M[a * 3 + k] * M[b * 3 + k];
+            }
+            M[a * 3 + b] = t / s;
+        }
+    }
+    for (b = 0; b < 3; ++b) { /* R = L^-1, column by column (lower triangular) */
+        for (a = b; a < 3; ++a) {
+            double t = (a == b) ? 1.0 : 0.0;
+            for (k = b; k < a; ++k) {
+                t -= M[a * 3 + k] * R[k * 3 + b];
+            }
+            R[a * 3 + b] = t / M[a * 3 + a];
+        }
+    }
+    for (a = 0; a < 3; ++a) { /* Lambda = R^T R = (L L^T)^-1 */
+        for (b = 0; b < 3; ++b) {
+            double t = 0.0;
+            for (k = 0; k < 3; ++k) {
+                t += R[k * 3 + a] * R[k * 3 + b];
+            }
+            Lambda[a * 3 + b] = t;
+        }
+    }
+    return 0;
+}
+
+int panda_apparent_mass(const double *q, const double *u, const double *p, double *m)
+{
+    double W[7 * 3];
+    const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+    double s = 0.0;
+    int i;
+    if (!(uu > 0.0)) {
+        return 2;
+    }
+    if (panda_handle_weights(q, p, W) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 7; ++i) { /* s = |W u|^2 = u^T J D^-1 J^T u */
+        const double w = W[i * 3] * u[0] + W[i * 3 + 1] * u[1] + W[i * 3 + 2] * u[2];
+        s += w * w;
+    }
+    if (!(s > 0.0)) {
+        *m = INFINITY;
+        return 3;
+    }
+    *m = uu / s;
     return 0;
 }

@@ -1344,6 +1344,95 @@ void puma560_inverse_dynamics(const double *q, const double *qd, const double *q
     tau[5] = -v153;
 }
 
+/* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
+ * Inputs: q[6] (q1, q2, q3, q4, q5, q6), p[37] (see puma560_parameter_names); output J[18]
+ * 192 operations; sine and cosine of 6 angles in one puma560_sincos call. */
+void puma560_end_effector_jacobian(const double *q, const double *p, double *J)
+{
+    double sn[6], cs[6];
+    puma560_sincos(6, q, sn, cs);
+    const double v0 = sn[2]*p[1];
+    const double v1 = -p[4] + v0;
+    const double v2 = cs[1]*p[1];
+    const double v3 = cs[0]*cs[1];
+    const double v4 = cs[0]*sn[1];
+    const double v5 = cs[1]*sn[0];
+    const double v6 = sn[0]*sn[1];
+    const double v7 = cs[1]*sn[2] + cs[2]*sn[1];
+    const double v8 = cs[1]*cs[2] - sn[1]*sn[2];
+    const double v9 = p[2]*v8 + v2;
+    const double v10 = p[3]*v8;
+    const double v11 = p[3]*v7;
+    const double v12 = cs[2]*p[1] + p[2];
+    const double v13 = cs[2]*v3 - sn[2]*v4;
+    const double v14 = cs[2]*v4 + sn[2]*v3;
+    const double v15 = cs[2]*v5 - sn[2]*v6;
+    const double v16 = cs[2]*v6 + sn[2]*v5;
+    const double v17 = cs[3]*v7;
+    const double v18 = sn[3]*v7;
+    const double v19 = cs[3]*v10 + sn[3]*v9 - p[4]*v18;
+    const double v20 = -cs[3]*v9 + sn[3]*v10 + p[4]*v17;
+    const double v21 = cs[3]*v1;
+    const double v22 = sn[3]*v1;
+    const double v23 = cs[3]*p[4];
+    const double v24 = sn[3]*p[4];
+    const double v25 = -cs[3]*v13 + sn[0]*sn[3];
+    const double v26 = cs[3]*sn[0] + sn[3]*v13;
+    const double v27 = cs[0]*sn[3] + cs[3]*v15;
+    const double v28 = cs[0]*cs[3] - sn[3]*v15;
+    const double v29 = cs[4]*v17 + sn[4]*v8;
+    const double v30 = cs[4]*v8 - sn[4]*v17;
+    const double v31 = -cs[4]*v19 + sn[4]*v11;
+    const double v32 = cs[4]*v11 + sn[4]*v19;
+    const double v33 = cs[4]*v21 + sn[4]*v12;
+    const double v34 = cs[4]*v12 - sn[4]*v21;
+    const double v35 = cs[4]*v23 - sn[4]*p[2];
+    const double v36 = cs[4]*p[2] + sn[4]*v23;
+    const double v37 = cs[4]*v25 + sn[4]*v14;
+    const double v38 = cs[4]*v14 - sn[4]*v25;
+    const double v39 = -cs[4]*v27 + sn[4]*v16;
+    const double v40 = cs[4]*v16 + sn[4]*v27;
+    const double v41 = -cs[5]*v29 + sn[5]*v18;
+    const double v42 = cs[5]*v18 + sn[5]*v29;
+    const double v43 = cs[5]*v31 + sn[5]*v20;
+    const double v44 = cs[5]*v20 - sn[5]*v31;
+    const double v45 = -cs[5]*v33 + sn[5]*v22;
+    const double v46 = cs[5]*v22 + sn[5]*v33;
+    const double v47 = -cs[5]*v35 + sn[5]*v24;
+    const double v48 = cs[5]*v24 + sn[5]*v35;
+    const double v49 = cs[5]*v37 + sn[5]*v26;
+    const double v50 = cs[5]*v26 - sn[5]*v37;
+    const double v51 = -cs[5]*v39 + sn[5]*v28;
+    const double v52 = cs[5]*v28 + sn[5]*v39;
+    const double v53 = v32*v38 + v43*v49 + v44*v50;
+    const double v54 = -v34*v38 + v45*v49 + v46*v50;
+    const double v55 = v36*v38 + v47*v49 + v48*v50;
+    const double v56 = -v32*v40 + v43*v51 + v44*v52;
+    const double v57 = v34*v40 + v45*v51 + v46*v52;
+    const double v58 = -v36*v40 + v47*v51 + v48*v52;
+    const double v59 = -v30*v32 + v41*v43 + v42*v44;
+    const double v60 = v30*v34 + v41*v45 + v42*v46;
+    const double v61 = -v30*v36 + v41*v47 + v42*v48;
+    J[0] = v53;
+    J[1] = v54;
+    J[2] = -v55;
+    J[3] = 0.0;
+    J[4] = 0.0;
+    J[5] = 0.0;
+    J[6] = -v56;
+    J[7] = -v57;
+    J[8] = v58;
+    J[9] = 0.0;
+    J[10] = 0.0;
+    J[11] = 0.0;
+    J[12] = v59;
+    J[13] = v60;
+    J[14] = -v61;
+    J[15] = 0.0;
+    J[16] = 0.0;
+    J[17] = 0.0;
+}
+
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
  * Inputs: q[6] (q1, q2, q3, q4, q5, q6), qd[6] (q1, q2, q3, q4, q5, q6), qdd[6] (q1, q2, q3, q4, q5, q6), p[37] (see puma560_parameter_names); output Y[360]
  * 1483 operations; sine and cosine of 5 angles in one puma560_sincos call. */
@@ -2415,18 +2504,11 @@ void puma560_standard_parameters(const double *p, double *theta)
     theta[59] = p[10];
 }
 
-int puma560_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).
+ * Returns 0 on success, 1 when D is not positive definite (or holds a NaN). */
+static int puma560_cholesky(double *D)
 {
-    double D[6 * 6];
-    double b[6];
-    const double zero[6] = { 0.0 };
     int i, j, k;
-    puma560_inertia(q, p, D);
-    puma560_inverse_dynamics(q, qd, zero, p, b);
-    for (i = 0; i < 6; ++i) {
-        b[i] = tau[i] - b[i];
-    }
-    /* Cholesky factor D = L L^T, L stored in the lower triangle of D */
     for (j = 0; j < 6; ++j) {
         double s = D[j * 6 + j];
         for (k = 0; k < j; ++k) {
@@ -2445,6 +2527,23 @@ int puma560_forward_dynamics(const double *q, const double *qd, const double *ta
             D[i * 6 + j] = t / s;
         }
     }
+    return 0;
+}
+
+int puma560_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[6 * 6];
+    double b[6];
+    const double zero[6] = { 0.0 };
+    int i, k;
+    puma560_inertia(q, p, D);
+    puma560_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 6; ++i) {
+        b[i] = tau[i] - b[i];
+    }
+    if (puma560_cholesky(D) != 0) {
+        return 1;
+    }
     for (i = 0; i < 6; ++i) { /* L y = b */
         double t = b[i];
         for (k = 0; k < i; ++k) {
@@ -2459,5 +2558,111 @@ int puma560_forward_dynamics(const double *q, const double *qd, const double *ta
         }
         qdd[i] = t / D[i * 6 + i];
     }
+    return 0;
+}
+
+/* W = L^-1 J^T (NQ*3, row-major) with D(q) = L L^T, so that J D^-1 J^T = W^T W (symmetric by construction).
+ * Returns 0 on success, 1 when D(q) is not positive definite. */
+static int puma560_handle_weights(const double *q, const double *p, double *W)
+{
+    double D[6 * 6];
+    double J[3 * 6];
+    int c, i, k;
+    puma560_inertia(q, p, D);
+    if (puma560_cholesky(D) != 0) {
+        return 1;
+    }
+    puma560_end_effector_jacobian(q, p, J);
+    for (c = 0; c < 3; ++c) {
+        for (i = 0; i < 6; ++i) { /* L w = column c of J^T */
+            double t = J[c * 6 + i];
+            for (k = 0; k < i; ++k) {
+                t -= D[i * 6 + k] * W[k * 3 + c];
+            }
+            W[i * 3 + c] = t / D[i * 6 + i];
+        }
+    }
+    return 0;
+}
+
+int puma560_operational_inertia(const double *q, const double *p, double *Lambda)
+{
+    double W[6 * 3];
+    double M[9], R[9] = { 0.0 };
+    double trace;
+    int a, b, i, k;
+    if (puma560_handle_weights(q, p, W) != 0) {
+        return 1;
+    }
+    for (a = 0; a < 3; ++a) { /* M = W^T W = J D^-1 J^T */
+        for (b = 0; b < 3; ++b) {
+            double t = 0.0;
+            for (i = 0; i < 6; ++i) {
+                t += W[i * 3 + a] * W[i * 3 + b];
+            }
+            M[a * 3 + b] = t;
+        }
+    }
+    trace = M[0] + M[4] + M[8];
+    for (b = 0; b < 3; ++b) { /* M = L L^T, L in the lower triangle of M */
+        double s = M[b * 3 + b];
+        for (k = 0; k < b; ++k) {
+            s -= M[b * 3 + k] * M[b * 3 + k];
+        }
+        if (!(s > 1e-12 * trace)) {
+            return 2; /* singular: J of rank below 3 here */
+        }
+        s = sqrt(s);
+        M[b * 3 + b] = s;
+        for (a = b + 1; a < 3; ++a) {
+            double t = M[a * 3 + b];
+            for (k = 0; k < b; ++k) {
+                t -= M[a * 3 + k] * M[b * 3 + k];
+            }
+            M[a * 3 + b] = t / s;
+        }
+    }
+    for (b = 0; b < 3; ++b) { /* R = L^-1, column by column (lower triangular) */
+        for (a = b; a < 3; ++a) {
+            double t = (a == b) ? 1.0 : 0.0;
+            for (k = b; k < a; ++k) {
+                t -= M[a * 3 + k] * R[k * 3 + b];
+            }
+            R[a * 3 + b] = t / M[a * 3 + a];
+        }
+    }
+    for (a = 0; a < 3; ++a) { /* Lambda = R^T R = (L L^T)^-1 */
+        for (b = 0; b < 3; ++b) {
+            double t = 0.0;
+            for (k = 0; k < 3; ++k) {
+                t += R[k * 3 + a] * R[k * 3 + b];
+            }
+            Lambda[a * 3 + b] = t;
+        }
+    }
+    return 0;
+}
+
+int puma560_apparent_mass(const double *q, const double *u, const double *p, double *m)
+{
+    double W[6 * 3];
+    const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+    double s = 0.0;
+    int i;
+    if (!(uu > 0.0)) {
+        return 2;
+    }
+    if (puma560_handle_weights(q, p, W) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 6; ++i) { /* s = |W u|^2 = u^T J D^-1 J^T u */
+        const double w = W[i * 3] * u[0] + W[i * 3 + 1] * u[1] + W[i * 3 + 2] * u[2];
+        s += w * w;
+    }
+    if (!(s > 0.0)) {
+        *m = INFINITY;
+        return 3;
+    }
+    *m = uu / s;
     return 0;
 }

@@ -9,7 +9,9 @@ import sympy as sp
 
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.emit.c_printer import CPrinter, c_double
-from symbolic.numeric.exported import batched_programs, function_specs, input_symbols, model_regressor, programs
+from symbolic.numeric.exported import (
+    batched_programs, function_specs, input_symbols, model_regressor, programs, solved_specs,
+)
 from symbolic.emit.naming import check_c_name, comment_text
 from symbolic.emit.templates import render
 
@@ -69,6 +71,12 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
             for i, p in enumerate(model.robot.parameters)
         ],
         "functions": functions,
+        "solved": [
+            {"name": f.name, "doc": f.doc, "status": f.status,
+             "signature": ", ".join(f"const double *{a}" for a in f.inputs) + f", double *{f.output}"}
+            for f in solved_specs(model)
+        ],
+        "end_effector": model.robot.end_effector is not None,
         "theta": [] if (reg := model_regressor(model)) is None else [{"index": i, "name": t} for i, t in enumerate(reg.names)],
     }
     sources = {f"{name}.h": render("model.h.j2", **context), f"{name}.c": render("model.c.j2", **context)}

@@ -77,6 +77,35 @@ def _conditions(analysis, names) -> list[dict]:
     return out
 
 
+def _mass(value: float | None) -> str:
+    """4 significant digits: far above the last-bit differences of libm and LAPACK between machines."""
+    if value is None:
+        return "singular"
+    return "∞" if value == float("inf") else f"{value:.4g}"
+
+
+def _apparent_mass(model: DynamicModel) -> dict | None:
+    """The workspace table of :func:`symbolic.numeric.operational.workspace_table` (None without an end effector)."""
+    if model.robot.end_effector is None:
+        return None
+    from symbolic.numeric.operational import workspace_table
+
+    ee = model.robot.end_effector
+    rows = workspace_table(model)
+    rigid = len(model.robot.coordinates)
+    return {
+        "frame": ee.frame,
+        "point": ", ".join(sp.latex(sp.sympify(x)) for x in ee.point),
+        "coordinates": [coordinate_latex(model)[c] for c in model.robot.coordinates],
+        "flexible": rigid < model.n,
+        "rows": [
+            {"q": [f"{x:.2f}" for x in r.q[:rigid]], "axes": [_mass(m) for m in r.along_axes],
+             "smallest": _mass(r.smallest), "largest": _mass(r.largest)}
+            for r in rows
+        ],
+    }
+
+
 def report_markdown(
     model: DynamicModel, banner: str, operations: dict[str, tuple[int, int]], version: str, analysis=None
 ) -> str:
@@ -134,5 +163,6 @@ def report_markdown(
             for d in model.robot.drives
         ],
         "constraints": [{"coordinate": c.coordinate, "latex": sp.latex(c.expression)} for c in model.robot.constraints],
+        "apparent_mass": _apparent_mass(model),
     }
     return render("report.md.j2", **context)

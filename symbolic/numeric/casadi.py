@@ -17,7 +17,7 @@ import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
 from symbolic.derive.dynamics import DynamicModel
-from symbolic.numeric.exported import FunctionSpec, function_specs, input_symbols, programs
+from symbolic.numeric.exported import SOLVED_INPUT_SIZES, FunctionSpec, function_specs, input_symbols, programs, solved_specs
 
 CASADI_MODULE = {
     "sin": ca.sin,
@@ -95,6 +95,57 @@ def cholesky_solve(D: ca.SX, b: ca.SX) -> ca.SX:
     return ca.vertcat(*x)
 
 
+def _lower_factor(D: ca.SX) -> list[list]:
+    """The Cholesky factor L of D = L Lᵀ as nested lists (lower triangle), in the order of the generated C."""
+    n = D.shape[0]
+    L = [[None] * n for _ in range(n)]
+    for j in range(n):
+        s = D[j, j]
+        for k in range(j):
+            s = s - L[j][k] * L[j][k]
+        L[j][j] = ca.sqrt(s)
+        for i in range(j + 1, n):
+            t = D[i, j]
+            for k in range(j):
+                t = t - L[i][k] * L[j][k]
+            L[i][j] = t / L[j][j]
+    return L
+
+
+def _forward_substitution(L: list[list], b: ca.SX) -> list:
+    """L⁻¹b for the factor of :func:`_lower_factor`."""
+    y = []
+    for i in range(len(L)):
+        t = b[i]
+        for k in range(i):
+            t = t - L[i][k] * y[k]
+        y.append(t / L[i][i])
+    return y
+
+
+def handle_functions(inertia: ca.SX, jacobian: ca.SX, u: ca.SX) -> tuple[ca.SX, ca.SX]:
+    """(Λ, m_u) at the end effector from D(q) and J(q), with the arithmetic of the generated C:
+    W = L⁻¹Jᵀ (D = L Lᵀ), Φ = WᵀW, Λ = Φ⁻¹ by a 3×3 Cholesky factor, m_u = uᵀu/|Wu|²
+    (:mod:`symbolic.numeric.operational`)."""
+    L = _lower_factor(inertia)
+    columns = [ca.vertcat(*_forward_substitution(L, jacobian[c, :].T)) for c in range(3)]
+    W = ca.horzcat(*columns)
+    phi = ca.mtimes(W.T, W)
+    M = _lower_factor(phi)
+    R = [[ca.SX(0)] * 3 for _ in range(3)]  # R = M⁻¹ (lower triangular), column by column
+    for b in range(3):
+        for a in range(b, 3):
+            t = ca.SX(1.0 if a == b else 0.0)
+            for k in range(b, a):
+                t = t - M[a][k] * R[k][b]
+            R[a][b] = t / M[a][a]
+    Rm = ca.vertcat(*[ca.horzcat(*row) for row in R])
+    lam = ca.mtimes(Rm.T, Rm)
+    wu = ca.mtimes(W, u)
+    mass = ca.dot(u, u) / ca.dot(wu, wu)
+    return lam, mass
+
+
 def casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
     """{function name: casadi.Function} for every function of the C ABI plus A and B."""
     start = time.perf_counter()
@@ -121,4 +172,10 @@ def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
     xdot = ca.vertcat(qd, qdd)
     out["A"] = ca.Function("A", [q, qd, tau, p], [ca.jacobian(xdot, x)], ["q", "qd", "tau", "p"], ["A"])
     out["B"] = ca.Function("B", [q, qd, tau, p], [ca.jacobian(xdot, tau)], ["q", "qd", "tau", "p"], ["B"])
+    solved = {spec.name for spec in solved_specs(model)}
+    if {"operational_inertia", "apparent_mass"} <= solved:  # declared with the end effector's Jacobian
+        u = ca.SX.sym("u", SOLVED_INPUT_SIZES["u"])
+        lam, mass = handle_functions(values["inertia"], values["end_effector_jacobian"], u)
+        out["operational_inertia"] = ca.Function("operational_inertia", [q, p], [lam], ["q", "p"], ["Lambda"])
+        out["apparent_mass"] = ca.Function("apparent_mass", [q, u, p], [mass], ["q", "u", "p"], ["m"])
     return out

@@ -60,8 +60,56 @@ def input_symbols(model: DynamicModel) -> dict[str, tuple[sp.Symbol, ...]]:
     }
 
 
+@dataclass(frozen=True)
+class SolvedSpec:
+    """An exported function computed from other exported functions by a small dense solve (no expressions).
+
+    The C template and the CasADi translator each implement these by name with the same arithmetic
+    (Cholesky factor of D(q), triangular solves); this entry gives both the name, inputs, output and doc.
+    ``status`` is the C return value's meaning (CasADi returns only the output).
+    """
+
+    name: str
+    inputs: tuple[str, ...]
+    output: str
+    rows: int
+    cols: int
+    doc: str
+    status: str
+
+
+SOLVED_INPUT_SIZES = {"u": 3}
+"""Inputs of solved functions that are not one of :func:`input_symbols`' arrays, with their lengths."""
+
+
+def solved_specs(model: DynamicModel) -> list[SolvedSpec]:
+    """forward_dynamics; and at a declared end effector its operational (apparent) inertia and mass (Janot (18)).
+
+    See :mod:`symbolic.numeric.operational` for the definitions and docs/contracts.md for the C signatures.
+    """
+    n = model.n
+    specs = [SolvedSpec("forward_dynamics", ("q", "qd", "tau", "p"), "qdd", n, 1,
+                        "Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.",
+                        "0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified)")]
+    if model.robot.end_effector is not None:
+        specs += [
+            SolvedSpec("operational_inertia", ("q", "p"), "Lambda", 3, 3,
+                       "Operational-space (apparent) inertia Lambda = (J D^-1 J^T)^-1 at the end effector, 3*3 row-major, "
+                       "kg (linear part; Janot's M_op = J^-T D J^-1 for a square J)",
+                       "0 on success, 1 when D(q) is not positive definite, 2 when J D^-1 J^T is singular (a Cholesky "
+                       "pivot not above 1e-12 times its trace: J of rank below 3); Lambda is then left unspecified"),
+            SolvedSpec("apparent_mass", ("q", "u", "p"), "m", 1, 1,
+                       "Apparent mass m = u.u / (u^T J D^-1 J^T u) felt pushing the end effector along u[3] (any length; "
+                       "base frame), the point free in the other directions, kg",
+                       "0 on success, 1 when D(q) is not positive definite (m unspecified), 2 when u is zero (m "
+                       "unspecified), 3 when the point cannot move along u (m = INFINITY)"),
+        ]
+    return specs
+
+
 def function_specs(model: DynamicModel) -> list[FunctionSpec]:
-    """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, applied, inverse_dynamics.
+    """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, applied, inverse_dynamics, and
+    end_effector_jacobian (models with an end effector) and the regressor (rigid models).
 
     Every output is a part of the one composition in :func:`symbolic.derive.derive`; nothing is
     assembled here.
@@ -81,7 +129,16 @@ def function_specs(model: DynamicModel) -> list[FunctionSpec]:
                      "Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)"),
         FunctionSpec("inverse_dynamics", ("q", "qd", "qdd", "p"), "tau", n, 1, tuple(r.tau),
                      "tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)"),
-    ] + _regressor_specs(model)
+    ] + _jacobian_specs(model) + _regressor_specs(model)
+
+
+def _jacobian_specs(model: DynamicModel) -> list[FunctionSpec]:
+    if model.robot.end_effector is None:
+        return []
+    n = model.n
+    return [FunctionSpec("end_effector_jacobian", ("q", "p"), "J", 3, n, tuple(model.end_effector_jacobian()),
+                         "J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: "
+                         "its velocity is J qd and a force F on it is tau = J^T F")]
 
 
 def _regressor_specs(model: DynamicModel) -> list[FunctionSpec]:

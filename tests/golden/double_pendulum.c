@@ -401,18 +401,11 @@ void double_pendulum_standard_parameters(const double *p, double *theta)
     theta[19] = p[4];
 }
 
-int double_pendulum_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).
+ * Returns 0 on success, 1 when D is not positive definite (or holds a NaN). */
+static int double_pendulum_cholesky(double *D)
 {
-    double D[2 * 2];
-    double b[2];
-    const double zero[2] = { 0.0 };
     int i, j, k;
-    double_pendulum_inertia(q, p, D);
-    double_pendulum_inverse_dynamics(q, qd, zero, p, b);
-    for (i = 0; i < 2; ++i) {
-        b[i] = tau[i] - b[i];
-    }
-    /* Cholesky factor D = L L^T, L stored in the lower triangle of D */
     for (j = 0; j < 2; ++j) {
         double s = D[j * 2 + j];
         for (k = 0; k < j; ++k) {
@@ -430,6 +423,23 @@ int double_pendulum_forward_dynamics(const double *q, const double *qd, const do
             }
             D[i * 2 + j] = t / s;
         }
+    }
+    return 0;
+}
+
+int double_pendulum_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[2 * 2];
+    double b[2];
+    const double zero[2] = { 0.0 };
+    int i, k;
+    double_pendulum_inertia(q, p, D);
+    double_pendulum_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 2; ++i) {
+        b[i] = tau[i] - b[i];
+    }
+    if (double_pendulum_cholesky(D) != 0) {
+        return 1;
     }
     for (i = 0; i < 2; ++i) { /* L y = b */
         double t = b[i];
