@@ -178,6 +178,7 @@ def test_ctrl_c_prints_interrupted_and_exits_130() -> None:
     """A real SIGINT half a second into analysing the Panda (minutes of work), after the imports."""
     code = (
         "import os, signal, sys\n"
+        "signal.signal(signal.SIGINT, signal.default_int_handler)  # a background job starts with SIGINT ignored\n"
         "from symbolic import cli\n"
         "signal.signal(signal.SIGALRM, lambda *_: os.kill(os.getpid(), signal.SIGINT))\n"
         "signal.setitimer(signal.ITIMER_REAL, 0.5)\n"
@@ -215,6 +216,7 @@ def test_ctrl_c_during_start_up_prints_interrupted_and_exits_130() -> None:
     """A SIGINT while the package is still importing (before symbolic.cli.main runs) is answered the same way."""
     code = (
         "import os, signal, sys, builtins\n"
+        "signal.signal(signal.SIGINT, signal.default_int_handler)  # a background job starts with SIGINT ignored\n"
         "real = builtins.__import__\n"
         "def slow(name, *a, **k):\n"
         "    if name == 'sympy': os.kill(os.getpid(), signal.SIGINT)\n"
