@@ -69,17 +69,7 @@ def cholesky_solve(D: ca.SX, b: ca.SX) -> ca.SX:
     """D⁻¹b by the same fixed-size Cholesky factorisation as the generated C (better conditioned than
     CasADi's default symbolic QR for SX, and the two targets then agree to rounding)."""
     n = D.shape[0]
-    L = [[None] * n for _ in range(n)]
-    for j in range(n):
-        s = D[j, j]
-        for k in range(j):
-            s = s - L[j][k] * L[j][k]
-        L[j][j] = ca.sqrt(s)
-        for i in range(j + 1, n):
-            t = D[i, j]
-            for k in range(j):
-                t = t - L[i][k] * L[j][k]
-            L[i][j] = t / L[j][j]
+    L = _lower_factor(D)
     y = [None] * n
     for i in range(n):
         t = b[i]
