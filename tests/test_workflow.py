@@ -11,6 +11,7 @@ publication.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import warnings
@@ -324,8 +325,9 @@ def test_a_simulated_path_plugs_in(tmp_path: Path) -> None:
 
 def test_the_simulated_path_needs_a_controller(tmp_path: Path) -> None:
     model, truth, _, _ = AXIS_CASES["coulomb"]
+    data = dataclasses.replace(cases.measurements(truth, 1, 0.01), controller=None)
     with pytest.raises(symbolic.ModelError, match=r"\[controller\]: the simulated path needs"):
-        run(tmp_path, model, truth, simulate=True)
+        diagnose(cases.model_file(tmp_path, model), data, figures=False, simulate=True)
 
 
 # -- EMPS (shared data) --------------------------------------------------------------------------------
@@ -393,3 +395,67 @@ def test_emps_simulated_path(tmp_path: Path, emps: Path) -> None:  # noqa: F811
     assert d.before.gap["estimation"] == pytest.approx(4.45, abs=0.3)  # symbolic simulate: 4.5 % (published 5.85 %)
     assert d.after.gap["estimation"] < d.before.gap["estimation"] - 0.5
     assert d.after.gap["validation"] < d.before.gap["validation"]
+
+
+# -- flexible_mode: a resonance the model lacks, named with the ringing's frequency ----------------------
+
+def ringing(J: float, load: float, k: float, c: float, viscous: float, table: dict, period: float) -> tuple[float, float]:
+    """Damped frequency (Hz) and damping ratio of the closed-loop mode of a motor of inertia ``J`` with a
+    load on a spring ``k`` and damper ``c`` (the mode nearest the load's own frequency), under the PD loop
+    of ``table`` (2-tap velocity filter) sampled with zero-order hold at ``period``: the test's own
+    discrete model, independent of the workflow's linearisation."""
+    import scipy.signal
+
+    D = np.array([[J + load, load], [load, load]])  # coordinates: motor angle q, deflection x (load at q + x)
+    K, C = np.diag([0.0, k]), np.diag([viscous, c])
+    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(D, K), -np.linalg.solve(D, C)]])
+    B = np.vstack([np.zeros((2, 1)), np.linalg.solve(D, [[1.0], [0.0]])])
+    Ad, Bd, *_ = scipy.signal.cont2discrete((A, B, np.eye(4), np.zeros((4, 1))), period, "zoh")
+    kp, kd = table["kp"][0], table["kd"][0]
+    # closed-loop state: plant (4), q_{k-1}, backward-difference velocity v_{k-1}
+    # u_k = −kp·q_k − kd·(v_k + v_{k−1})/2, v_k = (q_k − q_{k−1})/T
+    gain_q = -kp - kd / (2 * period)
+    row = np.zeros(6)
+    row[0], row[4], row[5] = gain_q, kd / (2 * period), -kd / 2
+    M = np.zeros((6, 6))
+    M[:4, :4] = Ad
+    M[:4] += Bd @ row[None, :]
+    M[4, 0] = 1.0
+    M[5, 0], M[5, 4] = 1 / period, -1 / period
+    s = np.log(np.linalg.eigvals(M).astype(complex)) / period
+    s = s[s.imag > 1e-9]
+    own = np.sqrt(k / load)
+    best = s[np.argmin(np.abs(np.log(np.abs(s) / own)))]
+    return float(best.imag / (2 * np.pi)), float(-best.real / abs(best))
+
+
+FLEX = {"load": 0.03, "frequency": 8.0, "damping": 0.05}
+
+
+@pytest.mark.slow
+def test_flexible_mode_on_an_axis(tmp_path: Path) -> None:
+    """A load on a compliant coupling (8 Hz with the motor held, ζ = 0.05), excited by pulses on the drive:
+    flexible_mode is named on q with the closed-loop ringing's frequency (3 %) and damping (15 %), the
+    load's own mode and inertia are recovered, and the patched model's closed-loop mode is the ringing's."""
+    truth = cases.with_load(cases.axis(), "q", "rotor", FLEX["load"], FLEX["frequency"], FLEX["damping"])
+    data = cases.measurements(truth, 3, 0.01, measured=("q",), pulses=0.5)
+    w = 2 * np.pi * FLEX["frequency"]
+    k, c = FLEX["load"] * w**2, 2 * FLEX["damping"] * w * FLEX["load"]
+    frequency, damping = ringing(0.05, FLEX["load"], k, c, 0.3, data.controller, data.sample_period)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", symbolic.ModelWarning)
+        d = diagnose(cases.model_file(tmp_path, cases.axis()), data, out=tmp_path / "out", figures=False)
+    check(d, "flexible_mode", "q", {})
+    found = d.found[0]
+    assert found.parameters["frequency_hz"] == pytest.approx(frequency, rel=0.03), (found.parameters, frequency)
+    assert found.parameters["damping_ratio"] == pytest.approx(damping, rel=TOLERANCE), (found.parameters, damping)
+    assert found.evidence["load_frequency_hz"] == pytest.approx(FLEX["frequency"], rel=0.03)
+    assert found.evidence["load_damping_ratio"] == pytest.approx(FLEX["damping"], rel=TOLERANCE)
+    assert found.evidence["load"] == pytest.approx(FLEX["load"], rel=TOLERANCE)
+    patched = symbolic.load(d.patched_path)
+    assert patched.generalized_coordinates == ("q", "q_flex")
+    values = {p.name: p.value for p in patched.parameters}
+    assert values["J"] == pytest.approx(0.05, rel=TOLERANCE)
+    again = ringing(values["J"], values["J_q_load"], values["k_q_load"], values["d_q_load"], values["Fv"],
+                    data.controller, data.sample_period)
+    assert again[0] == pytest.approx(frequency, rel=0.03)
