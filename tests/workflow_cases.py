@@ -153,7 +153,7 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     a PD loop (:func:`controller_table`) with a computed-torque feedforward (:func:`_feedforward`) follows
     the Fourier reference, reads an encoder of ``resolution``;
     the log holds the quantised positions of the ``measured`` coordinates (default: the model's
-    ``coordinates``, not the modal or added ones), the controller's force (centred on the samples) with white noise (``noise`` ×
+    ``coordinates``, not the modal or added ones), the force (centred on the samples) with white noise (``noise`` ×
     τ's rms per coordinate; sensor noise, not acting on the plant) and the reference; the controller
     table is attached as an experiment's would be. ``pulses`` > 0 adds to the drive a square wave of
     period 1 s and that amplitude (in force units), as EMPS's pulse set does: its edges excite resonances
@@ -175,9 +175,9 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     order = [names.index(c) for c in coordinates]
     q = np.asarray(run.simulated.q)[:, order]
     held = np.asarray(run.simulated.tau)[:, order]
-    # the force the controller holds over [t_k, t_k+1) reported at t_k as an integrating sensor does: its
-    # mean over [t_k − T/2, t_k + T/2], aligned with the positions (a log of the held command lags them by
-    # half a sample, which the inverse model reads as a small inertia or lag term)
+    # the force the controller holds over [t_k, t_k+1), reported at t_k as an integrating current sensor
+    # does: its mean over [t_k − T/2, t_k + T/2], aligned with the positions (a log of the held command
+    # leads them by half a sample, which the inverse model reads as a small inertia or lag term)
     tau = np.concatenate([held[:1], 0.5 * (held[1:] + held[:-1])])
     rng = np.random.default_rng(seed + 1000)
     tau = tau + rng.normal(0, 1, tau.shape) * noise * np.sqrt(np.mean(tau**2, axis=0))

@@ -155,11 +155,14 @@ class Editor:
         self._append("frame", {"name": name, "parent": parent, "dh": dict(dh)}, comment)
         return name
 
-    def add_body(self, stem: str, frame: str, mass: str, inertia: Mapping[str, str] | None, comment: str) -> str:
+    def add_body(self, stem: str, frame: str, mass: str, inertia: Mapping[str, str] | None, comment: str,
+                 com: list[str] | None = None) -> str:
         """Append a ``[[body]]`` on ``frame`` (a point mass without ``inertia``); return its (unique) name."""
         taken = {str(t.get("name")) for t in self.document.get("body", [])}
         name = _unique(stem, taken)
         entries: dict[str, Any] = {"name": name, "frame": frame, "mass": mass}
+        if com is not None:
+            entries["com"] = list(com)
         if inertia is not None:
             entries["inertia"] = dict(inertia)
         self._append("body", entries, comment)

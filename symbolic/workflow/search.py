@@ -486,7 +486,8 @@ class _RoundState:
         if role not in self._signals:
             data = self.design.sets[role]
             s = data.states
-            self._signals[role] = Signals(s.q, s.qd, s.qdd, np.asarray(data.measurements.t), float(s.processing.rate))
+            self._signals[role] = Signals(s.q, s.qd, s.qdd, np.asarray(data.measurements.t), float(s.processing.rate),
+                                          self.search.context.robot)
         return self._signals[role]
 
     def cross_validated(self, extra: tuple[np.ndarray, np.ndarray] | None) -> float:
