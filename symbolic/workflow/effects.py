@@ -468,6 +468,10 @@ class FlexibleMode(Effect):
     to the load's own frequency; without a controller, the load's mode with the coordinate held
     (ω, ζ). Written as a second mass: a new coordinate ``<q>_flex`` (the load's deflection), a frame
     turning (or sliding) with q plus it, a body of inertia (mass) J_L, and a ``[[force]]`` −k·x − c·ẋ on it.
+
+    The column acts on coordinate q's row only: exact when no other coordinate moves the load's axis (a
+    one-axis machine, the first joint of a chain); on a later joint the load's inertia also reacts on the
+    joints before it, which the column leaves out (the patched model holds it in full).
     """
 
     name, roles, axis, nonlinear = "flexible_mode", ("frequency_hz", "damping_ratio"), "acceleration", "frequency and damping"
