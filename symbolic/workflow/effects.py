@@ -480,10 +480,8 @@ class FlexibleMode(Effect):
     """Damping ratios of the grid; the grid's box caps the refinement at 0.2: a resonance that rings (a
     peak of half-power width ≤ 40 % of its frequency). Wider, the column is a smooth lag of the
     acceleration, which a drive's bandwidth or a filter explains as well (EMPS)."""
-    TOP = 0.5
-    """Highest load frequency, as a fraction of the treatment's pass band: above it the acceleration is
-    mostly the differentiated encoder noise the low-pass leaves (errors in the regressor, not in τ), which
-    a load there would absorb by lowering the inertia the model sees at high frequency."""
+    TOP = 0.8
+    """Highest load frequency, as a fraction of the treatment's pass band (the decimation filter's edge)."""
     SPACING = 1.03
     """Ratio of neighbouring grid frequencies (a mode of ζ = 0.01 is 2 % wide at half power)."""
     LOWEST_HZ = 1.0
@@ -528,9 +526,17 @@ class FlexibleMode(Effect):
     def reference_column(self, q, qd, qdd, j):
         return on_row(j, q.shape[1], [qdd[:, j]])[:, :, 0]  # the coordinate's own inertia, when the model has it alone
 
+    EDGE = 0.02
+    """A fit within this relative distance of the searched box's edge is not located (it would go further)."""
+
     def check(self, roles, reference, context, j):
         if roles["load"] <= 0:
             return f"load inertia {roles['load']:.4g} is not positive (no second mass rings so)"
+        f, z, top = roles["frequency_hz"], roles["damping_ratio"], self.TOP * context.passband
+        if f >= (1 - self.EDGE) * top or f <= (1 + self.EDGE) * self.LOWEST_HZ or z >= (1 - self.EDGE) * max(self.DAMPING) \
+                or z <= (1 + self.EDGE) * min(self.DAMPING):
+            return (f"the resonance is not located: {f:.4g} Hz, ζ = {z:.3g} lies at the edge of the range searched "
+                    f"({self.LOWEST_HZ:g}–{top:.4g} Hz, ζ {min(self.DAMPING):g}–{max(self.DAMPING):g})")
         # on a single coordinate the column q̈ alone is the whole inertia the model gives it
         if reference is not None and len(context.coordinates) == 1 and reference <= 0:
             return f"the inertia left on the coordinate's own side, {reference:.4g}, is not positive"
