@@ -559,3 +559,16 @@ def test_emps_pulse_set_resonance_is_not_a_collocated_second_mass(emps: Path) ->
     assert 20.0 < flexible.roles["frequency_hz"] < 35.0 and flexible.roles["load"] < 0
     assert flexible.share > 0.2 and flexible.p_value < flexible.trials * 1e-6
     assert any("not positive" in reason for reason in flexible.failed)
+
+
+@pytest.mark.slow
+def test_a_resonance_and_coulomb_friction_at_once(tmp_path: Path) -> None:
+    """The flexible axis of test_flexible_mode_on_an_axis, its model lacking Coulomb friction too: both named."""
+    truth = cases.with_load(cases.axis(), "q", "rotor", FLEX["load"], FLEX["frequency"], FLEX["damping"])
+    d = run_on(tmp_path, cases.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'),
+               cases.measurements(truth, 5, 0.01, measured=("q",), pulses=0.5))
+    found = {f.effect: f for f in d.found}
+    assert set(found) == {"coulomb", "flexible_mode"}, list(found)
+    assert found["coulomb"].parameters["coulomb"] == pytest.approx(0.4, rel=TOLERANCE)
+    assert found["flexible_mode"].evidence["load_frequency_hz"] == pytest.approx(FLEX["frequency"], rel=0.03)
+    assert d.after.gap["validation"] <= 0.5 * d.before.gap["validation"]

@@ -95,7 +95,8 @@ class Effect:
     roles: ClassVar[tuple[str, ...]]
     summary: ClassVar[str]
     axis: ClassVar[str] = "velocity"
-    """The state the effect is a function of, for the report's figure: position, velocity or acceleration."""
+    """The state the effect is a function of, for the report's figure: position, velocity, acceleration
+    or time (a filtered term, which is a function of none of them alone)."""
     refines: ClassVar[str | None] = None
     nonlinear: ClassVar[str | None] = None
     """The role of the nonlinear parameter, if the effect has one (its grid comes from :meth:`grid`)."""
@@ -474,7 +475,7 @@ class FlexibleMode(Effect):
     joints before it, which the column leaves out (the patched model holds it in full).
     """
 
-    name, roles, axis, nonlinear = "flexible_mode", ("frequency_hz", "damping_ratio"), "acceleration", "frequency and damping"
+    name, roles, axis, nonlinear = "flexible_mode", ("frequency_hz", "damping_ratio"), "time", "frequency and damping"
     summary = "unmodelled resonance: a load on a compliant coupling (second mass), ringing at frequency_hz"
     DAMPING = (0.01, 0.03, 0.08, 0.2)
     """Damping ratios of the grid; the grid's box caps the refinement at 0.2: a resonance that rings (a
