@@ -510,6 +510,7 @@ def test_payload_on_an_arm(tmp_path: Path) -> None:
         assert d.after.detail["validation"][c] < 0.5 * d.before.detail["validation"][c]
 
 
+@pytest.mark.slow
 def test_payload_in_the_span_of_free_link_parameters_is_not_a_candidate(tmp_path: Path) -> None:
     """With link 2's mass, centre of mass and inertia free, a point mass at its frame's origin changes
     only them: the model already holds it (a candidate there would be a false discovery)."""
