@@ -11,6 +11,7 @@ publication.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import warnings
@@ -48,9 +49,18 @@ def run(tmp_path: Path, model: str, truth: str, seed: int = 1, noise: float = 0.
         return diagnose(path, data, out=tmp_path / "out", figures=False, **options)
 
 
-def check(d, effect: str, coordinate: str, truth: dict[str, float]) -> None:
+def run_on(tmp_path: Path, model: str, data, **options):
+    """The workflow on given measurements (the model written to a file first)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", symbolic.ModelWarning)
+        return diagnose(cases.model_file(tmp_path, model), data, out=tmp_path / "out", figures=False, **options)
+
+
+def check(d, effect: str, coordinate: str, truth: dict[str, float], same_fit: bool = True) -> None:
     """Exactly ``effect`` on ``coordinate``, its roles within 15 %, the patched file loads and derives
-    and reproduces the search's fit, and the held-out gap at least halves."""
+    and reproduces the search's fit (``same_fit=False``: fits at least as well — a payload's mass frees
+    link parameters written inline, which the patched model then re-identifies), and the held-out gap
+    at least halves."""
     assert [(f.effect, f.coordinate) for f in d.found] == [(effect, coordinate)], [(f.effect, f.coordinate) for f in d.found]
     found = d.found[0]
     for role, value in truth.items():
@@ -59,7 +69,11 @@ def check(d, effect: str, coordinate: str, truth: dict[str, float]) -> None:
     assert set(found.model_parameters) <= {p.name for p in patched.robot.parameters}
     assert d.after.gap["validation"] <= 0.5 * d.before.gap["validation"], (d.before.gap, d.after.gap)
     final = d.search.final.predicted("estimation")
-    assert d.after.gap["estimation"] == pytest.approx(relative_gap(d.sets["estimation"].tau, final), rel=1e-6)
+    searched = relative_gap(d.sets["estimation"].tau, final)
+    if same_fit:
+        assert d.after.gap["estimation"] == pytest.approx(searched, rel=1e-6)
+    else:
+        assert d.after.gap["estimation"] <= searched * (1 + 1e-9)
 
 
 # -- the catalogue on a 1-DOF axis --------------------------------------------------------------------
@@ -156,13 +170,14 @@ def test_nothing_missing_names_nothing(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_no_false_discoveries_over_seeds_and_noise(tmp_path: Path) -> None:
-    """15 axis data sets (5 seeds × 0.5, 2, 5 % noise) and 6 arm data sets (3 seeds × 1, 3 %): nothing named."""
+    """9 axis data sets (3 seeds × 0.5, 2, 5 % noise) and 4 arm data sets (2 seeds × 1, 3 %), closed loop:
+    nothing named (more seeds: make bench)."""
     named = []
-    for seed in range(11, 16):
+    for seed in range(11, 14):
         for noise in (0.005, 0.02, 0.05):
             d = run(tmp_path / f"a{seed}{noise}", cases.axis(), cases.axis(), seed=seed, noise=noise)
             named += [(seed, noise, f.effect, f.coordinate) for f in d.found]
-    for seed in range(11, 14):
+    for seed in range(11, 13):
         for noise in (0.01, 0.03):
             d = run(tmp_path / f"b{seed}{noise}", cases.arm(), cases.arm(), seed=seed, noise=noise)
             named += [(seed, noise, f.effect, f.coordinate) for f in d.found]
@@ -197,13 +212,14 @@ def test_two_effects_on_two_joints(tmp_path: Path) -> None:
 
 def test_catalogue_holds_the_contract_identifiers() -> None:
     implemented = {"coulomb", "viscous", "offset", "asymmetric_viscous", "asymmetric_coulomb", "stribeck", "spring",
-                   "gravity", "inertia", "periodic"}
+                   "gravity", "inertia", "periodic", "flexible_mode", "payload"}
     assert implemented <= set(EFFECTS)
-    assert set(NOT_SUPPORTED) == {"payload", "flexible_mode"}
+    assert set(NOT_SUPPORTED) == {"periodic (in time)"}
     contract = {"coulomb": {"coulomb"}, "viscous": {"viscous"}, "offset": {"offset"},
                 "asymmetric_viscous": {"positive", "negative"}, "asymmetric_coulomb": {"positive", "negative"},
                 "stribeck": {"static", "velocity"}, "spring": {"stiffness", "rest_position"},
-                "gravity": {"moment", "phase"}, "inertia": {"inertia"}, "periodic": {"amplitude", "period"}}
+                "gravity": {"moment", "phase"}, "inertia": {"inertia"}, "periodic": {"amplitude", "period"},
+                "flexible_mode": {"frequency_hz", "damping_ratio"}, "payload": {"mass"}}
     for name, roles in contract.items():
         assert set(EFFECTS[name].roles) == roles, name
 
@@ -324,8 +340,9 @@ def test_a_simulated_path_plugs_in(tmp_path: Path) -> None:
 
 def test_the_simulated_path_needs_a_controller(tmp_path: Path) -> None:
     model, truth, _, _ = AXIS_CASES["coulomb"]
+    data = dataclasses.replace(cases.measurements(truth, 1, 0.01), controller=None)
     with pytest.raises(symbolic.ModelError, match=r"\[controller\]: the simulated path needs"):
-        run(tmp_path, model, truth, simulate=True)
+        diagnose(cases.model_file(tmp_path, model), data, figures=False, simulate=True)
 
 
 # -- EMPS (shared data) --------------------------------------------------------------------------------
@@ -393,3 +410,166 @@ def test_emps_simulated_path(tmp_path: Path, emps: Path) -> None:  # noqa: F811
     assert d.before.gap["estimation"] == pytest.approx(4.45, abs=0.3)  # symbolic simulate: 4.5 % (published 5.85 %)
     assert d.after.gap["estimation"] < d.before.gap["estimation"] - 0.5
     assert d.after.gap["validation"] < d.before.gap["validation"]
+
+
+# -- flexible_mode: a resonance the model lacks, named with the ringing's frequency ----------------------
+
+def closed_loop(A: np.ndarray, B: np.ndarray, rows: list[int], table: dict, period: float, own: float) -> tuple[float, float]:
+    """Damped frequency (Hz) and damping ratio of the closed-loop mode nearest ``own`` (rad/s) of the plant
+    ẋ = A·x + B·τ (x = [q, q̇]) under the PD loops of ``table`` on coordinates ``rows`` (2-tap velocity
+    filter), sampled with zero-order hold at ``period``: the test's own discrete closed loop, independent
+    of the workflow's (symbolic/workflow/modes.py)."""
+    import scipy.signal
+
+    n, m = A.shape[0], len(rows)
+    Ad, Bd, *_ = scipy.signal.cont2discrete((A, B, np.eye(n), np.zeros((n, B.shape[1]))), period, "zoh")
+    kp, kd = np.asarray(table["kp"]), np.asarray(table["kd"])
+    # state: x (n), q_{k-1} (m), v_{k-1} (m); u_k = −kp·q_k − kd·(v_k + v_{k−1})/2, v_k = (q_k − q_{k−1})/T
+    size = n + 2 * m
+    G = np.zeros((m, size))  # u_k as a function of the state
+    for i, r in enumerate(rows):
+        G[i, r] = -kp[i] - kd[i] / (2 * period)
+        G[i, n + i] = kd[i] / (2 * period)
+        G[i, n + m + i] = -kd[i] / 2
+    M = np.zeros((size, size))
+    M[:n, :n] = Ad
+    M[:n] += Bd[:, rows] @ G
+    for i, r in enumerate(rows):
+        M[n + i, r] = 1.0
+        M[n + m + i, r], M[n + m + i, n + i] = 1 / period, -1 / period
+    s = np.log(np.linalg.eigvals(M).astype(complex)) / period
+    s = s[s.imag > 1e-9]
+    best = s[np.argmin(np.abs(np.log(np.abs(s) / own)))]
+    return float(best.imag / (2 * np.pi)), float(-best.real / abs(best))
+
+
+def ringing(J: float, load: float, k: float, c: float, viscous: float, table: dict, period: float) -> tuple[float, float]:
+    """The closed-loop ringing of a motor of inertia ``J`` with a load on a spring ``k`` and damper ``c``
+    (coordinates: motor angle q, deflection x; the load turns at q + x), written out by hand."""
+    D = np.array([[J + load, load], [load, load]])
+    K, C = np.diag([0.0, k]), np.diag([viscous, c])
+    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(D, K), -np.linalg.solve(D, C)]])
+    B = np.vstack([np.zeros((2, 2)), np.linalg.inv(D)])
+    return closed_loop(A, B, [0], table, period, np.sqrt(k / load))
+
+
+FLEX = {"load": 0.03, "frequency": 8.0, "damping": 0.05}
+
+
+@pytest.mark.slow
+def test_flexible_mode_on_an_axis(tmp_path: Path) -> None:
+    """A load on a compliant coupling (8 Hz with the motor held, ζ = 0.05), excited by pulses on the drive:
+    flexible_mode is named on q with the closed-loop ringing's frequency (3 %) and damping (15 %), the
+    load's own mode and inertia are recovered, and the patched model's closed-loop mode is the ringing's."""
+    truth = cases.with_load(cases.axis(), "q", "rotor", FLEX["load"], FLEX["frequency"], FLEX["damping"])
+    data = cases.measurements(truth, 3, 0.01, measured=("q",), pulses=0.5)
+    w = 2 * np.pi * FLEX["frequency"]
+    k, c = FLEX["load"] * w**2, 2 * FLEX["damping"] * w * FLEX["load"]
+    frequency, damping = ringing(0.05, FLEX["load"], k, c, 0.3, data.controller, data.sample_period)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", symbolic.ModelWarning)
+        d = diagnose(cases.model_file(tmp_path, cases.axis()), data, out=tmp_path / "out", figures=False)
+    check(d, "flexible_mode", "q", {})
+    found = d.found[0]
+    assert found.parameters["frequency_hz"] == pytest.approx(frequency, rel=0.03), (found.parameters, frequency)
+    assert found.parameters["damping_ratio"] == pytest.approx(damping, rel=TOLERANCE), (found.parameters, damping)
+    assert found.evidence["load_frequency_hz"] == pytest.approx(FLEX["frequency"], rel=0.03)
+    assert found.evidence["load_damping_ratio"] == pytest.approx(FLEX["damping"], rel=TOLERANCE)
+    assert found.evidence["load"] == pytest.approx(FLEX["load"], rel=TOLERANCE)
+    patched = symbolic.load(d.patched_path)
+    assert patched.generalized_coordinates == ("q", "q_flex")
+    values = {p.name: p.value for p in patched.parameters}
+    assert values["J"] == pytest.approx(0.05, rel=TOLERANCE)
+    again = ringing(values["J"], values["J_q_load"], values["k_q_load"], values["d_q_load"], values["Fv"],
+                    data.controller, data.sample_period)
+    assert again[0] == pytest.approx(frequency, rel=0.03)
+
+
+# -- payload: a point mass missing at the end effector ---------------------------------------------------
+
+def fixed_arm(extra: str = "") -> str:
+    """The two-link arm with an end effector at the tip of link 2 and link 2's inertial parameters written
+    inline (fixed): with them free, a point mass at the tip is in the model's span (it only changes them)."""
+    text = cases.arm(extra='[end_effector]\nframe = "2"\npoint = ["0", "0", "0"]\n' + extra)
+    for old, new in (('mass = "m2"', 'mass = "2.0"'), ('com = ["c2 - 0.3", "0", "0"]', 'com = ["-0.15", "0", "0"]'),
+                     ('inertia = { zz = "I2" }', 'inertia = { zz = "0.02" }')):
+        assert old in text
+        text = text.replace(old, new)
+    return text
+
+
+@pytest.mark.slow
+def test_payload_on_an_arm(tmp_path: Path) -> None:
+    truth = fixed_arm('\n[[body]]\nname = "tool"\nframe = "2"\nmass = "0.5"\n')
+    d = run(tmp_path, fixed_arm(), truth, seed=4)
+    check(d, "payload", "q2", {"mass": 0.5}, same_fit=False)
+    patched = symbolic.load(d.patched_path)
+    (tool,) = [b for b in patched.bodies if b.name == "payload"]
+    assert tool.frame == "2" and str(tool.mass) == "m_payload"
+    for c in ("q1", "q2"):  # the weight and inertia of a tip mass act on both joints: both gaps fall
+        assert d.after.detail["validation"][c] < 0.5 * d.before.detail["validation"][c]
+
+
+@pytest.mark.slow
+def test_payload_in_the_span_of_free_link_parameters_is_not_a_candidate(tmp_path: Path) -> None:
+    """With link 2's mass, centre of mass and inertia free, a point mass at its frame's origin changes
+    only them: the model already holds it (a candidate there would be a false discovery)."""
+    text = cases.arm(extra='[end_effector]\nframe = "2"\npoint = ["0", "0", "0"]\n')
+    d = run(tmp_path, text, text, seed=8)
+    assert d.found == ()
+    (candidate,) = [c for c in d.search.rounds[0].candidates if c.effect.name == "payload" and c.coordinate == "q2"]
+    assert candidate.status == "in the model"
+
+
+@pytest.mark.slow
+def test_flexible_mode_on_one_joint_of_an_arm(tmp_path: Path) -> None:
+    """A load of 0.2 kg·m² on a compliant coupling at joint 1 (8 Hz with the joint held, ζ = 0.05), pulses
+    on both drives: flexible_mode named on q1 only, q2 stays clean; the ringing against the truth's
+    closed loop linearised at the data's mean position."""
+    from symbolic.numeric import numeric_model
+
+    truth = cases.with_load(cases.arm(), "q1", "1", 0.2, FLEX["frequency"], FLEX["damping"])
+    data = cases.measurements(truth, 4, 0.01, measured=("q1", "q2"), pulses=3.0)
+    d = run_on(tmp_path, cases.arm(), data)
+    check(d, "flexible_mode", "q1", {})
+    found = d.found[0]
+    assert found.evidence["load"] == pytest.approx(0.2, rel=TOLERANCE)
+    assert found.evidence["load_frequency_hz"] == pytest.approx(FLEX["frequency"], rel=0.03)
+    assert found.evidence["load_damping_ratio"] == pytest.approx(FLEX["damping"], rel=TOLERANCE)
+    model = symbolic.derive(symbolic.loads(truth, "<truth>"))
+    num = numeric_model(model)
+    rest = np.concatenate([d.sets["estimation"].q.mean(axis=0), [0.0]])
+    A, B = num.linearize(np.concatenate([rest, np.zeros(3)]), num.bias(rest, np.zeros(3)))
+    frequency, damping = closed_loop(A, B[:, :3], [0, 1], data.controller, data.sample_period,
+                                     2 * np.pi * FLEX["frequency"])
+    assert found.parameters["frequency_hz"] == pytest.approx(frequency, rel=0.03), (found.parameters, frequency)
+    assert found.parameters["damping_ratio"] == pytest.approx(damping, rel=TOLERANCE), (found.parameters, damping)
+    assert d.after.detail["validation"]["q2"] <= 1.01 * d.before.detail["validation"]["q2"]
+
+
+@pytest.mark.slow
+def test_emps_pulse_set_resonance_is_not_a_collocated_second_mass(emps: Path) -> None:  # noqa: F811
+    """The pulse set as the data (its last fifth held out): the residual's 23–33 Hz hump is tested as
+    flexible_mode and fitted best near 28 Hz, but only by a negative load (a lead of the logged force
+    over the motion, not a second mass ringing behind a coupling), so it is rejected as non-physical and
+    direction-dependent viscous friction is what is named."""
+    d = diagnose(robots.path("emps"), robots.example_path("emps_pulses"), figures=False)
+    assert [f.effect for f in d.found] == ["asymmetric_viscous"]
+    assert d.after.gap["validation"] < d.before.gap["validation"]
+    (flexible,) = [c for c in d.search.rounds[0].candidates if c.effect.name == "flexible_mode"]
+    assert 20.0 < flexible.roles["frequency_hz"] < 35.0 and flexible.roles["load"] < 0
+    assert flexible.share > 0.2 and flexible.p_value < flexible.trials * 1e-6
+    assert any("not positive" in reason for reason in flexible.failed)
+
+
+@pytest.mark.slow
+def test_a_resonance_and_coulomb_friction_at_once(tmp_path: Path) -> None:
+    """The flexible axis of test_flexible_mode_on_an_axis, its model lacking Coulomb friction too: both named."""
+    truth = cases.with_load(cases.axis(), "q", "rotor", FLEX["load"], FLEX["frequency"], FLEX["damping"])
+    d = run_on(tmp_path, cases.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'),
+               cases.measurements(truth, 5, 0.01, measured=("q",), pulses=0.5))
+    found = {f.effect: f for f in d.found}
+    assert set(found) == {"coulomb", "flexible_mode"}, list(found)
+    assert found["coulomb"].parameters["coulomb"] == pytest.approx(0.4, rel=TOLERANCE)
+    assert found["flexible_mode"].evidence["load_frequency_hz"] == pytest.approx(FLEX["frequency"], rel=0.03)
+    assert d.after.gap["validation"] <= 0.5 * d.before.gap["validation"]

@@ -12,8 +12,8 @@ The catalogue of effects is :data:`EFFECTS`; :func:`register` adds one (:class:`
 from __future__ import annotations
 
 from symbolic.workflow.diagnose import Diagnosis, Found, Simulator, diagnose, simulated_path
-from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Context, Effect, register
+from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Context, Effect, Signals, register
 from symbolic.workflow.search import Settings as SearchSettings
 
-__all__ = ["EFFECTS", "NOT_SUPPORTED", "Context", "Diagnosis", "Effect", "Found", "SearchSettings", "Simulator",
+__all__ = ["EFFECTS", "NOT_SUPPORTED", "Context", "Diagnosis", "Effect", "Found", "SearchSettings", "Signals", "Simulator",
            "diagnose", "register", "simulated_path"]

@@ -40,7 +40,7 @@ from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
 from symbolic.workflow.patch import Editor
 from symbolic.workflow.search import Search
 from symbolic.workflow.search import Settings as SearchSettings
-from symbolic.workflow.terms import NominalFit, coordinate_gaps, fit_nominal, model_terms, relative_gap
+from symbolic.workflow.terms import NominalFit, coordinate_gaps, final_nominal, fit_nominal, model_terms, relative_gap
 from symbolic.workflow.where import localise
 
 log = logging.getLogger("symbolic")
@@ -222,10 +222,33 @@ def diagnose(
             patched = derive(loads(editor.text(), str(target)))
         except ModelError as error:
             raise ModelError(str(source), "patch", f"the patched model does not load ({error}); this is a bug of the workflow") from None
-        after = _fit(patched, sets, simulate)
+        unmeasured = [c for c in patched.robot.generalized_coordinates if c not in estimation.coordinates
+                      and c not in model.robot.generalized_coordinates]
+        if unmeasured:
+            # an added coordinate the data lack (a second mass's deflection): the patched model cannot be
+            # identified by IDIM-LS on these data; its fit is the search's final joint fit, whose columns are
+            # the patched model's inverse dynamics along the measured motion (the load starting at rest)
+            notes.append(f"the patched model adds {', '.join(unmeasured)}, which the data do not measure: the gap "
+                         "after and the model's own values are those of the search's final joint fit")
+            design = selection.final
+            predicted = {role: design.predicted(role) for role in sets}
+            gap, detail = _gaps(sets, predicted)
+            own_fit = final_nominal(before.nominal.terms, design.identification.values)
+            after = Fit(patched, own_fit, predicted, gap, detail)
+        else:
+            after = _fit(patched, sets, simulate)
         own = {k: v.value for k, v in after.nominal.parameters.items() if k in {p.name for p in model.robot.parameters}}
         patched_text = with_parameter_values(editor.text(), own, str(target))
         patched_path = target if out is not None else None
+        measured_model = derive(loads(patched_text, str(target))) if unmeasured else patched
+        values = {s.name: float(v) for s, v in measured_model.parameters.items()}
+        controller = estimation.measurements.controller
+        period = float(estimation.measurements.sample_period)
+        for a, final in zip(accepted, finals):
+            c = a.candidate
+            roles, extra = c.effect.as_measured(measured_model, values, selection.context, c.j, final["roles"],
+                                                controller, period)
+            final["fitted"], final["roles"], final["measured"] = final["roles"], dict(roles), extra
     else:
         notes.append(f"the model has no file ({model.robot.source}) to patch: the gap after is that of the search's final fit")
         written = [{} for _ in accepted]
@@ -350,10 +373,14 @@ def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Searc
                           "explained_share": x.share} for x in a.alternatives],
     }
     if c.effect.nonlinear:
-        evidence["nonlinear"] = {c.effect.nonlinear: c.value}
+        evidence["nonlinear"] = {c.effect.nonlinear: list(c.value) if isinstance(c.value, tuple) else c.value}
+    evidence.update(final.get("measured", {}))
+    roles = {k: v for k, v in final["roles"].items() if k in c.effect.roles}
+    evidence.update({k: v for k, v in final.get("fitted", final["roles"]).items() if k not in c.effect.roles})
     if c.effect.name in ("gravity", "periodic"):
         evidence["phase_rad"] = float(np.arctan2(final["coefficients_full"][1], final["coefficients_full"][0]))
-    return Found(c.effect.name, c.coordinate, dict(final["roles"]), dict(final["sigmas"]), dict(parameters), evidence)
+    sigmas = {k: (None if final.get("measured") else v) for k, v in final["sigmas"].items() if k in roles}
+    return Found(c.effect.name, c.coordinate, roles, sigmas, dict(parameters), evidence)
 
 
 def _plain(value: Any) -> Any:

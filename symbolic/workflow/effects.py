@@ -22,10 +22,11 @@ Adding an effect: subclass :class:`Effect`, set ``name``, ``roles``, ``summary``
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 import sympy as sp
@@ -33,6 +34,7 @@ import sympy as sp
 from symbolic.spec.robot import Directional, Robot, coordinate_symbol
 
 if TYPE_CHECKING:
+    from symbolic.derive.dynamics import DynamicModel
     from symbolic.workflow.patch import Editor
 
 Roles = dict[str, float | None]
@@ -64,6 +66,20 @@ class Context:
         return "prismatic" if coordinate in self.robot.coordinates else "modal"
 
 
+@dataclass(frozen=True, eq=False)
+class Signals:
+    """The filtered states of one data set at every sample (before the border is dropped and the data
+    decimated), their time stamps and the sampling rate: what :meth:`Effect.columns_at` may use."""
+
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    t: np.ndarray
+    rate: float
+    robot: Robot | None = None
+    """The model's robot (for an effect whose columns need the geometry, e.g. a payload)."""
+
+
 def on_row(j: int, n: int, columns: list[np.ndarray]) -> np.ndarray:
     """``samples × n × k``: the given per-sample columns acting on coordinate ``j`` only."""
     out = np.zeros((len(columns[0]), n, len(columns)))
@@ -79,7 +95,8 @@ class Effect:
     roles: ClassVar[tuple[str, ...]]
     summary: ClassVar[str]
     axis: ClassVar[str] = "velocity"
-    """The state the effect is a function of, for the report's figure: position, velocity or acceleration."""
+    """The state the effect is a function of, for the report's figure: position, velocity, acceleration
+    or time (a filtered term, which is a function of none of them alone)."""
     refines: ClassVar[str | None] = None
     nonlinear: ClassVar[str | None] = None
     """The role of the nonlinear parameter, if the effect has one (its grid comes from :meth:`grid`)."""
@@ -92,12 +109,20 @@ class Effect:
 
     def grid(self, context: Context, j: int) -> tuple[np.ndarray, float] | None:
         """For a nonlinear effect: the values of its nonlinear parameter to scan (increasing) and the
-        number of independent trials they amount to (for the multiple-testing correction)."""
+        number of independent trials they amount to (for the multiple-testing correction). An effect
+        with several nonlinear parameters returns a ``values × parameters`` array (positive values; the
+        best row is refined by a simplex search in their logarithms, within the grid's box) and its
+        ``columns`` receive a tuple."""
         return None
 
     def columns(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, j: int, value: float | None) -> np.ndarray:
         """The effect's columns, ``samples × N × k``, at states ``samples × N``."""
         raise NotImplementedError
+
+    def columns_at(self, signals: Signals, j: int, value: float | tuple[float, ...] | None) -> np.ndarray:
+        """The effect's columns from the signals (``samples × N × k``). The default calls :meth:`columns`;
+        an effect that needs time or the sampling rate (a filter, a time-periodic term) overrides this."""
+        return self.columns(signals.q, signals.qd, signals.qdd, j, value)
 
     def reference_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, j: int) -> np.ndarray | None:
         """The column (``samples × N``) of the model's term whose current coefficient the effect needs
@@ -116,6 +141,13 @@ class Effect:
               comment: str) -> dict[str, float]:
         """Write the effect on coordinate ``j`` into the model file; return the parameters written."""
         raise NotImplementedError
+
+    def as_measured(self, patched: DynamicModel, parameters: Mapping[str, float], context: Context, j: int,
+                    roles: Roles, controller: Mapping[str, Any] | None, period: float) -> tuple[Roles, dict[str, Any]]:
+        """The roles as the data show them, given the patched model (``parameters``: its values) and the
+        data's ``[controller]`` (``None`` when none is declared), and evidence to add. Default: unchanged.
+        A resonance overrides this: what the data show is the closed-loop mode, not the load's own."""
+        return roles, {}
 
 
 def _nonnegative(roles: Roles, *names: str) -> str | None:
@@ -357,6 +389,7 @@ class Periodic(_Sinusoid):
     summary = "disturbance periodic in position (cogging, screw or gear period): amplitude·sin(2π·q/period + φ)"
     OVERSAMPLING = 4
     MAX_GRID = 4000
+    TOP = 0.5
 
     def grid(self, context, j):
         q, v = context.q[:, j], np.abs(context.qd[:, j])
@@ -365,8 +398,9 @@ class Periodic(_Sinusoid):
         if span <= 0 or fast <= 0:
             return None
         # at least two periods over the range travelled (else it is a spring or gravity), and no faster in
-        # time than the treatment keeps at the usual speed
-        low, high = 2.0 / span, context.passband / fast
+        # time than half the treatment's pass band at the usual speed (above, the states are mostly the
+        # differentiated encoder noise the low-pass leaves: errors in the regressor, not in τ)
+        low, high = 2.0 / span, self.TOP * context.passband / fast
         if high <= low:
             return None
         count = min(int(math.ceil((high - low) * span * self.OVERSAMPLING)) + 1, self.MAX_GRID)
@@ -422,6 +456,235 @@ class Inertia(Effect):
         return {name: roles["inertia"] / ratio**2}
 
 
+class FlexibleMode(Effect):
+    """An unmodelled resonance: a load elastically coupled to coordinate q (a compliant transmission, a
+    flexible link's first mode). With the coordinate measured (collocated), the load of inertia J_L on
+    a spring k and damper c moves as q_L = L(s)·q with L = (2ζω·s + ω²)/(s² + 2ζω·s + ω²), ω² = k/J_L,
+    2ζω = c/J_L, and the actuator must supply J_L·q̈_L in addition to the rest of the model: the column
+    is the acceleration q̈ filtered by L (linear in J_L for given ω, ζ; the coordinate's own inertia in
+    the model becomes the motor side's). ω and ζ are scanned on a grid and refined.
+
+    Roles: ``frequency_hz`` and ``damping_ratio`` of the ringing as the data show it — the patched
+    model's closed-loop mode under the data's ``[controller]`` (:mod:`symbolic.workflow.modes`), nearest
+    to the load's own frequency; without a controller, the load's mode with the coordinate held
+    (ω, ζ). Written as a second mass: a new coordinate ``<q>_flex`` (the load's deflection), a frame
+    turning (or sliding) with q plus it, a body of inertia (mass) J_L, and a ``[[force]]`` −k·x − c·ẋ on it.
+
+    The column acts on coordinate q's row only: exact when no other coordinate moves the load's axis (a
+    one-axis machine, the first joint of a chain); on a later joint the load's inertia also reacts on the
+    joints before it, which the column leaves out (the patched model holds it in full).
+    """
+
+    name, roles, axis, nonlinear = "flexible_mode", ("frequency_hz", "damping_ratio"), "time", "frequency and damping"
+    summary = "unmodelled resonance: a load on a compliant coupling (second mass), ringing at frequency_hz"
+    DAMPING = (0.01, 0.03, 0.08, 0.2)
+    """Damping ratios of the grid; the grid's box caps the refinement at 0.2: a resonance that rings (a
+    peak of half-power width ≤ 40 % of its frequency). Wider, the column is a smooth lag of the
+    acceleration, which a drive's bandwidth or a filter explains as well (EMPS)."""
+    TOP = 0.8
+    """Highest load frequency, as a fraction of the treatment's pass band (the decimation filter's edge)."""
+    SPACING = 1.03
+    """Ratio of neighbouring grid frequencies (a mode of ζ = 0.01 is 2 % wide at half power)."""
+    LOWEST_HZ = 1.0
+
+    def applicable(self, context, j):
+        c = context.coordinates[j]
+        kind = context.kind(c)
+        if kind == "modal":
+            return f"{c} is a modal coordinate"
+        return None if _joint_frame(context.robot, c) is not None else f"no frame moves with {c} alone"
+
+    def grid(self, context, j):
+        # from LOWEST_HZ (slower is a spring, gravity or the loop itself) to TOP × the treatment's pass band
+        low, high = self.LOWEST_HZ, self.TOP * context.passband
+        if high <= low:
+            return None
+        frequencies = np.exp(np.arange(math.log(low), math.log(high), math.log(self.SPACING)))
+        rows = np.array([(f, z) for f in frequencies for z in self.DAMPING])
+        return rows, float(len(rows))
+
+    def columns(self, q, qd, qdd, j, value):
+        raise TypeError("flexible_mode needs the sampling rate: use columns_at")
+
+    def columns_at(self, signals, j, value):
+        import scipy.signal
+
+        frequency, damping = value
+        w = 2.0 * math.pi * frequency
+        # bilinear transform s = K(z − 1)/(z + 1), K prewarped so that the resonance stays at ω
+        K = w / math.tan(w / (2.0 * signals.rate))
+        c1, c0 = 2.0 * damping * w * K, w * w
+        a = np.array([K * K + c1 + c0, 2.0 * (c0 - K * K), K * K - c1 + c0])
+        b = np.array([c1 + c0, 2.0 * c0, c0 - c1]) / a[0]
+        a = a / a[0]
+        x = signals.qdd[:, j]
+        load, _ = scipy.signal.lfilter(b, a, x, zi=scipy.signal.lfilter_zi(b, a) * x[0])
+        return on_row(j, signals.qdd.shape[1], [load])
+
+    def roles_of(self, c, value, reference):
+        return {"frequency_hz": float(value[0]), "damping_ratio": float(value[1]), "load": float(c[0])}
+
+    def reference_column(self, q, qd, qdd, j):
+        return on_row(j, q.shape[1], [qdd[:, j]])[:, :, 0]  # the coordinate's own inertia, when the model has it alone
+
+    EDGE = 0.02
+    """A fit within this relative distance of the searched box's edge is not located (it would go further)."""
+
+    def check(self, roles, reference, context, j):
+        if roles["load"] <= 0:
+            return f"load inertia {roles['load']:.4g} is not positive (no second mass rings so)"
+        f, z, top = roles["frequency_hz"], roles["damping_ratio"], self.TOP * context.passband
+        if f >= (1 - self.EDGE) * top or f <= (1 + self.EDGE) * self.LOWEST_HZ or z >= (1 - self.EDGE) * max(self.DAMPING) \
+                or z <= (1 + self.EDGE) * min(self.DAMPING):
+            return (f"the resonance is not located: {f:.4g} Hz, ζ = {z:.3g} lies at the edge of the range searched "
+                    f"({self.LOWEST_HZ:g}–{top:.4g} Hz, ζ {min(self.DAMPING):g}–{max(self.DAMPING):g})")
+        # on a single coordinate the column q̈ alone is the whole inertia the model gives it
+        if reference is not None and len(context.coordinates) == 1 and reference <= 0:
+            return f"the inertia left on the coordinate's own side, {reference:.4g}, is not positive"
+        return None
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        coordinate = context.coordinates[j]
+        frequency, damping = value
+        w = 2.0 * math.pi * frequency
+        load = roles["load"]
+        revolute = context.kind(coordinate) == "revolute"
+        written = {}
+        name = editor.parameter(f"J_{coordinate}_load" if revolute else f"m_{coordinate}_load", load, comment + "; the load")
+        k = editor.parameter(f"k_{coordinate}_load", load * w * w, comment + "; coupling stiffness")
+        d = editor.parameter(f"d_{coordinate}_load", 2.0 * damping * w * load, comment + "; coupling damping")
+        written = {name: load, k: load * w * w, d: 2.0 * damping * w * load}
+        flex = editor.coordinate(f"{coordinate}_flex", comment + "; the load's deflection")
+        frame = _joint_frame(context.robot, coordinate)
+        dh = editor.frame_dh(frame.name)
+        if context.robot.convention != "modified":  # standard DH: the joint turns about the parent's z
+            dh.update(a="0", alpha="0")
+        key = "theta" if revolute else "d"
+        dh[key] = f"{dh[key]} + {flex}"
+        target = editor.add_frame(f"{frame.name}_load", frame.parent, dh, comment)
+        if revolute:
+            # a thin disc about the joint axis (the triangle inequality holds; only zz acts on q)
+            editor.add_body(f"{frame.name}_load", target, "0", {"xx": f"{name}/2", "yy": f"{name}/2", "zz": name}, comment)
+        else:
+            editor.add_body(f"{frame.name}_load", target, name, None, comment)
+        editor.add_force(f"coupling_{coordinate}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
+        return written
+
+    def as_measured(self, patched, parameters, context, j, roles, controller, period):
+        from symbolic.workflow.modes import closed_loop_modes
+
+        own = {"load_frequency_hz": roles["frequency_hz"], "load_damping_ratio": roles["damping_ratio"]}
+        if controller is None:
+            w = roles["frequency_hz"]
+            damped = {"frequency_hz": w * math.sqrt(max(1.0 - roles["damping_ratio"] ** 2, 0.0)),
+                      "damping_ratio": roles["damping_ratio"]}
+            return damped, {**own, "ringing": "no [controller] declared: the load's mode with the coordinate held"}
+        rest = np.zeros(patched.n)
+        names = list(patched.robot.generalized_coordinates)
+        for k, c in enumerate(context.coordinates):
+            rest[names.index(c)] = float(np.mean(context.q[:, k]))
+        modes = closed_loop_modes(patched, parameters, controller, period, rest)
+        if not modes:
+            return {"frequency_hz": None, "damping_ratio": None}, {**own, "ringing": "no oscillatory closed-loop mode"}
+        f, z = min(modes, key=lambda m: abs(math.log(max(m[0], 1e-12) / roles["frequency_hz"])))
+        return {"frequency_hz": f, "damping_ratio": z}, {**own, "ringing": "closed-loop mode of the patched model",
+                                                          "closed_loop_modes": [list(m) for m in modes]}
+
+
+class Payload(Effect):
+    """A point mass missing at the model's ``end_effector``: its weight and inertia forces on every
+    coordinate, m·Y_p(q, q̇, q̈) with Y_p the generalized force of a unit point mass there (derived once
+    per model from the model's own frames). Linear in m; tested once, on the last coordinate that moves
+    the end effector (the one reported); in the span of the model when the last link's inertial
+    parameters are free (a point mass there only changes them)."""
+
+    name, roles, axis = "payload", ("mass",), "acceleration"
+    summary = "a point mass missing at the model's end effector (a tool, a load)"
+
+    def __init__(self) -> None:
+        self._unit: dict[int, tuple[Robot, Any]] = {}
+
+    def applicable(self, context, j):
+        robot = context.robot
+        if robot.end_effector is None:
+            return "the model has no [end_effector]"
+        moving = _moving(robot, robot.end_effector.frame)
+        if not moving:
+            return "no coordinate moves the end effector"
+        last = max(moving, key=list(context.coordinates).index)
+        if context.coordinates[j] != last:
+            return f"a payload acts at the end effector: tested once, on {last}"
+        return None
+
+    def unit(self, robot: Robot):
+        """``(q, q̇, q̈) -> samples × N``: the generalized force of a unit point mass at the end effector."""
+        key = id(robot)
+        if key not in self._unit or self._unit[key][0] is not robot:
+            from symbolic.derive.dynamics import derive
+            from symbolic.identify.model import base_regressor, model_base
+            from symbolic.spec.robot import Body
+            from symbolic.spec.validation import validate
+
+            ee = robot.end_effector
+            point = validate(dataclasses.replace(
+                robot, name=f"{robot.name}_payload", bodies=(Body("payload", ee.frame, 1, tuple(ee.point)),),
+                frictions=(), drives=(), forces=(), beams=(), validated=False))
+            model = derive(point)
+            regressor, values = base_regressor(model), np.asarray(model_base(model)[1].values, float)
+            self._unit[key] = (robot, lambda q, qd, qdd: regressor(q, qd, qdd) @ values)
+        return self._unit[key][1]
+
+    def columns_at(self, signals, j, value):
+        tau = self.unit(signals.robot)(signals.q, signals.qd, signals.qdd)
+        return tau[:, :, None]
+
+    def columns(self, q, qd, qdd, j, value):
+        raise TypeError("payload needs the model's geometry: use columns_at")
+
+    def roles_of(self, c, value, reference):
+        return {"mass": float(c[0])}
+
+    def check(self, roles, reference, context, j):
+        return None if roles["mass"] > 0 else f"mass {roles['mass']:.4g} is not positive"
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        ee = context.robot.end_effector
+        name = editor.parameter("m_payload", roles["mass"], comment)
+        editor.add_body("payload", ee.frame, name, None, comment, com=[_expression_text(x) for x in ee.point])
+        return {name: roles["mass"]}
+
+
+def _expression_text(value: Any) -> str:
+    return str(value)
+
+
+def _moving(robot: Robot, frame: str) -> list[str]:
+    """The generalized coordinates in the DH entries of ``frame`` and its ancestors."""
+    by_name = {f.name: f for f in robot.frames}
+    symbols = {coordinate_symbol(c): c for c in robot.generalized_coordinates}
+    substitution = robot.constraint_substitution
+    found: set[str] = set()
+    while frame in by_name:
+        f = by_name[frame]
+        for key in ("theta", "d"):
+            free = sp.sympify(getattr(f, key)).xreplace(substitution).free_symbols
+            found |= {symbols[s] for s in free if s in symbols}
+        frame = f.parent
+    return sorted(found, key=list(robot.generalized_coordinates).index)
+
+
+def _joint_frame(robot: Robot, coordinate: str):
+    """The frame whose DH θ (revolute) or d (prismatic) is the coordinate plus constants, or ``None``."""
+    symbol = coordinate_symbol(coordinate)
+    for frame in robot.frames:
+        for key in ("theta", "d"):
+            expression = sp.sympify(getattr(frame, key))
+            if symbol in expression.free_symbols and sp.diff(expression, symbol) == 1 and \
+                    not (expression - symbol).free_symbols & {coordinate_symbol(c) for c in robot.generalized_coordinates}:
+                return frame
+    return None
+
+
 def _drive(context: Context, j: int) -> tuple[float, float]:
     """Nominal rotor inertia and ratio of the coordinate's [[drive]] (0 and 1 without one)."""
     values = context.robot.parameter_values
@@ -435,8 +698,8 @@ EFFECTS: dict[str, Effect] = {}
 """The catalogue, by name, in the order the search tries them (ties are broken by this order last)."""
 
 NOT_SUPPORTED = {
-    "payload": "a point mass at the model's end_effector: needs the regressor of an added body (not yet)",
-    "flexible_mode": "an unmodelled resonance: needs the simulation error's spectrum and a beam or compliant drive in the patch (not yet)",
+    "periodic (in time)": "a disturbance periodic in time (mains): a model file's forces have no time argument "
+                          "to write it in (not yet)",
 }
 """Contract identifiers not implemented yet, with the reason (listed in the report and the JSON)."""
 
@@ -453,7 +716,7 @@ def register(effect: Effect) -> Effect:
 
 
 for _effect in (Coulomb(), Viscous(), Offset(), Spring(), Gravity(), Inertia(), Periodic(),
-                AsymmetricViscous(), AsymmetricCoulomb(), Stribeck()):
+                AsymmetricViscous(), AsymmetricCoulomb(), Stribeck(), FlexibleMode(), Payload()):
     register(_effect)
 
 

@@ -67,7 +67,8 @@ def draw(d: Diagnosis) -> dict[str, bytes]:
     design = d.search.final
     final = est.tau - design.predicted("estimation")
     start = len(d.search.terms.free_names)
-    axes = {"position": est.q, "velocity": est.qd, "acceleration": est.qdd}
+    axes = {"position": est.q, "velocity": est.qd, "acceleration": est.qdd,
+            "time": np.repeat(np.asarray(est.t)[:, None], est.q.shape[1], axis=1)}
     for k, a in enumerate(d.search.accepted, start=1):
         width = a.columns["estimation"].shape[2]
         values = design.identification.values[start:start + width]
@@ -80,7 +81,7 @@ def draw(d: Diagnosis) -> dict[str, bytes]:
         ax = fig.add_subplot(1, 1, 1)
         ax.plot(x, final[:, j] + term[:, j], ".", ms=1.5, color="0.5", label="final residual + the effect's term")
         ax.plot(x[order], term[order, j], lw=1.2, color="C3", label=f"fitted {a.effect.name}")
-        ax.set_xlabel(f"{a.effect.axis} of {a.candidate.coordinate}")
+        ax.set_xlabel("time (s)" if a.effect.axis == "time" else f"{a.effect.axis} of {a.candidate.coordinate}")
         ax.set_ylabel("generalized force")
         ax.set_title(f"{a.effect.name} on {a.candidate.coordinate}")
         ax.legend(loc="upper right")

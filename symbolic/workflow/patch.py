@@ -115,6 +115,59 @@ class Editor:
         """Set ``key`` of the coordinate's [[drive]] table (created if missing)."""
         self._set("drive", coordinate, key, value, comment)
 
+    def coordinate(self, stem: str, comment: str) -> str:
+        """Append a generalized coordinate named ``stem`` (or ``stem_2``, ...) to ``coordinates``; return its name."""
+        name = _unique(re.sub(r"[^A-Za-z0-9_]", "_", stem), self.taken)
+        self.taken.add(name)
+        self.document["coordinates"].append(name)
+        self.document["coordinates"].comment(comment)
+        return name
+
+    def frame_dh(self, frame: str) -> dict[str, str]:
+        """The DH entries of ``[[frame]] frame`` as written (``"0"`` where omitted)."""
+        for table in self.document.get("frame", []):
+            if table.get("name") == frame:
+                dh = table.get("dh", {})
+                return {key: _text(dh.get(key, "0")) for key in ("theta", "d", "a", "alpha")}
+        raise ModelError(self.source, f"[[frame]] {frame!r}", "not found in the file (this is a bug of the workflow)")
+
+    def _append(self, kind: str, entries: Mapping[str, Any], comment: str) -> None:
+        table = tomlkit.table()
+        for line in _lines(comment):
+            table.add(tomlkit.comment(line))
+        for key, value in entries.items():
+            if isinstance(value, Mapping):
+                item = tomlkit.inline_table()
+                item.update(dict(value))
+                value = item
+            table.add(key, value)
+        table.add(tomlkit.nl())
+        tables = self.document.get(kind)
+        if tables is None:
+            tables = tomlkit.aot()
+            self.document.add(kind, tables)
+        tables.append(table)
+
+    def add_frame(self, stem: str, parent: str, dh: Mapping[str, str], comment: str) -> str:
+        """Append a ``[[frame]]``; return its (unique) name."""
+        taken = {str(t.get("name")) for t in self.document.get("frame", [])}
+        name = _unique(stem, taken)
+        self._append("frame", {"name": name, "parent": parent, "dh": dict(dh)}, comment)
+        return name
+
+    def add_body(self, stem: str, frame: str, mass: str, inertia: Mapping[str, str] | None, comment: str,
+                 com: list[str] | None = None) -> str:
+        """Append a ``[[body]]`` on ``frame`` (a point mass without ``inertia``); return its (unique) name."""
+        taken = {str(t.get("name")) for t in self.document.get("body", [])}
+        name = _unique(stem, taken)
+        entries: dict[str, Any] = {"name": name, "frame": frame, "mass": mass}
+        if com is not None:
+            entries["com"] = list(com)
+        if inertia is not None:
+            entries["inertia"] = dict(inertia)
+        self._append("body", entries, comment)
+        return name
+
     def add_force(self, stem: str, coordinate: str, expression: str, comment: str) -> str:
         """Append a [[force]] table; return its (unique) name."""
         name = _unique(stem, self.forces)
@@ -131,6 +184,10 @@ class Editor:
             self.document.add("force", tables)
         tables.append(table)
         return name
+
+
+def _text(value: Any) -> str:
+    return str(value) if isinstance(value, str) else repr(float(value)) if isinstance(value, float) else str(value)
 
 
 def _unique(stem: str, taken: set[str]) -> str:

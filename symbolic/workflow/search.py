@@ -41,7 +41,7 @@ import scipy.optimize
 
 from symbolic.identify.least_squares import Identification
 from symbolic.workflow.dataset import DataSet
-from symbolic.workflow.effects import EFFECTS, Context, Effect
+from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals
 from symbolic.workflow.statistics import f_test, pooled_autocorrelation_time
 from symbolic.workflow.terms import ModelTerms, wls
 
@@ -457,6 +457,7 @@ class _RoundState:
             self.Xv = design.weighted("validation", design.columns["validation"])
             self.held_out0 = float(np.sum((self.yv - self.Xv @ self.coef) ** 2))
         self._cache: dict = {}
+        self._signals: dict[str, Signals] = {}
 
     # columns of an effect on one data set, reduced (samples × N × k)
     def columns(self, effect: Effect, j: int, value: float | None, role: str) -> np.ndarray:
@@ -468,8 +469,8 @@ class _RoundState:
     def batch(self, effect: Effect, j: int, values: Sequence[float | None], role: str) -> list[np.ndarray]:
         """Reduced columns for several values of the nonlinear parameter, filtered in one pass; only the
         coordinates an effect acts on are filtered (the others stay zero)."""
-        s = self.design.sets[role].states
-        raw = [effect.columns(s.q, s.qd, s.qdd, j, v) for v in values]
+        signals = self.signals(role)
+        raw = [effect.columns_at(signals, j, v) for v in values]
         widths = [r.shape[2] for r in raw]
         stacked = np.concatenate(raw, axis=2)
         rows = np.flatnonzero(np.any(stacked != 0, axis=(0, 2)))
@@ -479,6 +480,15 @@ class _RoundState:
         out = np.zeros((reduced.shape[0], stacked.shape[1], stacked.shape[2]))
         out[:, rows, :] = reduced
         return np.split(out, np.cumsum(widths)[:-1], axis=2)
+
+    def signals(self, role: str) -> Signals:
+        """The data set's filtered states at every sample, with time and rate (for :meth:`Effect.columns_at`)."""
+        if role not in self._signals:
+            data = self.design.sets[role]
+            s = data.states
+            self._signals[role] = Signals(s.q, s.qd, s.qdd, np.asarray(data.measurements.t), float(s.processing.rate),
+                                          self.search.context.robot)
+        return self._signals[role]
 
     def cross_validated(self, extra: tuple[np.ndarray, np.ndarray] | None) -> float:
         """Residual power of the held-out blocks, each predicted by the fit on the others (normal
@@ -601,8 +611,11 @@ class _RoundState:
         c.invalid = effect.check(c.roles, c.reference, search.context, j)
         return c
 
-    def scan(self, effect: Effect, j: int, values: np.ndarray) -> float:
-        """The nonlinear parameter explaining most: the best grid value, refined between its neighbours."""
+    def scan(self, effect: Effect, j: int, values: np.ndarray) -> float | tuple[float, ...]:
+        """The nonlinear parameter explaining most: the best grid value, refined between its neighbours
+        (several parameters: the best grid row, refined by a simplex search within the grid's box)."""
+        if np.ndim(values) == 2:
+            return self.scan_several(effect, j, np.asarray(values, float))
         explained = []
         for chunk in np.array_split(values, max(1, math.ceil(len(values) / self.CHUNK))):
             columns = self.batch(effect, j, [float(v) for v in chunk], "estimation")
@@ -615,6 +628,31 @@ class _RoundState:
             lambda x: -self.explained(effect, j, float(math.exp(x))),
             bounds=(math.log(low), math.log(high)), method="bounded", options={"xatol": 1e-4})
         return float(math.exp(result.x)) if -result.fun >= explained[best] else float(values[best])
+
+    def scan_several(self, effect: Effect, j: int, values: np.ndarray) -> tuple[float, ...]:
+        rows = [tuple(float(x) for x in row) for row in values]
+        explained = []
+        for start in range(0, len(rows), self.CHUNK):
+            chunk = rows[start:start + self.CHUNK]
+            columns = self.batch(effect, j, chunk, "estimation")
+            explained += [self.explained(effect, j, v, z) for v, z in zip(chunk, columns)]
+        best = int(np.argmax(explained))
+        low, high = np.log(values.min(axis=0)), np.log(values.max(axis=0))
+
+        def loss(x: np.ndarray) -> float:
+            if np.any(x < low) or np.any(x > high):
+                return 0.0
+            return -self.explained(effect, j, tuple(float(v) for v in np.exp(x)))
+
+        start = np.log(np.asarray(rows[best]))
+        steps = np.diag(np.maximum((high - low) / max(len(rows) ** (1 / values.shape[1]), 1.0), 1e-3))
+        result = scipy.optimize.minimize(loss, start, method="Nelder-Mead",
+                                         options={"initial_simplex": np.vstack([start, start + steps]),
+                                                  "xatol": 1e-4, "fatol": 1e-9 * max(explained[best], 1e-300),
+                                                  "maxfev": 120})
+        if -result.fun >= explained[best]:
+            return tuple(float(v) for v in np.exp(result.x))
+        return rows[best]
 
     def judge(self, c: Candidate, threshold: float) -> None:
         s = self.search.settings

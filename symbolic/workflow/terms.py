@@ -130,6 +130,16 @@ def fit_nominal(terms: ModelTerms, data: DataSet) -> NominalFit:
     return NominalFit(terms, ident, beta, parameters)
 
 
+def final_nominal(terms: ModelTerms, values: np.ndarray) -> NominalFit:
+    """The model's own parameters from a joint fit whose first columns are ``terms``' free base parameters
+    (the search's final design), without σ."""
+    beta = terms.nominal.copy()
+    beta[terms.free] = values[:int(terms.free.sum())]
+    estimates = [ParameterEstimate(n, float(b), 0.0, 0.0, False) for n, b in zip(terms.names, beta)]
+    parameters = direct_parameters(terms.model, terms.reg, terms.base, types.SimpleNamespace(parameters=estimates))
+    return NominalFit(terms, None, beta, parameters)
+
+
 def relative_gap(measured: np.ndarray, predicted: np.ndarray) -> float:
     """‖τ_meas − τ_model‖/‖τ_meas‖ in %, stacked over coordinates and samples."""
     return float(100.0 * np.linalg.norm(measured - predicted) / np.linalg.norm(measured))

@@ -1,0 +1,93 @@
+"""Closed-loop modes of a model under an experiment's discrete ``[controller]``, linearised at rest.
+
+The plant is linearised about a rest position (``NumericModel.linearize``: A = ∂ẋ/∂x, B = ∂ẋ/∂τ, with
+τ holding the rest position against gravity and springs; Coulomb friction has no derivative away from
+q̇ = 0) and sampled with zero-order hold at the controller's period T (Φ = e^{AT}, Γ = ∫₀ᵀ e^{As} ds B).
+The controller of :mod:`symbolic.numeric.controller` is linear apart from saturation and quantisation,
+which are left out: it reads q_k, forms the backward-difference velocity and filters it with its taps,
+and outputs ``pd``: −kp·q − kd·v, ``pid``: + ki·I, ``cascade``: kv·(−kp·q − v), delayed by ``delay``
+samples and multiplied by its gain. The closed loop's eigenvalues z give s = ln(z)/T: the damped
+frequency Im(s)/2π and the damping ratio −Re(s)/|s| of each oscillatory mode — what a ringing in the
+data shows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+
+from symbolic.derive.dynamics import DynamicModel
+from symbolic.numeric import controller as control
+from symbolic.numeric import numeric_model
+
+
+def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], table: Mapping[str, Any], period: float,
+                      position: np.ndarray | None = None, source: str = "<controller>") -> list[tuple[float, float]]:
+    """(damped frequency in Hz, damping ratio) of every oscillatory closed-loop mode, by frequency.
+
+    Parameters
+    ----------
+    model
+        The derived model.
+    parameters
+        Parameter values by name (the others keep the model's nominal values).
+    table
+        The ``[controller]`` table as written in the experiment file.
+    period
+        The controller's sample period T (s).
+    position
+        The rest position (all the model's coordinates; default 0).
+    """
+    names = [s.name for s in model.parameter_symbols]
+    p = np.array([float(parameters.get(n, model.parameters[s])) for n, s in zip(names, model.parameter_symbols)])
+    coordinates = list(model.robot.generalized_coordinates)
+    ctrl = control.parse(table, coordinates, model.parameter_symbols, source, coordinates)
+    constants = control.constants(ctrl, dict(zip(model.parameter_symbols, p)))
+    nc = ctrl.size
+    gain = constants[4 * nc:5 * nc]
+    num = numeric_model(model)
+    n = model.n
+    q0 = np.zeros(n) if position is None else np.asarray(position, float)
+    rest = np.concatenate([q0, np.zeros(n)])
+    A, B = num.linearize(rest, num.bias(q0, np.zeros(n), p), p)
+    B = B[:, :n]
+    block = np.zeros((3 * n, 3 * n))
+    block[:2 * n, :2 * n], block[:2 * n, 2 * n:] = A * period, B * period
+    E = scipy.linalg.expm(block)
+    phi, gamma = E[:2 * n, :2 * n], E[:2 * n, 2 * n:]
+    rows = [coordinates.index(c) for c in ctrl.coordinates]
+    taps = np.asarray(ctrl.velocity_filter, float)
+    m, delay = len(taps), ctrl.delay
+    # state: x (2n), q_{k-1} (nc), v_b,k-1 … v_b,k-m+1 (nc each), I_{k-1} (nc), u_{k-1} … u_{k-delay} (nc each)
+    sizes = [2 * n, nc, nc * (m - 1), nc, nc * delay]
+    offsets = np.cumsum([0] + sizes)
+    size = int(offsets[-1])
+
+    def step(z: np.ndarray) -> np.ndarray:
+        x, previous = z[:2 * n], z[offsets[1]:offsets[2]]
+        history = z[offsets[2]:offsets[3]].reshape(m - 1, nc)
+        integral, outputs = z[offsets[3]:offsets[4]], z[offsets[4]:].reshape(delay, nc)
+        y = x[rows]
+        vb = (y - previous) / period
+        v = taps[0] * vb + (taps[1:, None] * history).sum(axis=0) if m > 1 else taps[0] * vb
+        integral = integral - period * y
+        if ctrl.kind == "cascade":
+            u = ctrl.kv * (-ctrl.kp * y - v)
+        else:
+            u = -ctrl.kp * y - ctrl.kd * v + ctrl.ki * integral
+        applied = outputs[-1] if delay else u
+        tau = np.zeros(n)
+        tau[rows] = gain * applied
+        out = [phi @ x + gamma @ tau, y, np.concatenate([vb[None], history[:-1]]).ravel() if m > 1 else np.zeros(0),
+               integral, np.concatenate([u[None], outputs[:-1]]).ravel() if delay else np.zeros(0)]
+        return np.concatenate(out)
+
+    closed = np.column_stack([step(e) for e in np.eye(size)])
+    z = np.linalg.eigvals(closed)
+    z = z[(np.abs(z) > 1e-12) & (z.imag > 1e-12)]
+    s = np.log(z.astype(complex)) / period
+    modes = sorted((float(v.imag / (2 * np.pi)), float(-v.real / abs(v))) for v in s)
+    return modes
