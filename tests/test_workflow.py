@@ -338,6 +338,26 @@ def test_a_simulated_path_plugs_in(tmp_path: Path) -> None:
     assert d.to_dict()["path"] == "simulated" and len(calls) == 4
 
 
+def test_a_simulated_path_with_motion_gives_position_and_velocity_gaps(tmp_path: Path) -> None:
+    """A simulated path that also returns q and q̇ (SimulatedSignals) fills gap_detail's position and
+    velocity: a stand-in off by exactly 1 % in q and 2 % in q̇ gives those percentages."""
+    from symbolic.numeric.comparison import measured_motion
+    from symbolic.workflow import SimulatedSignals
+
+    model, truth, _, _ = AXIS_CASES["coulomb"]
+
+    def simulate(m, p, measurements):
+        qd = measured_motion(measurements).qd
+        return SimulatedSignals(np.asarray(measurements.tau), 1.01 * np.asarray(measurements.q), 0.98 * qd)
+
+    detail = run(tmp_path, model, truth, simulate=simulate).to_dict()["gap_detail"]
+    for when in ("before", "after"):
+        for role in ("estimation", "validation"):
+            assert detail[when][role]["position"]["q"] == pytest.approx(1.0, rel=1e-9)
+            assert detail[when][role]["velocity"]["q"] == pytest.approx(2.0, rel=1e-9)
+    assert detail["note"] is None
+
+
 def test_the_simulated_path_needs_a_controller(tmp_path: Path) -> None:
     model, truth, _, _ = AXIS_CASES["coulomb"]
     data = dataclasses.replace(cases.measurements(truth, 1, 0.01), controller=None)
@@ -410,6 +430,9 @@ def test_emps_simulated_path(tmp_path: Path, emps: Path) -> None:  # noqa: F811
     assert d.before.gap["estimation"] == pytest.approx(4.45, abs=0.3)  # symbolic simulate: 4.5 % (published 5.85 %)
     assert d.after.gap["estimation"] < d.before.gap["estimation"] - 0.5
     assert d.after.gap["validation"] < d.before.gap["validation"]
+    # the motion follows the measurement closely (symbolic simulate: position 0.001 %, velocity 0.12 %)
+    detail = d.to_dict()["gap_detail"]["before"]["estimation"]
+    assert 0 < detail["position"]["q"] < 0.01 and 0 < detail["velocity"]["q"] < 1.0
 
 
 # -- flexible_mode: a resonance the model lacks, named with the ringing's frequency ----------------------

@@ -11,9 +11,9 @@ The catalogue of effects is :data:`EFFECTS`; :func:`register` adds one (:class:`
 
 from __future__ import annotations
 
-from symbolic.workflow.diagnose import Diagnosis, Found, Simulator, diagnose, simulated_path
+from symbolic.workflow.diagnose import Diagnosis, Found, SimulatedSignals, Simulator, diagnose, simulated_path
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Context, Effect, Signals, register
 from symbolic.workflow.search import Settings as SearchSettings
 
-__all__ = ["EFFECTS", "NOT_SUPPORTED", "Context", "Diagnosis", "Effect", "Found", "SearchSettings", "Signals", "Simulator",
+__all__ = ["EFFECTS", "NOT_SUPPORTED", "Context", "Diagnosis", "Effect", "Found", "SearchSettings", "Signals", "SimulatedSignals", "Simulator",
            "diagnose", "register", "simulated_path"]

@@ -45,7 +45,17 @@ from symbolic.workflow.where import localise
 
 log = logging.getLogger("symbolic")
 
-Simulator = Callable[[DynamicModel, np.ndarray, Measurements], np.ndarray]
+@dataclass(frozen=True, eq=False)
+class SimulatedSignals:
+    """What a simulated path may return instead of τ alone: τ_model, q and q̇ (samples × the data's
+    coordinates), so that the gap is also measured on position and velocity."""
+
+    tau: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+
+
+Simulator = Callable[[DynamicModel, np.ndarray, Measurements], "np.ndarray | SimulatedSignals"]
 """``simulate(model, p, measurements) -> τ_model``: the model (parameter values ``p`` in the order of
 ``model.parameter_symbols``) run the way ``measurements`` were produced (their experiment's controller
 and reference); returns the controller's output, ``samples × N`` at the measurements' samples."""
@@ -76,6 +86,8 @@ class Fit:
     predicted: dict[str, np.ndarray] = field(repr=False)
     gap: dict[str, float]
     detail: dict[str, dict[str, float]]
+    motion: dict[str, dict[str, dict[str, float]]] | None = None
+    """Per data set, ``{"position"|"velocity": {coordinate: %}}`` on the simulated path (None otherwise)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,7 +113,9 @@ class Diagnosis:
     def to_dict(self) -> dict[str, Any]:
         """The JSON contract: model, found, gap_before, gap_after, gap_detail, patched_model (and more)."""
         def detail(fit: Fit) -> dict[str, Any]:
-            return {role: {"force": fit.detail[role], "position": None, "velocity": None} for role in fit.detail}
+            motion = fit.motion or {}
+            return {role: {"force": fit.detail[role], "position": motion.get(role, {}).get("position"),
+                           "velocity": motion.get(role, {}).get("velocity")} for role in fit.detail}
 
         last = self.search.rounds[-1] if self.search.rounds else None
         return {
@@ -111,9 +125,9 @@ class Diagnosis:
             "gap_after": dict(self.after.gap),
             "gap_detail": {"before": detail(self.before), "after": detail(self.after),
                            "signals": "force" if not self.simulated else "force (simulated controller output)",
-                           "note": None if self.simulated else
-                           "position and velocity gaps need the simulated path (a declared controller); "
-                           "the inverse model compares forces"},
+                           "note": None if self.before.motion else
+                           "position and velocity gaps need the simulated path (--simulate with a declared "
+                           "controller); the inverse model compares forces"},
             "patched_model": None if self.patched_path is None else str(self.patched_path),
             "held_out": self.held_out,
             "path": "simulated" if self.simulated else "inverse",
@@ -280,7 +294,7 @@ def simulated_path(controller: Any = None) -> Simulator:
     measured forces, which measures nothing, and this is refused.
     """
 
-    def simulate(model: DynamicModel, p: np.ndarray, measurements: Measurements) -> np.ndarray:
+    def simulate(model: DynamicModel, p: np.ndarray, measurements: Measurements) -> SimulatedSignals:
         from symbolic.numeric.simulation import simulate as run
 
         table = measurements.controller if measurements.controller is not None else controller
@@ -292,7 +306,8 @@ def simulated_path(controller: Any = None) -> Simulator:
                      parameters={s.name: float(v) for s, v in zip(model.parameter_symbols, p)})
         simulated = result.simulated
         order = [list(simulated.coordinates).index(c) for c in measurements.coordinates]
-        return np.asarray(simulated.tau)[:, order]
+        return SimulatedSignals(np.asarray(simulated.tau)[:, order], np.asarray(simulated.q)[:, order],
+                                np.asarray(simulated.qd)[:, order])
 
     return simulate
 
@@ -325,14 +340,31 @@ def _fit(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | No
         names = [s.name for s in model.parameter_symbols]
         for name, estimate in nominal.parameters.items():
             p[names.index(name)] = estimate.value
-        predicted = {}
+        predicted, motion = {}, {}
         for role, data in sets.items():
-            tau = np.asarray(simulate(model, p, data.measurements), dtype=float)
+            out = simulate(model, p, data.measurements)
+            tau = np.asarray(out.tau if isinstance(out, SimulatedSignals) else out, dtype=float)
             if tau.shape != data.measurements.tau.shape:
                 raise ValueError(f"simulate returned shape {tau.shape}, expected {data.measurements.tau.shape}")
             predicted[role] = data.reduce(tau)
+            if isinstance(out, SimulatedSignals):
+                motion[role] = _motion_gaps(data.measurements, out)
+        gap, detail = _gaps(sets, predicted)
+        return Fit(model, nominal, predicted, gap, detail, motion or None)
     gap, detail = _gaps(sets, predicted)
     return Fit(model, nominal, predicted, gap, detail)
+
+
+def _motion_gaps(measurements: Measurements, simulated: SimulatedSignals) -> dict[str, dict[str, float]]:
+    """Relative position and velocity errors per coordinate, 100·‖x_meas − x_sim‖/‖x_meas‖ (the definition
+    of ``symbolic simulate``; measured q̇ by its filtering and central differences)."""
+    from symbolic.numeric.comparison import measured_motion
+
+    qd = measured_motion(measurements).qd
+    measured = {"position": np.asarray(measurements.q, float), "velocity": qd}
+    ours = {"position": np.asarray(simulated.q, float), "velocity": np.asarray(simulated.qd, float)}
+    return {signal: {c: relative_gap(measured[signal][:, j], ours[signal][:, j])
+                     for j, c in enumerate(measurements.coordinates)} for signal in measured}
 
 
 def _roles_text(roles: dict[str, float | None]) -> str:

@@ -66,6 +66,13 @@ def markdown(d: Diagnosis) -> str:
              f"{d.before.detail['validation'][c]:.4g} %", f"{d.after.detail['validation'][c]:.4g} %"]
             for c in est.coordinates]
     lines += _table(["coordinate", "estimation before", "estimation after", "held out before", "held out after"], rows)
+    if d.before.motion and d.after.motion:
+        lines += ["", "Position and velocity of the simulation, 100·‖x_meas − x_sim‖/‖x_meas‖:", ""]
+        rows = [[c, signal] + [f"{fit.motion[role][signal][c]:.4g} %" for role in ("estimation", "validation")
+                               for fit in (d.before, d.after)]
+                for c in est.coordinates for signal in ("position", "velocity")]
+        lines += _table(["coordinate", "signal", "estimation before", "estimation after", "held out before",
+                         "held out after"], rows)
     lines += ["", "## Where", "", f"Nominal model: {d.where_before['verdict']}.", ""]
     rows = []
     for c, r in d.where_before["coordinates"].items():
