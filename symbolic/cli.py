@@ -99,11 +99,17 @@ def cmd_generate(args: argparse.Namespace) -> int:
     except export.ExportError as error:
         print(f"error: --out: {error}", file=sys.stderr)
         return 2
+    if args.figures:
+        import importlib.util
+
+        if importlib.util.find_spec("matplotlib") is None:  # before the derivation: seconds for a large model
+            print("error: --figures needs matplotlib (pip install 'symbolic[plot]')", file=sys.stderr)
+            return 2
     robot = resolve(args.model)
     model = derive(robot)
     command = export.regenerate_command(args.model, targets)
     try:
-        written = export.generate(model, args.out, targets, command=command)
+        written = export.generate(model, args.out, targets, command=command, figures=args.figures)
     except export.ExportError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -301,6 +307,8 @@ def parser() -> argparse.ArgumentParser:
     g.add_argument("model", help="model file (.toml) or built-in robot name")
     g.add_argument("--out", required=True, help="output directory (created if missing)")
     g.add_argument("--targets", default="c,casadi,report", help="comma-separated subset of c,casadi,report (default: all)")
+    g.add_argument("--figures", action="store_true",
+                   help="with the report: the apparent mass over the workspace as NAME_apparent_mass.png (needs matplotlib)")
     g.set_defaults(func=cmd_generate)
     a = sub.add_parser("analyze", help="decoupling and gravity-balancing conditions (Madill 4.2)")
     a.add_argument("model", help="model file (.toml) or built-in robot name")

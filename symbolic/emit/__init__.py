@@ -65,8 +65,13 @@ def banner(model: DynamicModel, command: str | None) -> str:
     )
 
 
-def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str | None = None) -> dict[str, bytes]:
-    """{file name: content} for the requested targets, nothing written."""
+def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str | None = None,
+           figures: bool = False) -> dict[str, bytes]:
+    """{file name: content} for the requested targets, nothing written.
+
+    ``figures``: the report also gets ``NAME_apparent_mass.png`` for a model with an end effector
+    (:mod:`symbolic.emit.apparent_mass_figure`; needs matplotlib), linked from the report.
+    """
     targets = list(targets)
     unknown = set(targets) - set(TARGETS)
     if unknown:
@@ -91,7 +96,13 @@ def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str |
         analysis = None
         if model.n <= SMALL_MODEL:  # larger models: `symbolic analyze` (minutes of simplification)
             analysis = decoupling(model, kinds=["decoupling", "constant_inertia", "balancing"])
-        files[f"{model.name}.md"] = report_markdown(model, head, ops, __version__, analysis).encode()
+        figure = None
+        if figures and model.robot.end_effector is not None:
+            from symbolic.emit.apparent_mass_figure import file_name, png
+
+            figure = file_name(model)
+            files[figure] = png(model)
+        files[f"{model.name}.md"] = report_markdown(model, head, ops, __version__, analysis, figure).encode()
         logging.getLogger(__name__).info("%s: report in %.1f s", model.name, time.perf_counter() - start)
     return files
 
@@ -169,9 +180,10 @@ def write_files(files: dict[str, bytes], out: str | os.PathLike, *, owned: bool 
     return [directory / name for name in sorted(files)]
 
 
-def generate(model: DynamicModel, out: str | os.PathLike, targets: Iterable[str] = TARGETS, command: str | None = None) -> list[Path]:
-    """Render the targets and write them into ``out``."""
-    return write_files(render(model, targets, command), out)
+def generate(model: DynamicModel, out: str | os.PathLike, targets: Iterable[str] = TARGETS, command: str | None = None,
+             figures: bool = False) -> list[Path]:
+    """Render the targets (``figures``: see :func:`render`) and write them into ``out``."""
+    return write_files(render(model, targets, command, figures), out)
 
 
 def c(model: DynamicModel, out: str | os.PathLike, command: str | None = None) -> list[Path]:

@@ -107,7 +107,8 @@ def _apparent_mass(model: DynamicModel) -> dict | None:
 
 
 def report_markdown(
-    model: DynamicModel, banner: str, operations: dict[str, tuple[int, int]], version: str, analysis=None
+    model: DynamicModel, banner: str, operations: dict[str, tuple[int, int]], version: str, analysis=None,
+    figure: str | None = None,
 ) -> str:
     """The reviewer's report NAME.md.
 
@@ -164,5 +165,6 @@ def report_markdown(
         ],
         "constraints": [{"coordinate": c.coordinate, "latex": sp.latex(c.expression)} for c in model.robot.constraints],
         "apparent_mass": _apparent_mass(model),
+        "apparent_mass_figure": figure,
     }
     return render("report.md.j2", **context)
