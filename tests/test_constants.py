@@ -123,6 +123,13 @@ def test_generation_calls_no_numpy_scipy_or_libm_transcendental(monkeypatch) -> 
     def forbidden(*args, **kwargs):
         raise AssertionError("a numpy/scipy/libm transcendental function was called")
 
+    # SymPy's lambdify copies math's and numpy's functions into a namespace cached for the process on
+    # first use: loaded here before the patch, so that derive's value check (an evaluation of the
+    # equations, not generation) keeps the real functions, and no later test in this worker inherits
+    # the failing stand-ins, whatever the order the tests run in.
+    for module in ("math", "numpy"):
+        sp.lambdify([], 0, modules=module)
+
     for function in ("sin", "cos", "tan", "sinh", "cosh", "tanh", "exp", "log", "arctan2", "power", "sqrt"):
         monkeypatch.setattr(np, function, forbidden)
     for module in (math, cmath := __import__("cmath")):  # libm through Python, as the package's own modules see it
