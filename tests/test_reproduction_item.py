@@ -28,6 +28,9 @@ def test_statuses() -> None:
     assert fixed.status == "matches after correcting the sign of (18)"
     missing = not_reproducible("janot", "Table 4 Fv", "1.5", "N s/m", why="the data are not published")
     assert missing.status.startswith("not reproducible: ") and missing.ours is None
+    unprinted = not_reproducible("janot", "(19) K_tot", None, "Nm/rad", why="no value printed", ours=1.0)
+    assert unprinted.published is None and unprinted.ours == 1.0 and unprinted.relative_difference is None
+    assert "| — | 1 | Nm/rad |" in markdown([unprinted])
     with pytest.raises(ValueError, match="source"):
         compare("nobody", "x", "1", 1.0, "", how="")
     with pytest.raises(ValueError, match="numbers"):

@@ -27,7 +27,8 @@ class Item:
     ----------
     source : one of :data:`SOURCES`
     item : the equation or table label as printed, then what it is ("Table 10 C0", "(5.11) first natural frequency")
-    published, ours : the printed value(s) and ours, in ``unit`` (``ours`` is None when not reproducible)
+    published, ours : the printed value(s) and ours, in ``unit`` (``ours`` is None when not reproducible;
+        ``published`` None when the source defines the quantity but prints no value)
     unit : the unit the seed prints ("Hz", "rad/s", "" for pure numbers)
     status : ``matches``, ``matches after correcting <misprint>``, ``differs`` or ``not reproducible: <why>``
     relative_difference : max over elements of |ours − published| / |published| (None when not reproducible)
@@ -37,7 +38,7 @@ class Item:
 
     source: str
     item: str
-    published: float | tuple[float, ...]
+    published: float | tuple[float, ...] | None
     ours: float | tuple[float, ...] | None
     unit: str
     status: str
@@ -121,11 +122,15 @@ def compare(
     return Item(source, item, values, ours_plain, unit, status, difference, limit, how)
 
 
-def not_reproducible(source: str, item: str, published: Printed, unit: str, *, why: str, how: str = "") -> Item:
-    """An item whose published value cannot be recomputed from published data (``why`` says what is missing)."""
+def not_reproducible(source: str, item: str, published: Printed | None, unit: str, *, why: str, how: str = "",
+                     ours: Number | None = None) -> Item:
+    """An item that cannot be checked against the source (``why`` says what is missing): its published
+    value cannot be recomputed from published data, or (``published`` None) the source prints no value
+    for a quantity it defines, and ``ours`` is what its equation gives on the printed inputs."""
     _check_source(source)
-    values = float(published) if isinstance(published, str) else tuple(float(p) for p in published)
-    return Item(source, item, values, None, unit, f"not reproducible: {why}", None, None, how)
+    values = None if published is None else float(published) if isinstance(published, str) else tuple(float(p) for p in published)
+    ours_plain = None if ours is None else float(ours) if not isinstance(ours, Sequence) else tuple(float(x) for x in ours)
+    return Item(source, item, values, ours_plain, unit, f"not reproducible: {why}", None, None, how)
 
 
 def _check_source(source: str) -> None:

@@ -58,6 +58,7 @@ def items() -> list[Item]:
         *passive_friction_items(model),
         minimum_parameters_item(model),
         bandwidth_item(),
+        total_stiffness_item(),
         apparent_mass_item(model),
         stiffness_item(model),
         *dry_friction_items(model),
@@ -202,6 +203,20 @@ def bandwidth_item() -> Item:
              f"reconciles the stiffness of section VII (next items); (19) gives K_tot = "
              f"`symbolic.numeric.operational.series_stiffness`({TABLE_2_K}, {ELECTRIC_STIFFNESS}) = "
              f"{series_stiffness(k, float(ELECTRIC_STIFFNESS)):.3g} Nm/rad motor side."),
+    )
+
+
+def total_stiffness_item() -> Item:
+    """(19): K_tot = 1/(1/K_T + 1/K_E) with Table 2's K_T and the electric stiffness K_E of section VII."""
+    from symbolic.numeric.operational import series_stiffness
+
+    k_tot = series_stiffness(float(TABLE_2_K), float(ELECTRIC_STIFFNESS))
+    return not_reproducible(
+        SOURCE, "(19) K_tot = 1/(1/K_T + 1/K_E)", None, "Nm/rad", ours=k_tot,
+        why="the paper prints no value of K_tot, only (19) and its inputs",
+        how=(f"`symbolic.numeric.operational.series_stiffness`(K_T = {TABLE_2_K} Nm/rad, Table 2; K_E = "
+             f"{ELECTRIC_STIFFNESS} Nm/rad, section VII) = {k_tot:.3g} Nm/rad. Table 2's K is motor side (see the "
+             f"bandwidth and stiffness items), so this K_tot is too; the paper uses it for K_op of (18)."),
     )
 
 
