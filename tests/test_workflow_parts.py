@@ -14,7 +14,7 @@ import scipy.stats
 import symbolic
 import workflow_cases as cases
 from symbolic.workflow import diagnose
-from symbolic.workflow.dataset import split, time_slice
+from symbolic.workflow.dataset import load_sets, split, time_slice
 from symbolic.workflow.statistics import autocorrelation, autocorrelation_time, f_test, ljung_box
 
 
@@ -111,3 +111,47 @@ def test_a_model_without_a_file_is_diagnosed_but_not_patched() -> None:
     assert [f.effect for f in d.found] == ["coulomb"] and d.patched_path is None and d.patched_text is None
     assert d.after.gap["validation"] < 0.1 * d.before.gap["validation"]
     assert any("no file" in note for note in d.notes)
+
+
+def test_the_held_out_tail_continues_the_record_for_a_resonance() -> None:
+    """A load that still rings when the held-out tail begins (a move ended 1.4 s before it, ζ = 0.01): its
+    column on the tail, computed through the record the tail continues, is the load's acceleration of the
+    coupled ODE integrated from rest (within 0.1 % of its peak; bilinear transform at 500 Hz); started on
+    the tail alone (no record), the load's ringing is lost and the column is wrong by far more."""
+    import scipy.integrate
+
+    from symbolic.workflow.effects import FlexibleMode, Signals
+
+    rate, start, w, zeta = 500.0, 1000, 2 * np.pi * 5.0, 0.01
+    t = np.arange(0.0, 6.0, 1.0 / rate)
+    u = (t - 0.6) / 0.1
+    q = np.exp(-(u**2))  # a smooth move and back, centred at 0.6 s
+    qd = -2 * u / 0.1 * q
+    qdd = (4 * u**2 - 2) / 0.01 * q
+
+    def load(s: float, x: np.ndarray) -> np.ndarray:
+        r = (s - 0.6) / 0.1
+        p, v = np.exp(-(r**2)), -2 * r / 0.1 * np.exp(-(r**2))
+        return np.array([x[1], w * w * (p - x[0]) + 2 * zeta * w * (v - x[1])])
+
+    tail = t[start:]
+    sol = scipy.integrate.solve_ivp(load, (0.0, t[-1]), [0.0, 0.0], t_eval=tail, rtol=1e-11, atol=1e-13, max_step=0.01)
+    reference = np.array([load(s, x)[1] for s, x in zip(tail, sol.y.T)])
+    whole = Signals(q[:, None], qd[:, None], qdd[:, None], t, rate)
+    part = [x[start:, None] for x in (q, qd, qdd)]
+    effect = FlexibleMode()
+    continued = effect.columns_at(Signals(*part, tail, rate, None, whole, start), 0, (5.0, zeta))[:, 0, 0]
+    alone = effect.columns_at(Signals(*part, tail, rate), 0, (5.0, zeta))[:, 0, 0]
+    peak = np.max(np.abs(reference))
+    assert peak > 1.0  # the load still rings on the tail
+    assert np.max(np.abs(continued - reference)) < 1e-3 * peak
+    assert np.max(np.abs(alone - reference)) > 0.5 * peak
+
+
+def test_only_the_held_out_tail_of_the_record_continues_it() -> None:
+    data = cases.measurements(cases.axis(), 2, 0.01, seconds=10.0)
+    estimation, held, _ = load_sets(("q",), data)
+    assert estimation.record is None and held.record is not None and held.start == estimation.measurements.samples
+    assert np.allclose(held.record.measurements.q[held.start:], held.measurements.q)
+    other = load_sets(("q",), data, validation=data)[1]
+    assert other.record is None

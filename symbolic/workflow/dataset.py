@@ -38,6 +38,11 @@ class DataSet:
         Time and measured generalized forces of the kept (decimated) samples; ``tau`` is ``samples × N``.
     q, qd, qdd
         The filtered states reduced like τ (for plots and localisation).
+    record, start
+        When these samples continue a record (the held-out last fifth of the estimation data): that
+        whole record treated as one, and the index of this set's first sample in it. An effect with
+        memory (a filter) runs through the record, so that its state at this set's first sample is the
+        one the motion before left, not a guess; ``None`` and 0 otherwise.
     """
 
     role: str
@@ -48,6 +53,8 @@ class DataSet:
     q: np.ndarray = field(repr=False)
     qd: np.ndarray = field(repr=False)
     qdd: np.ndarray = field(repr=False)
+    record: DataSet | None = field(default=None, repr=False)
+    start: int = 0
 
     @property
     def coordinates(self) -> tuple[str, ...]:
@@ -108,10 +115,13 @@ def load_sets(
     measurements = data if isinstance(data, Measurements) else load(data, coordinates, experiment=experiment)
     if validation is None:
         first, last = split(measurements)
+        start = first.samples
         held_out = (f"the last {100 * HOLDOUT_FRACTION:g} % of the data in time "
                     f"({last.t[0]:.6g} s to {last.t[-1]:.6g} s), not used for estimation")
         try:
-            return treat(first, "estimation", settings), treat(last, "validation", settings), held_out
+            tail = dataclasses.replace(treat(last, "validation", settings), record=treat(measurements, "record", settings),
+                                       start=start)
+            return treat(first, "estimation", settings), tail, held_out
         except DataError as error:
             raise DataError(str(measurements.source), "samples",
                             f"too few samples to hold out the last {100 * HOLDOUT_FRACTION:g} % ({error.problem}); "

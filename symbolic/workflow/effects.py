@@ -78,6 +78,12 @@ class Signals:
     rate: float
     robot: Robot | None = None
     """The model's robot (for an effect whose columns need the geometry, e.g. a payload)."""
+    record: Signals | None = None
+    """When these samples continue a contiguous record (the held-out tail of the estimation data): the
+    whole record's signals, filtered as one; an effect with memory (a filter) runs through it and keeps
+    samples ``start`` to ``start + len(t)``, so that its state at the first sample is that of the motion
+    before. ``None`` otherwise (a separate data set: its start is a guess)."""
+    start: int = 0
 
 
 def on_row(j: int, n: int, columns: list[np.ndarray]) -> np.ndarray:
@@ -510,6 +516,9 @@ class FlexibleMode(Effect):
         import scipy.signal
 
         frequency, damping = value
+        if signals.record is not None:  # the load's state at the first sample is what the motion before left
+            whole = self.columns_at(signals.record, j, value)
+            return whole[signals.start:signals.start + len(signals.t)]
         w = 2.0 * math.pi * frequency
         # bilinear transform s = K(z − 1)/(z + 1), K prewarped so that the resonance stays at ω
         K = w / math.tan(w / (2.0 * signals.rate))

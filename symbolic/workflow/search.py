@@ -485,10 +485,14 @@ class _RoundState:
         """The data set's filtered states at every sample, with time and rate (for :meth:`Effect.columns_at`)."""
         if role not in self._signals:
             data = self.design.sets[role]
-            s = data.states
-            self._signals[role] = Signals(s.q, s.qd, s.qdd, np.asarray(data.measurements.t), float(s.processing.rate),
-                                          self.search.context.robot)
+            record = None if data.record is None else self._signals_of(data.record)
+            self._signals[role] = self._signals_of(data, record)
         return self._signals[role]
+
+    def _signals_of(self, data: DataSet, record: Signals | None = None) -> Signals:
+        s = data.states
+        return Signals(s.q, s.qd, s.qdd, np.asarray(data.measurements.t), float(s.processing.rate),
+                       self.search.context.robot, record, data.start)
 
     def cross_validated(self, extra: tuple[np.ndarray, np.ndarray] | None) -> float:
         """Residual power of the held-out blocks, each predicted by the fit on the others (normal
