@@ -1,7 +1,8 @@
 """The reproduction table as JSON (``symbolic reproduce --json``) and as Markdown (docs/reproduction.md).
 
-Numbers are printed with 6 significant digits so that the committed Markdown is byte-identical across
-machines (the last bits of a least-squares fit depend on the BLAS); the JSON carries full precision.
+Numbers are printed with 6 significant digits and relative differences below 1e-12 as "< 1e-12", so
+that the committed Markdown is byte-identical across machines (the last bits of a least-squares fit
+depend on the BLAS); the JSON carries full precision.
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ def markdown(items: Sequence[Item], command: str = "make generate") -> str:
     for n, i in enumerate(items, 1):
         lines.append(
             f"| {n} | {i.source} | {_cell(i.item)} | {_number(i.published)} | {_number(i.ours)} | {i.unit} | "
-            f"{_ratio(i.relative_difference)} | {_ratio(i.tolerance)} | {_cell(i.status)} |"
+            f"{_ratio(i.relative_difference)} | {_tolerance(i.tolerance)} | {_cell(i.status)} |"
         )
     lines.append("\n## How each item is computed\n")
     for n, i in enumerate(items, 1):
@@ -60,7 +61,14 @@ def _number(x: float | tuple[float, ...] | None) -> str:
 
 
 def _ratio(x: float | None) -> str:
-    return "—" if x is None else f"{x:.2e}"
+    if x is None:
+        return "—"
+    # below 1e-12 a difference is rounding, which differs from machine to machine in its last bits
+    return "< 1e-12" if x < 1e-12 else f"{x:.2e}"
+
+
+def _tolerance(x: float | None) -> str:
+    return "—" if x is None else "0 (exact)" if x == 0 else f"{x:.2e}"
 
 
 def _cell(text: str) -> str:
