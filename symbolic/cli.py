@@ -1,4 +1,4 @@
-"""Command line: ``symbolic derive MODEL`` (and ``python -m symbolic``).
+"""Command line of symbolic: derive, generate, identify, simulate and diagnose robot models (also python -m symbolic).
 
 MODEL is a model file path or the name of a built-in robot (``symbolic list``). User mistakes are
 reported on stderr with exit code 2 and no traceback.
@@ -280,7 +280,8 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         print(render.to_json(items))
     elif not args.markdown:
         for i in items:
-            print(f"{i.source:7s} {i.item[:60]:60s} {i.status}")
+            print(f"{i.source:7s} {i.item}: {i.status}")
+        print(render.summary(items))
     return 0
 
 

@@ -240,7 +240,7 @@ def _clamped_free() -> list[Item]:
            f"1.28×10⁻⁹ m⁴, ρA = 2800 kg/m³ × 5.81×10⁻⁵ m² (the printed, rounded I and A): (5.10) with k₁ of "
            f"`clamped_free_roots`. From the unrounded tube dimensions it is {exact:.2f} rad/s ({exact / (2 * math.pi):.2f} Hz); "
            f"with the linear density rounded to 0.163 kg/m as printed for (5.11) it is {omega_rounded:.2f} rad/s "
-           f"({omega_rounded / (2 * math.pi):.2f} Hz, the 69.5 Hz of issue 14). The printed 436 rad/s and 69 Hz are "
+           f"({omega_rounded / (2 * math.pi):.2f} Hz, 69.5 Hz to one decimal). The printed 436 rad/s and 69 Hz are "
            f"that value truncated; the thesis truncates 30.6 % in 5.3.3 too.")
     return [
         compare(SOURCE, "(5.10) pl, first root of (B.9)", "1.875", k1, "",

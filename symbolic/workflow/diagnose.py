@@ -37,6 +37,7 @@ from symbolic.spec.modelfile import loads, with_parameter_values
 from symbolic.spec.robot import Robot
 from symbolic.workflow.dataset import DataSet, load_sets
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
+from symbolic.spec import robots
 from symbolic.workflow.patch import Editor
 from symbolic.workflow.search import Search
 from symbolic.workflow.search import Settings as SearchSettings
@@ -317,6 +318,9 @@ def _derived(model: DynamicModel | Robot | str | Path) -> DynamicModel:
         return model
     if isinstance(model, Robot):
         return derive(model)
+    path = Path(model)
+    if isinstance(model, str) and path.suffix != ".toml" and not path.exists() and model in robots.names():
+        return derive(robots.load(model))  # a built-in name, as the CLI accepts it
     return derive(load_model(model))
 
 
