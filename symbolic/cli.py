@@ -174,7 +174,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
         source = Path(model.robot.source)
         if not source.is_file():
             raise ModelError(args.model, "--out", "the model has no file to update")
-        text = with_parameter_values(source.read_text(encoding="utf-8"), result.values(), str(source))
+        text = with_parameter_values(source.read_text(encoding="utf-8"), result.values(), str(source),
+                                     provenance=f"identified by symbolic identify from {Path(args.data).name}")
         write_text_atomically(Path(args.out), text)
     figures: list[str] = []
     if args.figures:

@@ -155,6 +155,21 @@ def test_parameter_values_are_patched_in_place() -> None:
         with_parameter_values(text, {"l2": 1.0})
 
 
+def test_patched_values_say_where_they_come_from() -> None:
+    """An identified value must not keep a description such as "published": the provenance replaces the
+    description of an inline table (the old one kept after "before:") and the comment of a plain number."""
+    text = ('[parameters]\nl1 = 0.30   # arm length, published\n'
+            'm1 = { value = 0.5, unit = "kg", description = "published" }\nm2 = { value = 1.0 }\n')
+    import tomllib
+
+    table = tomllib.loads(with_parameter_values(text, {"l1": 0.25, "m1": 0.75, "m2": 2.0},
+                                                provenance="identified from log.csv"))["parameters"]
+    assert table["m1"] == {"value": 0.75, "unit": "kg", "description": "identified from log.csv; before: published"}
+    assert table["m2"] == {"value": 2.0, "description": "identified from log.csv"}
+    raw = with_parameter_values(text, {"l1": 0.25}, provenance="identified from log.csv")
+    assert "l1 = 0.25   # identified from log.csv\n" in raw
+
+
 def test_flexible_model_is_refused_with_a_reason(tmp_path: Path) -> None:
     model = symbolic.derive(robots.load("single_flexible_link"))
     with pytest.raises(symbolic.ModelError, match="flexible links"):

@@ -222,11 +222,14 @@ class _Reader:
         return Force(name, self.string(f["coordinate"], f"[[force]] {name!r} coordinate"), f["expression"])
 
 
-def with_parameter_values(text: str, values: Mapping[str, float], source: str = "<string>") -> str:
+def with_parameter_values(text: str, values: Mapping[str, float], source: str = "<string>", provenance: str | None = None) -> str:
     """The model-file ``text`` with the nominal values of ``values`` replaced in ``[parameters]``.
 
     Comments, order and layout are kept (tomlkit edits the document in place); a parameter written as
-    ``{ value = …, unit = … }`` keeps its unit and description. Unknown names are refused.
+    ``{ value = …, unit = … }`` keeps its unit. ``provenance`` (e.g. "identified by symbolic identify
+    from DATA_EMPS.mat") says where the new values come from: it becomes the description of an inline
+    table, the old description kept after "before:" (a description such as "published value" must not
+    label an identified one), and the trailing comment of a plain number. Unknown names are refused.
     """
     import tomlkit
 
@@ -242,8 +245,12 @@ def with_parameter_values(text: str, values: Mapping[str, float], source: str = 
         number = tomlkit.float_(repr(float(value)))
         if isinstance(entry, Mapping):
             entry["value"] = number
+            if provenance:
+                before = entry.get("description")
+                entry["description"] = provenance + (f"; before: {before}" if before else "")
         else:
-            number.trivia.comment_ws, number.trivia.comment = entry.trivia.comment_ws, entry.trivia.comment
+            comment = f"# {provenance}" if provenance else entry.trivia.comment
+            number.trivia.comment_ws, number.trivia.comment = (entry.trivia.comment_ws or "  "), comment
             number.trivia.trail = entry.trivia.trail
             table[name] = number
     return tomlkit.dumps(document)

@@ -253,7 +253,9 @@ def diagnose(
         else:
             after = _fit(patched, sets, simulate)
         own = {k: v.value for k, v in after.nominal.parameters.items() if k in {p.name for p in model.robot.parameters}}
-        patched_text = with_parameter_values(editor.text(), own, str(target))
+        data_name = Path(str(estimation.measurements.source)).name
+        patched_text = with_parameter_values(editor.text(), own, str(target),
+                                             provenance=f"re-identified by symbolic diagnose on {data_name}")
         patched_path = target if out is not None else None
         measured_model = derive(loads(patched_text, str(target))) if unmeasured else patched
         values = {s.name: float(v) for s, v in measured_model.parameters.items()}
