@@ -158,7 +158,7 @@ class Analysis:
             for c in conditions:
                 check = c.check(self.values)
                 state = "holds" if check.holds else f"fails by {check.value:.4g} {c.unit}".rstrip() + f" ({check.relative:.2g} of its terms)"
-                extra = "" if c.feasible is not False else "  [cannot vanish with the nominal parameter signs]"
+                extra = "" if c.feasible is not False else "  [met only with a parameter at 0 or of the opposite sign to its nominal value]"
                 lines.append(f"  {c.name}: {c.readable()}  -> {state}{extra}")
         return "\n".join(lines)
 

@@ -72,7 +72,7 @@ def _conditions(analysis, names) -> list[dict]:
         else:
             status = f"fails by {check.value:.4g} {c.unit}".rstrip()
             if c.feasible is False:
-                status += " (cannot vanish with the nominal parameter signs)"
+                status += " (met only with a parameter at 0 or of the opposite sign to its nominal value)"
         out.append({"kind": c.kind, "name": c.name, "latex": _latex(c.expression, names), "status": status})
     return out
 
