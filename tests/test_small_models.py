@@ -236,3 +236,21 @@ def test_no_parameter_casadi_files_load_and_match_reference(name: str, generated
             plus = np.linalg.solve(reference(q + step, qd, qdd)[0], tau - reference(q + step, qd, qdd)[1])
             minus = np.linalg.solve(reference(q - step, qd, qdd)[0], tau - reference(q - step, qd, qdd)[1])
             close(Amat[n:, k], (plus - minus) / 2e-6, 1e-7)
+
+
+def test_numeric_functions_name_the_sizes_they_expect() -> None:
+    """A wrong-length argument is a ValueError naming the sizes, not a NumPy broadcasting error."""
+    import warnings
+
+    import numpy as np
+
+    import symbolic
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        num = symbolic.numeric_model(symbolic.derive(symbolic.robots.load("puma560")))
+    with pytest.raises(ValueError, match=r"expected arguments of sizes 6 \(q1, q2, q3, …\).*got sizes \[5, 6, 6"):
+        num.inverse_dynamics(np.zeros(5), np.zeros(6), np.zeros(6))
+    with pytest.raises(ValueError, match=r"U⁰ = \[τ; F\] 9 values, or 6 for τ alone"):
+        num.linearize(np.zeros(12), np.zeros(8))
+    assert num.linearize(np.zeros(12), np.zeros(6))[1].shape == (12, 9)

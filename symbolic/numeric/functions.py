@@ -39,9 +39,16 @@ def compile_function(
     (pass ``shape=(n, n)`` for a matrix that may be 1×1).
     """
     raw, flat, shape = _lambdified(sub, arguments, outputs, shape, "math")
+    sizes = [len(group) for group in arguments]
+    names = [", ".join(s.name for s in group[:3]) + (", …" if len(group) > 3 else "") for group in arguments]
 
     def function(*values: Sequence[float]) -> np.ndarray:
-        result = raw(*[list(map(float, np.ravel(v))) for v in values])
+        flat_values = [list(map(float, np.ravel(v))) for v in values]
+        if len(flat_values) != len(sizes) or any(len(v) != k for v, k in zip(flat_values, sizes)):
+            given = [len(v) for v in flat_values]
+            wanted = "; ".join(f"{k} ({n})" for k, n in zip(sizes, names))
+            raise ValueError(f"expected arguments of sizes {wanted}, got sizes {given}")
+        result = raw(*flat_values)
         return np.array(result, dtype=float).reshape(shape)
 
     return function

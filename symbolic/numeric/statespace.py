@@ -193,8 +193,14 @@ class NumericModel:
     def linearize(self, x0, u0, p=None) -> tuple[np.ndarray, np.ndarray]:
         """A = ∂F/∂X, B = ∂F/∂U at (X⁰, U⁰) (Madill 3.9.4), from exact derivatives."""
         n = self.n
-        x0 = np.asarray(x0, float)
-        u0 = np.asarray(u0, float)
+        x0 = np.asarray(x0, float).ravel()
+        u0 = np.asarray(u0, float).ravel()
+        inputs_allowed = (n, n + 3) if self.has_force else (n,)
+        if x0.size != 2 * n or u0.size not in inputs_allowed:
+            raise ValueError(
+                f"linearize: X⁰ = [Q; Q̇] needs {2 * n} values (got {x0.size}) and U⁰ "
+                + (f"= [τ; F] {n + 3} values, or {n} for τ alone with F = 0" if self.has_force else f"= τ {n} values")
+                + f" (got {u0.size})")
         q, qd = x0[:n], x0[n:]
         force = u0[n:] if self.has_force and u0.size > n else np.zeros(3)
         D = self.inertia(q, p)
