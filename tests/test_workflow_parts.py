@@ -162,3 +162,24 @@ def test_diagnose_accepts_a_built_in_name_as_the_cli_does() -> None:
     from symbolic.workflow.diagnose import _derived
 
     assert _derived("emps").name == "emps"
+
+
+def test_a_replaced_parameter_leaves_the_patched_file() -> None:
+    """asymmetric_viscous replaces `viscous = "Fv"`: Fv, used before and no longer, is removed with a note;
+    a parameter the original did not use either (the user's own) stays."""
+    import tomllib
+
+    from symbolic.workflow.patch import Editor
+
+    text = cases.axis(parameters="Fv = 0.3\nFc = 0.4\nspare = 1.0\n")
+    robot = symbolic.loads(text, "axis.toml")
+    editor = Editor(text, robot, "axis.toml")
+    positive = editor.parameter("Fvp_q", 0.2, "test")
+    negative = editor.parameter("Fvn_q", 0.4, "test")
+    editor.set_friction("q", "viscous", {"positive": positive, "negative": negative}, "test")
+    assert editor.drop_unused() == ["Fv"]
+    patched = editor.text()
+    parameters = tomllib.loads(patched)["parameters"]
+    assert "Fv" not in parameters and {"Fc", "spare", "Fvp_q", "Fvn_q"} <= set(parameters)
+    assert "removed Fv, no longer used" in patched
+    symbolic.derive(symbolic.loads(patched, "axis.toml"))

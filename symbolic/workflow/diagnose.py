@@ -231,6 +231,7 @@ def diagnose(
             label = f"symbolic diagnose: {c.effect.name} on {c.coordinate}"
             written.append(c.effect.patch(editor, selection.context, c.j, final["roles"], final["coefficients_full"],
                                           c.value, label))
+        editor.drop_unused()
         name = f"{model.name}_patched.toml"
         target = Path(out) / name if out is not None else Path(name)
         try:

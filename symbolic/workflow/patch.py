@@ -34,6 +34,7 @@ class Editor:
             set(robot.constrained_coordinates) | _RESERVED
         self.forces = {str(f["name"]) for f in self.document.get("force", []) if "name" in f}
         self.added = self.closed = False
+        self.used_before = _referenced(self.document)
 
     def text(self) -> str:
         """The patched document (a blank line closes the parameters an effect added)."""
@@ -49,6 +50,19 @@ class Editor:
         table = self.document["parameters"]
         for line in _lines(comment):
             table.add(tomlkit.comment(line))
+
+    def drop_unused(self) -> list[str]:
+        """Remove the parameters the original file used and the patch no longer does (an ``Fv`` replaced
+        by ``Fvp``/``Fvn``), each with a note; return their names. Parameters the original did not use
+        are the user's and stay."""
+        table = self.document["parameters"]
+        gone = sorted((self.used_before - _referenced(self.document)) & set(table))
+        for name in gone:
+            del table[name]
+        if gone:
+            self.note(f"symbolic diagnose: removed {', '.join(gone)}, no longer used by the model after the "
+                      "effects added above")
+        return gone
 
     def parameter(self, stem: str, value: float, comment: str) -> str:
         """Add a parameter named ``stem`` (or ``stem_2``, ... if taken) with ``value``; return its name."""
@@ -184,6 +198,24 @@ class Editor:
             self.document.add("force", tables)
         tables.append(table)
         return name
+
+
+def _referenced(document: Any) -> set[str]:
+    """Identifiers in the document's expressions (every string outside ``[parameters]``)."""
+    found: set[str] = set()
+
+    def walk(node: Any) -> None:
+        if isinstance(node, str):
+            found.update(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", node))
+        elif isinstance(node, Mapping):
+            for value in node.values():
+                walk(value)
+        elif isinstance(node, (list, tuple)):
+            for value in node:
+                walk(value)
+
+    walk({k: v for k, v in document.unwrap().items() if k != "parameters"})
+    return found
 
 
 def _text(value: Any) -> str:
