@@ -34,7 +34,11 @@ def resolve(model: str) -> Robot:
         return robots.load(model)
     if path.exists():
         return load(path)
-    raise ModelError(model, "file", f"no such model file or built-in robot (built-in: {', '.join(robots.names())})")
+    import difflib
+
+    close = difflib.get_close_matches(model.lower(), robots.names(), n=1, cutoff=0.6)
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    raise ModelError(model, "file", f"no such model file or built-in robot ({hint}built-in: {', '.join(robots.names())})")
 
 
 def cmd_list(args: argparse.Namespace) -> int:

@@ -116,9 +116,9 @@ class ModelIdentification:
         lines += [f"  {n:<{width}} = {e}" for n, e in zip(self.base.names, self.base.expressions)]
         if self.parameters:
             lines.append("")
-            lines.append(f"{'model parameter':<16}  {'identified':>14}  {'sigma':>12}  {'sigma %':>8}  {'nominal':>12}")
+            lines.append(f"{'model parameter':<16}  {'identified':>14}  {'sigma':>12}  {'sigma %':>8}  {'nominal':>12}  from")
             for p in self.parameters.values():
-                lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {p.relative_sigma:>8.3g}  {p.nominal:>12.6g}")
+                lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {p.relative_sigma:>8.3g}  {p.nominal:>12.6g}  {p.source}")
         if self.validation is not None:
             lines.append(f"validation: relative error {self.validation.relative_error:.4g} %")
         return "\n".join(lines)
