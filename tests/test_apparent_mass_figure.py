@@ -44,14 +44,7 @@ def test_positions_move_as_the_jacobian_says() -> None:
 
 
 def _position(model, q) -> np.ndarray:
-    import sympy as sp
-
-    from symbolic.numeric.functions import compile_function
-
-    ee = model.robot.end_effector
-    position = model.kinematics.point_position(ee.frame, sp.Matrix(ee.point))
-    return compile_function(model.sub, [model.coordinates, model.parameter_symbols], position, (3,))(
-        q, [float(v) for v in model.parameters.values()])
+    return numeric_model(model).end_effector_position(q)
 
 
 def test_report_links_a_deterministic_png() -> None:

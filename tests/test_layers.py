@@ -15,7 +15,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "symbolic"
 
 # Lowest first. A module may import its own layer and the layers before it.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("symbolic.errors", "symbolic.version", "symbolic.writing"),
+    ("symbolic.errors", "symbolic.version", "symbolic.writing", "symbolic.plotting"),
     ("symbolic.spec",),
     ("symbolic.data",),
     ("symbolic.derive",),

@@ -12,58 +12,25 @@ the same model gives the same bytes with the same matplotlib. ``make generate`` 
 
 from __future__ import annotations
 
-import io
-
 import numpy as np
 
 from symbolic.derive.dynamics import DynamicModel
-from symbolic.numeric.functions import compile_function
-from symbolic.numeric.operational import SingularConfiguration, operational_inertia, workspace_samples
+from symbolic.plotting import MatplotlibMissing, figure_class, png_bytes
+from symbolic.numeric.operational import workspace_points
 
 COUNT = 400
 """Configurations drawn (Q = 0 and 399 uniform in [−π/2, π/2] per rigid coordinate)."""
-
-
-class MatplotlibMissing(RuntimeError):
-    """matplotlib is not installed: no figure."""
 
 
 def file_name(model: DynamicModel) -> str:
     return f"{model.name}_apparent_mass.png"
 
 
-def workspace_points(model: DynamicModel, count: int = COUNT) -> tuple[np.ndarray, np.ndarray]:
-    """End-effector positions (count × 3, base frame) and λ_min, λ_max of Λ there (count × 2; NaN where
-    J loses rank), at :func:`~symbolic.numeric.operational.workspace_samples`."""
-    ee = model.robot.end_effector
-    import sympy as sp
-
-    position = model.kinematics.point_position(ee.frame, sp.Matrix(ee.point))
-    rigid = list(model.coordinates[: len(model.robot.coordinates)])
-    where = compile_function(model.sub, [rigid, model.parameter_symbols], position, (3,))
-    p = [float(v) for v in model.parameters.values()]
-    samples = workspace_samples(model, count)
-    points = np.array([where(q[: len(rigid)], p) for q in samples])
-    extremes = np.full((count, 2), np.nan)
-    for k, q in enumerate(samples):
-        try:
-            eigenvalues = np.linalg.eigvalsh(operational_inertia(model, q))
-        except SingularConfiguration:
-            continue
-        extremes[k] = eigenvalues[0], eigenvalues[-1]
-    return points, extremes
-
-
 def png(model: DynamicModel, count: int = COUNT) -> bytes:
     """The figure's PNG bytes (module docstring); :class:`MatplotlibMissing` without matplotlib."""
-    try:
-        import matplotlib
+    Figure = figure_class("the apparent-mass figure needs matplotlib (pip install 'symbolic[plot]')")
+    from matplotlib.colors import LogNorm
 
-        matplotlib.use("Agg", force=True)
-        from matplotlib.colors import LogNorm
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise MatplotlibMissing("the apparent-mass figure needs matplotlib (pip install 'symbolic[plot]')") from None
     points, extremes = workspace_points(model, count)
     figure = Figure(figsize=(9, 7), dpi=100, layout="constrained")
     axes = figure.subplots(2, 2)
@@ -84,6 +51,4 @@ def png(model: DynamicModel, count: int = COUNT) -> bytes:
                 ax.set_title(title, fontsize=10)
             figure.colorbar(shown, ax=ax)
     figure.suptitle(f"{model.name}: apparent mass at the end effector over {count} configurations (Janot (18))")
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", metadata={"Software": None})
-    return buffer.getvalue()
+    return png_bytes(figure)

@@ -13,26 +13,17 @@ from pathlib import Path
 
 
 from symbolic.identify.least_squares import Identification
-from symbolic.writing import replacing, safe_stem
+from symbolic.plotting import MatplotlibMissing, figure_class, save_png
+from symbolic.writing import safe_stem
 from symbolic.identify.pipeline import Validation
 from symbolic.identify.processing import Observation
-
-
-class MatplotlibMissing(RuntimeError):
-    """matplotlib is not installed: no figures."""
 
 
 def draw(
     identification: Identification, observation: Observation, folder: Path, validation: Validation | None = None
 ) -> tuple[Path, ...]:
     """Write one figure per coordinate (estimation set, and cross-test set if given); return the paths."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg", force=True)
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise MatplotlibMissing("figures skipped: matplotlib is not installed (pip install 'symbolic[plot]')") from None
+    Figure = figure_class()
     folder.mkdir(parents=True, exist_ok=True)
     sets = [("identification", observation, identification.predict(observation), identification.relative_error)]
     if validation is not None:
@@ -52,14 +43,8 @@ def draw(
             bottom.set_xlabel("t [s]")
             for axes in (top, bottom):
                 axes.grid(True, linewidth=0.3)
-            written.append(_save(figure, folder / f"{stem}_{safe_stem(c)}.png"))
+            written.append(save_png(figure, folder / f"{stem}_{safe_stem(c)}.png"))
     return tuple(written)
-
-
-def _save(figure: object, path: Path) -> Path:
-    with replacing(path, suffix=".png") as temporary:
-        figure.savefig(temporary, format="png", metadata={"Software": None})  # type: ignore[attr-defined]
-    return path
 
 
 __all__ = ["MatplotlibMissing", "draw"]

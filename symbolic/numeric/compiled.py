@@ -54,21 +54,14 @@ def cache_folder() -> Path:
 
 def compile_function(function: ca.Function) -> ca.Function | None:
     """``function`` as compiled code (same inputs and outputs), or ``None`` without a working compiler."""
-    cc = compiler()
-    if cc is None:
-        LOG.info("no C compiler found: CasADi's virtual machine evaluates the simulation (slower)")
-        return None
     generator = ca.CodeGenerator(f"{function.name()}.c", {"with_header": False})
     generator.add(function)
-    source = generator.dump()
-    key = hashlib.sha256("\0".join([source, Path(cc).name, *FLAGS]).encode()).hexdigest()[:24]
-    if key in _LOADED:
-        return _LOADED[key]
-    library = _build(cc, source, key)
+    library = shared_library(generator.dump(), "simulate")
     if library is None:
         return None
-    loaded = _LOADED[key] = ca.external(function.name(), str(library))
-    return loaded
+    if str(library) not in _LOADED:
+        _LOADED[str(library)] = ca.external(function.name(), str(library))
+    return _LOADED[str(library)]
 
 
 def shared_library(source: str, prefix: str) -> Path | None:
@@ -85,7 +78,7 @@ def shared_library(source: str, prefix: str) -> Path | None:
     return _build(cc, source, key, prefix)
 
 
-def _build(cc: str, source: str, key: str, prefix: str = "simulate") -> Path | None:
+def _build(cc: str, source: str, key: str, prefix: str) -> Path | None:
     for folder in (cache_folder(), Path(tempfile.gettempdir()) / f"symbolic-{getattr(os, 'getuid', lambda: 0)()}"):
         library = folder / f"{prefix}_{key}.so"
         if library.is_file():

@@ -264,6 +264,22 @@ def workspace_samples(model: DynamicModel, count: int, *, seed: int = WORKSPACE_
     return out
 
 
+def workspace_points(model: DynamicModel, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """End-effector positions (count × 3, base frame) and λ_min, λ_max of Λ there (count × 2; NaN where
+    J loses rank), at :func:`workspace_samples`."""
+    num = numeric_model(model)
+    samples = workspace_samples(model, count)
+    points = np.array([num.end_effector_position(q) for q in samples])
+    extremes = np.full((count, 2), np.nan)
+    for k, q in enumerate(samples):
+        try:
+            eigenvalues = np.linalg.eigvalsh(operational_inertia(model, q))
+        except SingularConfiguration:
+            continue
+        extremes[k] = eigenvalues[0], eigenvalues[-1]
+    return points, extremes
+
+
 def workspace_table(model: DynamicModel, count: int = 9) -> list[WorkspaceRow]:
     """The apparent mass along the base axes and the extreme eigenvalues of Λ at :func:`workspace_samples`."""
     rows = []
@@ -279,6 +295,6 @@ def workspace_table(model: DynamicModel, count: int = 9) -> list[WorkspaceRow]:
 
 
 __all__ = ["HandleCharacteristics", "JointFriction", "NoEndEffector", "SINGULAR_RATIO", "SingularConfiguration",
-           "WORKSPACE_SEED", "WorkspaceRow", "workspace_samples", "workspace_table",
+           "WORKSPACE_SEED", "WorkspaceRow", "workspace_points", "workspace_samples", "workspace_table",
            "apparent_mass", "dynamically_consistent_inverse", "handle_characteristics", "joint_friction",
            "least_energy_velocity", "mobility", "operational_inertia", "series_stiffness"]

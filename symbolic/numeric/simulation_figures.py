@@ -13,24 +13,15 @@ from __future__ import annotations
 from pathlib import Path
 
 from symbolic.numeric.comparison import SIGNALS, Comparison
-from symbolic.writing import replacing, safe_stem
+from symbolic.plotting import MatplotlibMissing, figure_class, save_png
+from symbolic.writing import safe_stem
 
 UNITS = {"position": "q", "velocity": "q̇", "acceleration": "q̈", "force": "τ"}
 
 
-class MatplotlibMissing(RuntimeError):
-    """matplotlib is not installed: no figures."""
-
-
 def draw(comparison: Comparison, folder: Path, title: str = "") -> tuple[Path, ...]:
     """Write the two figures of every coordinate into ``folder``; return their paths."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg", force=True)
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise MatplotlibMissing("figures skipped: matplotlib is not installed (pip install 'symbolic[plot]')") from None
+    Figure = figure_class()
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     t = comparison.t
@@ -63,11 +54,5 @@ def draw(comparison: Comparison, folder: Path, title: str = "") -> tuple[Path, .
             what = "measured and simulated" if kind == "signals" else "measured − simulated"
             axes[0].set_title(f"{title + ': ' if title else ''}{what}, coordinate {c}")
             stem = "simulation" if kind == "signals" else "simulation_error"
-            written.append(_save(figure, folder / f"{stem}_{safe_stem(c)}.png"))
+            written.append(save_png(figure, folder / f"{stem}_{safe_stem(c)}.png"))
     return tuple(written)
-
-
-def _save(figure: object, path: Path) -> Path:
-    with replacing(path, suffix=".png") as temporary:
-        figure.savefig(temporary, format="png", metadata={"Software": None})  # type: ignore[attr-defined]
-    return path

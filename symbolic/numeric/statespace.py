@@ -124,6 +124,11 @@ class NumericModel:
     def _jacobian(self):
         return self._fn([self.q, self.p], self.model.end_effector_jacobian(), (3, self.n))
 
+    @cached_property
+    def _end_effector_position(self):
+        ee = self.model.robot.end_effector
+        return self._fn([self.q, self.p], self.model.kinematics.point_position(ee.frame, sp.Matrix(ee.point)), (3,))
+
     def params(self, p=None) -> np.ndarray:
         return self.p0 if p is None else np.asarray(p, dtype=float)
 
@@ -154,6 +159,10 @@ class NumericModel:
 
     def jacobian(self, q, p=None) -> np.ndarray:
         return self._jacobian(q, self.params(p))
+
+    def end_effector_position(self, q, p=None) -> np.ndarray:
+        """p₀ = R p + d (3.43) of the end-effector point, base frame."""
+        return self._end_effector_position(q, self.params(p))
 
     def forward_dynamics(self, q, qd, tau, p=None, force=None) -> np.ndarray:
         """Q̈ = D⁻¹(τ − JᵀF − (I⊗Q̇ᵀ)CQ̇ − g − k − f + Q) (3.114), by Cholesky; raises if D is not positive definite."""

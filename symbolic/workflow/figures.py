@@ -8,30 +8,20 @@
 
 from __future__ import annotations
 
-import io
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from symbolic.plotting import MatplotlibMissing, figure_class, png_bytes
 from symbolic.workflow.where import spectrum
 
 if TYPE_CHECKING:
     from symbolic.workflow.diagnose import Diagnosis
 
 
-class MatplotlibMissing(RuntimeError):
-    """matplotlib is not installed: no figures."""
-
-
 def draw(d: Diagnosis) -> dict[str, bytes]:
     """The figures as PNG bytes by file name (written with the report, all at once)."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg", force=True)
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise MatplotlibMissing("figures skipped: matplotlib is not installed (pip install 'symbolic[plot]')") from None
+    Figure = figure_class()
     est = d.sets["estimation"]
     before = est.tau - d.before.predicted["estimation"]
     after = est.tau - d.after.predicted["estimation"]
@@ -51,7 +41,7 @@ def draw(d: Diagnosis) -> dict[str, bytes]:
         bottom.set_ylabel("residual")
         bottom.legend(loc="upper right")
         fig.tight_layout()
-        written[f"residual_{c}.png"] = _png(fig)
+        written[f"residual_{c}.png"] = png_bytes(fig, dpi=100)
         fig = Figure(figsize=(9, 4))
         ax = fig.add_subplot(1, 1, 1)
         for label, r in (("nominal model", before[:, j]), ("patched model", after[:, j])):
@@ -63,7 +53,7 @@ def draw(d: Diagnosis) -> dict[str, bytes]:
         ax.set_ylabel("residual PSD")
         ax.legend(loc="upper right")
         fig.tight_layout()
-        written[f"spectrum_{c}.png"] = _png(fig)
+        written[f"spectrum_{c}.png"] = png_bytes(fig, dpi=100)
     design = d.search.final
     final = est.tau - design.predicted("estimation")
     start = len(d.search.terms.free_names)
@@ -86,11 +76,5 @@ def draw(d: Diagnosis) -> dict[str, bytes]:
         ax.set_title(f"{a.effect.name} on {a.candidate.coordinate}")
         ax.legend(loc="upper right")
         fig.tight_layout()
-        written[f"effect_{k}_{a.effect.name}_{a.candidate.coordinate}.png"] = _png(fig)
+        written[f"effect_{k}_{a.effect.name}_{a.candidate.coordinate}.png"] = png_bytes(fig, dpi=100)
     return written
-
-
-def _png(fig) -> bytes:
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
-    return buffer.getvalue()
