@@ -67,3 +67,46 @@ def test_decimate_passes_slow_signals_within_the_ripple() -> None:
     ratio = y[50:-50] @ x[kept][50:-50] / (x[kept][50:-50] @ x[kept][50:-50])
     assert 10 ** (-0.1 / 20) - 1e-6 <= ratio <= 1 + 1e-6  # 0.05 dB ripple, twice
     assert np.array_equal(filters.decimate(x, 1), x)
+
+
+def _log(samples: int, identification: dict | None) -> "Measurements":
+    from symbolic.data.measurements import Source, assemble
+
+    t = np.arange(samples) / 1000.0
+    signals = {"t": t, "q_q": np.sin(3 * t), "tau_q": np.cos(3 * t)}
+    return assemble(signals, Source("log.csv", lambda name: f"column {name}"), identification=identification)
+
+
+@pytest.mark.parametrize("table", [None, {"bandwidth": 10.0}, {"cutoff": 80.0, "order": 2},
+                                   {"filter_positions": False}, {"border": [7, 30]}])
+def test_simulation_comparison_and_identification_share_one_treatment(table) -> None:
+    """The comparison's q̇, q̈ and border are identification's (symbolic.data.treatment), for every key."""
+    from symbolic.data.treatment import states
+    from symbolic.numeric.comparison import measured_motion
+
+    log = _log(2000, table)
+    ours, theirs = measured_motion(log), states(log)
+    assert ours.treatment.cutoff == theirs.processing.cutoff
+    assert ours.treatment.border == max(theirs.processing.border)
+    assert np.array_equal(ours.qd, theirs.qd) and np.array_equal(ours.qdd, theirs.qdd)
+
+
+def test_comparison_refuses_what_identification_refuses_in_the_same_words() -> None:
+    from symbolic.data import DataError
+    from symbolic.numeric.comparison import treatment
+
+    with pytest.raises(DataError, match=r"\[identification\] smoothing: unknown key"):
+        treatment(_log(200, {"smoothing": 3}))
+    with pytest.raises(DataError, match=r"\[identification\] order: expected a positive integer"):
+        treatment(_log(200, {"order": 0}))
+
+
+def test_comparison_of_a_short_log_runs_unfiltered_where_identification_refuses() -> None:
+    from symbolic.data import DataError
+    from symbolic.data.treatment import states
+    from symbolic.numeric.comparison import treatment
+
+    how = treatment(_log(10, None))
+    assert how.cutoff is None and how.border == 2 and "too few for the low-pass" in how.note
+    with pytest.raises(DataError, match="too few"):
+        states(_log(10, None))

@@ -1,7 +1,7 @@
 """Where simulation and measurement disagree: per coordinate and signal, relative error, RMS, worst window.
 
 Measured velocity and acceleration come from the data treatment of identification (IDIM-LS,
-:mod:`symbolic.identify.processing`), with the same rules and the same ``[identification]`` keys:
+:mod:`symbolic.data.treatment`), with the same rules and the same ``[identification]`` keys:
 
 * positions low-passed by a zero-phase Butterworth filter (:func:`symbolic.data.filters.lowpass`,
   forward and backward) of ``order`` (default 4) at ``cutoff`` (default 5 × ``bandwidth``, the
@@ -29,13 +29,9 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import DataError, Measurements
-from symbolic.data.filters import central_difference, lowpass
+from symbolic.data.treatment import Settings, filtered_motion
 
 SIGNALS = ("position", "velocity", "acceleration", "force")
-
-BANDWIDTH_FRACTION = 50.0
-"""Without a stated bandwidth it is rate / 50 (identification's rule)."""
-
 
 @dataclass(frozen=True)
 class Treatment:
@@ -52,41 +48,27 @@ class Treatment:
 
 
 def treatment(measurements: Measurements) -> Treatment:
-    """The treatment for ``measurements``: identification's rules and the experiment's ``[identification]`` table."""
+    """The treatment for ``measurements``: identification's rules and the experiment's ``[identification]``
+    table (:class:`symbolic.data.treatment.Settings`, the same keys and checks). Where identification
+    would refuse short data, the comparison still runs: positions unfiltered when there are at most
+    3·order samples, no border when fewer than two samples would be left."""
     table = measurements.identification or {}
     source = str(measurements.source)
     rate = measurements.rate
-    bandwidth = _positive(table, "bandwidth", rate / BANDWIDTH_FRACTION, source)
-    cutoff = _positive(table, "cutoff", 5.0 * bandwidth, source)
-    order = table.get("order", 4)
-    if isinstance(order, bool) or not isinstance(order, int) or order < 1:
-        raise DataError(source, "[identification] order", f"expected a positive integer, got {order!r}")
-    filtering = table.get("filter_positions", True)
-    if not isinstance(filtering, bool):
-        raise DataError(source, "[identification] filter_positions", f"expected true or false, got {filtering!r}")
+    _, cutoff, order, border = Settings().merged(table, source).rules(rate)
     note = None
-    if filtering and not cutoff < rate / 2:
+    if cutoff is not None and not cutoff < rate / 2:
         raise DataError(source, "[identification] cutoff", f"{cutoff:g} Hz is not below the Nyquist frequency "
                                                            f"{rate / 2:g} Hz of the data")
-    if filtering and measurements.samples <= 3 * order:
-        filtering, note = False, f"{measurements.samples} samples are too few for the low-pass: positions not filtered"
-    border = table.get("border")
-    if isinstance(border, list) and len(border) == 2:
-        border = max(border)
-    if border is None:
-        border = math.ceil(5.0 * rate / cutoff) if filtering else 2
-    if isinstance(border, bool) or not isinstance(border, int) or border < 0:
-        raise DataError(source, "[identification] border", f"expected a sample count ≥ 0, got {border!r}")
-    if measurements.samples - 2 * border < 2:
-        note, border = f"{measurements.samples} samples: no border left out", 0
-    return Treatment(cutoff if filtering else None, order, border, note)
-
-
-def _positive(table: Mapping[str, Any], key: str, default: float, source: str) -> float:
-    value = table.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise DataError(source, f"[identification] {key}", f"expected a positive number (Hz), got {value!r}")
-    return float(value)
+    if cutoff is not None and measurements.samples <= 3 * order:
+        note = f"{measurements.samples} samples are too few for the low-pass: positions not filtered"
+        cutoff = None
+        if "border" not in table:
+            border = (2, 2)
+    width = max(border)
+    if measurements.samples - 2 * width < 2:
+        note, width = f"{measurements.samples} samples: no border left out", 0
+    return Treatment(cutoff, order, width, note)
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,14 +83,7 @@ class Motion:
 def measured_motion(measurements: Measurements) -> Motion:
     """q̇ and q̈ of the data by the identification's filtering and central differences (module docstring)."""
     how = treatment(measurements)
-    h = measurements.sample_period
-
-    def smooth(x: np.ndarray) -> np.ndarray:
-        return lowpass(x, how.cutoff, measurements.rate, how.order) if how.cutoff is not None else np.asarray(x, float)
-
-    q = smooth(measurements.q)
-    qd = smooth(measurements.qd) if measurements.qd is not None else central_difference(q, h)
-    qdd = smooth(measurements.qdd) if measurements.qdd is not None else central_difference(qd, h)
+    _, qd, qdd = filtered_motion(measurements, how.cutoff, how.order)
     return Motion(qd, qdd, how)
 
 

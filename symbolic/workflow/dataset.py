@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from symbolic.data import DataError, Measurements, load
-from symbolic.identify.processing import Settings, States, states
+from symbolic.data.treatment import Settings, States, states
 
 HOLDOUT_FRACTION = 0.2
 """Without a validation data set, the last fifth of the estimation data (in time) is held out."""

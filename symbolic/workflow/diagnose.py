@@ -31,7 +31,7 @@ from symbolic.data import DataError, Measurements
 from symbolic.derive.dynamics import DynamicModel, derive
 from symbolic.errors import ModelError
 from symbolic.identify.least_squares import IdentificationError
-from symbolic.identify.processing import Settings
+from symbolic.data.treatment import Settings
 from symbolic.spec.modelfile import load as load_model
 from symbolic.spec.modelfile import loads, with_parameter_values
 from symbolic.spec.robot import Robot
