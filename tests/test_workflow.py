@@ -29,7 +29,7 @@ from symbolic.identify.model import identify_model
 from symbolic.spec import robots
 from symbolic.workflow import EFFECTS, NOT_SUPPORTED, Effect, diagnose, register
 from symbolic.workflow.dataset import load_sets, split
-from symbolic.workflow.effects import on_row
+from symbolic.workflow.effects import FlexibleMode, on_row
 from symbolic.workflow.terms import fit_nominal, model_terms, relative_gap
 from workflow_cases import ARM_FRICTION1, ARM_FRICTION2, ARM_PARAMETERS
 
@@ -606,6 +606,27 @@ class ForceLead(Effect):
 
     def patch(self, editor, context, j, roles, c, value, comment):
         return {}
+
+
+@pytest.mark.slow
+def test_a_logged_held_command_looks_like_a_negative_load(tmp_path: Path) -> None:
+    """Hidden truth for the EMPS reading: a rigid axis (nothing missing) whose log holds the held command
+    itself, which leads the force acting over the sample by half a sample (1 ms at 500 Hz), with pulses.
+    flexible_mode's best fit is a significant resonance at the damping cap with a negative load — the
+    EMPS pulse set's signature — and the physical check is what keeps it from being named; offered the
+    force lead, the workflow names it with a lag of the order of the half sample (seeds 1–5: 0.9–2.1 ms;
+    the jerk of a 4 Hz loop under 0.5 N·m pulses determines it loosely)."""
+    data = cases.measurements(cases.axis(), 1, 0.01, measured=("q",), pulses=0.5, held=True)
+    d = run_on(tmp_path, cases.axis(), data)
+    assert d.found == ()
+    (flexible,) = [c for c in d.search.rounds[0].candidates if c.effect.name == "flexible_mode"]
+    assert flexible.roles["load"] < 0 and flexible.roles["damping_ratio"] == pytest.approx(max(FlexibleMode.DAMPING))
+    assert flexible.p_value < 1e-3 / flexible.trials and [r for r in flexible.failed if r.startswith("physical")]
+    d = run_on(tmp_path, cases.axis(), data, effects=[*EFFECTS.values(), ForceLead()])
+    assert [f.effect for f in d.found] == ["force_lead"]
+    fit = d.search.final.identification
+    half = 0.5 * data.sample_period
+    assert 0.4 * half < d.found[0].parameters["lead"] / dict(zip(fit.names, fit.values))["ZZ_rotor"] < 2.5 * half
 
 
 @pytest.mark.slow
