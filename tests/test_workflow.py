@@ -7,7 +7,8 @@ coordinate, recovers its parameters within 15 %, writes a patched model file tha
 and the held-out gap falls by at least half. Null cases (nothing missing) over seeds and noise
 levels: nothing is named. Two effects at once: both named. The flexible single link's first bending
 mode, missing from its rigid counterpart: named as flexible_mode with the ringing's frequency. EMPS (shared data): the stages of the
-publication.
+publication, and the pulse set's 23–25 Hz residual read as a lead of the logged force (with its hidden-truth
+counterpart: a synthetic axis logged with its held command).
 """
 
 from __future__ import annotations
