@@ -6,6 +6,8 @@ what is allowed, so that a user can fix a model file without reading our source.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 SHOWN = 60
 """Characters of a long piece of user text shown in a message (see :func:`shorten`)."""
 
@@ -24,6 +26,17 @@ def shown(value: object, limit: int = 80) -> str:
     if isinstance(value, str):
         return shorten(value, limit)
     return one_line(repr(value), limit)
+
+
+def listing(names: Iterable[object], separator: str = ", ", most: int = 12) -> str:
+    """User-given names for a one-line message: each as :func:`shown` shortens it (quotes left off a
+    short plain string), at most ``most`` of them and then how many more, so that a file with thousands
+    of long frame names still gets a short error."""
+    items = list(names)
+    texts = [n if isinstance(n, str) and len(n) <= 40 and n.isprintable() else shown(n, 40) for n in items[:most]]
+    if len(items) > most:
+        texts.append(f"… and {len(items) - most} more")
+    return separator.join(texts)
 
 
 def one_line(text: str, limit: int | None = None) -> str:

@@ -165,7 +165,7 @@ def test_model_name_must_be_identifier(tmp_path: Path) -> None:
 
 def test_coordinate_in_link_length_is_refused(tmp_path: Path) -> None:
     error = refused(tmp_path, VALID.replace('a = "l1", alpha = "0" }\n\n[[body]]', 'a = "q1", alpha = "0" }\n\n[[body]]'))
-    assert "dh.a" in str(error) and "may not depend on ['q1']" in str(error)
+    assert "dh.a" in str(error) and "may not depend on q1 " in str(error)
 
 
 def test_python_spec_is_validated_too() -> None:
@@ -335,3 +335,15 @@ def test_expression_defined_on_part_of_a_joint_range_is_accepted(tmp_path: Path)
     """sqrt(q2) is complex for q2 < 0, but not at every configuration tried: the model may be used for q2 > 0."""
     model = symbolic.derive(symbolic.load(write(tmp_path, with_field("theta", "sqrt(q2)"))))
     assert model.n == 2
+
+
+def test_thousands_of_long_frame_names_give_a_short_message() -> None:
+    """A missing parent among many long frame names (found by Hypothesis: a 5087-character message)."""
+    frames = "".join(f'[[frame]]\nname = "{"f" * 300}{k}"\nparent = "base"\ndh = {{ theta = "q", d = "0", a = "0", alpha = "0" }}\n\n'
+                     for k in range(30))
+    text = f'name = "m"\ncoordinates = ["q"]\n\n{frames}[[frame]]\nname = "last"\nparent = "nowhere"\ndh = {{ theta = "0", d = "0", a = "0", alpha = "0" }}\n'
+    with pytest.raises(symbolic.ModelError) as info:
+        symbolic.loads(text, "long.toml")
+    message = str(info.value)
+    assert "parent frame 'nowhere' does not exist" in message and "… and 20 more" in message
+    assert len(message) < 1000 and "\n" not in message

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from symbolic.errors import ModelError, ModelWarning, shorten, shown
+from symbolic.errors import ModelError, ModelWarning, listing, shorten, shown
 from symbolic.spec.expressions import RESERVED_NAMES, check_magnitude, check_value, parse_expression
 from symbolic.spec.robot import (
     BASE, BOUNDARIES, C_KEYWORDS, CONVENTIONS, DH_KEYS, FRAME_NAME, IDENTIFIER, INERTIA_KEYS, MODEL_NAME,
@@ -88,14 +88,14 @@ class _Validator:
             expr = sp.sympify(value)  # already a SymPy object built by the caller, not user text
             unknown = {s.name for s in expr.free_symbols} - set(self.symbols)
             if unknown:
-                raise self.fail(key, f"undeclared symbol(s) {sorted(unknown)}")
+                raise self.fail(key, f"undeclared symbol(s) {listing(sorted(map(str, unknown)))}")
             check_value(expr, self.source, self.robot.keys.get(key, key), shorten(str(expr)))
         else:
             expr = parse_expression(value, self.symbols, self.source, self.robot.keys.get(key, key))
         if allowed is not None:
             bad = {s.name for s in expr.free_symbols} - set(allowed)
             if bad:
-                raise self.fail(key, f"may not depend on {sorted(bad)} (only on {', '.join(sorted(allowed)) or 'numbers'})")
+                raise self.fail(key, f"may not depend on {listing(sorted(bad))} (only on {listing(sorted(allowed)) or 'numbers'})")
         if expr.free_symbols <= set(self.values):
             self.nominal(expr, key)  # constant at given parameters: finite and real, or refused here
         kinks = sorted((a for a in expr.atoms(sp.Abs, sp.sign) if a.free_symbols - set(self.values)), key=str)
@@ -181,7 +181,7 @@ class _Validator:
             if f.parent == f.name:
                 raise self.fail(f"{key} parent", f"frame {shown(f.name, 40)} is its own parent")
             if f.parent != BASE and f.parent not in names:
-                raise self.fail(f"{key} parent", f"parent frame {shown(f.parent, 40)} does not exist (frames: {BASE}, {', '.join(names)})")
+                raise self.fail(f"{key} parent", f"parent frame {shown(f.parent, 40)} does not exist (frames: {listing([BASE, *names])})")
             values = {}
             for k in DH_KEYS:
                 allowed = coordinates | parameters if k in ("theta", "d") else parameters
@@ -196,8 +196,8 @@ class _Validator:
         while pending:
             ready = [n for n in pending if frames[n].parent in placed]
             if not ready:
-                cycle = " -> ".join(pending)
-                raise self.fail(f"[[frame]] {pending[0]!r} parent", f"frames form a cycle: {cycle}")
+                cycle = listing(pending, " -> ")
+                raise self.fail(f"[[frame]] {shown(pending[0], 40)} parent", f"frames form a cycle: {cycle}")
             order.append(ready[0])  # one at a time: the file's order is kept wherever parents come first
             placed.add(ready[0])
             pending.remove(ready[0])
@@ -214,7 +214,7 @@ class _Validator:
                 raise self.fail(key, "body defined twice")
             names.add(b.name)
             if b.frame not in frames:
-                raise self.fail(f"{key} frame", f"frame {shown(b.frame, 40)} does not exist (frames: {', '.join(sorted(frames))})")
+                raise self.fail(f"{key} frame", f"frame {shown(b.frame, 40)} does not exist (frames: {listing(sorted(frames))})")
             mass = self.expr(b.mass, f"{key} mass", parameters)
             m = self.nominal(mass, f"{key} mass")
             if m < 0:
@@ -245,7 +245,7 @@ class _Validator:
                 raise self.fail(key, "beam defined twice")
             names.add(b.name)
             if b.frame not in frames:
-                raise self.fail(f"{key} frame", f"frame {shown(b.frame, 40)} does not exist (frames: {', '.join(sorted(frames))})")
+                raise self.fail(f"{key} frame", f"frame {shown(b.frame, 40)} does not exist (frames: {listing(sorted(frames))})")
             for attr in ("modes_v", "modes_w"):
                 n = getattr(b, attr)
                 if isinstance(n, bool) or not isinstance(n, int) or n < 1:
@@ -333,7 +333,7 @@ class _Validator:
 
     def coordinate_of(self, entry: str, coordinate: Any, allowed: Mapping[str, str]) -> str:
         if not isinstance(coordinate, str) or coordinate not in allowed:
-            raise self.fail(f"{entry} coordinate", f"unknown coordinate {shown(coordinate, 40)} (coordinates: {', '.join(allowed)})")
+            raise self.fail(f"{entry} coordinate", f"unknown coordinate {shown(coordinate, 40)} (coordinates: {listing(allowed)})")
         return coordinate
 
     def coefficient(self, value: Any, key: str, minimum: float | None = 0.0, strict: bool = False) -> sp.Expr:
@@ -410,7 +410,7 @@ class _Validator:
                 expr = sp.sympify(f.expression)
                 unknown = {x.name for x in expr.free_symbols} - {x.name for x in symbols.values()}
                 if unknown:
-                    raise self.fail(key, f"undeclared symbol(s) {sorted(unknown)}")
+                    raise self.fail(key, f"undeclared symbol(s) {listing(sorted(map(str, unknown)))}")
                 check_value(expr, self.source, self.robot.keys.get(key, key), shorten(str(expr)))
             else:
                 expr = parse_expression(f.expression, symbols, self.source, self.robot.keys.get(key, key))
