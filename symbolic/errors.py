@@ -29,11 +29,15 @@ def shown(value: object, limit: int = 80) -> str:
 
 
 def listing(names: Iterable[object], separator: str = ", ", most: int = 12) -> str:
-    """User-given names for a one-line message: each as :func:`shown` shortens it (quotes left off a
-    short plain string), at most ``most`` of them and then how many more, so that a file with thousands
-    of long frame names still gets a short error."""
+    """User-given names for a one-line message: a short plain name as it is, a long one by its first
+    24 characters, at most ``most`` of them and then how many more, so that a file with thousands of
+    long frame names still gets a short error."""
     items = list(names)
-    texts = [n if isinstance(n, str) and len(n) <= 40 and n.isprintable() else shown(n, 40) for n in items[:most]]
+    texts = []
+    for n in items[:most]:
+        text = n if isinstance(n, str) else repr(n)
+        plain = text.isprintable() and len(text) <= 32
+        texts.append(text if plain else f"{one_line(text[:24])!r}…")
     if len(items) > most:
         texts.append(f"… and {len(items) - most} more")
     return separator.join(texts)
