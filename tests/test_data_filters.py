@@ -110,3 +110,16 @@ def test_comparison_of_a_short_log_runs_unfiltered_where_identification_refuses(
     assert how.cutoff is None and how.border == 2 and "too few for the low-pass" in how.note
     with pytest.raises(DataError, match="too few"):
         states(_log(10, None))
+
+
+def test_a_held_force_is_compared_as_its_mean_over_the_sample() -> None:
+    """held_force: (τ_{k−1} + τ_k)/2 against the states at t_k; the key is checked like the others."""
+    from symbolic.data import DataError
+    from symbolic.data.treatment import Settings
+
+    p = Settings(held_force=True).resolve(1000.0, 2000)
+    tau = np.array([[1.0], [3.0], [5.0], [4.0]])
+    assert p.forces(tau)[:, 0].tolist() == [1.0, 2.0, 4.0, 4.5]
+    assert np.array_equal(Settings().resolve(1000.0, 2000).forces(tau), tau)
+    with pytest.raises(DataError, match=r"\[identification\] held_force: expected true or false"):
+        Settings().merged({"held_force": "yes"}, "exp.toml")

@@ -643,6 +643,51 @@ def test_a_logged_held_command_looks_like_a_negative_load(tmp_path: Path) -> Non
     assert 0.4 * half < d.found[0].parameters["lead"] / dict(zip(fit.names, fit.values))["ZZ_rotor"] < 2.5 * half
 
 
+def test_a_held_command_is_reported_as_the_data_and_centring_it_is_exact(tmp_path: Path) -> None:
+    """The rigid axis logged as its held command (nothing missing): diagnose names no effect and reports
+    the data finding ``held_force``; declared, the treatment turns the held log into exactly the log of
+    the force's mean over each sample (the harness's default log, noise-free here), and nothing is
+    reported then."""
+    from symbolic.data.treatment import Settings
+    from symbolic.workflow.dataset import treat
+
+    data = cases.measurements(cases.axis(), 1, 0.01, measured=("q",), pulses=0.5, held=True)
+    d = run_on(tmp_path, cases.axis(), data)
+    out = d.to_dict()
+    assert out["found"] == [] and [f["finding"] for f in out["data_findings"]] == ["held_force"]
+    finding = out["data_findings"][0]
+    assert finding["gap_validation"]["held_force"] < finding["gap_validation"]["as_logged"]
+    assert "held_force" in d.report()
+    declared = run_on(tmp_path / "declared", cases.axis(), data, settings=Settings(held_force=True))
+    assert declared.to_dict()["data_findings"] == [] and declared.found == ()
+    held = cases.measurements(cases.axis(), 2, 0.0, measured=("q",), pulses=0.5, held=True, seconds=10.0)
+    centred = cases.measurements(cases.axis(), 2, 0.0, measured=("q",), pulses=0.5, seconds=10.0)
+    a, b = treat(held, "estimation", Settings(held_force=True)), treat(centred, "estimation")
+    assert np.allclose(a.tau, b.tau, rtol=0, atol=1e-12 * np.abs(b.tau).max())
+
+
+def test_nothing_held_is_reported_on_a_sampled_force(tmp_path: Path) -> None:
+    d = run(tmp_path, cases.axis(), cases.axis(), seed=8, noise=0.01)
+    assert d.to_dict()["data_findings"] == []
+
+
+def test_emps_pulse_set_force_is_found_to_be_a_held_command(emps: Path) -> None:  # noqa: F811
+    """EMPS's vir is the controller's output held over each 1 ms sample: undeclared, diagnose reports the
+    data finding (it removes more than the search's effect size of the held-out residual power) and names
+    no flexibility; declared, the nominal gap is the smaller one the finding predicted and no finding is left."""
+    from symbolic.data.treatment import Settings
+    from symbolic.workflow.search import MIN_HELD_OUT_GAIN
+
+    d = diagnose(robots.path("emps"), robots.example_path("emps_pulses"), figures=False)
+    (finding,) = d.to_dict()["data_findings"]
+    assert finding["finding"] == "held_force" and finding["removed_share"] >= MIN_HELD_OUT_GAIN
+    assert "flexible_mode" not in [f.effect for f in d.found]
+    declared = diagnose(robots.path("emps"), robots.example_path("emps_pulses"), figures=False,
+                        settings=Settings(held_force=True))
+    assert declared.to_dict()["data_findings"] == []
+    assert declared.before.gap["validation"] == pytest.approx(finding["gap_validation"]["held_force"], rel=1e-12)
+
+
 @pytest.mark.slow
 def test_emps_pulse_set_peak_is_a_lead_of_the_logged_force(emps: Path) -> None:  # noqa: F811
     """The pulse set's 23–25 Hz residual peak is the motion's own jerk (the closed loop's ≈ 20 Hz mode excited by

@@ -33,7 +33,7 @@ from symbolic.data.measurements import Measurements
 BANDWIDTH_FRACTION = 50.0
 """Without a stated bandwidth, it is taken as rate / 50 (20 Hz at 1 kHz, EMPS's value)."""
 
-SETTING_KEYS = ("bandwidth", "cutoff", "order", "decimation", "border", "filter_positions")
+SETTING_KEYS = ("bandwidth", "cutoff", "order", "decimation", "border", "filter_positions", "held_force")
 
 
 @dataclass(frozen=True)
@@ -55,6 +55,12 @@ class Settings:
         (2 without position filtering: the one-sided differences).
     filter_positions
         Low-pass the positions (and given velocities, accelerations). Default true.
+    held_force
+        The logged force is a command held over each sample period (zero-order hold: the drive signal a
+        digital controller writes at t_k and keeps until t_k+1). The states at t_k are then compared with
+        the force's mean over [t_k − T/2, t_k + T/2], (τ_{k−1} + τ_k)/2, instead of τ_k, which leads the
+        motion by half a sample (:meth:`Processing.forces`). Default false (a sampled force, e.g. a
+        measured current).
     """
 
     bandwidth: float | None = None
@@ -63,6 +69,7 @@ class Settings:
     decimation: int | None = None
     border: int | tuple[int, int] | None = None
     filter_positions: bool | None = None
+    held_force: bool | None = None
 
     def merged(self, table: Mapping[str, Any] | None, source: str) -> Settings:
         """These settings, with the unset ones taken from an experiment's ``[identification]`` table."""
@@ -111,12 +118,13 @@ class Settings:
             order=order,
             decimation=decimation,
             border=border,
+            held_force=bool(self.held_force),
         )
 
 
 def _setting(key: str, value: Any, source: str) -> Any:
     where = f"[identification] {key}"
-    if key == "filter_positions":
+    if key in ("filter_positions", "held_force"):
         if not isinstance(value, bool):
             raise DataError(source, where, f"expected true or false, got {value!r}")
         return value
@@ -142,10 +150,19 @@ class Processing:
     order: int
     decimation: int
     border: tuple[int, int]
+    held_force: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         """Plain numbers, for JSON."""
         return {**asdict(self), "border": list(self.border)}
+
+    def forces(self, tau: np.ndarray) -> np.ndarray:
+        """The logged forces as the states at the same samples see them: unchanged, or for a held
+        command its mean over the sample centred on t_k, (τ_{k−1} + τ_k)/2 (the first sample kept)."""
+        tau = np.asarray(tau, dtype=float)
+        if not self.held_force or len(tau) < 2:
+            return tau
+        return np.concatenate([tau[:1], 0.5 * (tau[1:] + tau[:-1])])
 
     def reduce(self, x: np.ndarray) -> np.ndarray:
         """Steps 4–5 on any signal sampled like the data (``samples × …``): border dropped, decimated.

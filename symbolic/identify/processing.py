@@ -96,7 +96,7 @@ def observe(measurements: Measurements, regressor: Regressor, parameters: int, s
     return Observation(
         coordinates=measurements.coordinates,
         t=p.reduce_times(measurements.t),
-        tau=p.reduce(measurements.tau),
+        tau=p.reduce(p.forces(measurements.tau)),
         regressor=p.reduce(Y),
         processing=p,
     )

@@ -79,7 +79,7 @@ def treat(measurements: Measurements, role: str, settings: Settings | None = Non
     """The IDIM-LS treatment of ``measurements`` (steps 1–2 at every sample; τ and states reduced)."""
     s = states(measurements, settings)
     p = s.processing
-    return DataSet(role, measurements, s, p.reduce_times(measurements.t), p.reduce(measurements.tau),
+    return DataSet(role, measurements, s, p.reduce_times(measurements.t), p.reduce(p.forces(measurements.tau)),
                    p.reduce(s.q), p.reduce(s.qd), p.reduce(s.qdd))
 
 

@@ -18,6 +18,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from collections.abc import Callable, Sequence
@@ -110,6 +111,8 @@ class Diagnosis:
     seconds: dict[str, float] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
     figures: tuple[Path, ...] = ()
+    data_findings: tuple[dict[str, Any], ...] = ()
+    """What the data's treatment, not the model, explains (:func:`held_force_finding`)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON contract: model, found, gap_before, gap_after, gap_detail, patched_model (and more)."""
@@ -140,6 +143,7 @@ class Diagnosis:
                          "parameters": dict(a.candidate.roles), "final_p_value": p, "explained_by": others}
                         for a, p, others in self.search.removed],
             "not_supported": dict(NOT_SUPPORTED),
+            "data_findings": [dict(f) for f in self.data_findings],
             "notes": list(self.notes),
             "figures": [str(p) for p in self.figures],
         }
@@ -211,6 +215,8 @@ def diagnose(
     lap("data")
     before = _fit(model, sets, simulate)
     where_before = localise(estimation, before.predicted["estimation"])
+    findings = held_force_finding(model, sets, lambda s: load_sets(coordinates, data, experiment, validation, s)[:2],
+                                  settings, search)
     lap("gap")
     log.info("diagnose %s: gap %.4g %% (estimation), %.4g %% (held out); searching the catalogue",
              model.name, before.gap["estimation"], before.gap["validation"])
@@ -282,11 +288,43 @@ def diagnose(
         notes.append(f"{c.label()} was accepted at round {gone.round} ({_roles_text(c.roles)}) and removed at the end: "
                      f"with {others} in the model it is not significant any more (p = {p_value:.3g})")
     diagnosis = Diagnosis(model, sets, held_out, before, where_before, selection, tuple(found), patched_text,
-                          patched_path, after, where_after, bool(simulate), seconds, tuple(notes))
+                          patched_path, after, where_after, bool(simulate), seconds, tuple(notes), (), tuple(findings))
     if out is not None:
         diagnosis = _write(diagnosis, Path(out), figures)
     lap("report")
     return diagnosis
+
+
+def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], reload: Callable[[Settings], tuple[DataSet, DataSet]],
+                       settings: Settings | None, search: SearchSettings | None) -> list[dict[str, Any]]:
+    """Whether the logged force behaves as a held command (:attr:`symbolic.data.treatment.Settings.held_force`)
+    when the data do not say: the nominal model identified on the data treated both ways (inverse
+    dynamics), and a finding when comparing the states with the force's mean over each sample removes
+    at least the search's effect size (``min_gain``) of the held-out residual power. Not applied: how a
+    log was written is for its experiment file to declare; the finding says so and how much it matters.
+
+    A held command leads the force it produces by half a sample; in the inverse model that lead looks
+    like a negative load on a resonance or a jerk term (EMPS's pulse set: bench/emps_resonance.py)."""
+    estimation = sets["estimation"]
+    table = estimation.measurements.identification or {}
+    if (settings is not None and settings.held_force is not None) or "held_force" in table:
+        return []
+    held = dict(zip(("estimation", "validation"), reload(dataclasses.replace(settings or Settings(), held_force=True))))
+    plain, centred = _fit(model, sets, None), _fit(model, held, None)
+    before, after = plain.gap["validation"], centred.gap["validation"]
+    removed = 1.0 - (after / before) ** 2 if before > 0 else 0.0
+    threshold = (search or SearchSettings()).min_gain
+    if removed < threshold:
+        return []
+    note = (f"the logged force behaves as a command held over each sample: compared with the motion as its mean "
+            f"over the sample (held_force), the nominal model's held-out gap falls from {before:.4g} % to {after:.4g} % "
+            f"({100 * removed:.3g} % of the residual power; estimation {plain.gap['estimation']:.4g} % → "
+            f"{centred.gap['estimation']:.4g} %). A held command leads the force it produces by half a sample, which "
+            "the inverse model reads as a negative load or a lead. If the log holds the controller's held output, "
+            "declare held_force = true in the experiment's [identification]; this diagnosis does not assume it")
+    return [{"finding": "held_force", "gap_validation": {"as_logged": before, "held_force": after},
+             "gap_estimation": {"as_logged": plain.gap["estimation"], "held_force": centred.gap["estimation"]},
+             "removed_share": removed, "note": note}]
 
 
 def simulated_path(controller: Any = None) -> Simulator:
@@ -353,7 +391,7 @@ def _fit(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | No
             tau = np.asarray(out.tau if isinstance(out, SimulatedSignals) else out, dtype=float)
             if tau.shape != data.measurements.tau.shape:
                 raise ValueError(f"simulate returned shape {tau.shape}, expected {data.measurements.tau.shape}")
-            predicted[role] = data.reduce(tau)
+            predicted[role] = data.reduce(data.states.processing.forces(tau))  # like the logged force
             if isinstance(out, SimulatedSignals):
                 motion[role] = _motion_gaps(data.measurements, out)
         gap, detail = _gaps(sets, predicted)
@@ -435,7 +473,6 @@ def _plain(value: Any) -> Any:
 
 def _write(diagnosis: Diagnosis, folder: Path, figures: bool) -> Diagnosis:
     """Write the patched model, the figures and report.md into ``folder``, all or nothing."""
-    import dataclasses
 
     from symbolic.emit import ExportError, write_files
 

@@ -73,6 +73,8 @@ def markdown(d: Diagnosis) -> str:
                 for c in est.coordinates for signal in ("position", "velocity")]
         lines += _table(["coordinate", "signal", "estimation before", "estimation after", "held out before",
                          "held out after"], rows)
+    for finding in d.data_findings:
+        lines += ["", f"**The data, not the model** (`{finding['finding']}`): {finding['note']}."]
     lines += ["", "## Where", "", f"Nominal model: {d.where_before['verdict']}.", ""]
     rows = []
     for c, r in d.where_before["coordinates"].items():
