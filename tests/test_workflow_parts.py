@@ -183,3 +183,21 @@ def test_a_replaced_parameter_leaves_the_patched_file() -> None:
     assert "Fv" not in parameters and {"Fc", "spare", "Fvp_q", "Fvn_q"} <= set(parameters)
     assert "removed Fv, no longer used" in patched
     symbolic.derive(symbolic.loads(patched, "axis.toml"))
+
+
+def test_a_resonance_must_ring_in_the_residual() -> None:
+    """FlexibleMode.check_residual: a damped 9 Hz oscillation in white noise is a peak near a 9 Hz (or
+    8 Hz) load; no peak near 3 Hz, and white noise alone has none — unless the fit explains most of it."""
+    from symbolic.workflow.effects import FlexibleMode
+    from symbolic.workflow.where import spectrum
+
+    rate, rng = 100.0, np.random.default_rng(3)
+    t = np.arange(6000) / rate
+    ringing = sum(np.exp(-2.0 * (t - t0)) * np.sin(2 * np.pi * 9.0 * (t - t0)) * (t >= t0) for t0 in range(0, 60, 2))
+    noise = 0.05 * rng.normal(size=t.size)
+    flex = FlexibleMode()
+    for f in (9.0, 8.0):
+        assert flex.check_residual({"frequency_hz": f}, *spectrum(ringing + noise, rate), 0.2) is None
+    assert "no ringing" in flex.check_residual({"frequency_hz": 3.0}, *spectrum(ringing + noise, rate), 0.2)
+    assert "no ringing" in flex.check_residual({"frequency_hz": 9.0}, *spectrum(noise, rate), 0.2)
+    assert flex.check_residual({"frequency_hz": 9.0}, *spectrum(noise, rate), FlexibleMode.DOMINANT) is None

@@ -148,6 +148,12 @@ class Effect:
         """Write the effect on coordinate ``j`` into the model file; return the parameters written."""
         raise NotImplementedError
 
+    def check_residual(self, roles: Roles, frequency: np.ndarray, psd: np.ndarray, share: float) -> str | None:
+        """``None`` when the residual the effect is fitted to shows what it claims, else why not; ``frequency``
+        and ``psd`` are the Welch spectrum of that residual on the effect's coordinate, ``share`` the part
+        of its power the effect explains. Default: nothing to check (a resonance overrides this: it must ring)."""
+        return None
+
     def as_measured(self, patched: DynamicModel, parameters: Mapping[str, float], context: Context, j: int,
                     roles: Roles, controller: Mapping[str, Any] | None, period: float) -> tuple[Roles, dict[str, Any]]:
         """The roles as the data show them, given the patched model (``parameters``: its values) and the
@@ -578,6 +584,27 @@ class FlexibleMode(Effect):
             editor.add_body(f"{frame.name}_load", target, name, None, comment)
         editor.add_force(f"coupling_{coordinate}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
         return written
+
+    PEAK_BAND = 1.3
+    """A ringing must show as a spectral peak of the residual within this factor of the load's frequency
+    (the closed-loop mode the data show lies near it: the flexible cases ring 1–15 % above it)."""
+    DOMINANT = 0.5
+    """A resonance explaining at least this share of the residual is its dominant content and needs no
+    peak above a floor that a coarse encoder raises (fits of the loop's reaction to quantisation explained
+    at most 32 % in the null data sets)."""
+
+    def check_residual(self, roles, frequency, psd, share):
+        from symbolic.workflow.where import PEAK_RATIO, peaks
+
+        f = roles["frequency_hz"]
+        if share >= self.DOMINANT:
+            return None
+        near = [p for p in peaks(frequency, psd, count=len(psd)) if f / self.PEAK_BAND <= p["frequency_hz"] <= f * self.PEAK_BAND]
+        if near:
+            return None
+        return (f"no ringing: the residual's spectrum has no peak {PEAK_RATIO:g}× above its median level within "
+                f"{f / self.PEAK_BAND:.3g}–{f * self.PEAK_BAND:.3g} Hz (a filtered acceleration then fits the "
+                "loop's reaction to measurement errors, not a resonance)")
 
     def as_measured(self, patched, parameters, context, j, roles, controller, period):
         from symbolic.workflow.modes import closed_loop_modes

@@ -464,6 +464,7 @@ class _RoundState:
             self.held_out0 = float(np.sum((self.yv - self.Xv @ self.coef) ** 2))
         self._cache: dict = {}
         self._signals: dict[str, Signals] = {}
+        self._spectra: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     # columns of an effect on one data set, reduced (samples × N × k)
     def columns(self, effect: Effect, j: int, value: float | None, role: str) -> np.ndarray:
@@ -618,8 +619,19 @@ class _RoundState:
             c.held_out0, c.held_out1 = self.held_out0, float(e @ e)
         c.reference = _reference_value(reference_map, coef)
         c.roles = effect.roles_of(c.coefficients, c.value, c.reference)
-        c.invalid = effect.check(c.roles, c.reference, search.context, j)
+        c.invalid = effect.check(c.roles, c.reference, search.context, j) or \
+            effect.check_residual(c.roles, *self.residual_spectrum(j), c.share)
         return c
+
+    def residual_spectrum(self, j: int) -> tuple[np.ndarray, np.ndarray]:
+        """Welch spectrum of the round's residual on coordinate ``j`` (at the kept samples' rate)."""
+        if j not in self._spectra:
+            from symbolic.workflow.where import spectrum
+
+            p = self.design.sets["estimation"].states.processing
+            residual = self.r0.reshape(self.n, self.n_samples)[j]
+            self._spectra[j] = spectrum(residual, p.rate / p.decimation)
+        return self._spectra[j]
 
     def scan(self, effect: Effect, j: int, values: np.ndarray) -> float | tuple[float, ...]:
         """The nonlinear parameter explaining most: the best grid value, refined between its neighbours
