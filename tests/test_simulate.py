@@ -135,7 +135,7 @@ def test_right_hand_side_is_the_forward_dynamics(name: str) -> None:
         q = rng.uniform(-1, 1, model.n) * 0.5
         qd = rng.choice([-1, 1], model.n) * rng.uniform(0.05, 1.0, model.n)
         tau = rng.normal(0, 1, model.n)
-        xdot = np.asarray(plant.rhs(np.concatenate([q, qd]), tau, num.p0, 1e-4)).ravel()
+        xdot = np.asarray(plant.rhs(np.concatenate([q, qd]), tau, num.p0, 1e-4, 0.0)).ravel()
         np.testing.assert_allclose(xdot[: model.n], qd, rtol=0, atol=0)
         np.testing.assert_allclose(xdot[model.n:], num.forward_dynamics(q, qd, tau), rtol=1e-10, atol=1e-10)
 

@@ -12,6 +12,10 @@ Equations of motion (Madill (3.82) with elastic forces, friction and applied for
 
 composed once here (rotor inertia of the drives inside D); the numeric, CasADi and C layers read
 :attr:`ReducedForms.tau`, :attr:`ReducedForms.bias` and the parts, never assemble their own.
+
+A ``[[force]]`` may depend on time ``t`` (a mains disturbance): then Q, τ and the bias hold the symbol
+:attr:`DynamicModel.time` and :attr:`DynamicModel.time_varying` is true; every numerical layer then
+takes the time as an extra input (docs/contracts.md).
 """
 
 from __future__ import annotations
@@ -32,7 +36,7 @@ from symbolic.derive.inertia import composite_inertias, inertia_matrix
 from symbolic.derive.kinematics import Kinematics
 from symbolic.derive.newton_euler import inverse_dynamics
 from symbolic.spec.validation import validate
-from symbolic.spec.robot import Robot, acceleration_symbol, coordinate_symbol, velocity_symbol
+from symbolic.spec.robot import TIME, Robot, acceleration_symbol, coordinate_symbol, velocity_symbol
 from symbolic.derive.subexpressions import Subexpressions
 from symbolic.derive.validity import check_values
 
@@ -119,6 +123,16 @@ class DynamicModel:
         return tuple(acceleration_symbol(c) for c in self.robot.generalized_coordinates)
 
     @property
+    def time(self) -> sp.Symbol:
+        """The time symbol ``t`` (s) that the [[force]] expressions of a time-varying model hold."""
+        return TIME
+
+    @property
+    def time_varying(self) -> bool:
+        """Whether Q(Q, Q̇, t), hence τ and the bias, depend on time (a [[force]] expression holds ``t``)."""
+        return self.robot.time_varying
+
+    @property
     def parameters(self) -> dict[sp.Symbol, float]:
         """Parameter symbols with their nominal values, in model-file order."""
         return self.robot.parameter_values
@@ -185,7 +199,7 @@ class DynamicModel:
 
     @cached_property
     def applied(self) -> sp.Matrix:
-        """Q(Q, Q̇): generalized forces of the [[force]] entries, exerted on the system."""
+        """Q(Q, Q̇, t): generalized forces of the [[force]] entries, exerted on the system."""
         return self.expand(self.reduced.applied)
 
     @cached_property

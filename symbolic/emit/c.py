@@ -77,6 +77,7 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
             for f in solved_specs(model)
         ],
         "end_effector": model.robot.end_effector is not None,
+        "time_varying": model.time_varying,
         "theta": [] if (reg := model_regressor(model)) is None else [{"index": i, "name": t} for i, t in enumerate(reg.names)],
     }
     sources = {f"{name}.h": render("model.h.j2", **context), f"{name}.c": render("model.c.j2", **context)}
@@ -101,4 +102,6 @@ def _input_run(angles: tuple[sp.Expr, ...], places: dict[sp.Symbol, tuple[str, i
 def _layout(array: str, model: DynamicModel) -> str:
     if array == "p":
         return f"p[{len(model.robot.parameters)}] (see {model.name}_parameter_names)"
+    if array == "t":
+        return "t[1] (time, s)"
     return f"{array}[{model.n}] ({', '.join(model.robot.generalized_coordinates)})"

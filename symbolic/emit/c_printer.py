@@ -48,6 +48,10 @@ class CPrinter(C99CodePrinter):
     def _print_Float(self, expr: sp.Float) -> str:
         return repr(float(expr))
 
+    def _print_Pi(self, expr: sp.Expr) -> str:
+        # M_PI is POSIX, not C99 (-std=c99 -pedantic does not define it): the double nearest π, as a literal
+        return repr(float(sp.pi))
+
     def _print_Pow(self, expr: sp.Pow) -> str:
         base, exp = expr.base, expr.exp
         if exp.is_Integer and 1 < int(exp) <= 4:

@@ -146,24 +146,33 @@ def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compil
 
     ``compiled``: True evaluates through a C loop (:mod:`symbolic.identify.compiled_regressor`), False
     through NumPy; None (default) chooses C for large work (:data:`COMPILE_WORK`) when a compiler is found.
+    A time-varying model's regressor (a [[force]] in time) needs the sample times: ``regressor(q, qd, qdd,
+    t=times)``; its attribute ``time_varying`` says so (:func:`symbolic.identify.processing.observe` reads it).
     """
     reg, base = model_base(model)
     columns = reg.Y.extract(list(range(model.n)), list(base.independent))
-    groups = [model.coordinates, model.velocities, model.accelerations]
+    groups = [model.coordinates, model.velocities, model.accelerations, *([[model.time]] if model.time_varying else [])]
     evaluate = compile_vectorized(reg.sub, [*groups, model.parameter_symbols], columns, (model.n, len(base.independent)))
     p = np.array(list(model.parameters.values()), float) if p is None else np.asarray(p, float)
     statements = len(reg.sub.program(list(columns)))
     fast: dict[str, Any] = {}
 
-    def regressor(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+    def regressor(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
         samples = np.shape(q)[0]
+        times = []
+        if model.time_varying:
+            if t is None or np.shape(t) != (samples,):
+                raise ValueError(f"model {model.name}'s forces depend on time: give the {samples} sample times t "
+                                 f"(got {'none' if t is None else np.shape(t)})")
+            times = [np.reshape(np.asarray(t, float), (samples, 1))]
         if compiled or (compiled is None and samples * statements > COMPILE_WORK):
             if "c" not in fast:
                 fast["c"] = compiled_batch(reg.sub, groups, model.parameter_symbols, columns)
             if fast["c"] is not None:
-                return fast["c"](q, qd, qdd, p)
-        return evaluate(q, qd, qdd, p)
+                return fast["c"](q, qd, qdd, *times, p)
+        return evaluate(q, qd, qdd, *times, p)
 
+    regressor.time_varying = model.time_varying
     return regressor
 
 

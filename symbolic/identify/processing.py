@@ -30,7 +30,9 @@ from symbolic.data.treatment import (BANDWIDTH_FRACTION, SETTING_KEYS, Processin
                                       states)
 
 Regressor = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
-"""``regressor(q, qd, qdd)`` with ``samples × N`` arrays returns ``Y``, ``samples × N × P``."""
+"""``regressor(q, qd, qdd)`` with ``samples × N`` arrays returns ``Y``, ``samples × N × P``. A regressor with
+a true attribute ``time_varying`` (a model whose forces depend on time) is called with ``t=`` the sample
+times as well."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,7 +91,8 @@ def observe(measurements: Measurements, regressor: Regressor, parameters: int, s
     """
     treated = states(measurements, settings)
     p = treated.processing
-    Y = np.asarray(regressor(treated.q, treated.qd, treated.qdd), dtype=float)  # noqa: N806
+    timed = {"t": measurements.t} if getattr(regressor, "time_varying", False) else {}
+    Y = np.asarray(regressor(treated.q, treated.qd, treated.qdd, **timed), dtype=float)  # noqa: N806
     expected = (measurements.samples, len(measurements.coordinates), parameters)
     if Y.shape != expected:
         raise ValueError(f"the regressor returned an array of shape {Y.shape}, expected {expected} (samples, N, P)")

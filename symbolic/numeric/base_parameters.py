@@ -17,7 +17,8 @@ returned (:attr:`BaseParameters.gap`).
 States are drawn from a seeded generator: positions uniform in [−π, π] (±0.5 for prismatic-looking
 coordinates does not matter here: the rank is a property of almost every state), velocities in
 [−3, 3], accelerations in [−10, 10]; 30·len(θ)/N states, at least 200. The parameters of the model
-that Y depends on (lengths, gravity) are fixed at their nominal values.
+that Y depends on (lengths, gravity) are fixed at their nominal values. A time-varying model's Y (a
+[[force]] in time t) is evaluated at a time uniform in [0, 10] s per state as well.
 """
 
 from __future__ import annotations
@@ -75,9 +76,12 @@ class BaseParameters:
 
 
 def regressor_function(model: DynamicModel, reg: Regressor):
-    """Y(q, q̇, q̈, p) as an N×len(θ) array."""
-    return compile_function(reg.sub, [model.coordinates, model.velocities, model.accelerations, model.parameter_symbols],
-                            reg.Y, (model.n, len(reg.theta)))
+    """Y(q, q̇, q̈, p) as an N×len(θ) array; ``Y(q, q̇, q̈, p, t=…)`` for a time-varying model."""
+    states = [model.coordinates, model.velocities, model.accelerations]
+    if not model.time_varying:
+        return compile_function(reg.sub, [*states, model.parameter_symbols], reg.Y, (model.n, len(reg.theta)))
+    timed = compile_function(reg.sub, [*states, [model.time], model.parameter_symbols], reg.Y, (model.n, len(reg.theta)))
+    return lambda q, qd, qdd, p, t=0.0: timed(q, qd, qdd, [t], p)
 
 
 def theta_values(model: DynamicModel, reg: Regressor, p=None) -> np.ndarray:
@@ -94,7 +98,11 @@ def stacked(model: DynamicModel, reg: Regressor, states: int | None = None, seed
     count = states or max(200, int(np.ceil(30 * len(reg.theta) / n)))
     rng = np.random.default_rng(seed)
     p = np.array(list(model.parameters.values()), float) if p is None else np.asarray(p, float)
-    rows = [Y(rng.uniform(-np.pi, np.pi, n), rng.uniform(-3, 3, n), rng.uniform(-10, 10, n), p) for _ in range(count)]
+    if model.time_varying:
+        rows = [Y(rng.uniform(-np.pi, np.pi, n), rng.uniform(-3, 3, n), rng.uniform(-10, 10, n), p, t=rng.uniform(0, 10))
+                for _ in range(count)]
+    else:
+        rows = [Y(rng.uniform(-np.pi, np.pi, n), rng.uniform(-3, 3, n), rng.uniform(-10, 10, n), p) for _ in range(count)]
     return np.vstack(rows)
 
 

@@ -17,7 +17,9 @@ import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
 from symbolic.derive.dynamics import DynamicModel
-from symbolic.numeric.exported import SOLVED_INPUT_SIZES, FunctionSpec, function_specs, input_symbols, programs, solved_specs
+from symbolic.numeric.exported import (
+    SOLVED_INPUT_SIZES, FunctionSpec, function_specs, input_symbols, programs, solved_specs, timed,
+)
 
 CASADI_MODULE = {
     "sin": ca.sin,
@@ -148,6 +150,7 @@ def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
     n, n_p = model.n, len(model.robot.parameters)
     inputs = {name: ca.SX.sym(name, n) for name in ("q", "qd", "qdd", "tau")}
     inputs["p"] = ca.SX.sym("p", n_p)
+    inputs["t"] = ca.SX.sym("t", 1)
     out: dict[str, ca.Function] = {}
     values: dict[str, ca.SX] = {}
     for spec in function_specs(model):
@@ -157,11 +160,13 @@ def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
     q, qd, tau, p = inputs["q"], inputs["qd"], inputs["tau"], inputs["p"]
     bias = ca.substitute(values["inverse_dynamics"], inputs["qdd"], ca.SX.zeros(n))
     qdd = cholesky_solve(values["inertia"], tau - bias)
-    out["forward_dynamics"] = ca.Function("forward_dynamics", [q, qd, tau, p], [qdd], ["q", "qd", "tau", "p"], ["qdd"])
+    names = list(timed(model, "q", "qd", "tau", "p"))  # with t before p for a time-varying model
+    args = [inputs[a] for a in names]
+    out["forward_dynamics"] = ca.Function("forward_dynamics", args, [qdd], names, ["qdd"])
     x = ca.vertcat(q, qd)
     xdot = ca.vertcat(qd, qdd)
-    out["A"] = ca.Function("A", [q, qd, tau, p], [ca.jacobian(xdot, x)], ["q", "qd", "tau", "p"], ["A"])
-    out["B"] = ca.Function("B", [q, qd, tau, p], [ca.jacobian(xdot, tau)], ["q", "qd", "tau", "p"], ["B"])
+    out["A"] = ca.Function("A", args, [ca.jacobian(xdot, x)], names, ["A"])
+    out["B"] = ca.Function("B", args, [ca.jacobian(xdot, tau)], names, ["B"])
     solved = {spec.name for spec in solved_specs(model)}
     if {"operational_inertia", "apparent_mass"} <= solved:  # declared with the end effector's Jacobian
         u = ca.SX.sym("u", SOLVED_INPUT_SIZES["u"])

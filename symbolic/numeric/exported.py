@@ -1,6 +1,7 @@
 """The functions every export target provides (docs/contracts.md, "Generated C" / "Generated CasADi").
 
-Each entry names the function, its inputs (q, qd, qdd, tau, p) and its outputs as expressions in
+Each entry names the function, its inputs (q, qd, qdd, tau, p; and t, the time in seconds, for the
+functions that hold the applied forces of a time-varying model) and its outputs as expressions in
 the model's intermediate symbols; the C printer and the CasADi translator both start from here, so
 the two targets compute the same thing.
 """
@@ -49,15 +50,22 @@ class FunctionSpec:
 
 
 def input_symbols(model: DynamicModel) -> dict[str, tuple[sp.Symbol, ...]]:
-    """Symbols of each input array, in slot order."""
+    """Symbols of each input array, in slot order (``t``, the time, only for a time-varying model)."""
     n = model.n
+    time = {"t": (model.time,)} if model.time_varying else {}
     return {
         "q": model.coordinates,
         "qd": model.velocities,
         "qdd": model.accelerations,
         "tau": tuple(sp.Symbol(f"_tau{i}", real=True) for i in range(n)),
+        **time,
         "p": model.parameter_symbols,
     }
+
+
+def timed(model: DynamicModel, *inputs: str) -> tuple[str, ...]:
+    """``inputs`` with ``"t"`` before ``"p"`` for a time-varying model (a function that holds Q(q, qd, t))."""
+    return (*inputs[:-1], "t", inputs[-1]) if model.time_varying else inputs
 
 
 @dataclass(frozen=True)
@@ -88,7 +96,7 @@ def solved_specs(model: DynamicModel) -> list[SolvedSpec]:
     See :mod:`symbolic.numeric.operational` for the definitions and docs/contracts.md for the C signatures.
     """
     n = model.n
-    specs = [SolvedSpec("forward_dynamics", ("q", "qd", "tau", "p"), "qdd", n, 1,
+    specs = [SolvedSpec("forward_dynamics", timed(model, "q", "qd", "tau", "p"), "qdd", n, 1,
                         "Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.",
                         "0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified)")]
     if model.robot.end_effector is not None:
@@ -125,9 +133,9 @@ def function_specs(model: DynamicModel) -> list[FunctionSpec]:
         FunctionSpec("stiffness", ("q", "p"), "k", n, 1, tuple(r.stiffness), "k(q) = dV_strain/dq (zero for rigid models)"),
         FunctionSpec("friction", ("q", "qd", "p"), "f", n, 1, tuple(r.friction),
                      "f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)"),
-        FunctionSpec("applied", ("q", "qd", "p"), "Q", n, 1, tuple(r.applied),
+        FunctionSpec("applied", timed(model, "q", "qd", "p"), "Q", n, 1, tuple(r.applied),
                      "Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)"),
-        FunctionSpec("inverse_dynamics", ("q", "qd", "qdd", "p"), "tau", n, 1, tuple(r.tau),
+        FunctionSpec("inverse_dynamics", timed(model, "q", "qd", "qdd", "p"), "tau", n, 1, tuple(r.tau),
                      "tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)"),
     ] + _jacobian_specs(model) + _regressor_specs(model)
 
@@ -147,7 +155,7 @@ def _regressor_specs(model: DynamicModel) -> list[FunctionSpec]:
         return []
     n, t = model.n, len(reg.theta)
     return [
-        FunctionSpec("regressor", ("q", "qd", "qdd", "p"), "Y", n, t, tuple(reg.Y),
+        FunctionSpec("regressor", timed(model, "q", "qd", "qdd", "p"), "Y", n, t, tuple(reg.Y),
                      "Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)", reg.sub),
         FunctionSpec("standard_parameters", ("p",), "theta", t, 1, tuple(reg.theta_expressions),
                      "theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)"),

@@ -214,7 +214,7 @@ def simulate(
     started = time.perf_counter()
     plant = _plant(model)
     x0 = _initial_state(model, measurements, p, initial)
-    radius = _spectral_radius(plant, x0, p, friction_velocity)
+    radius = _spectral_radius(plant, x0, p, friction_velocity, float(measurements.t[0]))
     m = substeps or max(1, math.ceil(measurements.sample_period * radius / STEP_BOUND))
     if substeps and measurements.sample_period / substeps * radius > 2.78:
         LOG.warning("%d sub-step(s) of %.3g s: h·ρ = %.2f exceeds RK4's stability bound 2.78 (ρ = %.4g 1/s)",
@@ -290,8 +290,9 @@ _PLANTS: weakref.WeakKeyDictionary[DynamicModel, "Plant"] = weakref.WeakKeyDicti
 
 @dataclass(frozen=True, eq=False)
 class Plant:
-    """CasADi functions of a model with the smoothed sign: ``rhs(x, tau, p, eps) -> ẋ`` and
-    ``bias(q, qd, p, eps) -> τ at Q̈ = 0``, x = [Q; Q̇]."""
+    """CasADi functions of a model with the smoothed sign: ``rhs(x, tau, p, eps, t) -> ẋ`` and
+    ``bias(q, qd, p, eps, t) -> τ at Q̈ = 0``, x = [Q; Q̇], t the time (s; used by a time-varying model's
+    [[force]] entries only, ignored otherwise)."""
 
     n: int
     rhs: ca.Function
@@ -308,7 +309,7 @@ def _plant(model: DynamicModel) -> Plant:
 def _build_plant(model: DynamicModel) -> Plant:
     n = model.n
     q, qd, tau = ca.SX.sym("q", n), ca.SX.sym("qd", n), ca.SX.sym("tau", n)
-    p, eps = ca.SX.sym("p", len(model.parameter_symbols)), ca.SX.sym("eps")
+    p, eps, t = ca.SX.sym("p", len(model.parameter_symbols)), ca.SX.sym("eps"), ca.SX.sym("t")
     module = {**CASADI_MODULE, "sign": lambda v: ca.tanh(v / eps)}
 
     def translate(outputs: sp.Matrix, groups: list, values: list) -> ca.SX:
@@ -318,22 +319,24 @@ def _build_plant(model: DynamicModel) -> Plant:
                                cse=lambda exprs: (program, exprs))
         return ca.vertcat(*function(*[[v[i] for i in range(v.shape[0])] for v in values]))
 
-    symbols = [model.coordinates, model.velocities, model.parameter_symbols]
+    symbols = [model.coordinates, model.velocities, model.parameter_symbols, (model.time,)]
     D = ca.reshape(translate(model.reduced.D, [symbols[0], symbols[2]], [q, p]), n, n).T
-    bias = translate(model.reduced.bias, symbols, [q, qd, p])
+    bias = translate(model.reduced.bias, symbols, [q, qd, p, t])
     qdd = cholesky_solve(D, tau - bias)
-    rhs = ca.Function("rhs", [ca.vertcat(q, qd), tau, p, eps], [ca.vertcat(qd, qdd)], ["x", "tau", "p", "eps"], ["xdot"])
-    return Plant(n, rhs, ca.Function("bias", [q, qd, p, eps], [bias], ["q", "qd", "p", "eps"], ["bias"]))
+    rhs = ca.Function("rhs", [ca.vertcat(q, qd), tau, p, eps, t], [ca.vertcat(qd, qdd)], ["x", "tau", "p", "eps", "t"],
+                      ["xdot"])
+    return Plant(n, rhs, ca.Function("bias", [q, qd, p, eps, t], [bias], ["q", "qd", "p", "eps", "t"], ["bias"]))
 
 
-def _spectral_radius(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float) -> float:
-    """ρ of A = ∂ẋ/∂x at the initial position, Q̇ = 0, τ = bias (held at rest): see the module docstring."""
+def _spectral_radius(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0: float) -> float:
+    """ρ of A = ∂ẋ/∂x at the initial position and time t0, Q̇ = 0, τ = bias (held at rest): see the
+    module docstring."""
     n = plant.n
     x = ca.SX.sym("x", 2 * n)
     tau = ca.SX.sym("tau", n)
-    jacobian = ca.Function("A", [x, tau], [ca.jacobian(plant.rhs(x, tau, p, eps), x)])
+    jacobian = ca.Function("A", [x, tau], [ca.jacobian(plant.rhs(x, tau, p, eps, t0), x)])
     rest = np.concatenate([x0[:n], np.zeros(n)])
-    hold = np.asarray(plant.bias(rest[:n], rest[n:], p, eps)).ravel()
+    hold = np.asarray(plant.bias(rest[:n], rest[n:], p, eps, t0)).ravel()
     A = np.asarray(jacobian(rest, hold))
     return float(np.max(np.abs(np.linalg.eigvals(A))))
 
@@ -391,8 +394,9 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
                     substeps: int) -> ca.Function:
     """One sample of the closed loop: ``(z, w, p, c, eps) -> (z_next, y)``.
 
-    z = [x; controller memory], w = [reference; disturbance; logged τ] of the sample, y = [q; q̇; q̈; τ]
-    at t_k (q̈ with τ_k applied), z_next after ``substeps`` RK4 steps of period/substeps.
+    z = [x; controller memory], w = [reference; disturbance; logged τ; t_k] of the sample, y = [q; q̇; q̈; τ]
+    at t_k (q̈ with τ_k applied), z_next after ``substeps`` RK4 steps of period/substeps (each at its
+    own times, for a model whose forces depend on time).
     """
     n, memory = plant.n, ctrl.memory_size()
     nc = ctrl.size
@@ -400,27 +404,30 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     X, T = ca.MX.sym("x", 2 * n), ca.MX.sym("tau", n)
     P, E = ca.MX.sym("p", plant.rhs.size1_in(2)), ca.MX.sym("eps")
     h = period / substeps
-    k1 = plant.rhs(X, T, P, E)
-    k2 = plant.rhs(X + h / 2 * k1, T, P, E)
-    k3 = plant.rhs(X + h / 2 * k2, T, P, E)
-    k4 = plant.rhs(X + h * k3, T, P, E)
-    rk4 = ca.Function("rk4", [X, T, P, E], [X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-    Z, W = ca.MX.sym("z", 2 * n + memory), ca.MX.sym("w", 2 * nc + n)
+    S = ca.MX.sym("t")
+    k1 = plant.rhs(X, T, P, E, S)
+    k2 = plant.rhs(X + h / 2 * k1, T, P, E, S + h / 2)
+    k3 = plant.rhs(X + h / 2 * k2, T, P, E, S + h / 2)
+    k4 = plant.rhs(X + h * k3, T, P, E, S + h)
+    rk4 = ca.Function("rk4", [X, T, P, E, S], [X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+    Z, W = ca.MX.sym("z", 2 * n + memory), ca.MX.sym("w", 2 * nc + n + 1)
     C = ca.MX.sym("c", step_controller.size1_in(5))
     x, m = Z[: 2 * n], Z[2 * n:]
-    m_next, tau = step_controller(m, x[:n], W[:nc], W[nc:2 * nc], W[2 * nc:], C)
-    x_next = _repeat(rk4, substeps, x, tau, P, E)
-    xdot = plant.rhs(x, tau, P, E)
+    m_next, tau = step_controller(m, x[:n], W[:nc], W[nc:2 * nc], W[2 * nc:2 * nc + n], C)
+    t_k = W[2 * nc + n]
+    x_next = _repeat(rk4, substeps, x, tau, P, E, starts=t_k + h * ca.DM(range(substeps)).T)
+    xdot = plant.rhs(x, tau, P, E, t_k)
     return ca.Function("closed_loop_sample", [Z, W, P, C, E], [ca.vertcat(x_next, m_next),
                                                                  ca.vertcat(x, xdot[n:], tau)],
                        ["z", "w", "p", "c", "eps"], ["z_next", "y"])
 
 
-def _repeat(step: ca.Function, count: int, x: ca.MX, *args: ca.MX) -> ca.MX:
-    """``count`` applications of ``step(x, *args)``: a loop in the generated code (``fold``), not an unrolled copy."""
+def _repeat(step: ca.Function, count: int, x: ca.MX, *args: ca.MX, starts: ca.MX) -> ca.MX:
+    """``count`` applications of ``step(x, *args, start_i)``, ``starts`` the ``1 × count`` start times of the
+    steps: a loop in the generated code (``fold``), not an unrolled copy."""
     if count == 1:
-        return step(x, *args)
-    return step.fold(count)(x, *[ca.repmat(a, 1, count) for a in args])
+        return step(x, *args, starts[0])
+    return step.fold(count)(x, *[ca.repmat(a, 1, count) for a in args], starts)
 
 
 CHUNK = 1000
@@ -452,7 +459,7 @@ def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measur
     timings["compile"] = time.perf_counter() - started
     started = time.perf_counter()
     z = np.concatenate([x0, np.zeros(ctrl.memory_size())])
-    w = np.hstack([signals.reference, signals.disturbance, signals.torque]).T
+    w = np.hstack([signals.reference, signals.disturbance, signals.torque, measurements.t[:, None]]).T
     loops: dict[int, ca.Function] = {}
     outputs = []
     for start in range(0, measurements.samples, CHUNK):
@@ -477,22 +484,22 @@ def _run_solve_ivp(ctrl: control.Controller, plant: Plant, measurements: Measure
     n = plant.n
     period = measurements.sample_period
     step_controller = control.controller_function(ctrl, names, period)
-    x, tau = ca.SX.sym("x", 2 * n), ca.SX.sym("tau", n)
-    xdot = plant.rhs(x, tau, p, eps)
-    rhs = ca.Function("f", [x, tau], [xdot])
-    jac = ca.Function("J", [x, tau], [ca.jacobian(xdot, x)])
+    x, tau, t = ca.SX.sym("x", 2 * n), ca.SX.sym("tau", n), ca.SX.sym("t")
+    xdot = plant.rhs(x, tau, p, eps, t)
+    rhs = ca.Function("f", [x, tau, t], [xdot])
+    jac = ca.Function("J", [x, tau, t], [ca.jacobian(xdot, x)])
     memory = np.zeros(ctrl.memory_size())
     state = x0.copy()
     out = np.empty((measurements.samples, 4 * n))
     for k in range(measurements.samples):
         memory_next, tau_k = step_controller(memory, state[:n], signals.reference[k], signals.disturbance[k],
                                              signals.torque[k], c)
-        tau_k = np.asarray(tau_k).ravel()
-        derivative = np.asarray(rhs(state, tau_k)).ravel()
+        tau_k, t_k = np.asarray(tau_k).ravel(), float(measurements.t[k])
+        derivative = np.asarray(rhs(state, tau_k, t_k)).ravel()
         out[k] = np.concatenate([state, derivative[n:], tau_k])
         memory = np.asarray(memory_next).ravel()
-        solution = solve_ivp(lambda t, s: np.asarray(rhs(s, tau_k)).ravel(), (0.0, period), state, method=method,
-                             rtol=rtol, atol=atol, jac=lambda t, s: np.asarray(jac(s, tau_k)))
+        solution = solve_ivp(lambda t, s: np.asarray(rhs(s, tau_k, t_k + t)).ravel(), (0.0, period), state,
+                             method=method, rtol=rtol, atol=atol, jac=lambda t, s: np.asarray(jac(s, tau_k, t_k + t)))
         if not solution.success:
             raise DataError(str(measurements.source), "method",
                             f"{method} failed at t = {measurements.t[k]:.6g} s: {solution.message}")

@@ -36,7 +36,9 @@ class NumericModel:
     """Numerical functions of a :class:`~symbolic.dynamics.DynamicModel`.
 
     All functions take the parameter vector ``p`` last, in ``model.robot.parameters`` order;
-    :attr:`p0` holds the nominal values.
+    :attr:`p0` holds the nominal values. Those that hold the applied forces (``applied``, ``bias``,
+    ``inverse_dynamics``, ``forward_dynamics``, ``state_derivative``, ``linearize``) take the time
+    ``t`` (s) as a keyword; it matters only for a time-varying model (:attr:`time_varying`).
     """
 
     def __init__(self, model: DynamicModel) -> None:
@@ -50,6 +52,13 @@ class NumericModel:
         self.n = model.n
         self.has_force = model.robot.end_effector is not None
         self.force = sp.symbols("_F0:3", real=True)
+        self.time_varying = model.time_varying
+        self._time = [[model.time]] if self.time_varying else []
+        """The time argument group of functions holding Q: [[t]] for a time-varying model, else none."""
+
+    def _at(self, t: float) -> list[list[float]]:
+        """The time argument (``[[t]]``) of functions holding Q, or nothing for a model without time."""
+        return [[t]] if self.time_varying else []
 
     def _fn(self, args, outputs, shape=None):
         return compile_function(self.sub, args, outputs, shape)
@@ -90,11 +99,11 @@ class NumericModel:
 
     @cached_property
     def _tau(self):
-        return self._fn([self.q, self.qd, self.qdd, self.p], self.model.reduced.tau)
+        return self._fn([self.q, self.qd, self.qdd, *self._time, self.p], self.model.reduced.tau)
 
     @cached_property
     def _bias(self):
-        return self._fn([self.q, self.qd, self.p], self.model.reduced.bias)
+        return self._fn([self.q, self.qd, *self._time, self.p], self.model.reduced.bias)
 
     @cached_property
     def _friction(self):
@@ -102,19 +111,19 @@ class NumericModel:
 
     @cached_property
     def _applied(self):
-        return self._fn([self.q, self.qd, self.p], self.model.reduced.applied)
+        return self._fn([self.q, self.qd, *self._time, self.p], self.model.reduced.applied)
 
     def friction(self, q, qd, p=None) -> np.ndarray:
         """f(Q, Q̇) of the [[friction]] entries."""
         return self._friction(q, qd, self.params(p))
 
-    def applied(self, q, qd, p=None) -> np.ndarray:
-        """Q(Q, Q̇) of the [[force]] entries."""
-        return self._applied(q, qd, self.params(p))
+    def applied(self, q, qd, p=None, *, t: float = 0.0) -> np.ndarray:
+        """Q(Q, Q̇, t) of the [[force]] entries."""
+        return self._applied(q, qd, *self._at(t), self.params(p))
 
-    def bias(self, q, qd, p=None) -> np.ndarray:
+    def bias(self, q, qd, p=None, *, t: float = 0.0) -> np.ndarray:
         """τ at Q̈ = 0: (I⊗Q̇ᵀ)CQ̇ + g + k + f − Q."""
-        return self._bias(q, qd, self.params(p))
+        return self._bias(q, qd, *self._at(t), self.params(p))
 
     @cached_property
     def _dD(self):
@@ -147,8 +156,8 @@ class NumericModel:
     def potential(self, q, p=None) -> float:
         return float(self._potential(q, self.params(p))[0])
 
-    def inverse_dynamics(self, q, qd, qdd, p=None) -> np.ndarray:
-        return self._tau(q, qd, qdd, self.params(p))
+    def inverse_dynamics(self, q, qd, qdd, p=None, *, t: float = 0.0) -> np.ndarray:
+        return self._tau(q, qd, qdd, *self._at(t), self.params(p))
 
     def inertia_derivatives(self, q, p=None) -> np.ndarray:
         """∂D/∂Q_k stacked: shape (N, N, N), index [k, i, j]."""
@@ -164,21 +173,21 @@ class NumericModel:
         """p₀ = R p + d (3.43) of the end-effector point, base frame."""
         return self._end_effector_position(q, self.params(p))
 
-    def forward_dynamics(self, q, qd, tau, p=None, force=None) -> np.ndarray:
+    def forward_dynamics(self, q, qd, tau, p=None, force=None, *, t: float = 0.0) -> np.ndarray:
         """Q̈ = D⁻¹(τ − JᵀF − (I⊗Q̇ᵀ)CQ̇ − g − k − f + Q) (3.114), by Cholesky; raises if D is not positive definite."""
-        rhs = np.asarray(tau, float) - self.bias(q, qd, p)
+        rhs = np.asarray(tau, float) - self.bias(q, qd, p, t=t)
         if force is not None:
             rhs = rhs - self.jacobian(q, p).T @ np.asarray(force, float)
         factor = np.linalg.cholesky(self.inertia(q, p))
         return np.linalg.solve(factor.T, np.linalg.solve(factor, rhs))
 
-    def state_derivative(self, x, u, p=None) -> np.ndarray:
-        """F(X, U) of (3.114)."""
+    def state_derivative(self, x, u, p=None, *, t: float = 0.0) -> np.ndarray:
+        """F(X, U, t) of (3.114)."""
         x = np.asarray(x, float)
         u = np.asarray(u, float)
         q, qd = x[: self.n], x[self.n :]
         force = u[self.n :] if self.has_force and u.size > self.n else None
-        return np.concatenate([qd, self.forward_dynamics(q, qd, u[: self.n], p, force)])
+        return np.concatenate([qd, self.forward_dynamics(q, qd, u[: self.n], p, force, t=t)])
 
     # -- linearisation ---------------------------------------------------------------------
     @cached_property
@@ -190,8 +199,8 @@ class NumericModel:
         dP_dq = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(P[i], self.q[k])))
         dP_dqd = sp.Matrix(self.n, self.n, lambda i, k: sub.add(sub.diff(P[i], self.qd[k])))
         funcs = {
-            "dP_dq": self._fn([self.q, self.qd, self.p], dP_dq, (self.n, self.n)),
-            "dP_dqd": self._fn([self.q, self.qd, self.p], dP_dqd, (self.n, self.n)),
+            "dP_dq": self._fn([self.q, self.qd, *self._time, self.p], dP_dq, (self.n, self.n)),
+            "dP_dqd": self._fn([self.q, self.qd, *self._time, self.p], dP_dqd, (self.n, self.n)),
         }
         if self.has_force:
             JtF = m.end_effector_jacobian().T * sp.Matrix(self.force)
@@ -199,8 +208,8 @@ class NumericModel:
             funcs["dJtF_dq"] = self._fn([self.q, self.force, self.p], dJtF, (self.n, self.n))
         return funcs
 
-    def linearize(self, x0, u0, p=None) -> tuple[np.ndarray, np.ndarray]:
-        """A = ∂F/∂X, B = ∂F/∂U at (X⁰, U⁰) (Madill 3.9.4), from exact derivatives."""
+    def linearize(self, x0, u0, p=None, *, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """A = ∂F/∂X, B = ∂F/∂U at (X⁰, U⁰, t) (Madill 3.9.4), from exact derivatives."""
         n = self.n
         x0 = np.asarray(x0, float).ravel()
         u0 = np.asarray(u0, float).ravel()
@@ -213,17 +222,17 @@ class NumericModel:
         q, qd = x0[:n], x0[n:]
         force = u0[n:] if self.has_force and u0.size > n else np.zeros(3)
         D = self.inertia(q, p)
-        qdd = self.forward_dynamics(q, qd, u0[:n], p, force if self.has_force else None)
+        qdd = self.forward_dynamics(q, qd, u0[:n], p, force if self.has_force else None, t=t)
         terms = self._linear_terms
         dD = self.inertia_derivatives(q, p)
-        dP_dq = terms["dP_dq"](q, qd, self.params(p))
+        dP_dq = terms["dP_dq"](q, qd, *self._at(t), self.params(p))
         lhs = np.einsum("kij,j->ik", dD, qdd) + dP_dq
         if self.has_force:
             lhs += terms["dJtF_dq"](q, force, self.params(p))
         A = np.zeros((2 * n, 2 * n))
         A[:n, n:] = np.eye(n)
         A[n:, :n] = -np.linalg.solve(D, lhs)
-        A[n:, n:] = -np.linalg.solve(D, terms["dP_dqd"](q, qd, self.params(p)))
+        A[n:, n:] = -np.linalg.solve(D, terms["dP_dqd"](q, qd, *self._at(t), self.params(p)))
         inputs = np.eye(n) if not self.has_force else np.hstack([np.eye(n), -self.jacobian(q, p).T])
         B = np.zeros((2 * n, inputs.shape[1]))
         B[n:, :] = np.linalg.solve(D, inputs)
@@ -244,7 +253,7 @@ def natural_frequencies(model: DynamicModel, q0=None, p=None, rigid_tolerance: f
     q0 = np.zeros(n) if q0 is None else np.asarray(q0, float)
     terms = num._linear_terms
     zeros = np.zeros(n)
-    K = terms["dP_dq"](q0, zeros, num.params(p))  # at Q̇ = 0 only ∂(g + k)/∂Q remains
+    K = terms["dP_dq"](q0, zeros, *num._at(0.0), num.params(p))  # at Q̇ = 0 only ∂(g + k)/∂Q remains
     K = (K + K.T) / 2
     D = num.inertia(q0, p)
     w2, vectors = eigh(K, D)

@@ -59,6 +59,13 @@ def velocity_name(name: str) -> str:
     return f"qd_{name}"
 
 
+TIME_NAME = "t"
+"""The reserved name of time (seconds) in model files: allowed in ``[[force]]`` expressions only."""
+
+TIME = sp.Symbol(TIME_NAME, real=True)
+"""The SymPy symbol of time in derived expressions (a time-varying model's forces hold it)."""
+
+
 def parameter_symbol(name: str) -> sp.Symbol:
     """The SymPy symbol of parameter ``name``."""
     return sp.Symbol(name, real=True)
@@ -215,7 +222,8 @@ class Drive:
 @dataclass(frozen=True)
 class Force:
     """A generalized force exerted ON the system at ``coordinate``: an expression of coordinates,
-    velocities (written ``qd_<coordinate>``) and parameters, e.g. a cable spring ``-k1*(q1 - q10)``."""
+    velocities (written ``qd_<coordinate>``), parameters and time ``t`` (s), e.g. a cable spring
+    ``-k1*(q1 - q10)`` or a mains disturbance ``-(a*sin(2*pi*50*t) + b*cos(2*pi*50*t))``."""
 
     name: str
     coordinate: str
@@ -278,6 +286,11 @@ class Robot:
     @property
     def parameter_values(self) -> dict[sp.Symbol, float]:
         return {p.symbol: p.value for p in self.parameters}
+
+    @property
+    def time_varying(self) -> bool:
+        """Whether a ``[[force]]`` expression holds time :data:`TIME` (the equations of motion then do)."""
+        return any(isinstance(f.expression, sp.Basic) and TIME in f.expression.free_symbols for f in self.forces)
 
     @property
     def constrained_coordinates(self) -> tuple[str, ...]:

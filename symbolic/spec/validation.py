@@ -17,10 +17,10 @@ import numpy as np
 import sympy as sp
 
 from symbolic.errors import ModelError, ModelWarning, listing, shorten, shown
-from symbolic.spec.expressions import RESERVED_NAMES, check_magnitude, check_value, parse_expression
+from symbolic.spec.expressions import RESERVED_NAMES, check_magnitude, check_value, parse_expression, variable_names
 from symbolic.spec.robot import (
     BASE, BOUNDARIES, C_KEYWORDS, CONVENTIONS, DH_KEYS, FRAME_NAME, IDENTIFIER, INERTIA_KEYS, MODEL_NAME,
-    Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Robot, Stribeck,
+    TIME, TIME_NAME, Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Robot, Stribeck,
     coordinate_symbol, velocity_name, velocity_symbol,
 )
 
@@ -91,6 +91,9 @@ class _Validator:
                 raise self.fail(key, f"undeclared symbol(s) {listing(sorted(map(str, unknown)))}")
             check_value(expr, self.source, self.robot.keys.get(key, key), shorten(str(expr)))
         else:
+            if isinstance(value, str) and TIME_NAME in variable_names(value):
+                raise self.fail(key, f"time {TIME_NAME!r} is allowed only in [[force]] expressions, not here "
+                                     "(coordinates, parameters, numbers and functions of them)")
             expr = parse_expression(value, self.symbols, self.source, self.robot.keys.get(key, key))
         if allowed is not None:
             bad = {s.name for s in expr.free_symbols} - set(allowed)
@@ -137,6 +140,8 @@ class _Validator:
                 raise self.fail(key, f"{shown(name, 40)} is not an identifier ([A-Za-z][A-Za-z0-9_]*)")
             if name in RESERVED_NAMES:
                 raise self.fail(key, f"{shown(name, 40)} is reserved (a function or constant name)")
+            if name == TIME_NAME:
+                raise self.fail(key, f"{TIME_NAME!r} is reserved for time in [[force]] expressions; choose another name")
             if name.endswith("_dot") or name.endswith("_ddot"):
                 raise self.fail(key, f"{shown(name, 40)}: names ending in _dot/_ddot are reserved for velocities")
             if name.startswith("qd_") or name.startswith("qdd_"):
@@ -395,7 +400,7 @@ class _Validator:
         allowed = self.actuated_coordinates()
         velocities = {velocity_name(c): velocity_symbol(c) for c in self.robot.generalized_coordinates}
         modal = {c: coordinate_symbol(c) for c in self.robot.generalized_coordinates}
-        symbols = self.symbols | modal | velocities
+        symbols = self.symbols | modal | velocities | {TIME_NAME: TIME}
         out, names = [], set()
         for f in self.robot.forces:
             entry = f"[[force]] {f.name!r}"

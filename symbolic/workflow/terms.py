@@ -60,11 +60,13 @@ class ModelTerms:
         return tuple(n for n, f in zip(self.names, self.free) if f)
 
     def columns(self, data: DataSet) -> np.ndarray:
-        """The base columns on ``data``, reduced: ``samples × N × len(names)`` (computed once per data set)."""
+        """The base columns on ``data``, reduced: ``samples × N × len(names)`` (computed once per data set);
+        a time-varying model's at each sample's time."""
         key = id(data)
         if key not in self._columns:
             s = data.states
-            self._columns[key] = (data, data.reduce(self.regressor(s.q, s.qd, s.qdd)))
+            timed = {"t": data.measurements.t} if self.model.time_varying else {}
+            self._columns[key] = (data, data.reduce(self.regressor(s.q, s.qd, s.qdd, **timed)))
         return self._columns[key][1]
 
     def known(self, data: DataSet) -> np.ndarray:
