@@ -240,15 +240,21 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     import json
 
     from symbolic.workflow import EFFECTS, diagnose
+    from symbolic.workflow.effects import select
 
     effects = None
     if args.effects is not None:
         names = [n.strip() for n in args.effects.split(",") if n.strip()]
-        unknown = sorted(set(names) - set(EFFECTS))
+        try:
+            effects = select(names) if names else None
+        except KeyError as error:
+            unknown = error.args[0]
+        else:
+            unknown = []
         if unknown or not names:
-            print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join(EFFECTS)})", file=sys.stderr)
+            print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join(EFFECTS)}; "
+                  "periodic means both periodic in position and periodic_time)", file=sys.stderr)
             return 2
-        effects = [EFFECTS[n] for n in names]
     model = derive(resolve(args.model))
     result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects,
                       simulate=args.simulate or None)

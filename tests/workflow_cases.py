@@ -166,7 +166,7 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     table = controller_table(model, reference[0], resolution, coordinates)
     # the kind "pd" damps the measured velocity, not the tracking error's: the velocity feedforward kd·ṙ
     # completes it to a PD on the error (else the axis lags 2ζ/ω behind the reference)
-    feedforward = _feedforward(model, coordinates, reference, rd, rdd) + rd * np.asarray(table["kd"])
+    feedforward = _feedforward(model, coordinates, reference, rd, rdd, t) + rd * np.asarray(table["kd"])
     feedforward = feedforward + pulses * np.where(np.floor(t) % 2 == 0, 0.5, -0.5)[:, None]
     table["disturbance"] = [f"ff_{c}" for c in coordinates]
     extras = {f"ff_{c}": feedforward[:, k] for k, c in enumerate(coordinates)}
@@ -186,11 +186,16 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     return dataclasses.replace(logged, controller={k: v for k, v in table.items() if k != "disturbance"})
 
 
-def _feedforward(model, coordinates, q, qd, qdd) -> np.ndarray:
+def _feedforward(model, coordinates, q, qd, qdd, t) -> np.ndarray:
     """The computed-torque feedforward of a well-tuned loop: the truth's inverse dynamics along the
     reference (unmeasured coordinates held at rest), on the measured coordinates. It keeps the loop
     from sticking at velocity reversals, where a PD loop alone dwells until its error overcomes Coulomb
-    friction; the workflow never sees it (the log holds the total force)."""
+    friction; the workflow never sees it (the log holds the total force). A disturbance in time (a
+    [[force]] in t) is left out: the machine's controller does not know it, and the loop rejects it."""
+    if model.time_varying:
+        steady = dataclasses.replace(model.robot, forces=tuple(f for f in model.robot.forces
+                                                                if model.time not in f.expression.free_symbols))
+        model = symbolic.derive(steady)
     num = numeric_model(model)
     names = list(model.robot.generalized_coordinates)
     rows = [names.index(c) for c in coordinates]

@@ -40,7 +40,7 @@ from symbolic.workflow.dataset import DataSet, load_sets
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
 from symbolic.spec import robots
 from symbolic.workflow.patch import Editor
-from symbolic.workflow.search import Search
+from symbolic.workflow.search import Search, variant_of
 from symbolic.workflow.search import Settings as SearchSettings
 from symbolic.workflow.terms import NominalFit, coordinate_gaps, final_nominal, fit_nominal, model_terms, relative_gap
 from symbolic.workflow.where import localise
@@ -73,9 +73,16 @@ class Found:
     sigmas: dict[str, float | None]
     model_parameters: dict[str, float]
     evidence: dict[str, Any]
+    variant: str | None = None
+    """Which variant of ``effect`` (``"position"`` or ``"time"`` for ``periodic``); ``None`` for the others."""
+
+    def label(self) -> str:
+        """``periodic (in time)``, ``coulomb``: the effect as the report names it."""
+        return self.effect if self.variant is None else f"{self.effect} (in {self.variant})"
 
     def to_dict(self) -> dict[str, Any]:
-        return {"effect": self.effect, "coordinate": self.coordinate, "parameters": dict(self.parameters),
+        return {"effect": self.effect, **({"variant": self.variant} if self.variant else {}),
+                "coordinate": self.coordinate, "parameters": dict(self.parameters),
                 "model_parameters": dict(self.model_parameters), "evidence": {**self.evidence, "sigma": dict(self.sigmas)}}
 
 
@@ -139,7 +146,8 @@ class Diagnosis:
                         "left": self.where_after["left"]},
             "where": _plain(self.where_before),
             "rejected": [] if last is None else [c.summary() for c in last.candidates if c.status == "tested"],
-            "removed": [{"effect": a.candidate.effect.name, "coordinate": a.candidate.coordinate, "round": a.round,
+            "removed": [{"effect": a.candidate.effect.identifier, **variant_of(a.candidate.effect),
+                         "coordinate": a.candidate.coordinate, "round": a.round,
                          "parameters": dict(a.candidate.roles), "final_p_value": p, "explained_by": others}
                         for a, p, others in self.search.removed],
             "not_supported": dict(NOT_SUPPORTED),
@@ -234,7 +242,7 @@ def diagnose(
         for a, final in zip(accepted, finals):
             c = a.candidate
             editor.note(_evidence_comment(a, final, selection))
-            label = f"symbolic diagnose: {c.effect.name} on {c.coordinate}"
+            label = f"symbolic diagnose: {c.label()}"
             written.append(c.effect.patch(editor, selection.context, c.j, final["roles"], final["coefficients_full"],
                                           c.value, label))
         editor.drop_unused()
@@ -419,7 +427,7 @@ def _roles_text(roles: dict[str, float | None]) -> str:
 def _evidence_comment(a, final: dict[str, Any], search: Search) -> str:
     c = a.candidate
     held = "cross-validation" if search.cross_validate else "validation data"
-    text = (f"symbolic diagnose found {c.effect.name} on {c.coordinate} ({c.effect.summary}): "
+    text = (f"symbolic diagnose found {c.label()} ({c.effect.summary}): "
             f"{_roles_text(final['roles'])}. Evidence: explains {100 * c.share:.3g} % of the residual power left "
             f"at round {a.round}, F-test p = {c.p_value:.3g} (Bonferroni threshold {a.threshold:.3g}, "
             f"autocorrelation time {c.tau:.3g}), ΔBIC = {c.delta_bic:.4g}, removes {100 * c.gain:.3g} % of the "
@@ -446,7 +454,8 @@ def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Searc
         "at_acceptance": dict(c.roles),
         "final_p_value": final["p_value"],
         "still_significant": bool(final["p_value"] < alpha),
-        "alternatives": [{"effect": x.effect.name, "coordinate": x.coordinate, "parameters": dict(x.roles),
+        "alternatives": [{"effect": x.effect.identifier, **variant_of(x.effect), "coordinate": x.coordinate,
+                          "parameters": dict(x.roles),
                           "explained_share": x.share} for x in a.alternatives],
     }
     if c.effect.nonlinear:
@@ -454,10 +463,10 @@ def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Searc
     evidence.update(final.get("measured", {}))
     roles = {k: v for k, v in final["roles"].items() if k in c.effect.roles}
     evidence.update({k: v for k, v in final.get("fitted", final["roles"]).items() if k not in c.effect.roles})
-    if c.effect.name in ("gravity", "periodic"):
+    if c.effect.identifier in ("gravity", "periodic"):
         evidence["phase_rad"] = float(np.arctan2(final["coefficients_full"][1], final["coefficients_full"][0]))
     sigmas = {k: (None if final.get("measured") else v) for k, v in final["sigmas"].items() if k in roles}
-    return Found(c.effect.name, c.coordinate, roles, sigmas, dict(parameters), evidence)
+    return Found(c.effect.identifier, c.coordinate, roles, sigmas, dict(parameters), evidence, c.effect.variant)
 
 
 def _plain(value: Any) -> Any:

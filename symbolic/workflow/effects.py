@@ -18,13 +18,19 @@ as ``reference`` and is a candidate only when the model (or an accepted effect) 
 Adding an effect: subclass :class:`Effect`, set ``name``, ``roles``, ``summary``, ``axis``; implement
 ``columns``, ``roles_of`` and ``patch`` (and ``applicable``, ``grid``, ``check`` where needed); then
 ``register(MyEffect())``. The search and the report use only this interface.
+
+Variants: two catalogue entries may be variants of one contract identifier (``periodic`` in position
+and in time). Each has its own registry key ``name`` (``periodic``, ``periodic_time``); ``contract``
+names the identifier the JSON reports (:attr:`Effect.identifier`) and ``variant`` which one it is (the
+JSON's ``variant``, the report's "periodic (in time)"). :func:`select` resolves a user's names: a
+registry key, or a contract identifier meaning all its variants (``--effects periodic``).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -54,6 +60,8 @@ class Context:
     """Highest frequency (Hz) that the treatment keeps: the decimation filter's pass band."""
     kept_period: float
     """Time between two kept (decimated) samples (s)."""
+    duration: float = 0.0
+    """Time span of the estimation data (s), first to last sample."""
 
     def kind(self, coordinate: str) -> str:
         """``"revolute"`` (the coordinate is in a DH θ), ``"prismatic"`` (in a d) or ``"modal"``."""
@@ -104,10 +112,23 @@ class Effect:
     """The state the effect is a function of, for the report's figure: position, velocity, acceleration
     or time (a filtered term, which is a function of none of them alone)."""
     refines: ClassVar[str | None] = None
+    contract: ClassVar[str | None] = None
+    """The contract identifier when it differs from ``name`` (a variant; module docstring)."""
+    variant: ClassVar[str | None] = None
+    """Which variant of its contract identifier the effect is (``"position"``, ``"time"``), or ``None``."""
     nonlinear: ClassVar[str | None] = None
     """The role of the nonlinear parameter, if the effect has one (its grid comes from :meth:`grid`)."""
     optional: ClassVar[tuple[int, ...]] = ()
     """Columns that the model may already hold (e.g. a spring's constant when there is an offset)."""
+
+    @property
+    def identifier(self) -> str:
+        """The contract identifier (the JSON's ``effect``): ``contract``, else ``name``."""
+        return self.contract or self.name
+
+    def label(self) -> str:
+        """How the report names it: the identifier, with the variant (``periodic (in time)``)."""
+        return self.identifier if self.variant is None else f"{self.identifier} (in {self.variant})"
 
     def applicable(self, context: Context, j: int) -> str | None:
         """``None`` when the effect can act on coordinate ``j``, else the reason why not."""
@@ -397,7 +418,7 @@ class Gravity(_Sinusoid):
 class Periodic(_Sinusoid):
     """A disturbance periodic in position (cogging, a screw's or a gear's period): A·sin(2π·q/P + φ)."""
 
-    name, roles, axis, nonlinear = "periodic", ("amplitude", "period"), "position", "period"
+    name, roles, axis, nonlinear, variant = "periodic", ("amplitude", "period"), "position", "period", "position"
     summary = "disturbance periodic in position (cogging, screw or gear period): amplitude·sin(2π·q/period + φ)"
     OVERSAMPLING = 4
     MAX_GRID = 4000
@@ -434,6 +455,69 @@ class Periodic(_Sinusoid):
         b = editor.parameter(f"Pc_{coordinate}", float(c[1]), comment)
         x = f"2*pi*{coordinate}/{period}"
         editor.add_force(f"periodic_{coordinate}", coordinate, f"-({a}*sin({x}) + {b}*cos({x}))", comment)
+        return {a: float(c[0]), b: float(c[1])}
+
+
+class PeriodicTime(_Sinusoid):
+    """A disturbance periodic in time (mains interference, a nearby pump or fan): A·sin(2π·f·t + φ) on
+    the τ side, t the data's time stamps (s), written as a ``[[force]]`` in the model file's time ``t``.
+    The contract identifier is ``periodic`` (variant ``time``), as for :class:`Periodic` in position.
+
+    The frequency grid runs from :data:`CYCLES` cycles over the estimation record (slower is a drift
+    that the record cannot tell from the motion's own terms) to :data:`TOP` × the treatment's pass band
+    (above, the decimation filter attenuates it), spaced :data:`OVERSAMPLING` times finer than the
+    record's Fourier resolution 1/T; the independent trials are the resolution cells, (f_max − f_min)·T.
+    """
+
+    name, contract, variant = "periodic_time", "periodic", "time"
+    roles, axis, nonlinear = ("amplitude", "frequency_hz"), "time", "frequency_hz"
+    summary = "disturbance periodic in time (mains interference): amplitude·sin(2π·frequency_hz·t + φ)"
+    CYCLES = 2.0
+    TOP = 0.8
+    OVERSAMPLING = 4
+    MAX_GRID = 8000
+
+    def _range(self, context: Context) -> tuple[float, float] | None:
+        if context.duration <= 0:
+            return None
+        low, high = self.CYCLES / context.duration, self.TOP * context.passband
+        return (low, high) if high > low else None
+
+    def grid(self, context, j):
+        bounds = self._range(context)
+        if bounds is None:
+            return None
+        low, high = bounds
+        cells = (high - low) * context.duration
+        count = min(int(math.ceil(cells * self.OVERSAMPLING)) + 1, self.MAX_GRID)
+        return np.linspace(low, high, count), max(cells, 1.0)
+
+    def columns(self, q, qd, qdd, j, value):
+        raise TypeError("periodic in time needs the time stamps: use columns_at")
+
+    def columns_at(self, signals, j, value):
+        x = 2.0 * math.pi * value * np.asarray(signals.t, float)
+        return on_row(j, signals.q.shape[1], [np.sin(x), np.cos(x)])
+
+    def roles_of(self, c, value, reference):
+        amplitude, _ = self.polar(c)
+        return {"amplitude": amplitude, "frequency_hz": float(value)}
+
+    def check(self, roles, reference, context, j):
+        bounds = self._range(context)
+        f = roles["frequency_hz"]
+        step = (bounds[1] - bounds[0]) / max(self.grid(context, j)[0].size - 1, 1)
+        if f <= bounds[0] + step or f >= bounds[1] - step:
+            return (f"the frequency is not located: {f:.4g} Hz lies at the edge of the range searched "
+                    f"({bounds[0]:.4g}–{bounds[1]:.4g} Hz)")
+        return None
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        coordinate = context.coordinates[j]
+        a = editor.parameter(f"Ms_{coordinate}", float(c[0]), comment + "; amplitude·cos(phase)")
+        b = editor.parameter(f"Mc_{coordinate}", float(c[1]), comment + "; amplitude·sin(phase)")
+        x = f"2*pi*{float(value)!r}*t"
+        editor.add_force(f"periodic_time_{coordinate}", coordinate, f"-({a}*sin({x}) + {b}*cos({x}))", comment)
         return {a: float(c[0]), b: float(c[1])}
 
 
@@ -733,10 +817,7 @@ def _drive(context: Context, j: int) -> tuple[float, float]:
 EFFECTS: dict[str, Effect] = {}
 """The catalogue, by name, in the order the search tries them (ties are broken by this order last)."""
 
-NOT_SUPPORTED = {
-    "periodic (in time)": "a disturbance periodic in time (mains): a model file's forces have no time argument "
-                          "to write it in (not yet)",
-}
+NOT_SUPPORTED: dict[str, str] = {}
 """Contract identifiers not implemented yet, with the reason (listed in the report and the JSON)."""
 
 
@@ -751,7 +832,18 @@ def register(effect: Effect) -> Effect:
     return effect
 
 
-for _effect in (Coulomb(), Viscous(), Offset(), Spring(), Gravity(), Inertia(), Periodic(),
+def select(names: Sequence[str], effects: Mapping[str, Effect] | None = None) -> list[Effect]:
+    """The effects ``names`` mean, in catalogue order: a registry key, or a contract identifier standing
+    for all its variants (``periodic``: in position and in time). Raises ``KeyError`` naming the unknown."""
+    effects = EFFECTS if effects is None else effects
+    unknown = sorted(n for n in set(names) if n not in effects and all(e.identifier != n for e in effects.values()))
+    if unknown:
+        raise KeyError(unknown)
+    wanted = set(names)
+    return [e for key, e in effects.items() if key in wanted or e.identifier in wanted]
+
+
+for _effect in (Coulomb(), Viscous(), Offset(), Spring(), Gravity(), Inertia(), Periodic(), PeriodicTime(),
                 AsymmetricViscous(), AsymmetricCoulomb(), Stribeck(), FlexibleMode(), Payload()):
     register(_effect)
 
@@ -759,5 +851,6 @@ for _effect in (Coulomb(), Viscous(), Offset(), Spring(), Gravity(), Inertia(), 
 def catalogue(names: Mapping[str, Effect] | None = None) -> list[dict[str, object]]:
     """The catalogue as plain data (for the report and the JSON)."""
     effects = EFFECTS if names is None else names
-    return [{"effect": e.name, "roles": list(e.roles), "summary": e.summary, "refines": e.refines}
+    return [{"effect": e.identifier, **({"key": e.name, "variant": e.variant} if e.variant else {}),
+             "roles": list(e.roles), "summary": e.summary, "refines": e.refines}
             for e in effects.values()]

@@ -19,7 +19,7 @@ from symbolic.errors import ModelError
 from symbolic.spec.robot import Robot
 
 _RESERVED = {"pi", "E", "I", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "sqrt",
-             "exp", "log", "abs", "sign"}
+             "exp", "log", "abs", "sign", "t"}
 
 
 class Editor:

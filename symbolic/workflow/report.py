@@ -35,14 +35,14 @@ def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
 
 def _candidate_row(c: Candidate, chosen: Candidate | None) -> list[Any]:
     if c.status != "tested":
-        return [c.effect.name, c.coordinate, c.status, c.reason, "", "", "", ""]
+        return [c.effect.label(), c.coordinate, c.status, c.reason, "", "", "", ""]
     if c is chosen:
         verdict = "**accepted**"
     elif not c.failed:
         verdict = "qualifies, not chosen (another has a lower ΔBIC or ties with fewer parameters)"
     else:
         verdict = "; ".join(c.failed)
-    return [c.effect.name, c.coordinate, _roles(c.roles), f"{100 * c.share:.3g} %", _g(c.p_value, 3),
+    return [c.effect.label(), c.coordinate, _roles(c.roles), f"{100 * c.share:.3g} %", _g(c.p_value, 3),
             f"{100 * c.gain:.3g} %", _g(c.delta_bic), verdict]
 
 
@@ -103,10 +103,11 @@ def markdown(d: Diagnosis) -> str:
               f"lowest ΔBIC is accepted; candidates whose fits differ by at most {s.tie:g} in n_eff·|ln(RSS₁/RSS₂)| tie "
               f"and the one with fewer parameters is named. At the end, effects that later ones made insignificant are removed.", ""]
     if d.found:
-        rows = [[f.effect, f.coordinate, _roles(f.parameters, f.sigmas), _roles(f.model_parameters),
+        rows = [[f.label(), f.coordinate, _roles(f.parameters, f.sigmas), _roles(f.model_parameters),
                  f"{100 * f.evidence['explained_share']:.3g} %", _g(f.evidence["p_value"], 3),
                  f"{100 * f.evidence['held_out_gain']:.3g} %", _g(f.evidence["delta_bic"]),
-                 ", ".join(f"{x['effect']} on {x['coordinate']}" for x in f.evidence["alternatives"]) or "none"]
+                 ", ".join(f"{x['effect']}{' (in ' + x['variant'] + ')' if 'variant' in x else ''} on {x['coordinate']}"
+                           for x in f.evidence["alternatives"]) or "none"]
                 for f in d.found]
         lines += _table(["effect", "coordinate", "parameters (final fit, ± σ)", "written as", "explained", "p",
                          "held-out gain", "ΔBIC", "ties"], rows)
@@ -119,7 +120,8 @@ def markdown(d: Diagnosis) -> str:
         lines += _table(["effect", "coordinate", "parameters", "explained", "p", "held-out gain", "ΔBIC", "verdict"],
                         [_candidate_row(c, r.accepted.candidate if r.accepted else None) for c in r.candidates])
         lines.append("")
-    lines += ["Not yet in the catalogue: " + "; ".join(f"`{k}` ({v})" for k, v in NOT_SUPPORTED.items()) + ".", ""]
+    if NOT_SUPPORTED:
+        lines += ["Not yet in the catalogue: " + "; ".join(f"`{k}` ({v})" for k, v in NOT_SUPPORTED.items()) + ".", ""]
     lines += ["## Patch", ""]
     if d.patched_path is not None or d.patched_text is not None:
         name = d.patched_path.name if d.patched_path is not None else f"{d.model.name}_patched.toml"

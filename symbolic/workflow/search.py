@@ -126,11 +126,12 @@ class Candidate:
         return self.status == "tested" and not self.failed
 
     def label(self) -> str:
-        return f"{self.effect.name} on {self.coordinate}"
+        return f"{self.effect.label()} on {self.coordinate}"
 
     def summary(self) -> dict[str, Any]:
         """Plain data for the report and the JSON."""
-        out: dict[str, Any] = {"effect": self.effect.name, "coordinate": self.coordinate, "status": self.status}
+        out: dict[str, Any] = {"effect": self.effect.identifier, **variant_of(self.effect), "coordinate": self.coordinate,
+                               "status": self.status}
         if self.status != "tested":
             out["reason"] = self.reason
             return out
@@ -146,6 +147,11 @@ class Candidate:
             "accepted_if": [] if not self.failed else self.failed,
         })
         return out
+
+
+def variant_of(effect: Effect) -> dict[str, str]:
+    """``{"variant": ...}`` for the JSON of an effect that is one variant of its identifier, else empty."""
+    return {"variant": effect.variant} if effect.variant else {}
 
 
 @dataclass(eq=False)
@@ -237,7 +243,7 @@ class Search:
         if p.cutoff is not None:
             passband = min(passband, p.cutoff)
         self.context = Context(terms.model.robot, estimation.coordinates, s.q[inner], s.qd[inner], s.qdd[inner], passband,
-                               p.decimation / p.rate)
+                               p.decimation / p.rate, float(estimation.t[-1] - estimation.t[0]))
         self.rounds: list[Round] = []
         self.accepted: list[Accepted] = []
 
