@@ -148,7 +148,7 @@ def controller_table(model, q0: np.ndarray, resolution: float, coordinates: tupl
 
 def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate: float = 500.0,
                  resolution: float = 2 * np.pi / 2**20, measured: tuple[str, ...] | None = None,
-                 pulses: float = 0.0, held: bool = False) -> Measurements:
+                 pulses: float = 0.0, held: bool = False, logged_feedforward: bool = False) -> Measurements:
     """Data of the truth model ``text`` simulated in closed loop (:func:`symbolic.numeric.simulation.simulate`):
     a PD loop (:func:`controller_table`) with a computed-torque feedforward (:func:`_feedforward`) follows
     the Fourier reference, reads an encoder of ``resolution`` (default 20 bits per turn: with 18 bits, the twice-differentiated quantisation left in q̈ below the 50 Hz cut-off — errors in the regressor that the F-test does not model — made 1–2 % effects at the band edge significant);
@@ -158,7 +158,10 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     table is attached as an experiment's would be. ``pulses`` > 0 adds to the drive a square wave of
     period 1 s and that amplitude (in force units), as EMPS's pulse set does: its edges excite resonances
     that the smooth reference does not reach. ``held=True`` logs the held command itself at t_k (as EMPS's
-    log of the drive voltage does), which leads the force acting over the sample by half a sample."""
+    log of the drive voltage does), which leads the force acting over the sample by half a sample.
+    ``logged_feedforward``: the log keeps the feedforward
+    (columns ``ff_<c>``) and the controller table adds it as its disturbance, so that a simulation of a
+    model in the logged loop (``diagnose(simulate=True)``) is driven as the truth was."""
     model = symbolic.derive(symbolic.loads(text, "<truth>"))
     coordinates = tuple(measured or model.robot.coordinates)
     t = np.arange(0.0, seconds, 1.0 / rate)
@@ -182,7 +185,10 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     tau = command if held else np.concatenate([command[:1], 0.5 * (command[1:] + command[:-1])])
     rng = np.random.default_rng(seed + 1000)
     tau = tau + rng.normal(0, 1, tau.shape) * noise * np.sqrt(np.mean(tau**2, axis=0))
-    logged = Measurements.from_arrays(t, coordinates, np.round(q / resolution) * resolution, tau, ref=reference)
+    logged = Measurements.from_arrays(t, coordinates, np.round(q / resolution) * resolution, tau, ref=reference,
+                                      extras=extras if logged_feedforward else None)
+    if logged_feedforward:
+        return dataclasses.replace(logged, controller=table)
     return dataclasses.replace(logged, controller={k: v for k, v in table.items() if k != "disturbance"})
 
 

@@ -243,7 +243,7 @@ class Search:
         if p.cutoff is not None:
             passband = min(passband, p.cutoff)
         self.context = Context(terms.model.robot, estimation.coordinates, s.q[inner], s.qd[inner], s.qdd[inner], passband,
-                               p.decimation / p.rate, float(estimation.t[-1] - estimation.t[0]))
+                               p.decimation / p.rate, float(estimation.t[-1] - estimation.t[0]), float(p.rate))
         self.rounds: list[Round] = []
         self.accepted: list[Accepted] = []
 
@@ -654,7 +654,7 @@ class _RoundState:
             return float(values[best])
         result = scipy.optimize.minimize_scalar(
             lambda x: -self.explained(effect, j, float(math.exp(x))),
-            bounds=(math.log(low), math.log(high)), method="bounded", options={"xatol": 1e-4})
+            bounds=(math.log(low), math.log(high)), method="bounded", options={"xatol": effect.refinement})
         return float(math.exp(result.x)) if -result.fun >= explained[best] else float(values[best])
 
     def scan_several(self, effect: Effect, j: int, values: np.ndarray) -> tuple[float, ...]:
