@@ -155,6 +155,14 @@ class Effect:
         an effect that needs time or the sampling rate (a filter, a time-periodic term) overrides this."""
         return self.columns(signals.q, signals.qd, signals.qdd, j, value)
 
+    def scan_columns(self, t: np.ndarray, n: int, j: int, values: Sequence[float]) -> list[np.ndarray] | None:
+        """For scanning a single nonlinear parameter's grid: the columns at the kept (decimated) times
+        ``t`` directly (``samples × n × k`` per value), when that is cheaper than treating
+        :meth:`columns_at`'s and spans the same columns up to an invertible mixing (the scan compares only
+        the power they explain, in the grid and in its refinement; the value found is then fitted with the
+        treated columns). ``None``: no shortcut."""
+        return None
+
     def reference_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, j: int) -> np.ndarray | None:
         """The column (``samples × N``) of the model's term whose current coefficient the effect needs
         (``reference``: e.g. the Coulomb level a Stribeck rise starts from), or ``None``."""
@@ -578,6 +586,13 @@ class PeriodicTime(_Sinusoid):
     def columns_at(self, signals, j, value):
         x = 2.0 * math.pi * value * np.asarray(signals.t, float)
         return on_row(j, signals.q.shape[1], [np.sin(x), np.cos(x)])
+
+    def scan_columns(self, t, n, j, values):
+        # the treatment's filters are linear and time-invariant: a sinusoid stays one of the same frequency
+        # (gain and phase change: a mixing of sin and cos), up to the filters' transients at the ends.
+        # Sampled at the kept times directly, the grid costs nothing next to filtering every column.
+        x = 2.0 * math.pi * np.outer(values, np.asarray(t, float))
+        return [on_row(j, n, [np.sin(row), np.cos(row)]) for row in x]
 
     def roles_of(self, c, value, reference):
         amplitude, _ = self.polar(c)

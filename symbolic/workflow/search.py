@@ -571,6 +571,29 @@ class _RoundState:
         _, _, _, G, b = parts
         return float(b @ np.linalg.solve(G, b))
 
+    def explained_on_row(self, effect: Effect, j: int, columns: list[np.ndarray]) -> list[float]:
+        """:meth:`explained` for many column sets at once, when they all act on coordinate ``j`` only and
+        none is optional (a grid of values): the same quantities b = Zᵀr0 and G = ZᵀZ − (QᵀZ)ᵀ(QᵀZ) on
+        coordinate j's rows, for every set in one matrix product. A set with a column in the model's span
+        (its part outside below :data:`COLLINEAR` of its norm) explains 0, as :meth:`project` has it."""
+        others = [i for i in range(self.n) if i != j]
+        if effect.optional or any(np.any(z[:, others, :]) for z in columns):
+            return [self.explained(effect, j, None, z) for z in columns]
+        rows = slice(j * self.n_samples, (j + 1) * self.n_samples)
+        k = columns[0].shape[2]
+        Z = np.stack([z[:, j, :] for z in columns], axis=1) * self.design.weights[j]  # samples × sets × k
+        a = np.einsum("sp,smk->pmk", self.Q[rows], Z)
+        b = np.einsum("smk,s->mk", Z, self.r0[rows])
+        zz = np.einsum("smk,sml->mkl", Z, Z)
+        G = zz - np.einsum("pmk,pml->mkl", a, a)
+        diagonal = np.einsum("mkk->mk", G)
+        norms = np.einsum("mkk->mk", zz)
+        fine = np.all((norms > 0) & (diagonal > COLLINEAR**2 * norms), axis=1) if k else np.zeros(len(columns), bool)
+        out = np.zeros(len(columns))
+        if fine.any():
+            out[fine] = np.einsum("mk,mk->m", b[fine], np.linalg.solve(G[fine], b[fine][:, :, None])[:, :, 0])
+        return [float(x) for x in out]
+
     def evaluate(self, effect: Effect, j: int) -> Candidate:
         search = self.search
         coordinate = search.context.coordinates[j]
@@ -645,15 +668,22 @@ class _RoundState:
         if np.ndim(values) == 2:
             return self.scan_several(effect, j, np.asarray(values, float))
         explained = []
+        kept = self.design.sets["estimation"].t
+
+        def quick(v: float) -> np.ndarray | None:  # the effect's shortcut (Effect.scan_columns), if it has one
+            z = effect.scan_columns(kept, self.n, j, [v])
+            return None if z is None else z[0]
+
         for chunk in np.array_split(values, max(1, math.ceil(len(values) / self.CHUNK))):
-            columns = self.batch(effect, j, [float(v) for v in chunk], "estimation")
-            explained += [self.explained(effect, j, float(v), z) for v, z in zip(chunk, columns)]
+            points = [float(v) for v in chunk]
+            columns = effect.scan_columns(kept, self.n, j, points) or self.batch(effect, j, points, "estimation")
+            explained += self.explained_on_row(effect, j, columns)
         best = int(np.argmax(explained))
         low, high = values[max(best - 1, 0)], values[min(best + 1, len(values) - 1)]
         if high <= low:
             return float(values[best])
         result = scipy.optimize.minimize_scalar(
-            lambda x: -self.explained(effect, j, float(math.exp(x))),
+            lambda x: -self.explained(effect, j, float(math.exp(x)), quick(float(math.exp(x)))),
             bounds=(math.log(low), math.log(high)), method="bounded", options={"xatol": effect.refinement})
         return float(math.exp(result.x)) if -result.fun >= explained[best] else float(values[best])
 
