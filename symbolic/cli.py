@@ -359,7 +359,8 @@ def parser() -> argparse.ArgumentParser:
     w.add_argument("--out", metavar="DIR", required=True, help="folder for report.md, the figures and <model>_patched.toml")
     w.add_argument("--simulate", action="store_true",
                    help="measure the gap on the simulated controller output (the experiment's [controller]) instead of the inverse model")
-    w.add_argument("--effects", metavar="NAMES", help="search only these catalogue effects (comma-separated; default: all)")
+    w.add_argument("--effects", metavar="NAMES", help="search only these catalogue effects (comma-separated; default: all; periodic means both its "
+                        "variants, periodic_time the one in time only)")
     w.add_argument("--json", action="store_true", help="machine-readable result")
     w.set_defaults(func=cmd_diagnose)
     r = sub.add_parser("reproduce", help="recompute every checkable number of the seed documents and compare")

@@ -326,6 +326,15 @@ def test_catalogue_holds_the_contract_identifiers() -> None:
         select(["periodic", "cogging"])
 
 
+def test_cli_effects_takes_keys_and_contract_identifiers(capsys) -> None:
+    """``--effects`` accepts registry keys and contract identifiers (``periodic``: both variants); an
+    unknown name is one line and status 2, before any file is read."""
+    assert main(["diagnose", "missing.toml", "missing.csv", "--out", "o", "--effects", "periodic,cogging"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --effects: unknown effect(s) ['cogging']") and err.count("\n") == 1
+    assert "periodic_time" in err
+
+
 class Cubic(Effect):
     """A user's effect: drag growing with the cube of the speed, c·q̇³ (as a [[force]])."""
 

@@ -163,6 +163,12 @@ class Effect:
         treated columns). ``None``: no shortcut."""
         return None
 
+    def scan_verdict(self, values: np.ndarray, explained: np.ndarray, context: Context) -> str | None:
+        """After a single nonlinear parameter's grid is scanned (``explained``: the residual power each
+        grid value explains): why the best value is not the effect's, judged on the whole scan, or
+        ``None``. Default: nothing to say."""
+        return None
+
     def reference_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, j: int) -> np.ndarray | None:
         """The column (``samples × N``) of the model's term whose current coefficient the effect needs
         (``reference``: e.g. the Coulomb level a Stribeck rise starts from), or ``None``."""
@@ -506,6 +512,11 @@ class PeriodicTime(_Sinusoid):
     """Autocorrelation of the velocity at a lag above which the motion is taken as periodic with that period."""
     refinement = 1e-8
     """A frequency error δf turns the phase by 2π·δf·t: 1e-4 of 8 Hz is 0.2 rad over 40 s; 1e-8 is nothing."""
+    LINE = 2.0
+    """The best frequency must explain at least this multiple of the best one more than :data:`APART`
+    resolution cells away: a disturbance at one frequency is one line in the residual; a comb of lines of
+    comparable power is the residual of something repeated (pulses) or a hump, not a sinusoid."""
+    APART = 2.0
 
     @staticmethod
     def _velocities(context: Context) -> np.ndarray | None:
@@ -597,6 +608,17 @@ class PeriodicTime(_Sinusoid):
     def roles_of(self, c, value, reference):
         amplitude, _ = self.polar(c)
         return {"amplitude": amplitude, "frequency_hz": float(value)}
+
+    def scan_verdict(self, values, explained, context):
+        best = int(np.argmax(explained))
+        apart = np.abs(values - values[best]) > self.APART / context.duration
+        if not apart.any() or explained[best] <= 0:
+            return None
+        k = int(np.flatnonzero(apart)[np.argmax(explained[apart])])
+        if explained[best] >= self.LINE * explained[k]:
+            return None
+        return (f"not a single line: {values[k]:.4g} Hz explains {explained[k] / explained[best]:.0%} of what "
+                f"{values[best]:.4g} Hz does (a comb or a hump of the residual, not one sinusoid)")
 
     def check(self, roles, reference, context, j):
         bounds = self._range(context)

@@ -614,6 +614,7 @@ class _RoundState:
         if effect.refines and reference_map is None:
             c.status, c.reason = f"needs {effect.refines}", f"the model has no {effect.refines} friction on {coordinate}"
             return c
+        scanned = None
         if effect.nonlinear:
             grid = effect.grid(search.context, j)
             if grid is None:
@@ -621,6 +622,7 @@ class _RoundState:
                 return c
             values, c.trials = grid
             c.value = self.scan(effect, j, values)
+            scanned = self._scanned if np.ndim(values) == 1 else None
         Z = self.design.weighted("estimation", self.columns(effect, j, c.value, "estimation"))
         parts, why = self.project(Z, effect.optional)
         if parts is None:
@@ -650,6 +652,8 @@ class _RoundState:
         c.roles = effect.roles_of(c.coefficients, c.value, c.reference)
         c.invalid = effect.check(c.roles, c.reference, search.context, j) or \
             effect.check_residual(c.roles, *self.residual_spectrum(j), c.share)
+        if c.invalid is None and effect.nonlinear and scanned is not None:
+            c.invalid = effect.scan_verdict(*scanned, search.context)
         return c
 
     def residual_spectrum(self, j: int) -> tuple[np.ndarray, np.ndarray]:
@@ -678,6 +682,7 @@ class _RoundState:
             points = [float(v) for v in chunk]
             columns = effect.scan_columns(kept, self.n, j, points) or self.batch(effect, j, points, "estimation")
             explained += self.explained_on_row(effect, j, columns)
+        self._scanned = (np.asarray(values, float), np.asarray(explained))
         best = int(np.argmax(explained))
         low, high = values[max(best - 1, 0)], values[min(best + 1, len(values) - 1)]
         if high <= low:
