@@ -91,7 +91,7 @@ def variable_names(text: str) -> list[str]:
     """
     try:
         tree = ast.parse(text.strip(), mode="eval")
-    except SyntaxError:
+    except (SyntaxError, RecursionError, MemoryError, ValueError):
         return []
     called = {id(n.func) for n in ast.walk(tree) if isinstance(n, ast.Call)}
     return [n.id for n in ast.walk(tree)

@@ -9,6 +9,7 @@ problem. The input is never modified.
 from __future__ import annotations
 
 import dataclasses
+import re
 import warnings
 from collections.abc import Iterable, Mapping
 from typing import Any
@@ -17,13 +18,18 @@ import numpy as np
 import sympy as sp
 
 from symbolic.errors import ModelError, ModelWarning, listing, shorten, shown
-from symbolic.spec.expressions import RESERVED_NAMES, check_magnitude, check_value, parse_expression, variable_names
+from symbolic.spec.expressions import (
+    MAX_LENGTH, RESERVED_NAMES, check_magnitude, check_value, parse_expression, variable_names,
+)
 from symbolic.spec.robot import (
     BASE, BOUNDARIES, C_KEYWORDS, CONVENTIONS, DH_KEYS, FRAME_NAME, IDENTIFIER, INERTIA_KEYS, MODEL_NAME,
     TIME, TIME_NAME, Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Robot, Stribeck,
     coordinate_symbol, velocity_name, velocity_symbol,
 )
 
+
+_STANDALONE_TIME = re.compile(rf"(?<![A-Za-z0-9_]){TIME_NAME}(?![A-Za-z0-9_])")
+"""Time written as a name of its own (a cheap test before parsing for it: most expressions have none)."""
 
 MAX_MODES = 6
 """Assumed modes per beam direction (:mod:`symbolic.derive.mode_shapes` is accurate up to 6)."""
@@ -91,7 +97,8 @@ class _Validator:
                 raise self.fail(key, f"undeclared symbol(s) {listing(sorted(map(str, unknown)))}")
             check_value(expr, self.source, self.robot.keys.get(key, key), shorten(str(expr)))
         else:
-            if isinstance(value, str) and TIME_NAME in variable_names(value):
+            if isinstance(value, str) and len(value) <= MAX_LENGTH and _STANDALONE_TIME.search(value) \
+                    and TIME_NAME in variable_names(value):
                 raise self.fail(key, f"time {TIME_NAME!r} is allowed only in [[force]] expressions, not here "
                                      "(coordinates, parameters, numbers and functions of them)")
             expr = parse_expression(value, self.symbols, self.source, self.robot.keys.get(key, key))
