@@ -489,14 +489,14 @@ class PeriodicTime(_Sinusoid):
 
     * below the motion's band edge (on EMPS, whose motion holds 99 % of its velocity power below
       3.7 Hz, a "disturbance" at 0.48 Hz would explain 7 % of what friction leaves);
-    * at the harmonics of a periodic motion (:meth:`motion_period`; a repeated excitation trajectory):
-      there every function of q, q̇, q̈ the model misses is periodic in time too (on the synthetic
-      cases, lines at the 25th and 50th harmonic of a 0.1 Hz excitation, 0.1 % of τ, were significant).
-      Frequencies within one resolution cell 1/T of a harmonic are not scanned.
+    * at the harmonics of a periodic motion (:meth:`motion_period`; a repeated excitation trajectory)
+      only when the line stands :data:`ISOLATED` times above the neighbouring harmonics: there every
+      function of q, q̇, q̈ the model misses is periodic in time too, a comb of lines (on the synthetic
+      cases, lines at the 25th and 50th harmonic of a 0.1 Hz excitation, 0.1 % of τ, were significant),
+      whereas mains at 50 Hz — the 500th harmonic of a 10 s excitation — is one line.
 
     The independent trials are the resolution cells scanned. Hence a disturbance that itself holds more
-    than 1 − :data:`MOTION` of the velocity's power sets the band edge and is not searched, nor one at a
-    harmonic of the excitation.
+    than 1 − :data:`MOTION` of the velocity's power sets the band edge and is not searched.
     """
 
     name, contract, variant = "periodic_time", "periodic", "time"
@@ -517,6 +517,9 @@ class PeriodicTime(_Sinusoid):
     resolution cells away: a disturbance at one frequency is one line in the residual; a comb of lines of
     comparable power is the residual of something repeated (pulses) or a hump, not a sinusoid."""
     APART = 2.0
+    ISOLATED = 10.0
+    """At a harmonic of a periodic motion the line must explain this multiple of the best of the three
+    harmonics on either side (mains at 50 Hz is the 500th harmonic of a 10 s excitation)."""
 
     @staticmethod
     def _velocities(context: Context) -> np.ndarray | None:
@@ -586,7 +589,6 @@ class PeriodicTime(_Sinusoid):
         low, high = bounds
         count = min(int(math.ceil((high - low) * context.duration * self.OVERSAMPLING)) + 1, self.MAX_GRID)
         frequencies = np.linspace(low, high, count)
-        frequencies = frequencies[self._off_harmonics(frequencies, context)]
         if frequencies.size < 2:
             return None
         return frequencies, max(frequencies.size / self.OVERSAMPLING, 1.0)
@@ -611,14 +613,35 @@ class PeriodicTime(_Sinusoid):
 
     def scan_verdict(self, values, explained, context):
         best = int(np.argmax(explained))
+        if explained[best] <= 0:
+            return None
         apart = np.abs(values - values[best]) > self.APART / context.duration
-        if not apart.any() or explained[best] <= 0:
+        if apart.any():
+            k = int(np.flatnonzero(apart)[np.argmax(explained[apart])])
+            if explained[best] < self.LINE * explained[k]:
+                return (f"not a single line: {values[k]:.4g} Hz explains {explained[k] / explained[best]:.0%} of what "
+                        f"{values[best]:.4g} Hz does (a comb or a hump of the residual, not one sinusoid)")
+        return self._harmonic_verdict(values, explained, best, context)
+
+    def _harmonic_verdict(self, values, explained, best, context) -> str | None:
+        """At a harmonic of a periodic motion, a line must stand :data:`ISOLATED` times above the
+        neighbouring harmonics: every function of the motion's phase the model misses is a comb there."""
+        if self._off_harmonics(values[best:best + 1], context)[0]:
             return None
-        k = int(np.flatnonzero(apart)[np.argmax(explained[apart])])
-        if explained[best] >= self.LINE * explained[k]:
+        period = self.motion_period(context)
+        k = round(values[best] * period)
+        cell = 0.5 / context.duration
+        neighbours = []
+        for m in (k - 3, k - 2, k - 1, k + 1, k + 2, k + 3):
+            near = np.abs(values - m / period) <= cell
+            if m > 0 and near.any():
+                neighbours.append(float(explained[near].max()))
+        if neighbours and explained[best] >= self.ISOLATED * max(neighbours):
             return None
-        return (f"not a single line: {values[k]:.4g} Hz explains {explained[k] / explained[best]:.0%} of what "
-                f"{values[best]:.4g} Hz does (a comb or a hump of the residual, not one sinusoid)")
+        share = max(neighbours) / explained[best] if neighbours else float("nan")
+        return (f"{values[best]:.4g} Hz is the harmonic {k} of the periodic motion (period {period:.4g} s) and its "
+                f"neighbouring harmonics explain up to {share:.0%} as much: a function of the motion's phase, not "
+                f"told apart from the states' terms (a disturbance there must stand {self.ISOLATED:g}× above them)")
 
     def check(self, roles, reference, context, j):
         bounds = self._range(context)
@@ -627,9 +650,6 @@ class PeriodicTime(_Sinusoid):
         if f <= bounds[0] + cell or f >= bounds[1] - cell:
             return (f"the frequency is not located: {f:.4g} Hz lies at the edge of the range searched "
                     f"({bounds[0]:.4g}–{bounds[1]:.4g} Hz: above the motion's band, within the pass band)")
-        if not self._off_harmonics(np.array([f]), context)[0]:
-            return (f"{f:.4g} Hz is a harmonic of the periodic motion (period {self.motion_period(context):.4g} s): "
-                    "a function of the motion's phase, not told apart from the states' terms")
         return None
 
     def patch(self, editor, context, j, roles, c, value, comment):
