@@ -267,8 +267,15 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         print("no significant missing effect")
     for f in result.found:
         values = ", ".join(f"{k} = {v:.6g}" if v is not None else f"{k} not determined" for k, v in f.parameters.items())
-        print(f"found {f.effect} on {f.coordinate}: {values}")
+        variant = f" (in {f.variant})" if getattr(f, "variant", None) else ""
+        print(f"found {f.effect}{variant} on {f.coordinate}: {values}")
     print(f"gap after:  {gap(result.after)}")
+    for finding in result.data_findings:
+        if finding["finding"] == "held_force":
+            g = finding["gap_validation"]
+            print(f"the data: the logged force behaves as a command held over each sample; declared "
+                  f"(held_force = true in [identification]) the held-out gap would be {g['held_force']:.4g} % "
+                  f"instead of {g['as_logged']:.4g} % before any effect (report.md)")
     print(f"wrote {args.out}/report.md" + (f" and {result.patched_path}" if result.patched_path else ""))
     return 0
 
