@@ -267,8 +267,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         print("no significant missing effect")
     for f in result.found:
         values = ", ".join(f"{k} = {v:.6g}" if v is not None else f"{k} not determined" for k, v in f.parameters.items())
-        variant = f" (in {f.variant})" if getattr(f, "variant", None) else ""
-        print(f"found {f.effect}{variant} on {f.coordinate}: {values}")
+        print(f"found {f.label()} on {f.coordinate}: {values}")
     print(f"gap after:  {gap(result.after)}")
     for finding in result.data_findings:
         if finding["finding"] == "held_force":

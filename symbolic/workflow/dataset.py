@@ -83,6 +83,15 @@ def treat(measurements: Measurements, role: str, settings: Settings | None = Non
                    p.reduce(s.q), p.reduce(s.qd), p.reduce(s.qdd))
 
 
+def with_held_force(data: DataSet) -> DataSet:
+    """``data`` treated as if its force were declared a held command (``held_force``): the same filtered
+    states, τ as the mean over each sample (:meth:`~symbolic.data.treatment.Processing.forces`)."""
+    p = dataclasses.replace(data.states.processing, held_force=True)
+    record = None if data.record is None else with_held_force(data.record)
+    return dataclasses.replace(data, states=dataclasses.replace(data.states, processing=p),
+                               tau=p.reduce(p.forces(data.measurements.tau)), record=record)
+
+
 def time_slice(measurements: Measurements, start: int, stop: int) -> Measurements:
     """Samples ``start:stop`` of ``measurements`` (every per-sample signal cut alike)."""
     cut = {}

@@ -36,7 +36,7 @@ from symbolic.data.treatment import Settings
 from symbolic.spec.modelfile import load as load_model
 from symbolic.spec.modelfile import loads, with_parameter_values
 from symbolic.spec.robot import Robot
-from symbolic.workflow.dataset import DataSet, load_sets
+from symbolic.workflow.dataset import DataSet, load_sets, with_held_force
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
 from symbolic.spec import robots
 from symbolic.workflow.patch import Editor
@@ -223,8 +223,7 @@ def diagnose(
     lap("data")
     before = _fit(model, sets, simulate)
     where_before = localise(estimation, before.predicted["estimation"])
-    findings = held_force_finding(model, sets, lambda s: load_sets(coordinates, data, experiment, validation, s)[:2],
-                                  settings, search)
+    findings = held_force_finding(model, sets, before if not simulate else None, settings, search)
     lap("gap")
     log.info("diagnose %s: gap %.4g %% (estimation), %.4g %% (held out); searching the catalogue",
              model.name, before.gap["estimation"], before.gap["validation"])
@@ -303,12 +302,13 @@ def diagnose(
     return diagnosis
 
 
-def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], reload: Callable[[Settings], tuple[DataSet, DataSet]],
+def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], nominal: Fit | None,
                        settings: Settings | None, search: SearchSettings | None) -> list[dict[str, Any]]:
     """Whether the logged force behaves as a held command (:attr:`symbolic.data.treatment.Settings.held_force`)
     when the data do not say: the nominal model identified on the data treated both ways (inverse
-    dynamics), and a finding when comparing the states with the force's mean over each sample removes
-    at least the search's effect size (``min_gain``) of the held-out residual power. Not applied: how a
+    dynamics; ``nominal`` is step 1's fit when it was on the inverse path), and a finding when comparing
+    the states with the force's mean over each sample removes at least the search's effect size
+    (``min_gain``) of the held-out residual power. Not applied: how a
     log was written is for its experiment file to declare; the finding says so and how much it matters.
 
     A held command leads the force it produces by half a sample; in the inverse model that lead looks
@@ -317,8 +317,8 @@ def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], reload: Ca
     table = estimation.measurements.identification or {}
     if (settings is not None and settings.held_force is not None) or "held_force" in table:
         return []
-    held = dict(zip(("estimation", "validation"), reload(dataclasses.replace(settings or Settings(), held_force=True))))
-    plain, centred = _fit(model, sets, None), _fit(model, held, None)
+    plain = nominal or _fit(model, sets, None)  # the inverse-model fit of step 1, or made here
+    centred = _fit(model, {role: with_held_force(data) for role, data in sets.items()}, None)
     before, after = plain.gap["validation"], centred.gap["validation"]
     removed = 1.0 - (after / before) ** 2 if before > 0 else 0.0
     threshold = (search or SearchSettings()).min_gain

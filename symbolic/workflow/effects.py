@@ -407,6 +407,17 @@ class _Sinusoid(Effect):
     def polar(c: np.ndarray) -> tuple[float, float]:
         return float(math.hypot(c[0], c[1])), float(math.atan2(c[1], c[0]))
 
+    @staticmethod
+    def write(editor: Editor, force: str, coordinate: str, stems: tuple[str, str], x: str, c: np.ndarray,
+              comment: str, role: str | None = None) -> dict[str, float]:
+        """The term as a ``[[force]]`` −(a·sin(x) + b·cos(x)) on ``coordinate`` with new parameters
+        ``<stem>_<coordinate>`` (a, b = c; with ``role``, each commented as role·cos/sin(phase))."""
+        notes = (f"; {role}·cos(phase)", f"; {role}·sin(phase)") if role else ("", "")
+        a = editor.parameter(f"{stems[0]}_{coordinate}", float(c[0]), comment + notes[0])
+        b = editor.parameter(f"{stems[1]}_{coordinate}", float(c[1]), comment + notes[1])
+        editor.add_force(f"{force}_{coordinate}", coordinate, f"-({a}*sin({x}) + {b}*cos({x}))", comment)
+        return {a: float(c[0]), b: float(c[1])}
+
 
 class Gravity(_Sinusoid):
     """An unbalanced or missing mass moment about a revolute coordinate: moment·sin(q + phase) on the τ side."""
@@ -427,10 +438,7 @@ class Gravity(_Sinusoid):
 
     def patch(self, editor, context, j, roles, c, value, comment):
         coordinate = context.coordinates[j]
-        a = editor.parameter(f"Gs_{coordinate}", float(c[0]), comment + f"; moment·cos(phase)")
-        b = editor.parameter(f"Gc_{coordinate}", float(c[1]), comment + f"; moment·sin(phase)")
-        editor.add_force(f"gravity_{coordinate}", coordinate, f"-({a}*sin({coordinate}) + {b}*cos({coordinate}))", comment)
-        return {a: float(c[0]), b: float(c[1])}
+        return self.write(editor, "gravity", coordinate, ("Gs", "Gc"), coordinate, c, comment, "moment")
 
 
 class Periodic(_Sinusoid):
@@ -468,12 +476,7 @@ class Periodic(_Sinusoid):
 
     def patch(self, editor, context, j, roles, c, value, comment):
         coordinate = context.coordinates[j]
-        period = repr(float(value))
-        a = editor.parameter(f"Ps_{coordinate}", float(c[0]), comment)
-        b = editor.parameter(f"Pc_{coordinate}", float(c[1]), comment)
-        x = f"2*pi*{coordinate}/{period}"
-        editor.add_force(f"periodic_{coordinate}", coordinate, f"-({a}*sin({x}) + {b}*cos({x}))", comment)
-        return {a: float(c[0]), b: float(c[1])}
+        return self.write(editor, "periodic", coordinate, ("Ps", "Pc"), f"2*pi*{coordinate}/{float(value)!r}", c, comment)
 
 
 class PeriodicTime(_Sinusoid):
@@ -654,11 +657,8 @@ class PeriodicTime(_Sinusoid):
 
     def patch(self, editor, context, j, roles, c, value, comment):
         coordinate = context.coordinates[j]
-        a = editor.parameter(f"Ms_{coordinate}", float(c[0]), comment + "; amplitude·cos(phase)")
-        b = editor.parameter(f"Mc_{coordinate}", float(c[1]), comment + "; amplitude·sin(phase)")
-        x = f"2*pi*{float(value)!r}*t"
-        editor.add_force(f"periodic_time_{coordinate}", coordinate, f"-({a}*sin({x}) + {b}*cos({x}))", comment)
-        return {a: float(c[0]), b: float(c[1])}
+        return self.write(editor, "periodic_time", coordinate, ("Ms", "Mc"), f"2*pi*{float(value)!r}*t", c, comment,
+                          "amplitude")
 
 
 class Inertia(Effect):

@@ -65,8 +65,7 @@ class ModelTerms:
         key = id(data)
         if key not in self._columns:
             s = data.states
-            timed = {"t": data.measurements.t} if self.model.time_varying else {}
-            self._columns[key] = (data, data.reduce(self.regressor(s.q, s.qd, s.qdd, **timed)))
+            self._columns[key] = (data, data.reduce(self.regressor(s.q, s.qd, s.qdd, t=data.measurements.t)))
         return self._columns[key][1]
 
     def known(self, data: DataSet) -> np.ndarray:
