@@ -22,7 +22,7 @@ import json, resource, sys, time, warnings
 warnings.simplefilter("ignore")
 import sympy as sp
 import symbolic
-from symbolic.spec.robot import Body, Frame, Parameter, Robot
+from symbolic.description.robot import Body, Frame, Parameter, Robot
 
 def planar(n):
     params = [Parameter("g", 9.81)]

@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def emps(lines: list[str]) -> None:
     from symbolic.data import DataError
-    from symbolic.spec import robots
+    from symbolic import robots
     from symbolic.workflow import diagnose
 
     try:
@@ -70,7 +70,7 @@ def panda(lines: list[str]) -> None:
     import symbolic
     from symbolic.data import Measurements
     from symbolic.identify.model import base_regressor, model_base
-    from symbolic.spec import robots
+    from symbolic import robots
     from symbolic.workflow import diagnose
 
     start = time.perf_counter()

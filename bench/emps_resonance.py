@@ -212,7 +212,7 @@ def modes(lines: list[str], M: float, Fv: float, lag_time: float) -> None:
     import tomllib
 
     import symbolic
-    from symbolic.spec import robots
+    from symbolic import robots
     from symbolic.workflow.modes import closed_loop_modes
 
     table = tomllib.loads(robots.example_path("emps_pulses").read_text())["controller"]
@@ -236,7 +236,7 @@ def two_mass(free_hz: float, free_damping: float, motor_share: float, noise: flo
     free (τ-held) mode ``free_hz``, ``free_damping``. The log holds the encoder and the force centred on
     the samples (its mean over [t − T/2, t + T/2]) with white noise; returns the measurements."""
     from symbolic.data import Measurements, load
-    from symbolic.spec import robots
+    from symbolic import robots
 
     source = load(robots.example_path("emps_pulses"), ("q",))
     t, ref, pulses = np.asarray(source.t), np.asarray(source.ref)[:, 0], np.asarray(source.extras["pulses_N"])
@@ -280,7 +280,7 @@ def main() -> int:
     if folder.is_dir():
         os.environ.setdefault("SYMBOLIC_DATA_PATH", str(folder))
     from symbolic.data import DataError
-    from symbolic.spec import robots
+    from symbolic import robots
     from symbolic.workflow.dataset import load_sets
 
     start = time.perf_counter()

@@ -30,7 +30,7 @@ def main() -> int:
     import numpy as np
 
     from symbolic import data, identify
-    from symbolic.spec import robots
+    from symbolic import robots
 
     imported = time.perf_counter() - start
 

@@ -34,7 +34,7 @@ import warnings  # noqa: E402
 
 import symbolic  # noqa: E402
 from reference_pinocchio import build  # noqa: E402
-from symbolic.numeric.exported import batched_programs, programs  # noqa: E402
+from symbolic.codegen.exported import batched_programs, programs  # noqa: E402
 
 PAIRS = [
     ("inverse dynamics", "pin_rnea", "our_id"),

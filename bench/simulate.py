@@ -96,7 +96,7 @@ def pinocchio_loop(robot, q0: np.ndarray, log, table: dict, substeps: int) -> np
 def simulation_times(name: str, q0: np.ndarray, controlled: list[str], repeat: int) -> dict:
     """Derive, build, compile (cold) and run; the best run time of ``repeat``, and one run in the VM."""
     import symbolic
-    from symbolic.numeric import simulate
+    from symbolic.simulation import simulate
 
     derive_time, model = best(1, lambda: symbolic.derive(symbolic.robots.load(name)))
     log, table = log_and_table(model, q0, controlled)
@@ -123,7 +123,7 @@ def main() -> int:
 
     import casadi
     import symbolic
-    from symbolic.numeric.compiled import compiler
+    from symbolic.codegen.compiled import compiler
 
     panda_q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
     panda_robot = symbolic.robots.load("panda")

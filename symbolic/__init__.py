@@ -5,24 +5,25 @@
 >>> model = symbolic.derive(robot)
 >>> model.D.shape
 (3, 3)
+
+The public API is :data:`__all__`, documented in docs/api.md.
 """
 
 from __future__ import annotations
 
 import logging
 
-from symbolic import emit, numeric, spec
+from symbolic import description, export, numeric, robots
 from symbolic.derive import analysis
 from symbolic.derive.dynamics import DynamicModel, derive
-from symbolic.errors import ModelError, ModelWarning
+from symbolic.description.modelfile import load, loads
+from symbolic.description.robot import Beam, Body, Constraint, EndEffector, Frame, Parameter, Robot
+from symbolic.description.validation import validate
+from symbolic.errors import (
+    DataError, ExportError, IdentificationError, ModelError, ModelWarning, SimulationError, SymbolicError,
+)
 from symbolic.numeric import NumericModel, numeric_model
-from symbolic.spec import robots
-from symbolic.spec.modelfile import load, loads
-from symbolic.spec.robot import Beam, Body, Constraint, EndEffector, Frame, Parameter, Robot
-from symbolic.spec.validation import validate
 from symbolic.version import __version__
-
-export = emit  # the name earlier callers use: symbolic.export.generate(model, "out/")
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
@@ -30,23 +31,28 @@ __all__ = [
     "Beam",
     "Body",
     "Constraint",
+    "DataError",
     "DynamicModel",
-    "NumericModel",
     "EndEffector",
+    "ExportError",
     "Frame",
+    "IdentificationError",
     "ModelError",
     "ModelWarning",
+    "NumericModel",
     "Parameter",
     "Robot",
+    "SimulationError",
+    "SymbolicError",
+    "__version__",
     "analysis",
     "derive",
-    "emit",
+    "description",
     "export",
     "load",
     "loads",
     "numeric",
     "numeric_model",
     "robots",
-    "spec",
     "validate",
 ]

@@ -4,7 +4,7 @@ Each robot gets ``generated/<name>/``: ``<name>.h``/``<name>.c`` (C), ``<name>_<
 the loader ``<name>_casadi.py`` (CasADi) and ``<name>.md`` (report). The content depends only on the
 model files and this package, never on time, host, path or hash seed. Each ``generated/<name>/`` is
 replaced as one set (:func:`symbolic.export.write_files` with ``owned=True``, see
-:mod:`symbolic.emit.output`): at every instant it holds exactly the previous generation or exactly
+:mod:`symbolic.export.output`): at every instant it holds exactly the previous generation or exactly
 the new one, so files no longer produced disappear with the previous set; an interrupted run
 leaves each robot's directory complete (some robots regenerated, the rest not).
 """

@@ -11,6 +11,7 @@ import logging
 import os
 import sys
 import time
+import traceback
 import warnings
 from pathlib import Path
 
@@ -18,10 +19,11 @@ import sympy as sp
 
 from symbolic import robots
 from symbolic.derive.dynamics import derive
-from symbolic.errors import ModelError, ModelWarning
-from symbolic.spec.modelfile import load
+from symbolic.errors import ModelError, ModelWarning, SymbolicError, one_line
+from symbolic.version import __version__
+from symbolic.description.modelfile import load
 from symbolic.derive.simplify import SIZE_LIMIT, compact, tree_size
-from symbolic.spec.robot import Robot
+from symbolic.description.robot import Robot
 from symbolic.reproduction.item import SOURCES as REPRODUCTION_SOURCES
 
 
@@ -169,7 +171,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     import json
 
     from symbolic.identify.model import identify_model
-    from symbolic.spec.modelfile import with_parameter_values
+    from symbolic.description.modelfile import with_parameter_values
 
     model = derive(resolve(args.model))
     result = identify_model(model, args.data, experiment=args.experiment, validation=args.validate,
@@ -205,8 +207,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     import json
 
     from symbolic import data, export
-    from symbolic.numeric import simulate
-    from symbolic.numeric.simulation_figures import MatplotlibMissing, draw
+    from symbolic.simulation import simulate
+    from symbolic.simulation.figures import MatplotlibMissing, draw
 
     try:
         if args.out:
@@ -305,7 +307,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 def cmd_first_peak(args: argparse.Namespace) -> int:
     import json
 
-    from symbolic.identify.first_peak import identify_experiment
+    from symbolic.reproduction.madill.first_peak import identify_experiment
 
     result = identify_experiment(args.experiment, args.coordinate)
     print(json.dumps(result.to_dict(), indent=2) if args.json else result.summary())
@@ -393,8 +395,11 @@ def main(argv: list[str] | None = None) -> int:
     warnings.formatwarning = lambda message, category, *rest: f"warning: {message}\n"
     try:
         return args.func(args)
-    except ModelError as error:
-        print(f"error: {error}", file=sys.stderr)
+    except SymbolicError as error:  # the user's input or environment: one line, exit 2
+        print(f"error: {one_line(str(error))}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("error: out of memory (the data or the model is too large for this machine)", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
@@ -403,6 +408,14 @@ def main(argv: list[str] | None = None) -> int:
         # the reader went away (`symbolic list | head`): quiet, as a Unix filter would be; stdout is
         # pointed at /dev/null so that flushing it at exit does not raise again
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except OSError as error:  # a file the command reads or writes: the system's own message names it
+        print(f"error: {one_line(str(error))}", file=sys.stderr)
+        return 2
+    except Exception:  # noqa: BLE001 - anything else is a bug of symbolic, not of the user's input
+        traceback.print_exc()
+        print(f"symbolic {__version__}: this is a bug of symbolic, not of your input; please report it with the "
+              "command and the files that caused it", file=sys.stderr)
         return 1
 
 

@@ -1,4 +1,4 @@
-"""Errors raised for bad model input.
+"""The errors ``symbolic`` raises, all under one root, :class:`SymbolicError`.
 
 Every message names where the problem is (file and key), what is wrong and, where it helps,
 what is allowed, so that a user can fix a model file without reading our source.
@@ -53,24 +53,73 @@ def one_line(text: str, limit: int | None = None) -> str:
     return text
 
 
-class ModelError(ValueError):
-    """A model description (TOML file or Python spec) is invalid.
+class SymbolicError(Exception):
+    """The root of every error ``symbolic`` raises for a user's input or environment.
 
-    Parameters
-    ----------
-    source
-        The model file's path, or ``"<python>"`` for a spec built in Python.
-    key
-        Where in the model the problem is, e.g. ``"[[frame]] 'c3' dh.theta"``.
-    problem
-        What is wrong and what is allowed.
+    The command line catches it and prints its message on one line with exit status 2; any other exception
+    is a bug of ``symbolic`` and is reported as one. ``source`` (a file, or ``"<python>"``/``"<arrays>"``) and
+    ``key`` (where in it) are set when the error points at a place in a file, else ``None``.
     """
+
+    source: str | None = None
+    key: str | None = None
+
+
+class _Located(SymbolicError):
+    """An error at a place of an input file: the message is ``FILE: KEY: what is wrong (what is allowed)``."""
 
     def __init__(self, source: str, key: str, problem: str) -> None:
         self.source = source
         self.key = key
         self.problem = problem
         super().__init__(f"{one_line(str(source))}: {one_line(key, 200)}: {one_line(problem)}")
+
+    def __reduce__(self):  # picklable with its three parts (a worker process may raise it)
+        return (type(self), (self.source, self.key, self.problem))
+
+
+class ModelError(_Located, ValueError):
+    """A model description (TOML file or Python description) is invalid.
+
+    Parameters
+    ----------
+    source
+        The model file's path, or ``"<python>"`` for a description built in Python.
+    key
+        Where in the model the problem is, e.g. ``"[[frame]] 'c3' dh.theta"``.
+    problem
+        What is wrong and what is allowed.
+    """
+
+
+class DataError(_Located, ValueError):
+    """A data file or an experiment file is unusable.
+
+    Parameters
+    ----------
+    source
+        The data or experiment file (or ``"<arrays>"`` for data given in Python).
+    key
+        Where: a column (``"column 'tau_q'"``), an experiment key (``"[signals] tau_q"``), ...
+    problem
+        What is wrong and what is allowed.
+    """
+
+
+class IdentificationError(SymbolicError, ValueError):
+    """The data cannot determine the parameters (rank-deficient observation matrix, too few rows, ...)."""
+
+
+class ExportError(SymbolicError, OSError):
+    """Output cannot be written (directory missing, not writable, not a directory, disk full, ...)."""
+
+
+class SimulationError(SymbolicError, RuntimeError):
+    """A simulation cannot run or did not stay finite (divergence, an algebraic loop without a solution)."""
+
+
+class MatplotlibMissing(SymbolicError, RuntimeError):
+    """Figures were asked for and matplotlib is not installed (``pip install 'symbolic[plot]'``)."""
 
 
 class ModelWarning(UserWarning):

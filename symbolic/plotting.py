@@ -12,13 +12,12 @@ import io
 from pathlib import Path
 from typing import Any
 
+from symbolic.errors import MatplotlibMissing
 from symbolic.writing import replacing
 
 MISSING = "figures skipped: matplotlib is not installed (pip install 'symbolic[plot]')"
 
 
-class MatplotlibMissing(RuntimeError):
-    """matplotlib is not installed: no figures."""
 
 
 def figure_class(message: str = MISSING) -> Any:

@@ -4,7 +4,7 @@
 file gets the permissions ``open()`` would give (0o666 without the umask's bits: :func:`tempfile.mkstemp`
 creates 0o600, which would hide a model file, a data file or a figure from the user's group) and is
 renamed over the target; when it raises, the temporary file is removed. Sets of files are replaced
-together by :mod:`symbolic.emit.output`.
+together by :mod:`symbolic.export.output`.
 """
 
 from __future__ import annotations

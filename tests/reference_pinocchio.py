@@ -11,7 +11,7 @@ import numpy as np
 import pinocchio as pin
 import sympy as sp
 
-from symbolic.spec.robot import Robot
+from symbolic.description.robot import Robot
 
 
 def _rot_x(alpha: float) -> pin.SE3:

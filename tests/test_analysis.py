@@ -14,6 +14,7 @@ import symbolic
 from conftest import derived
 from symbolic.derive.analysis import counterbalance, decoupling
 from symbolic.numeric import numeric_model
+from symbolic.description.validation import with_parameters
 
 S = {n: sp.Symbol(n, real=True) for n in "g l1 l2 l_c1 l_c2 l_c3 l_cr m1 m2 m3 m_r I1 I2 I3 I_r d3 d4 d6 m4 m6 mx3 my3 mx6".split()}
 ALPHA3 = S["m3"] * S["l_c3"] * S["l2"] - S["m_r"] * S["l_cr"] * S["l1"]  # Madill (4.9)
@@ -75,7 +76,7 @@ def test_counterbalance_design_round_trip(fivebar) -> None:
     l_c3 = mr * l_cr * l1 / (m3 * l2)  # (4.6)
     l_c1 = -(m3 * l_c3 + mr * l1) / m1  # (4.3)
     assert np.allclose([design.values["l_cr"], design.values["l_c3"], design.values["l_c1"]], [l_cr, l_c3, l_c1], rtol=1e-12)
-    robot = fivebar.robot.with_parameters(**design.values)
+    robot = with_parameters(fivebar.robot, **design.values)
     model = symbolic.derive(robot)
     again = decoupling(model, kinds=["decoupling", "balancing"])
     assert again.holds("decoupling") and again.holds("balancing")

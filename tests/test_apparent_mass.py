@@ -23,7 +23,7 @@ import sympy as sp
 import symbolic
 from symbolic.errors import ModelWarning
 from symbolic.numeric import operational as op
-from symbolic.numeric.exported import solved_specs
+from symbolic.codegen.exported import solved_specs
 from c_library import STRICT, compile_shared, gcc
 from reference_pinocchio import _rot_x, _trans, build
 

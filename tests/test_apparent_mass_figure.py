@@ -10,8 +10,8 @@ import pytest
 
 import symbolic
 from symbolic.cli import main
-from symbolic.emit import render
-from symbolic.emit.apparent_mass_figure import workspace_points
+from symbolic.export import render
+from symbolic.export.apparent_mass_figure import workspace_points
 from symbolic.numeric import numeric_model
 from symbolic.numeric.operational import workspace_samples
 

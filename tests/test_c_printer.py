@@ -10,7 +10,7 @@ import numpy as np
 import sympy as sp
 
 from c_library import compile_shared
-from symbolic.emit.c_printer import CPrinter, c_double
+from symbolic.codegen.c_printer import CPrinter, c_double
 
 x, y, z = sp.symbols("x y z", real=True)
 EXPRESSIONS = [

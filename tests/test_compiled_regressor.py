@@ -1,4 +1,4 @@
-"""The base regressor evaluated by a compiled C loop equals the NumPy evaluation (symbolic.identify.compiled_regressor)."""
+"""The base regressor evaluated by a compiled C loop equals the NumPy evaluation (symbolic.codegen.compiled_regressor)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 import symbolic
 from symbolic.identify.least_squares import _ols, _rank
 from symbolic.identify.model import base_regressor
-from symbolic.numeric.compiled import compiler
+from symbolic.codegen.compiled import compiler
 
 pytestmark = pytest.mark.skipif(compiler() is None, reason="needs a C compiler (gcc, cc or clang)")
 

@@ -27,7 +27,7 @@ import scipy.optimize
 import sympy as sp
 
 import symbolic
-import symbolic.emit as export
+import symbolic.export as export
 from symbolic.derive import mode_shapes
 
 GENERATED = Path(__file__).resolve().parents[1] / "generated"

@@ -11,7 +11,7 @@ import scipy.io
 
 from shared_data import emps  # noqa: F401  (fixture)
 from symbolic.data import DataError, Measurements, load, write
-from symbolic.spec import robots
+from symbolic import robots
 
 H = 1e-3
 

@@ -82,7 +82,7 @@ def _log(samples: int, identification: dict | None) -> "Measurements":
 def test_simulation_comparison_and_identification_share_one_treatment(table) -> None:
     """The comparison's q̇, q̈ and border are identification's (symbolic.data.treatment), for every key."""
     from symbolic.data.treatment import states
-    from symbolic.numeric.comparison import measured_motion
+    from symbolic.simulation.comparison import measured_motion
 
     log = _log(2000, table)
     ours, theirs = measured_motion(log), states(log)
@@ -93,7 +93,7 @@ def test_simulation_comparison_and_identification_share_one_treatment(table) -> 
 
 def test_comparison_refuses_what_identification_refuses_in_the_same_words() -> None:
     from symbolic.data import DataError
-    from symbolic.numeric.comparison import treatment
+    from symbolic.simulation.comparison import treatment
 
     with pytest.raises(DataError, match=r"\[identification\] smoothing: unknown key"):
         treatment(_log(200, {"smoothing": 3}))
@@ -104,7 +104,7 @@ def test_comparison_refuses_what_identification_refuses_in_the_same_words() -> N
 def test_comparison_of_a_short_log_runs_unfiltered_where_identification_refuses() -> None:
     from symbolic.data import DataError
     from symbolic.data.treatment import states
-    from symbolic.numeric.comparison import treatment
+    from symbolic.simulation.comparison import treatment
 
     how = treatment(_log(10, None))
     assert how.cutoff is None and how.border == 2 and "too few for the low-pass" in how.note

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import symbolic
-import symbolic.emit as export
+import symbolic.export as export
 from c_library import STRICT, CModel, compile_shared, gcc
 from conftest import derived
 from symbolic.numeric import numeric_model
@@ -251,7 +251,7 @@ def test_failed_export_leaves_previous_output_intact(tmp_path: Path, monkeypatch
     def broken(*args, **kwargs):
         raise RuntimeError("simulated failure while rendering")
 
-    monkeypatch.setattr("symbolic.emit.report.report_markdown", broken)
+    monkeypatch.setattr("symbolic.export.markdown.report_markdown", broken)
     with pytest.raises(RuntimeError):
         export.generate(model, out, ["c", "report"])
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before

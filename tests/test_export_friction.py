@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 
 import symbolic
-import symbolic.emit as export
+import symbolic.export as export
 from c_library import CModel, compile_shared
 from symbolic.numeric import numeric_model
-from symbolic.spec import Directional, Drive, Force, Friction, Parameter, Stribeck
+from symbolic.description import Directional, Drive, Force, Friction, Parameter, Stribeck
 
 ROBOTS = ["fivebar", "puma560", "panda", "janot_branch", "omni", "single_flexible_link", "madill_beam", "fivebar_flexible", "emps"]
 

@@ -14,9 +14,9 @@ from scipy import signal
 import symbolic
 from symbolic.cli import main
 from symbolic.data import DataError, Measurements, write
-from symbolic.identify import first_peak as fp
-from symbolic.numeric import simulate
-from symbolic.spec import modelfile
+from symbolic.reproduction.madill import first_peak as fp
+from symbolic.simulation import simulate
+from symbolic.description import modelfile
 
 JOINT = """
 name = "joint"

@@ -14,6 +14,7 @@ import symbolic
 from symbolic.derive.mode_shapes import clamped_free_roots, modal_constants, modes
 from symbolic.numeric.statespace import natural_frequencies
 from symbolic.numeric import numeric_model
+from symbolic.description.validation import with_parameters
 
 
 def with_modes(name: str, **replace: str) -> symbolic.Robot:
@@ -100,7 +101,7 @@ def test_clamped_free_frequency_5_10() -> None:
     exact = clamped_free_roots(1)[0] ** 2 * np.sqrt(EI / (rhoA * length**4))
     # 437.07 rad/s (69.56 Hz) from the stated dimensions; the issue quotes 436.5, the thesis 436 (rounded I, A)
     assert abs(exact - 436.5) <= 0.002 * 436.5
-    robot = with_modes("single_flexible_link").with_parameters(I_h=1e12, l=length, rho=rhoA, EIv=EI, EIw=EI)
+    robot = with_parameters(with_modes("single_flexible_link"), I_h=1e12, l=length, rho=rhoA, EIv=EI, EIw=EI)
     frequencies, _ = natural_frequencies(symbolic.derive(robot))
     assert abs(frequencies[0] - exact) <= 1e-6 * exact
 
@@ -147,7 +148,7 @@ def test_gravity_sag_against_4_4(n: int, tolerance: float) -> None:
     m, length, EI = 0.077, 0.4735, 69e9 * 0.128e-8
     expected = m * 9.81 * length**3 / (8 * EI)
     assert abs(expected - 0.0114e-2) <= 0.01 * 0.0114e-2  # 1.1349e-4 m; the thesis rounds to 0.0114 cm
-    robot = with_modes("single_flexible_link", **{"modes_w = 2": f"modes_w = {n}", "modes_v = 2": "modes_v = 1"}).with_parameters(
+    robot = with_parameters(with_modes("single_flexible_link", **{"modes_w = 2": f"modes_w = {n}", "modes_v = 2": "modes_v = 1"}), 
         l=length, rho=m / length, EIw=EI, EIv=EI
     )
     model = symbolic.derive(robot)
@@ -167,7 +168,7 @@ def test_gravity_sag_against_4_4(n: int, tolerance: float) -> None:
 
 def test_energy_is_conserved_in_simulation() -> None:
     """Undamped, unforced: K + V_g + V_s constant to integration tolerance (rtol 1e-10) over 0.2 s."""
-    model = symbolic.derive(with_modes("single_flexible_link").with_parameters(EIv=20.0, EIw=20.0))
+    model = symbolic.derive(with_parameters(with_modes("single_flexible_link"), EIv=20.0, EIw=20.0))
     num = numeric_model(model)
     n = model.n
 

@@ -21,7 +21,7 @@ from conftest import derived
 from symbolic.derive.friction import friction_force
 from symbolic.errors import ModelError
 from symbolic.numeric import natural_frequencies, numeric_model
-from symbolic.spec import Directional, Drive, Force, Friction, Parameter, Stribeck
+from symbolic.description import Directional, Drive, Force, Friction, Parameter, Stribeck
 
 AXIS = """
 name = "axis"

@@ -25,7 +25,7 @@ from hypothesis import strategies as st
 import symbolic
 from deadline import within
 from symbolic.errors import ModelError
-from symbolic.spec.expressions import FUNCTIONS, parse_expression
+from symbolic.description.expressions import FUNCTIONS, parse_expression
 
 ISSUE_SHAPES = [
     "q2" + "+q2" * 3300,

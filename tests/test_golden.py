@@ -11,7 +11,7 @@ from pathlib import Path
 import sympy as sp
 
 import symbolic
-import symbolic.emit as export
+import symbolic.export as export
 from symbolic.derive.simplify import trig_zero
 
 GOLDEN = Path(__file__).parent / "golden"

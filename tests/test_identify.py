@@ -19,7 +19,7 @@ from shared_data import emps  # noqa: F401  (fixture)
 from symbolic import data, identify
 from symbolic.data import DataError, Measurements
 from symbolic.identify import IdentificationError, Settings
-from symbolic.spec import robots
+from symbolic import robots
 
 # ---------------------------------------------------------------------------------------------- EMPS
 
@@ -59,7 +59,7 @@ def test_emps_reproduces_the_published_identification(emps: Path) -> None:
     assert result.flagged == ()
     assert result.relative_error == pytest.approx(4.08, abs=0.15)
     assert result.condition_number == pytest.approx(26, abs=0.5)
-    assert identify.validate(result, cross, emps_regressor).relative_error == pytest.approx(5.98, abs=0.2)
+    assert identify.cross_validate(result, cross, emps_regressor).relative_error == pytest.approx(5.98, abs=0.2)
 
 
 def test_emps_direction_dependent_friction(emps: Path) -> None:
@@ -87,7 +87,7 @@ def test_emps_with_the_publications_border_matches_its_printed_digits(emps: Path
         assert result[name].relative_sigma == pytest.approx(value, abs=0.005), name
     assert result.condition_number == pytest.approx(25.99, abs=0.005)
     assert result.relative_error == pytest.approx(4.08, abs=0.005)
-    assert identify.validate(result, cross, emps_regressor, script).relative_error == pytest.approx(5.98, abs=0.005)
+    assert identify.cross_validate(result, cross, emps_regressor, script).relative_error == pytest.approx(5.98, abs=0.005)
     directional = identify.identify(estimation, directional_regressor, DIRECTIONAL_NAMES, script)
     for name, value in {"Fv+": 166.71, "Fv-": 240.42, "Fc+": 20.14, "Fc-": 20.63}.items():
         assert directional[name].value == pytest.approx(value, abs=0.005), name

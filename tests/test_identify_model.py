@@ -26,8 +26,9 @@ from symbolic.data import Measurements
 from symbolic.identify.model import identify_model, model_base
 from symbolic.numeric import numeric_model
 from symbolic.numeric.base_parameters import theta_values
-from symbolic.spec import Directional, Friction, robots
-from symbolic.spec.modelfile import with_parameter_values
+from symbolic import robots
+from symbolic.description import Directional, Friction
+from symbolic.description.modelfile import with_parameter_values
 
 
 def load(name: str) -> symbolic.Robot:

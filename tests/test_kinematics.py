@@ -41,7 +41,7 @@ def test_jacobians_are_madill_3_52_and_3_53(name: str, frame: str) -> None:
     Jv_literal = d.jacobian(q)
     literal = sp.lambdify([q], [JO_literal, Jv_literal, R, d])
     kin = model.kinematics
-    from symbolic.numeric.functions import compile_function
+    from symbolic.codegen.functions import compile_function
 
     args = [q, model.parameter_symbols]
     jacobians = compile_function(model.sub, args, sp.Matrix.vstack(kin.jacobian_omega(frame), kin.jacobian_v(frame)))
@@ -65,7 +65,7 @@ def test_end_effector_jacobian_and_virtual_work(name: str) -> None:
     model = derived(name)
     kin = model.kinematics
     ee = model.robot.end_effector
-    from symbolic.numeric.functions import compile_function
+    from symbolic.codegen.functions import compile_function
 
     args = [model.coordinates, model.parameter_symbols]
     position = compile_function(model.sub, args, kin.point_position(ee.frame, sp.Matrix(ee.point)))

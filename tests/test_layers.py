@@ -1,7 +1,9 @@
-"""The package's layers import one way only (docs/architecture.md, "Layers").
+"""The package's layers import one way only, and no modules import each other in a circle
+(docs/architecture.md, "Layers").
 
 Every ``import`` in every module of ``symbolic/`` is parsed with :mod:`ast` — including imports inside
-functions, which a lazy import would otherwise hide — and refused when it reaches a higher layer.
+functions, which a lazy import would otherwise hide — and refused when it reaches a higher layer or
+closes a circle of modules.
 """
 
 from __future__ import annotations
@@ -16,11 +18,13 @@ PACKAGE = Path(__file__).resolve().parents[1] / "symbolic"
 # Lowest first. A module may import its own layer and the layers before it.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("symbolic.errors", "symbolic.version", "symbolic.writing", "symbolic.plotting"),
-    ("symbolic.spec",),
+    ("symbolic.description", "symbolic.robots", "symbolic.spec"),  # symbolic.spec: the deprecated alias
     ("symbolic.data",),
     ("symbolic.derive",),
+    ("symbolic.codegen",),
     ("symbolic.numeric",),
-    ("symbolic.emit",),
+    ("symbolic.simulation",),
+    ("symbolic.export", "symbolic.emit"),  # symbolic.emit: the deprecated alias
     ("symbolic.identify",),
     ("symbolic.workflow",),
     ("symbolic.reproduction",),  # the seeds' numbers recomputed through the layers below
@@ -52,7 +56,7 @@ def imported_modules(source: str, module: str, is_package: bool) -> list[tuple[i
             if node.level:
                 parts = package.split(".")
                 base = ".".join(parts[: len(parts) - node.level + 1] + ([base] if base else []))
-            # "from symbolic import emit" imports the module symbolic.emit
+            # "from symbolic import emit" imports the module symbolic.export
             found += [(node.lineno, f"{base}.{a.name}" if base == "symbolic" else base) for a in node.names]
     return [(line, name) for line, name in found if name == "symbolic" or name.startswith("symbolic.")]
 
@@ -91,10 +95,11 @@ def test_no_module_imports_a_higher_layer() -> None:
 @pytest.mark.parametrize(
     "module, source",
     [
-        ("symbolic.spec.robot", "from symbolic.derive.mode_shapes import BOUNDARIES\n"),
+        ("symbolic.description.robot", "from symbolic.derive.mode_shapes import BOUNDARIES\n"),
         ("symbolic.derive.dynamics", "def f():\n    from symbolic.numeric import numeric_model\n"),
-        ("symbolic.emit.report", "from symbolic import __version__\n"),
-        ("symbolic.numeric.casadi", "import symbolic.emit.templates\n"),
+        ("symbolic.export.markdown", "from symbolic import __version__\n"),
+        ("symbolic.codegen.casadi", "import symbolic.simulation.controller\n"),
+        ("symbolic.numeric.statespace", "from symbolic.simulation import simulate\n"),
         ("symbolic.derive.analysis", "from ..numeric import statics\n"),
     ],
 )
@@ -103,5 +108,67 @@ def test_a_deliberately_upward_import_is_caught(module: str, source: str) -> Non
 
 
 def test_downward_and_sibling_imports_pass() -> None:
-    source = "from symbolic.spec.robot import Robot\nfrom symbolic.derive import christoffel\nfrom . import exported\n"
-    assert upward_imports(source, "symbolic.numeric.casadi") == []
+    source = "from symbolic.description.robot import Robot\nfrom symbolic.derive import christoffel\nfrom . import exported\n"
+    assert upward_imports(source, "symbolic.codegen.casadi") == []
+
+
+def import_graph() -> dict[str, set[str]]:
+    """{module: the package modules it imports}, ``from package import module`` read as the module."""
+    names = {name for name, _ in modules()}
+    graph: dict[str, set[str]] = {}
+    for name, path in modules():
+        is_package = path.name == "__init__.py"
+        targets = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                targets |= {a.name for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                package = name if is_package else name.rpartition(".")[0]
+                base = node.module or ""
+                if node.level:
+                    parts = package.split(".")
+                    base = ".".join(parts[: len(parts) - node.level + 1] + ([base] if base else []))
+                targets |= {f"{base}.{a.name}" if f"{base}.{a.name}" in names else base for a in node.names}
+        graph[name] = {t for t in targets if t in names and t != name}
+    return graph
+
+
+def circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan's algorithm)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_modules_import_each_other_in_a_circle() -> None:
+    found = circles(import_graph())
+    assert not found, "import circles:\n" + "\n".join(" -> ".join(c) for c in found)
+
+
+def test_a_circle_is_found() -> None:
+    assert circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]

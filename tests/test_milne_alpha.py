@@ -16,9 +16,9 @@ import pytest
 
 from symbolic import data
 from symbolic.data import DataError, Measurements
-from symbolic.identify import sine
-from symbolic.identify.alpha_comparison import frequency_response_errors, magnitude_and_phase, step_errors
-from symbolic.identify.alpha_fit import (
+from symbolic.reproduction.milne import sine
+from symbolic.reproduction.milne.alpha_comparison import frequency_response_errors, magnitude_and_phase, step_errors
+from symbolic.reproduction.milne.alpha_fit import (
     alpha_data,
     fit_alpha_model,
     fit_damping,
@@ -26,9 +26,9 @@ from symbolic.identify.alpha_fit import (
     fit_torque_constant,
     joint_alpha_data,
 )
-from symbolic.numeric.alpha_damping import AlphaCoefficients, AlphaInertiaModel
-from symbolic.numeric.alpha_invariant import alpha_invariant, cycle_average, sine_alpha
-from symbolic.numeric.alpha_simulation import (
+from symbolic.reproduction.milne.alpha_damping import AlphaCoefficients, AlphaInertiaModel
+from symbolic.reproduction.milne.alpha_invariant import alpha_invariant, cycle_average, sine_alpha
+from symbolic.reproduction.milne.alpha_simulation import (
     AlphaLoopError,
     Reference,
     iterate_alpha,
@@ -108,7 +108,7 @@ def test_damping_is_trilinear_and_held_outside() -> None:
 @pytest.mark.slow
 def test_joint_inertia_of_the_omni_is_milne_5() -> None:
     import symbolic
-    from symbolic.numeric.alpha_damping import joint_inertia
+    from symbolic.reproduction.milne.alpha_damping import joint_inertia
 
     model = symbolic.derive(symbolic.robots.load("omni"))
     p = {str(k): v for k, v in model.parameters.items()}
@@ -504,7 +504,7 @@ def test_iteration_that_cannot_converge_says_so() -> None:
 # ------------------------------------------------------------------------------------ reproduction
 
 def test_reproduction_items() -> None:
-    from symbolic.reproduction.milne import alpha_invariant_items
+    from symbolic.reproduction.milne.items import alpha_invariant_items
 
     items = {i.item: i for i in alpha_invariant_items()}
     table10 = items["Table 10 C0, C1, C2, C3"]

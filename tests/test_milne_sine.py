@@ -20,13 +20,14 @@ import symbolic
 from symbolic import data
 from symbolic.data import DataError, Measurements
 from symbolic.derive import DynamicModel, derive
-from symbolic.derive.yaw_inertia import inertia_form
+from symbolic.reproduction.milne.yaw_inertia import inertia_form
 from symbolic.errors import ModelError
-from symbolic.identify import sine
-from symbolic.identify.inertia_model import damping_ratio, fit_inertia_model, inertia
-from symbolic.numeric import simulate
-from symbolic.reproduction import milne, milne_sine
-from symbolic.spec import robots
+from symbolic.reproduction.milne import sine
+from symbolic.reproduction.milne.inertia_model import damping_ratio, fit_inertia_model, inertia
+from symbolic.simulation import simulate
+from symbolic.reproduction.milne import items as milne
+from symbolic.reproduction.milne import sine_items as milne_sine
+from symbolic import robots
 
 FREQUENCIES = (1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0)  # Milne 2.4.2
 C_TRUE, BETA_TRUE = 6.275, 445.6  # Milne Table 9 (fitted), for plausible magnitudes

@@ -11,7 +11,7 @@ import pytest
 import symbolic
 from deadline import within
 from symbolic.errors import ModelError, ModelWarning
-from symbolic.spec.expressions import parse_expression
+from symbolic.description.expressions import parse_expression
 
 VALID = """
 name = "arm"

@@ -25,8 +25,8 @@ import pytest
 
 import symbolic
 import symbolic.cli
-import symbolic.emit as export
-from symbolic.emit import output
+import symbolic.export as export
+from symbolic.export import output
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = (ROOT / "tests" / "golden" / "double_pendulum.toml").read_text()
@@ -163,7 +163,7 @@ def test_unrenameable_directory_is_replaced_file_by_file_with_a_warning(tmp_path
     export.write_files(synthetic("old"), out)
     put(out, FOREIGN)
     (out / ".arm_03.c.k2j4_9xz.tmp").write_bytes(b"half")
-    with caplog.at_level(logging.WARNING, logger="symbolic.emit.output"):
+    with caplog.at_level(logging.WARNING, logger="symbolic.export.output"):
         export.write_files(synthetic("new", 5), out, owned=False)
     assert "cannot be replaced as a whole" in caplog.text
     assert snapshot(out) == synthetic("new", 5) | {k: v for k, v in synthetic("old").items() if k not in synthetic("new", 5)} | FOREIGN

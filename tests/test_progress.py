@@ -83,7 +83,7 @@ def test_unwritable_out_is_refused_before_deriving(tmp_path: Path, monkeypatch, 
 
 
 def test_good_out_passes_the_check(tmp_path: Path) -> None:
-    from symbolic.emit import check_output_directory
+    from symbolic.export import check_output_directory
 
     check_output_directory(tmp_path)
     check_output_directory(tmp_path / "new" / "nested")

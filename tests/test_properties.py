@@ -101,7 +101,7 @@ def test_gravity_is_gradient_of_potential(name) -> None:
     model = derived(name)
     sub = model.sub
     gradient = sp.Matrix([sub.add(sub.diff(model.reduced.potential, q)) for q in model.coordinates])
-    from symbolic.numeric.functions import compile_function
+    from symbolic.codegen.functions import compile_function
 
     grad = compile_function(sub, [model.coordinates, model.parameter_symbols], gradient)
     rng = np.random.default_rng(7)

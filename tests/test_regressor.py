@@ -82,7 +82,7 @@ def test_force_that_is_not_polynomial_in_its_parameters_is_refused() -> None:
     robot = load("emps")
     robot = symbolic.validate(dataclasses.replace(
         robot, validated=False, parameters=robot.parameters + (symbolic.Parameter("k", 1.0),),
-        forces=(symbolic.spec.Force("odd", "q", "-exp(k)*q"),)))
+        forces=(symbolic.description.Force("odd", "q", "-exp(k)*q"),)))
     with pytest.raises(ModelError, match="not polynomial"):
         regressor(robot)
 
@@ -92,7 +92,7 @@ def test_force_monomials_become_parameters() -> None:
     robot = load("emps")
     robot = symbolic.validate(dataclasses.replace(
         robot, validated=False, parameters=robot.parameters + (symbolic.Parameter("k", 50.0), symbolic.Parameter("q0", 0.2)),
-        forces=(symbolic.spec.Force("cable", "q", "-k*(q - q0)"),)))
+        forces=(symbolic.description.Force("cable", "q", "-k*(q - q0)"),)))
     reg = regressor(robot)
     columns = dict(zip(reg.names, reg.expand().row(0)))
     q = sp.Symbol("q", real=True)

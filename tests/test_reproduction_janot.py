@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from symbolic.reproduction import janot
+from symbolic.reproduction.janot import items as janot
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ import pytest
 
 from symbolic.derive.mode_shapes import clamped_free_roots
 from symbolic.numeric.estimator import kalman_gain
-from symbolic.reproduction import madill
+from symbolic.reproduction.madill import items as madill
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""The simulator (symbolic.numeric.simulate) against independent references.
+"""The simulator (symbolic.simulation.simulate) against independent references.
 
 * the discrete controller against a loop written here in NumPy, for every kind and feature;
 * the CasADi right-hand side against NumericModel.forward_dynamics (SymPy → math);
@@ -24,10 +24,11 @@ from scipy.optimize import brentq, fsolve
 
 import symbolic
 from symbolic.data import DataError, Measurements
-from symbolic.numeric import controller as control
-from symbolic.numeric import natural_frequencies, simulate
-from symbolic.numeric.comparison import SIGNALS, compare
-from symbolic.numeric.simulation import _plant, initial_velocity
+from symbolic.simulation import controller as control
+from symbolic.numeric import natural_frequencies
+from symbolic.simulation import simulate
+from symbolic.simulation.comparison import SIGNALS, compare
+from symbolic.simulation.simulator import _plant, initial_velocity
 from conftest import derived
 
 GOLDEN = Path(__file__).parent / "golden"

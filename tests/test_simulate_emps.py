@@ -20,9 +20,9 @@ import pytest
 
 from shared_data import emps  # noqa: F401  (fixture)
 from symbolic import data
-from symbolic.numeric import controller as control
-from symbolic.numeric import simulate
-from symbolic.spec import robots
+from symbolic.simulation import controller as control
+from symbolic.simulation import simulate
+from symbolic import robots
 from conftest import derived
 
 PUBLISHED = {"position": 0.0138, "velocity": 0.229, "force": 5.85}

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from c_library import STRICT, compile_shared
-from symbolic.emit.templates import render
+from symbolic.codegen.templates import render
 
 WRAPPER = """#include <math.h>
 {kernel}

@@ -113,7 +113,7 @@ def generated(tmp_path_factory) -> dict[str, tuple[symbolic.DynamicModel, Path]]
     for name, (text, _) in MODELS.items():
         model = symbolic.derive(symbolic.loads(text, f"{name}.toml"))
         directory = tmp_path_factory.mktemp(name)
-        symbolic.emit.generate(model, directory)
+        symbolic.export.generate(model, directory)
         out[name] = (model, directory)
     return out
 

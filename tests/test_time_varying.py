@@ -18,7 +18,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import symbolic
-import symbolic.emit as export
+import symbolic.export as export
 import workflow_cases as cases
 from c_library import CModel, compile_shared
 from symbolic.cli import main
@@ -26,8 +26,8 @@ from symbolic.data import Measurements
 from symbolic.identify.model import base_regressor, identify_model, model_base
 from symbolic.numeric import numeric_model
 from symbolic.numeric.base_parameters import regressor_function, theta_values
-from symbolic.numeric.exported import function_specs, solved_specs
-from symbolic.numeric.simulation import simulate
+from symbolic.codegen.exported import function_specs, solved_specs
+from symbolic.simulation.simulator import simulate
 
 F1, F2 = 8.35, 50.0
 MAINS = f'''

@@ -27,10 +27,11 @@ import workflow_cases as cases
 from shared_data import emps  # noqa: F401  (fixture)
 from symbolic.cli import main
 from symbolic.identify.model import identify_model
-from symbolic.spec import robots
+from symbolic import robots
 from symbolic.workflow import EFFECTS, NOT_SUPPORTED, Effect, diagnose, register
 from symbolic.workflow.dataset import load_sets, split
 from symbolic.workflow.effects import FlexibleMode, on_row, select
+from symbolic.workflow.report import markdown
 from symbolic.workflow.terms import fit_nominal, model_terms, relative_gap
 from workflow_cases import ARM_FRICTION1, ARM_FRICTION2, ARM_PARAMETERS
 
@@ -268,7 +269,7 @@ def check_mains(d, coordinate: str, amplitude: float, frequency: float) -> None:
     assert (entry["effect"], entry["variant"]) == ("periodic", "time")
     patched = symbolic.derive(symbolic.load(d.patched_path))
     assert patched.time_varying and not d.model.time_varying
-    assert "periodic (in time) on" in d.report()
+    assert "periodic (in time) on" in markdown(d)
 
 
 @pytest.mark.slow
@@ -467,7 +468,7 @@ def test_a_simulated_path_plugs_in(tmp_path: Path) -> None:
 def test_a_simulated_path_with_motion_gives_position_and_velocity_gaps(tmp_path: Path) -> None:
     """A simulated path that also returns q and q̇ (SimulatedSignals) fills gap_detail's position and
     velocity: a stand-in off by exactly 1 % in q and 2 % in q̇ gives those percentages."""
-    from symbolic.numeric.comparison import measured_motion
+    from symbolic.simulation.comparison import measured_motion
     from symbolic.workflow import SimulatedSignals
 
     model, truth, _, _ = AXIS_CASES["coulomb"]
@@ -487,7 +488,7 @@ def test_a_simulated_path_with_motion_gives_position_and_velocity_gaps(tmp_path:
 def test_the_simulated_path_needs_a_controller(tmp_path: Path) -> None:
     model, truth, _, _ = AXIS_CASES["coulomb"]
     data = dataclasses.replace(cases.measurements(truth, 1, 0.01), controller=None)
-    with pytest.raises(symbolic.ModelError, match=r"\[controller\]: the simulated path needs"):
+    with pytest.raises(symbolic.DataError, match=r"\[controller\]: the simulated path needs"):
         diagnose(cases.model_file(tmp_path, model), data, figures=False, simulate=True)
 
 
@@ -768,7 +769,7 @@ def test_a_held_command_is_reported_as_the_data_and_centring_it_is_exact(tmp_pat
     assert out["found"] == [] and [f["finding"] for f in out["data_findings"]] == ["held_force"]
     finding = out["data_findings"][0]
     assert finding["gap_validation"]["held_force"] < finding["gap_validation"]["as_logged"]
-    assert "held_force" in d.report()
+    assert "held_force" in markdown(d)
     declared = run_on(tmp_path / "declared", cases.axis(), data, settings=Settings(held_force=True))
     assert declared.to_dict()["data_findings"] == [] and declared.found == ()
     held = cases.measurements(cases.axis(), 2, 0.0, measured=("q",), pulses=0.5, held=True, seconds=10.0)

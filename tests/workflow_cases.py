@@ -2,7 +2,7 @@
 
 The truth is written here, in the tests, as model-file text with the effect (a ``[[friction]]`` key, a
 ``[[force]]``, a rotor inertia, a compliant load); the data are the truth model simulated in closed
-loop (:func:`symbolic.numeric.simulation.simulate`, a PD loop with an encoder, following a Swevers-type
+loop (:func:`symbolic.simulation.simulator.simulate`, a PD loop with an encoder, following a Swevers-type
 reference: five harmonics of a 0.1 Hz fundamental per joint), with white noise on the logged force
 and the positions quantised. The workflow is then given the model
 *without* the effect and the data: nothing of the truth reaches the search code.
@@ -18,7 +18,7 @@ import numpy as np
 import symbolic
 from symbolic.data import Measurements
 from symbolic.numeric import numeric_model
-from symbolic.numeric.simulation import simulate
+from symbolic.simulation.simulator import simulate
 
 AXIS = '''# A rotary axis about a vertical axis (gravity along the rotation axis: no gravity torque).
 name = "axis"
@@ -149,7 +149,7 @@ def controller_table(model, q0: np.ndarray, resolution: float, coordinates: tupl
 def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate: float = 500.0,
                  resolution: float = 2 * np.pi / 2**20, measured: tuple[str, ...] | None = None,
                  pulses: float = 0.0, held: bool = False, logged_feedforward: bool = False) -> Measurements:
-    """Data of the truth model ``text`` simulated in closed loop (:func:`symbolic.numeric.simulation.simulate`):
+    """Data of the truth model ``text`` simulated in closed loop (:func:`symbolic.simulation.simulator.simulate`):
     a PD loop (:func:`controller_table`) with a computed-torque feedforward (:func:`_feedforward`) follows
     the Fourier reference, reads an encoder of ``resolution`` (default 20 bits per turn: with 18 bits, the twice-differentiated quantisation left in q̈ below the 50 Hz cut-off — errors in the regressor that the F-test does not model — made 1–2 % effects at the band edge significant);
     the log holds the quantised positions of the ``measured`` coordinates (default: the model's
@@ -252,7 +252,7 @@ def flexible_link(tip_mass: float, damper: float, friction: str = 'viscous = "Fv
     mode (gravity acts along the hub's axis: the vertical bending does not couple to the hub at rest), a
     damper ``damper`` on the first horizontal modal coordinate (structural damping; the model format has no
     beam damping key, a ``[[force]]`` on the modal coordinate is one) and friction on the hub."""
-    from symbolic.spec import robots
+    from symbolic import robots
 
     text = robots.path("single_flexible_link").read_text(encoding="utf-8")
     for old, new in (("modes_w = 2", 'modes_w = 1\ntip_mass = "m_t"'),

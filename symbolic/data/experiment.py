@@ -23,7 +23,7 @@
     [controller]                  # optional, kept as written for the simulation
     [identification]              # optional, kept as written for the identification (bandwidth, cutoff, ...)
 
-Expressions are parsed by the model files' safe parser (:func:`symbolic.spec.expressions.parse_expression`:
+Expressions are parsed by the model files' safe parser (:func:`symbolic.description.expressions.parse_expression`:
 numbers, names, ``+ - * / **``, ``pi`` and a list of functions; nothing is evaluated as Python) and then
 computed element-wise with NumPy. A variable of the file that is 1×1 (MATLAB's ``gtau``) is a number.
 """
@@ -44,7 +44,7 @@ from symbolic.data import files
 from symbolic.data.errors import DataError
 from symbolic.data.measurements import Measurements, Source, assemble, isfinite_number
 from symbolic.errors import ModelError
-from symbolic.spec.expressions import RESERVED_NAMES, parse_expression, variable_names
+from symbolic.description.expressions import RESERVED_NAMES, parse_expression, variable_names
 
 DATA_PATH_VARIABLE = "SYMBOLIC_DATA_PATH"
 """Environment variable: folders (separated by ``os.pathsep``) searched for a data file by its name

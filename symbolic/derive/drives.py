@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.spec.robot import Robot
+from symbolic.description.robot import Robot
 
 
 def rotor_inertia(robot: Robot) -> sp.Matrix:

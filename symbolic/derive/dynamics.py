@@ -35,8 +35,8 @@ from symbolic.derive.gravity import gravity_forces, potential_energy
 from symbolic.derive.inertia import composite_inertias, inertia_matrix
 from symbolic.derive.kinematics import Kinematics
 from symbolic.derive.newton_euler import inverse_dynamics
-from symbolic.spec.validation import validate
-from symbolic.spec.robot import TIME, Robot, acceleration_symbol, coordinate_symbol, velocity_symbol
+from symbolic.description.validation import validate
+from symbolic.description.robot import TIME, Robot, acceleration_symbol, coordinate_symbol, velocity_symbol
 from symbolic.derive.subexpressions import Subexpressions
 from symbolic.derive.validity import check_values
 

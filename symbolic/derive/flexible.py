@@ -24,7 +24,7 @@ import sympy as sp
 
 from symbolic.derive.kinematics import Kinematics, skew
 from symbolic.derive.mode_shapes import ModalConstants, modal_constants, phi
-from symbolic.spec.robot import Beam, coordinate_symbol
+from symbolic.description.robot import Beam, coordinate_symbol
 
 
 @dataclass

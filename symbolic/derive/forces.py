@@ -10,7 +10,7 @@ from __future__ import annotations
 import sympy as sp
 
 from symbolic.derive.transmission import map_to_generalized
-from symbolic.spec.robot import Robot
+from symbolic.description.robot import Robot
 
 
 def applied_vector(robot: Robot) -> sp.Matrix:

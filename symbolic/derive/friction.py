@@ -19,7 +19,7 @@ from __future__ import annotations
 import sympy as sp
 
 from symbolic.derive.transmission import map_to_generalized
-from symbolic.spec.robot import Directional, Friction, Robot, velocity_symbol
+from symbolic.description.robot import Directional, Friction, Robot, velocity_symbol
 
 
 def positive_part(s: sp.Expr) -> sp.Expr:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import sympy as sp
 
 from symbolic.derive.kinematics import ZERO3, Kinematics, cross
-from symbolic.spec.robot import BASE
+from symbolic.description.robot import BASE
 
 
 def potential_energy(kin: Kinematics) -> sp.Expr:

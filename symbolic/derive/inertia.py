@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from symbolic.derive.kinematics import FrameKinematics, Kinematics, cross
-from symbolic.spec.robot import BASE, Body
+from symbolic.description.robot import BASE, Body
 from symbolic.derive.subexpressions import Subexpressions
 
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
-from symbolic.spec.robot import BASE, Robot
+from symbolic.description.robot import BASE, Robot
 from symbolic.derive.subexpressions import Subexpressions
 
 Vec = sp.Matrix

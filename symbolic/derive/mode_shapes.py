@@ -30,7 +30,7 @@ import mpmath
 import numpy as np
 import sympy as sp
 
-from symbolic.spec.robot import BOUNDARIES
+from symbolic.description.robot import BOUNDARIES
 
 PRECISION = 50
 """Decimal digits of the mode-shape constants: a double's rounding needs 17; the margin makes a

@@ -15,7 +15,7 @@ from collections.abc import Callable
 import sympy as sp
 
 from symbolic.derive.kinematics import ZERO3, Kinematics, cross
-from symbolic.spec.robot import BASE
+from symbolic.description.robot import BASE
 
 
 def _rate(rates: dict[sp.Symbol, sp.Expr], values: dict[sp.Symbol, sp.Expr]) -> sp.Expr:

@@ -39,8 +39,8 @@ from symbolic.derive.newton_euler import inverse_dynamics
 from symbolic.derive.subexpressions import Subexpressions
 from symbolic.derive.transmission import map_to_generalized
 from symbolic.errors import ModelError
-from symbolic.spec.robot import Directional, Friction, Robot, Stribeck, acceleration_symbol, coordinate_symbol, velocity_symbol
-from symbolic.spec.validation import validate
+from symbolic.description.robot import Directional, Friction, Robot, Stribeck, acceleration_symbol, coordinate_symbol, velocity_symbol
+from symbolic.description.validation import validate
 
 INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
 

@@ -18,7 +18,7 @@ import sympy as sp
 from symbolic.derive.flexible import beam_jacobian, geometry
 from symbolic.derive.kinematics import Kinematics
 from symbolic.derive.mode_shapes import phi
-from symbolic.spec.robot import Beam
+from symbolic.description.robot import Beam
 
 CONDITION_LIMIT = 1e12
 

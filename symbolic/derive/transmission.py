@@ -18,8 +18,8 @@ import dataclasses
 
 import sympy as sp
 
-from symbolic.spec.robot import Robot, velocity_symbol
-from symbolic.spec.validation import validate
+from symbolic.description.robot import Robot, velocity_symbol
+from symbolic.description.validation import validate
 
 
 def constraint_jacobian(robot: Robot) -> sp.Matrix:

@@ -1,6 +1,6 @@
 """A derived model's values at its nominal parameters: finite and real, or refused.
 
-The expression parser (:mod:`symbolic.spec.expressions`) refuses what is visibly infinite or
+The expression parser (:mod:`symbolic.description.expressions`) refuses what is visibly infinite or
 complex within one expression (``l2/0``, ``sqrt(-1)``), and validation evaluates expressions of
 parameters alone. What shows only in the assembled model — a mass ``m1/(l2 - 0.4)`` with
 ``l2 = 0.4`` entering D, a joint angle ``acos(l2 + q2**2)`` with ``l2 = 3`` — is found here:
@@ -10,7 +10,7 @@ the double-precision arithmetic of the generated code, at the nominal parameters
 It runs in the derive layer (called by :func:`symbolic.derive.dynamics.derive`) rather than in
 ``symbolic.numeric`` so that every user of a model — the library, ``derive``, ``analyze`` and
 ``generate`` — gets the same refusal before any output is produced. It therefore cannot use
-:func:`symbolic.numeric.functions.compile_function`, and evaluates the same straight-line program
+:func:`symbolic.codegen.functions.compile_function`, and evaluates the same straight-line program
 the same way: :func:`sympy.lambdify` with Python's ``math`` module.
 
 An entry is refused when it is not finite or not real at *every* configuration tried (Q = 0 and
@@ -24,14 +24,26 @@ from __future__ import annotations
 import math
 import random
 from collections.abc import Callable, Iterator, Sequence
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import sympy as sp
 
 from symbolic.errors import ModelError
 
-if TYPE_CHECKING:
-    from symbolic.derive.dynamics import DynamicModel
+
+
+class DynamicModel(Protocol):
+    """What the check reads of the :class:`~symbolic.derive.dynamics.DynamicModel` being derived (the check
+    runs inside :func:`~symbolic.derive.dynamics.derive`, so it takes the model by these attributes
+    instead of importing the module that calls it)."""
+
+    robot: Any
+    reduced: Any
+    sub: Any
+    parameters: Any
+    coordinates: Any
+    velocities: Any
+    accelerations: Any
 
 CHECKED = (("D", "D"), ("gravity", "g"), ("stiffness", "k"), ("friction", "friction"), ("applied", "applied"), ("tau", "tau"))
 """Fields of :class:`~symbolic.derive.dynamics.ReducedForms` checked, in order, with their names in

@@ -5,7 +5,7 @@ Given a regressor ``Y(q, q̇, q̈)`` with ``τ = Y·β`` (a callable ``regressor
 do (:mod:`symbolic.identify.processing`: zero-phase low-pass of positions, central differences, border
 samples dropped, parallel decimation of τ and Y, stacking over coordinates) and solves the stacked
 system by ordinary or weighted least squares (:mod:`symbolic.identify.least_squares`), returning each
-parameter's value, σ and relative σ, cond(W) and the relative error. :func:`validate` gives the
+parameter's value, σ and relative σ, cond(W) and the relative error. :func:`cross_validate` gives the
 relative error on another data set; :func:`run` does it all from files (for the command line).
 
 Example (the 1-DOF EMPS model τ = M q̈ + Fv q̇ + Fc sign(q̇) + offset)::
@@ -30,8 +30,8 @@ from symbolic.identify.least_squares import (
     ParameterEstimate,
     solve,
 )
-from symbolic.identify.pipeline import Report, Validation, identify, run, validate
-from symbolic.identify.processing import Observation, Processing, Regressor, Settings, observe
+from symbolic.identify.pipeline import Report, Validation, cross_validate, identify, run
+from symbolic.identify.processing import Observation, Processing, RegressorFunction, Settings, observe
 
 __all__ = [
     "RELATIVE_SIGMA_THRESHOLD",
@@ -40,7 +40,8 @@ __all__ = [
     "Observation",
     "ParameterEstimate",
     "Processing",
-    "Regressor",
+    "RegressorFunction",
+    "cross_validate",
     "Report",
     "Settings",
     "Validation",
@@ -48,5 +49,4 @@ __all__ = [
     "observe",
     "run",
     "solve",
-    "validate",
 ]

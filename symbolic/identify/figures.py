@@ -12,10 +12,9 @@ from __future__ import annotations
 from pathlib import Path
 
 
-from symbolic.identify.least_squares import Identification
+from symbolic.identify.least_squares import Identification, Validation
 from symbolic.plotting import MatplotlibMissing, figure_class, save_png
 from symbolic.writing import safe_stem
-from symbolic.identify.pipeline import Validation
 from symbolic.identify.processing import Observation
 
 

@@ -27,11 +27,12 @@ as "no significant viscous friction").
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from symbolic.errors import IdentificationError
 from symbolic.identify.processing import Observation, Processing
 
 RELATIVE_SIGMA_THRESHOLD = 10.0
@@ -159,8 +160,28 @@ class Identification:
         return "\n".join(lines)
 
 
-class IdentificationError(ValueError):
-    """The observation matrix cannot determine the parameters (rank-deficient, too few rows)."""
+
+
+@dataclass(frozen=True, eq=False)
+class Validation:
+    """An identified model on another data set (cross-test).
+
+    Attributes
+    ----------
+    relative_error
+        ``100·‖y − W·β̂‖/‖y‖`` (%) over all coordinates.
+    coordinate_errors
+        The same per coordinate.
+    observation
+        The other data set, treated like the estimation set.
+    predicted
+        ``W·β̂``, samples × N.
+    """
+
+    relative_error: float
+    coordinate_errors: dict[str, float]
+    observation: Observation = field(repr=False)
+    predicted: np.ndarray = field(repr=False)
 
 
 def solve(

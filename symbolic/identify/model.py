@@ -35,14 +35,15 @@ from symbolic.data import Measurements, load
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.derive.regressor import Regressor
 from symbolic.errors import ModelError
-from symbolic.identify.compiled_regressor import compiled_batch
+from symbolic.codegen.compiled_regressor import compiled_batch
 from symbolic.identify.least_squares import Identification, solve
-from symbolic.identify.pipeline import Validation, validate
+from symbolic.identify.least_squares import Validation
+from symbolic.identify.pipeline import cross_validate
 from symbolic.identify.processing import Observation, Settings, observe
 from symbolic.numeric.base_parameters import BaseParameters, base_parameters, theta_values
-from symbolic.numeric.exported import model_regressor
-from symbolic.numeric.functions import compile_vectorized
-from symbolic.spec.robot import Directional
+from symbolic.codegen.exported import model_regressor
+from symbolic.codegen.functions import compile_vectorized
+from symbolic.description.robot import Directional
 
 _CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
@@ -144,7 +145,7 @@ per machine) would cost more than it saves."""
 def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compiled: bool | None = None):
     """``regressor(q, qd, qdd) -> samples × N × len(β)``: the base columns of Y at parameters ``p``.
 
-    ``compiled``: True evaluates through a C loop (:mod:`symbolic.identify.compiled_regressor`), False
+    ``compiled``: True evaluates through a C loop (:mod:`symbolic.codegen.compiled_regressor`), False
     through NumPy; None (default) chooses C for large work (:data:`COMPILE_WORK`) when a compiler is found.
     A time-varying model's regressor (a [[force]] in time) needs the sample times: ``regressor(q, qd, qdd,
     t=times)``; its attribute ``time_varying`` says so (:func:`symbolic.identify.processing.observe` reads it).
@@ -204,7 +205,7 @@ def identify_model(
         if not isinstance(validation, Measurements):
             own = Path(validation).suffix == ".toml"
             other = load(validation, coordinates, experiment=None if own else experiment)
-        checked = validate(ident, other, regressor, settings)
+        checked = cross_validate(ident, other, regressor, settings)
     if consistent:
         parameters = consistent_fit(model, reg, base, ident, observation)
     else:

@@ -10,13 +10,13 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import Measurements, load
-from symbolic.identify.least_squares import RELATIVE_SIGMA_THRESHOLD, Identification, solve
-from symbolic.identify.processing import Observation, Regressor, Settings, observe
+from symbolic.identify.least_squares import RELATIVE_SIGMA_THRESHOLD, Identification, Validation, solve
+from symbolic.identify.processing import Observation, RegressorFunction, Settings, observe
 
 
 def identify(
     measurements: Measurements,
-    regressor: Regressor,
+    regressor: RegressorFunction,
     names: Sequence[str],
     settings: Settings | None = None,
     method: str = "wls",
@@ -43,32 +43,10 @@ def identify(
     return solve(observe(measurements, regressor, len(names), settings), names, method, threshold)
 
 
-@dataclass(frozen=True, eq=False)
-class Validation:
-    """An identified model on another data set (cross-test).
-
-    Attributes
-    ----------
-    relative_error
-        ``100·‖y − W·β̂‖/‖y‖`` (%) over all coordinates.
-    coordinate_errors
-        The same per coordinate.
-    observation
-        The other data set, treated like the estimation set.
-    predicted
-        ``W·β̂``, samples × N.
-    """
-
-    relative_error: float
-    coordinate_errors: dict[str, float]
-    observation: Observation = field(repr=False)
-    predicted: np.ndarray = field(repr=False)
-
-
-def validate(
+def cross_validate(
     identification: Identification,
     measurements: Measurements,
-    regressor: Regressor,
+    regressor: RegressorFunction,
     settings: Settings | None = None,
 ) -> Validation:
     """Relative error of the identified parameters on ``measurements`` (another data set).
@@ -112,7 +90,7 @@ class Report:
 
 def run(
     data: str | Path | Measurements,
-    regressor: Regressor,
+    regressor: RegressorFunction,
     names: Sequence[str],
     coordinates: Sequence[str],
     *,
@@ -133,7 +111,7 @@ def run(
     identification = solve(observation, names, method)
     checked = None
     if validation is not None:
-        checked = validate(identification, _measurements(validation, coordinates, resample), regressor, settings)
+        checked = cross_validate(identification, _measurements(validation, coordinates, resample), regressor, settings)
     written: tuple[Path, ...] = ()
     notes: tuple[str, ...] = ()
     if figures is not None:

@@ -29,7 +29,7 @@ from symbolic.data import Measurements
 from symbolic.data.treatment import (BANDWIDTH_FRACTION, SETTING_KEYS, Processing, Settings, States,  # noqa: F401 (re-exported)
                                       states)
 
-Regressor = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+RegressorFunction = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 """``regressor(q, qd, qdd)`` with ``samples × N`` arrays returns ``Y``, ``samples × N × P``. A regressor with
 a true attribute ``time_varying`` (a model whose forces depend on time) is called with ``t=`` the sample
 times as well."""
@@ -75,7 +75,7 @@ class Observation:
         return len(self.t)
 
 
-def observe(measurements: Measurements, regressor: Regressor, parameters: int, settings: Settings | None = None) -> Observation:
+def observe(measurements: Measurements, regressor: RegressorFunction, parameters: int, settings: Settings | None = None) -> Observation:
     """Filter, differentiate, evaluate the regressor, drop borders and decimate (module docstring).
 
     Parameters

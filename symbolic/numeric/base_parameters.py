@@ -32,7 +32,7 @@ import sympy as sp
 
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.derive.regressor import Regressor
-from symbolic.numeric.functions import compile_function
+from symbolic.codegen.functions import compile_function
 
 TOLERANCE = 1e-8
 """A column whose residual after its predecessors is below this fraction of its norm is dependent."""

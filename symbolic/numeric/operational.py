@@ -28,7 +28,8 @@ import sympy as sp
 
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.derive.transmission import constraint_jacobian
-from symbolic.spec.robot import Directional
+from symbolic.description.robot import Directional
+from symbolic.errors import SymbolicError
 from symbolic.numeric.statespace import numeric_model
 
 SINGULAR_RATIO = 1e-12
@@ -36,11 +37,11 @@ SINGULAR_RATIO = 1e-12
 trace (the generated C's test, so that both refuse the same configurations)."""
 
 
-class NoEndEffector(ValueError):
+class NoEndEffector(SymbolicError, ValueError):
     """The model declares no ``[end_effector]``, so nothing is felt at a handle."""
 
 
-class SingularConfiguration(ValueError):
+class SingularConfiguration(SymbolicError, ValueError):
     """J D⁻¹ Jᵀ is singular here (J of rank below 3): Λ and J̄ do not exist."""
 
 

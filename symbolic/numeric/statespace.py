@@ -19,7 +19,7 @@ import numpy as np
 import sympy as sp
 
 from symbolic.derive.dynamics import DynamicModel
-from symbolic.numeric.functions import compile_function
+from symbolic.codegen.functions import compile_function
 
 _MODELS: weakref.WeakKeyDictionary[DynamicModel, NumericModel] = weakref.WeakKeyDictionary()
 

@@ -1,7 +1,8 @@
 """Every checkable number of the seed documents, recomputed (``symbolic reproduce``).
 
-Each seed has one module (:mod:`.madill`, :mod:`.milne`, :mod:`.janot`) whose ``items()`` returns its
-:class:`~symbolic.reproduction.item.Item` list, each computed through the package's public code path;
+Each seed has one subpackage (:mod:`.madill`, :mod:`.milne`, :mod:`.janot`) holding the paper's own methods
+beside its ``items`` module, whose ``items()`` returns its :class:`~symbolic.reproduction.item.Item` list,
+each computed through the package's public code path;
 :func:`table` collects them in that order and :mod:`.render` writes the JSON and ``docs/reproduction.md``.
 """
 
@@ -25,7 +26,7 @@ def table(sources: tuple[str, ...] = SOURCES) -> list[Item]:
         if source not in SOURCES:
             raise ValueError(f"unknown source {source!r} (one of {', '.join(SOURCES)})")
         start = time.perf_counter()
-        module = importlib.import_module(f"symbolic.reproduction.{source}")
+        module = importlib.import_module(f"symbolic.reproduction.{source}.items")
         found = module.items()
         log.info("reproduced %d items of %s in %.1f s", len(found), source, time.perf_counter() - start)
         items += found

@@ -11,9 +11,10 @@ The catalogue of effects is :data:`EFFECTS`; :func:`register` adds one (:class:`
 
 from __future__ import annotations
 
-from symbolic.workflow.diagnose import Diagnosis, Found, SimulatedSignals, Simulator, diagnose, simulated_path
+from symbolic.workflow.diagnose import diagnose, simulated_path
+from symbolic.workflow.result import Diagnosis, Found, SimulatedSignals, Simulator
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Context, Effect, Signals, register
-from symbolic.workflow.search import Settings as SearchSettings
+from symbolic.workflow.search import SearchSettings
 
 __all__ = ["EFFECTS", "NOT_SUPPORTED", "Context", "Diagnosis", "Effect", "Found", "SearchSettings", "Signals", "SimulatedSignals", "Simulator",
            "diagnose", "register", "simulated_path"]

@@ -33,135 +33,21 @@ from symbolic.derive.dynamics import DynamicModel, derive
 from symbolic.errors import ModelError
 from symbolic.identify.least_squares import IdentificationError
 from symbolic.data.treatment import Settings
-from symbolic.spec.modelfile import load as load_model
-from symbolic.spec.modelfile import loads, with_parameter_values
-from symbolic.spec.robot import Robot
+from symbolic.description.modelfile import load as load_model
+from symbolic.description.modelfile import loads, with_parameter_values
+from symbolic.description.robot import Robot
 from symbolic.workflow.dataset import DataSet, load_sets, with_held_force
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
-from symbolic.spec import robots
+import symbolic.robots as robots
 from symbolic.workflow.patch import Editor
 from symbolic.workflow.search import Search, variant_of
-from symbolic.workflow.search import Settings as SearchSettings
+from symbolic.workflow.search import SearchSettings
 from symbolic.workflow.terms import NominalFit, coordinate_gaps, final_nominal, fit_nominal, model_terms, relative_gap
+from symbolic.workflow.report import markdown
+from symbolic.workflow.result import Diagnosis, Fit, Found, SimulatedSignals, Simulator, _plain
 from symbolic.workflow.where import localise
 
 log = logging.getLogger("symbolic")
-
-@dataclass(frozen=True, eq=False)
-class SimulatedSignals:
-    """What a simulated path may return instead of τ alone: τ_model, q and q̇ (samples × the data's
-    coordinates), so that the gap is also measured on position and velocity."""
-
-    tau: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-
-
-Simulator = Callable[[DynamicModel, np.ndarray, Measurements], "np.ndarray | SimulatedSignals"]
-"""``simulate(model, p, measurements) -> τ_model``: the model (parameter values ``p`` in the order of
-``model.parameter_symbols``) run the way ``measurements`` were produced (their experiment's controller
-and reference); returns the controller's output, ``samples × N`` at the measurements' samples."""
-
-
-@dataclass(frozen=True)
-class Found:
-    """An accepted effect: role parameters (final joint fit) and σ, the model-file parameters written, evidence."""
-
-    effect: str
-    coordinate: str
-    parameters: dict[str, float | None]
-    sigmas: dict[str, float | None]
-    model_parameters: dict[str, float]
-    evidence: dict[str, Any]
-    variant: str | None = None
-    """Which variant of ``effect`` (``"position"`` or ``"time"`` for ``periodic``); ``None`` for the others."""
-
-    def label(self) -> str:
-        """``periodic (in time)``, ``coulomb``: the effect as the report names it."""
-        return self.effect if self.variant is None else f"{self.effect} (in {self.variant})"
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"effect": self.effect, **({"variant": self.variant} if self.variant else {}),
-                "coordinate": self.coordinate, "parameters": dict(self.parameters),
-                "model_parameters": dict(self.model_parameters), "evidence": {**self.evidence, "sigma": dict(self.sigmas)}}
-
-
-@dataclass(frozen=True, eq=False)
-class Fit:
-    """A model identified on the estimation data and its gaps."""
-
-    model: DynamicModel = field(repr=False)
-    nominal: NominalFit = field(repr=False)
-    predicted: dict[str, np.ndarray] = field(repr=False)
-    gap: dict[str, float]
-    detail: dict[str, dict[str, float]]
-    motion: dict[str, dict[str, dict[str, float]]] | None = None
-    """Per data set, ``{"position"|"velocity": {coordinate: %}}`` on the simulated path (None otherwise)."""
-
-
-@dataclass(frozen=True, eq=False)
-class Diagnosis:
-    """What :func:`diagnose` found (module docstring); :meth:`to_dict` is the ``--json`` contract."""
-
-    model: DynamicModel = field(repr=False)
-    sets: dict[str, DataSet] = field(repr=False)
-    held_out: str
-    before: Fit = field(repr=False)
-    where_before: dict[str, Any] = field(repr=False)
-    search: Search = field(repr=False)
-    found: tuple[Found, ...]
-    patched_text: str | None = field(repr=False)
-    patched_path: Path | None
-    after: Fit = field(repr=False)
-    where_after: dict[str, Any] = field(repr=False)
-    simulated: bool = False
-    seconds: dict[str, float] = field(default_factory=dict)
-    notes: tuple[str, ...] = ()
-    figures: tuple[Path, ...] = ()
-    data_findings: tuple[dict[str, Any], ...] = ()
-    """What the data's treatment, not the model, explains (:func:`held_force_finding`)."""
-
-    def to_dict(self) -> dict[str, Any]:
-        """The JSON contract: model, found, gap_before, gap_after, gap_detail, patched_model (and more)."""
-        def detail(fit: Fit) -> dict[str, Any]:
-            motion = fit.motion or {}
-            return {role: {"force": fit.detail[role], "position": motion.get(role, {}).get("position"),
-                           "velocity": motion.get(role, {}).get("velocity")} for role in fit.detail}
-
-        last = self.search.rounds[-1] if self.search.rounds else None
-        return {
-            "model": self.model.name,
-            "found": [f.to_dict() for f in self.found],
-            "gap_before": dict(self.before.gap),
-            "gap_after": dict(self.after.gap),
-            "gap_detail": {"before": detail(self.before), "after": detail(self.after),
-                           "signals": "force" if not self.simulated else "force (simulated controller output)",
-                           "note": None if self.before.motion else
-                           "position and velocity gaps need the simulated path (--simulate with a declared "
-                           "controller); the inverse model compares forces"},
-            "patched_model": None if self.patched_path is None else str(self.patched_path),
-            "held_out": self.held_out,
-            "path": "simulated" if self.simulated else "inverse",
-            "verdict": {"before": self.where_before["verdict"], "after": self.where_after["verdict"],
-                        "left": self.where_after["left"]},
-            "where": _plain(self.where_before),
-            "rejected": [] if last is None else [c.summary() for c in last.candidates if c.status == "tested"],
-            "removed": [{"effect": a.candidate.effect.identifier, **variant_of(a.candidate.effect),
-                         "coordinate": a.candidate.coordinate, "round": a.round,
-                         "parameters": dict(a.candidate.roles), "final_p_value": p, "explained_by": others}
-                        for a, p, others in self.search.removed],
-            "not_supported": dict(NOT_SUPPORTED),
-            "data_findings": [dict(f) for f in self.data_findings],
-            "notes": list(self.notes),
-            "figures": [str(p) for p in self.figures],
-        }
-
-    def report(self) -> str:
-        """The Markdown report (``report.md``)."""
-        from symbolic.workflow.report import markdown
-
-        return markdown(self)
-
 
 def diagnose(
     model: DynamicModel | Robot | str | Path,
@@ -193,7 +79,7 @@ def diagnose(
     settings
         The IDIM-LS treatment (bandwidth, cut-off, ...); default from the experiment or the rules.
     search
-        Thresholds of the search (:class:`symbolic.workflow.search.Settings`).
+        Thresholds of the search (:class:`symbolic.workflow.search.SearchSettings`).
     effects
         The catalogue to search (default: every registered effect, :data:`EFFECTS`).
     simulate
@@ -336,7 +222,7 @@ def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], nominal: F
 
 
 def simulated_path(controller: Any = None) -> Simulator:
-    """The simulated path for ``diagnose(simulate=...)``: the model run by :func:`symbolic.numeric.simulation.simulate`
+    """The simulated path for ``diagnose(simulate=...)``: the model run by :func:`symbolic.simulation.simulator.simulate`
     in the experiment's ``[controller]`` loop, τ_model its controller output.
 
     A data set without a ``[controller]`` of its own (the held-out data of an experiment) is driven by
@@ -345,7 +231,7 @@ def simulated_path(controller: Any = None) -> Simulator:
     """
 
     def simulate(model: DynamicModel, p: np.ndarray, measurements: Measurements) -> SimulatedSignals:
-        from symbolic.numeric.simulation import simulate as run
+        from symbolic.simulation.simulator import simulate as run
 
         table = measurements.controller if measurements.controller is not None else controller
         if table is None:
@@ -411,7 +297,7 @@ def _fit(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | No
 def _motion_gaps(measurements: Measurements, simulated: SimulatedSignals) -> dict[str, dict[str, float]]:
     """Relative position and velocity errors per coordinate, 100·‖x_meas − x_sim‖/‖x_meas‖ (the definition
     of ``symbolic simulate``; measured q̇ by its filtering and central differences)."""
-    from symbolic.numeric.comparison import measured_motion
+    from symbolic.simulation.comparison import measured_motion
 
     qd = measured_motion(measurements).qd
     measured = {"position": np.asarray(measurements.q, float), "velocity": qd}
@@ -469,21 +355,10 @@ def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Searc
     return Found(c.effect.identifier, c.coordinate, roles, sigmas, dict(parameters), evidence, c.effect.variant)
 
 
-def _plain(value: Any) -> Any:
-    """JSON-ready copy: NumPy numbers to floats, bin edges and means kept."""
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
-
-
 def _write(diagnosis: Diagnosis, folder: Path, figures: bool) -> Diagnosis:
     """Write the patched model, the figures and report.md into ``folder``, all or nothing."""
 
-    from symbolic.emit import ExportError, write_files
+    from symbolic.export import ExportError, write_files
 
     pictures: dict[str, bytes] = {}
     notes = list(diagnosis.notes)
@@ -495,7 +370,7 @@ def _write(diagnosis: Diagnosis, folder: Path, figures: bool) -> Diagnosis:
         except drawing.MatplotlibMissing as missing:
             notes.append(str(missing))
     diagnosis = dataclasses.replace(diagnosis, figures=tuple(folder / name for name in pictures), notes=tuple(notes))
-    files = {"report.md": diagnosis.report().encode("utf-8"), **pictures}
+    files = {"report.md": markdown(diagnosis).encode("utf-8"), **pictures}
     if diagnosis.patched_text is not None and diagnosis.patched_path is not None:
         files[diagnosis.patched_path.name] = diagnosis.patched_text.encode("utf-8")
     try:

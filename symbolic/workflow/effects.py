@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 import sympy as sp
 
-from symbolic.spec.robot import Directional, Robot, coordinate_symbol
+from symbolic.description.robot import Directional, Robot, coordinate_symbol
 
 if TYPE_CHECKING:
     from symbolic.derive.dynamics import DynamicModel
@@ -882,8 +882,8 @@ class Payload(Effect):
         if key not in self._unit or self._unit[key][0] is not robot:
             from symbolic.derive.dynamics import derive
             from symbolic.identify.model import base_regressor, model_base
-            from symbolic.spec.robot import Body
-            from symbolic.spec.validation import validate
+            from symbolic.description.robot import Body
+            from symbolic.description.validation import validate
 
             ee = robot.end_effector
             point = validate(dataclasses.replace(

@@ -8,15 +8,11 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from symbolic.plotting import MatplotlibMissing, figure_class, png_bytes
+from symbolic.workflow.result import Diagnosis
 from symbolic.workflow.where import spectrum
-
-if TYPE_CHECKING:
-    from symbolic.workflow.diagnose import Diagnosis
 
 
 def draw(d: Diagnosis) -> dict[str, bytes]:

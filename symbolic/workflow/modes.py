@@ -3,7 +3,7 @@
 The plant is linearised about a rest position (``NumericModel.linearize``: A = ∂ẋ/∂x, B = ∂ẋ/∂τ, with
 τ holding the rest position against gravity and springs; Coulomb friction has no derivative away from
 q̇ = 0) and sampled with zero-order hold at the controller's period T (Φ = e^{AT}, Γ = ∫₀ᵀ e^{As} ds B).
-The controller of :mod:`symbolic.numeric.controller` is linear apart from saturation and quantisation,
+The controller of :mod:`symbolic.simulation.controller` is linear apart from saturation and quantisation,
 which are left out: it reads q_k, forms the backward-difference velocity and filters it with its taps,
 and outputs ``pd``: −kp·q − kd·v, ``pid``: + ki·I, ``cascade``: kv·(−kp·q − v), delayed by ``delay``
 samples and multiplied by its gain. The closed loop's eigenvalues z give s = ln(z)/T: the damped
@@ -20,7 +20,7 @@ import numpy as np
 import scipy.linalg
 
 from symbolic.derive.dynamics import DynamicModel
-from symbolic.numeric import controller as control
+from symbolic.simulation import controller as control
 from symbolic.numeric import numeric_model
 
 

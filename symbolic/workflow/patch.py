@@ -16,7 +16,7 @@ from typing import Any
 import tomlkit
 
 from symbolic.errors import ModelError
-from symbolic.spec.robot import Robot
+from symbolic.description.robot import Robot
 
 _RESERVED = {"pi", "E", "I", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "sqrt",
              "exp", "log", "abs", "sign", "t"}

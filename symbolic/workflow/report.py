@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from symbolic.workflow.effects import NOT_SUPPORTED
+from symbolic.workflow.result import Diagnosis
 from symbolic.workflow.search import Candidate
-
-if TYPE_CHECKING:
-    from symbolic.workflow.diagnose import Diagnosis
 
 
 def _g(x: Any, digits: int = 4) -> str:

@@ -67,7 +67,7 @@ REFERENCE = 1e-9
 
 
 @dataclass(frozen=True)
-class Settings:
+class SearchSettings:
     """The search's thresholds (module docstring)."""
 
     alpha: float = ALPHA
@@ -181,7 +181,7 @@ class Round:
 
 
 @dataclass(eq=False)
-class Design:
+class CurrentModel:
     """The current model on both data sets: columns (unweighted, reduced), the weights and the fit."""
 
     terms: ModelTerms
@@ -230,12 +230,12 @@ class Search:
     """Forward selection over ``effects`` (module docstring)."""
 
     def __init__(self, terms: ModelTerms, estimation: DataSet, validation: DataSet, *, cross_validate: bool,
-                 effects: Sequence[Effect] | None = None, settings: Settings | None = None) -> None:
+                 effects: Sequence[Effect] | None = None, settings: SearchSettings | None = None) -> None:
         self.terms = terms
         self.sets = {"estimation": estimation, "validation": validation}
         self.cross_validate = cross_validate
         self.effects = list(EFFECTS.values()) if effects is None else list(effects)
-        self.settings = settings or Settings()
+        self.settings = settings or SearchSettings()
         s = estimation.states
         p = s.processing
         inner = slice(p.border[0], len(s.q) - p.border[1])
@@ -252,16 +252,16 @@ class Search:
         """Rounds until no candidate is eligible (or ``max_effects`` are accepted), then backward
         elimination of the accepted effects that later ones made insignificant."""
         while len(self.accepted) < self.settings.max_effects:
-            design = Design(self.terms, self.sets, self.accepted)
+            design = CurrentModel(self.terms, self.sets, self.accepted)
             chosen = self.round(design)
             if chosen is None:
                 break
             self.accepted.append(chosen)
         self.eliminate()
-        self.final = Design(self.terms, self.sets, self.accepted)
+        self.final = CurrentModel(self.terms, self.sets, self.accepted)
         return self.accepted
 
-    def round(self, design: Design) -> Accepted | None:
+    def round(self, design: CurrentModel) -> Accepted | None:
         number = len(self.rounds) + 1
         state = _RoundState(self, design)
         candidates = [state.evaluate(effect, j) for effect in self.effects for j in range(len(self.context.coordinates))]
@@ -296,7 +296,7 @@ class Search:
         while its partial F-test's p is not below ``alpha`` / (number accepted)."""
         self.removed: list[tuple[Accepted, float, str]] = []
         while self.accepted:
-            design = Design(self.terms, self.sets, self.accepted)
+            design = CurrentModel(self.terms, self.sets, self.accepted)
             tests = [self.partial(design, k) for k in range(len(self.accepted))]
             worst = int(np.argmax(tests))
             if tests[worst] < self.settings.alpha / len(self.accepted):
@@ -305,7 +305,7 @@ class Search:
             others = ", ".join(a.candidate.label() for a in self.accepted) or "nothing else"
             self.removed.append((gone, tests[worst], others))
 
-    def partial(self, design: Design, k: int) -> float:
+    def partial(self, design: CurrentModel, k: int) -> float:
         """p-value of accepted effect ``k`` in ``design``: the autocorrelation-corrected F-test of removing it."""
         y = design.weighted("estimation", design.known["estimation"])
         X = design.weighted("estimation", design.columns["estimation"])
@@ -393,7 +393,7 @@ def _reference_value(reference_map: list[tuple[int, float]] | None, values: np.n
     return float(sum(values[i] * scale if i >= 0 else scale for i, scale in reference_map))
 
 
-def _reference_map(search: Search, design: Design, effect: Effect, j: int) -> list[tuple[int, float]] | None:
+def _reference_map(search: Search, design: CurrentModel, effect: Effect, j: int) -> list[tuple[int, float]] | None:
     """How the effect's reference coefficient follows from the design's coefficients: pairs (column,
     factor); a fixed column contributes (−1, its fixed value × factor). ``None`` when no column matches."""
     data = design.sets["estimation"]
@@ -443,7 +443,7 @@ class _RoundState:
     CHUNK = 64
     """Grid values whose columns are filtered together."""
 
-    def __init__(self, search: Search, design: Design) -> None:
+    def __init__(self, search: Search, design: CurrentModel) -> None:
         self.search = search
         self.design = design
         self.y = design.weighted("estimation", design.known["estimation"])

@@ -1,0 +1,194 @@
+"""The functions every export target provides (docs/contracts.md, "Generated C" / "Generated CasADi").
+
+Each entry names the function, its inputs (q, qd, qdd, tau, p; and t, the time in seconds, for the
+functions that hold the applied forces of a time-varying model) and its outputs as expressions in
+the model's intermediate symbols; the C printer and the CasADi translator both start from here, so
+the two targets compute the same thing.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+import weakref
+from dataclasses import dataclass
+
+import sympy as sp
+
+from symbolic.derive.dynamics import DynamicModel
+from symbolic.derive.regressor import Regressor, regressor
+from symbolic.derive.subexpressions import Subexpressions
+
+log = logging.getLogger(__name__)
+
+# Built once per model object (CSE is the slow part), dropped with the model.
+_PROGRAMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_BATCHED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_REGRESSORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def model_regressor(model: DynamicModel) -> Regressor | None:
+    """The parameter regressor of ``model`` (derived once), or None for models it does not cover (beams)."""
+    if model not in _REGRESSORS:
+        start = time.perf_counter()
+        _REGRESSORS[model] = None if model.robot.beams else regressor(model.robot)
+        elapsed = time.perf_counter() - start
+        log.log(logging.INFO if elapsed > 0.1 else logging.DEBUG, "%s: parameter regressor in %.1f s", model.name, elapsed)
+    return _REGRESSORS[model]
+
+
+@dataclass(frozen=True)
+class FunctionSpec:
+    name: str
+    inputs: tuple[str, ...]
+    output: str
+    rows: int
+    cols: int
+    expressions: tuple[sp.Expr, ...]  # row-major
+    doc: str
+    sub: Subexpressions | None = None  # the intermediates the expressions use (default: the model's)
+
+
+def input_symbols(model: DynamicModel) -> dict[str, tuple[sp.Symbol, ...]]:
+    """Symbols of each input array, in slot order (``t``, the time, only for a time-varying model)."""
+    n = model.n
+    time = {"t": (model.time,)} if model.time_varying else {}
+    return {
+        "q": model.coordinates,
+        "qd": model.velocities,
+        "qdd": model.accelerations,
+        "tau": tuple(sp.Symbol(f"_tau{i}", real=True) for i in range(n)),
+        **time,
+        "p": model.parameter_symbols,
+    }
+
+
+def timed(model: DynamicModel, *inputs: str) -> tuple[str, ...]:
+    """``inputs`` with ``"t"`` before ``"p"`` for a time-varying model (a function that holds Q(q, qd, t))."""
+    return (*inputs[:-1], "t", inputs[-1]) if model.time_varying else inputs
+
+
+@dataclass(frozen=True)
+class SolvedSpec:
+    """An exported function computed from other exported functions by a small dense solve (no expressions).
+
+    The C template and the CasADi translator each implement these by name with the same arithmetic
+    (Cholesky factor of D(q), triangular solves); this entry gives both the name, inputs, output and doc.
+    ``status`` is the C return value's meaning (CasADi returns only the output).
+    """
+
+    name: str
+    inputs: tuple[str, ...]
+    output: str
+    rows: int
+    cols: int
+    doc: str
+    status: str
+
+
+SOLVED_INPUT_SIZES = {"u": 3}
+"""Inputs of solved functions that are not one of :func:`input_symbols`' arrays, with their lengths."""
+
+
+def solved_specs(model: DynamicModel) -> list[SolvedSpec]:
+    """forward_dynamics; and at a declared end effector its operational (apparent) inertia and mass (Janot (18)).
+
+    See :mod:`symbolic.numeric.operational` for the definitions and docs/contracts.md for the C signatures.
+    """
+    n = model.n
+    specs = [SolvedSpec("forward_dynamics", timed(model, "q", "qd", "tau", "p"), "qdd", n, 1,
+                        "Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.",
+                        "0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified)")]
+    if model.robot.end_effector is not None:
+        specs += [
+            SolvedSpec("operational_inertia", ("q", "p"), "Lambda", 3, 3,
+                       "Operational-space (apparent) inertia Lambda = (J D^-1 J^T)^-1 at the end effector, 3*3 row-major, "
+                       "kg (linear part; Janot's M_op = J^-T D J^-1 for a square J)",
+                       "0 on success, 1 when D(q) is not positive definite, 2 when J D^-1 J^T is singular (a Cholesky "
+                       "pivot not above 1e-12 times its trace: J of rank below 3); Lambda is then left unspecified"),
+            SolvedSpec("apparent_mass", ("q", "u", "p"), "m", 1, 1,
+                       "Apparent mass m = u.u / (u^T J D^-1 J^T u) felt pushing the end effector along u[3] (any length; "
+                       "base frame), the point free in the other directions, kg",
+                       "0 on success, 1 when D(q) is not positive definite (m unspecified), 2 when u is zero (m "
+                       "unspecified), 3 when the point cannot move along u (m = INFINITY)"),
+        ]
+    return specs
+
+
+def function_specs(model: DynamicModel) -> list[FunctionSpec]:
+    """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, applied, inverse_dynamics, and
+    end_effector_jacobian (models with an end effector) and the regressor (rigid models).
+
+    Every output is a part of the one composition in :func:`symbolic.derive.derive`; nothing is
+    assembled here.
+    """
+    r = model.reduced
+    n = model.n
+    return [
+        FunctionSpec("inertia", ("q", "p"), "D", n, n, tuple(r.D), "D(q), N*N row-major, symmetric positive definite (rotor inertias included)"),
+        FunctionSpec("coriolis", ("q", "qd", "p"), "h", n, 1, tuple(r.coriolis_ne), "(I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)"),
+        FunctionSpec("coriolis_matrix", ("q", "qd", "p"), "C", n, n, tuple(r.coriolis_matrix),
+                     "C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric"),
+        FunctionSpec("gravity", ("q", "p"), "g", n, 1, tuple(r.gravity), "g(q) = dV_gravity/dq"),
+        FunctionSpec("stiffness", ("q", "p"), "k", n, 1, tuple(r.stiffness), "k(q) = dV_strain/dq (zero for rigid models)"),
+        FunctionSpec("friction", ("q", "qd", "p"), "f", n, 1, tuple(r.friction),
+                     "f(q, qd): friction of the [[friction]] entries, opposing motion (zero without them)"),
+        FunctionSpec("applied", timed(model, "q", "qd", "p"), "Q", n, 1, tuple(r.applied),
+                     "Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)"),
+        FunctionSpec("inverse_dynamics", timed(model, "q", "qd", "qdd", "p"), "tau", n, 1, tuple(r.tau),
+                     "tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)"),
+    ] + _jacobian_specs(model) + _regressor_specs(model)
+
+
+def _jacobian_specs(model: DynamicModel) -> list[FunctionSpec]:
+    if model.robot.end_effector is None:
+        return []
+    n = model.n
+    return [FunctionSpec("end_effector_jacobian", ("q", "p"), "J", 3, n, tuple(model.end_effector_jacobian()),
+                         "J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: "
+                         "its velocity is J qd and a force F on it is tau = J^T F")]
+
+
+def _regressor_specs(model: DynamicModel) -> list[FunctionSpec]:
+    reg = model_regressor(model)
+    if reg is None:
+        return []
+    n, t = model.n, len(reg.theta)
+    return [
+        FunctionSpec("regressor", timed(model, "q", "qd", "qdd", "p"), "Y", n, t, tuple(reg.Y),
+                     "Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)", reg.sub),
+        FunctionSpec("standard_parameters", ("p",), "theta", t, 1, tuple(reg.theta_expressions),
+                     "theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)"),
+    ]
+
+
+def programs(model: DynamicModel) -> dict[str, "Program"]:
+    """Straight-line programs of every function spec, built once per model (CSE is the slow part)."""
+    from symbolic.codegen.program import build_program
+
+    cache = _PROGRAMS.get(model)
+    if cache is None:
+        cache = {}
+        for spec in function_specs(model):
+            start = time.perf_counter()
+            cache[spec.name] = build_program(spec.sub or model.sub, spec.expressions)
+            elapsed = time.perf_counter() - start
+            log.log(logging.INFO if elapsed > 0.1 else logging.DEBUG, "%s: %s program (CSE): %d statements in %.1f s",
+                    model.name, spec.name, len(cache[spec.name].statements), elapsed)
+        _PROGRAMS[model] = cache
+    return cache
+
+
+def batched_programs(model: DynamicModel) -> dict[str, "BatchedTrig"]:
+    """:func:`programs` with the sines and cosines of each function's angles batched (what the C computes).
+
+    Coordinate angles come first in slot order, so that angles q[1], ..., q[6] form one run.
+    """
+    from symbolic.codegen.program import batch_trig
+
+    cache = _BATCHED.get(model)
+    if cache is None:
+        inputs = input_symbols(model)
+        order = [s for group in inputs.values() for s in group]
+        cache = _BATCHED[model] = {name: batch_trig(p, set(order), order=order) for name, p in programs(model).items()}
+    return cache
