@@ -1,28 +1,17 @@
 """The machine's controller as an experiment file declares it: the ``[controller]`` table, checked once.
 
-This is the description (what the experiment says); the control law that runs it in a simulation —
-the discrete step as a CasADi function, the signals it reads from the log — is
-:mod:`symbolic.simulation.controller`, which documents every kind and key::
-
-    [controller]
-    kind = "pd"                   # torque | pd | pid | cascade
-    coordinates = ["q"]           # controlled coordinates (default: those of the data)
-    kp = [40.0]                   # per coordinate, in the order of `coordinates`
-    kd = [2.0]                    # pd, pid;  ki: pid;  kv: cascade
-    gain = [1.0]                  # output -> generalized force: numbers or expressions of the model's parameters
-    reference = "ref"             # the data's ref_<c> columns, or one expression of t (and of the data's columns)
-    saturation = [10.0]           # limit of the controller output (before the gain)
-    quantisation = [1.5708e-4]    # the position sensor's resolution (units of q per count)
-    disturbance = ["pulses_N"]    # an expression of the data's columns added after saturation
-    delay = 0                     # samples between measuring q_k and applying u_k
-    velocity_filter = [0.5, 0.5]  # FIR taps applied to the backward-difference velocity
+This is the description (what the experiment says: kind, coordinates, gains, reference, sensor,
+delay, ...; the keys and their meaning in docs/simulation.md, "The controller"); the control law that
+runs it in a simulation — the discrete step as a CasADi function, the signals it reads from the log —
+is :mod:`symbolic.simulation.controller`. The data layer cannot import the simulation layer, and every
+command that reads an experiment (identify, diagnose, first-peak, not only simulate) must refuse a bad
+table alike, so the description lives here and the law there.
 
 :func:`parse` validates a table — keys (an unknown or misspelt one gets the allowed keys and a "did
 you mean", :mod:`symbolic.data.keys`), kinds, lengths, signs, the coordinates against the model and
 the data, ``reference`` and ``disturbance`` against the data's columns, ``gain`` against the model's
 parameters — into a frozen :class:`Controller`. The experiment loader (:mod:`symbolic.data.experiment`)
-calls it when the file is read, so every command that reads the experiment refuses the same table
-with the same line.
+calls it when the file is read.
 """
 
 from __future__ import annotations

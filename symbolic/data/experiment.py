@@ -1,38 +1,19 @@
 """Experiment files, and the one loader of an experiment: :func:`load` builds an :class:`Experiment`.
 
-An experiment file is TOML that maps any data file onto the canonical signals::
+An experiment file is TOML that names a data file, maps its variables onto the canonical signals by
+expressions (``[signals]``, ``[constants]``), and declares the time window, the model, the data
+treatment (``[identification]``) and the machine's controller (``[controller]``); its format is
+written once, in docs/data.md ("Experiment files").
 
-    data = "DATA_EMPS.mat"        # the data file, relative to this file (see resolve_data)
-    model = "emps"                # optional: a built-in robot name or a model file (relative to this file)
-    description = "..."           # optional
-    resample = false              # optional: interpolate onto a uniform time grid when steps vary
-    rate = 1000.0                 # optional, Hz: when the file has no time (also accepted in [signals])
-    columns = ["t", "q1", "i1"]   # optional: the names of a CSV file's columns when it has no header line
-
-    [signals]                     # canonical name (or an extra signal's name) = expression of the file's variables
-    t = "t"
-    q_q = "qm"
-    tau_q = "gtau*vir"            # or u_q = "vir": the drive signal, times the model's [[drive]] gain
-    ref_q = "qg"                  # tau_<c> = "0": a coordinate without an actuator
-
-    [constants]                   # numbers the expressions may use (not names of the file's variables)
-    counts_per_m = 1.0
-
-    [window]                      # optional: keep start <= t <= stop (seconds; either may be left out)
-    start = 0.5
-
-    [identification]              # optional: the data treatment (symbolic.data.settings.Settings)
-    [controller]                  # optional: the machine's controller (symbolic.data.controller)
-
-Expressions are parsed by the model files' safe parser (:func:`symbolic.description.expressions.parse_expression`:
-numbers, names, ``+ - * / **``, ``pi`` and a list of functions; nothing is evaluated as Python) and then
-computed element-wise with NumPy. A variable of the file that is 1×1 (MATLAB's ``gtau``) is a number.
-
-Every table is checked here, when the file is read, the same way for every command (identify,
-simulate, diagnose, first-peak): unknown keys are refused with the allowed ones and a "did you mean"
-(:mod:`symbolic.data.keys`), ``[identification]`` becomes :class:`~symbolic.data.settings.Settings`,
-``[controller]`` a :class:`~symbolic.data.controller.Controller`. A validation data set given with the
-experiment is loaded by the same rule (:func:`load`).
+Inputs: a data file, an experiment file, or measurements, with the model they are used with and an
+optional validation set. Output: an :class:`Experiment`. Every table is checked here, when the file is
+read, the same way for every command (identify, simulate, diagnose, first-peak): unknown keys are
+refused with the allowed ones and a "did you mean" (:mod:`symbolic.data.keys`), ``[identification]``
+becomes :class:`~symbolic.data.settings.Settings`, ``[controller]`` a
+:class:`~symbolic.data.controller.Controller`, drive signals ``u_<c>`` become forces by the model's
+``[[drive]] gain``. Expressions are parsed by the model files' safe parser
+(:func:`symbolic.description.expressions.parse_expression`; nothing is evaluated as Python) and
+computed element-wise with NumPy.
 """
 
 from __future__ import annotations
