@@ -19,7 +19,7 @@ import sympy as sp
 
 from symbolic import robots
 from symbolic.derive.dynamics import derive
-from symbolic.errors import ModelError, ModelWarning, SymbolicError, one_line
+from symbolic.errors import IdentificationError, ModelError, ModelWarning, SimulationError, SymbolicError, one_line
 from symbolic.version import __version__
 from symbolic.description.modelfile import load
 from symbolic.derive.simplify import SIZE_LIMIT, compact, tree_size
@@ -387,6 +387,15 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def _located(error: SymbolicError, args: argparse.Namespace) -> str:
+    """The error's message, preceded by the data file the command read when the error is about what those data
+    can give (an identification or a simulation) and does not name a file itself."""
+    data = getattr(args, "data", None) or getattr(args, "experiment", None)
+    if error.source is None and data and isinstance(error, (IdentificationError, SimulationError)):
+        return f"{data}: {error}"
+    return str(error)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     if not args.quiet:
@@ -396,7 +405,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except SymbolicError as error:  # the user's input or environment: one line, exit 2
-        print(f"error: {one_line(str(error))}", file=sys.stderr)
+        print(f"error: {one_line(_located(error, args))}", file=sys.stderr)
         return 2
     except MemoryError:
         print("error: out of memory (the data or the model is too large for this machine)", file=sys.stderr)
