@@ -15,16 +15,44 @@ import traceback
 import warnings
 from pathlib import Path
 
-import sympy as sp
+from typing import TYPE_CHECKING
 
-from symbolic import robots
-from symbolic.derive.dynamics import derive
 from symbolic.errors import IdentificationError, ModelError, ModelWarning, SimulationError, SymbolicError, one_line
-from symbolic.version import __version__
-from symbolic.description.modelfile import load
-from symbolic.derive.simplify import SIZE_LIMIT, compact, tree_size
-from symbolic.description.robot import Robot
 from symbolic.reproduction.item import SOURCES as REPRODUCTION_SOURCES
+from symbolic.version import __version__
+
+if TYPE_CHECKING:
+    import sympy as sp
+
+    from symbolic.derive.dynamics import DynamicModel
+    from symbolic.description.robot import Robot
+
+# SymPy, NumPy and the layers are imported by the commands that use them, not here: `symbolic --help` and a
+# mistyped command answer at once (docs/contracts.md, "Command line").
+
+
+def derive(robot: Robot) -> DynamicModel:
+    from symbolic.derive.dynamics import derive as derived
+
+    return derived(robot)
+
+
+def load(path: Path) -> Robot:
+    from symbolic.description.modelfile import load as loaded
+
+    return loaded(path)
+
+
+class _Robots:
+    """:mod:`symbolic.robots`, imported on first use."""
+
+    def __getattr__(self, name: str):
+        import symbolic.robots
+
+        return getattr(symbolic.robots, name)
+
+
+robots = _Robots()
 
 
 def resolve(model: str) -> Robot:
@@ -66,6 +94,10 @@ def cmd_derive(args: argparse.Namespace) -> int:
 def show(model) -> None:
     """Print D(Q) and V_g(Q) compacted; entries too large to expand (above ``SIZE_LIMIT``) in
     intermediates, whose definitions follow."""
+    import sympy as sp
+
+    from symbolic.derive.simplify import SIZE_LIMIT, compact, tree_size
+
     log = logging.getLogger(__name__)
     large: list[sp.Expr] = []
 
