@@ -289,6 +289,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
             print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join(EFFECTS)}; "
                   "periodic means both periodic in position and periodic_time)", file=sys.stderr)
             return 2
+    from symbolic import export
+
+    export.check_output_directory(args.out)  # before the analysis: a mistyped --out is reported at once
     model = derive(resolve(args.model))
     result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects,
                       simulate=args.simulate or None)
