@@ -382,8 +382,8 @@ BAD = [
      "qd_<c> with c one of theta, alpha)"),
     ('states = ["q_theta", "q_theta", "qd_theta", "qd_alpha"]', "[controller] states: state listed twice"),
     ('inputs = ["beta"]', "[controller] inputs: unknown coordinate 'beta' (the model's coordinates: theta, alpha)"),
-    ('quantisation = [1e-5]', "[controller] quantisation: expected a list of 2 value(s), one per sensed coordinate "
-                              "(those of states, in order) (theta, alpha)"),
+    ('quantisation = [1e-5]', "[controller] quantisation: expected a list of 2 value(s), one per sensed coordinate, "
+                              "those of states in order (theta, alpha)"),
     ('coordinates = ["theta"]', "[controller] coordinates: not used by kind 'state_feedback' (allowed for "
                                 "'state_feedback': kind, inputs, states, K,"),
     ('reference = "ref"', "[controller] reference: not used by kind 'state_feedback'"),

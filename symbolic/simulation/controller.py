@@ -39,8 +39,8 @@ State feedback (an LQR, a pole placement) names the driven coordinates ``inputs`
     kind = "state_feedback"
     inputs = ["theta"]                                    # the driven coordinates (rows of K)
     states = ["q_theta", "q_alpha", "qd_theta", "qd_alpha"]  # the state vector x (columns of K)
-    K = [[-3.16, 11.7, -0.61, 0.12]]                      # signed; one row per input
-    gain = [1.0]                  # per input; saturation, disturbance likewise
+    K = [[6.32, -1.67, 1.05, 0.30]]                       # signed; one row per input
+    gain = [0.05]                 # per input; saturation, disturbance likewise
     quantisation = [1e-3, 1e-3]   # per sensed coordinate: those of `states`, in order (theta, alpha)
 
 x_k holds, for ``q_<c>``, the measured position q_m,k of c and, for ``qd_<c>``, its filtered
@@ -262,6 +262,9 @@ def parse(
     )
 
 
+_STATE_FEEDBACK_HELP = 'inputs = ["<c>", ...], states = ["q_<c>", "qd_<c>", ...], K = [[...], ...] one row per input'
+
+
 def _state_feedback(table: Mapping[str, Any], data: Sequence[str], model: Sequence[str],
                     parameters: Sequence[sp.Symbol], source: str) -> Controller:
     """The ``state_feedback`` kind: u = −K·(x − x_ref), K inputs × states."""
@@ -273,7 +276,7 @@ def _state_feedback(table: Mapping[str, Any], data: Sequence[str], model: Sequen
     states = _states(table["states"], data, model, source)
     per = _PerCoordinate(table, inputs, source)
     sensors = tuple(dict.fromkeys(c for _, c in states))
-    sensed = _PerCoordinate(table, sensors, source, "sensed coordinate (those of states, in order)")
+    sensed = _PerCoordinate(table, sensors, source, "sensed coordinate, those of states in order")
     zeros = np.zeros(len(inputs))
     return Controller(
         kind=STATE_FEEDBACK,
@@ -290,9 +293,6 @@ def _state_feedback(table: Mapping[str, Any], data: Sequence[str], model: Sequen
         states=states,
         K=_matrix(table["K"], inputs, states, source),
     )
-
-
-_STATE_FEEDBACK_HELP = 'inputs = ["<c>", ...], states = ["q_<c>", "qd_<c>", ...], K = [[...], ...] one row per input'
 
 
 def _states(value: Any, data: Sequence[str], model: Sequence[str], source: str) -> tuple[tuple[str, str], ...]:
