@@ -15,16 +15,44 @@ import traceback
 import warnings
 from pathlib import Path
 
-import sympy as sp
+from typing import TYPE_CHECKING
 
-from symbolic import robots
-from symbolic.derive.dynamics import derive
-from symbolic.errors import ModelError, ModelWarning, SymbolicError, one_line
-from symbolic.version import __version__
-from symbolic.description.modelfile import load
-from symbolic.derive.simplify import SIZE_LIMIT, compact, tree_size
-from symbolic.description.robot import Robot
+from symbolic.errors import IdentificationError, ModelError, ModelWarning, SimulationError, SymbolicError, one_line
 from symbolic.reproduction.item import SOURCES as REPRODUCTION_SOURCES
+from symbolic.version import __version__
+
+if TYPE_CHECKING:
+    import sympy as sp
+
+    from symbolic.derive.dynamics import DynamicModel
+    from symbolic.description.robot import Robot
+
+# SymPy, NumPy and the layers are imported by the commands that use them, not here: `symbolic --help` and a
+# mistyped command answer at once (docs/contracts.md, "Command line").
+
+
+def derive(robot: Robot) -> DynamicModel:
+    from symbolic.derive.dynamics import derive as derived
+
+    return derived(robot)
+
+
+def load(path: Path) -> Robot:
+    from symbolic.description.modelfile import load as loaded
+
+    return loaded(path)
+
+
+class _Robots:
+    """:mod:`symbolic.robots`, imported on first use."""
+
+    def __getattr__(self, name: str):
+        import symbolic.robots
+
+        return getattr(symbolic.robots, name)
+
+
+robots = _Robots()
 
 
 def resolve(model: str) -> Robot:
@@ -66,6 +94,10 @@ def cmd_derive(args: argparse.Namespace) -> int:
 def show(model) -> None:
     """Print D(Q) and V_g(Q) compacted; entries too large to expand (above ``SIZE_LIMIT``) in
     intermediates, whose definitions follow."""
+    import sympy as sp
+
+    from symbolic.derive.simplify import SIZE_LIMIT, compact, tree_size
+
     log = logging.getLogger(__name__)
     large: list[sp.Expr] = []
 
@@ -387,6 +419,15 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def _located(error: SymbolicError, args: argparse.Namespace) -> str:
+    """The error's message, preceded by the data file the command read when the error is about what those data
+    can give (an identification or a simulation) and does not name a file itself."""
+    data = getattr(args, "data", None) or getattr(args, "experiment", None)
+    if error.source is None and data and isinstance(error, (IdentificationError, SimulationError)):
+        return f"{data}: {error}"
+    return str(error)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     if not args.quiet:
@@ -396,7 +437,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except SymbolicError as error:  # the user's input or environment: one line, exit 2
-        print(f"error: {one_line(str(error))}", file=sys.stderr)
+        print(f"error: {one_line(_located(error, args))}", file=sys.stderr)
         return 2
     except MemoryError:
         print("error: out of memory (the data or the model is too large for this machine)", file=sys.stderr)

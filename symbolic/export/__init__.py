@@ -1,7 +1,11 @@
 """Code and report export: C, CasADi and Markdown (docs/contracts.md, "Generated C/CasADi/report").
 
->>> symbolic.export.generate(model, "out/")            # all targets
->>> symbolic.export.c(model, "out/")                   # out/NAME.h, out/NAME.c
+>>> import symbolic
+>>> model = symbolic.derive(symbolic.robots.load("emps"))
+>>> [p.name for p in symbolic.export.generate(model, "out")]       # all targets  # doctest: +ELLIPSIS
+['emps.c', 'emps.h', 'emps.md', 'emps_A.casadi', ..., 'emps_casadi.py', ..., 'emps_inverse_dynamics.casadi', ...]
+>>> [p.name for p in symbolic.export.c(model, "out")]              # out/NAME.h, out/NAME.c
+['emps.c', 'emps.h']
 
 Everything is rendered in memory first, then the output directory's files are replaced as one set
 (:mod:`symbolic.export.output`): at every instant the directory holds the complete previous set or the
