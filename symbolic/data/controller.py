@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -30,19 +30,28 @@ from symbolic.description.expressions import parse_expression, variable_names
 from symbolic.description.robot import parameter_symbol
 from symbolic.errors import ModelError
 
-KINDS = ("torque", "pd", "pid", "cascade")
+STATE_FEEDBACK = "state_feedback"
 
-GAINS = {"torque": (), "pd": ("kp", "kd"), "pid": ("kp", "kd", "ki"), "cascade": ("kp", "kv")}
-"""The loop gains each kind needs (all per coordinate, ≥ 0)."""
+KINDS = ("torque", "pd", "pid", "cascade", STATE_FEEDBACK)
+
+GAINS = {"torque": (), "pd": ("kp", "kd"), "pid": ("kp", "kd", "ki"), "cascade": ("kp", "kv"), STATE_FEEDBACK: ()}
+"""The loop gains each kind needs (all per coordinate, ≥ 0); state feedback has its matrix ``K`` instead."""
 
 COMMON_KEYS = ("kind", "coordinates", "gain", "saturation", "quantisation", "disturbance", "delay")
 LOOP_KEYS = ("reference", "velocity_filter")
+STATE_FEEDBACK_KEYS = ("kind", "inputs", "states", "K", "gain", "saturation", "quantisation", "disturbance", "delay",
+                       "velocity_filter")
 
-KEYS = (*COMMON_KEYS, "kp", "kd", "ki", "kv", *LOOP_KEYS)
+KEYS = (*COMMON_KEYS, "kp", "kd", "ki", "kv", *LOOP_KEYS, "inputs", "states", "K")
+
+STATE_SIGNALS = ("q", "qd")
+"""The signals a state of ``states`` may name: ``q_<c>`` (position) and ``qd_<c>`` (velocity)."""
 
 
 def allowed_keys(kind: str) -> tuple[str, ...]:
     """The keys a ``[controller]`` table of ``kind`` may have."""
+    if kind == STATE_FEEDBACK:
+        return STATE_FEEDBACK_KEYS
     return COMMON_KEYS + (GAINS[kind] + LOOP_KEYS if kind != "torque" else ())
 
 
@@ -55,17 +64,17 @@ class Controller:
     kind
         One of :data:`KINDS`.
     coordinates
-        The controlled coordinates.
+        The controlled (driven) coordinates: ``coordinates``, or ``inputs`` for state feedback.
     kp, kd, ki, kv
         Loop gains (zero where the kind has none).
     gain
         Output-to-force gains, as expressions of the model's parameters (numbers are constants).
     reference
-        ``"ref"`` (the data's ref_<c> columns), a tuple of expressions, or ``None`` (torque).
+        ``"ref"`` (the data's ref_<c> columns), a tuple of expressions, or ``None`` (torque, state feedback).
     saturation
         Output limits (``inf``: none).
     quantisation
-        Sensor resolutions (0: none).
+        Sensor resolutions (0: none), one per coordinate of :attr:`sensors`.
     disturbance
         Expressions of the data's columns added after saturation, or ``None``.
     delay
@@ -74,6 +83,10 @@ class Controller:
         FIR taps on the backward-difference velocity (``[1.0]``: none).
     source
         The experiment file, for messages.
+    states
+        State feedback: the state vector, ``(signal, coordinate)`` with signal ``"q"`` or ``"qd"``; else empty.
+    K
+        State feedback: the gain matrix, inputs × states (signed); else 0 × 0.
     """
 
     kind: str
@@ -90,20 +103,45 @@ class Controller:
     delay: int
     velocity_filter: np.ndarray
     source: str = "<controller>"
+    states: tuple[tuple[str, str], ...] = ()
+    K: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     @property
     def size(self) -> int:
         """Number of controlled coordinates."""
         return len(self.coordinates)
 
+    @property
+    def sensors(self) -> tuple[str, ...]:
+        """The coordinates whose positions the controller reads: the controlled ones, or for state feedback
+        those named in ``states``, in order of first appearance."""
+        if self.kind != STATE_FEEDBACK:
+            return self.coordinates
+        return tuple(dict.fromkeys(c for _, c in self.states))
+
+    @property
+    def reference_size(self) -> int:
+        """Length of the reference input per sample: one per coordinate, or x_ref (one per state)."""
+        return len(self.states) if self.kind == STATE_FEEDBACK else self.size
+
+    def state_names(self) -> list[str]:
+        """The states as written in the table (``q_<c>``, ``qd_<c>``)."""
+        return [f"{signal}_{c}" for signal, c in self.states]
+
     def memory_size(self) -> int:
-        """Length of the controller's state: started flag, last position, past velocities, integral, delay line."""
-        nc = self.size
-        return 1 + nc + nc * (len(self.velocity_filter) - 1) + nc + nc * self.delay
+        """Length of the controller's state: started flag, last positions, past velocities, integral, delay line."""
+        nc, ns = self.size, len(self.sensors)
+        return 1 + ns + ns * (len(self.velocity_filter) - 1) + nc + nc * self.delay
+
+    def structure(self) -> tuple[Any, ...]:
+        """What the controller's compiled function depends on besides its numbers (:func:`constants`)."""
+        return (self.kind, self.coordinates, tuple(self.states), self.delay, len(self.velocity_filter))
 
     def describe(self) -> str:
         """One line: kind, coordinates and the optional features in use."""
         parts = [f"{self.kind} on {', '.join(self.coordinates)}"]
+        if self.kind == STATE_FEEDBACK:
+            parts[0] += f" from {', '.join(self.state_names())}"
         if np.isfinite(self.saturation).any():
             parts.append(f"saturation ±{', '.join(f'{s:g}' for s in self.saturation)}")
         if self.quantisation.any():
@@ -130,7 +168,7 @@ def parse(
     model_coordinates: Sequence[str] | None = None,
     columns: Collection[str] | None = None,
 ) -> Controller:
-    """Validate a ``[controller]`` table.
+    """Validate a ``[controller]`` table: the one place where it is checked (the experiment loader calls it).
 
     Parameters
     ----------
@@ -141,7 +179,7 @@ def parse(
     model_parameters
         The model's parameter symbols, which ``gain`` expressions may use; ``None`` when no model is
         known yet: the names are then checked when the gain is evaluated with a model's values
-        (:func:`symbolic.simulation.controller.constants`).
+        (:func:`symbolic.simulation.controller.drive_gains`).
     source
         The experiment file, for messages.
     model_coordinates
@@ -167,7 +205,13 @@ def parse(
         if key not in allowed:
             what = f"not used by kind '{kind}'" if key in KEYS else "unknown key"
             raise unknown_key(source, "[controller]", key, allowed, what, allowed_for=f"'{kind}'")
-    coordinates = _coordinates(table, data_coordinates, model_coordinates or data_coordinates, source)
+    model = model_coordinates or data_coordinates
+    if kind == STATE_FEEDBACK:
+        controller = _state_feedback(table, data_coordinates, model, model_parameters, source)
+        if columns is not None:
+            _check_signals(None, controller.disturbance, controller.coordinates, columns, source)
+        return controller
+    coordinates = _coordinates(table, "coordinates", data_coordinates, model, source)
     nc = len(coordinates)
     per = _PerCoordinate(table, coordinates, source)
     gains = {name: per.numbers(name, required=True, minimum=0.0) for name in GAINS[kind]}
@@ -193,11 +237,88 @@ def parse(
     )
 
 
-def _coordinates(table: Mapping[str, Any], data: Sequence[str], model: Sequence[str], source: str) -> tuple[str, ...]:
-    key = "[controller] coordinates"
-    if "coordinates" not in table:
+_STATE_FEEDBACK_HELP = 'inputs = ["<c>", ...], states = ["q_<c>", "qd_<c>", ...], K = [[...], ...] one row per input'
+
+
+def _state_feedback(table: Mapping[str, Any], data: Sequence[str], model: Sequence[str],
+                    parameters: Sequence[sp.Symbol] | None, source: str) -> Controller:
+    """The ``state_feedback`` kind: u = −K·(x − x_ref), K inputs × states."""
+    for key in ("inputs", "states", "K"):
+        if key not in table:
+            raise DataError(source, f"[controller] {key}", f"missing (state feedback needs inputs, states and K: "
+                                                           f"{_STATE_FEEDBACK_HELP})")
+    inputs = _coordinates(table, "inputs", data, model, source)
+    states = _states(table["states"], data, model, source)
+    per = _PerCoordinate(table, inputs, source)
+    sensors = tuple(dict.fromkeys(c for _, c in states))
+    sensed = _PerCoordinate(table, sensors, source, "sensed coordinate, those of states in order")
+    zeros = np.zeros(len(inputs))
+    return Controller(
+        kind=STATE_FEEDBACK,
+        coordinates=inputs,
+        kp=zeros, kd=zeros, ki=zeros, kv=zeros,
+        gain=_gain(table, inputs, parameters, source),
+        reference=None,
+        saturation=per.numbers("saturation", default=math.inf, minimum=0.0, strict=True),
+        quantisation=sensed.numbers("quantisation", default=0.0, minimum=0.0),
+        disturbance=per.strings("disturbance"),
+        delay=_delay(table, source),
+        velocity_filter=_taps(table, source),
+        source=source,
+        states=states,
+        K=_matrix(table["K"], inputs, states, source),
+    )
+
+
+def _states(value: Any, data: Sequence[str], model: Sequence[str], source: str) -> tuple[tuple[str, str], ...]:
+    """``states``: distinct ``q_<c>`` / ``qd_<c>`` names of measured coordinates of the model."""
+    key = "[controller] states"
+    allowed = f"q_<c> or qd_<c> with c one of {', '.join(model)}"
+    if not isinstance(value, list) or not value or not all(isinstance(v, str) for v in value):
+        raise DataError(source, key, f"expected a non-empty list of state names ({allowed}), got {value!r}")
+    if len(set(value)) != len(value):
+        raise DataError(source, key, f"state listed twice in {value!r}")
+    states = []
+    for k, name in enumerate(value):
+        signal, _, c = name.partition("_")
+        if signal not in STATE_SIGNALS or not c:
+            raise DataError(source, f"{key}[{k}]", f"unknown state name {name!r} (allowed: {allowed})")
+        if c not in model:
+            raise DataError(source, f"{key}[{k}]", f"{name!r} names coordinate {c!r}, which the model does not have "
+                                                   f"(allowed: {allowed})")
+        if c not in data:
+            raise DataError(source, f"{key}[{k}]", f"{name!r}: coordinate {c!r} is not measured, the data have no "
+                                                   f"q_{c} (measured: {', '.join(data)})")
+        states.append((signal, c))
+    return tuple(states)
+
+
+def _matrix(value: Any, inputs: tuple[str, ...], states: tuple[tuple[str, str], ...], source: str) -> np.ndarray:
+    """``K``: one row per input, one signed number per state; a flat list when there is one input."""
+    rows, columns = len(inputs), len(states)
+    shape = (f"{rows} row(s) (one per input: {', '.join(inputs)}) of {columns} number(s) (one per state: "
+             f"{', '.join(f'{s}_{c}' for s, c in states)})")
+    if rows == 1 and isinstance(value, list) and value and not isinstance(value[0], list):
+        value = [value]
+    if not isinstance(value, list) or len(value) != rows or not all(isinstance(r, list) for r in value):
+        got = f"{len(value)} row(s)" if isinstance(value, list) else repr(value)
+        raise DataError(source, "[controller] K", f"expected {shape}, got {got}")
+    for i, row in enumerate(value):
+        if len(row) != columns:
+            raise DataError(source, f"[controller] K[{i}]", f"has {len(row)} number(s), expected {columns}: "
+                                                            f"K has {shape}")
+        for j, v in enumerate(row):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise DataError(source, f"[controller] K[{i}][{j}]", f"expected a finite number (signed), got {v!r}")
+    return np.array(value, dtype=float).reshape(rows, columns)
+
+
+def _coordinates(table: Mapping[str, Any], name: str, data: Sequence[str], model: Sequence[str],
+                 source: str) -> tuple[str, ...]:
+    key = f"[controller] {name}"
+    if name not in table:
         return tuple(data)
-    value = table["coordinates"]
+    value = table[name]
     if not isinstance(value, list) or not value or not all(isinstance(c, str) for c in value):
         raise DataError(source, key, f"expected a non-empty list of coordinate names, got {value!r}")
     if len(set(value)) != len(value):
@@ -214,15 +335,16 @@ def _coordinates(table: Mapping[str, Any], data: Sequence[str], model: Sequence[
 class _PerCoordinate:
     """Reads per-coordinate lists (one entry per controlled coordinate)."""
 
-    def __init__(self, table: Mapping[str, Any], coordinates: tuple[str, ...], source: str) -> None:
-        self.table, self.coordinates, self.source = table, coordinates, source
+    def __init__(self, table: Mapping[str, Any], coordinates: tuple[str, ...], source: str,
+                 what: str = "coordinate") -> None:
+        self.table, self.coordinates, self.source, self.what = table, coordinates, source, what
 
     def _list(self, name: str) -> list[Any]:
         value = self.table[name]
         n = len(self.coordinates)
         if not isinstance(value, list) or len(value) != n:
             raise DataError(self.source, f"[controller] {name}",
-                            f"expected a list of {n} value(s), one per coordinate ({', '.join(self.coordinates)}), "
+                            f"expected a list of {n} value(s), one per {self.what} ({', '.join(self.coordinates)}), "
                             f"got {value!r}")
         return value
 

@@ -3,7 +3,7 @@
 ::
 
     [controller]
-    kind = "pd"                   # torque | pd | pid | cascade
+    kind = "pd"                   # torque | pd | pid | cascade | state_feedback
     coordinates = ["q"]           # controlled coordinates (default: those of the data)
     kp = [40.0]                   # per coordinate, in the order of `coordinates`
     kd = [2.0]                    # pd, pid;  ki: pid;  kv: cascade
@@ -26,10 +26,28 @@ v_k = Σ_i taps_i·v_b,k−i (v_b before the first sample is 0), and computes
 * ``pd``: u_k = kp·(r_k − q_m,k) − kd·v_k;
 * ``pid``: the same + ki·I_k with I_k = I_k−1 + T·(r_k − q_m,k) (no anti-windup);
 * ``cascade`` (EMPS's P/P position–velocity loop): u_k = kv·(kp·(r_k − q_m,k) − v_k);
+* ``state_feedback``: u_k = −K·(x_k − x_ref,k), see below;
 
 then u is saturated to ±saturation, delayed by ``delay`` samples (zero before the first computed
 output arrives), the disturbance d_k is added and the generalized force is τ_k = gain·(u + d_k),
 held over [t_k, t_k+1). Coordinates the controller does not drive get τ = 0.
+
+State feedback (an LQR, a pole placement) names the driven coordinates ``inputs`` and the state vector
+``states`` in the canonical signal names, and K has one row per input and one column per state::
+
+    [controller]
+    kind = "state_feedback"
+    inputs = ["theta"]                                    # the driven coordinates (rows of K)
+    states = ["q_theta", "q_alpha", "qd_theta", "qd_alpha"]  # the state vector x (columns of K)
+    K = [[6.32, -1.67, 1.05, 0.30]]                       # signed; one row per input
+    gain = [0.05]                 # per input; saturation, disturbance likewise
+    quantisation = [1e-3, 1e-3]   # per sensed coordinate: those of `states`, in order (theta, alpha)
+
+x_k holds, for ``q_<c>``, the measured position q_m,k of c and, for ``qd_<c>``, its filtered
+backward-difference velocity v_k — the same sensor as the other kinds, for every coordinate named in
+``states``; x_ref,k holds the data's ``ref_<c>`` and ``refd_<c>`` columns (0 where the data have none).
+A feedforward is declared as for the other kinds: a ``disturbance`` column or expression, added
+after saturation and delay.
 
 :func:`controller_function` builds this step as a CasADi function, so that the closed loop runs in
 compiled code. The table itself is validated where the experiment is loaded, by
@@ -48,19 +66,22 @@ import numpy as np
 import sympy as sp
 
 from symbolic.data import DataError, Measurements
-from symbolic.data.controller import GAINS, KEYS, KINDS, Controller, allowed_keys, check_names, parse, replay
+from symbolic.data.controller import (GAINS, KEYS, KINDS, STATE_FEEDBACK, Controller, allowed_keys, check_names, parse,
+                                      replay)
 from symbolic.errors import ModelError
 from symbolic.description.expressions import RESERVED_NAMES, parse_expression
 
-__all__ = ["GAINS", "KEYS", "KINDS", "Controller", "Inputs", "allowed_keys", "constants", "controller_function",
-           "evaluate", "inputs", "parse", "replay"]
+__all__ = ["GAINS", "KEYS", "KINDS", "STATE_FEEDBACK", "Controller", "Inputs", "allowed_keys", "constants",
+           "controller_function", "drive_gains", "evaluate", "inputs", "parse", "replay", "state_reference"]
+
 
 # -- the signals a controller reads from the log -------------------------------------------------------
 
 
 @dataclass(frozen=True, eq=False)
 class Inputs:
-    """Per-sample inputs of the controller: references and disturbances (samples × nc), measured forces (samples × n)."""
+    """Per-sample inputs of the controller: references (samples × :attr:`Controller.reference_size`),
+    disturbances (samples × nc), measured forces (samples × n)."""
 
     reference: np.ndarray
     disturbance: np.ndarray
@@ -88,6 +109,8 @@ def inputs(controller: Controller, measurements: Measurements, model_coordinates
         reference = measurements.ref[:, [data.index(c) for c in controller.coordinates]]
     elif controller.reference is not None:
         reference = _evaluate_all(controller.reference, measurements, "reference")
+    elif controller.kind == STATE_FEEDBACK:
+        reference = state_reference(controller, measurements)
     disturbance = np.zeros((samples, nc))
     if controller.disturbance is not None:
         disturbance = _evaluate_all(controller.disturbance, measurements, "disturbance")
@@ -95,6 +118,19 @@ def inputs(controller: Controller, measurements: Measurements, model_coordinates
     for j, c in enumerate(data):
         torque[:, list(model_coordinates).index(c)] = measurements.tau[:, j]
     return Inputs(np.ascontiguousarray(reference), np.ascontiguousarray(disturbance), torque)
+
+
+def state_reference(controller: Controller, measurements: Measurements) -> np.ndarray:
+    """x_ref of a state feedback, samples × states: ``ref_<c>`` for ``q_<c>``, ``refd_<c>`` for ``qd_<c>``,
+    0 where the data have no such column."""
+    data = list(measurements.coordinates)
+    reference = np.zeros((measurements.samples, len(controller.states)))
+    for k, (signal, c) in enumerate(controller.states):
+        if signal == "q" and measurements.ref is not None and c in data:
+            reference[:, k] = measurements.ref[:, data.index(c)]
+        elif signal == "qd" and f"refd_{c}" in measurements.extras:
+            reference[:, k] = measurements.extras[f"refd_{c}"]
+    return reference
 
 
 def _evaluate_all(texts: Sequence[str], measurements: Measurements, name: str) -> np.ndarray:
@@ -126,8 +162,14 @@ def evaluate(text: str, measurements: Measurements, key: str) -> np.ndarray:
 # -- the discrete controller as a CasADi function --------------------------------------------------------
 
 
-def constants(controller: Controller, parameters: Mapping[sp.Symbol, float]) -> np.ndarray:
-    """The numbers :func:`controller_function` takes as its ``c`` input (gains evaluated at ``parameters``)."""
+def drive_gains(controller: Controller, parameters: Mapping[sp.Symbol, float]) -> np.ndarray:
+    """The output-to-force gains at ``parameters``, one per controlled coordinate.
+
+    Raises
+    ------
+    DataError
+        For a gain that is not a finite number ≥ 0 at these values.
+    """
     gain = []
     for k, g in enumerate(controller.gain):
         unknown = sorted(s.name for s in g.free_symbols - set(parameters))
@@ -140,49 +182,69 @@ def constants(controller: Controller, parameters: Mapping[sp.Symbol, float]) -> 
             raise DataError(controller.source, f"[controller] gain[{k}]",
                             f"{g} = {value:g} at the model's parameter values (allowed: ≥ 0)")
         gain.append(value)
-    return np.concatenate([controller.kp, controller.kd, controller.ki, controller.kv, np.array(gain),
-                           controller.saturation, controller.quantisation, controller.velocity_filter])
+    return np.array(gain)
+
+
+def constants(controller: Controller, parameters: Mapping[sp.Symbol, float]) -> np.ndarray:
+    """The numbers :func:`controller_function` takes as its ``c`` input (gains evaluated at ``parameters``):
+    kp, kd, ki, kv, gain, saturation (one per controlled coordinate each), quantisation (one per sensed
+    coordinate), the velocity filter's taps, then K row by row (state feedback; empty otherwise)."""
+    return np.concatenate([controller.kp, controller.kd, controller.ki, controller.kv,
+                           drive_gains(controller, parameters), controller.saturation, controller.quantisation,
+                           controller.velocity_filter, controller.K.ravel()])
 
 
 def controller_function(controller: Controller, model_coordinates: Sequence[str], period: float) -> ca.Function:
     """One controller sample as a CasADi function.
 
     ``(m, q, r, d, tau_log, c) -> (m_next, tau)``: ``m`` the memory (:meth:`Controller.memory_size`,
-    zeros at the start), ``q`` the model's positions (n), ``r``, ``d`` the reference and disturbance
-    of the controlled coordinates, ``tau_log`` the logged generalized forces (n, for ``torque``),
-    ``c`` from :func:`constants`; ``tau`` the generalized force over the coming sample (n).
+    zeros at the start), ``q`` the model's positions (n), ``r`` the reference (of the controlled
+    coordinates, or x_ref of a state feedback: :attr:`Controller.reference_size`), ``d`` the
+    disturbance of the controlled coordinates, ``tau_log`` the logged generalized forces (n, for
+    ``torque``), ``c`` from :func:`constants`; ``tau`` the generalized force over the coming sample (n).
     """
     nc, n, taps = controller.size, len(model_coordinates), len(controller.velocity_filter)
-    index = [list(model_coordinates).index(c) for c in controller.coordinates]
+    names = list(model_coordinates)
+    index = [names.index(c) for c in controller.coordinates]
+    sensors = controller.sensors
+    ns, nx = len(sensors), controller.reference_size
     memory = ca.SX.sym("m", controller.memory_size())
-    q, r, d = ca.SX.sym("q", n), ca.SX.sym("r", nc), ca.SX.sym("d", nc)
+    q, r, d = ca.SX.sym("q", n), ca.SX.sym("r", nx), ca.SX.sym("d", nc)
     tau_log = ca.SX.sym("tau_log", n)
-    c = ca.SX.sym("c", 7 * nc + taps)
-    kp, kd, ki, kv, gain, saturation, resolution = (c[i * nc:(i + 1) * nc] for i in range(7))
-    weights = c[7 * nc:]
-    started, last = memory[0], memory[1:1 + nc]
-    at = 1 + nc
-    past = [memory[at + i * nc: at + (i + 1) * nc] for i in range(taps - 1)]  # v_b,k-1, v_b,k-2, ...
-    at += nc * (taps - 1)
+    c = ca.SX.sym("c", 6 * nc + ns + taps + controller.K.size)
+    kp, kd, ki, kv, gain, saturation = (c[i * nc:(i + 1) * nc] for i in range(6))
+    resolution = c[6 * nc:6 * nc + ns]
+    weights = c[6 * nc + ns:6 * nc + ns + taps]
+    # K row by row: CasADi reshapes column-major, so the transpose of the (states × inputs) reshape
+    K = ca.reshape(c[6 * nc + ns + taps:], nx, nc).T if controller.kind == STATE_FEEDBACK else None
+    started, last = memory[0], memory[1:1 + ns]
+    at = 1 + ns
+    past = [memory[at + i * ns: at + (i + 1) * ns] for i in range(taps - 1)]  # v_b,k-1, v_b,k-2, ...
+    at += ns * (taps - 1)
     integral = memory[at:at + nc]
     at += nc
     line = [memory[at + i * nc: at + (i + 1) * nc] for i in range(controller.delay)]  # oldest first
 
-    position = ca.vertcat(*[q[i] for i in index])
+    position = ca.vertcat(*[q[names.index(s)] for s in sensors])
     # the sensor: rounding to the resolution (floor(x + 1/2): round half up, as a counter does)
     measured = ca.if_else(resolution > 0, ca.floor(position / ca.fmax(resolution, 1e-300) + 0.5) * resolution, position)
     backward = started * (measured - last) / period
     velocity = weights[0] * backward
     for i, v in enumerate(past):
         velocity += weights[i + 1] * v
-    error = r - measured
-    integral_next = integral + period * error
-    u = {
-        "torque": ca.vertcat(*[tau_log[i] for i in index]),
-        "pd": kp * error - kd * velocity,
-        "pid": kp * error - kd * velocity + ki * integral_next,
-        "cascade": kv * (kp * error - velocity),
-    }[controller.kind]
+    if controller.kind == STATE_FEEDBACK:
+        where = {s: k for k, s in enumerate(sensors)}
+        x = ca.vertcat(*[(measured if signal == "q" else velocity)[where[c]] for signal, c in controller.states])
+        u, integral_next = -ca.mtimes(K, x - r), integral
+    else:
+        error = r - measured
+        integral_next = integral + period * error
+        u = {
+            "torque": ca.vertcat(*[tau_log[i] for i in index]),
+            "pd": kp * error - kd * velocity,
+            "pid": kp * error - kd * velocity + ki * integral_next,
+            "cascade": kv * (kp * error - velocity),
+        }[controller.kind]
     u = ca.fmin(ca.fmax(u, -saturation), saturation)
     applied = line[0] if line else u
     force = gain * (applied + d)
