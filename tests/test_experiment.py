@@ -330,3 +330,21 @@ def test_a_validation_data_file_is_mapped_by_the_experiment(tmp_path: Path) -> N
                      'tau_a = "3*i"\n')
     loaded = data.load(path, experiment=experiment, validation=other)
     np.testing.assert_array_equal(loaded.validation.tau[:, 0], 3 * rows[:, 2])
+
+
+# -- the coordinates: a simulation may take a log of some of them, identification needs all -----------------------
+
+
+def test_a_log_of_some_coordinates_is_simulated_and_refused_by_identification(tmp_path: Path) -> None:
+    golden = Path(__file__).parent / "golden" / "double_pendulum.toml"
+    model = symbolic.derive(symbolic.load(golden))
+    t = np.arange(200) / RATE
+    log = write_columns({"t": t, "q_q1": 0.1 * np.sin(t), "tau_q1": np.zeros_like(t)}, tmp_path / "q1.csv")
+    assert data.load(log, model=model.robot).coordinates == ("q1",)
+    assert simulate(model, log).simulated.samples == len(t)
+    message = error(identify_model, model, log)
+    assert message.startswith(f"{log}: columns: missing column 'q_q2'")
+    other = write_columns({"t": t, "q_x": np.sin(t), "tau_x": np.zeros_like(t)}, tmp_path / "x.csv")
+    for call in (lambda: data.load(other, model=model.robot), lambda: identify_model(model, other)):
+        assert error(call) == (f"{other}: column 'q_x': signal for coordinate 'x', which the model does not have "
+                               "(its coordinates: q1, q2)")

@@ -116,13 +116,14 @@ def load(
         A ``.csv``, ``.npz`` or ``.mat`` data file with canonical columns, a ``.toml`` experiment file
         (a file without a known suffix is recognised by its content), or measurements (kept as they are).
     coordinates
-        The model's generalized coordinates, in order. Given, every coordinate must have its ``q_c``
-        and ``tau_c`` (or ``u_c``), and a signal for any other coordinate is refused; ``None`` takes
-        the model's coordinates, else those of the ``q_c`` columns in file order.
+        The model's generalized coordinates, in order (identification needs them all). Given, every
+        coordinate must have its ``q_c`` and ``tau_c`` (or ``u_c``), and a signal for any other
+        coordinate is refused; ``None`` takes those of the ``q_c`` columns in file order (a simulation
+        may start the others from rest), each a coordinate of ``model`` when one is given.
     model
-        The model the experiment is used with: its coordinates (unless ``coordinates`` are given), its
-        ``[[drive]] gain`` for drive signals ``u_<c>``, its parameters for a ``[controller] gain``.
-        Without it, the experiment's own ``model`` is read when a drive signal or a gain needs it.
+        The model the experiment is used with: its ``[[drive]] gain`` for drive signals ``u_<c>``, its
+        parameters for a ``[controller] gain``, its coordinates for the checks. Without it, the
+        experiment's own ``model`` is read when a drive signal or a gain needs it.
     experiment
         An experiment file whose mapping ([signals], [constants], [window], ...) is applied to the data
         file ``data`` instead of the file its ``data`` key names (``--experiment`` of the commands).
@@ -139,8 +140,6 @@ def load(
     DataError
         For any unusable content, with file, key or column, and what is allowed.
     """
-    if coordinates is None and model is not None:
-        coordinates = model.generalized_coordinates
     coordinates = None if coordinates is None else tuple(coordinates)
     if isinstance(data, Measurements):
         loaded = data if isinstance(data, Experiment) else Experiment.of(data)
@@ -167,7 +166,7 @@ def _read_data_file(path: Path, coordinates: tuple[str, ...] | None, model: Robo
     drive = _Model(model, None, str(path))
     measurements = assemble(table.vectors, Source(str(path), lambda name: f"column '{name}'"),
                             coordinates=coordinates, resample=resample, drive=drive.drive(table.vectors),
-                            source=path, data_file=path.resolve(), constants=table.scalars)
+                            model=_coordinates_of(model), source=path, data_file=path.resolve(), constants=table.scalars)
     return Experiment.of(measurements, drive_gains=drive.used())
 
 
@@ -206,6 +205,7 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
         resample=resample or resample_key,
         window=window,
         drive=used.drive(evaluated),
+        model=_coordinates_of(model),
         data_file=data_file,
         source=path,
         constants={**table.scalars, **constants},
@@ -214,9 +214,13 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
     if "controller" in spec:
         controller_table = _table(spec, "controller", source)
         controller = parse(controller_table, measurements.coordinates, used.parameters(controller_table), source,
-                           coordinates, measurements.columns())
+                           coordinates or _coordinates_of(model), measurements.columns())
     return Experiment.of(measurements, model=named, settings=settings, controller=controller, window=window,
                          drive_gains=used.used())
+
+
+def _coordinates_of(model: Robot | None) -> tuple[str, ...] | None:
+    return None if model is None else tuple(model.generalized_coordinates)
 
 
 class _Model:

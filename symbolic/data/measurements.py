@@ -214,6 +214,7 @@ def assemble(
     resample: bool = False,
     window: tuple[float | None, float | None] | None = None,
     drive: DriveGains | None = None,
+    model: tuple[str, ...] | None = None,
     **fields: Any,
 ) -> Measurements:
     """Check named signals and arrange them as :class:`Measurements`.
@@ -226,6 +227,8 @@ def assemble(
         The file, and how to name a signal in a message.
     coordinates
         The model's coordinates; ``None`` to take them from the ``q_<c>`` signals in order.
+    model
+        With ``coordinates`` ``None``: the model's coordinates, of which the data's must be some.
     rate
         Sampling rate in Hz when there is no ``t`` signal.
     resample
@@ -239,7 +242,7 @@ def assemble(
     """
     if "t" not in signals and rate is None:
         raise DataError(origin.name, origin.container, f"missing {origin.noun} 't' ({_contract()})")
-    coordinates, canonical, extras = _arrange(signals, origin, coordinates)
+    coordinates, canonical, extras = _arrange(signals, origin, coordinates, model)
     scale = _drive_scale(signals, origin, drive or DriveGains())
     n = _common_length(signals, origin)
     if "t" in signals:
@@ -286,9 +289,13 @@ def assemble(
 
 
 def _arrange(
-    signals: Mapping[str, np.ndarray], source: Source, coordinates: tuple[str, ...] | None
+    signals: Mapping[str, np.ndarray], source: Source, coordinates: tuple[str, ...] | None,
+    model: tuple[str, ...] | None = None,
 ) -> tuple[tuple[str, ...], set[str], list[str]]:
-    """The coordinates, the per-coordinate kinds present, the extra signal names; checks completeness."""
+    """The coordinates, the per-coordinate kinds present, the extra signal names; checks completeness.
+
+    ``coordinates`` given: exactly those; else those of the q_<c> signals, each one of ``model``'s
+    coordinates when a model is given (its coordinates: the data may measure some of them)."""
     per_kind: dict[str, list[str]] = {kind: [] for kind in KINDS}
     extras = []
     for name in signals:
@@ -303,16 +310,17 @@ def _arrange(
         coordinates = tuple(per_kind["q"])
         if not coordinates:
             raise DataError(source.name, source.container, f"no position {source.noun} q_<coordinate> ({_contract()})")
+    known = coordinates if model_given else model  # the coordinates a signal may name (None: any)
     for kind, names in per_kind.items():
         for c in names:
-            if c not in coordinates:
-                if model_given:
-                    raise DataError(
-                        source.name,
-                        source.where(f"{kind}_{c}"),
-                        f"signal for coordinate {c!r}, which the model does not have (its coordinates: "
-                        f"{', '.join(coordinates)})",
-                    )
+            if known is not None and c not in known:
+                raise DataError(
+                    source.name,
+                    source.where(f"{kind}_{c}"),
+                    f"signal for coordinate {c!r}, which the model does not have (its coordinates: "
+                    f"{', '.join(known)})",
+                )
+            if c not in coordinates:  # a signal of a coordinate whose position is missing
                 raise DataError(source.name, source.container, f"missing {source.noun} 'q_{c}' ({_contract()})")
     for kind in REQUIRED:
         for c in coordinates:

@@ -194,7 +194,8 @@ def identify_model(
     :func:`symbolic.data.load` (its rule for a validation file; the model's drive gains for ``u_<c>``).
     """
     reg, base = model_base(model)  # first: a model the regressor cannot cover is refused before reading data
-    loaded = load(data, model=model.robot, experiment=experiment, validation=validation)
+    loaded = load(data, model.robot.generalized_coordinates, model=model.robot, experiment=experiment,
+                  validation=validation)
     regressor = base_regressor(model)
     observation = observe(loaded, regressor, len(base.names), settings)
     ident = solve(observation, base.names, method)

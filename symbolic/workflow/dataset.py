@@ -120,7 +120,7 @@ def load_sets(
     the estimation set.
     """
     robot = model if isinstance(model, Robot) else None
-    coordinates = None if robot is not None else tuple(model)
+    coordinates = tuple(robot.generalized_coordinates if robot is not None else model)
     measurements = load(data, coordinates, model=robot, experiment=experiment, validation=validation)
     if measurements.validation is None:
         first, last = split(measurements)
