@@ -292,7 +292,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print(f"error: --out: {error}", file=sys.stderr)
         return 2
     model = derive(resolve(args.model))
-    measurements = data.load(args.experiment)
+    measurements = data.load(args.experiment, model=model.robot)
     simulation = simulate(model, measurements, method=args.method, substeps=args.substeps,
                           friction_velocity=args.friction_velocity)
     comparison = simulation.compare(window=args.window)

@@ -273,12 +273,15 @@ stop = 0.1
 [controller]
 kind = "pd"
 kp = [40.0]
+kd = [0.5]
+reference = ["0.1*t"]
 """
     (tmp_path / "arm.toml").write_text("")
     m = load(experiment(tmp_path, text, mat_data()))
     assert m.t[0] == pytest.approx(0.05) and m.t[-1] == pytest.approx(0.1) and m.samples == 51
-    assert m.model == str((tmp_path / "arm.toml").resolve())
-    assert dict(m.controller) == {"kind": "pd", "kp": [40.0]}
+    assert m.model == str((tmp_path / "arm.toml").resolve()) and m.window == (0.05, 0.1)
+    assert m.controller.kind == "pd" and m.controller.coordinates == ("x",) and m.controller.kp.tolist() == [40.0]
+    assert m.controller.kd.tolist() == [0.5] and m.controller.reference == ("0.1*t",)
 
 
 def test_experiment_rate_inside_signals(tmp_path: Path) -> None:
@@ -386,7 +389,7 @@ def test_emps_examples_load(emps: Path) -> None:
     np.testing.assert_array_equal(m.q[:, 0], raw["qm"][:, 0])
     np.testing.assert_allclose(m.tau[:, 0], raw["gtau"][0, 0] * raw["vir"][:, 0], rtol=1e-15)
     np.testing.assert_array_equal(m.extras["pulses_N"], raw["pulses_N"][:, 0])
-    assert m.model == "emps" and m.controller["kind"] == "cascade" and m.identification["bandwidth"] == 20.0
+    assert m.model == "emps" and m.controller.kind == "cascade" and m.settings.bandwidth == 20.0
     assert dict(load(robots.example_path("emps_estimation"), coordinates=["q"]).constants)["gtau"] == raw["gtau"][0, 0]
     # the model the experiments name is the built-in one, and its coordinates are the data's
     assert robots.load(m.model).coordinates == m.coordinates

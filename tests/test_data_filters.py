@@ -70,11 +70,13 @@ def test_decimate_passes_slow_signals_within_the_ripple() -> None:
 
 
 def _log(samples: int, identification: dict | None) -> "Measurements":
+    from symbolic.data import Experiment, Settings
     from symbolic.data.measurements import Source, assemble
 
     t = np.arange(samples) / 1000.0
     signals = {"t": t, "q_q": np.sin(3 * t), "tau_q": np.cos(3 * t)}
-    return assemble(signals, Source("log.csv", lambda name: f"column {name}"), identification=identification)
+    measurements = assemble(signals, Source("log.csv", lambda name: f"column {name}"))
+    return Experiment.of(measurements, settings=Settings.from_table(identification, "log.csv"))
 
 
 @pytest.mark.parametrize("table", [None, {"bandwidth": 10.0}, {"cutoff": 80.0, "order": 2},
@@ -92,13 +94,16 @@ def test_simulation_comparison_and_identification_share_one_treatment(table) -> 
 
 
 def test_comparison_refuses_what_identification_refuses_in_the_same_words() -> None:
+    """The [identification] table is checked once, where the experiment is read (Settings.from_table):
+    identification and the comparison of a simulation take the same checked settings."""
     from symbolic.data import DataError
-    from symbolic.simulation.comparison import treatment
 
-    with pytest.raises(DataError, match=r"\[identification\] smoothing: unknown key"):
-        treatment(_log(200, {"smoothing": 3}))
+    with pytest.raises(DataError, match=r"\[identification\] smoothing: unknown key \(allowed: bandwidth, cutoff"):
+        _log(200, {"smoothing": 3})
+    with pytest.raises(DataError, match=r"\[identification\] ordre: unknown key .*; did you mean 'order'\?$"):
+        _log(200, {"ordre": 3})
     with pytest.raises(DataError, match=r"\[identification\] order: expected a positive integer"):
-        treatment(_log(200, {"order": 0}))
+        _log(200, {"order": 0})
 
 
 def test_comparison_of_a_short_log_runs_unfiltered_where_identification_refuses() -> None:

@@ -17,7 +17,7 @@ import pytest
 
 from shared_data import emps  # noqa: F401  (fixture)
 from symbolic import data, identify
-from symbolic.data import DataError, Measurements
+from symbolic.data import DataError, Experiment, Measurements
 from symbolic.identify import IdentificationError, Settings
 from symbolic import robots
 
@@ -249,18 +249,22 @@ def test_default_treatment_follows_the_rate() -> None:
 def test_experiment_identification_table(tmp_path: Path) -> None:
     measurements = arm_data(duration=5.0)
     table = {"bandwidth": 4.0, "decimation": 5}
-    with_table = dataclasses.replace(measurements, identification=table, source=tmp_path / "x.experiment.toml")
+    source = str(tmp_path / "x.experiment.toml")
+    with_table = Experiment.of(dataclasses.replace(measurements, source=Path(source)),
+                               settings=Settings.from_table(table, source))
     p = identify.observe(with_table, arm_regressor, len(ARM_NAMES)).processing
     assert (p.cutoff, p.decimation) == (20.0, 5)
     p = identify.observe(with_table, arm_regressor, len(ARM_NAMES), Settings(decimation=2)).processing
     assert p.decimation == 2  # the call's settings win
+    # the table is checked where the experiment is read; the treatment then refuses what the data cannot take
     for bad, message in [({"cut": 1.0}, "[identification] cut: unknown key"),
                          ({"cutoff": -1.0}, "[identification] cutoff: expected a positive number"),
-                         ({"order": 2.5}, "[identification] order: expected a positive integer"),
-                         ({"cutoff": 900.0}, "cutoff: 900 Hz is not below the Nyquist frequency 500 Hz")]:
-        broken = dataclasses.replace(measurements, identification=bad, source=tmp_path / "x.experiment.toml")
+                         ({"order": 2.5}, "[identification] order: expected a positive integer")]:
         with pytest.raises(DataError, match=message.replace("[", r"\[").replace("]", r"\]")):
-            identify.observe(broken, arm_regressor, len(ARM_NAMES))
+            Settings.from_table(bad, source)
+    broken = Experiment.of(with_table, settings=Settings.from_table({"cutoff": 900.0}, source))
+    with pytest.raises(DataError, match="cutoff: 900 Hz is not below the Nyquist frequency 500 Hz"):
+        identify.observe(broken, arm_regressor, len(ARM_NAMES))
 
 
 def test_too_few_samples() -> None:

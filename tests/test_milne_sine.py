@@ -7,7 +7,6 @@ experiment file with a ``[controller]``).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from pathlib import Path
 
@@ -18,7 +17,7 @@ from scipy.integrate import solve_ivp
 
 import symbolic
 from symbolic import data
-from symbolic.data import DataError, Measurements
+from symbolic.data import DataError, Experiment, Measurements
 from symbolic.derive import DynamicModel, derive
 from symbolic.reproduction.milne.yaw_inertia import inertia_form
 from symbolic.errors import ModelError
@@ -223,9 +222,9 @@ def test_frequency_not_given(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("controller, message", [
     ("", "[controller]: missing"),
-    ('[controller]\nkind = "cascade"\nkp = [1.0]\nkv = [1.0]\n', "needs a proportional loop"),
-    ('[controller]\nkind = "pid"\nkp = [1.0]\nkd = [0.0]\nki = [3.0]\n', "integral term"),
-    ('[controller]\nkind = "pd"\nkp = [0.0]\nkd = [0.0]\n', "must be > 0"),
+    ('[controller]\nkind = "cascade"\nkp = [1.0]\nkv = [1.0]\nreference = "ref"\n', "needs a proportional loop"),
+    ('[controller]\nkind = "pid"\nkp = [1.0]\nkd = [0.0]\nki = [3.0]\nreference = "ref"\n', "integral term"),
+    ('[controller]\nkind = "pd"\nkp = [0.0]\nkd = [0.0]\nreference = "ref"\n', "must be > 0"),
 ])
 def test_bad_controller(tmp_path: Path, controller: str, message: str) -> None:
     log = data.load(write_run(tmp_path, 2.0, controller=controller))
@@ -395,7 +394,7 @@ def test_milne_experiment_on_the_simulated_omni(tmp_path: Path) -> None:
             q = simulate(model, log, controller=controller).simulated.q
             angles.append(q[t.size // 2:, 1:].mean(axis=0))
             yaw = Measurements.from_arrays(t, ["theta"], q[:, :1], np.zeros((t.size, 1)), ref=ref[:, :1])
-            logs.append(dataclasses.replace(yaw, controller={"kind": "pd", "kp": [kp], "kd": [0.0]}))
+            logs.append(Experiment.of(yaw, controller={"kind": "pd", "kp": [kp], "kd": [0.0], "reference": "ref"}))
         result = sine.identify_joint(logs, frequencies, transient=3.0)
         measured = np.mean(angles, axis=0)
         assert result.beta_tilde == pytest.approx(1 / d(*measured), rel=5e-3)

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 import symbolic
-from symbolic.data import Measurements
+from symbolic.data import Experiment, Measurements
 from symbolic.numeric import numeric_model
 from symbolic.simulation.simulator import simulate
 
@@ -188,8 +188,8 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     logged = Measurements.from_arrays(t, coordinates, np.round(q / resolution) * resolution, tau, ref=reference,
                                       extras=extras if logged_feedforward else None)
     if logged_feedforward:
-        return dataclasses.replace(logged, controller=table)
-    return dataclasses.replace(logged, controller={k: v for k, v in table.items() if k != "disturbance"})
+        return Experiment.of(logged, controller=table)
+    return Experiment.of(logged, controller={k: v for k, v in table.items() if k != "disturbance"})
 
 
 def _feedforward(model, coordinates, q, qd, qdd, t) -> np.ndarray:

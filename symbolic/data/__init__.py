@@ -1,20 +1,22 @@
 """Measured data: data files, experiment files, and the signal treatments of identification.
 
-One entry point, :func:`load`, takes either
+One entry point, :func:`load` (:mod:`symbolic.data.experiment`), takes either
 
 * a **data file** with canonical columns — ``t`` and, for every coordinate ``c`` of the model,
-  ``q_c`` and ``tau_c``, optionally ``qd_c``, ``qdd_c``, ``ref_c``; other columns are kept as extra
-  signals — as CSV with a header line, NumPy ``.npz`` or MATLAB ``.mat`` (v5), or
-* an **experiment file** (``.toml``, see :mod:`symbolic.data.experiment`) that maps any such file's
-  variables onto those names by expressions, with constants, a time window, and the model and
-  controller of the experiment,
+  ``q_c`` and ``tau_c`` (or the drive signal ``u_c``, times the model's ``[[drive]] gain``),
+  optionally ``qd_c``, ``qdd_c``, ``ref_c``; other columns are kept as extra signals — as CSV with a
+  header line, NumPy ``.npz`` or MATLAB ``.mat`` (v5), or
+* an **experiment file** (``.toml``) that maps any such file's variables onto those names by
+  expressions, with constants, a time window, the model, the data treatment (``[identification]``)
+  and the controller (``[controller]``) of the experiment,
 
-and returns :class:`Measurements`. Problems are a :class:`DataError` (a
-:class:`~symbolic.errors.ModelError`) naming the file, the column or key, what is wrong and what is
-allowed: missing column, a signal for a coordinate the model does not have, length mismatch, NaN or
-infinity (column and sample), time not increasing or not uniform (the steps found; resampling only
-on request), an empty window, unknown file type, unknown variable in an expression, a constant that
-is also a variable of the file.
+and returns an :class:`Experiment` (:class:`Measurements` with the experiment's model, treatment
+settings, controller and validation set), every table checked once. Problems are a
+:class:`DataError` naming the file, the column or key, what is wrong and what is allowed: missing
+column, a signal for a coordinate the model does not have, length mismatch, NaN or infinity (column
+and sample), time not increasing or not uniform (the steps found; resampling only on request), an
+empty window, unknown file type, a CSV file without a header line, unknown variable in an
+expression, a constant that is also a variable of the file, an unknown key of any table.
 
 :mod:`symbolic.data.filters` holds the zero-phase low-pass, central differences and decimation
 used on such data.
@@ -25,77 +27,26 @@ from __future__ import annotations
 from pathlib import Path
 
 from symbolic.data import filters
+from symbolic.data.controller import Controller
 from symbolic.data.errors import DataError
-from symbolic.data.experiment import DATA_PATH_VARIABLE, resolve_data
+from symbolic.data.experiment import DATA_PATH_VARIABLE, Experiment, load, resolve_data
 from symbolic.data.files import write as write_columns
-from symbolic.data.measurements import UNIFORM_TOLERANCE, Measurements, Source, assemble, split_name
+from symbolic.data.measurements import UNIFORM_TOLERANCE, Measurements
+from symbolic.data.settings import Settings
 
 __all__ = [
     "DATA_PATH_VARIABLE",
     "UNIFORM_TOLERANCE",
+    "Controller",
     "DataError",
+    "Experiment",
     "Measurements",
+    "Settings",
     "filters",
     "load",
     "resolve_data",
     "write",
 ]
-
-
-def load(
-    path: str | Path,
-    coordinates: tuple[str, ...] | list[str] | None = None,
-    *,
-    resample: bool = False,
-    experiment: str | Path | None = None,
-) -> Measurements:
-    """Load measurements from a data file or an experiment file.
-
-    Parameters
-    ----------
-    path
-        A ``.csv``, ``.npz`` or ``.mat`` data file with canonical columns, or a ``.toml`` experiment
-        file (a file without a known suffix is recognised by its content).
-    coordinates
-        The model's generalized coordinates, in order. Given, every coordinate must have its ``q_c``
-        and ``tau_c``, and a signal for any other coordinate is refused; ``None`` takes the
-        coordinates from the ``q_c`` columns in file order.
-    resample
-        Interpolate linearly onto a uniform time grid (same first and last time, same number of
-        samples) when the time steps vary by more than :data:`UNIFORM_TOLERANCE`; without it that is
-        an error. An experiment file can ask for it with ``resample = true``.
-    experiment
-        An experiment file whose mapping ([signals], [constants], [window], ...) is applied to the data
-        file ``path`` instead of the file its ``data`` key names (``--experiment`` of the commands).
-
-    Raises
-    ------
-    DataError
-        For any unusable content, with file, key or column, and what is allowed.
-    """
-    from symbolic.data import files
-    from symbolic.data.experiment import load_experiment
-
-    path = Path(path)
-    coordinates = None if coordinates is None else tuple(coordinates)
-    if experiment is not None:
-        return load_experiment(Path(experiment), coordinates, resample, data=path)
-    if files.kind(path) == "experiment":
-        return load_experiment(path, coordinates, resample)
-    table = files.read(path)
-    for name in (*table.unusable, *table.scalars):
-        if name == "t" or split_name(name) is not None:
-            what = table.unusable.get(name, "a single number (a signal needs at least 2 samples)")
-            raise DataError(str(path), f"column '{name}'", f"is {what}")
-    return assemble(
-        table.vectors,
-        Source(str(path), lambda name: f"column '{name}'"),
-        coordinates=coordinates,
-        resample=resample,
-        source=path,
-        data_file=path.resolve(),
-        constants=table.scalars,
-    )
 
 
 def write(measurements: Measurements, path: str | Path) -> Path:

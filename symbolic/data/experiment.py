@@ -1,100 +1,315 @@
-"""Experiment files: TOML that maps any data file onto the canonical signals.
+"""Experiment files, and the one loader of an experiment: :func:`load` builds an :class:`Experiment`.
 
-::
+An experiment file is TOML that names a data file, maps its variables onto the canonical signals by
+expressions (``[signals]``, ``[constants]``), and declares the time window, the model, the data
+treatment (``[identification]``) and the machine's controller (``[controller]``); its format is
+written once, in docs/data.md ("Experiment files").
 
-    data = "DATA_EMPS.mat"        # the data file, relative to this file (see resolve_data)
-    model = "emps"                # optional: a built-in robot name or a model file (relative to this file)
-    description = "..."           # optional
-    resample = false              # optional: interpolate onto a uniform time grid when steps vary
-    rate = 1000.0                 # optional, Hz: when the file has no time (also accepted in [signals])
-
-    [signals]                     # canonical name (or an extra signal's name) = expression of the file's variables
-    t = "t"
-    q_q = "qm"
-    tau_q = "gtau*vir"
-    ref_q = "qg"
-
-    [constants]                   # numbers the expressions may use (not names of the file's variables)
-    counts_per_m = 1.0
-
-    [window]                      # optional: keep start <= t <= stop (seconds; either may be left out)
-    start = 0.5
-
-    [controller]                  # optional, kept as written for the simulation
-    [identification]              # optional, kept as written for the identification (bandwidth, cutoff, ...)
-
-Expressions are parsed by the model files' safe parser (:func:`symbolic.description.expressions.parse_expression`:
-numbers, names, ``+ - * / **``, ``pi`` and a list of functions; nothing is evaluated as Python) and then
-computed element-wise with NumPy. A variable of the file that is 1×1 (MATLAB's ``gtau``) is a number.
+Inputs: a data file, an experiment file, or measurements, with the model they are used with and an
+optional validation set. Output: an :class:`Experiment`. Every table is checked here, when the file is
+read, the same way for every command (identify, simulate, diagnose, first-peak): unknown keys are
+refused with the allowed ones and a "did you mean" (:mod:`symbolic.data.keys`), ``[identification]``
+becomes :class:`~symbolic.data.settings.Settings`, ``[controller]`` a
+:class:`~symbolic.data.controller.Controller`, drive signals ``u_<c>`` become forces by the model's
+``[[drive]] gain``. Expressions are parsed by the model files' safe parser
+(:func:`symbolic.description.expressions.parse_expression`; nothing is evaluated as Python) and
+computed element-wise with NumPy.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
-from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 import sympy as sp
 
+from symbolic import robots
 from symbolic.data import files
+from symbolic.data.controller import Controller, parse
 from symbolic.data.errors import DataError
-from symbolic.data.measurements import Measurements, Source, assemble, isfinite_number
-from symbolic.errors import ModelError
+from symbolic.data.keys import check_keys
+from symbolic.data.measurements import DriveGains, Measurements, Source, assemble, isfinite_number, split_name
+from symbolic.data.settings import Settings
+from symbolic.description import modelfile
 from symbolic.description.expressions import RESERVED_NAMES, parse_expression, variable_names
+from symbolic.description.robot import Robot
+from symbolic.errors import ModelError
 
 DATA_PATH_VARIABLE = "SYMBOLIC_DATA_PATH"
 """Environment variable: folders (separated by ``os.pathsep``) searched for a data file by its name
 when it is not found at the path the experiment file gives."""
 
-TOP_KEYS = ("data", "model", "description", "rate", "resample", "signals", "constants", "window", "controller",
-            "identification")
+TOP_KEYS = ("data", "model", "description", "rate", "resample", "columns", "signals", "constants", "window",
+            "controller", "identification")
+
+WINDOW_KEYS = ("start", "stop")
 
 
-def load_experiment(path: Path, coordinates: tuple[str, ...] | None, resample: bool, data: Path | None = None) -> Measurements:
+@dataclass(frozen=True, eq=False)
+class Experiment(Measurements):
+    """Measurements with what their experiment declares, loaded and checked once (:func:`load`).
+
+    An Experiment is :class:`~symbolic.data.measurements.Measurements` (its numbers, the time window
+    already applied), so that everything that reads measurements reads it; identification, simulation,
+    the workflow and the first-peak method read the rest from here and nowhere else.
+
+    Attributes
+    ----------
+    model
+        The experiment's ``model``: a built-in robot name, or a model file's absolute path; ``None``.
+    settings
+        The ``[identification]`` table, checked (unset fields ``None``: the rules).
+    controller
+        The ``[controller]`` table, checked; ``None`` when the experiment declares none.
+    validation
+        The held-out data set loaded with it (:func:`load`'s ``validation``), or ``None``.
+    window
+        The ``[window]`` applied, ``(start, stop)`` in seconds, or ``None``.
+    drive_gains
+        The ``[[drive]] gain`` that turned each drive signal ``u_<c>`` into ``tau_<c>``, by coordinate.
+    """
+
+    model: str | None = None
+    settings: Settings = Settings()
+    controller: Controller | None = None
+    validation: Experiment | None = field(default=None, repr=False)
+    window: tuple[float | None, float | None] | None = None
+    drive_gains: Mapping[str, float] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, measurements: Measurements, *, settings: Settings | None = None,
+           controller: Controller | Mapping[str, Any] | None = None, **context: Any) -> Experiment:
+        """``measurements`` as an experiment (an Experiment's own context kept unless given): data built
+        in Python with a treatment or a controller (a table is checked as a file's would be, its gain
+        names when a model uses it)."""
+        if isinstance(controller, Mapping):
+            controller = parse(controller, measurements.coordinates, None, str(measurements.source),
+                               columns=measurements.columns())
+        given = {"settings": settings, "controller": controller, **context}
+        given = {k: v for k, v in given.items() if v is not None}
+        if isinstance(measurements, cls):
+            return dataclasses.replace(measurements, **given)
+        own = {f.name: getattr(measurements, f.name) for f in dataclasses.fields(Measurements)}
+        return cls(**own, **given)
+
+
+def load(
+    data: str | Path | Measurements,
+    coordinates: Sequence[str] | None = None,
+    *,
+    model: Robot | None = None,
+    experiment: str | Path | None = None,
+    validation: str | Path | Measurements | None = None,
+    resample: bool = False,
+) -> Experiment:
+    """Load an experiment: a data file, an experiment file, or measurements, with its validation set.
+
+    Parameters
+    ----------
+    data
+        A ``.csv``, ``.npz`` or ``.mat`` data file with canonical columns, a ``.toml`` experiment file
+        (a file without a known suffix is recognised by its content), or measurements (kept as they are).
+    coordinates
+        The model's generalized coordinates, in order (identification needs them all). Given, every
+        coordinate must have its ``q_c`` and ``tau_c`` (or ``u_c``), and a signal for any other
+        coordinate is refused; ``None`` takes those of the ``q_c`` columns in file order (a simulation
+        may start the others from rest), each a coordinate of ``model`` when one is given.
+    model
+        The model the experiment is used with: its ``[[drive]] gain`` for drive signals ``u_<c>``, its
+        parameters for a ``[controller] gain``, its coordinates for the checks. Without it, the
+        experiment's own ``model`` is read when a drive signal or a gain needs it.
+    experiment
+        An experiment file whose mapping ([signals], [constants], [window], ...) is applied to the data
+        file ``data`` instead of the file its ``data`` key names (``--experiment`` of the commands).
+    validation
+        A held-out data set (:attr:`Experiment.validation`): an experiment file as it is, a plain data
+        file mapped by ``experiment`` too when one is given (the same logger's other run), or measurements.
+    resample
+        Interpolate linearly onto a uniform time grid (same first and last time, same number of
+        samples) when the time steps vary by more than the tolerance; without it that is an error. An
+        experiment file can ask for it with ``resample = true``.
+
+    Raises
+    ------
+    DataError
+        For any unusable content, with file, key or column, and what is allowed.
+    """
+    coordinates = None if coordinates is None else tuple(coordinates)
+    if isinstance(data, Measurements):
+        loaded = data if isinstance(data, Experiment) else Experiment.of(data)
+    elif experiment is not None:
+        loaded = _read_experiment(Path(experiment), coordinates, model, resample, data=Path(data))
+    elif files.kind(Path(data)) == "experiment":
+        loaded = _read_experiment(Path(data), coordinates, model, resample)
+    else:
+        loaded = _read_data_file(Path(data), coordinates, model, resample)
+    if validation is None:
+        return loaded
+    mapped = None if isinstance(validation, Measurements) or files.kind(Path(validation)) == "experiment" else experiment
+    held = load(validation, coordinates, model=model, experiment=mapped, resample=resample)
+    return dataclasses.replace(loaded, validation=held)
+
+
+def _read_data_file(path: Path, coordinates: tuple[str, ...] | None, model: Robot | None, resample: bool) -> Experiment:
+    """A data file with canonical columns (no experiment: no model, treatment or controller of its own)."""
+    table = files.read(path)
+    for name in (*table.unusable, *table.scalars):
+        if name == "t" or split_name(name) is not None:
+            what = table.unusable.get(name, "a single number (a signal needs at least 2 samples)")
+            raise DataError(str(path), f"column '{name}'", f"is {what}")
+    drive = _Model(model, None, str(path))
+    measurements = assemble(table.vectors, Source(str(path), lambda name: f"column '{name}'"),
+                            coordinates=coordinates, resample=resample, drive=drive.drive(table.vectors),
+                            model=_coordinates_of(model), source=path, data_file=path.resolve(), constants=table.scalars)
+    return Experiment.of(measurements, drive_gains=drive.used())
+
+
+def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Robot | None, resample: bool,
+                     data: Path | None = None) -> Experiment:
     """Read an experiment file and the data file it names (or ``data`` instead); see the module docstring."""
     source = str(path)
     spec = _read_toml(path)
-    unknown = [k for k in spec if k not in TOP_KEYS]
-    if unknown:
-        raise DataError(source, unknown[0], f"unknown key (allowed: {', '.join(TOP_KEYS)})")
+    check_keys(spec, TOP_KEYS, source)
     if data is not None:
-        if not Path(data).is_file():
+        if not data.is_file():
             raise DataError(str(data), "file", "data file not found")
-        data_file = Path(data).resolve()
+        data_file = data.resolve()
     else:
         data_file = resolve_data(_string(spec, "data", source, required=True), path)
-    table = files.read(data_file)
+    table = files.read(data_file, _columns(spec, source), source)
     constants = _constants(spec.get("constants", {}), table, source)
     signals_spec = _table(spec, "signals", source, required=True)
     rate = _rate(spec, signals_spec, source)
-    evaluated = {
-        name: _evaluate(name, text, table, constants, source)
-        for name, text in signals_spec.items()
-        if not (name == "rate" and isfinite_number(text))
-    }
+    evaluated = _signals(signals_spec, table, constants, source)
     if "t" not in evaluated and rate is None:
         raise DataError(source, "[signals]", "no time: give t = \"<time variable>\" or rate = <Hz>")
     resample_key = spec.get("resample", False)
     if not isinstance(resample_key, bool):
         raise DataError(source, "resample", f"expected true or false, got {resample_key!r}")
-    return assemble(
+    settings = Settings.from_table(_table(spec, "identification", source) if "identification" in spec else None,
+                                   source)
+    named = _model(spec, path)
+    window = _window(spec.get("window"), source)
+    used = _Model(model, named, source)
+    measurements = assemble(
         evaluated,
         Source(source, lambda name: f"[signals] {name}", noun="signal", container="[signals]"),
         coordinates=coordinates,
         rate=rate,
         resample=resample or resample_key,
-        window=_window(spec.get("window"), source),
+        window=window,
+        drive=used.drive(evaluated),
+        model=_coordinates_of(model),
         data_file=data_file,
         source=path,
-        model=_model(spec, path),
         constants={**table.scalars, **constants},
-        controller=_raw_table(spec, "controller", source),
-        identification=_raw_table(spec, "identification", source),
     )
+    controller = None
+    if "controller" in spec:
+        controller_table = _table(spec, "controller", source)
+        controller = parse(controller_table, measurements.coordinates, used.parameters(controller_table), source,
+                           coordinates or _coordinates_of(model), measurements.columns())
+    return Experiment.of(measurements, model=named, settings=settings, controller=controller, window=window,
+                         drive_gains=used.used())
+
+
+def _coordinates_of(model: Robot | None) -> tuple[str, ...] | None:
+    return None if model is None else tuple(model.generalized_coordinates)
+
+
+class _Model:
+    """The model an experiment is read for: the one given, else the experiment's ``model``, loaded only
+    when a drive signal or a controller's gain needs it (its ``[[drive]] gain``, its parameters)."""
+
+    def __init__(self, given: Robot | None, named: str | None, source: str) -> None:
+        self.given, self.named, self.source = given, named, source
+        self._robot: Robot | None = given
+        self._applied: dict[str, float] = {}
+
+    def robot(self) -> Robot | None:
+        if self._robot is None and self.named is not None:
+            self._robot = robots.load(self.named) if self.named in robots.names() else modelfile.load(self.named)
+        return self._robot
+
+    def drive(self, signals: Mapping[str, Any]) -> DriveGains:
+        """The drive gains (τ_c = gain·u_c), read from the model only when ``signals`` hold a drive signal."""
+        driven = [split[1] for split in map(split_name, signals) if split is not None and split[0] == "u"]
+        if not driven:
+            return DriveGains()
+        robot = self.robot()
+        gains = DriveGains() if robot is None else drive_gains(robot)
+        self._applied = {c: gains.gains[c] for c in driven if c in gains.gains}
+        return gains
+
+    def used(self) -> dict[str, float]:
+        """The gains applied, by coordinate (those given by a drive signal)."""
+        return dict(self._applied)
+
+    def parameters(self, table: Mapping[str, Any]) -> tuple[sp.Symbol, ...] | None:
+        """The model's parameter symbols when a ``gain`` of the controller ``table`` names any; else
+        ``None`` (no model needed: numbers, or no model known, then checked when a model uses it)."""
+        gain = table.get("gain") if isinstance(table, Mapping) else None
+        texts = gain if isinstance(gain, list) else [gain]
+        if not any(isinstance(g, str) and variable_names(g) for g in texts):
+            return None
+        robot = self.robot()
+        return None if robot is None else robot.parameter_symbols
+
+
+def drive_gains(robot: Robot) -> DriveGains:
+    """The ``[[drive]] gain`` of each coordinate of ``robot`` that has one, at the nominal parameter values.
+
+    Raises
+    ------
+    DataError
+        For a gain that is not a finite non-zero number at those values.
+    """
+    values = robot.parameter_values
+    gains = {}
+    for d in robot.drives:
+        if d.gain is None:
+            continue
+        value = float(sp.sympify(d.gain).xreplace(values))
+        if not np.isfinite(value) or value == 0:
+            raise DataError(str(robot.source), f"[[drive]] '{d.coordinate}' gain",
+                            f"{d.gain} = {value:g} at the nominal parameters (allowed: a finite non-zero number)")
+        gains[d.coordinate] = value
+    return DriveGains(gains, robot.name)
+
+
+def _signals(spec: Mapping[str, Any], table: files.Table, constants: Mapping[str, float],
+             source: str) -> dict[str, np.ndarray]:
+    """The ``[signals]``, evaluated; a ``tau_<c>`` written as a number is that number at every sample."""
+    evaluated = {name: _evaluate(name, text, table, constants, source) for name, text in spec.items()
+                 if not (name == "rate" and isfinite_number(text))}
+    lengths = [len(v) for v in evaluated.values() if isinstance(v, np.ndarray)]
+    if not lengths:
+        raise DataError(source, "[signals]", "no signal of the file (give t, q_<c>, ... as variables of the data file)")
+    return {name: v if isinstance(v, np.ndarray) else np.full(lengths[0], v) for name, v in evaluated.items()}
+
+
+def _columns(spec: Mapping[str, Any], source: str) -> list[str] | None:
+    """``columns``: the names of a header-less CSV file's columns, in file order (distinct identifiers)."""
+    if "columns" not in spec:
+        return None
+    value = spec["columns"]
+    if not isinstance(value, list) or not value or not all(isinstance(v, str) for v in value):
+        raise DataError(source, "columns", f"expected a list of column names in file order, e.g. [\"t\", \"q1\"], "
+                                           f"got {value!r}")
+    for k, name in enumerate(value):
+        if not name.isidentifier():
+            raise DataError(source, f"columns[{k}]", f"{name!r} is not a usable name (a name of letters, digits "
+                                                     "and _, not starting with a digit: expressions use it)")
+    seen = [n for k, n in enumerate(value) if n in value[:k]]
+    if seen:
+        raise DataError(source, "columns", f"{seen[0]!r} is named twice (each column needs its own name)")
+    return value
 
 
 def resolve_data(name: str, experiment: Path) -> Path:
@@ -158,10 +373,6 @@ def _table(spec: Mapping[str, Any], key: str, source: str, required: bool = Fals
     return value
 
 
-def _raw_table(spec: Mapping[str, Any], key: str, source: str) -> Mapping[str, Any] | None:
-    return MappingProxyType(dict(_table(spec, key, source))) if key in spec else None
-
-
 def _model(spec: Mapping[str, Any], path: Path) -> str | None:
     """A built-in name as written; a model file (``.toml`` or containing a path separator) resolved."""
     model = _string(spec, "model", str(path))
@@ -205,8 +416,9 @@ def _constants(spec: Any, table: files.Table, source: str) -> dict[str, float]:
     return constants
 
 
-def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, float], source: str) -> np.ndarray:
-    """The values of signal ``name`` = expression ``text`` of the file's variables and the constants."""
+def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, float], source: str) -> np.ndarray | float:
+    """The values of signal ``name`` = expression ``text`` of the file's variables and the constants; a
+    number for a ``tau_<c>`` written as a number (broadcast to every sample by :func:`_signals`)."""
     key = f"[signals] {name}"
     if not name.isidentifier():
         raise DataError(source, key, "a signal name must be an identifier (t, q_<c>, tau_<c>, ... or an extra name)")
@@ -226,8 +438,11 @@ def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, 
     if len(set(lengths.values())) > 1:
         detail = ", ".join(f"{v} has {n} samples" for v, n in lengths.items())
         raise DataError(source, key, f"length mismatch between the variables of {text!r}: {detail}")
+    if not used and (split_name(name) or ("",))[0] == "tau":
+        return float(expression)  # a number: tau_<c> = "0", a coordinate without an actuator
     if not lengths:
-        raise DataError(source, key, f"{text!r} uses no signal of the file (a signal varies with the samples)")
+        raise DataError(source, key, f"{text!r} uses no signal of the file (a signal varies with the samples; "
+                                     "only a generalized force tau_<c> may be a number, e.g. \"0\" without an actuator)")
     function = sp.lambdify(used, expression, modules="numpy", dummify=True)
     with np.errstate(all="ignore"):
         result = np.asarray(function(*values), dtype=float)
@@ -254,9 +469,7 @@ def _window(spec: Any, source: str) -> tuple[float | None, float | None] | None:
         return None
     if not isinstance(spec, Mapping):
         raise DataError(source, "[window]", f"expected a table with start and/or stop, got {type(spec).__name__}")
-    unknown = [k for k in spec if k not in ("start", "stop")]
-    if unknown:
-        raise DataError(source, f"[window] {unknown[0]}", "unknown key (allowed: start, stop; seconds)")
+    check_keys(spec, WINDOW_KEYS, source, "[window]")
     bounds = []
     for k in ("start", "stop"):
         value = spec.get(k)

@@ -1,4 +1,5 @@
-"""Reading and writing data files: CSV with a header line, NumPy ``.npz``, MATLAB ``.mat`` (v5).
+"""Reading and writing data files: CSV (with a header line, or without one when the experiment names the
+columns), NumPy ``.npz``, MATLAB ``.mat`` (v5).
 
 A file is read into a :class:`Table`: its vectors (one value per sample), its scalars (MATLAB's
 1×1 variables such as ``gtau``, usable as constants) and the variables that are neither (kept by
@@ -11,13 +12,14 @@ import csv
 import io
 import math
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from symbolic.data.errors import DataError
+from symbolic.errors import shorten
 from symbolic.writing import replacing
 
 DATA_SUFFIXES = (".csv", ".npz", ".mat")
@@ -73,19 +75,33 @@ def _head(path: Path) -> bytes:
         raise DataError(str(path), "file", f"cannot read: {exc.strerror}") from None
 
 
-def read(path: Path) -> Table:
-    """Read a data file (``.csv``, ``.npz``, ``.mat``) into a :class:`Table`."""
+def read(path: Path, columns: Sequence[str] | None = None, named_by: str = "<python>") -> Table:
+    """Read a data file (``.csv``, ``.npz``, ``.mat``) into a :class:`Table`.
+
+    ``columns`` names the columns of a CSV file without a header line (an experiment's ``columns``
+    key; ``named_by`` is that experiment file, for messages); other files name their variables themselves.
+    """
     readers = {"csv": read_csv, "npz": read_npz, "mat": read_mat}
     which = kind(path)
     if which not in readers:
         raise DataError(str(path), "file", "expected a data file (.csv, .npz, .mat), got an experiment file")
     if not path.is_file():
         raise DataError(str(path), "file", "no such data file")
+    if columns is not None:
+        if which != "csv":
+            raise DataError(named_by, "columns", f"names the columns of a CSV file without a header line; "
+                                                 f"{path.name} is a .{which} file, whose variables have names "
+                                                 "(leave out columns)")
+        return read_csv(path, columns, named_by)
     return readers[which](path)
 
 
-def read_csv(path: Path) -> Table:
-    """CSV: lines starting with ``#`` before the header are comments; then a header line of names."""
+def read_csv(path: Path, columns: Sequence[str] | None = None, named_by: str = "<python>") -> Table:
+    """CSV: lines starting with ``#`` before the header are comments; then a header line of names —
+    or, when ``columns`` is given, no header line: every line is a row of numbers, named by ``columns``.
+
+    A file whose first line is numbers and no ``columns`` is refused with a message saying so and how
+    to name the columns (a numeric first line read as names would make names of numbers)."""
     source = str(path)
     try:
         text = path.read_bytes().decode("utf-8-sig")
@@ -96,15 +112,43 @@ def read_csv(path: Path) -> Table:
     lines = text.splitlines()
     first = next((i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")), None)
     if first is None:
-        raise DataError(source, "header", "no header line (expected comma-separated column names, e.g. t,q_q,tau_q)")
-    header = [name.strip() for name in next(csv.reader([lines[first]]))]
+        what = "no rows" if columns is not None else "no header line (expected comma-separated column names, e.g. t,q_q,tau_q)"
+        raise DataError(source, "header" if columns is None else "rows", what)
+    fields = [name.strip() for name in next(csv.reader([lines[first]]))]
+    if columns is None:
+        if _numbers(fields):
+            raise DataError(
+                source, "header",
+                f"the first line {shorten(lines[first].strip(), 60)} is numbers: the file has no header line; name its "
+                f"{len(fields)} columns in an experiment file, columns = [\"t\", \"q1\", ...] ({len(fields)} names, "
+                "in file order; docs/data.md), or add a header line of names (e.g. t,q_q,tau_q)")
+        header, start = fields, first + 1
+    else:
+        if not _numbers(fields):
+            raise DataError(named_by, "columns", f"{path.name} has a header line ({shorten(lines[first].strip(), 60)}); "
+                                                 "columns is for a CSV file without one: leave out columns, or remove "
+                                                 "the header line")
+        if len(fields) != len(columns):
+            raise DataError(named_by, "columns", f"names {len(columns)} column(s), but the lines of {path.name} have "
+                                                 f"{len(fields)} field(s) (line {first + 1}); give one name per column")
+        header, start = list(columns), first
     _check_names(header, source)
-    body = [(i + 1, line) for i, line in enumerate(lines[first + 1 :], start=first + 1) if line.strip()]
+    body = [(i + 1, line) for i, line in enumerate(lines[start:], start=start) if line.strip()]
     values = _parse_rows(body, header, source)
     table = Table(source)
     for j, name in enumerate(header):
         table.vectors[name] = values[:, j]
     return table
+
+
+def _numbers(fields: list[str]) -> bool:
+    """Whether a line's fields are a row of numbers (empty fields aside: a trailing comma), not names."""
+    given = [f for f in fields if f]
+    try:
+        [float(f) for f in given]
+    except ValueError:
+        return False
+    return bool(given)
 
 
 def _check_names(header: list[str], source: str) -> None:

@@ -1,14 +1,17 @@
 """Measured data of one experiment: :class:`Measurements`, and the checks that build it.
 
 Canonical signals (the data-file contract): ``t`` (time in seconds) and, for every coordinate ``c``
-of the model, ``q_c`` (position) and ``tau_c`` (generalized force), optionally ``qd_c`` (velocity),
-``qdd_c`` (acceleration) and ``ref_c`` (reference position). Any other signal is kept as an extra
-(e.g. ``pulses_N``).
+of the model, ``q_c`` (position) and ``tau_c`` (generalized force) — or instead of ``tau_c`` the drive
+signal ``u_c`` (amperes, volts), which the model's ``[[drive]] gain`` turns into τ_c = gain·u_c
+(:class:`DriveGains`) —, optionally ``qd_c`` (velocity), ``qdd_c`` (acceleration) and ``ref_c``
+(reference position). Any other signal is kept as an extra (e.g. ``pulses_N``, a state feedback's
+reference velocity ``refd_c``).
 """
 
 from __future__ import annotations
 
 import math
+import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,12 +23,15 @@ import numpy as np
 from symbolic.data.errors import DataError
 
 REQUIRED = ("q", "tau")
-"""Per-coordinate signals every data set has."""
+"""Per-coordinate signals every data set has (``tau`` may come from the drive signal ``u``)."""
 
 OPTIONAL = ("qd", "qdd", "ref")
 """Per-coordinate signals a data set may have (for all coordinates or none)."""
 
-KINDS = REQUIRED + OPTIONAL
+DRIVE = "u"
+"""The drive signal u_<c>: given instead of tau_<c>, converted by the model's ``[[drive]] gain``."""
+
+KINDS = REQUIRED + OPTIONAL + (DRIVE,)
 
 UNIFORM_TOLERANCE = 1e-3
 """Largest relative deviation of a time step from the mean step for the time to count as uniform.
@@ -38,7 +44,7 @@ drops or repeats samples deviates by 100 % or more.
 def split_name(name: str) -> tuple[str, str] | None:
     """``("q", "x")`` for ``"q_x"`` and the like; ``None`` for ``t`` and extra signals.
 
-    The prefixes ``q_ qd_ qdd_ tau_ ref_`` are such that no one begins another, so the split is unique.
+    The prefixes ``q_ qd_ qdd_ tau_ ref_ u_`` are such that no one begins another, so the split is unique.
     """
     for kind in KINDS:
         if name.startswith(kind + "_") and len(name) > len(kind) + 1:
@@ -80,13 +86,12 @@ class Measurements:
         The file given to :func:`symbolic.data.load` (data or experiment file).
     data_file
         The data file the numbers were read from.
-    model
-        The experiment's ``model``: a built-in robot name, or a model file's absolute path; ``None``.
-    controller, identification
-        The experiment's ``[controller]`` and ``[identification]`` tables as written (validated by
-        their users: the simulation and the identification), or ``None``.
     resampled
         Whether the samples were interpolated onto a uniform time grid.
+
+    What the experiment declares besides its numbers (model, treatment, controller, validation set) is
+    held by the subclass :class:`symbolic.data.experiment.Experiment`, which :func:`symbolic.data.load`
+    returns.
     """
 
     t: np.ndarray
@@ -101,9 +106,6 @@ class Measurements:
     sample_period: float = 0.0
     source: Path = Path("<arrays>")
     data_file: Path = Path("<arrays>")
-    model: str | None = None
-    controller: Mapping[str, Any] | None = None
-    identification: Mapping[str, Any] | None = None
     resampled: bool = False
 
     @property
@@ -125,6 +127,15 @@ class Measurements:
                 out.update({f"{kind}_{c}": values[:, j] for j, c in enumerate(self.coordinates)})
         out.update(self.extras)
         return out
+
+    def slice(self, start: int, stop: int) -> Measurements:
+        """Samples ``start:stop`` (every per-sample signal cut alike; of the same class, the rest kept)."""
+        cut: dict[str, Any] = {"t": _readonly(self.t[start:stop])}
+        for kind in ("q", "tau", "qd", "qdd", "ref"):
+            values = getattr(self, kind)
+            cut[kind] = None if values is None else _readonly(values[start:stop])
+        extras = MappingProxyType({k: _readonly(v[start:stop]) for k, v in self.extras.items()})
+        return dataclasses.replace(self, extras=extras, **cut)
 
     @classmethod
     def from_arrays(
@@ -155,6 +166,36 @@ class Measurements:
 
 
 @dataclass(frozen=True)
+class DriveGains:
+    """The model's ``[[drive]] gain`` per coordinate, at its nominal parameter values: τ_c = gain·u_c.
+
+    Attributes
+    ----------
+    gains
+        Coordinate -> gain, for the coordinates whose ``[[drive]]`` has a gain.
+    model
+        The model's name, for messages; ``None`` when no model is known.
+    """
+
+    gains: Mapping[str, float] = field(default_factory=dict)
+    model: str | None = None
+
+    def gain(self, coordinate: str, source: str, where: str) -> float:
+        """The gain of ``coordinate``, or a :class:`DataError` at ``where`` saying why there is none."""
+        if coordinate in self.gains:
+            return self.gains[coordinate]
+        fix = f"or give tau_{coordinate}, the generalized force"
+        if self.model is None:
+            problem = (f"the drive signal of {coordinate!r} needs the model's [[drive]] gain (tau_{coordinate} = "
+                       f"gain·u_{coordinate}) and no model is known: load it with the model (model = \"...\" in the "
+                       f"experiment, or the command's MODEL), {fix}")
+        else:
+            problem = (f"model {self.model!r} has no [[drive]] gain for coordinate {coordinate!r} (tau_{coordinate} = "
+                       f"gain·u_{coordinate}): add gain to its [[drive]] of {coordinate!r}, {fix}")
+        raise DataError(source, where, problem)
+
+
+@dataclass(frozen=True)
 class Source:
     """Where signals come from, for error messages: the file and how to name a signal's key."""
 
@@ -172,6 +213,8 @@ def assemble(
     rate: float | None = None,
     resample: bool = False,
     window: tuple[float | None, float | None] | None = None,
+    drive: DriveGains | None = None,
+    model: tuple[str, ...] | None = None,
     **fields: Any,
 ) -> Measurements:
     """Check named signals and arrange them as :class:`Measurements`.
@@ -184,18 +227,23 @@ def assemble(
         The file, and how to name a signal in a message.
     coordinates
         The model's coordinates; ``None`` to take them from the ``q_<c>`` signals in order.
+    model
+        With ``coordinates`` ``None``: the model's coordinates, of which the data's must be some.
     rate
         Sampling rate in Hz when there is no ``t`` signal.
     resample
         Interpolate (linearly) onto a uniform grid when the time steps are not uniform.
     window
         ``(start, stop)`` in seconds (either may be ``None``): keep the samples in between.
+    drive
+        The model's drive gains, for ``u_<c>`` signals (τ_c = gain·u_c); without, a ``u_<c>`` is refused.
     fields
-        Further :class:`Measurements` fields (data_file, model, constants, controller, ...).
+        Further :class:`Measurements` fields (source, data_file, constants).
     """
     if "t" not in signals and rate is None:
         raise DataError(origin.name, origin.container, f"missing {origin.noun} 't' ({_contract()})")
-    coordinates, canonical, extras = _arrange(signals, origin, coordinates)
+    coordinates, canonical, extras = _arrange(signals, origin, coordinates, model)
+    scale = _drive_scale(signals, origin, drive or DriveGains())
     n = _common_length(signals, origin)
     if "t" in signals:
         t = signals["t"]
@@ -217,6 +265,9 @@ def assemble(
     def stack(kind: str) -> np.ndarray | None:
         if kind not in canonical:
             return None
+        if kind == "tau":  # a drive signal becomes the generalized force here, after the checks of u_c itself
+            return _readonly(np.column_stack([scale[c] * signals[f"{DRIVE}_{c}"][start:stop] if c in scale
+                                              else signals[f"tau_{c}"][start:stop] for c in coordinates]))
         return _readonly(np.column_stack([signals[f"{kind}_{c}"][start:stop] for c in coordinates]))
 
     fields.setdefault("source", Path(origin.name))
@@ -238,9 +289,13 @@ def assemble(
 
 
 def _arrange(
-    signals: Mapping[str, np.ndarray], source: Source, coordinates: tuple[str, ...] | None
+    signals: Mapping[str, np.ndarray], source: Source, coordinates: tuple[str, ...] | None,
+    model: tuple[str, ...] | None = None,
 ) -> tuple[tuple[str, ...], set[str], list[str]]:
-    """The coordinates, the per-coordinate kinds present, the extra signal names; checks completeness."""
+    """The coordinates, the per-coordinate kinds present, the extra signal names; checks completeness.
+
+    ``coordinates`` given: exactly those; else those of the q_<c> signals, each one of ``model``'s
+    coordinates when a model is given (its coordinates: the data may measure some of them)."""
     per_kind: dict[str, list[str]] = {kind: [] for kind in KINDS}
     extras = []
     for name in signals:
@@ -255,21 +310,27 @@ def _arrange(
         coordinates = tuple(per_kind["q"])
         if not coordinates:
             raise DataError(source.name, source.container, f"no position {source.noun} q_<coordinate> ({_contract()})")
+    known = coordinates if model_given else model  # the coordinates a signal may name (None: any)
     for kind, names in per_kind.items():
         for c in names:
-            if c not in coordinates:
-                if model_given:
-                    raise DataError(
-                        source.name,
-                        source.where(f"{kind}_{c}"),
-                        f"signal for coordinate {c!r}, which the model does not have (its coordinates: "
-                        f"{', '.join(coordinates)})",
-                    )
+            if known is not None and c not in known:
+                raise DataError(
+                    source.name,
+                    source.where(f"{kind}_{c}"),
+                    f"signal for coordinate {c!r}, which the model does not have (its coordinates: "
+                    f"{', '.join(known)})",
+                )
+            if c not in coordinates:  # a signal of a coordinate whose position is missing
                 raise DataError(source.name, source.container, f"missing {source.noun} 'q_{c}' ({_contract()})")
     for kind in REQUIRED:
         for c in coordinates:
-            if c not in per_kind[kind]:
+            if c not in per_kind[kind] and not (kind == "tau" and c in per_kind[DRIVE]):
                 raise DataError(source.name, source.container, f"missing {source.noun} '{kind}_{c}' ({_contract()})")
+    for c in per_kind[DRIVE]:
+        if c in per_kind["tau"]:
+            raise DataError(source.name, source.where(f"{DRIVE}_{c}"),
+                            f"both tau_{c} and {DRIVE}_{c} are given: give the generalized force tau_{c} or the drive "
+                            f"signal {DRIVE}_{c} (converted by the model's [[drive]] gain), not both")
     present = set(REQUIRED)
     for kind in OPTIONAL:
         have = [c for c in coordinates if c in per_kind[kind]]
@@ -287,7 +348,18 @@ def _arrange(
 
 
 def _contract() -> str:
-    return "required: t, and q_<c>, tau_<c> for every coordinate c; optional: qd_<c>, qdd_<c>, ref_<c>"
+    return ("required: t, and q_<c>, tau_<c> (or the drive signal u_<c>) for every coordinate c; optional: qd_<c>, "
+            "qdd_<c>, ref_<c>")
+
+
+def _drive_scale(signals: Mapping[str, np.ndarray], origin: Source, drive: DriveGains) -> dict[str, float]:
+    """{c: the [[drive]] gain} for each drive signal u_c (τ_c = gain·u_c; _arrange checked the coordinates)."""
+    scale = {}
+    for name in signals:
+        split = split_name(name)
+        if split is not None and split[0] == DRIVE:
+            scale[split[1]] = drive.gain(split[1], origin.name, origin.where(name))
+    return scale
 
 
 def _common_length(signals: Mapping[str, np.ndarray], source: Source) -> int:

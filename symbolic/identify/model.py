@@ -190,22 +190,18 @@ def identify_model(
     """IDIM-LS of ``model``'s base parameters on ``data`` (a data or experiment file, or measurements).
 
     ``experiment`` maps a data file that lacks the canonical columns (its [signals], [window], ...);
-    ``validation`` (a data or experiment file) is the cross-test set, mapped by ``experiment`` too when
-    it is a plain data file and an experiment was given.
+    ``validation`` (a data or experiment file) is the cross-test set. Both are loaded for the model by
+    :func:`symbolic.data.load` (its rule for a validation file; the model's drive gains for ``u_<c>``).
     """
-    coordinates = model.robot.generalized_coordinates
     reg, base = model_base(model)  # first: a model the regressor cannot cover is refused before reading data
-    measurements = data if isinstance(data, Measurements) else load(data, coordinates, experiment=experiment)
+    loaded = load(data, model.robot.generalized_coordinates, model=model.robot, experiment=experiment,
+                  validation=validation)
     regressor = base_regressor(model)
-    observation = observe(measurements, regressor, len(base.names), settings)
+    observation = observe(loaded, regressor, len(base.names), settings)
     ident = solve(observation, base.names, method)
     checked = None
-    if validation is not None:
-        other = validation
-        if not isinstance(validation, Measurements):
-            own = Path(validation).suffix == ".toml"
-            other = load(validation, coordinates, experiment=None if own else experiment)
-        checked = cross_validate(ident, other, regressor, settings)
+    if loaded.validation is not None:
+        checked = cross_validate(ident, loaded.validation, regressor, settings)
     if consistent:
         parameters = consistent_fit(model, reg, base, ident, observation)
     else:

@@ -64,7 +64,10 @@ def cross_validate(
 
 
 def _relative(measured: np.ndarray, predicted: np.ndarray) -> float:
-    return float(100.0 * np.linalg.norm(measured - predicted) / np.linalg.norm(measured))
+    """100·‖measured − predicted‖/‖measured‖ (%); NaN for a coordinate whose force is zero (no actuator:
+    tau_<c> = "0"), where a relative error means nothing."""
+    norm = np.linalg.norm(measured)
+    return float(100.0 * np.linalg.norm(measured - predicted) / norm) if norm > 0 else float("nan")
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,12 +109,12 @@ def run(
     ``figures`` names a folder for PNG figures (:mod:`symbolic.identify.figures`); without matplotlib
     none are drawn and the report's notes say so.
     """
-    measurements = _measurements(data, coordinates, resample)
+    measurements = load(data, tuple(coordinates), validation=validation, resample=resample)
     observation = observe(measurements, regressor, len(names), settings)
     identification = solve(observation, names, method)
     checked = None
-    if validation is not None:
-        checked = cross_validate(identification, _measurements(validation, coordinates, resample), regressor, settings)
+    if measurements.validation is not None:
+        checked = cross_validate(identification, measurements.validation, regressor, settings)
     written: tuple[Path, ...] = ()
     notes: tuple[str, ...] = ()
     if figures is not None:
@@ -122,7 +125,3 @@ def run(
         except drawing.MatplotlibMissing as missing:
             notes = (str(missing),)
     return Report(identification, observation, measurements, checked, written, notes)
-
-
-def _measurements(data: str | Path | Measurements, coordinates: Sequence[str], resample: bool) -> Measurements:
-    return data if isinstance(data, Measurements) else load(data, tuple(coordinates), resample=resample)

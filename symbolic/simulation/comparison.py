@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import DataError, Measurements
-from symbolic.data.treatment import Settings, filtered_motion
+from symbolic.data.treatment import Settings, filtered_motion, settings_for
 
 SIGNALS = ("position", "velocity", "acceleration", "force")
 
@@ -47,15 +47,15 @@ class Treatment:
         return {"cutoff": self.cutoff, "order": self.order, "border": self.border}
 
 
-def treatment(measurements: Measurements) -> Treatment:
-    """The treatment for ``measurements``: identification's rules and the experiment's ``[identification]``
-    table (:class:`symbolic.data.treatment.Settings`, the same keys and checks). Where identification
+def treatment(measurements: Measurements, settings: Settings | None = None) -> Treatment:
+    """The treatment for ``measurements``: identification's rules and choices (``settings``, else the
+    experiment's ``[identification]``: :func:`symbolic.data.treatment.settings_for`). Where identification
     would refuse short data, the comparison still runs: positions unfiltered when there are at most
     3·order samples, no border when fewer than two samples would be left."""
-    table = measurements.identification or {}
+    chosen = settings_for(measurements, settings)
     source = str(measurements.source)
     rate = measurements.rate
-    _, cutoff, order, border = Settings().merged(table, source).rules(rate)
+    _, cutoff, order, border = chosen.rules(rate)
     note = None
     if cutoff is not None and not cutoff < rate / 2:
         raise DataError(source, "[identification] cutoff", f"{cutoff:g} Hz is not below the Nyquist frequency "
@@ -63,7 +63,7 @@ def treatment(measurements: Measurements) -> Treatment:
     if cutoff is not None and measurements.samples <= 3 * order:
         note = f"{measurements.samples} samples are too few for the low-pass: positions not filtered"
         cutoff = None
-        if "border" not in table:
+        if chosen.border is None:
             border = (2, 2)
     width = max(border)
     if measurements.samples - 2 * width < 2:

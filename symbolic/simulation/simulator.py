@@ -29,7 +29,7 @@ import casadi as ca
 import numpy as np
 import sympy as sp
 
-from symbolic.data import DataError, Measurements
+from symbolic.data import DataError, Experiment, Measurements, load
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.simulation import controller as control
 from symbolic.codegen.casadi import CASADI_MODULE, _CasadiPrinter, cholesky_solve
@@ -160,11 +160,12 @@ def simulate(
     model
         The derived model (:func:`symbolic.derive`).
     data
-        Measurements, or a data or experiment file (:func:`symbolic.data.load`); the data's
-        coordinates must be coordinates of the model.
+        Measurements or an experiment (:func:`symbolic.data.load`), or a data or experiment file, loaded
+        for ``model`` (its drive gains for ``u_<c>`` columns); the data's coordinates must be
+        coordinates of the model.
     controller
-        A ``[controller]`` table (or a parsed :class:`~symbolic.simulation.controller.Controller`);
-        default: the experiment's ``[controller]``, else the replay of the measured forces (``torque``).
+        A ``[controller]`` table (or a checked :class:`~symbolic.data.controller.Controller`); default:
+        the experiment's ``[controller]``, else the replay of the measured forces (``torque``).
     parameters
         Parameter values by name replacing the model's nominal ones.
     method
@@ -186,7 +187,7 @@ def simulate(
     DataError
         For a log, controller table or option that cannot be simulated (one line: file, key, problem).
     """
-    measurements = data if isinstance(data, Measurements) else _load(data)
+    measurements = data if isinstance(data, Measurements) else load(data, model=model.robot)
     source = str(measurements.source)
     names = tuple(model.robot.generalized_coordinates)
     _check_options(method, substeps, friction_velocity, source)
@@ -215,12 +216,6 @@ def simulate(
     return Simulation(measurements, simulated, ctrl, method, m, radius, friction_velocity,
                       dict(zip((s.name for s in model.parameter_symbols), map(float, p))), used_compiled,
                       model.robot.name, timings)
-
-
-def _load(path: str | Path) -> Measurements:
-    from symbolic.data import load
-
-    return load(path)
 
 
 def _check_options(method: str, substeps: int | None, friction_velocity: float, source: str) -> None:
@@ -256,14 +251,18 @@ def _parameters(model: DynamicModel, values: Mapping[str, float] | None, source:
 
 
 def _controller(given: Any, measurements: Measurements, model: DynamicModel, names: tuple[str, ...]) -> control.Controller:
+    """The controller given (a table is checked as an experiment file's would be), else the experiment's
+    (checked when it was loaded), else the replay of the measured forces."""
     if isinstance(given, control.Controller):
         return given
-    table = given if given is not None else measurements.controller
     source = str(measurements.source)
-    if table is None:
-        LOG.info("%s has no [controller]: the measured forces are replayed (kind = \"torque\")", source)
-        return control.replay(measurements.coordinates, source)
-    return control.parse(table, measurements.coordinates, model.parameter_symbols, source, names)
+    if given is not None:
+        return control.parse(given, measurements.coordinates, model.parameter_symbols, source, names,
+                             measurements.columns())
+    if isinstance(measurements, Experiment) and measurements.controller is not None:
+        return measurements.controller
+    LOG.info("%s has no [controller]: the measured forces are replayed (kind = \"torque\")", source)
+    return control.replay(measurements.coordinates, source)
 
 
 # -- the plant in CasADi ---------------------------------------------------------------------------------

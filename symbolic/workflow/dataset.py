@@ -17,6 +17,7 @@ import numpy as np
 
 from symbolic.data import DataError, Measurements, load
 from symbolic.data.treatment import Settings, States, states
+from symbolic.description.robot import Robot
 
 HOLDOUT_FRACTION = 0.2
 """Without a validation data set, the last fifth of the estimation data (in time) is held out."""
@@ -93,13 +94,9 @@ def with_held_force(data: DataSet) -> DataSet:
 
 
 def time_slice(measurements: Measurements, start: int, stop: int) -> Measurements:
-    """Samples ``start:stop`` of ``measurements`` (every per-sample signal cut alike)."""
-    cut = {}
-    for name in ("t", "q", "tau", "qd", "qdd", "ref"):
-        value = getattr(measurements, name)
-        cut[name] = None if value is None else _readonly(value[start:stop])
-    extras = {k: _readonly(v[start:stop]) for k, v in measurements.extras.items()}
-    return dataclasses.replace(measurements, extras=extras, **cut)
+    """Samples ``start:stop`` of ``measurements`` (every per-sample signal cut alike; an experiment keeps
+    its settings and controller: :meth:`~symbolic.data.measurements.Measurements.slice`)."""
+    return measurements.slice(start, stop)
 
 
 def split(measurements: Measurements, fraction: float = HOLDOUT_FRACTION) -> tuple[Measurements, Measurements]:
@@ -109,7 +106,7 @@ def split(measurements: Measurements, fraction: float = HOLDOUT_FRACTION) -> tup
 
 
 def load_sets(
-    coordinates: tuple[str, ...],
+    model: Robot | tuple[str, ...],
     data: str | Path | Measurements,
     experiment: str | Path | None = None,
     validation: str | Path | Measurements | None = None,
@@ -117,12 +114,15 @@ def load_sets(
 ) -> tuple[DataSet, DataSet, str]:
     """Estimation and held-out data sets, and a sentence saying where the held-out data come from.
 
-    ``validation`` (a data or experiment file) is mapped by ``experiment`` too when it is a plain data
-    file, as in ``symbolic identify``; without it the last :data:`HOLDOUT_FRACTION` of ``data`` in time
-    is held out and the rest is the estimation set.
+    ``data`` and ``validation`` are loaded for ``model`` (a validated robot, or just its coordinates) by
+    :func:`symbolic.data.load`, as in ``symbolic identify``; without a validation set (given, or the
+    experiment's own) the last :data:`HOLDOUT_FRACTION` of ``data`` in time is held out and the rest is
+    the estimation set.
     """
-    measurements = data if isinstance(data, Measurements) else load(data, coordinates, experiment=experiment)
-    if validation is None:
+    robot = model if isinstance(model, Robot) else None
+    coordinates = tuple(robot.generalized_coordinates if robot is not None else model)
+    measurements = load(data, coordinates, model=robot, experiment=experiment, validation=validation)
+    if measurements.validation is None:
         first, last = split(measurements)
         start = first.samples
         held_out = (f"the last {100 * HOLDOUT_FRACTION:g} % of the data in time "
@@ -135,16 +135,6 @@ def load_sets(
             raise DataError(str(measurements.source), "samples",
                             f"too few samples to hold out the last {100 * HOLDOUT_FRACTION:g} % ({error.problem}); "
                             "give a validation data set (--validate)") from None
-    if isinstance(validation, Measurements):
-        other = validation
-    else:
-        own = Path(validation).suffix == ".toml"
-        other = load(validation, coordinates, experiment=None if own else experiment)
+    other = measurements.validation
     held_out = f"the validation data {other.source}"
     return treat(measurements, "estimation", settings), treat(other, "validation", settings), held_out
-
-
-def _readonly(array: np.ndarray) -> np.ndarray:
-    array = np.array(array, dtype=float)
-    array.setflags(write=False)
-    return array

@@ -21,18 +21,18 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from symbolic.data import DataError, Measurements
+from symbolic.data import Controller, DataError, Experiment, Measurements
 from symbolic.derive.dynamics import DynamicModel, derive
 from symbolic.errors import ModelError
 from symbolic.identify.least_squares import IdentificationError
-from symbolic.data.treatment import Settings
+from symbolic.data.treatment import Settings, settings_for
 from symbolic.description.modelfile import load as load_model
 from symbolic.description.modelfile import loads, with_parameter_values
 from symbolic.description.robot import Robot
@@ -100,11 +100,10 @@ def diagnose(
 
     model = _derived(model)
     source = Path(model.robot.source)
-    coordinates = model.robot.generalized_coordinates
     log.info("diagnose %s: loading and treating the data", model.name)
-    estimation, held, held_out = load_sets(coordinates, data, experiment, validation, settings)
+    estimation, held, held_out = load_sets(model.robot, data, experiment, validation, settings)
     if simulate is True:
-        simulate = simulated_path(estimation.measurements.controller)
+        simulate = simulated_path(_controller(estimation.measurements))
     sets = {"estimation": estimation, "validation": held}
     lap("data")
     before = _fit(model, sets, simulate)
@@ -159,7 +158,7 @@ def diagnose(
         patched_path = target if out is not None else None
         measured_model = derive(loads(patched_text, str(target))) if unmeasured else patched
         values = {s.name: float(v) for s, v in measured_model.parameters.items()}
-        controller = estimation.measurements.controller
+        controller = _controller(estimation.measurements)
         period = float(estimation.measurements.sample_period)
         for a, final in zip(accepted, finals):
             c = a.candidate
@@ -200,9 +199,8 @@ def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], nominal: F
     A held command leads the force it produces by half a sample; in the inverse model that lead looks
     like a negative load on a resonance or a jerk term (EMPS's pulse set: bench/emps_resonance.py)."""
     estimation = sets["estimation"]
-    table = estimation.measurements.identification or {}
-    if (settings is not None and settings.held_force is not None) or "held_force" in table:
-        return []
+    if settings_for(estimation.measurements, settings).held_force is not None:
+        return []  # declared, by the caller or the experiment
     plain = nominal or _fit(model, sets, None)  # the inverse-model fit of step 1, or made here
     centred = _fit(model, {role: with_held_force(data) for role, data in sets.items()}, None)
     before, after = plain.gap["validation"], centred.gap["validation"]
@@ -221,24 +219,25 @@ def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], nominal: F
              "removed_share": removed, "note": note}]
 
 
-def simulated_path(controller: Any = None) -> Simulator:
+def simulated_path(controller: Controller | Mapping[str, Any] | None = None) -> Simulator:
     """The simulated path for ``diagnose(simulate=...)``: the model run by :func:`symbolic.simulation.simulator.simulate`
     in the experiment's ``[controller]`` loop, τ_model its controller output.
 
     A data set without a ``[controller]`` of its own (the held-out data of an experiment) is driven by
-    ``controller`` (the estimation experiment's); with neither, the simulation would replay the
-    measured forces, which measures nothing, and this is refused.
+    ``controller`` (the estimation experiment's; a table is checked by the simulation); with neither,
+    the simulation would replay the measured forces, which measures nothing, and this is refused.
     """
 
     def simulate(model: DynamicModel, p: np.ndarray, measurements: Measurements) -> SimulatedSignals:
         from symbolic.simulation.simulator import simulate as run
 
-        table = measurements.controller if measurements.controller is not None else controller
-        if table is None:
+        own = _controller(measurements)
+        chosen = own if own is not None else controller
+        if chosen is None:
             raise DataError(str(measurements.source), "[controller]",
                             "the simulated path needs the experiment's controller (none declared); "
                             "leave out --simulate to compare with the inverse model")
-        result = run(model, measurements, controller=table,
+        result = run(model, measurements, controller=chosen,
                      parameters={s.name: float(v) for s, v in zip(model.parameter_symbols, p)})
         simulated = result.simulated
         order = [list(simulated.coordinates).index(c) for c in measurements.coordinates]
@@ -246,6 +245,11 @@ def simulated_path(controller: Any = None) -> Simulator:
                                 np.asarray(simulated.qd)[:, order])
 
     return simulate
+
+
+def _controller(measurements: Measurements) -> Controller | None:
+    """The experiment's ``[controller]``, checked when it was loaded (``None`` for plain measurements)."""
+    return measurements.controller if isinstance(measurements, Experiment) else None
 
 
 def _derived(model: DynamicModel | Robot | str | Path) -> DynamicModel:
@@ -287,20 +291,19 @@ def _fit(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | No
                 raise ValueError(f"simulate returned shape {tau.shape}, expected {data.measurements.tau.shape}")
             predicted[role] = data.reduce(data.states.processing.forces(tau))  # like the logged force
             if isinstance(out, SimulatedSignals):
-                motion[role] = _motion_gaps(data.measurements, out)
+                motion[role] = _motion_gaps(data, out)
         gap, detail = _gaps(sets, predicted)
         return Fit(model, nominal, predicted, gap, detail, motion or None)
     gap, detail = _gaps(sets, predicted)
     return Fit(model, nominal, predicted, gap, detail)
 
 
-def _motion_gaps(measurements: Measurements, simulated: SimulatedSignals) -> dict[str, dict[str, float]]:
+def _motion_gaps(data: DataSet, simulated: SimulatedSignals) -> dict[str, dict[str, float]]:
     """Relative position and velocity errors per coordinate, 100·‖x_meas − x_sim‖/‖x_meas‖ (the definition
-    of ``symbolic simulate``; measured q̇ by its filtering and central differences)."""
-    from symbolic.simulation.comparison import measured_motion
-
-    qd = measured_motion(measurements).qd
-    measured = {"position": np.asarray(measurements.q, float), "velocity": qd}
+    of ``symbolic simulate``), over every sample; the measured q̇ is the data set's own, filtered and
+    differentiated once with the diagnosis' treatment (its ``settings``, else the experiment's)."""
+    measurements = data.measurements
+    measured = {"position": np.asarray(measurements.q, float), "velocity": np.asarray(data.states.qd, float)}
     ours = {"position": np.asarray(simulated.q, float), "velocity": np.asarray(simulated.qd, float)}
     return {signal: {c: relative_gap(measured[signal][:, j], ours[signal][:, j])
                      for j, c in enumerate(measurements.coordinates)} for signal in measured}

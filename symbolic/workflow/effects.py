@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 import sympy as sp
 
+from symbolic.data.controller import Controller
 from symbolic.description.robot import Directional, Robot, coordinate_symbol
 
 if TYPE_CHECKING:
@@ -194,9 +195,10 @@ class Effect:
         return None
 
     def as_measured(self, patched: DynamicModel, parameters: Mapping[str, float], context: Context, j: int,
-                    roles: Roles, controller: Mapping[str, Any] | None, period: float) -> tuple[Roles, dict[str, Any]]:
+                    roles: Roles, controller: Controller | None, period: float) -> tuple[Roles, dict[str, Any]]:
         """The roles as the data show them, given the patched model (``parameters``: its values) and the
-        data's ``[controller]`` (``None`` when none is declared), and evidence to add. Default: unchanged.
+        data's ``[controller]`` (checked when loaded; ``None`` when none is declared), and evidence to add.
+        Default: unchanged.
         A resonance overrides this: what the data show is the closed-loop mode, not the load's own."""
         return roles, {}
 

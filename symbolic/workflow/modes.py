@@ -27,8 +27,9 @@ from symbolic.simulation import controller as control
 from symbolic.numeric import numeric_model
 
 
-def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], table: Mapping[str, Any], period: float,
-                      position: np.ndarray | None = None, source: str = "<controller>") -> list[tuple[float, float]]:
+def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], table: control.Controller | Mapping[str, Any],
+                      period: float, position: np.ndarray | None = None,
+                      source: str = "<controller>") -> list[tuple[float, float]]:
     """(damped frequency in Hz, damping ratio) of every oscillatory closed-loop mode, by frequency.
 
     Parameters
@@ -38,7 +39,7 @@ def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], tabl
     parameters
         Parameter values by name (the others keep the model's nominal values).
     table
-        The ``[controller]`` table as written in the experiment file.
+        The experiment's controller (checked when it was loaded), or a ``[controller]`` table.
     period
         The controller's sample period T (s).
     position
@@ -47,7 +48,8 @@ def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], tabl
     names = [s.name for s in model.parameter_symbols]
     p = np.array([float(parameters.get(n, model.parameters[s])) for n, s in zip(names, model.parameter_symbols)])
     coordinates = list(model.robot.generalized_coordinates)
-    ctrl = control.parse(table, coordinates, model.parameter_symbols, source, coordinates)
+    ctrl = table if isinstance(table, control.Controller) else control.parse(table, coordinates, model.parameter_symbols,
+                                                                                 source, coordinates)
     gain = control.drive_gains(ctrl, dict(zip(model.parameter_symbols, p)))
     nc = ctrl.size
     num = numeric_model(model)

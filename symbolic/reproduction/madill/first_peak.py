@@ -363,14 +363,13 @@ def identify_experiment(data: str | Path | Measurements, coordinate: str | None 
         One line naming the file and key: no ``[controller]``, a kind other than ``pd``, a coordinate the
         controller does not drive, a symbolic gain without a model, plus those of :func:`identify`.
     """
-    measurements = data if isinstance(data, Measurements) else load(data)
+    measurements = load(data)  # an experiment file, or measurements as they are (their controller checked once)
     source = str(measurements.source)
-    table = measurements.controller
-    if table is None:
+    ctrl = measurements.controller
+    if ctrl is None:
         raise DataError(source, "[controller]", 'missing: the first-peak method needs the loop gain '
                                                 '([controller] kind = "pd", kp, gain)')
     parameters = _model_parameters(measurements.model, source)
-    ctrl = control.parse(table, measurements.coordinates, tuple(parameters), source)
     if ctrl.kind != "pd":
         raise DataError(source, "[controller] kind", f"{ctrl.kind!r}: the first-peak method needs proportional "
                                                      'control (allowed: "pd", with kd = 0 or a derivative term)')

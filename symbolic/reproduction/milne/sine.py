@@ -44,13 +44,13 @@ log per frequency with the joint's ``q`` and ``ref`` columns, the P gain read fr
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from symbolic.data import DataError, Measurements
+from symbolic.data import DataError, Experiment, Measurements
 
 MINIMUM_PERIODS = 2
 """Whole periods the steady-state window must hold (fewer cannot tell a sinusoid from a drift)."""
@@ -572,36 +572,25 @@ def _coordinate(log: Measurements, coordinate: str | None) -> tuple[int, str]:
 
 
 def _gains(log: Measurements, coordinate: str) -> tuple[float, float]:
-    """(kp, kd) of ``coordinate`` from the log's ``[controller]`` table."""
+    """(kp, kd) of ``coordinate`` from the log's ``[controller]`` (checked when the experiment was loaded)."""
     source = str(log.source)
-    table: Mapping[str, Any] | None = log.controller
-    if table is None:
+    ctrl = log.controller if isinstance(log, Experiment) else None
+    if ctrl is None:
         raise DataError(source, "[controller]", "missing: declare kind = \"pd\" with kp (and kd) for the joint — the "
                                                 "proportional gain relates β to β̃ (Milne (13))")
-    kind = table.get("kind")
-    if kind not in ("pd", "pid"):
-        raise DataError(source, "[controller] kind", f"{kind!r}: the sine identification needs a proportional loop "
-                                                     "(allowed: 'pd', or 'pid' with ki = 0)")
-    coordinates = table.get("coordinates", list(log.coordinates))
-    if not isinstance(coordinates, list) or coordinate not in coordinates:
+    if ctrl.kind not in ("pd", "pid"):
+        raise DataError(source, "[controller] kind", f"{ctrl.kind!r}: the sine identification needs a proportional "
+                                                     "loop (allowed: 'pd', or 'pid' with ki = 0)")
+    if coordinate not in ctrl.coordinates:
         raise DataError(source, "[controller] coordinates", f"the controller does not drive {coordinate!r}")
-    k = coordinates.index(coordinate)
-    values = {}
-    for key in ("kp", "kd", "ki"):
-        entry = table.get(key, [0.0] * len(coordinates))
-        if not isinstance(entry, list) or len(entry) != len(coordinates):
-            raise DataError(source, f"[controller] {key}", f"expected a list with one number per coordinate "
-                                                           f"({', '.join(coordinates)}), got {entry!r}")
-        value = entry[k]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-            raise DataError(source, f"[controller] {key}[{k}]", f"expected a finite number ≥ 0, got {value!r}")
-        values[key] = float(value)
-    if values["kp"] <= 0:
+    k = ctrl.coordinates.index(coordinate)
+    kp, kd, ki = float(ctrl.kp[k]), float(ctrl.kd[k]), float(ctrl.ki[k])
+    if kp <= 0:
         raise DataError(source, f"[controller] kp[{k}]", "must be > 0 (the loop is closed by the proportional gain)")
-    if values["ki"]:
-        raise DataError(source, f"[controller] ki[{k}]", f"{values['ki']:g}: an integral term changes Milne (13); "
+    if ki:
+        raise DataError(source, f"[controller] ki[{k}]", f"{ki:g}: an integral term changes Milne (13); "
                                                          "identify with ki = 0")
-    return values["kp"], values["kd"]
+    return kp, kd
 
 
 def _check_frequency(frequency: Any, source: str) -> None:
