@@ -33,7 +33,7 @@ def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], tabl
     model
         The derived model.
     parameters
-        Parameter values by name (the others keep the model's nominal values).
+        Parameter values by name (the others keep the model's nominal values; a name it does not have is refused).
     table
         The ``[controller]`` table as written in the experiment file.
     period
@@ -41,11 +41,11 @@ def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], tabl
     position
         The rest position (all the model's coordinates; default 0).
     """
-    names = [s.name for s in model.parameter_symbols]
-    p = np.array([float(parameters.get(n, model.parameters[s])) for n, s in zip(names, model.parameter_symbols)])
+    values = model.parameter_vector.updated(parameters)  # a name the model does not have is refused
+    p = values.array()
     coordinates = list(model.robot.generalized_coordinates)
     ctrl = control.parse(table, coordinates, model.parameter_symbols, source, coordinates)
-    constants = control.constants(ctrl, dict(zip(model.parameter_symbols, p)))
+    constants = control.constants(ctrl, values.by_symbol())
     nc = ctrl.size
     gain = constants[4 * nc:5 * nc]
     num = numeric_model(model)
