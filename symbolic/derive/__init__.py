@@ -10,5 +10,6 @@ assumed modes (:mod:`.mode_shapes`, :mod:`.flexible`, :mod:`.sensing`), closed l
 from __future__ import annotations
 
 from symbolic.derive.dynamics import DynamicModel, derive
+from symbolic.derive.products import Product, Products
 
-__all__ = ["DynamicModel", "derive"]
+__all__ = ["DynamicModel", "Product", "Products", "derive"]
