@@ -119,7 +119,7 @@ def main() -> int:
         "then the derivation, the regressor and the base parameters (cold: derived, then written; warm: read), "
         "all in the first column; the identification itself (the log resampled and filtered, the compiled "
         "regressor, weighted least squares) is the difference between the columns, the same in both up to "
-        "the compilation of the regressor's C loop on a cold cache.", "",
+        "the compilation of the regressor's C loop on a cold cache. SciPy's signal module (about 1 s to import) is imported at the first filtering, inside the work; its optimize and linalg modules only by a consistent fit and by computing base parameters, which a warm run never does.", "",
         f"Cache entries after a run: {', '.join(entries)} ({size / 1e6:.1f} MB with the compiled library). "
         f"The command's output was {'identical in every run' if len(outputs) == 1 else 'NOT identical across runs'}.", "",
         "Log: the Franka Emika Panda's measured exciting trajectory, 20 544 samples (Gaz, Cognetti, Oliva, Robuffo "
