@@ -32,6 +32,7 @@ bench:
 	$(PYTHON) bench/simulate.py --out bench/results/simulate.md
 	$(PYTHON) bench/diagnose.py --out bench/results/diagnose.md
 	$(PYTHON) bench/emps_resonance.py --out bench/results/emps_resonance.md
+	$(PYTHON) bench/cache.py --out bench/results/cache.md
 
 clean:
 	rm -rf build dist *.egg-info .pytest_cache .hypothesis

@@ -1,13 +1,25 @@
-"""Shared fixtures: built-in robots derived once per test session."""
+"""Shared fixtures: built-in robots derived once per test session; a cache folder of the session's own."""
 
 from __future__ import annotations
 
+import atexit
+import os
+import shutil
+import tempfile
 import warnings
 from functools import lru_cache
 
 import pytest
 
-import symbolic
+# The suite (and the commands it runs in subprocesses, which inherit the environment) keeps derivations
+# and compiled libraries in a folder of its own, removed at the end: never in the user's ~/.cache/symbolic.
+# Set before anything is derived; each pytest-xdist worker has its own.
+CACHE_FOLDER = tempfile.mkdtemp(prefix="symbolic-tests-cache-")
+os.environ["SYMBOLIC_CACHE_DIR"] = CACHE_FOLDER
+os.environ.pop("SYMBOLIC_NO_CACHE", None)
+atexit.register(shutil.rmtree, CACHE_FOLDER, ignore_errors=True)
+
+import symbolic  # noqa: E402  (after the cache folder is set)
 
 
 @lru_cache(maxsize=None)

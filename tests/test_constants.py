@@ -88,6 +88,7 @@ def test_printed_constants_do_not_depend_on_the_working_precision(monkeypatch) -
 
     monkeypatch.setattr(mode_shapes, "exact_modes", spy)
     monkeypatch.setattr(mode_shapes, "PRECISION", 80)
+    monkeypatch.setenv("SYMBOLIC_NO_CACHE", "1")  # derived again at 80 digits, not read back from the cache
     for name in FLEXIBLE:
         targets = ["c"] if name == "fivebar_flexible" else ["c", "report"]  # that report takes seconds
         files = export.render(symbolic.derive(load(name)), targets, command="make generate")
@@ -136,6 +137,7 @@ def test_generation_calls_no_numpy_scipy_or_libm_transcendental(monkeypatch) -> 
         for function in ("sin", "cos", "tan", "sinh", "cosh", "tanh", "exp"):
             monkeypatch.setattr(module, function, forbidden)
     monkeypatch.setattr(scipy.optimize, "brentq", forbidden)
+    monkeypatch.setenv("SYMBOLIC_NO_CACHE", "1")  # the derivation itself runs under the patch
     mode_shapes.exact_modes.cache_clear()
     try:
         for name in ("single_flexible_link", "madill_beam", "emps"):

@@ -3,15 +3,14 @@
 CasADi's virtual machine evaluates a function instruction by instruction; the same function
 generated as C (``casadi.CodeGenerator``) and compiled with ``-O1`` runs 5 to 30 times faster, which
 is what makes a 20 s, 1 kHz simulation of a 7-DOF model take a fraction of a second. The shared
-library is named by the SHA-256 of the generated source and the compiler command, and kept in
-
-* ``$SYMBOLIC_CACHE_DIR``, else ``$XDG_CACHE_HOME/symbolic``, else ``~/.cache/symbolic``
-  (a temporary folder when that is not writable),
-
-so a model is compiled once per machine (about 1 s for the Panda); libraries are written under a
-temporary name and renamed, so concurrent processes never load a half-written file. Without a C
-compiler (``$CC``, ``cc``, ``gcc`` or ``clang`` on the PATH) or when compiling fails,
-:func:`compile_casadi` returns ``None`` and callers fall back to the virtual machine.
+library is named by the SHA-256 of the generated source and the compiler command (its name is its
+content) and kept in the ``libraries/`` folder of the cache folder (:mod:`symbolic.cache`:
+``$SYMBOLIC_CACHE_DIR``, else ``$XDG_CACHE_HOME/symbolic``, else ``~/.cache/symbolic``; a temporary
+folder when that is not writable; a folder of the process's own, removed at exit, with
+``SYMBOLIC_NO_CACHE``), so a model is compiled once per machine (about 1 s for the Panda); libraries
+are written under a temporary name and renamed, so concurrent processes never load a half-written
+file. Without a C compiler (``$CC``, ``cc``, ``gcc`` or ``clang`` on the PATH) or when compiling
+fails, :func:`compile_casadi` returns ``None`` and callers fall back to the virtual machine.
 """
 
 from __future__ import annotations
@@ -25,6 +24,8 @@ import tempfile
 from pathlib import Path
 
 import casadi as ca
+
+from symbolic import cache
 
 LOG = logging.getLogger(__name__)
 
@@ -44,12 +45,8 @@ def compiler() -> str | None:
 
 
 def cache_folder() -> Path:
-    """Where compiled functions are kept (module docstring)."""
-    given = os.environ.get("SYMBOLIC_CACHE_DIR")
-    if given:
-        return Path(given)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "symbolic"
+    """Where compiled libraries are kept when the cache is on (module docstring)."""
+    return cache.library_folders()[0]
 
 
 def compile_casadi(function: ca.Function) -> ca.Function | None:
@@ -79,12 +76,12 @@ def shared_library(source: str, prefix: str) -> Path | None:
 
 
 def _build(cc: str, source: str, key: str, prefix: str) -> Path | None:
-    for folder in (cache_folder(), Path(tempfile.gettempdir()) / f"symbolic-{getattr(os, 'getuid', lambda: 0)()}"):
+    for folder in cache.library_folders():
         library = folder / f"{prefix}_{key}.so"
         if library.is_file():
             return library
         try:
-            folder.mkdir(parents=True, exist_ok=True)
+            cache.make_folder(folder)
             return _compile(cc, source, library)
         except OSError as error:
             LOG.info("cannot write compiled code to %s (%s)", folder, error)

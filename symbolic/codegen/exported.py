@@ -10,31 +10,22 @@ from __future__ import annotations
 
 import logging
 import time
-import weakref
 from dataclasses import dataclass
 
 import sympy as sp
 
 from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.regressor import Regressor, regressor
+from symbolic.derive.products import Product
+from symbolic.derive.regressor import Regressor
 from symbolic.derive.subexpressions import Subexpressions
+from symbolic.codegen.program import BatchedTrig, Program, batch_trig, build_program
 
 log = logging.getLogger(__name__)
 
-# Built once per model object (CSE is the slow part), dropped with the model.
-_PROGRAMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-_BATCHED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-_REGRESSORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
 
 def model_regressor(model: DynamicModel) -> Regressor | None:
-    """The parameter regressor of ``model`` (derived once), or None for models it does not cover (beams)."""
-    if model not in _REGRESSORS:
-        start = time.perf_counter()
-        _REGRESSORS[model] = None if model.robot.beams else regressor(model.robot)
-        elapsed = time.perf_counter() - start
-        log.log(logging.INFO if elapsed > 0.1 else logging.DEBUG, "%s: parameter regressor in %.1f s", model.name, elapsed)
-    return _REGRESSORS[model]
+    """The parameter regressor of ``model`` (:meth:`DynamicModel.regressor`), or None for models it does not cover (beams)."""
+    return None if model.robot.beams else model.regressor()
 
 
 @dataclass(frozen=True)
@@ -162,33 +153,35 @@ def _regressor_specs(model: DynamicModel) -> list[FunctionSpec]:
     ]
 
 
-def programs(model: DynamicModel) -> dict[str, "Program"]:
-    """Straight-line programs of every function spec, built once per model (CSE is the slow part)."""
-    from symbolic.codegen.program import build_program
-
-    cache = _PROGRAMS.get(model)
-    if cache is None:
-        cache = {}
-        for spec in function_specs(model):
-            start = time.perf_counter()
-            cache[spec.name] = build_program(spec.sub or model.sub, spec.expressions)
-            elapsed = time.perf_counter() - start
-            log.log(logging.INFO if elapsed > 0.1 else logging.DEBUG, "%s: %s program (CSE): %d statements in %.1f s",
-                    model.name, spec.name, len(cache[spec.name].statements), elapsed)
-        _PROGRAMS[model] = cache
-    return cache
+def _build_programs(model: DynamicModel) -> dict[str, Program]:
+    built = {}
+    for spec in function_specs(model):
+        start = time.perf_counter()
+        built[spec.name] = build_program(spec.sub or model.sub, spec.expressions)
+        elapsed = time.perf_counter() - start
+        log.log(logging.INFO if elapsed > 0.1 else logging.DEBUG, "%s: %s program (CSE): %d statements in %.1f s",
+                model.name, spec.name, len(built[spec.name].statements), elapsed)
+    return built
 
 
-def batched_programs(model: DynamicModel) -> dict[str, "BatchedTrig"]:
+def _build_batched(model: DynamicModel) -> dict[str, BatchedTrig]:
+    inputs = input_symbols(model)
+    order = [s for group in inputs.values() for s in group]
+    return {name: batch_trig(p, set(order), order=order) for name, p in programs(model).items()}
+
+
+PROGRAMS: Product[dict[str, Program]] = Product("programs", _build_programs, persist=True)
+BATCHED_PROGRAMS: Product[dict[str, BatchedTrig]] = Product("batched programs", _build_batched, persist=True)
+
+
+def programs(model: DynamicModel) -> dict[str, Program]:
+    """Straight-line programs of every function spec, built once per model (CSE is the slow part; kept on disk)."""
+    return model.products.get(PROGRAMS)
+
+
+def batched_programs(model: DynamicModel) -> dict[str, BatchedTrig]:
     """:func:`programs` with the sines and cosines of each function's angles batched (what the C computes).
 
     Coordinate angles come first in slot order, so that angles q[1], ..., q[6] form one run.
     """
-    from symbolic.codegen.program import batch_trig
-
-    cache = _BATCHED.get(model)
-    if cache is None:
-        inputs = input_symbols(model)
-        order = [s for group in inputs.values() for s in group]
-        cache = _BATCHED[model] = {name: batch_trig(p, set(order), order=order) for name, p in programs(model).items()}
-    return cache
+    return model.products.get(BATCHED_PROGRAMS)

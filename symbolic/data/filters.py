@@ -25,7 +25,6 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-import scipy.signal
 
 DECIMATION_ORDER = 8
 """Order of the Chebyshev type I anti-aliasing filter of :func:`decimate` (MATLAB's and SciPy's)."""
@@ -99,15 +98,23 @@ def kept_indices(samples: int, factor: int) -> np.ndarray:
 
 @functools.lru_cache(maxsize=32)
 def _butterworth(order: int, cutoff: float) -> np.ndarray:
-    return scipy.signal.butter(order, cutoff, output="sos")
+    return _signal().butter(order, cutoff, output="sos")
 
 
 @functools.lru_cache(maxsize=32)
 def _chebyshev(factor: int) -> np.ndarray:
-    return scipy.signal.cheby1(DECIMATION_ORDER, DECIMATION_RIPPLE, 0.8 / factor, output="sos")
+    return _signal().cheby1(DECIMATION_ORDER, DECIMATION_RIPPLE, 0.8 / factor, output="sos")
 
 
 def _filtfilt(sos: np.ndarray, x: np.ndarray, padlen: int, axis: int) -> np.ndarray:
     if x.shape[axis] <= padlen:
         raise ValueError(f"{x.shape[axis]} samples are too few for this filter: it needs more than {padlen}")
-    return scipy.signal.sosfiltfilt(sos, x, axis=axis, padtype="odd", padlen=padlen)
+    return _signal().sosfiltfilt(sos, x, axis=axis, padtype="odd", padlen=padlen)
+
+
+def _signal():
+    """:mod:`scipy.signal`, imported on first use: importing it takes about a second (it imports
+    :mod:`scipy.stats`), which a command would otherwise pay before its work starts."""
+    import scipy.signal
+
+    return scipy.signal

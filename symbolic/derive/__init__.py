@@ -1,4 +1,4 @@
-"""The derive layer: pure functions from a validated Robot to SymPy expressions (no I/O, no numbers).
+"""The derive layer: pure functions from a validated Robot to SymPy expressions (no numbers; the only I/O is the cache of derivations, :mod:`symbolic.cache`).
 
 :func:`derive` is the entry point; each quantity has its own module: frames and Jacobians
 (:mod:`.kinematics`), D(Q) (:mod:`.inertia`), the Christoffel matrix and Coriolis terms
@@ -10,5 +10,6 @@ assumed modes (:mod:`.mode_shapes`, :mod:`.flexible`, :mod:`.sensing`), closed l
 from __future__ import annotations
 
 from symbolic.derive.dynamics import DynamicModel, derive
+from symbolic.derive.products import Product, Products
 
-__all__ = ["DynamicModel", "derive"]
+__all__ = ["DynamicModel", "Product", "Products", "derive"]

@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from functools import cached_property
 
 import sympy as sp
 
+from symbolic import cache
 from symbolic.derive import christoffel as ch
 from symbolic.derive.drives import rotor_inertia
 from symbolic.derive.forces import applied_vector
@@ -35,8 +36,11 @@ from symbolic.derive.gravity import gravity_forces, potential_energy
 from symbolic.derive.inertia import composite_inertias, inertia_matrix
 from symbolic.derive.kinematics import Kinematics
 from symbolic.derive.newton_euler import inverse_dynamics
+from symbolic.derive.products import Product, Products, sympy_reducer
+from symbolic.derive.regressor import Regressor, regressor
 from symbolic.description.validation import validate
-from symbolic.description.robot import TIME, Robot, acceleration_symbol, coordinate_symbol, velocity_symbol
+from symbolic.description.parameters import ParameterVector
+from symbolic.description.robot import TIME, Robot, digest, acceleration_symbol, coordinate_symbol, velocity_symbol
 from symbolic.derive.subexpressions import Subexpressions
 from symbolic.derive.validity import check_values
 
@@ -94,15 +98,43 @@ class ReducedForms:
     bias: sp.Matrix
 
 
-@dataclass(eq=False)  # identity semantics: numeric and emit cache per model object
+@dataclass(eq=False)  # identity semantics: what is built from a model is kept per model object
 class DynamicModel:
-    """A robot's derived dynamics. Build with :func:`derive`."""
+    """A robot's derived dynamics. Build with :func:`derive`.
+
+    What the layers build from it (regressor, base parameters, programs, numeric model, ...) is kept in
+    :attr:`products` (:mod:`symbolic.derive.products`).
+    """
 
     robot: Robot
     sub: Subexpressions
     kinematics: Kinematics
     reduced: ReducedForms
     timings: dict[str, float] = field(default_factory=dict)
+
+    def __getstate__(self) -> dict:
+        """The derivation only: the expanded forms (cached properties) and the products are not kept."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+
+    @cached_property
+    def products(self) -> Products:
+        """What has been built from this model, each built once (:mod:`symbolic.derive.products`)."""
+        return Products(self)
+
+    def regressor(self) -> Regressor:
+        """The parameter regressor τ = Y·θ (:mod:`symbolic.derive.regressor`), derived once.
+
+        Raises :class:`~symbolic.errors.ModelError` for a model with beams (not covered yet).
+        """
+        return self.products.get(REGRESSOR)
+
+    @property
+    def parameter_vector(self) -> ParameterVector:
+        """The nominal parameter values (names ↔ symbols ↔ array, :mod:`symbolic.description.parameters`)."""
+        return self.robot.parameter_vector
 
     # -- symbols -------------------------------------------------------------------------
     @property
@@ -260,10 +292,31 @@ def derive(robot: Robot) -> DynamicModel:
     beams (Madill 3.4–3.8) add their D_f (3.76), gravitational (3.79) and strain (3.80) energies, and
     a model with beams takes τ = DQ̈ + (I⊗Q̇ᵀ)CQ̇ + g + k from the Lagrangian quantities (hierarchical
     equations (3.83)). Progress is logged at INFO level (``logging.getLogger("symbolic")``).
+
+    A derivation is a function of the robot description only: it is kept in the cache folder under the
+    description's digest (:mod:`symbolic.cache`) and read from there by the next process that derives
+    the same description.
     """
+    robot = validate(robot)
+    key = digest(robot)
+    start = time.perf_counter()
+    found = cache.load("derivation", key, {"robot": robot}.__getitem__)
+    if found is not None and isinstance(found[0], DynamicModel):
+        log.info("%s: derivation read from the cache in %.2f s", robot.name, time.perf_counter() - start)
+        return found[0]
+    model = _derive(robot)
+    cache.save("derivation", key, model, lambda obj: "robot" if obj is robot else None, sympy_reducer)
+    return model
+
+
+REGRESSOR: Product[Regressor] = Product("regressor", lambda model: regressor(model.robot), persist=True)
+"""The parameter regressor of a model (:meth:`DynamicModel.regressor`)."""
+
+
+def _derive(robot: Robot) -> DynamicModel:
+    """:func:`derive` of a validated robot, computed."""
     from symbolic.derive.flexible import beam_energy
 
-    robot = validate(robot)
     timings: dict[str, float] = {}
     names = robot.generalized_coordinates
     q = tuple(coordinate_symbol(c) for c in names)

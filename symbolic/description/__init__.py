@@ -30,12 +30,13 @@ symbolic.errors.ModelError: x.toml: top level: unknown key(s) ['colour'] (allowe
 from __future__ import annotations
 
 from symbolic.description.modelfile import load, loads
+from symbolic.description.parameters import ParameterVector
 from symbolic.description.robot import (
     Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Parameter, Robot, Stribeck,
 )
 from symbolic.description.validation import validate
 
 __all__ = [
-    "Beam", "Body", "Constraint", "Directional", "Drive", "EndEffector", "Force", "Frame", "Friction", "Parameter", "Robot",
-    "Stribeck", "load", "loads", "validate",
+    "Beam", "Body", "Constraint", "Directional", "Drive", "EndEffector", "Force", "Frame", "Friction", "Parameter",
+    "ParameterVector", "Robot", "Stribeck", "load", "loads", "validate",
 ]

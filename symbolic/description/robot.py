@@ -12,12 +12,14 @@ never evaluated), numbers, or SymPy expressions built by the caller.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import sympy as sp
 
+from symbolic.description.parameters import ParameterVector
 from symbolic.errors import ModelError
 
 IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -288,6 +290,11 @@ class Robot:
         return {p.symbol: p.value for p in self.parameters}
 
     @property
+    def parameter_vector(self) -> ParameterVector:
+        """The nominal values as a :class:`~symbolic.description.parameters.ParameterVector` (names ↔ symbols ↔ array)."""
+        return ParameterVector.nominal(self)
+
+    @property
     def time_varying(self) -> bool:
         """Whether a ``[[force]]`` expression holds time :data:`TIME` (the equations of motion then do)."""
         return any(isinstance(f.expression, sp.Basic) and TIME in f.expression.free_symbols for f in self.forces)
@@ -306,3 +313,32 @@ class Robot:
             if f.name == name:
                 return f
         raise KeyError(name)
+
+
+def digest(robot: Robot) -> str:
+    """SHA-256 of everything that describes ``robot``: every compared field, expressions by ``srepr``.
+
+    Equal descriptions give the same digest in any process (no hash of a Python object enters it); any
+    change of an entry, a value or an expression gives another. What is derived from a robot is a function
+    of its description, so this is the key of the derived products kept on disk (:mod:`symbolic.cache`);
+    the source path, the file's key spellings, comments and layout do not enter.
+    """
+    return hashlib.sha256(_canonical(robot).encode()).hexdigest()
+
+
+def _canonical(value: object) -> str:
+    """A text that determines ``value`` (a dataclass of the description, an expression, a container, a number)."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        inner = ",".join(f"{f.name}={_canonical(getattr(value, f.name))}" for f in dataclasses.fields(value) if f.compare)
+        return f"{type(value).__name__}({inner})"
+    if isinstance(value, sp.Basic):
+        return sp.srepr(value)
+    if isinstance(value, Mapping):
+        return "{" + ",".join(f"{_canonical(k)}:{_canonical(v)}" for k, v in sorted(value.items(), key=lambda kv: str(kv[0]))) + "}"
+    if isinstance(value, (tuple, list)):
+        return "(" + ",".join(_canonical(v) for v in value) + ")"
+    if isinstance(value, float):
+        return float.hex(value)
+    if value is None or isinstance(value, (str, int, bool)):
+        return repr(value)
+    raise TypeError(f"digest: cannot describe a {type(value).__name__}")  # a new kind of field: describe it here

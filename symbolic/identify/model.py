@@ -21,14 +21,12 @@ they stay at their values in the model file.
 
 from __future__ import annotations
 
-import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.optimize
 import sympy as sp
 
 from symbolic.data import Measurements, load
@@ -40,12 +38,9 @@ from symbolic.identify.least_squares import Identification, solve
 from symbolic.identify.least_squares import Validation
 from symbolic.identify.pipeline import cross_validate
 from symbolic.identify.processing import Observation, Settings, observe
-from symbolic.numeric.base_parameters import BaseParameters, base_parameters, theta_values
-from symbolic.codegen.exported import model_regressor
+from symbolic.numeric.base_parameters import BaseParameters, model_base_parameters, theta_values
 from symbolic.codegen.functions import compile_vectorized
 from symbolic.description.robot import Directional
-
-_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 PRIOR_WEIGHT = 1e-6
 """Weight of the pull towards the nominal values in the consistent fit, relative to the weighted data:
@@ -126,14 +121,11 @@ class ModelIdentification:
 
 
 def model_base(model: DynamicModel) -> tuple[Regressor, BaseParameters]:
-    """The regressor and base parameters of ``model`` (computed once per model object)."""
-    if model not in _CACHE:
-        reg = model_regressor(model)
-        if reg is None:
-            raise ModelError(model.robot.source, "[[beam]]", "identification does not support flexible links yet "
-                             "(the regressor covers rigid models); identify the rigid part")
-        _CACHE[model] = (reg, base_parameters(model, reg))
-    return _CACHE[model]
+    """The regressor and base parameters of ``model`` (built once per model, kept in ``model.products`` and on disk)."""
+    if model.robot.beams:
+        raise ModelError(model.robot.source, "[[beam]]", "identification does not support flexible links yet "
+                         "(the regressor covers rigid models); identify the rigid part")
+    return model.regressor(), model_base_parameters(model)
 
 
 COMPILE_WORK = 2_000_000
@@ -153,10 +145,9 @@ def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compil
     reg, base = model_base(model)
     columns = reg.Y.extract(list(range(model.n)), list(base.independent))
     groups = [model.coordinates, model.velocities, model.accelerations, *([[model.time]] if model.time_varying else [])]
-    evaluate = compile_vectorized(reg.sub, [*groups, model.parameter_symbols], columns, (model.n, len(base.independent)))
-    p = np.array(list(model.parameters.values()), float) if p is None else np.asarray(p, float)
+    p = model.parameter_vector.coerce(p)
     statements = len(reg.sub.program(list(columns)))
-    fast: dict[str, Any] = {}
+    built: dict[str, Any] = {}  # each evaluator is built on first use (lambdify or C source: 0.1-0.3 s)
 
     def regressor(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
         samples = np.shape(q)[0]
@@ -167,11 +158,13 @@ def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compil
                                  f"(got {'none' if t is None else np.shape(t)})")
             times = [np.reshape(np.asarray(t, float), (samples, 1))]
         if compiled or (compiled is None and samples * statements > COMPILE_WORK):
-            if "c" not in fast:
-                fast["c"] = compiled_batch(reg.sub, groups, model.parameter_symbols, columns)
-            if fast["c"] is not None:
-                return fast["c"](q, qd, qdd, *times, p)
-        return evaluate(q, qd, qdd, *times, p)
+            if "c" not in built:
+                built["c"] = compiled_batch(reg.sub, groups, model.parameter_symbols, columns)
+            if built["c"] is not None:
+                return built["c"](q, qd, qdd, *times, p)
+        if "numpy" not in built:
+            built["numpy"] = compile_vectorized(reg.sub, [*groups, model.parameter_symbols], columns, (model.n, len(base.independent)))
+        return built["numpy"](q, qd, qdd, *times, p)
 
     regressor.time_varying = model.time_varying
     return regressor
@@ -251,10 +244,11 @@ def direct_parameters(model: DynamicModel, reg: Regressor, base: BaseParameters,
 def consistent_fit(model, reg: Regressor, base: BaseParameters, ident: Identification, observation) -> dict[str, ModelParameter]:
     """Bounded nonlinear least squares over the non-geometric model parameters (module docstring)."""
     fixed = geometric_parameters(model, reg)
-    symbols = list(model.parameter_symbols)
+    nominal = model.parameter_vector
+    symbols = list(nominal.symbols)
     free = [s for s in symbols if s not in fixed and any(s in e.free_symbols for e in reg.theta_expressions)]
-    p0 = np.array([model.parameters[s] for s in symbols], float)
-    index = [symbols.index(s) for s in free]
+    p0 = nominal.array()
+    index = [nominal.index(s) for s in free]
     theta_of = sp.lambdify([symbols], list(reg.theta_expressions), modules="numpy")
     lower = np.array([_lower_bound(model, s) for s in free])
     weights = np.repeat(1.0 / np.asarray(ident.coordinate_sigmas), observation.samples)
@@ -272,6 +266,8 @@ def consistent_fit(model, reg: Regressor, base: BaseParameters, ident: Identific
         beta = base.from_theta(np.array(theta_of(p), float))
         penalty = [1e3 * scale * max(0.0, v) for check in bodies for v in check(p)]
         return np.concatenate([W @ beta - y, penalty, prior * (x - start) / typical])
+
+    import scipy.optimize  # here: identification without --consistent never needs it (about 1 s to import)
 
     fit = scipy.optimize.least_squares(residual, start, bounds=(lower, np.inf), x_scale=typical, method="trf")
     J = fit.jac[: len(y)]

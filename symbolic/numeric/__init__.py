@@ -15,6 +15,7 @@ against logs is :mod:`symbolic.simulation`.
 
 from __future__ import annotations
 
+from symbolic.numeric.base_parameters import model_base_parameters
 from symbolic.numeric.statespace import NumericModel, natural_frequencies, numeric_model
 
-__all__ = ["NumericModel", "natural_frequencies", "numeric_model"]
+__all__ = ["NumericModel", "model_base_parameters", "natural_frequencies", "numeric_model"]

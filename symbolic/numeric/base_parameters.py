@@ -27,10 +27,10 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 import sympy as sp
 
 from symbolic.derive.dynamics import DynamicModel
+from symbolic.derive.products import Product
 from symbolic.derive.regressor import Regressor
 from symbolic.codegen.functions import compile_function
 
@@ -86,8 +86,7 @@ def regressor_function(model: DynamicModel, reg: Regressor):
 
 def theta_values(model: DynamicModel, reg: Regressor, p=None) -> np.ndarray:
     """θ at parameter values ``p`` (default nominal)."""
-    p = np.array(list(model.parameters.values()), float) if p is None else np.asarray(p, float)
-    values = dict(zip(model.parameter_symbols, p))
+    values = model.parameter_vector.with_array(p).by_symbol()
     return np.array([float(e.xreplace(values)) for e in reg.theta_expressions])
 
 
@@ -97,7 +96,7 @@ def stacked(model: DynamicModel, reg: Regressor, states: int | None = None, seed
     n = model.n
     count = states or max(200, int(np.ceil(30 * len(reg.theta) / n)))
     rng = np.random.default_rng(seed)
-    p = np.array(list(model.parameters.values()), float) if p is None else np.asarray(p, float)
+    p = model.parameter_vector.coerce(p)
     if model.time_varying:
         rows = [Y(rng.uniform(-np.pi, np.pi, n), rng.uniform(-3, 3, n), rng.uniform(-10, 10, n), p, t=rng.uniform(0, 10))
                 for _ in range(count)]
@@ -111,6 +110,8 @@ def base_parameters(model: DynamicModel, reg: Regressor, tolerance: float = TOLE
     W = stacked(model, reg, seed=seed)
     norms = np.linalg.norm(W, axis=0)
     acting = np.flatnonzero(norms > tolerance * norms.max(initial=0.0))  # others are rounding noise
+    import scipy.linalg  # here: a model whose base parameters are read from the cache never needs it (0.3-0.6 s)
+
     R = scipy.linalg.qr(W[:, acting] / norms[acting], mode="r")[0]
     residual = np.abs(np.diag(R))
     keep = residual > tolerance
@@ -129,6 +130,22 @@ def base_parameters(model: DynamicModel, reg: Regressor, tolerance: float = TOLE
     values = BaseParameters(tuple(names), tuple(b), tuple(d), K, tuple(expressions), np.zeros(r), gap)
     return BaseParameters(tuple(names), tuple(b), tuple(d), K, tuple(expressions),
                           values.from_theta(theta_values(model, reg)), gap)
+
+
+def _build(model: DynamicModel) -> BaseParameters:
+    return base_parameters(model, model.regressor())
+
+
+BASE_PARAMETERS: Product[BaseParameters] = Product("base parameters", _build, persist=True)
+"""The base parameters of a model's regressor at the default tolerance and seed."""
+
+
+def model_base_parameters(model: DynamicModel) -> BaseParameters:
+    """The base parameters of ``model``'s regressor (module docstring), computed once per model and kept on disk.
+
+    Raises :class:`~symbolic.errors.ModelError` for a model the regressor does not cover (beams).
+    """
+    return model.products.get(BASE_PARAMETERS)
 
 
 def _round(x: float) -> float:

@@ -152,8 +152,7 @@ def joint_friction(model: DynamicModel, q, p=None) -> JointFriction:
     direction-dependent coefficients or a Stribeck term are refused (ValueError).
     """
     robot = model.robot
-    num = numeric_model(model)
-    values = dict(zip(model.parameter_symbols, num.params(p))) | dict(zip(model.coordinates, map(float, q)))
+    values = model.parameter_vector.with_array(p).by_symbol() | dict(zip(model.coordinates, map(float, q)))
     names = [c.coordinate for c in robot.constraints]
     L = constraint_jacobian(robot).xreplace(robot.constraint_substitution)
     n = model.n

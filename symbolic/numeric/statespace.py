@@ -12,24 +12,18 @@ The linearisation A = ∂F/∂X, B = ∂F/∂U is computed from exact symbolic d
 
 from __future__ import annotations
 
-import weakref
 from functools import cached_property
 
 import numpy as np
 import sympy as sp
 
 from symbolic.derive.dynamics import DynamicModel
+from symbolic.derive.products import Product
 from symbolic.codegen.functions import compile_function
-
-_MODELS: weakref.WeakKeyDictionary[DynamicModel, NumericModel] = weakref.WeakKeyDictionary()
-
 
 def numeric_model(model: DynamicModel) -> NumericModel:
     """The :class:`NumericModel` of ``model``, built once per model object (its compiled functions are kept)."""
-    num = _MODELS.get(model)
-    if num is None:
-        num = _MODELS[model] = NumericModel(model)
-    return num
+    return model.products.get(NUMERIC_MODEL)
 
 
 class NumericModel:
@@ -48,7 +42,8 @@ class NumericModel:
         self.qd = list(model.velocities)
         self.qdd = list(model.accelerations)
         self.p = list(model.parameter_symbols)
-        self.p0 = np.array(list(model.parameters.values()), dtype=float)
+        self.parameters = model.parameter_vector
+        self.p0 = self.parameters.array()
         self.n = model.n
         self.has_force = model.robot.end_effector is not None
         self.force = sp.symbols("_F0:3", real=True)
@@ -139,7 +134,8 @@ class NumericModel:
         return self._fn([self.q, self.p], self.model.kinematics.point_position(ee.frame, sp.Matrix(ee.point)), (3,))
 
     def params(self, p=None) -> np.ndarray:
-        return self.p0 if p is None else np.asarray(p, dtype=float)
+        """``p`` as an array of all the parameters (checked), or :attr:`p0` for ``None``."""
+        return self.p0 if p is None else self.parameters.coerce(p)
 
     def inertia(self, q, p=None) -> np.ndarray:
         return self._inertia(q, self.params(p))
@@ -259,3 +255,7 @@ def natural_frequencies(model: DynamicModel, q0=None, p=None, rigid_tolerance: f
     w2, vectors = eigh(K, D)
     keep = w2 > rigid_tolerance * max(w2.max(), 1e-300)
     return np.sqrt(w2[keep]), vectors[:, keep]
+
+
+NUMERIC_MODEL: Product[NumericModel] = Product("numeric model", NumericModel)
+"""The :class:`NumericModel` of a model (:func:`numeric_model`; compiled functions: kept in memory only)."""

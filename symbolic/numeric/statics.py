@@ -36,7 +36,7 @@ def residual_imbalance(
     V_s quadratic (3.80)) and is solved exactly.
     """
     num = numeric_model(model)
-    p = num.params(None if parameters is None else [parameters.get(s.name, v) for s, v in model.parameters.items()])
+    p = num.params(None if parameters is None else model.parameter_vector.updated(parameters).values)
     names = model.robot.generalized_coordinates
     rigid = len(model.robot.coordinates)
     x = np.zeros(model.n)

@@ -19,7 +19,6 @@ from __future__ import annotations
 import logging
 import math
 import time
-import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +30,7 @@ import sympy as sp
 
 from symbolic.data import DataError, Experiment, Measurements, load
 from symbolic.derive.dynamics import DynamicModel
+from symbolic.derive.products import Product
 from symbolic.simulation import controller as control
 from symbolic.codegen.casadi import CASADI_MODULE, _CasadiPrinter, cholesky_solve
 from symbolic.codegen.compiled import compile_casadi
@@ -204,7 +204,8 @@ def simulate(
         LOG.warning("%d sub-step(s) of %.3g s: h·ρ = %.2f exceeds RK4's stability bound %.3f (ρ = %.4g 1/s)",
                     substeps, measurements.sample_period / substeps, measurements.sample_period / substeps * radius,
                     RK4_REAL_BOUND, radius)
-    c = control.constants(ctrl, dict(zip(model.parameter_symbols, p)))
+    values = model.parameter_vector.with_array(p)
+    c = control.constants(ctrl, values.by_symbol())
     timings = {"build": time.perf_counter() - started}
     args = (ctrl, plant, measurements, signals, x0, p, c, friction_velocity)
     if method == "rk4":
@@ -214,7 +215,7 @@ def simulate(
         timings["integrate"] = time.perf_counter() - started - timings["build"]
     simulated = _trajectory(measurements, names, outputs)
     return Simulation(measurements, simulated, ctrl, method, m, radius, friction_velocity,
-                      dict(zip((s.name for s in model.parameter_symbols), map(float, p))), used_compiled,
+                      values.by_name(), used_compiled,
                       model.robot.name, timings)
 
 
@@ -238,16 +239,13 @@ def _check_data(measurements: Measurements, names: tuple[str, ...], model: str) 
 
 
 def _parameters(model: DynamicModel, values: Mapping[str, float] | None, source: str) -> np.ndarray:
-    symbols = list(model.parameter_symbols)
-    p = np.array([float(v) for v in model.parameters.values()])
-    by_name = {s.name: i for i, s in enumerate(symbols)}
+    nominal = model.parameter_vector
     for name, value in (values or {}).items():
-        if name not in by_name:
-            raise DataError(source, "parameters", f"unknown parameter {name!r} (the model's: {', '.join(by_name)})")
+        if name not in nominal.names:
+            raise DataError(source, "parameters", f"unknown parameter {name!r} (the model's: {', '.join(nominal.names)})")
         if not math.isfinite(float(value)):
             raise DataError(source, f"parameters {name}", f"expected a finite number, got {value!r}")
-        p[by_name[name]] = float(value)
-    return p
+    return nominal.updated(values or {}).array()
 
 
 def _controller(given: Any, measurements: Measurements, model: DynamicModel, names: tuple[str, ...]) -> control.Controller:
@@ -267,9 +265,6 @@ def _controller(given: Any, measurements: Measurements, model: DynamicModel, nam
 
 # -- the plant in CasADi ---------------------------------------------------------------------------------
 
-_PLANTS: weakref.WeakKeyDictionary[DynamicModel, "Plant"] = weakref.WeakKeyDictionary()
-
-
 @dataclass(frozen=True, eq=False)
 class Plant:
     """CasADi functions of a model with the smoothed sign: ``rhs(x, tau, p, eps, t) -> ẋ`` and
@@ -279,13 +274,12 @@ class Plant:
     n: int
     rhs: ca.Function
     bias: ca.Function
+    closed_loops: dict = field(default_factory=dict, repr=False)
+    """The (compiled) sample functions built on this plant, by controller structure (:func:`_closed_loop`)."""
 
 
 def _plant(model: DynamicModel) -> Plant:
-    plant = _PLANTS.get(model)
-    if plant is None:
-        plant = _PLANTS[model] = _build_plant(model)
-    return plant
+    return model.products.get(PLANT)
 
 
 def _build_plant(model: DynamicModel) -> Plant:
@@ -308,6 +302,10 @@ def _build_plant(model: DynamicModel) -> Plant:
     rhs = ca.Function("rhs", [ca.vertcat(q, qd), tau, p, eps, t], [ca.vertcat(qd, qdd)], ["x", "tau", "p", "eps", "t"],
                       ["xdot"])
     return Plant(n, rhs, ca.Function("bias", [q, qd, p, eps, t], [bias], ["q", "qd", "p", "eps", "t"], ["bias"]))
+
+
+PLANT: Product[Plant] = Product("simulation plant", _build_plant)
+"""The CasADi plant of a model (kept in memory; its compiled closed loops are libraries on disk)."""
 
 
 def _spectral_radius(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0: float) -> float:
@@ -344,7 +342,7 @@ def _initial_state(model: DynamicModel, measurements: Measurements, p: np.ndarra
         from symbolic.numeric.statics import residual_imbalance
 
         rigid = len(model.robot.coordinates)
-        sag = residual_imbalance(model, x0[:rigid], dict(zip((s.name for s in model.parameter_symbols), p)))
+        sag = residual_imbalance(model, x0[:rigid], model.parameter_vector.with_array(p).by_name())
         for name, value in sag.modal.items():
             if name not in measurements.coordinates:
                 x0[names.index(name)] = value
@@ -416,14 +414,11 @@ CHUNK = 1000
 """Samples per ``mapaccum`` call: CasADi builds a mapaccum in a time that grows faster than linearly
 with its length (0.03 s for 1000 samples, 0.7 s for 10 000), so long logs are run in chunks."""
 
-_SAMPLE_FUNCTIONS: weakref.WeakKeyDictionary[Plant, dict] = weakref.WeakKeyDictionary()
-
-
 def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float, substeps: int,
                  compiled: bool | None) -> tuple[ca.Function, bool]:
     """The (compiled) sample function, built once per plant and controller structure."""
     key = (ctrl.structure(), names, period, substeps, compiled)
-    cache = _SAMPLE_FUNCTIONS.setdefault(plant, {})
+    cache = plant.closed_loops
     if key not in cache:
         function = sample_function(ctrl, plant, names, period, substeps)
         fast = compile_casadi(function) if compiled is not False else None

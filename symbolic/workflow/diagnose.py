@@ -157,7 +157,7 @@ def diagnose(
                                              provenance=f"re-identified by symbolic diagnose on {data_name}")
         patched_path = target if out is not None else None
         measured_model = derive(loads(patched_text, str(target))) if unmeasured else patched
-        values = {s.name: float(v) for s, v in measured_model.parameters.items()}
+        values = measured_model.parameter_vector.by_name()
         controller = _controller(estimation.measurements)
         period = float(estimation.measurements.sample_period)
         for a, final in zip(accepted, finals):
@@ -238,7 +238,7 @@ def simulated_path(controller: Controller | Mapping[str, Any] | None = None) -> 
                             "the simulated path needs the experiment's controller (none declared); "
                             "leave out --simulate to compare with the inverse model")
         result = run(model, measurements, controller=chosen,
-                     parameters={s.name: float(v) for s, v in zip(model.parameter_symbols, p)})
+                     parameters=model.parameter_vector.with_array(p).by_name())
         simulated = result.simulated
         order = [list(simulated.coordinates).index(c) for c in measurements.coordinates]
         return SimulatedSignals(np.asarray(simulated.tau)[:, order], np.asarray(simulated.q)[:, order],
@@ -279,10 +279,7 @@ def _fit(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | No
     if not simulate:
         predicted = {role: nominal.predict(data) for role, data in sets.items()}
     else:
-        p = np.array([model.parameters[s] for s in model.parameter_symbols], float)
-        names = [s.name for s in model.parameter_symbols]
-        for name, estimate in nominal.parameters.items():
-            p[names.index(name)] = estimate.value
+        p = model.parameter_vector.updated({name: e.value for name, e in nominal.parameters.items()}).array()
         predicted, motion = {}, {}
         for role, data in sets.items():
             out = simulate(model, p, data.measurements)

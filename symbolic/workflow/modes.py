@@ -37,7 +37,7 @@ def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], tabl
     model
         The derived model.
     parameters
-        Parameter values by name (the others keep the model's nominal values).
+        Parameter values by name (the others keep the model's nominal values; a name it does not have is refused).
     table
         The experiment's controller (checked when it was loaded), or a ``[controller]`` table.
     period
@@ -45,12 +45,12 @@ def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], tabl
     position
         The rest position (all the model's coordinates; default 0).
     """
-    names = [s.name for s in model.parameter_symbols]
-    p = np.array([float(parameters.get(n, model.parameters[s])) for n, s in zip(names, model.parameter_symbols)])
+    values = model.parameter_vector.updated(parameters)  # a name the model does not have is refused
+    p = values.array()
     coordinates = list(model.robot.generalized_coordinates)
     ctrl = table if isinstance(table, control.Controller) else control.parse(table, coordinates, model.parameter_symbols,
                                                                                  source, coordinates)
-    gain = control.drive_gains(ctrl, dict(zip(model.parameter_symbols, p)))
+    gain = control.drive_gains(ctrl, values.by_symbol())
     nc = ctrl.size
     num = numeric_model(model)
     n = model.n

@@ -13,22 +13,19 @@ depends on (lengths, gravity, Stribeck velocities) are fixed as in identificatio
 from __future__ import annotations
 
 import types
-import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from symbolic.derive.dynamics import DynamicModel
+from symbolic.derive.products import Product
 from symbolic.derive.regressor import Regressor
 from symbolic.identify.least_squares import Identification, ParameterEstimate, solve
 from symbolic.identify.model import ModelParameter, base_regressor, direct_parameters, geometric_parameters, model_base
 from symbolic.identify.processing import Observation
 from symbolic.numeric.base_parameters import BaseParameters
 from symbolic.workflow.dataset import DataSet
-
-_TERMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
 
 @dataclass(frozen=True, eq=False)
 class ModelTerms:
@@ -75,14 +72,19 @@ class ModelTerms:
 
 
 def model_terms(model: DynamicModel) -> ModelTerms:
-    """The :class:`ModelTerms` of ``model`` (once per model object)."""
-    if model not in _TERMS:
-        reg, base = model_base(model)
-        theta = dict(zip(reg.theta, reg.theta_expressions))
-        movable = set(model.parameter_symbols) - geometric_parameters(model, reg)
-        free = np.array([bool(e.xreplace(theta).free_symbols & movable) for e in base.expressions])
-        _TERMS[model] = ModelTerms(model, reg, base, base.names, free, np.asarray(base.values, float), base_regressor(model))
-    return _TERMS[model]
+    """The :class:`ModelTerms` of ``model`` (once per model object, kept in ``model.products``)."""
+    return model.products.get(TERMS)
+
+
+def _build_terms(model: DynamicModel) -> ModelTerms:
+    reg, base = model_base(model)
+    theta = dict(zip(reg.theta, reg.theta_expressions))
+    movable = set(model.parameter_symbols) - geometric_parameters(model, reg)
+    free = np.array([bool(e.xreplace(theta).free_symbols & movable) for e in base.expressions])
+    return ModelTerms(model, reg, base, base.names, free, np.asarray(base.values, float), base_regressor(model))
+
+
+TERMS: Product[ModelTerms] = Product("model terms", _build_terms)
 
 
 def wls(data: DataSet, columns: np.ndarray, known: np.ndarray, names: Sequence[str]) -> Identification:
