@@ -167,22 +167,43 @@ def write_text_atomically(path: Path, text: str) -> None:
         raise ModelError(str(path), "--out", f"cannot write: {error.strerror}") from None
 
 
+def write_model_atomically(path: Path, text: str) -> None:
+    """:func:`write_text_atomically` for a model file: the written file is loaded before it replaces
+    ``path``, so a file that :func:`symbolic.load` refuses is never left there."""
+    from symbolic.writing import replacing
+
+    try:
+        with replacing(path) as temporary:
+            temporary.write_text(text, encoding="utf-8")
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", ModelWarning)
+                load(temporary)
+    except OSError as error:
+        raise ModelError(str(path), "--out", f"cannot write: {error.strerror}") from None
+
+
+def fix_names(text: str | None) -> list[str]:
+    """The names of ``--fix A,B``."""
+    return [n.strip() for n in (text or "").split(",") if n.strip()]
+
+
 def cmd_identify(args: argparse.Namespace) -> int:
     import json
 
     from symbolic.identify.model import identify_model
-    from symbolic.description.modelfile import with_parameter_values
+    from symbolic.description.modelfile import with_loadable_values
 
     model = derive(resolve(args.model))
     result = identify_model(model, args.data, experiment=args.experiment, validation=args.validate,
-                            method=args.method, consistent=args.consistent)
+                            method=args.method, consistent=args.consistent, fix=fix_names(args.fix))
+    kept: dict[str, str] = {}
     if args.out:
         source = Path(model.robot.source)
         if not source.is_file():
             raise ModelError(args.model, "--out", "the model has no file to update")
-        text = with_parameter_values(source.read_text(encoding="utf-8"), result.values(), str(source),
-                                     provenance=f"identified by symbolic identify from {Path(args.data).name}")
-        write_text_atomically(Path(args.out), text)
+        text, kept = with_loadable_values(source.read_text(encoding="utf-8"), result.values(), str(source),
+                                          provenance=f"identified by symbolic identify from {Path(args.data).name}")
+        write_model_atomically(Path(args.out), text)
     figures: list[str] = []
     if args.figures:
         from symbolic.identify.figures import MatplotlibMissing
@@ -194,10 +215,13 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if args.json:
         out = result.to_dict()
         out["patched_model"] = args.out
+        out["kept"] = kept
         out["figures"] = figures
         print(json.dumps(out, indent=2))
     else:
         print(result.table())
+        for name, reason in kept.items():
+            print(f"not written: {name} keeps its value in the model file: {reason}")
         for path in [args.out, *figures] if args.out else figures:
             print(f"wrote {path}")
     return 0
@@ -259,7 +283,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
             return 2
     model = derive(resolve(args.model))
     result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects,
-                      simulate=args.simulate or None)
+                      simulate=args.simulate or None, fix=fix_names(args.fix))
     if args.json:
         print(json.dumps(result.to_dict(), indent=2))
         return 0
@@ -345,7 +369,10 @@ def parser() -> argparse.ArgumentParser:
     i.add_argument("--method", choices=["wls", "ols"], default="wls", help="weighted (default) or ordinary least squares")
     i.add_argument("--consistent", action="store_true",
                    help="estimate the model file's parameters by bounded nonlinear least squares (physically valid bodies)")
-    i.add_argument("--out", metavar="FILE.toml", help="write the model file with the identified values")
+    i.add_argument("--fix", metavar="NAME[,NAME]", help="keep these parameters at their values in the model file "
+                   "(as fixed = true in [parameters] does)")
+    i.add_argument("--out", metavar="FILE.toml", help="write the model file with the identified values (a value the "
+                   "model file cannot hold, e.g. a negative mass, is not written and the reason is printed)")
     i.add_argument("--figures", metavar="DIR", help="PNG figures: measured vs predicted force and the residual per coordinate")
     i.add_argument("--json", action="store_true", help="machine-readable result")
     i.set_defaults(func=cmd_identify)
@@ -365,6 +392,8 @@ def parser() -> argparse.ArgumentParser:
     w.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")
     w.add_argument("--validate", metavar="DATA2", help="held-out data or experiment file (default: the last fifth of DATA)")
     w.add_argument("--out", metavar="DIR", required=True, help="folder for report.md, the figures and <model>_patched.toml")
+    w.add_argument("--fix", metavar="NAME[,NAME]", help="keep these parameters at their values when re-identifying "
+                   "(as fixed = true in [parameters] does)")
     w.add_argument("--simulate", action="store_true",
                    help="measure the gap on the simulated controller output (the experiment's [controller]) instead of the inverse model")
     w.add_argument("--effects", metavar="NAMES", help="search only these catalogue effects (comma-separated; default: all; periodic means both its "
