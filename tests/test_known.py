@@ -313,7 +313,8 @@ def test_with_loadable_values_never_returns_unloadable_text(tmp_path: Path) -> N
 @pytest.mark.parametrize("entry, problem", [
     ('M = { value = 2.0, min = 3 }', "value 2 is below min = 3"),
     ('M = { value = 2.0, max = 1 }', "value 2 is above max = 1"),
-    ('M = { value = 2.0, min = 3, max = 1 }', "min = 3 is above max = 1"),
+    ('M = { value = 2.0, min = 3, max = 1 }', "min = 3 is not below max = 1"),
+    ('M = { value = 2.0, min = 2, max = 2 }', "min = 2 is not below max = 2 (to keep a value, write fixed = true)"),
     ('M = { value = 2.0, fixed = "yes" }', "expected true or false"),
     ('M = { value = 2.0, min = "0" }', "min must be a number"),
     ('M = { value = 2.0, lower = 0 }', "unknown key(s) ['lower']"),

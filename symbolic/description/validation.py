@@ -170,7 +170,7 @@ class _Validator:
             self.check_bounds(p, key, value)
 
     def check_bounds(self, p: Any, key: str, value: float) -> None:
-        """``fixed`` is a boolean; ``min``/``max`` finite numbers, min ≤ max, and the value between them."""
+        """``fixed`` is a boolean; ``min``/``max`` finite numbers, min < max, and the value between them."""
         if not isinstance(p.fixed, bool):
             raise self.fail(f"{key} fixed", f"expected true or false, got {shown(p.fixed, 40)}")
         bounds = {}
@@ -181,8 +181,9 @@ class _Validator:
                 raise self.fail(f"{key} {what}", f"must be a finite number, got {shown(bound, 40)}")
             check_magnitude(bound, self.source, self.robot.keys.get(f"{key} {what}", f"{key} {what}"))
             bounds[what] = float(bound)
-        if bounds.get("min", -np.inf) > bounds.get("max", np.inf):
-            raise self.fail(key, f"min = {bounds['min']:g} is above max = {bounds['max']:g}")
+        if bounds.get("min", -np.inf) >= bounds.get("max", np.inf):
+            raise self.fail(key, f"min = {bounds['min']:g} is not below max = {bounds['max']:g} "
+                                 "(to keep a value, write fixed = true)")
         if value < bounds.get("min", -np.inf) or value > bounds.get("max", np.inf):
             side = "below min" if value < bounds.get("min", -np.inf) else "above max"
             raise self.fail(key, f"value {value:g} is {side} = {bounds['min' if side == 'below min' else 'max']:g} "

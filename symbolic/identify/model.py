@@ -13,13 +13,13 @@ own parameters follow in two ways:
   with each body kept physically valid: mass ≥ 0, inertia tensor positive semidefinite and satisfying
   the triangle inequality of its principal moments (penalty residuals), friction coefficients,
   stiffnesses and dampings ≥ 0, and each parameter within its ``min``/``max``.
+  A weak pull towards the nominal values (:data:`PRIOR_WEIGHT`) fixes the parameters the data cannot
+  separate; only those the data determine (outside the null space of the fit's Jacobian) are reported.
 
 Parameters kept at their values (``fixed = true``, ``fix=``) are not estimated: the standard parameters
 they determine move to the side of τ and the base parameters are those of the other columns
 (:mod:`symbolic.identify.known`, which also gives the bounds of the linear fit and refuses what the
 data cannot separate).
-  A weak pull towards the nominal values (:data:`PRIOR_WEIGHT`) fixes the parameters the data cannot
-  separate; only those the data determine (outside the null space of the fit's Jacobian) are reported.
 
 Parameters that Y depends on (lengths of the DH table, gravity, Stribeck velocities) are geometry:
 they stay at their values in the model file.
@@ -112,7 +112,8 @@ class ModelIdentification:
             estimate = ident.parameters[k]
             entry = {"name": name, "expression": str(self.base.expressions[k]), "value": estimate.value,
                      "sigma": estimate.sigma, "relative_sigma": estimate.relative_sigma}
-            entry.update({k: v for k, v in estimate.to_dict().items() if k in ("fixed", "at_bound", "unconstrained")})
+            entry.update({key: value for key, value in estimate.to_dict().items()
+                          if key in ("fixed", "at_bound", "unconstrained")})
             base.append(entry)
         return {
             "model": self.model.name,

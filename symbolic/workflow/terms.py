@@ -10,7 +10,7 @@ moved to the known side (τ − Y_fixed·β_fixed = Y_free·β_free). Parameters
 depends on (lengths, gravity, Stribeck velocities) are fixed as in identification, and so are the
 parameters kept at their values (``fixed = true``, ``diagnose(fix=...)``): the standard parameters they
 determine are known columns (:func:`symbolic.identify.known.split_base`), exactly as if their values were
-written inline.
+written inline. The fit is bounded as identification's is (:func:`symbolic.identify.known.beta_bounds`).
 
 A coordinate without an actuator (τ = 0 in the data) has a homogeneous equation that any common multiple
 of its parameters satisfies (:mod:`symbolic.identify.known`). Where ``symbolic identify`` refuses it, the
@@ -33,7 +33,7 @@ import sympy as sp
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.derive.regressor import Regressor
 from symbolic.identify.least_squares import Identification, ParameterEstimate, solve
-from symbolic.identify.known import FIX_HINT, homogeneous_groups, model_parameters_of, scale_holds, split_base
+from symbolic.identify.known import FIX_HINT, beta_bounds, homogeneous_groups, model_parameters_of, scale_holds, split_base
 from symbolic.identify.model import ModelParameter, base_regressor, direct_parameters, geometric_parameters, model_base
 from symbolic.identify.processing import Observation
 from symbolic.numeric.base_parameters import BaseParameters
@@ -133,10 +133,12 @@ def hold_scales(terms: ModelTerms, data: DataSet) -> tuple[ModelTerms, tuple[str
     return dataclasses.replace(terms, free=free), tuple(notes)
 
 
-def wls(data: DataSet, columns: np.ndarray, known: np.ndarray, names: Sequence[str]) -> Identification:
-    """IDIM-LS weighted least squares of ``known = columns·x`` (``samples × N`` and ``samples × N × P``)."""
+def wls(data: DataSet, columns: np.ndarray, known: np.ndarray, names: Sequence[str],
+        bounds: dict[str, tuple[float, float]] | None = None) -> Identification:
+    """IDIM-LS weighted least squares of ``known = columns·x`` (``samples × N`` and ``samples × N × P``),
+    within ``bounds`` ({name: (lower, upper)}) where given."""
     observation = Observation(data.coordinates, data.t, known, columns, data.states.processing)
-    return solve(observation, tuple(names), "wls")
+    return solve(observation, tuple(names), "wls", bounds=bounds)
 
 
 @dataclass(frozen=True, eq=False)
@@ -171,12 +173,15 @@ def fit_nominal(terms: ModelTerms, data: DataSet) -> NominalFit:
     """Identify the free base parameters of ``terms`` on ``data`` (module docstring)."""
     terms, notes = hold_scales(terms, data)
     free = terms.free
-    ident = wls(data, terms.columns(data)[:, :, free], terms.known(data), terms.free_names)
+    known = geometric_parameters(terms.model, terms.reg) | terms.fixed
+    bounds = beta_bounds(terms.model, terms.reg, terms.base, terms.free_names, known)
+    ident = wls(data, terms.columns(data)[:, :, free], terms.known(data), terms.free_names, bounds)
     beta = terms.nominal.copy()
     beta[free] = ident.values
     sigmas = np.zeros(len(beta))
     sigmas[free] = ident.sigmas
-    estimates = [ParameterEstimate(n, float(b), float(s), 100.0 * s / abs(b) if b else float("inf"), False)
+    estimates = [ParameterEstimate(n, float(b), float(s), 100.0 * s / abs(b) if b else float("inf"), False,
+                                   bound=ident.at_bound.get(n))
                  for n, b, s in zip(terms.names, beta, sigmas)]
     parameters = direct_parameters(terms.model, terms.reg, terms.base, types.SimpleNamespace(parameters=estimates),
                                    terms.fixed)
