@@ -225,6 +225,27 @@ def write_text_atomically(path: Path, text: str) -> None:
         raise ModelError(str(path), "--out", f"cannot write: {error.strerror}") from None
 
 
+def write_model_atomically(path: Path, text: str) -> None:
+    """:func:`write_text_atomically` for a model file: the written file is loaded before it replaces
+    ``path``, so a file that :func:`symbolic.load` refuses is never left there."""
+    from symbolic.description.modelfile import load
+    from symbolic.writing import replacing
+
+    try:
+        with replacing(path) as temporary:
+            temporary.write_text(text, encoding="utf-8")
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", ModelWarning)
+                load(temporary)
+    except OSError as error:
+        raise ModelError(str(path), "--out", f"cannot write: {error.strerror}") from None
+
+
+def fix_names(text: str | None) -> list[str]:
+    """The names of ``--fix A,B``."""
+    return [n.strip() for n in (text or "").split(",") if n.strip()]
+
+
 def _check_targets(args: argparse.Namespace) -> None:
     """``identify``'s --figures must be a folder (or creatable as one) and --out a file, checked before the work."""
     from symbolic.errors import ExportError
@@ -245,19 +266,20 @@ def cmd_identify(args: argparse.Namespace) -> int:
     import json
 
     from symbolic.identify.model import identify_model
-    from symbolic.description.modelfile import with_parameter_values
+    from symbolic.description.modelfile import with_loadable_values
 
     _check_targets(args)  # before the work: a mistyped --out or --figures is reported at once
     model = derive(resolve(args.model))
     result = identify_model(model, args.data, experiment=args.experiment, validation=args.validate,
-                            method=args.method, consistent=args.consistent)
+                            method=args.method, consistent=args.consistent, fix=fix_names(args.fix))
+    kept: dict[str, str] = {}
     if args.out:
         source = Path(model.robot.source)
         if not source.is_file():
             raise ModelError(args.model, "--out", "the model has no file to update")
-        text = with_parameter_values(source.read_text(encoding="utf-8"), result.values(), str(source),
-                                     provenance=f"identified by symbolic identify from {Path(args.data).name}")
-        write_text_atomically(Path(args.out), text)
+        text, kept = with_loadable_values(source.read_text(encoding="utf-8"), result.values(), str(source),
+                                          provenance=f"identified by symbolic identify from {Path(args.data).name}")
+        write_model_atomically(Path(args.out), text)
     figures: list[str] = []
     if args.figures:
         from symbolic.identify.figures import MatplotlibMissing
@@ -269,10 +291,13 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if args.json:
         out = result.to_dict()
         out["patched_model"] = args.out
+        out["kept"] = kept
         out["figures"] = figures
         print(strict_json(out))
     else:
         print(result.table())
+        for name, reason in kept.items():
+            print(f"not written: {name} keeps its value in the model file: {reason}")
         for path in [args.out, *figures] if args.out else figures:
             print(f"wrote {path}")
     return 0
@@ -337,7 +362,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     export.check_output_directory(args.out)  # before the analysis: a mistyped --out is reported at once
     model = derive(resolve(args.model))
     result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects,
-                      simulate=args.simulate or None)
+                      simulate=args.simulate or None, fix=fix_names(args.fix))
     if args.json:
         print(strict_json(result.to_dict()))
         return 0
@@ -423,7 +448,10 @@ def parser() -> argparse.ArgumentParser:
     i.add_argument("--method", choices=["wls", "ols"], default="wls", help="weighted (default) or ordinary least squares")
     i.add_argument("--consistent", action="store_true",
                    help="estimate the model file's parameters by bounded nonlinear least squares (physically valid bodies)")
-    i.add_argument("--out", metavar="FILE.toml", help="write the model file with the identified values")
+    i.add_argument("--fix", metavar="NAME[,NAME]", help="keep these parameters at their values in the model file "
+                   "(as fixed = true in [parameters] does)")
+    i.add_argument("--out", metavar="FILE.toml", help="write the model file with the identified values (a value the "
+                   "model file cannot hold, e.g. a negative mass, is not written and the reason is printed)")
     i.add_argument("--figures", metavar="DIR", help="PNG figures: measured vs predicted force and the residual per coordinate")
     i.add_argument("--json", action="store_true", help="machine-readable result")
     i.set_defaults(func=cmd_identify)
@@ -443,6 +471,8 @@ def parser() -> argparse.ArgumentParser:
     w.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")
     w.add_argument("--validate", metavar="DATA2", help="held-out data or experiment file (default: the last fifth of DATA)")
     w.add_argument("--out", metavar="DIR", required=True, help="folder for report.md, the figures and <model>_patched.toml")
+    w.add_argument("--fix", metavar="NAME[,NAME]", help="keep these parameters at their values when re-identifying "
+                   "(as fixed = true in [parameters] does)")
     w.add_argument("--simulate", action="store_true",
                    help="measure the gap on the simulated controller output (the experiment's [controller]) instead of the inverse model")
     w.add_argument("--effects", metavar="NAMES", help="search only these catalogue effects (comma-separated; default: all; periodic means both its "

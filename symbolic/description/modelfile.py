@@ -122,16 +122,24 @@ class _Reader:
         out = []
         for name, value in table.items():
             key = f"[parameters] {name}"
+            v: Mapping[str, Any] = {"value": value}
             if isinstance(value, Mapping):
-                v = self.table(value, key, {"value", "unit", "description"}, {"value"})
-                number, unit, text = v["value"], v.get("unit", ""), v.get("description", "")
-            else:
-                number, unit, text = value, "", ""
-            if isinstance(number, bool) or not isinstance(number, (int, float)):
-                raise self.fail(key, f"nominal value must be a number, got {shown(number, 40)}")
-            check_magnitude(number, self.source, key)  # a TOML integer may be too large for float()
-            out.append(Parameter(name, float(number), self.string(unit, f"{key} unit"), self.string(text, f"{key} description")))
+                v = self.table(value, key, {"value", "unit", "description", "fixed", "min", "max"}, {"value"})
+            number = self.number(v["value"], key, "nominal value")
+            fixed = v.get("fixed", False)
+            if not isinstance(fixed, bool):
+                raise self.fail(f"{key} fixed", f"expected true or false, got {shown(fixed, 40)}")
+            bounds = [None if v.get(k) is None else self.number(v[k], f"{key} {k}", k) for k in ("min", "max")]
+            out.append(Parameter(name, number, self.string(v.get("unit", ""), f"{key} unit"),
+                                 self.string(v.get("description", ""), f"{key} description"), fixed, *bounds))
         return tuple(out)
+
+    def number(self, value: Any, key: str, what: str) -> float:
+        """A TOML number as a float (an integer too large for a float is refused by its magnitude)."""
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.fail(key, f"{what} must be a number, got {shown(value, 40)}")
+        check_magnitude(value, self.source, key)
+        return float(value)
 
     def frame(self, value: Any, index: int) -> Frame:
         key = f"[[frame]] #{index + 1}"
@@ -254,3 +262,49 @@ def with_parameter_values(text: str, values: Mapping[str, float], source: str = 
             number.trivia.trail = entry.trivia.trail
             table[name] = number
     return tomlkit.dumps(document)
+
+
+def with_loadable_values(text: str, values: Mapping[str, float], source: str = "<string>",
+                         provenance: str | None = None) -> tuple[str, dict[str, str]]:
+    """:func:`with_parameter_values`, never returning text that :func:`loads` refuses.
+
+    The text with all the new values is loaded; if the loader refuses it (a negative mass, an inertia
+    tensor that is not positive semidefinite, a value outside its ``min``/``max``, ...), the values are
+    tried one at a time in order, and each one the loader refuses together with those already accepted
+    keeps its value in ``text``. Returns the text and {parameter: why its new value was not written}.
+    ``text`` itself must load (it is the model the values were identified for).
+
+    Raises
+    ------
+    ModelError
+        When ``text`` itself does not load, or for a name that is not in ``[parameters]``.
+    """
+    import warnings
+
+    from symbolic.errors import ModelWarning
+
+    def refusal(candidate: Mapping[str, float]) -> tuple[str, str | None]:
+        out = with_parameter_values(text, candidate, source, provenance)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ModelWarning)  # a warning is not a refusal; the user sees it on load
+            try:
+                loads(out, source)
+            except ModelError as error:
+                return out, f"{error.key}: {error.problem}"
+        return out, None
+
+    out, problem = refusal(values)
+    if problem is None:
+        return out, {}
+    accepted: dict[str, float] = {}
+    kept: dict[str, str] = {}
+    for name, value in values.items():
+        _, problem = refusal({**accepted, name: value})
+        if problem is None:
+            accepted[name] = value
+        else:
+            kept[name] = f"{float(value):.6g} would be refused ({problem})"
+    out, problem = refusal(accepted)
+    if problem is not None:
+        raise ModelError(source, "file", f"the model file does not load before any value is changed ({problem})")
+    return out, kept

@@ -75,12 +75,20 @@ def parameter_symbol(name: str) -> sp.Symbol:
 
 @dataclass(frozen=True)
 class Parameter:
-    """A model parameter: a symbol with a nominal value, unit and description."""
+    """A model parameter: a symbol with a nominal value, unit and description.
+
+    ``fixed``: identification keeps the value (a known mass, an inertia from CAD); ``minimum`` and
+    ``maximum`` (the model file's ``min``/``max``) bound what identification may return. The value
+    itself must lie within the bounds.
+    """
 
     name: str
     value: float
     unit: str = ""
     description: str = ""
+    fixed: bool = False
+    minimum: float | None = None
+    maximum: float | None = None
 
     @property
     def symbol(self) -> sp.Symbol:

@@ -167,6 +167,27 @@ class _Validator:
             if not np.isfinite(value):
                 raise self.fail(key, f"nominal value {shown(p.value, 40)} is not finite")
             check_magnitude(value, self.source, self.robot.keys.get(key, key))
+            self.check_bounds(p, key, value)
+
+    def check_bounds(self, p: Any, key: str, value: float) -> None:
+        """``fixed`` is a boolean; ``min``/``max`` finite numbers, min < max, and the value between them."""
+        if not isinstance(p.fixed, bool):
+            raise self.fail(f"{key} fixed", f"expected true or false, got {shown(p.fixed, 40)}")
+        bounds = {}
+        for what, bound in (("min", p.minimum), ("max", p.maximum)):
+            if bound is None:
+                continue
+            if isinstance(bound, bool) or not isinstance(bound, (int, float)) or not np.isfinite(float(bound)):
+                raise self.fail(f"{key} {what}", f"must be a finite number, got {shown(bound, 40)}")
+            check_magnitude(bound, self.source, self.robot.keys.get(f"{key} {what}", f"{key} {what}"))
+            bounds[what] = float(bound)
+        if bounds.get("min", -np.inf) >= bounds.get("max", np.inf):
+            raise self.fail(key, f"min = {bounds['min']:g} is not below max = {bounds['max']:g} "
+                                 "(to keep a value, write fixed = true)")
+        if value < bounds.get("min", -np.inf) or value > bounds.get("max", np.inf):
+            side = "below min" if value < bounds.get("min", -np.inf) else "above max"
+            raise self.fail(key, f"value {value:g} is {side} = {bounds['min' if side == 'below min' else 'max']:g} "
+                                 "(the value must lie within its bounds)")
 
     def check_constraints(self) -> None:
         allowed = set(self.robot.coordinates) | {p.name for p in self.robot.parameters}

@@ -27,6 +27,7 @@ as "no significant viscous friction").
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -48,15 +49,33 @@ class ParameterEstimate:
     sigma: float
     relative_sigma: float
     poorly_determined: bool
+    fixed: bool = False
+    bound: str | None = None  # "min" or "max" when the estimate is held at that bound
+    unconstrained: float | None = None  # at a bound: what the data alone give
 
     def to_dict(self) -> dict[str, Any]:
-        """``{"value", "sigma", "relative_sigma", "poorly_determined"}`` (relative σ in %)."""
-        return {
+        """``{"value", "sigma", "relative_sigma", "poorly_determined"}`` (relative σ in %), with ``"fixed":
+        true`` for a value kept as given and ``"at_bound"`` (``"min"``/``"max"``) and ``"unconstrained"``
+        for an estimate held at a bound."""
+        out = {
             "value": self.value,
             "sigma": self.sigma,
             "relative_sigma": self.relative_sigma,
             "poorly_determined": self.poorly_determined,
         }
+        if self.fixed:
+            out["fixed"] = True
+        if self.bound is not None:
+            out["at_bound"], out["unconstrained"] = self.bound, self.unconstrained
+        return out
+
+    def flag(self) -> str:
+        """What the plain-text table says after the numbers."""
+        if self.fixed:
+            return "  (fixed)"
+        if self.bound is not None:
+            return f"  (at its {self.bound}; the data alone give {self.unconstrained:.6g})"
+        return "  (poorly determined)" if self.poorly_determined else ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,6 +108,12 @@ class Identification:
         The data treatment applied.
     threshold
         The flagging threshold on relative σ (%).
+    fixed
+        Names of the columns kept at given values (moved to the side of τ; σ = 0).
+    at_bound
+        {name: ``"min"`` or ``"max"``} for estimates held at a bound by the bounded least squares.
+    unconstrained
+        {name: the unbounded estimate} for those held at a bound.
     """
 
     names: tuple[str, ...]
@@ -104,18 +129,23 @@ class Identification:
     rows: int
     processing: Processing
     threshold: float = RELATIVE_SIGMA_THRESHOLD
+    fixed: tuple[str, ...] = ()
+    at_bound: dict[str, str] = field(default_factory=dict)
+    unconstrained: dict[str, float] = field(default_factory=dict)
 
     @property
     def relative_sigmas(self) -> np.ndarray:
-        """100·σ/|β̂| in percent (infinite for a zero estimate)."""
-        with np.errstate(divide="ignore"):
-            return np.where(self.values != 0, 100.0 * self.sigmas / np.abs(self.values), np.inf)
+        """100·σ/|β̂| in percent (infinite for a zero estimate; 0 for a fixed value)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            relative = np.where(self.values != 0, 100.0 * self.sigmas / np.abs(self.values), np.inf)
+        return np.where(self.sigmas == 0, 0.0, relative)
 
     @property
     def parameters(self) -> tuple[ParameterEstimate, ...]:
         """One :class:`ParameterEstimate` per parameter."""
         return tuple(
-            ParameterEstimate(n, float(v), float(s), float(r), bool(r > self.threshold))
+            ParameterEstimate(n, float(v), float(s), float(r), bool(r > self.threshold) and n not in self.fixed,
+                              n in self.fixed, self.at_bound.get(n), self.unconstrained.get(n))
             for n, v, s, r in zip(self.names, self.values, self.sigmas, self.relative_sigmas)
         )
 
@@ -143,6 +173,8 @@ class Identification:
             "rows": self.rows,
             "relative_sigma_threshold": self.threshold,
             "flagged": list(self.flagged),
+            "fixed": list(self.fixed),
+            "at_bound": dict(self.at_bound),
             "processing": self.processing.to_dict(),
         }
 
@@ -151,8 +183,7 @@ class Identification:
         width = max(9, *(len(n) for n in self.names))
         lines = [f"{'parameter':<{width}}  {'value':>14}  {'sigma':>12}  {'sigma %':>8}"]
         for p in self.parameters:
-            flag = "  (poorly determined)" if p.poorly_determined else ""
-            lines.append(f"{p.name:<{width}}  {p.value:>14.6g}  {p.sigma:>12.4g}  {p.relative_sigma:>8.3g}{flag}")
+            lines.append(f"{p.name:<{width}}  {p.value:>14.6g}  {p.sigma:>12.4g}  {p.relative_sigma:>8.3g}{p.flag()}")
         lines.append(
             f"{self.method.upper()}: {self.rows} rows, cond(W) = {self.condition_number:.4g}, relative error "
             f"{self.relative_error:.4g} %"
@@ -189,16 +220,36 @@ def solve(
     names: tuple[str, ...] | list[str],
     method: str = "wls",
     threshold: float = RELATIVE_SIGMA_THRESHOLD,
+    *,
+    fixed: Mapping[str, float] | None = None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
 ) -> Identification:
-    """Least-squares estimate of the parameters of ``observation`` (module docstring)."""
+    """Least-squares estimate of the parameters of ``observation`` (module docstring).
+
+    ``fixed``: {name: value} of columns kept at known values: their terms move to the side of τ,
+    y − W_k·β_k = W_u·β_u, and only the others are estimated (σ = 0 for the fixed ones).
+    ``bounds``: {name: (lower, upper)}; where the weighted solution leaves them, the bounded least
+    squares of :func:`_bounded` replaces it.
+    """
     if method not in ("ols", "wls"):
         raise ValueError(f"method must be 'ols' or 'wls', got {method!r}")
     names = tuple(names)
-    y, W = observation.y, observation.W  # noqa: N806
-    rows, b = W.shape
+    y_all, W_all = observation.y, observation.W  # noqa: N806
+    rows, b = W_all.shape
     if len(names) != b:
         raise ValueError(f"{len(names)} parameter names for {b} regressor columns")
-    beta, _, _, sigma = _ols(y, W, names)
+    fixed = dict(fixed or {})
+    if set(fixed) - set(names):
+        raise ValueError(f"fixed names {sorted(set(fixed) - set(names))} are not parameters")
+    held = np.array([n in fixed for n in names], bool)
+    known = np.array([fixed.get(n, 0.0) for n in names], float)
+    free = tuple(n for n in names if n not in fixed)
+    if not free:
+        raise IdentificationError("every parameter is fixed: there is nothing to identify")
+    y, W = y_all - W_all[:, held] @ known[held], W_all[:, ~held]  # noqa: N806
+    lower = np.array([(bounds or {}).get(n, (-np.inf, np.inf))[0] for n in free], float)
+    upper = np.array([(bounds or {}).get(n, (-np.inf, np.inf))[1] for n in free], float)
+    beta, _, _, sigma = _ols(y, W, free)
     n, per = len(observation.coordinates), observation.samples
     coordinate_sigmas = []
     for j in range(n):
@@ -210,26 +261,87 @@ def solve(
     usable = all(np.isfinite(s) and s > 0 for s in coordinate_sigmas)
     if method == "wls" and n > 1 and usable:
         weights = np.repeat(1.0 / np.array(coordinate_sigmas), per)
-        beta, covariance, cond, sigma = _ols(y * weights, W * weights[:, None], names)
-    else:
-        _, covariance, cond, sigma = _ols(y, W, names)
-    residual = y - W @ beta
-    values = _readonly(beta)
+    fit = _bounded(y * weights, W * weights[:, None], free, lower, upper)
+    values, covariance = known.copy(), np.zeros((b, b))
+    values[~held] = fit.beta
+    covariance[np.ix_(~held, ~held)] = fit.covariance
+    residual = y_all - W_all @ values
     return Identification(
         names=names,
-        values=values,
+        values=_readonly(values),
         sigmas=_readonly(np.sqrt(np.diag(covariance))),
         covariance=_readonly(covariance),
         method=method,
-        condition_number=float(cond),
-        relative_error=float(100.0 * np.linalg.norm(residual) / np.linalg.norm(y)),
-        residual_sigma=float(sigma),
+        condition_number=float(fit.condition_number),
+        relative_error=float(100.0 * np.linalg.norm(residual) / np.linalg.norm(y_all)),
+        residual_sigma=float(fit.sigma),
         coordinate_sigmas=tuple(coordinate_sigmas),
         coordinates=observation.coordinates,
         rows=rows,
         processing=observation.processing,
         threshold=threshold,
+        fixed=tuple(n for n in names if n in fixed),
+        at_bound=fit.at_bound,
+        unconstrained=fit.unconstrained,
     )
+
+
+class RankDeficient(IdentificationError):
+    """The observation matrix is rank-deficient; ``parameters`` are the columns that cannot be separated."""
+
+    def __init__(self, message: str, parameters: tuple[str, ...]) -> None:
+        super().__init__(message)
+        self.parameters = parameters
+
+    def __reduce__(self):
+        return (type(self), (str(self), self.parameters))
+
+
+@dataclass(frozen=True)
+class _Fit:
+    beta: np.ndarray
+    covariance: np.ndarray
+    condition_number: float
+    sigma: float
+    at_bound: dict[str, str]
+    unconstrained: dict[str, float]
+
+
+def _bounded(y: np.ndarray, W: np.ndarray, names: tuple[str, ...], lower: np.ndarray, upper: np.ndarray) -> _Fit:  # noqa: N803
+    """Least squares of ``y ≈ W·β`` with ``lower ≤ β ≤ upper``.
+
+    Where the unbounded solution is inside the bounds it is the answer. Otherwise the bounded problem
+    is solved on the triangular factor of the QR decomposition of [W y] (‖y − Wβ‖² = ‖z − Rβ‖² + ρ², so
+    its size does not grow with the samples) by bounded-variable least squares
+    (:func:`scipy.optimize.lsq_linear`, ``bvls``). Its solution is the unbounded least squares of the
+    other parameters with the active ones held at their bounds; it is recomputed that way, so that the
+    free parameters get the covariance σ_ρ²(W_fᵀW_f)⁻¹ of that fit (σ_ρ from its residual). An estimate
+    held at a bound keeps the σ of the unbounded fit, what the data alone say about it, and the unbounded
+    value is reported beside it (:attr:`Identification.unconstrained`).
+    """
+    beta, covariance, cond, sigma = _ols(y, W, names)
+    if np.all((beta >= lower) & (beta <= upper)):
+        return _Fit(beta, covariance, cond, sigma, {}, {})
+    import scipy.optimize
+
+    b = W.shape[1]
+    R = np.linalg.qr(np.column_stack([W, y]), mode="r")  # noqa: N806
+    solution = scipy.optimize.lsq_linear(R[:b, :b], R[:b, b], bounds=(lower, upper), method="bvls", tol=1e-14)
+    active = solution.active_mask != 0
+    if not active.any():  # the bounds were crossed by rounding only
+        return _Fit(np.clip(beta, lower, upper), covariance, cond, sigma, {}, {})
+    held = np.where(solution.active_mask < 0, lower, upper)
+    y_rest = y - W[:, active] @ held[active]
+    out_beta, out_cov = held.copy(), np.diag(np.diag(covariance))
+    if (~active).any():
+        beta_rest, cov_rest, cond, sigma = _ols(y_rest, W[:, ~active], tuple(n for n, a in zip(names, active) if not a))
+        out_beta[~active] = beta_rest
+        out_cov[np.ix_(~active, ~active)] = cov_rest
+        out_cov[np.ix_(~active, active)] = out_cov[np.ix_(active, ~active)] = 0.0
+    else:  # every parameter at a bound: nothing estimated, the residual is all there is
+        sigma = float(np.linalg.norm(y_rest) / np.sqrt(len(y)))
+    sides = {n: ("min" if m < 0 else "max") for n, m in zip(names, solution.active_mask) if m != 0}
+    return _Fit(out_beta, out_cov, cond, sigma, sides, {n: float(v) for n, v, a in zip(names, beta, active) if a})
 
 
 def _ols(y: np.ndarray, W: np.ndarray, names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, float, float]:  # noqa: N803
@@ -249,10 +361,11 @@ def _ols(y: np.ndarray, W: np.ndarray, names: tuple[str, ...]) -> tuple[np.ndarr
     tolerance = max(rows, b) * np.finfo(float).eps * s[0]
     if s[-1] <= tolerance:
         null = Vt[-1]
-        involved = [names[i] for i in range(b) if abs(null[i]) > 1e-3 * np.abs(null).max()]
-        raise IdentificationError(
+        involved = tuple(names[i] for i in range(b) if abs(null[i]) > 1e-3 * np.abs(null).max())
+        raise RankDeficient(
             f"the observation matrix is rank-deficient (rank {int((s > tolerance).sum())} < {b} parameters): "
-            f"{', '.join(involved)} cannot be separated — use base parameters, or a more exciting trajectory"
+            f"{', '.join(involved)} cannot be separated — use base parameters, or a more exciting trajectory",
+            involved,
         )
     beta = Vt.T @ ((U.T @ R[:b, b]) / s)
     variance = R[b, b] ** 2 / (rows - b)

@@ -11,9 +11,15 @@ own parameters follow in two ways:
 * with ``consistent=True``, by bounded nonlinear least squares over all the parameters that enter θ
   only (masses, centres of mass, inertias, friction, rotor inertias), starting from the nominal values,
   with each body kept physically valid: mass ≥ 0, inertia tensor positive semidefinite and satisfying
-  the triangle inequality of its principal moments (penalty residuals), friction coefficients ≥ 0.
+  the triangle inequality of its principal moments (penalty residuals), friction coefficients,
+  stiffnesses and dampings ≥ 0, and each parameter within its ``min``/``max``.
   A weak pull towards the nominal values (:data:`PRIOR_WEIGHT`) fixes the parameters the data cannot
   separate; only those the data determine (outside the null space of the fit's Jacobian) are reported.
+
+Parameters kept at their values (``fixed = true``, ``fix=``) are not estimated: the standard parameters
+they determine move to the side of τ and the base parameters are those of the other columns
+(:mod:`symbolic.identify.known`, which also gives the bounds of the linear fit and refuses what the
+data cannot separate).
 
 Parameters that Y depends on (lengths of the DH table, gravity, Stribeck velocities) are geometry:
 they stay at their values in the model file.
@@ -34,13 +40,14 @@ from symbolic.derive.dynamics import DynamicModel
 from symbolic.derive.regressor import Regressor
 from symbolic.errors import ModelError
 from symbolic.codegen.compiled_regressor import compiled_batch
-from symbolic.identify.least_squares import Identification, solve
+from symbolic.identify.known import (beta_bounds, fixed_symbols, homogeneous_groups, model_parameters_of, not_separable,
+                                     parameter_bounds, rank_hint, split_base)
+from symbolic.identify.least_squares import Identification, RankDeficient, solve
 from symbolic.identify.least_squares import Validation
 from symbolic.identify.pipeline import cross_validate
 from symbolic.identify.processing import Observation, Settings, observe
 from symbolic.numeric.base_parameters import BaseParameters, model_base_parameters, theta_values
 from symbolic.codegen.functions import compile_vectorized
-from symbolic.description.robot import Directional
 
 PRIOR_WEIGHT = 1e-6
 """Weight of the pull towards the nominal values in the consistent fit, relative to the weighted data:
@@ -57,9 +64,13 @@ class ModelParameter:
     relative_sigma: float
     nominal: float
     source: str  # "base parameter <name>" or "consistent fit"
+    bound: str | None = None  # "min"/"max": held at that bound by the bounded least squares
 
-    def to_dict(self) -> dict[str, float]:
-        return {"value": self.value, "sigma": self.sigma, "relative_sigma": self.relative_sigma}
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"value": self.value, "sigma": self.sigma, "relative_sigma": self.relative_sigma}
+        if self.bound is not None:
+            out["at_bound"] = self.bound
+        return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,6 +83,8 @@ class ModelIdentification:
     parameters: dict[str, ModelParameter]
     validation: Validation | None = None
     observation: Observation | None = field(default=None, repr=False)
+    fixed: dict[str, float] = field(default_factory=dict)
+    """Model-file parameters kept at their values (``fixed = true``, ``fix=``)."""
 
     def figures(self, folder: str | Path) -> tuple[Path, ...]:
         """PNG figures of measured vs predicted τ and the residual per coordinate (and of the cross-test).
@@ -92,11 +105,15 @@ class ModelIdentification:
         base = []
         for k, name in enumerate(ident.names):
             estimate = ident.parameters[k]
-            base.append({"name": name, "expression": str(self.base.expressions[k]), "value": estimate.value,
-                         "sigma": estimate.sigma, "relative_sigma": estimate.relative_sigma})
+            entry = {"name": name, "expression": str(self.base.expressions[k]), "value": estimate.value,
+                     "sigma": estimate.sigma, "relative_sigma": estimate.relative_sigma}
+            entry.update({key: value for key, value in estimate.to_dict().items()
+                          if key in ("fixed", "at_bound", "unconstrained")})
+            base.append(entry)
         return {
             "model": self.model.name,
             "parameters": {name: p.to_dict() for name, p in self.parameters.items()},
+            "fixed": dict(self.fixed),
             "base_parameters": base,
             "condition_number": ident.condition_number,
             "relative_error": ident.relative_error,
@@ -114,7 +131,10 @@ class ModelIdentification:
             lines.append("")
             lines.append(f"{'model parameter':<16}  {'identified':>14}  {'sigma':>12}  {'sigma %':>8}  {'nominal':>12}  from")
             for p in self.parameters.values():
-                lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {p.relative_sigma:>8.3g}  {p.nominal:>12.6g}  {p.source}")
+                bound = f" (at its {p.bound})" if p.bound else ""
+                lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {p.relative_sigma:>8.3g}  {p.nominal:>12.6g}  {p.source}{bound}")
+        if self.fixed:
+            lines.append("kept at their values (fixed): " + ", ".join(f"{n} = {v:.6g}" for n, v in self.fixed.items()))
         if self.validation is not None:
             lines.append(f"validation: relative error {self.validation.relative_error:.4g} %")
         return "\n".join(lines)
@@ -134,15 +154,20 @@ there): below it (EMPS: 25 000 samples × 6 statements) NumPy is fast enough and
 per machine) would cost more than it saves."""
 
 
-def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compiled: bool | None = None):
+def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compiled: bool | None = None,
+                   base: BaseParameters | None = None):
     """``regressor(q, qd, qdd) -> samples × N × len(β)``: the base columns of Y at parameters ``p``.
+
+    ``base``: other base parameters of the model's regressor (default :func:`model_base`'s), e.g. the
+    split of :func:`symbolic.identify.known.split_base` with its known columns last.
 
     ``compiled``: True evaluates through a C loop (:mod:`symbolic.codegen.compiled_regressor`), False
     through NumPy; None (default) chooses C for large work (:data:`COMPILE_WORK`) when a compiler is found.
     A time-varying model's regressor (a [[force]] in time) needs the sample times: ``regressor(q, qd, qdd,
     t=times)``; its attribute ``time_varying`` says so (:func:`symbolic.identify.processing.observe` reads it).
     """
-    reg, base = model_base(model)
+    reg, own = model_base(model)
+    base = own if base is None else base
     columns = reg.Y.extract(list(range(model.n)), list(base.independent))
     groups = [model.coordinates, model.velocities, model.accelerations, *([[model.time]] if model.time_varying else [])]
     p = model.parameter_vector.coerce(p)
@@ -179,27 +204,57 @@ def identify_model(
     settings: Settings | None = None,
     method: str = "wls",
     consistent: bool = False,
+    fix: Sequence[str] = (),
 ) -> ModelIdentification:
     """IDIM-LS of ``model``'s base parameters on ``data`` (a data or experiment file, or measurements).
 
     ``experiment`` maps a data file that lacks the canonical columns (its [signals], [window], ...);
     ``validation`` (a data or experiment file) is the cross-test set. Both are loaded for the model by
-    :func:`symbolic.data.load` (its rule for a validation file; the model's drive gains for ``u_<c>``).
+    :func:`symbolic.data.load` (its rule for a validation file; the model's drive gains for ``u_<c>``). ``fix`` names parameters kept at their values
+    besides those with ``fixed = true`` (:mod:`symbolic.identify.known`: their terms move to the side of
+    τ); ``min``/``max`` and the signs of the parameters' roles bound the estimates.
+
+    Raises
+    ------
+    IdentificationError
+        When the data cannot separate parameters: a rank-deficient set, or the equation of a coordinate
+        without an actuator (τ = 0), which any common multiple of its parameters satisfies; the message
+        names them and the parameters to fix.
     """
-    reg, base = model_base(model)  # first: a model the regressor cannot cover is refused before reading data
-    loaded = load(data, model.robot.generalized_coordinates, model=model.robot, experiment=experiment,
-                  validation=validation)
-    regressor = base_regressor(model)
+    coordinates = model.robot.generalized_coordinates
+    reg, full = model_base(model)  # first: a model the regressor cannot cover is refused before reading data
+    fixed = fixed_symbols(model, fix)
+    geometric = geometric_parameters(model, reg)
+    split = split_base(model, reg, full, fixed, geometric) if fixed else None
+    base, held = (split.base, split.known_values()) if split else (full, {})
+    loaded = load(data, coordinates, model=model.robot, experiment=experiment, validation=validation)
+    regressor = base_regressor(model, base=base)
     observation = observe(loaded, regressor, len(base.names), settings)
-    ident = solve(observation, base.names, method)
+    ident = _solve(model, reg, base, observation, method, held, geometric | fixed)
     checked = None
     if loaded.validation is not None:
         checked = cross_validate(ident, loaded.validation, regressor, settings)
     if consistent:
-        parameters = consistent_fit(model, reg, base, ident, observation)
+        parameters = consistent_fit(model, reg, base, ident, observation, fixed)
     else:
-        parameters = direct_parameters(model, reg, base, ident)
-    return ModelIdentification(model, base, ident, parameters, checked, observation)
+        parameters = direct_parameters(model, reg, base, ident, fixed)
+    return ModelIdentification(model, base, ident, parameters, checked, observation,
+                               {s.name: float(model.parameters[s]) for s in model.parameter_symbols if s in fixed})
+
+
+def _solve(model: DynamicModel, reg: Regressor, base: BaseParameters, observation: Observation, method: str,
+           held: dict[str, float], known: set[sp.Symbol]) -> Identification:
+    """:func:`solve` with the known columns held, the bounds of the parameters, and the checks of what the
+    data cannot separate (:mod:`symbolic.identify.known`)."""
+    groups = homogeneous_groups(observation.coordinates, observation.tau, observation.regressor, base.names, held)
+    if groups:
+        every, inertial = model_parameters_of(model, reg, base, groups[0].parameters, known)
+        raise not_separable(groups[0], every, inertial)
+    free = [n for n in base.names if n not in held]
+    try:
+        return solve(observation, base.names, method, fixed=held, bounds=beta_bounds(model, reg, base, free, known))
+    except RankDeficient as error:
+        raise rank_hint(error, model_parameters_of(model, reg, base, error.parameters, known)[0]) from None
 
 
 def geometric_parameters(model: DynamicModel, reg: Regressor) -> set[sp.Symbol]:
@@ -212,10 +267,11 @@ def geometric_parameters(model: DynamicModel, reg: Regressor) -> set[sp.Symbol]:
     return used & set(model.parameter_symbols)
 
 
-def direct_parameters(model: DynamicModel, reg: Regressor, base: BaseParameters, ident: Identification) -> dict[str, ModelParameter]:
+def direct_parameters(model: DynamicModel, reg: Regressor, base: BaseParameters, ident: Identification,
+                      fixed: frozenset[sp.Symbol] = frozenset()) -> dict[str, ModelParameter]:
     """Model parameters that a single base parameter determines: β = a·p + b with the other model
-    parameters in β fixed (geometry) — p = (β − b)/a, σ_p = σ_β/|a|."""
-    fixed = geometric_parameters(model, reg)
+    parameters in β fixed (geometry, and the ``fixed`` ones) — p = (β − b)/a, σ_p = σ_β/|a|."""
+    fixed = geometric_parameters(model, reg) | set(fixed)
     nominal = model.parameters
     theta = dict(zip(reg.theta, reg.theta_expressions))
     out: dict[str, ModelParameter] = {}
@@ -237,26 +293,33 @@ def direct_parameters(model: DynamicModel, reg: Regressor, base: BaseParameters,
         value = (estimate.value - b_value) / a_value
         sigma = estimate.sigma / abs(a_value)
         relative = 100.0 * sigma / abs(value) if value != 0 else float("inf")
-        out[p.name] = ModelParameter(p.name, value, sigma, relative, nominal[p], f"base parameter {base.names[k]}")
+        bound = getattr(estimate, "bound", None)
+        if bound is not None and a_value < 0:
+            bound = {"min": "max", "max": "min"}[bound]
+        out[p.name] = ModelParameter(p.name, value, sigma, relative, nominal[p], f"base parameter {base.names[k]}", bound)
     return out
 
 
-def consistent_fit(model, reg: Regressor, base: BaseParameters, ident: Identification, observation) -> dict[str, ModelParameter]:
-    """Bounded nonlinear least squares over the non-geometric model parameters (module docstring)."""
-    fixed = geometric_parameters(model, reg)
+def consistent_fit(model, reg: Regressor, base: BaseParameters, ident: Identification, observation,
+                   fixed_parameters: frozenset[sp.Symbol] = frozenset()) -> dict[str, ModelParameter]:
+    """Bounded nonlinear least squares over the non-geometric model parameters that are not fixed
+    (module docstring), within their ``min``/``max`` and the signs of their roles."""
+    fixed = geometric_parameters(model, reg) | set(fixed_parameters)
     nominal = model.parameter_vector
     symbols = list(nominal.symbols)
     free = [s for s in symbols if s not in fixed and any(s in e.free_symbols for e in reg.theta_expressions)]
     p0 = nominal.array()
     index = [nominal.index(s) for s in free]
     theta_of = sp.lambdify([symbols], list(reg.theta_expressions), modules="numpy")
-    lower = np.array([_lower_bound(model, s) for s in free])
+    bounds = parameter_bounds(model)
+    lower = np.array([bounds.get(s, (-np.inf, np.inf))[0] for s in free])
+    upper = np.array([bounds.get(s, (-np.inf, np.inf))[1] for s in free])
     weights = np.repeat(1.0 / np.asarray(ident.coordinate_sigmas), observation.samples)
     W, y = observation.W * weights[:, None], observation.y * weights
     scale = max(np.linalg.norm(y), 1e-300)
     bodies = _body_checks(model, symbols)
 
-    start = np.clip(p0[index], lower, np.inf)
+    start = np.clip(p0[index], lower, upper)
     typical = np.maximum(np.abs(start), 1e-3 * max(np.abs(start).max(initial=0.0), 1e-12))
     prior = PRIOR_WEIGHT * scale / np.sqrt(len(free))
 
@@ -269,7 +332,7 @@ def consistent_fit(model, reg: Regressor, base: BaseParameters, ident: Identific
 
     import scipy.optimize  # here: identification without --consistent never needs it (about 1 s to import)
 
-    fit = scipy.optimize.least_squares(residual, start, bounds=(lower, np.inf), x_scale=typical, method="trf")
+    fit = scipy.optimize.least_squares(residual, start, bounds=(lower, upper), x_scale=typical, method="trf")
     J = fit.jac[: len(y)]
     dof = max(len(y) - np.linalg.matrix_rank(J), 1)
     sigma2 = float(np.sum(fit.fun[: len(y)] ** 2) / dof)
@@ -286,21 +349,6 @@ def consistent_fit(model, reg: Regressor, base: BaseParameters, ident: Identific
         out[symbol.name] = ModelParameter(symbol.name, value, sigma, 100.0 * sigma / abs(value) if value else float("inf"),
                                           model.parameters[symbol], "consistent fit")
     return out
-
-
-def _lower_bound(model: DynamicModel, symbol: sp.Symbol) -> float:
-    """0 for parameters that are masses, friction coefficients or rotor inertias by their use; else −∞."""
-    robot = model.robot
-    positive = {b.mass for b in robot.bodies} | {d.rotor_inertia for d in robot.drives}
-    for f in robot.frictions:
-        for value in (f.viscous, f.coulomb):
-            if isinstance(value, Directional):
-                positive |= {value.positive, value.negative}
-            elif value is not None:
-                positive.add(value)
-        if f.stribeck is not None:
-            positive.add(f.stribeck.static)
-    return 0.0 if symbol in positive else -np.inf
 
 
 def _body_checks(model: DynamicModel, symbols: list[sp.Symbol]):

@@ -24,6 +24,7 @@ that Y depends on (lengths, gravity) are fixed at their nominal values. A time-v
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -105,10 +106,18 @@ def stacked(model: DynamicModel, reg: Regressor, states: int | None = None, seed
     return np.vstack(rows)
 
 
-def base_parameters(model: DynamicModel, reg: Regressor, tolerance: float = TOLERANCE, seed: int = 0) -> BaseParameters:
-    """The base parameters of ``reg`` (see the module docstring)."""
+def base_parameters(model: DynamicModel, reg: Regressor, tolerance: float = TOLERANCE, seed: int = 0,
+                    columns: Sequence[int] | None = None) -> BaseParameters:
+    """The base parameters of ``reg`` (see the module docstring).
+
+    ``columns``: the indices into θ to take part (default all). The others are known terms, moved to the
+    side of τ (τ − Y_k·θ_k = Y_u·θ_u, :mod:`symbolic.identify.known`): they are neither base nor regrouped,
+    and a column that was a combination of them becomes a base column of its own.
+    """
     W = stacked(model, reg, seed=seed)
     norms = np.linalg.norm(W, axis=0)
+    if columns is not None:
+        norms[np.setdiff1d(np.arange(W.shape[1]), np.asarray(columns, int))] = 0.0
     acting = np.flatnonzero(norms > tolerance * norms.max(initial=0.0))  # others are rounding noise
     import scipy.linalg  # here: a model whose base parameters are read from the cache never needs it (0.3-0.6 s)
 

@@ -31,10 +31,11 @@ import numpy as np
 from symbolic.data import Controller, DataError, Experiment, Measurements
 from symbolic.derive.dynamics import DynamicModel, derive
 from symbolic.errors import ModelError
+from symbolic.identify.known import fixed_symbols
 from symbolic.identify.least_squares import IdentificationError
 from symbolic.data.treatment import Settings, settings_for
 from symbolic.description.modelfile import load as load_model
-from symbolic.description.modelfile import loads, with_parameter_values
+from symbolic.description.modelfile import loads, with_loadable_values
 from symbolic.description.robot import Robot
 from symbolic.workflow.dataset import DataSet, load_sets, with_held_force
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
@@ -61,6 +62,7 @@ def diagnose(
     effects: Sequence[Effect] | None = None,
     simulate: Simulator | bool | None = None,
     figures: bool = True,
+    fix: Sequence[str] = (),
 ) -> Diagnosis:
     """Find where ``model`` and ``data`` disagree, name the missing effects, patch the model file.
 
@@ -88,6 +90,9 @@ def diagnose(
         always works on the inverse model (IDIM-LS).
     figures
         Draw PNG figures into ``out`` when matplotlib is installed.
+    fix
+        Parameters kept at their values when the model is re-identified, besides those with ``fixed = true``
+        (:mod:`symbolic.identify.known`).
     """
     clock = time.perf_counter()
     seconds: dict[str, float] = {}
@@ -99,6 +104,7 @@ def diagnose(
         clock = now
 
     model = _derived(model)
+    fixed_symbols(model, fix)  # an unknown name is refused before the data are read
     source = Path(model.robot.source)
     log.info("diagnose %s: loading and treating the data", model.name)
     estimation, held, held_out = load_sets(model.robot, data, experiment, validation, settings)
@@ -106,9 +112,9 @@ def diagnose(
         simulate = simulated_path(_controller(estimation.measurements))
     sets = {"estimation": estimation, "validation": held}
     lap("data")
-    before = _fit(model, sets, simulate)
+    before = _fit(model, sets, simulate, fix)
     where_before = localise(estimation, before.predicted["estimation"])
-    findings = held_force_finding(model, sets, before if not simulate else None, settings, search)
+    findings = held_force_finding(model, sets, before if not simulate else None, settings, search, fix)
     lap("gap")
     log.info("diagnose %s: gap %.4g %% (estimation), %.4g %% (held out); searching the catalogue",
              model.name, before.gap["estimation"], before.gap["validation"])
@@ -117,7 +123,7 @@ def diagnose(
     accepted = selection.run()
     finals = selection.final_effects()
     lap("search")
-    notes: list[str] = []
+    notes: list[str] = list(before.nominal.notes)
     found: list[Found] = []
     patched_text = patched_path = None
     if source.is_file():
@@ -150,11 +156,12 @@ def diagnose(
             own_fit = final_nominal(before.nominal.terms, design.identification.values)
             after = Fit(patched, own_fit, predicted, gap, detail)
         else:
-            after = _fit(patched, sets, simulate)
+            after = _fit(patched, sets, simulate, [n for n in fix if n in {p.name for p in patched.robot.parameters}])
         own = {k: v.value for k, v in after.nominal.parameters.items() if k in {p.name for p in model.robot.parameters}}
         data_name = Path(str(estimation.measurements.source)).name
-        patched_text = with_parameter_values(editor.text(), own, str(target),
-                                             provenance=f"re-identified by symbolic diagnose on {data_name}")
+        patched_text, kept = with_loadable_values(editor.text(), own, str(target),
+                                                  provenance=f"re-identified by symbolic diagnose on {data_name}")
+        notes += [f"{name} keeps its value in the patched model: the re-identified {reason}" for name, reason in kept.items()]
         patched_path = target if out is not None else None
         measured_model = derive(loads(patched_text, str(target))) if unmeasured else patched
         values = measured_model.parameter_vector.by_name()
@@ -188,7 +195,8 @@ def diagnose(
 
 
 def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], nominal: Fit | None,
-                       settings: Settings | None, search: SearchSettings | None) -> list[dict[str, Any]]:
+                       settings: Settings | None, search: SearchSettings | None,
+                       fix: Sequence[str] = ()) -> list[dict[str, Any]]:
     """Whether the logged force behaves as a held command (:attr:`symbolic.data.treatment.Settings.held_force`)
     when the data do not say: the nominal model identified on the data treated both ways (inverse
     dynamics; ``nominal`` is step 1's fit when it was on the inverse path), and a finding when comparing
@@ -201,8 +209,8 @@ def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], nominal: F
     estimation = sets["estimation"]
     if settings_for(estimation.measurements, settings).held_force is not None:
         return []  # declared, by the caller or the experiment
-    plain = nominal or _fit(model, sets, None)  # the inverse-model fit of step 1, or made here
-    centred = _fit(model, {role: with_held_force(data) for role, data in sets.items()}, None)
+    plain = nominal or _fit(model, sets, None, fix)  # the inverse-model fit of step 1, or made here
+    centred = _fit(model, {role: with_held_force(data) for role, data in sets.items()}, None, fix)
     before, after = plain.gap["validation"], centred.gap["validation"]
     removed = 1.0 - (after / before) ** 2 if before > 0 else 0.0
     threshold = (search or SearchSettings()).min_gain
@@ -269,11 +277,12 @@ def _gaps(sets: dict[str, DataSet], predicted: dict[str, np.ndarray]) -> tuple[d
     return gap, detail
 
 
-def _fit(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | None) -> Fit:
-    """Identify ``model`` on the estimation set; τ_model on both sets by the inverse model or ``simulate``."""
+def _fit(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | None, fix: Sequence[str] = ()) -> Fit:
+    """Identify ``model`` on the estimation set (``fix``: parameters kept at their values); τ_model on both
+    sets by the inverse model or ``simulate``."""
     estimation = sets["estimation"]
     try:
-        nominal = fit_nominal(model_terms(model), estimation)
+        nominal = fit_nominal(model_terms(model, fixed_symbols(model, fix)), estimation)
     except IdentificationError as error:
         raise DataError(str(estimation.measurements.source), "identification", str(error)) from None
     if not simulate:

@@ -7,21 +7,33 @@ the model-file parameters that a base parameter determines (``direct_parameters`
 a base parameter that no ``[parameters]`` entry moves — its value is fixed by numbers written inline
 in the model file, e.g. ``mass = "2.5"`` — is not re-identified but kept at that value, its column
 moved to the known side (τ − Y_fixed·β_fixed = Y_free·β_free). Parameters that the regressor
-depends on (lengths, gravity, Stribeck velocities) are fixed as in identification.
+depends on (lengths, gravity, Stribeck velocities) are fixed as in identification, and so are the
+parameters kept at their values (``fixed = true``, ``diagnose(fix=...)``): the standard parameters they
+determine are known columns (:func:`symbolic.identify.known.split_base`), exactly as if their values were
+written inline. The fit is bounded as identification's is (:func:`symbolic.identify.known.beta_bounds`).
+
+A coordinate without an actuator (τ = 0 in the data) has a homogeneous equation that any common multiple
+of its parameters satisfies (:mod:`symbolic.identify.known`). Where ``symbolic identify`` refuses it, the
+workflow holds one of those parameters at the model file's value — an inertial one if there is one, the
+value a model is usually sure of — and says so (:attr:`NominalFit.notes`): the other parameters of the
+equation are then measured against it (a stiffness against the link's inertia).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import types
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import sympy as sp
 
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.derive.products import Product
 from symbolic.derive.regressor import Regressor
 from symbolic.identify.least_squares import Identification, ParameterEstimate, solve
+from symbolic.identify.known import FIX_HINT, beta_bounds, homogeneous_groups, model_parameters_of, scale_holds, split_base
 from symbolic.identify.model import ModelParameter, base_regressor, direct_parameters, geometric_parameters, model_base
 from symbolic.identify.processing import Observation
 from symbolic.numeric.base_parameters import BaseParameters
@@ -51,6 +63,8 @@ class ModelTerms:
     nominal: np.ndarray
     regressor: object = field(repr=False)
     _columns: dict = field(default_factory=dict, repr=False)
+    fixed: frozenset = frozenset()
+    """The parameters kept at their values (``fixed = true``, ``fix=``)."""
 
     @property
     def free_names(self) -> tuple[str, ...]:
@@ -71,26 +85,63 @@ class ModelTerms:
         return data.tau - self.columns(data)[:, :, fixed] @ self.nominal[fixed]
 
 
-def model_terms(model: DynamicModel) -> ModelTerms:
-    """The :class:`ModelTerms` of ``model`` (once per model object, kept in ``model.products``)."""
-    return model.products.get(TERMS)
+def model_terms(model: DynamicModel, fixed: frozenset[sp.Symbol] = frozenset()) -> ModelTerms:
+    """The :class:`ModelTerms` of ``model`` with the parameters ``fixed`` kept (once per model object and set,
+    kept in ``model.products``)."""
+    if not fixed:
+        return model.products.get(TERMS)
+    return _build_terms(model, frozenset(fixed))
 
 
-def _build_terms(model: DynamicModel) -> ModelTerms:
+def _build_terms(model: DynamicModel, fixed: frozenset[sp.Symbol] = frozenset()) -> ModelTerms:
     reg, base = model_base(model)
+    geometric = geometric_parameters(model, reg)
+    if fixed:
+        base = split_base(model, reg, base, fixed, geometric).base
     theta = dict(zip(reg.theta, reg.theta_expressions))
-    movable = set(model.parameter_symbols) - geometric_parameters(model, reg)
+    movable = set(model.parameter_symbols) - geometric - fixed
     free = np.array([bool(e.xreplace(theta).free_symbols & movable) for e in base.expressions])
-    return ModelTerms(model, reg, base, base.names, free, np.asarray(base.values, float), base_regressor(model))
+    regressor = base_regressor(model, base=base) if fixed else base_regressor(model)
+    return ModelTerms(model, reg, base, base.names, free, np.asarray(base.values, float), regressor, fixed=fixed)
 
 
 TERMS: Product[ModelTerms] = Product("model terms", _build_terms)
 
 
-def wls(data: DataSet, columns: np.ndarray, known: np.ndarray, names: Sequence[str]) -> Identification:
-    """IDIM-LS weighted least squares of ``known = columns·x`` (``samples × N`` and ``samples × N × P``)."""
+def hold_scales(terms: ModelTerms, data: DataSet) -> tuple[ModelTerms, tuple[str, ...]]:
+    """``terms`` with one parameter of each homogeneous equation held at its model value, and what was held
+    (module docstring); ``terms`` itself when no coordinate of ``data`` is without force."""
+    columns = terms.columns(data)
+    held = {n: float(v) for n, v, f in zip(terms.names, terms.nominal, terms.free) if not f}
+    groups = homogeneous_groups(data.coordinates, data.tau, columns, terms.names, held)
+    if not groups:
+        return terms, ()
+    reg, base, model = terms.reg, terms.base, terms.model
+    known = geometric_parameters(model, reg) | terms.fixed
+    kinds = dict(zip(reg.theta, reg.kinds))
+    inertial = {n for n, k in zip(base.names, base.independent) if kinds[reg.theta[k]] == "inertial"}
+    free, notes = terms.free.copy(), []
+    for group in groups:
+        name = scale_holds(group, columns, data.coordinates, terms.names, terms.nominal, inertial)
+        k = terms.names.index(name)
+        free[k] = False
+        every, _ = model_parameters_of(model, reg, base, [name], known)
+        c = group.coordinates
+        notes.append(f"{'coordinate ' + c[0] + ' has' if len(c) == 1 else 'coordinates ' + ', '.join(c) + ' have'} no "
+                     f"actuator in the data (τ = 0): the equation holds for any common multiple of "
+                     f"{', '.join(group.parameters)}, so the data cannot separate their scale; {name}"
+                     f"{' (' + ', '.join(every) + ')' if every else ''} is held at the model file's value "
+                     f"{terms.nominal[k]:.6g} and the others are measured against it; to choose, keep a known value "
+                     f"fixed: --fix NAME {FIX_HINT}")
+    return dataclasses.replace(terms, free=free), tuple(notes)
+
+
+def wls(data: DataSet, columns: np.ndarray, known: np.ndarray, names: Sequence[str],
+        bounds: dict[str, tuple[float, float]] | None = None) -> Identification:
+    """IDIM-LS weighted least squares of ``known = columns·x`` (``samples × N`` and ``samples × N × P``),
+    within ``bounds`` ({name: (lower, upper)}) where given."""
     observation = Observation(data.coordinates, data.t, known, columns, data.states.processing)
-    return solve(observation, tuple(names), "wls")
+    return solve(observation, tuple(names), "wls", bounds=bounds)
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,6 +164,8 @@ class NominalFit:
     identification: Identification
     beta: np.ndarray
     parameters: dict[str, ModelParameter]
+    notes: tuple[str, ...] = ()
+    """What the fit had to assume (a parameter held because the data cannot separate its scale)."""
 
     def predict(self, data: DataSet) -> np.ndarray:
         """τ of the model at the measured (filtered) states of ``data``: ``samples × N``."""
@@ -121,16 +174,23 @@ class NominalFit:
 
 def fit_nominal(terms: ModelTerms, data: DataSet) -> NominalFit:
     """Identify the free base parameters of ``terms`` on ``data`` (module docstring)."""
+    terms, notes = hold_scales(terms, data)
     free = terms.free
-    ident = wls(data, terms.columns(data)[:, :, free], terms.known(data), terms.free_names)
+    known = geometric_parameters(terms.model, terms.reg) | terms.fixed
+    bounds = beta_bounds(terms.model, terms.reg, terms.base, terms.free_names, known)
+    ident = wls(data, terms.columns(data)[:, :, free], terms.known(data), terms.free_names, bounds)
     beta = terms.nominal.copy()
     beta[free] = ident.values
     sigmas = np.zeros(len(beta))
     sigmas[free] = ident.sigmas
-    estimates = [ParameterEstimate(n, float(b), float(s), 100.0 * s / abs(b) if b else float("inf"), False)
+    estimates = [ParameterEstimate(n, float(b), float(s), 100.0 * s / abs(b) if b else float("inf"), False,
+                                   bound=ident.at_bound.get(n))
                  for n, b, s in zip(terms.names, beta, sigmas)]
-    parameters = direct_parameters(terms.model, terms.reg, terms.base, types.SimpleNamespace(parameters=estimates))
-    return NominalFit(terms, ident, beta, parameters)
+    parameters = direct_parameters(terms.model, terms.reg, terms.base, types.SimpleNamespace(parameters=estimates),
+                                   terms.fixed)
+    held = {f"base parameter {n}" for n in np.asarray(terms.names)[~free]}
+    parameters = {k: p for k, p in parameters.items() if p.source not in held}  # a value held, not identified
+    return NominalFit(terms, ident, beta, parameters, notes)
 
 
 def final_nominal(terms: ModelTerms, values: np.ndarray) -> NominalFit:
@@ -139,7 +199,8 @@ def final_nominal(terms: ModelTerms, values: np.ndarray) -> NominalFit:
     beta = terms.nominal.copy()
     beta[terms.free] = values[:int(terms.free.sum())]
     estimates = [ParameterEstimate(n, float(b), 0.0, 0.0, False) for n, b in zip(terms.names, beta)]
-    parameters = direct_parameters(terms.model, terms.reg, terms.base, types.SimpleNamespace(parameters=estimates))
+    parameters = direct_parameters(terms.model, terms.reg, terms.base, types.SimpleNamespace(parameters=estimates),
+                                   terms.fixed)
     return NominalFit(terms, None, beta, parameters)
 
 
