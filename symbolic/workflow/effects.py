@@ -124,6 +124,10 @@ class Effect:
     """Relative precision to which a single nonlinear parameter is refined between its grid neighbours."""
     optional: ClassVar[tuple[int, ...]] = ()
     """Columns that the model may already hold (e.g. a spring's constant when there is an offset)."""
+    groupable: ClassVar[bool] = True
+    """Whether the search also offers the effect on every coordinate (or a named group) as one grouped
+    hypothesis (docs/workflow.md, "Grouped hypotheses"); only effects without a nonlinear parameter whose
+    columns act on their own coordinate are grouped."""
 
     @property
     def identifier(self) -> str:
@@ -860,6 +864,7 @@ class Payload(Effect):
 
     name, roles, axis = "payload", ("mass",), "acceleration"
     summary = "a point mass missing at the model's end effector (a tool, a load)"
+    groupable = False  # one payload acts on every coordinate already
 
     def __init__(self) -> None:
         self._unit: dict[int, tuple[Robot, Any]] = {}

@@ -10,6 +10,8 @@ slowly varying regressor and conservative otherwise.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import scipy.stats
 
@@ -53,7 +55,7 @@ def pooled_autocorrelation_time(residual: np.ndarray) -> float:
     return float(np.dot(taus, power) / power.sum())
 
 
-def f_test(rss0: float, rss1: float, rows: int, parameters: int, added: int, tau: float) -> tuple[float, float]:
+def f_test(rss0: float, rss1: float, rows: float, parameters: float, added: int, tau: float) -> tuple[float, float]:
     """(F, p) of adding ``added`` parameters to a model of ``parameters``, corrected for autocorrelation.
 
     F = ((RSS₀ − RSS₁)/k) / (RSS₁/(n − p − k)) divided by τ_int, against F(k, n/τ_int − p − k).
@@ -65,6 +67,30 @@ def f_test(rss0: float, rss1: float, rows: int, parameters: int, added: int, tau
     effective = rows / tau - parameters - added
     if effective <= 0:
         return statistic, 1.0
+    return float(statistic), float(scipy.stats.f.sf(statistic, added, effective))
+
+
+def combined_f_test(parts: Sequence[tuple[float, float, float, float, int, float]]) -> tuple[float, float]:
+    """(F, p) of parameters added on several coordinates at once, each part a coordinate (or rows pooled)
+    with its own noise level and autocorrelation: (RSS₀, RSS₁, rows n, model parameters p, added k, τ_int).
+
+    χ² = Σ_c ((RSS₀,c − RSS₁,c)/(RSS₁,c/(n_c − p_c − k_c)))/τ_c, F = χ²/K with K = Σ k_c, against
+    F(K, Σ_c (n_c/τ_c − p_c − k_c)); with one part this is :func:`f_test` (docs/workflow.md, "Name").
+    ``p`` may be fractional: the model's parameters counted by their leverage on the part's rows.
+    """
+    chi2, added, effective = 0.0, 0, 0.0
+    for rss0, rss1, rows, parameters, k, tau in parts:
+        dof = rows - parameters - k
+        if rss1 <= 0 or dof <= 0 or k <= 0:
+            return float("inf"), 0.0
+        chi2 += (rss0 - rss1) / (rss1 / dof) / tau
+        added += k
+        effective += rows / tau - parameters - k
+    if added <= 0:
+        return float("inf"), 0.0
+    statistic = chi2 / added
+    if effective <= 0:
+        return float(statistic), 1.0
     return float(statistic), float(scipy.stats.f.sf(statistic, added, effective))
 
 
