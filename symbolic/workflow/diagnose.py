@@ -322,11 +322,9 @@ def _evidence_comment(a, final: dict[str, Any], search: Search) -> str:
             f"held-out residual power ({held}).")
     if a.group is not None:
         g = a.group
-        text += (f" The group ({g.coordinate}): p = {g.p_value:.3g}, explains {100 * g.share:.3g} % and removes "
-                 f"{100 * g.gain:.3g} % of the held-out residual power on those coordinates, ΔBIC = {g.delta_bic_own:.4g}.")
-        if g.dropped:
-            text += " Dropped: " + ", ".join(m.coordinate for m, _ in g.dropped if m.effect is c.effect) + "." \
-                if any(m.effect is c.effect for m, _ in g.dropped) else ""
+        text += (f" The group, kept on {g.coordinate}: p = {g.p_value:.3g}, explains {100 * g.share:.3g} % and removes "
+                 f"{100 * g.gain:.3g} % of the held-out residual power on those coordinates, ΔBIC = {g.delta_bic_own:.4g}"
+                 + (f"; dropped: {', '.join(m.label() for m, _ in g.dropped)}." if g.dropped else "."))
     if a.alternatives:
         text += " Explained equally by: " + ", ".join(x.label() for x in a.alternatives) + " (fewer parameters named)."
     return text

@@ -55,10 +55,11 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
+from symbolic.errors import ModelError
 from symbolic.identify.least_squares import Identification
 from symbolic.workflow.dataset import DataSet
 from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals
-from symbolic.workflow.statistics import autocorrelation_time, combined_f_test, pooled_autocorrelation_time
+from symbolic.workflow.statistics import autocorrelation_time, combined_f_test, pooled_autocorrelation_time, score_inflation
 from symbolic.workflow.terms import ModelTerms, wls
 
 ALPHA = 1e-3
@@ -240,7 +241,7 @@ class Candidate(Judged):
     def label(self) -> str:
         return f"{self.effect.label()} on {self.coordinate}"
 
-    def summary(self, coordinates: Sequence[str] = ()) -> dict[str, Any]:
+    def summary(self, coordinates: Sequence[str]) -> dict[str, Any]:
         """Plain data for the report and the JSON (``coordinates``: the data's, for the per-coordinate figures)."""
         out: dict[str, Any] = {"effect": self.effect.identifier, **variant_of(self.effect), "coordinate": self.coordinate,
                                "status": self.status}
@@ -248,7 +249,7 @@ class Candidate(Judged):
             out["reason"] = self.reason
             return out
         out["parameters"] = dict(self.roles)
-        out.update(self.figures(coordinates or [self.coordinate if j == self.j else str(j) for j in range(max(self.own) + 1)]))
+        out.update(self.figures(coordinates))
         return out
 
 
@@ -276,7 +277,7 @@ class Grouped(Judged):
     def label(self) -> str:
         return f"{self.group.label()} (kept on {self.coordinate})" if self.members else self.group.label()
 
-    def summary(self, coordinates: Sequence[str] = ()) -> dict[str, Any]:
+    def summary(self, coordinates: Sequence[str]) -> dict[str, Any]:
         out: dict[str, Any] = {"group": self.group.label(), "effects": list(self.group.effects),
                                "coordinates": list(self.group.coordinates), "status": self.status}
         if self.status != "tested":
@@ -393,6 +394,7 @@ class Search:
         self.accepted: list[Accepted] = []
         self.removed: list[tuple[Accepted, float, str]] = []
         self._reduced: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        self._final: _Partial | None = None
         self._signals: dict[str, Signals] = {}
 
     def _hypotheses(self) -> list[Group]:
@@ -403,7 +405,8 @@ class Search:
         for name, members in self.settings.groups.items():
             unknown = [c for c in members if c not in coordinates]
             if unknown:
-                raise ValueError(f"group {name!r}: unknown coordinate(s) {', '.join(unknown)} (the data's: {', '.join(coordinates)})")
+                raise ModelError(str(self.context.robot.source), f"group {name!r}",
+                                 f"unknown coordinate(s) {', '.join(unknown)} (allowed: the data's {', '.join(coordinates)})")
             sets.append((name, tuple(dict.fromkeys(members))))
         if not self.settings.grouped:
             return []
@@ -422,7 +425,9 @@ class Search:
                 break
             self.accepted.extend(chosen)
         self.eliminate()
-        self.final = CurrentModel(self.terms, self.sets, self.accepted)
+        if self._final is None:  # nothing accepted: the elimination built no joint fit
+            self._final = _Partial(self, CurrentModel(self.terms, self.sets, self.accepted))
+        self.final = self._final.design
         return self.accepted
 
     def round(self, design: CurrentModel) -> tuple[Accepted, ...]:
@@ -474,13 +479,13 @@ class Search:
         """Remove, one at a time, the accepted unit (an effect, or a group's members) least significant in
         the joint fit of all of them while its partial F-test's p is not below ``alpha`` / (number of units)."""
         while self.accepted:
-            design = CurrentModel(self.terms, self.sets, self.accepted)
-            partial = _Partial(self, design)
+            partial = self._final = _Partial(self, CurrentModel(self.terms, self.sets, self.accepted))
             units = self.units()
             tests = [partial.p_value(unit) for unit in units]
             worst = int(np.argmax(tests))
             if tests[worst] < self.settings.alpha / len(units):
                 return
+            self._final = None
             gone = [self.accepted[k] for k in units[worst]]
             self.accepted = [a for k, a in enumerate(self.accepted) if k not in units[worst]]
             others = ", ".join(a.candidate.label() for a in self.accepted) or "nothing else"
@@ -495,9 +500,9 @@ class Search:
     def final_effects(self) -> list[dict[str, Any]]:
         """For each accepted effect: roles and σ from the final joint fit, its partial test there on its own
         rows (``own_p_value``) and that of the unit it was accepted in (``p_value``: a group's, or its own)."""
-        design = self.final
+        partial = self._final  # the elimination's last joint fit: the final model's
+        design = partial.design
         ident = design.identification
-        partial = _Partial(self, design)
         unit_p = {k: p for unit in self.units() for p in [partial.p_value(unit)] for k in unit}
         tau = pooled_autocorrelation_time(partial.residual.reshape(len(design.weights), -1).T)
         out = []
@@ -666,7 +671,7 @@ class _Partial:
     """Partial F-tests of accepted effects in a joint fit (elimination, the final model), each on its own rows."""
 
     def __init__(self, search: Search, design: CurrentModel) -> None:
-        self.search = search
+        self.search, self.design = search, design
         self.y = design.weighted("estimation", design.known["estimation"])
         self.X = design.weighted("estimation", design.columns["estimation"])
         self.residual = self.y - self.X @ design.identification.values
@@ -725,6 +730,24 @@ class _Joint:
         self.b = Zr.T @ state.r0[rows]
         self.cross = state.X[rows].T @ Zr
         self.zy = Zr.T @ state.y[rows]
+
+    def outside(self, subset: Sequence[int]) -> dict[int, np.ndarray]:
+        """Per coordinate, the part of the columns ``subset`` outside the model's span on its rows
+        (``samples × k``; only the columns that act there)."""
+        st = self.state
+        s = list(subset)
+        perp = self.Zr[:, s] - st.Q[self.rows] @ self.a[:, s]
+        coordinate = self.rows // st.n_samples
+        out = {}
+        for j in np.unique(coordinate):
+            mine = coordinate == j
+            acting = [i for i in range(len(s)) if np.any(self.Zr[mine, s[i]] != 0)]
+            if not acting:
+                continue
+            z = np.zeros((st.n_samples, len(acting)))
+            z[self.rows[mine] - j * st.n_samples] = perp[np.ix_(mine, acting)]
+            out[int(j)] = z
+        return out
 
     def fit(self, subset: Sequence[int], held: bool = True) -> _Fit:
         """The current model with the columns ``subset``; ``held=False`` leaves the held-out error out (``None``)."""
@@ -960,8 +983,10 @@ class _RoundState:
         c.added = len(kept) + (1 if effect.nonlinear else 0)
         Zv = None if search.cross_validate else \
             self.design.weighted("validation", self.columns(effect, j, c.value, "validation"))[:, list(kept)]
-        fit = _Joint(self, rows, Z[np.ix_(rows, kept)], Zv).fit(range(len(kept)))
-        self.record(c, fit, [(tuple(int(i) for i in np.unique(rows // self.n_samples)), len(kept), c.added)])
+        joint = _Joint(self, rows, Z[np.ix_(rows, kept)], Zv)
+        fit = joint.fit(range(len(kept)))
+        own = tuple(int(i) for i in np.unique(rows // self.n_samples))
+        self.record(c, fit, [(own, len(kept), c.added)], outside=joint.outside(range(len(kept))) if len(own) == 1 else None)
         c.model_coefficients = fit.coef
         c.coefficients = _expand(c, fit.coef[self.X.shape[1]:])
         c.reference = _reference_value(c.reference_map, fit.coef)
@@ -976,15 +1001,20 @@ class _RoundState:
         return c
 
     def record(self, c: Judged, fit: _Fit, pieces: list[tuple[tuple[int, ...], int, int]], before: _Fit | None = None,
-               beside: Sequence[tuple[tuple[int, ...], int]] = ()) -> None:
+               beside: Sequence[tuple[tuple[int, ...], int]] = (), outside: Mapping[int, np.ndarray] | None = None) -> None:
         """Set ``c``'s per-coordinate figures from ``fit`` against ``before`` (default: the round's model);
         ``pieces`` (coordinates, columns, parameters added) say what it adds where (:func:`_parts`);
-        ``beside`` (coordinates, columns): what both fits hold besides the model (a group's other members)."""
+        ``beside`` (coordinates, columns): what both fits hold besides the model (a group's other members);
+        ``outside``: per coordinate, the added columns' part outside the model's span on its rows, whose
+        score's variance inflation is used where it exceeds τ_int (:func:`~symbolic.workflow.statistics.score_inflation`)."""
         before = before or _Fit(self.power0, self.held0, self.coef, self.r0)
         c.power0, c.power1, c.held0, c.held1 = before.power, fit.power, before.held, fit.held
         c.own = tuple(sorted({j for own, _, _ in pieces for j in own}))
         residual = fit.residual.reshape(self.n, -1)
         c.taus = {j: autocorrelation_time(residual[j]) for j in c.own}
+        for j, z in (outside or {}).items():  # the more conservative of the two variance corrections
+            b = z.T @ before.residual.reshape(self.n, -1)[j]
+            c.taus[j] = max(c.taus[j], score_inflation(z, residual[j], b))
         taus = {own: (c.taus[own[0]] if len(own) == 1 else _tau(residual, own)) for own, _, _ in pieces}
         c.tau = c.taus[c.own[0]] if len(c.own) == 1 else _tau(residual, c.own)
         leverage = self.leverage.copy()
@@ -1042,7 +1072,7 @@ class _RoundState:
                 f"only {g.members[0].label()} earns its place: that is its single candidate"
             return g
         g.added = sum(pool[m].added for m in alive)
-        self.record(g, full, [((pool[m].j,), len(index[m]), pool[m].added) for m in alive])
+        self.record(g, full, [((pool[m].j,), len(index[m]), pool[m].added) for m in alive], outside=joint.outside(columns))
         return g
 
     def member(self, single: Candidate, joint: _Joint, full: _Fit, columns: list[int], mine: list[int],
