@@ -48,15 +48,14 @@ def _candidate_row(c: Candidate, chosen: Judged | None) -> list[Any]:
 
 
 def _group_rows(g: Grouped, chosen: Judged | None) -> list[list[Any]]:
-    """The group's line, then one per member kept and dropped (figures on the member's own coordinate,
-    from the group's fit against the fit without it)."""
+    """The group's line, then (when at least two members earned their place) one per member kept and dropped:
+    figures on the member's own coordinate, from the group's fit against the fit without it. A group left
+    with one member or none is one line (its members' own figures are the single candidates' above)."""
     if g.status != "tested":
-        head = [g.group.label(), g.coordinate, g.status, g.reason, "", "", "", "", ""]
-    else:
-        head = [g.group.label(), g.coordinate, f"{len(g.members)} members", f"{100 * g.share:.3g} %", _g(g.p_value, 3),
-                f"{100 * g.gain:.3g} %", f"{100 * g.stacked_share:.3g} % / {100 * g.stacked_gain:.3g} %",
-                _g(g.delta_bic), _verdict(g, chosen)]
-    rows = [head]
+        return [[g.group.label(), g.coordinate, g.status, g.reason, "", "", "", "", ""]]
+    rows = [[g.group.label(), g.coordinate, f"{len(g.members)} members", f"{100 * g.share:.3g} %", _g(g.p_value, 3),
+             f"{100 * g.gain:.3g} %", f"{100 * g.stacked_share:.3g} % / {100 * g.stacked_gain:.3g} %",
+             _g(g.delta_bic), _verdict(g, chosen)]]
     for m, why in [(m, "kept") for m in g.members] + list(g.dropped):
         gain = "—" if m.held0 is None else f"{100 * m.gain:.3g} %"
         rows.append([f"↳ {m.effect.label()}", m.coordinate, _roles(m.roles), f"{100 * m.share:.3g} %", _g(m.p_value, 3),
