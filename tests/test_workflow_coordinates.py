@@ -168,3 +168,29 @@ def test_cli_group_is_checked_in_one_line(tmp_path: Path, capsys) -> None:
         err = capsys.readouterr().err
         assert err.startswith("error: ") and err.count("\n") == 1 and "group 'wrist'" in err and "q7" in err
     assert not (tmp_path / "o").exists()
+
+
+def test_the_json_and_the_report_give_each_candidates_figures_per_coordinate(tmp_path: Path) -> None:
+    """Nothing missing on the two-link arm: every rejected candidate carries its share, held-out gain, p and
+    τ_int on its own coordinate and its stacked figures apart; the grouped hypotheses are listed with their
+    members; the report shows both."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", symbolic.ModelWarning)
+        data = cases.measurements(cases.arm(), 2, 0.01, seconds=12.0)
+    d = run(tmp_path, cases.arm(), data)
+    result = d.to_dict()
+    assert result["found"] == []
+    for entry in result["rejected"]:
+        assert set(entry["stacked"]) == {"explained_share", "held_out_gain"}
+        if entry["effect"] == "payload":  # acts on every coordinate: judged on all of them
+            continue
+        assert list(entry["coordinates"]) == [entry["coordinate"]]
+        figures = entry["coordinates"][entry["coordinate"]]
+        assert figures["explained_share"] == pytest.approx(entry["explained_share"], abs=1e-12)
+        assert figures["held_out_gain"] == pytest.approx(entry["held_out_gain"], abs=1e-12)
+        assert figures["p_value"] == pytest.approx(entry["p_value"], rel=1e-9, abs=1e-300)
+    groups = {g["group"] for g in result["rejected_groups"]}
+    assert "coulomb on every coordinate" not in groups  # Coulomb is in the model on both joints: no member
+    assert all(g["status"] in {"tested", "reduced"} for g in result["rejected_groups"])
+    text = markdown(d)
+    assert "explained (own)" in text and "stacked: explained / held-out gain" in text
