@@ -194,7 +194,8 @@ class Effect:
     def check_residual(self, roles: Roles, frequency: np.ndarray, psd: np.ndarray, share: float) -> str | None:
         """``None`` when the residual the effect is fitted to shows what it claims, else why not; ``frequency``
         and ``psd`` are the Welch spectrum of that residual on the effect's coordinate, ``share`` the part
-        of its power the effect explains. Default: nothing to check (a resonance overrides this: it must ring)."""
+        of the whole (stacked) residual's power the effect explains. Default: nothing to check (a resonance
+        overrides this: it must ring)."""
         return None
 
     def as_measured(self, patched: DynamicModel, parameters: Mapping[str, float], context: Context, j: int,
@@ -817,9 +818,9 @@ class FlexibleMode(Effect):
     """A ringing must show as a spectral peak of the residual within this factor of the load's frequency
     (the closed-loop mode the data show lies near it: the flexible cases ring 1–15 % above it)."""
     DOMINANT = 0.5
-    """A resonance explaining at least this share of the residual is its dominant content and needs no
-    peak above a floor that a coarse encoder raises (fits of the loop's reaction to quantisation explained
-    at most 32 % in the null data sets)."""
+    """A resonance explaining at least this share of the whole (stacked) residual is its dominant content and
+    needs no peak above a floor that a coarse encoder raises (fits of the loop's reaction to quantisation
+    explained at most 32 % in the null data sets; the search passes the stacked share, docs/workflow.md)."""
 
     def check_residual(self, roles, frequency, psd, share):
         from symbolic.workflow.where import PEAK_RATIO, peaks
