@@ -341,7 +341,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 def cmd_diagnose(args: argparse.Namespace) -> int:
     import json
 
-    from symbolic.workflow import EFFECTS, diagnose
+    from symbolic.workflow import EFFECTS, SearchSettings, diagnose
     from symbolic.workflow.effects import select
 
     effects = None
@@ -357,12 +357,21 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
             print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join(EFFECTS)}; "
                   "periodic means both periodic in position and periodic_time)", file=sys.stderr)
             return 2
+    groups = {}
+    for text in args.group or []:
+        name, _, members = text.partition("=")
+        coordinates = [c.strip() for c in members.split(",") if c.strip()]
+        if not name.strip() or len(coordinates) < 2:
+            print(f"error: --group {text!r}: expected NAME=C1,C2[,...] (a name and at least two coordinates)", file=sys.stderr)
+            return 2
+        groups[name.strip()] = tuple(coordinates)
     from symbolic import export
 
     export.check_output_directory(args.out)  # before the analysis: a mistyped --out is reported at once
     model = derive(resolve(args.model))
+    search = SearchSettings(groups=groups) if groups else None
     result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects,
-                      simulate=args.simulate or None, fix=fix_names(args.fix))
+                      simulate=args.simulate or None, fix=fix_names(args.fix), search=search)
     if args.json:
         print(strict_json(result.to_dict()))
         return 0
@@ -372,7 +381,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         print("no significant missing effect")
     for f in result.found:
         values = ", ".join(f"{k} = {v:.6g}" if v is not None else f"{k} not determined" for k, v in f.parameters.items())
-        print(f"found {f.label()} on {f.coordinate}: {values}")
+        group = f" (as one of {f.evidence['group']['name']})" if "group" in f.evidence else ""
+        print(f"found {f.label()} on {f.coordinate}: {values}{group}")
     print(f"gap after:  {gap(result.after)}")
     for finding in result.data_findings:
         if finding["finding"] == "held_force":
@@ -477,6 +487,9 @@ def parser() -> argparse.ArgumentParser:
                    help="measure the gap on the simulated controller output (the experiment's [controller]) instead of the inverse model")
     w.add_argument("--effects", metavar="NAMES", help="search only these catalogue effects (comma-separated; default: all; periodic means both its "
                         "variants, periodic_time the one in time only)")
+    w.add_argument("--group", metavar="NAME=C1,C2", action="append",
+                   help="a named group of coordinates on which each effect is also tried as one grouped hypothesis "
+                        "(besides every coordinate; repeatable)")
     w.add_argument("--json", action="store_true", help="machine-readable result")
     w.set_defaults(func=cmd_diagnose)
     r = sub.add_parser("reproduce", help="recompute every checkable number of the seed documents and compare")

@@ -1,7 +1,8 @@
 """Where the shared measured data are, for tests that need them (they are never copied into the repository).
 
-The EMPS files live in ``shared/data/emps`` beside the checkout (``Path(repository root).parent``), or in a
-folder named by ``SYMBOLIC_DATA_PATH``; tests skip with a message saying so when neither holds them.
+The EMPS files live in ``shared/data/emps`` beside the checkout (``Path(repository root).parent``), the Franka
+Panda's in ``shared/data/franka_panda``, or either in a folder named by ``SYMBOLIC_DATA_PATH``; tests skip with
+a message saying so when none holds them.
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 EMPS_FILES = ("DATA_EMPS.mat", "DATA_EMPS_PULSES.mat")
+PANDA_FILES = ("exciting_traj_time.txt", "exciting_traj_positions.txt", "exciting_traj_torques.txt")
+"""Gaz et al. 2019's exciting trajectory (GPL-3.0: read from the shared folder, never copied)."""
 
 
 def emps_folder() -> Path:
@@ -34,3 +37,30 @@ def emps(monkeypatch: pytest.MonkeyPatch) -> Path:
     folder = emps_folder()
     monkeypatch.setenv("SYMBOLIC_DATA_PATH", str(folder))
     return folder
+
+
+def panda_folder() -> Path:
+    """The folder holding the Franka Panda log (:data:`PANDA_FILES`); skips the calling test when there is none."""
+    candidates = [ROOT.parent / "shared" / "data" / "franka_panda"]
+    candidates += [Path(d) for d in os.environ.get("SYMBOLIC_DATA_PATH", "").split(os.pathsep) if d]
+    for folder in candidates:
+        if all((folder / name).is_file() for name in PANDA_FILES):
+            return folder
+    pytest.skip(
+        f"Franka Panda data not found (looked in {', '.join(map(str, candidates))}): put {', '.join(PANDA_FILES)} "
+        "(Gaz et al. 2019, marcocognetti/FrankaEmikaPandaDynModel, Exciting_Traj/Trajectory_1) in "
+        "../shared/data/franka_panda beside the checkout or set SYMBOLIC_DATA_PATH"
+    )
+
+
+def panda_measurements(folder: Path):
+    """The Panda's measured positions and link-side torques (one number per line, 7 lines a sample: README of
+    the folder) on the built-in ``panda``'s coordinates, resampled onto a uniform grid (the time stamps
+    jitter by up to 8.8 ms); the logged velocities are not used (the treatment differentiates the positions)."""
+    import numpy as np
+
+    from symbolic.data import Measurements
+
+    t = np.loadtxt(folder / PANDA_FILES[0])
+    q, tau = (np.loadtxt(folder / name).reshape(len(t), 7) for name in PANDA_FILES[1:])
+    return Measurements.from_arrays(t, tuple(f"q{j}" for j in range(1, 8)), q, tau, resample=True)

@@ -148,7 +148,8 @@ def controller_table(model, q0: np.ndarray, resolution: float, coordinates: tupl
 
 def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate: float = 500.0,
                  resolution: float = 2 * np.pi / 2**20, measured: tuple[str, ...] | None = None,
-                 pulses: float = 0.0, held: bool = False, logged_feedforward: bool = False) -> Measurements:
+                 pulses: float = 0.0, held: bool = False, logged_feedforward: bool = False,
+                 current: tuple[float, int] | None = None) -> Measurements:
     """Data of the truth model ``text`` simulated in closed loop (:func:`symbolic.simulation.simulator.simulate`):
     a PD loop (:func:`controller_table`) with a computed-torque feedforward (:func:`_feedforward`) follows
     the Fourier reference, reads an encoder of ``resolution`` (default 20 bits per turn: with 18 bits, the twice-differentiated quantisation left in q̈ below the 50 Hz cut-off — errors in the regressor that the F-test does not model — made 1–2 % effects at the band edge significant);
@@ -161,7 +162,8 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     log of the drive voltage does), which leads the force acting over the sample by half a sample.
     ``logged_feedforward``: the log keeps the feedforward
     (columns ``ff_<c>``) and the controller table adds it as its disturbance, so that a simulation of a
-    model in the logged loop (``diagnose(simulate=True)``) is driven as the truth was."""
+    model in the logged loop (``diagnose(simulate=True)``) is driven as the truth was. ``current`` = (level,
+    bits) adds the force measured as a drive's current (:func:`current_like`) after the white noise."""
     model = symbolic.derive(symbolic.loads(text, "<truth>"))
     coordinates = tuple(measured or model.robot.coordinates)
     t = np.arange(0.0, seconds, 1.0 / rate)
@@ -185,11 +187,51 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     tau = command if held else np.concatenate([command[:1], 0.5 * (command[1:] + command[:-1])])
     rng = np.random.default_rng(seed + 1000)
     tau = tau + rng.normal(0, 1, tau.shape) * noise * np.sqrt(np.mean(tau**2, axis=0))
+    if current is not None:
+        tau = current_like(tau, rng, *current)
     logged = Measurements.from_arrays(t, coordinates, np.round(q / resolution) * resolution, tau, ref=reference,
                                       extras=extras if logged_feedforward else None)
     if logged_feedforward:
         return Experiment.of(logged, controller=table)
     return Experiment.of(logged, controller={k: v for k, v in table.items() if k != "disturbance"})
+
+
+def current_like(tau: np.ndarray, rng: np.random.Generator, level: float, bits: int) -> np.ndarray:
+    """τ as a drive reports it from its motor current: each drive's range is 1.5 × the largest force it
+    supplies in the log (a drive sized for its joint), the current sensor's noise is white with ``level`` ×
+    that range (the same on a joint that barely moves as on one that lifts the arm: a light wrist joint's
+    force is then mostly noise) and the current is read by an ADC of ``bits`` over ± the range."""
+    span = 1.5 * np.abs(tau).max(axis=0)
+    noisy = tau + rng.normal(0, 1, tau.shape) * level * span
+    step = 2 * span / 2**bits
+    return np.round(noisy / step) * step
+
+
+INDUSTRIAL_DRIVES = {  # Corke's PUMA 560 motors (mdl_puma560): rotor inertia (kg·m²), gear ratio, and the
+    # viscous (N·m·s/rad) and Coulomb (N·m) friction referred to the joint, rounded
+    "q1": (200e-6, 62.6, 5.8, 24.7), "q2": (200e-6, 107.8, 9.5, 13.6), "q3": (200e-6, 53.7, 4.0, 7.1),
+    "q4": (33e-6, 76.0, 0.41, 0.85), "q5": (33e-6, 71.9, 0.43, 0.67), "q6": (33e-6, 76.7, 0.22, 0.30),
+}
+
+
+def industrial_arm(drop: dict[str, tuple[str, ...]] | None = None, scale: dict[str, float] | None = None) -> str:
+    """A 6-DOF industrial arm: the built-in PUMA 560 with its motors' rotor inertias (``[[drive]]``, reflected
+    as Ia·ratio²) and viscous and Coulomb friction on every joint (:data:`INDUSTRIAL_DRIVES`). ``drop`` leaves
+    friction keys out per joint (``{"q6": ("coulomb",)}``: the model without it); ``scale`` multiplies a
+    joint's Coulomb level (the truth of a case)."""
+    from symbolic import robots
+
+    text = robots.path("puma560").read_text(encoding="utf-8")
+    drop, scale = drop or {}, scale or {}
+    parameters, tables = [], []
+    for c, (rotor, ratio, viscous, coulomb) in INDUSTRIAL_DRIVES.items():
+        parameters += [f"Ia_{c} = {rotor!r}", f"Fv_{c} = {viscous!r}", f"Fc_{c} = {coulomb * scale.get(c, 1.0)!r}"]
+        keys = [f'{key} = "F{key[0]}_{c}"' for key in ("viscous", "coulomb") if key not in drop.get(c, ())]
+        tables.append(f'[[drive]]\ncoordinate = "{c}"\nratio = "{ratio!r}"\nrotor_inertia = "Ia_{c}"\n')
+        if keys:
+            tables.append(f'[[friction]]\ncoordinate = "{c}"\n' + "\n".join(keys) + "\n")
+    text = text.replace("[parameters]\n", "[parameters]\n" + "\n".join(parameters) + "\n", 1)
+    return text + "\n" + "\n".join(tables)
 
 
 def _feedforward(model, coordinates, q, qd, qdd, t) -> np.ndarray:

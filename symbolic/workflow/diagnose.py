@@ -322,11 +322,18 @@ def _roles_text(roles: dict[str, float | None]) -> str:
 def _evidence_comment(a, final: dict[str, Any], search: Search) -> str:
     c = a.candidate
     held = "cross-validation" if search.cross_validate else "validation data"
+    within = f" within {a.group.group.label()} (round {a.round}; left without it)" if a.group is not None else \
+        f" left at round {a.round}"
     text = (f"symbolic diagnose found {c.label()} ({c.effect.summary}): "
-            f"{_roles_text(final['roles'])}. Evidence: explains {100 * c.share:.3g} % of the residual power left "
-            f"at round {a.round}, F-test p = {c.p_value:.3g} (Bonferroni threshold {a.threshold:.3g}, "
-            f"autocorrelation time {c.tau:.3g}), ΔBIC = {c.delta_bic:.4g}, removes {100 * c.gain:.3g} % of the "
+            f"{_roles_text(final['roles'])}. Evidence on {c.coordinate}'s rows: explains {100 * c.share:.3g} % of its "
+            f"residual power{within}, F-test p = {c.p_value:.3g} (Bonferroni threshold {a.threshold:.3g}, "
+            f"autocorrelation time {c.tau:.3g}), ΔBIC = {c.delta_bic_own:.4g}, removes {100 * c.gain:.3g} % of its "
             f"held-out residual power ({held}).")
+    if a.group is not None:
+        g = a.group
+        text += (f" The group, kept on {g.coordinate}: p = {g.p_value:.3g}, explains {100 * g.share:.3g} % and removes "
+                 f"{100 * g.gain:.3g} % of the held-out residual power on those coordinates, ΔBIC = {g.delta_bic_own:.4g}"
+                 + (f"; dropped: {', '.join(m.label() for m, _ in g.dropped)}." if g.dropped else "."))
     if a.alternatives:
         text += " Explained equally by: " + ", ".join(x.label() for x in a.alternatives) + " (fewer parameters named)."
     return text
@@ -335,6 +342,7 @@ def _evidence_comment(a, final: dict[str, Any], search: Search) -> str:
 def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Search, cross: bool) -> Found:
     c = a.candidate
     alpha = search.settings.alpha
+    names = search.context.coordinates
     evidence = {
         "round": a.round,
         "refines": c.effect.refines,
@@ -343,16 +351,26 @@ def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Searc
         "p_value": c.p_value,
         "threshold": a.threshold,
         "autocorrelation_time": c.tau,
-        "delta_bic": c.delta_bic,
+        "delta_bic": c.delta_bic_own,
         "held_out": "cross-validation over time blocks" if cross else "validation data",
         "held_out_gain": c.gain,
+        "coordinates": c.by_coordinate(names),
+        "stacked": {"explained_share": c.stacked_share, "held_out_gain": c.stacked_gain},
         "at_acceptance": dict(c.roles),
         "final_p_value": final["p_value"],
         "still_significant": bool(final["p_value"] < alpha),
         "alternatives": [{"effect": x.effect.identifier, **variant_of(x.effect), "coordinate": x.coordinate,
-                          "parameters": dict(x.roles),
+                          "parameters": dict(getattr(x, "roles", {})),
                           "explained_share": x.share} for x in a.alternatives],
     }
+    if a.group is not None:
+        g = a.group
+        evidence["group"] = {"name": g.group.label(), "members": [m.coordinate for m in g.members],
+                             "dropped": [{"effect": m.effect.identifier, "coordinate": m.coordinate, "reason": why}
+                                         for m, why in g.dropped],
+                             "p_value": g.p_value, "explained_share": g.share, "held_out_gain": g.gain,
+                             "delta_bic": g.delta_bic_own, "coordinates": g.by_coordinate(names),
+                             "own_final_p_value": final["own_p_value"]}
     if c.effect.nonlinear:
         evidence["nonlinear"] = {c.effect.nonlinear: list(c.value) if isinstance(c.value, tuple) else c.value}
     evidence.update(final.get("measured", {}))

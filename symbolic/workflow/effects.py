@@ -125,6 +125,10 @@ class Effect:
     """Relative precision to which a single nonlinear parameter is refined between its grid neighbours."""
     optional: ClassVar[tuple[int, ...]] = ()
     """Columns that the model may already hold (e.g. a spring's constant when there is an offset)."""
+    groupable: ClassVar[bool] = True
+    """Whether the search also offers the effect on every coordinate (or a named group) as one grouped
+    hypothesis (docs/workflow.md, "Grouped hypotheses"); only effects without a nonlinear parameter whose
+    columns act on their own coordinate are grouped."""
 
     @property
     def identifier(self) -> str:
@@ -191,7 +195,8 @@ class Effect:
     def check_residual(self, roles: Roles, frequency: np.ndarray, psd: np.ndarray, share: float) -> str | None:
         """``None`` when the residual the effect is fitted to shows what it claims, else why not; ``frequency``
         and ``psd`` are the Welch spectrum of that residual on the effect's coordinate, ``share`` the part
-        of its power the effect explains. Default: nothing to check (a resonance overrides this: it must ring)."""
+        of the whole (stacked) residual's power the effect explains. Default: nothing to check (a resonance
+        overrides this: it must ring)."""
         return None
 
     def as_measured(self, patched: DynamicModel, parameters: Mapping[str, float], context: Context, j: int,
@@ -815,9 +820,9 @@ class FlexibleMode(Effect):
     """A ringing must show as a spectral peak of the residual within this factor of the load's frequency
     (the closed-loop mode the data show lies near it: the flexible cases ring 1–15 % above it)."""
     DOMINANT = 0.5
-    """A resonance explaining at least this share of the residual is its dominant content and needs no
-    peak above a floor that a coarse encoder raises (fits of the loop's reaction to quantisation explained
-    at most 32 % in the null data sets)."""
+    """A resonance explaining at least this share of the whole (stacked) residual is its dominant content and
+    needs no peak above a floor that a coarse encoder raises (fits of the loop's reaction to quantisation
+    explained at most 32 % in the null data sets; the search passes the stacked share, docs/workflow.md)."""
 
     def check_residual(self, roles, frequency, psd, share):
         from symbolic.workflow.where import PEAK_RATIO, peaks
@@ -862,6 +867,7 @@ class Payload(Effect):
 
     name, roles, axis = "payload", ("mass",), "acceleration"
     summary = "a point mass missing at the model's end effector (a tool, a load)"
+    groupable = False  # one payload acts on every coordinate already
 
     def __init__(self) -> None:
         self._unit: dict[int, tuple[Robot, Any]] = {}

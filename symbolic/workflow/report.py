@@ -6,7 +6,7 @@ from typing import Any
 
 from symbolic.workflow.effects import NOT_SUPPORTED
 from symbolic.workflow.result import Diagnosis
-from symbolic.workflow.search import Candidate
+from symbolic.workflow.search import Candidate, Grouped, Judged
 
 
 def _g(x: Any, digits: int = 4) -> str:
@@ -31,17 +31,36 @@ def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
     return lines
 
 
-def _candidate_row(c: Candidate, chosen: Candidate | None) -> list[Any]:
-    if c.status != "tested":
-        return [c.effect.label(), c.coordinate, c.status, c.reason, "", "", "", ""]
+def _verdict(c: Judged, chosen: Judged | None) -> str:
     if c is chosen:
-        verdict = "**accepted**"
-    elif not c.failed:
-        verdict = "qualifies, not chosen (another has a lower ΔBIC or ties with fewer parameters)"
-    else:
-        verdict = "; ".join(c.failed)
+        return "**accepted**"
+    if not c.failed:
+        return "qualifies, not chosen (another has a lower ΔBIC or ties with fewer parameters)"
+    return "; ".join(c.failed)
+
+
+def _candidate_row(c: Candidate, chosen: Judged | None) -> list[Any]:
+    if c.status != "tested":
+        return [c.effect.label(), c.coordinate, c.status, c.reason, "", "", "", "", ""]
     return [c.effect.label(), c.coordinate, _roles(c.roles), f"{100 * c.share:.3g} %", _g(c.p_value, 3),
-            f"{100 * c.gain:.3g} %", _g(c.delta_bic), verdict]
+            f"{100 * c.gain:.3g} %", f"{100 * c.stacked_share:.3g} % / {100 * c.stacked_gain:.3g} %", _g(c.delta_bic),
+            _verdict(c, chosen)]
+
+
+def _group_rows(g: Grouped, chosen: Judged | None) -> list[list[Any]]:
+    """The group's line, then (when at least two members earned their place) one per member kept and dropped:
+    figures on the member's own coordinate, from the group's fit against the fit without it. A group left
+    with one member or none is one line (its members' own figures are the single candidates' above)."""
+    if g.status != "tested":
+        return [[g.group.label(), g.coordinate, g.status, g.reason, "", "", "", "", ""]]
+    rows = [[g.group.label(), g.coordinate, f"{len(g.members)} members", f"{100 * g.share:.3g} %", _g(g.p_value, 3),
+             f"{100 * g.gain:.3g} %", f"{100 * g.stacked_share:.3g} % / {100 * g.stacked_gain:.3g} %",
+             _g(g.delta_bic), _verdict(g, chosen)]]
+    for m, why in [(m, "kept") for m in g.members] + list(g.dropped):
+        gain = "—" if m.held0 is None else f"{100 * m.gain:.3g} %"
+        rows.append([f"↳ {m.effect.label()}", m.coordinate, _roles(m.roles), f"{100 * m.share:.3g} %", _g(m.p_value, 3),
+                     gain, "", _g(m.delta_bic_own), why if why == "kept" else f"dropped: {why}"])
+    return rows
 
 
 def markdown(d: Diagnosis) -> str:
@@ -95,28 +114,38 @@ def markdown(d: Diagnosis) -> str:
     lines += ["## Name", ""]
     s = d.search.settings
     held = "cross-validation over contiguous time blocks" if d.search.cross_validate else "the validation data"
-    lines += [f"Forward selection over the catalogue; a candidate is accepted when its parameters are physical, its "
-              f"F-test (autocorrelation-corrected) gives p below {s.alpha:g} divided by the round's trials (Bonferroni), it "
-              f"removes at least {100 * s.min_gain:g} % of the held-out residual power ({held}) and ΔBIC < 0; the "
-              f"lowest ΔBIC is accepted; candidates whose fits differ by at most {s.tie:g} in n_eff·|ln(RSS₁/RSS₂)| tie "
-              f"and the one with fewer parameters is named. At the end, effects that later ones made insignificant are removed.", ""]
+    lines += [f"Forward selection over the catalogue. A candidate is judged on the rows of its own coordinate(s), not on "
+              f"the stacked residual: it is accepted when its parameters are physical, its F-test there (n_eff from that "
+              f"coordinate's residual autocorrelation) gives p below {s.alpha:g} divided by the round's trials (Bonferroni), it "
+              f"removes at least {100 * s.min_gain:g} % of that coordinate's held-out residual power ({held}) and ΔBIC < 0 "
+              f"on its rows; the lowest ΔBIC over all coordinates is accepted; candidates whose fits differ by at most "
+              f"{s.tie:g} in twice the log-likelihood tie and the one with fewer parameters is named. A grouped hypothesis "
+              f"(the same effect on every coordinate or a named group) is one candidate: its members are kept when each "
+              f"earns its place on its own coordinate (physical, the held-out gain, ΔBIC < 0 there) and the group is judged "
+              f"on their rows together. The stacked figures (share / held-out gain over all coordinates) are shown, not "
+              f"judged. At the end, effects that later ones made insignificant are removed.", ""]
     if d.found:
         rows = [[f.label(), f.coordinate, _roles(f.parameters, f.sigmas), _roles(f.model_parameters),
                  f"{100 * f.evidence['explained_share']:.3g} %", _g(f.evidence["p_value"], 3),
                  f"{100 * f.evidence['held_out_gain']:.3g} %", _g(f.evidence["delta_bic"]),
                  ", ".join(f"{x['effect']}{' (in ' + x['variant'] + ')' if 'variant' in x else ''} on {x['coordinate']}"
-                           for x in f.evidence["alternatives"]) or "none"]
+                           for x in f.evidence["alternatives"]) or "none",
+                 f.evidence["group"]["name"] if "group" in f.evidence else "on its own"]
                 for f in d.found]
-        lines += _table(["effect", "coordinate", "parameters (final fit, ± σ)", "written as", "explained", "p",
-                         "held-out gain", "ΔBIC", "ties"], rows)
+        lines += _table(["effect", "coordinate", "parameters (final fit, ± σ)", "written as", "explained (own)",
+                         "p (own rows)", "held-out gain (own)", "ΔBIC (own rows)", "ties", "accepted"], rows)
     else:
         lines.append("**No significant missing effect.**")
     lines.append("")
+    header = ["effect", "coordinate", "parameters", "explained (own)", "p (own rows)", "held-out gain (own)",
+              "stacked: explained / held-out gain", "ΔBIC", "verdict"]
     for r in d.search.rounds:
-        title = f"Round {r.number}: " + (f"accepted {r.accepted.candidate.label()}" if r.accepted else "nothing qualifies")
+        title = f"Round {r.number}: " + (f"accepted {r.chosen.label()}" if r.chosen is not None else "nothing qualifies")
         lines += [f"### {title}", "", f"Bonferroni threshold {r.threshold:.3g}.", ""]
-        lines += _table(["effect", "coordinate", "parameters", "explained", "p", "held-out gain", "ΔBIC", "verdict"],
-                        [_candidate_row(c, r.accepted.candidate if r.accepted else None) for c in r.candidates])
+        lines += _table(header, [_candidate_row(c, r.chosen) for c in r.candidates])
+        if r.groups:
+            lines += ["", "Grouped hypotheses:", ""]
+            lines += _table(header, [row for g in r.groups for row in _group_rows(g, r.chosen)])
         lines.append("")
     if NOT_SUPPORTED:
         lines += ["Not yet in the catalogue: " + "; ".join(f"`{k}` ({v})" for k, v in NOT_SUPPORTED.items()) + ".", ""]

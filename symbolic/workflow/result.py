@@ -119,7 +119,9 @@ class Diagnosis:
             "verdict": {"before": self.where_before["verdict"], "after": self.where_after["verdict"],
                         "left": self.where_after["left"]},
             "where": _plain(self.where_before),
-            "rejected": [] if last is None else [c.summary() for c in last.candidates if c.status == "tested"],
+            "rejected": [] if last is None else [c.summary(self.search.context.coordinates) for c in last.candidates
+                                                 if c.status == "tested"],
+            "rejected_groups": [] if last is None else [g.summary(self.search.context.coordinates) for g in last.groups],
             "removed": [{"effect": a.candidate.effect.identifier, **variant_of(a.candidate.effect),
                          "coordinate": a.candidate.coordinate, "round": a.round,
                          "parameters": dict(a.candidate.roles), "final_p_value": p, "explained_by": others}

@@ -1,37 +1,53 @@
-"""Forward selection of catalogue effects (docs/workflow.md, "Name").
+"""Forward selection of catalogue effects, each judged on its own coordinate's rows (docs/workflow.md, "Name").
 
 Each round starts from the current model — the nominal model's free base parameters and the effects
 accepted so far — fitted by IDIM-LS weighted least squares on the estimation data; the weights
 1/σ_j of that fit are used for every candidate of the round. A candidate is one effect on one
 coordinate. It is fitted jointly with everything in the current model (re-identification: the
 residual alone would be wrong when the effect is partly collinear with the model's own terms), and
-scored by:
+judged on the rows of the coordinates its columns act on (its *own* coordinates: one, or every one
+for a payload) — never on the stacked residual, where the large forces of a robot's first joints
+would hide a wrist joint's effect however large it is there:
 
-* the F-test of the added parameters (a nonlinear parameter counts as one), with the sample count
-  divided by the residual's integrated autocorrelation time (:mod:`symbolic.workflow.statistics`);
+* its share of its own coordinates' residual power;
+* the F-test of the added parameters (a nonlinear parameter counts as one) on its own rows: the
+  sample count divided by the integrated autocorrelation time of *that coordinate's* residual, the
+  model's parameters counted by their leverage on those rows (:func:`symbolic.workflow.statistics.combined_f_test`);
   the p-value must be below ``alpha / m``, Bonferroni over the m trials of the round (a nonlinear
-  effect's grid counts as many trials as it has independent values);
-* the held-out error: residual power on the validation data (``--validate``) or by cross-validation
-  over ``FOLDS`` contiguous time blocks of the estimation data; it must fall by at least
-  ``min_gain`` (a fraction of what is left);
-* ΔBIC = n_eff·ln(RSS₁/RSS₀) + k·ln(n_eff), which must be negative; it ranks the eligible candidates
-  (one n_eff for the round: that of the best-explained candidate's residual);
+  effect's grid counts as many trials as it has independent values; a grouped hypothesis as one);
+* the held-out error on its own coordinates: residual power on the validation data (``--validate``) or
+  by cross-validation over ``FOLDS`` contiguous time blocks of the estimation data; it must fall by at
+  least ``min_gain`` (a fraction of what is left there);
+* ΔBIC on its own rows, Σ_c n_eff,c·ln(RSS₁,c/RSS₀,c) + k·ln(n_eff), which must be negative;
 * its parameters must be physical (friction opposing motion, a positive stiffness, ...).
 
-Among the eligible candidates the lowest ΔBIC wins. Candidates that explain the data equally — twice
-their log-likelihood difference n_eff·|ln(RSS₁/RSS₂)| at most ``TIE_TOLERANCE`` — tie: the one with
-fewer parameters (roles) is named and the others are reported. Columns already in the span of the current model are
-not candidates (an optional column, a spring's constant beside an offset, is dropped instead).
+Among the eligible candidates the lowest ΔBIC over every coordinate wins (the per-coordinate Gaussian
+likelihood, each coordinate with its own noise level and n_eff,c = n/τ_c for the round). Candidates that
+explain the data equally — twice their log-likelihood difference at most ``TIE_TOLERANCE`` — tie: the one
+with fewer parameters (roles) is named and the others are reported. Columns already in the span of the
+current model are not candidates (an optional column, a spring's constant beside an offset, is dropped
+instead).
+
+Grouped hypotheses (:class:`Group`): the same effect on every coordinate, or on a named group of them
+(``SearchSettings.groups``), and viscous with Coulomb friction together, each one candidate. Its members
+are the round's single candidates of those effects on those coordinates, fitted together; a member that
+does not earn its place *on its own coordinate* — physical, removing at least ``min_gain`` of that
+coordinate's held-out residual power left without it, ΔBIC < 0 on its rows — is dropped (the worst per
+coordinate, then the rest refitted), and the group is judged like a candidate on the union of its
+members' rows, its significance the combined test over them. Accepted, it adds its members, each an
+ordinary effect on its coordinate.
 
 The rounds repeat on the new residual until no candidate is eligible. Then backward elimination: an
-accepted effect that later ones made insignificant (partial F-test in the joint fit, p not below
-``alpha`` over the number accepted) is removed, the least significant first, and reported as such.
+accepted effect (or group) that later ones made insignificant (partial F-test in the joint fit on its own
+rows, p not below ``alpha`` over the number accepted) is removed, the least significant first, and
+reported as such.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,73 +55,116 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
+from symbolic.errors import ModelError
 from symbolic.identify.least_squares import Identification
 from symbolic.workflow.dataset import DataSet
 from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals
-from symbolic.workflow.statistics import f_test, pooled_autocorrelation_time
+from symbolic.workflow.statistics import autocorrelation_time, combined_f_test, pooled_autocorrelation_time, score_inflation
 from symbolic.workflow.terms import ModelTerms, wls
 
 ALPHA = 1e-3
 """Family-wise significance level of one round (Bonferroni over its trials)."""
 MIN_HELD_OUT_GAIN = 0.10
-"""An effect must remove at least this fraction of the held-out residual power that is left: an effect
-size, not a significance level. On long closed-loop records the measurement chain's own systematic
-errors are significant — the encoder's quantisation fed back through the controller makes the logged
-force partly a filter of the position error, which a resonance or a narrow Stribeck rise fits — but
+"""An effect must remove at least this fraction of its own coordinates' held-out residual power that is
+left: an effect size, not a significance level. On long closed-loop records the measurement chain's own
+systematic errors are significant — the encoder's quantisation fed back through the controller makes the
+logged force partly a filter of the position error, which a resonance or a narrow Stribeck rise fits — but
 with 16 to 20 bits per turn they removed at most 7.4 % of the held-out residual power over the null
 data sets of ``bench/diagnose.py`` (most below 3 %), while a missing effect that the workflow must name
 removes most of what is left (a gap that halves is 75 % of its power)."""
 TIE_TOLERANCE = 2.0
-"""Two candidates tie when n_eff·|ln(RSS₁/RSS₂)| (twice their log-likelihood difference) is at most this:
-a difference of 2 on the BIC scale is "not worth more than a bare mention" (Kass and Raftery 1995)."""
+"""Two candidates tie when twice their log-likelihood difference is at most this: a difference of 2 on the
+BIC scale is "not worth more than a bare mention" (Kass and Raftery 1995)."""
 FOLDS = 5
 """Contiguous time blocks of the cross-validation (without validation data)."""
 COLLINEAR = 1e-6
 """A column whose part outside the current model's span is below this fraction of its norm is in the model."""
 REFERENCE = 1e-9
 """A model column equal to an effect's reference column up to this relative difference holds its coefficient."""
+TOGETHER: tuple[tuple[str, ...], ...] = (("viscous", "coulomb"),)
+"""Effects also offered together as one grouped hypothesis ("viscous and Coulomb friction on every joint")."""
 
 
 @dataclass(frozen=True)
 class SearchSettings:
-    """The search's thresholds (module docstring)."""
+    """The search's thresholds (module docstring).
+
+    ``groups``: named groups of coordinates (``{"wrist": ("q5", "q6", "q7")}``) on which the grouped
+    hypotheses are offered besides every coordinate; ``grouped = False`` offers none."""
 
     alpha: float = ALPHA
     min_gain: float = MIN_HELD_OUT_GAIN
     tie: float = TIE_TOLERANCE
     folds: int = FOLDS
     max_effects: int = 12
+    groups: Mapping[str, Sequence[str]] = field(default_factory=dict)
+    grouped: bool = True
+
+
+@dataclass(frozen=True)
+class Group:
+    """A grouped hypothesis: ``effects`` (registry keys) on each of ``coordinates``, one candidate;
+    ``name`` is the named coordinate group's (``None``: every coordinate)."""
+
+    effects: tuple[str, ...]
+    coordinates: tuple[str, ...]
+    name: str | None = None
+
+    def label(self) -> str:
+        """``viscous and coulomb on every coordinate``, ``coulomb on wrist``."""
+        where = "every coordinate" if self.name is None else self.name
+        return f"{' and '.join(self.effects)} on {where}"
 
 
 @dataclass(eq=False)
-class Candidate:
-    """One effect on one coordinate, fitted in one round."""
+class Judged:
+    """The figures a candidate (or a grouped hypothesis) is judged by, per coordinate (module docstring).
 
-    effect: Effect
-    j: int
-    coordinate: str
+    ``power0``/``power1`` are the weighted residual power per coordinate of the estimation data before and
+    after it is added (before: the fit it is judged against), ``held0``/``held1`` the same on the held-out
+    data; ``own`` the coordinates it is judged on; ``taus`` and ``p_by`` their autocorrelation times and
+    p-values on their own."""
+
     status: str = "tested"
-    """``tested``, ``not applicable``, ``in the model`` or ``needs <term>``."""
+    """``tested``, ``not applicable``, ``in the model``, ``needs <term>`` (a group: ``reduced``)."""
     reason: str = ""
-    value: float | None = None
-    trials: float = 1.0
-    kept: tuple[int, ...] = ()
-    width: int = 0
-    added: int = 0
-    rss0: float = 0.0
-    rss1: float = 0.0
+    own: tuple[int, ...] = ()
+    power0: np.ndarray | None = field(default=None, repr=False)
+    power1: np.ndarray | None = field(default=None, repr=False)
+    held0: np.ndarray | None = field(default=None, repr=False)
+    held1: np.ndarray | None = field(default=None, repr=False)
+    taus: dict[int, float] = field(default_factory=dict)
+    p_by: dict[int, float] = field(default_factory=dict)
     tau: float = 1.0
     F: float = 0.0
     p_value: float = 1.0
     delta_bic: float = 0.0
-    held_out0: float = 0.0
-    held_out1: float = 0.0
-    coefficients: np.ndarray | None = field(default=None, repr=False)
-    model_coefficients: np.ndarray | None = field(default=None, repr=False)
-    reference: float | None = None
-    roles: dict[str, float | None] = field(default_factory=dict)
+    """ΔBIC over every coordinate: what ranks the eligible candidates."""
+    delta_bic_own: float = 0.0
+    """ΔBIC on the own coordinates' rows: what must be negative."""
+    added: int = 0
+    trials: float = 1.0
     invalid: str | None = None
     failed: list[str] = field(default_factory=list)
+
+    def _on(self, x: np.ndarray | None, own: bool = True) -> float:
+        return 0.0 if x is None else float(np.sum(x[list(self.own)]) if own else np.sum(x))
+
+    @property
+    def rss0(self) -> float:
+        return self._on(self.power0, own=False)
+
+    @property
+    def rss1(self) -> float:
+        return self._on(self.power1, own=False)
+
+    @property
+    def held_out0(self) -> float:
+        return self._on(self.held0, own=False)
+
+    @property
+    def held_out1(self) -> float:
+        return self._on(self.held1, own=False)
 
     @property
     def explained(self) -> float:
@@ -113,39 +172,121 @@ class Candidate:
 
     @property
     def share(self) -> float:
-        """Fraction of the remaining (weighted) residual power the effect explains."""
-        return self.explained / self.rss0 if self.rss0 > 0 else 0.0
+        """Fraction of its own coordinates' (weighted) residual power that it explains."""
+        before = self._on(self.power0)
+        return 1.0 - self._on(self.power1) / before if before > 0 else 0.0
 
     @property
     def gain(self) -> float:
-        """Fraction of the held-out residual power removed."""
+        """Fraction of its own coordinates' held-out residual power that it removes (0 when not measured: a
+        group's member that failed on the estimation data already)."""
+        before = self._on(self.held0)
+        return 1.0 - self._on(self.held1) / before if before > 0 else 0.0
+
+    @property
+    def stacked_share(self) -> float:
+        """Fraction of the stacked (all coordinates) residual power: reported, not judged."""
+        return self.explained / self.rss0 if self.rss0 > 0 else 0.0
+
+    @property
+    def stacked_gain(self) -> float:
+        """Fraction of the stacked held-out residual power: reported, not judged."""
         return 1.0 - self.held_out1 / self.held_out0 if self.held_out0 > 0 else 0.0
 
     @property
     def eligible(self) -> bool:
         return self.status == "tested" and not self.failed
 
+    def by_coordinate(self, coordinates: Sequence[str]) -> dict[str, dict[str, float | None]]:
+        """Per own coordinate: share of its residual power, held-out gain, p-value and τ_int on its rows."""
+        out = {}
+        for j in self.own:
+            p0 = float(self.power0[j])
+            h0 = None if self.held0 is None else float(self.held0[j])
+            out[coordinates[j]] = {"explained_share": 1.0 - float(self.power1[j]) / p0 if p0 > 0 else 0.0,
+                                   "held_out_gain": None if h0 is None else 1.0 - float(self.held1[j]) / h0 if h0 > 0 else 0.0,
+                                   "p_value": self.p_by.get(j), "autocorrelation_time": self.taus.get(j)}
+        return out
+
+    def figures(self, coordinates: Sequence[str]) -> dict[str, Any]:
+        """Plain data of the judgement for the report and the JSON."""
+        return {"explained_share": self.share, "F": self.F, "p_value": self.p_value, "trials": self.trials,
+                "autocorrelation_time": self.tau, "delta_bic": self.delta_bic, "delta_bic_own": self.delta_bic_own,
+                "held_out_gain": self.gain, "coordinates": self.by_coordinate(coordinates),
+                "stacked": {"explained_share": self.stacked_share, "held_out_gain": self.stacked_gain},
+                "accepted_if": list(self.failed)}
+
+
+@dataclass(eq=False, kw_only=True)
+class Candidate(Judged):
+    """One effect on one coordinate, fitted in one round (or as a member of a group)."""
+
+    effect: Effect
+    j: int
+    coordinate: str
+    value: float | tuple[float, ...] | None = None
+    kept: tuple[int, ...] = ()
+    width: int = 0
+    coefficients: np.ndarray | None = field(default=None, repr=False)
+    model_coefficients: np.ndarray | None = field(default=None, repr=False)
+    reference: float | None = None
+    reference_map: list[tuple[int, float]] | None = field(default=None, repr=False)
+    roles: dict[str, float | None] = field(default_factory=dict)
+
+    @property
+    def size(self) -> int:
+        """Parameters it names (roles): fewer wins a tie."""
+        return len(self.effect.roles)
+
     def label(self) -> str:
         return f"{self.effect.label()} on {self.coordinate}"
 
-    def summary(self) -> dict[str, Any]:
-        """Plain data for the report and the JSON."""
+    def summary(self, coordinates: Sequence[str]) -> dict[str, Any]:
+        """Plain data for the report and the JSON (``coordinates``: the data's, for the per-coordinate figures)."""
         out: dict[str, Any] = {"effect": self.effect.identifier, **variant_of(self.effect), "coordinate": self.coordinate,
                                "status": self.status}
         if self.status != "tested":
             out["reason"] = self.reason
             return out
-        out.update({
-            "parameters": dict(self.roles),
-            "explained_share": self.share,
-            "F": self.F,
-            "p_value": self.p_value,
-            "trials": self.trials,
-            "autocorrelation_time": self.tau,
-            "delta_bic": self.delta_bic,
-            "held_out_gain": self.gain,
-            "accepted_if": [] if not self.failed else self.failed,
-        })
+        out["parameters"] = dict(self.roles)
+        out.update(self.figures(coordinates))
+        return out
+
+
+@dataclass(eq=False, kw_only=True)
+class Grouped(Judged):
+    """A grouped hypothesis fitted in one round: the members that earn their place and those dropped."""
+
+    group: Group
+    members: list[Candidate] = field(default_factory=list)
+    dropped: list[tuple[Candidate, str]] = field(default_factory=list)
+
+    @property
+    def size(self) -> int:
+        return sum(m.size for m in self.members)
+
+    @property
+    def effect(self) -> Effect:
+        """The first member's effect (ties are broken by catalogue order last)."""
+        return self.members[0].effect
+
+    @property
+    def coordinate(self) -> str:
+        return ", ".join(dict.fromkeys(m.coordinate for m in self.members)) or "—"
+
+    def label(self) -> str:
+        return f"{self.group.label()} (kept on {self.coordinate})" if self.members else self.group.label()
+
+    def summary(self, coordinates: Sequence[str]) -> dict[str, Any]:
+        out: dict[str, Any] = {"group": self.group.label(), "effects": list(self.group.effects),
+                               "coordinates": list(self.group.coordinates), "status": self.status}
+        if self.status != "tested":
+            out["reason"] = self.reason
+        out["members"] = [m.summary(coordinates) for m in self.members]
+        out["dropped"] = [{"effect": m.effect.identifier, **variant_of(m.effect), "coordinate": m.coordinate,
+                           "reason": why} for m, why in self.dropped]
+        if self.status == "tested":
+            out.update(self.figures(coordinates))
         return out
 
 
@@ -156,14 +297,16 @@ def variant_of(effect: Effect) -> dict[str, str]:
 
 @dataclass(eq=False)
 class Accepted:
-    """An accepted effect: the candidate as accepted, its columns, and what tied with it."""
+    """An accepted effect: the candidate as accepted, its columns, what tied with it, and the group it was
+    accepted in (``None``: on its own)."""
 
     candidate: Candidate
     round: int
     columns: dict[str, np.ndarray] = field(repr=False)
     """Per data-set role, the reduced columns that were kept, ``samples × N × k``."""
-    alternatives: list[Candidate] = field(default_factory=list)
+    alternatives: list[Judged] = field(default_factory=list)
     threshold: float = 0.0
+    group: Grouped | None = None
 
     @property
     def effect(self) -> Effect:
@@ -172,12 +315,14 @@ class Accepted:
 
 @dataclass(eq=False)
 class Round:
-    """One round: every candidate considered and what was accepted (``None`` at the end)."""
+    """One round: every candidate and grouped hypothesis considered, the one chosen and what it added."""
 
     number: int
     candidates: list[Candidate]
-    accepted: Accepted | None
+    accepted: tuple[Accepted, ...]
     threshold: float
+    groups: list[Grouped] = field(default_factory=list)
+    chosen: Judged | None = None
 
 
 @dataclass(eq=False)
@@ -244,8 +389,30 @@ class Search:
             passband = min(passband, p.cutoff)
         self.context = Context(terms.model.robot, estimation.coordinates, s.q[inner], s.qd[inner], s.qdd[inner], passband,
                                p.decimation / p.rate, float(estimation.t[-1] - estimation.t[0]), float(p.rate))
+        self.hypotheses = self._hypotheses()
         self.rounds: list[Round] = []
         self.accepted: list[Accepted] = []
+        self.removed: list[tuple[Accepted, float, str]] = []
+        self._reduced: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        self._final: _Partial | None = None
+        self._signals: dict[str, Signals] = {}
+
+    def _hypotheses(self) -> list[Group]:
+        """The grouped hypotheses offered every round: each groupable effect, and :data:`TOGETHER`, on every
+        coordinate and on each named group (at least two coordinates each)."""
+        coordinates = tuple(self.context.coordinates)
+        sets: list[tuple[str | None, tuple[str, ...]]] = [(None, coordinates)]
+        for name, members in self.settings.groups.items():
+            unknown = [c for c in members if c not in coordinates]
+            if unknown:
+                raise ModelError(str(self.context.robot.source), f"group {name!r}",
+                                 f"unknown coordinate(s) {', '.join(unknown)} (allowed: the data's {', '.join(coordinates)})")
+            sets.append((name, tuple(dict.fromkeys(members))))
+        if not self.settings.grouped:
+            return []
+        names = [e.name for e in self.effects if e.groupable and e.nonlinear is None]
+        effect_sets = [(n,) for n in names] + [t for t in TOGETHER if all(n in names for n in t)]
+        return [Group(effects, members, name) for name, members in sets if len(members) >= 2 for effects in effect_sets]
 
     # -- the loop -----------------------------------------------------------------------------
     def run(self) -> list[Accepted]:
@@ -254,71 +421,75 @@ class Search:
         while len(self.accepted) < self.settings.max_effects:
             design = CurrentModel(self.terms, self.sets, self.accepted)
             chosen = self.round(design)
-            if chosen is None:
+            if not chosen:
                 break
-            self.accepted.append(chosen)
+            self.accepted.extend(chosen)
         self.eliminate()
-        self.final = CurrentModel(self.terms, self.sets, self.accepted)
+        if self._final is None:  # nothing accepted: the elimination built no joint fit
+            self._final = _Partial(self, CurrentModel(self.terms, self.sets, self.accepted))
+        self.final = self._final.design
         return self.accepted
 
-    def round(self, design: CurrentModel) -> Accepted | None:
+    def round(self, design: CurrentModel) -> tuple[Accepted, ...]:
+        """One round (module docstring): the accepted effects, several when a group is chosen."""
         number = len(self.rounds) + 1
         state = _RoundState(self, design)
         candidates = [state.evaluate(effect, j) for effect in self.effects for j in range(len(self.context.coordinates))]
         tested = [c for c in candidates if c.status == "tested"]
-        trials = sum(c.trials for c in tested)
-        threshold = self.settings.alpha / max(trials, 1.0)
-        # one effective sample count for the round, from the best-explained residual: BIC compares
-        # models of the same data, and a candidate that leaves a coloured residual must not gain by it
-        effective = len(state.y) / min(tested, key=lambda c: c.rss1).tau if tested else 1.0
-        for c in tested:
-            c.delta_bic = effective * math.log(max(c.rss1, 1e-300) / c.rss0) + c.added * math.log(effective)
+        effective = state.effective(tested)
+        groups, seen = [], set()
+        for hypothesis in self.hypotheses:  # one group per set of members (friction together = Coulomb alone, ...)
+            pool = state.pool(hypothesis, candidates)
+            members = frozenset((c.effect.name, c.j) for c in pool)
+            if len(pool) >= 2 and members not in seen:
+                seen.add(members)
+                groups.append(state.evaluate_group(hypothesis, pool, effective))
+        judged: list[Judged] = tested + [g for g in groups if g.status == "tested"]
+        threshold = self.settings.alpha / max(sum(c.trials for c in judged), 1.0)
+        for c in judged:
+            state.score(c, effective)
             state.judge(c, threshold)
-        pool = [c for c in tested if c.eligible]
+        pool = [c for c in judged if c.eligible]
         if not pool:
-            self.rounds.append(Round(number, candidates, None, threshold))
-            return None
+            self.rounds.append(Round(number, candidates, (), threshold, groups))
+            return ()
         best = min(pool, key=lambda c: c.delta_bic)
-        ties = [c for c in tested if c is not best and c.invalid is None
-                and effective * abs(math.log(max(c.rss1, 1e-300) / max(best.rss1, 1e-300))) <= self.settings.tie]
+        ties = [c for c in judged if c is not best and c.invalid is None
+                and abs(float(effective @ np.log(np.maximum(c.power1, 1e-300) / np.maximum(best.power1, 1e-300))))
+                <= self.settings.tie]
         order = {e.name: k for k, e in enumerate(self.effects)}
         group = [best] + [c for c in ties if c.eligible]
-        chosen = min(group, key=lambda c: (len(c.effect.roles), c.delta_bic, order.get(c.effect.name, 0)))
+        chosen = min(group, key=lambda c: (c.size, c.delta_bic, order.get(c.effect.name, 0)))
         alternatives = [c for c in [best] + ties if c is not chosen]
-        columns = {role: state.columns(chosen.effect, chosen.j, chosen.value, role)[:, :, list(chosen.kept)]
-                   for role in self.sets}
-        accepted = Accepted(chosen, number, columns, alternatives, threshold)
-        self.rounds.append(Round(number, candidates, accepted, threshold))
+        members = chosen.members if isinstance(chosen, Grouped) else [chosen]
+        accepted = tuple(Accepted(m, number, {role: state.columns(m.effect, m.j, m.value, role)[:, :, list(m.kept)]
+                                              for role in self.sets}, alternatives, threshold,
+                                  chosen if isinstance(chosen, Grouped) else None) for m in members)
+        self.rounds.append(Round(number, candidates, accepted, threshold, groups, chosen))
         return accepted
 
-    def eliminate(self) -> None:
-        """Remove, one at a time, the accepted effect least significant in the joint fit of all of them
-        while its partial F-test's p is not below ``alpha`` / (number accepted)."""
-        self.removed: list[tuple[Accepted, float, str]] = []
-        while self.accepted:
-            design = CurrentModel(self.terms, self.sets, self.accepted)
-            tests = [self.partial(design, k) for k in range(len(self.accepted))]
-            worst = int(np.argmax(tests))
-            if tests[worst] < self.settings.alpha / len(self.accepted):
-                return
-            gone = self.accepted.pop(worst)
-            others = ", ".join(a.candidate.label() for a in self.accepted) or "nothing else"
-            self.removed.append((gone, tests[worst], others))
+    def units(self) -> list[list[int]]:
+        """The accepted effects by what was accepted together: a group's members form one unit."""
+        units: dict[int, list[int]] = {}
+        for k, a in enumerate(self.accepted):
+            units.setdefault(id(a.group) if a.group is not None else -1 - k, []).append(k)
+        return list(units.values())
 
-    def partial(self, design: CurrentModel, k: int) -> float:
-        """p-value of accepted effect ``k`` in ``design``: the autocorrelation-corrected F-test of removing it."""
-        y = design.weighted("estimation", design.known["estimation"])
-        X = design.weighted("estimation", design.columns["estimation"])
-        residual = y - X @ design.identification.values
-        rss = float(residual @ residual)
-        tau = pooled_autocorrelation_time(residual.reshape(len(design.weights), -1).T)
-        block = self.block(k)
-        rest = [i for i in range(X.shape[1]) if i not in block]
-        coef = np.linalg.lstsq(X[:, rest], y, rcond=None)[0]
-        rss_without = float(np.sum((y - X[:, rest] @ coef) ** 2))
-        c = self.accepted[k].candidate
-        added = len(block) + (1 if c.effect.nonlinear else 0)
-        return f_test(rss_without, rss, len(y), X.shape[1] - added, added, tau)[1]
+    def eliminate(self) -> None:
+        """Remove, one at a time, the accepted unit (an effect, or a group's members) least significant in
+        the joint fit of all of them while its partial F-test's p is not below ``alpha`` / (number of units)."""
+        while self.accepted:
+            partial = self._final = _Partial(self, CurrentModel(self.terms, self.sets, self.accepted))
+            units = self.units()
+            tests = [partial.p_value(unit) for unit in units]
+            worst = int(np.argmax(tests))
+            if tests[worst] < self.settings.alpha / len(units):
+                return
+            self._final = None
+            gone = [self.accepted[k] for k in units[worst]]
+            self.accepted = [a for k, a in enumerate(self.accepted) if k not in units[worst]]
+            others = ", ".join(a.candidate.label() for a in self.accepted) or "nothing else"
+            self.removed += [(a, tests[worst], others) for a in gone]
 
     def block(self, k: int) -> list[int]:
         """Columns of accepted effect ``k`` in the design."""
@@ -327,12 +498,13 @@ class Search:
 
     # -- the final model ----------------------------------------------------------------------
     def final_effects(self) -> list[dict[str, Any]]:
-        """For each accepted effect: roles and σ from the final joint fit, and its partial test there."""
-        design = self.final
+        """For each accepted effect: roles and σ from the final joint fit, its partial test there on its own
+        rows (``own_p_value``) and that of the unit it was accepted in (``p_value``: a group's, or its own)."""
+        partial = self._final  # the elimination's last joint fit: the final model's
+        design = partial.design
         ident = design.identification
-        y = design.weighted("estimation", design.known["estimation"])
-        X = design.weighted("estimation", design.columns["estimation"])
-        tau = pooled_autocorrelation_time((y - X @ ident.values).reshape(len(design.weights), -1).T)
+        unit_p = {k: p for unit in self.units() for p in [partial.p_value(unit)] for k in unit}
+        tau = pooled_autocorrelation_time(partial.residual.reshape(len(design.weights), -1).T)
         out = []
         for k, a in enumerate(self.accepted):
             c = a.candidate
@@ -340,8 +512,42 @@ class Search:
             reference_map = _reference_map(self, design, c.effect, c.j)
             roles, sigmas = _roles_with_sigma(c, ident.values, ident.covariance * tau, block, reference_map)
             out.append({"roles": roles, "sigmas": sigmas, "coefficients_full": _expand(c, ident.values[block]),
-                        "p_value": self.partial(design, k), "reference": _reference_value(reference_map, ident.values)})
+                        "p_value": unit_p[k], "own_p_value": partial.p_value([k]),
+                        "reference": _reference_value(reference_map, ident.values)})
         return out
+
+    # -- the effects' columns, reduced once per search ----------------------------------------
+    def signals(self, role: str) -> Signals:
+        """The data set's filtered states at every sample, with time and rate (for :meth:`Effect.columns_at`)."""
+        if role not in self._signals:
+            data = self.sets[role]
+            record = None if data.record is None else self._signals_of(data.record)
+            self._signals[role] = self._signals_of(data, record)
+        return self._signals[role]
+
+    def _signals_of(self, data: DataSet, record: Signals | None = None) -> Signals:
+        s = data.states
+        return Signals(s.q, s.qd, s.qdd, np.asarray(data.measurements.t), float(s.processing.rate),
+                       self.context.robot, record, data.start)
+
+    def reduced(self, effect: Effect, j: int, values: Sequence[Any], role: str) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The effect's columns at ``values`` on a data set, treated like the regressor, as (rows, columns on
+        those rows: ``samples × len(rows) × k``); the missing ones filtered in one pass. Columns do not depend
+        on the round: they are computed once per search (compact: only the rows they act on are kept)."""
+        store = self._reduced
+        keys = [(effect.name, j, v, role) for v in values]
+        missing = list(dict.fromkeys(k for k in keys if k not in store))
+        if missing:
+            signals = self.signals(role)
+            raw = [effect.columns_at(signals, j, k[2]) for k in missing]
+            rows = np.flatnonzero(np.any([r.any(axis=(0, 2)) for r in raw], axis=0))
+            if rows.size == 0:
+                rows = np.array([j])
+            widths = [r.shape[2] for r in raw]
+            reduced = self.sets[role].reduce(np.concatenate([r[:, rows, :] for r in raw], axis=2))
+            for key, part in zip(missing, np.split(reduced, np.cumsum(widths)[:-1], axis=2)):
+                store[key] = (rows, part)
+        return [store[k] for k in keys]
 
 
 def _roles_with_sigma(c: Candidate, values: np.ndarray, covariance: np.ndarray, block: list[int],
@@ -432,6 +638,141 @@ def _proportional(X: np.ndarray, r: np.ndarray, support: np.ndarray) -> list[tup
     return out
 
 
+def _parts(pieces: Sequence[tuple[tuple[int, ...], int, int]], power0: np.ndarray, power1: np.ndarray,
+           leverage: np.ndarray, taus: Mapping[tuple[int, ...], float], samples: int,
+           held: bool) -> list[tuple[tuple[int, ...], tuple[float, float, float, float, int, float]]]:
+    """The parts of :func:`~symbolic.workflow.statistics.combined_f_test` for columns added on their own
+    coordinates: ``pieces`` are (coordinates, columns, parameters added); pieces on one coordinate are
+    merged, a piece on several (a payload) pools them. The model's parameters count by their leverage on
+    those rows (``held``: the leverage is that of a fit holding the added columns, which are taken off).
+    Returns (coordinates, part) pairs."""
+    merged: dict[tuple[int, ...], list[int]] = {}
+    for coordinates, columns, added in pieces:
+        entry = merged.setdefault(coordinates, [0, 0])
+        entry[0] += columns
+        entry[1] += added
+    parts = []
+    for coordinates, (columns, added) in merged.items():
+        rows = list(coordinates)
+        parameters = float(np.sum(leverage[rows])) - (columns if held else 0)
+        parts.append((coordinates, (float(np.sum(power0[rows])), float(np.sum(power1[rows])), float(samples * len(rows)),
+                                    max(parameters, 0.0), added, taus[coordinates])))
+    return parts
+
+
+def _tau(residual: np.ndarray, coordinates: tuple[int, ...]) -> float:
+    """τ_int of a ``N × samples`` residual on some coordinates (pooled by power when several)."""
+    if len(coordinates) == 1:
+        return autocorrelation_time(residual[coordinates[0]])
+    return pooled_autocorrelation_time(residual[list(coordinates)].T)
+
+
+class _Partial:
+    """Partial F-tests of accepted effects in a joint fit (elimination, the final model), each on its own rows."""
+
+    def __init__(self, search: Search, design: CurrentModel) -> None:
+        self.search, self.design = search, design
+        self.y = design.weighted("estimation", design.known["estimation"])
+        self.X = design.weighted("estimation", design.columns["estimation"])
+        self.residual = self.y - self.X @ design.identification.values
+        self.n, self.samples = len(design.weights), design.sets["estimation"].samples
+        Q = np.linalg.qr(self.X)[0]
+        self.leverage = np.einsum("ij,ij->i", Q, Q).reshape(self.n, -1).sum(axis=1)
+        self.power = (self.residual**2).reshape(self.n, -1).sum(axis=1)
+        self.gram, self.right = self.X.T @ self.X, self.X.T @ self.y
+        self._taus: dict[tuple[int, ...], float] = {}
+
+    def tau(self, coordinates: tuple[int, ...]) -> float:
+        if coordinates not in self._taus:
+            self._taus[coordinates] = _tau(self.residual.reshape(self.n, -1), coordinates)
+        return self._taus[coordinates]
+
+    def p_value(self, unit: Sequence[int]) -> float:
+        """p of removing the accepted effects ``unit`` (indices into ``search.accepted``) together."""
+        search = self.search
+        columns = {i for k in unit for i in search.block(k)}
+        rest = [i for i in range(self.X.shape[1]) if i not in columns]
+        coef = _solve(self.gram[np.ix_(rest, rest)], self.right[rest])
+        without = self.y - self.X[:, rest] @ coef
+        power0 = (without**2).reshape(self.n, -1).sum(axis=1)
+        pieces = []
+        for k in unit:
+            a = search.accepted[k]
+            own = tuple(int(j) for j in np.flatnonzero(np.any(a.columns["estimation"] != 0, axis=(0, 2))))
+            width = a.columns["estimation"].shape[2]
+            pieces.append((own, width, width + (1 if a.effect.nonlinear else 0)))
+        taus = {own: self.tau(own) for own, _, _ in pieces}
+        parts = _parts(pieces, power0, self.power, self.leverage, taus, self.samples, held=True)
+        return combined_f_test([part for _, part in parts])[1]
+
+
+@dataclass(frozen=True, eq=False)
+class _Fit:
+    """A candidate's columns (or a subset of a group's) fitted with the current model: residual power per
+    coordinate on the estimation and held-out data, the coefficients (model's first), the residual."""
+
+    power: np.ndarray
+    held: np.ndarray | None
+    coef: np.ndarray
+    residual: np.ndarray
+
+
+class _Joint:
+    """Columns added to the current model together (a candidate's, or a group's members'), non-zero on
+    ``rows`` of the stacked system only, and the fit of any subset of them (products on those rows; the
+    model's part through the round's orthonormal basis Q and its Gram matrices)."""
+
+    def __init__(self, state: _RoundState, rows: np.ndarray, Zr: np.ndarray, Zv: np.ndarray | None) -> None:
+        self.state, self.rows, self.Zr, self.Zv = state, rows, Zr, Zv
+        self.a = state.Q[rows].T @ Zr
+        self.zz = Zr.T @ Zr
+        self.G = self.zz - self.a.T @ self.a
+        self.b = Zr.T @ state.r0[rows]
+        self.cross = state.X[rows].T @ Zr
+        self.zy = Zr.T @ state.y[rows]
+
+    def outside(self, subset: Sequence[int]) -> dict[int, np.ndarray]:
+        """Per coordinate, the part of the columns ``subset`` outside the model's span on its rows
+        (``samples × k``; only the columns that act there)."""
+        st = self.state
+        s = list(subset)
+        perp = self.Zr[:, s] - st.Q[self.rows] @ self.a[:, s]
+        coordinate = self.rows // st.n_samples
+        out = {}
+        for j in np.unique(coordinate):
+            mine = coordinate == j
+            acting = [i for i in range(len(s)) if np.any(self.Zr[mine, s[i]] != 0)]
+            if not acting:
+                continue
+            z = np.zeros((st.n_samples, len(acting)))
+            z[self.rows[mine] - j * st.n_samples] = perp[np.ix_(mine, acting)]
+            out[int(j)] = z
+        return out
+
+    def fit(self, subset: Sequence[int], held: bool = True) -> _Fit:
+        """The current model with the columns ``subset``; ``held=False`` leaves the held-out error out (``None``)."""
+        st = self.state
+        s = list(subset)
+        if not s:
+            return _Fit(st.power0, st.held0, st.coef, st.r0)
+        try:
+            step = np.linalg.solve(self.G[np.ix_(s, s)], self.b[s])
+        except np.linalg.LinAlgError:
+            step = np.linalg.lstsq(self.G[np.ix_(s, s)], self.b[s], rcond=None)[0]
+        residual = st.r0 + st.Q @ (self.a[:, s] @ step)
+        residual[self.rows] -= self.Zr[:, s] @ step
+        cross = self.cross[:, s]
+        coef = _solve(np.block([[st.gram, cross], [cross.T, self.zz[np.ix_(s, s)]]]), np.concatenate([st.right, self.zy[s]]))
+        if not held:
+            return _Fit(st.by(residual * residual), None, coef, residual)
+        if st.search.cross_validate:
+            out = st.cross_validated((self.rows, self.Zr[:, s]))
+        else:
+            e = st.yv - np.concatenate([st.Xv, self.Zv[:, s]], axis=1) @ coef
+            out = st.by(e * e)
+        return _Fit(st.by(residual * residual), out, coef, residual)
+
+
 class _RoundState:
     """The weighted arrays of one round and the evaluation of its candidates.
 
@@ -450,11 +791,13 @@ class _RoundState:
         self.X = design.weighted("estimation", design.columns["estimation"])
         self.coef = np.asarray(design.identification.values)
         self.r0 = self.y - self.X @ self.coef
-        self.rss0 = float(self.r0 @ self.r0)
         self.Q = np.linalg.qr(self.X)[0]
         self.gram, self.right = self.X.T @ self.X, self.X.T @ self.y
         data = design.sets["estimation"]
         self.n_samples, self.n = data.samples, len(data.coordinates)
+        self.power0 = self.by(self.r0 * self.r0)
+        self.rss0 = float(self.power0.sum())
+        self.leverage = self.by(np.einsum("ij,ij->i", self.Q, self.Q))
         if search.cross_validate:
             blocks = np.array_split(np.arange(self.n_samples), search.settings.folds)
             self.fold_of = np.empty(len(self.y), int)
@@ -463,55 +806,50 @@ class _RoundState:
                     self.fold_of[j * self.n_samples + b] = f
             self.folds = [np.flatnonzero(self.fold_of == f) for f in range(len(blocks))]
             self.fold_gram = [(self.X[rows].T @ self.X[rows], self.X[rows].T @ self.y[rows]) for rows in self.folds]
-            self.held_out0 = self.cross_validated(None)
+            self.held0 = self.cross_validated(None)
         else:
             self.yv = design.weighted("validation", design.known["validation"])
             self.Xv = design.weighted("validation", design.columns["validation"])
-            self.held_out0 = float(np.sum((self.yv - self.Xv @ self.coef) ** 2))
-        self._cache: dict = {}
-        self._signals: dict[str, Signals] = {}
+            self.held0 = self.by((self.yv - self.Xv @ self.coef) ** 2)
+        self.held_out0 = float(self.held0.sum())
         self._spectra: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
+    def by(self, x: np.ndarray) -> np.ndarray:
+        """Per-coordinate sums of a stacked vector (``N``)."""
+        return x.reshape(self.n, -1).sum(axis=1)
+
+    def effective(self, tested: Sequence[Candidate]) -> np.ndarray:
+        """n_eff per coordinate for the round: n/τ of the residual of the candidate explaining most there
+        (one per coordinate: BIC compares models of the same data, and a candidate that leaves a coloured
+        residual must not gain by it); τ of the round's residual where no candidate acts."""
+        out = np.empty(self.n)
+        for j in range(self.n):
+            on = [c for c in tested if j in c.taus]
+            tau = min(on, key=lambda c: c.power1[j]).taus[j] if on else \
+                autocorrelation_time(self.r0.reshape(self.n, -1)[j])
+            out[j] = self.n_samples / tau
+        return out
+
     # columns of an effect on one data set, reduced (samples × N × k)
-    def columns(self, effect: Effect, j: int, value: float | None, role: str) -> np.ndarray:
-        key = (effect.name, j, value, role)
-        if key not in self._cache:
-            self._cache[key] = self.batch(effect, j, [value], role)[0]
-        return self._cache[key]
+    def columns(self, effect: Effect, j: int, value: Any, role: str) -> np.ndarray:
+        """Full columns (``samples × N × k``), kept for the whole search: a refinement that starts from the
+        same grid value in a later round mostly visits the same values again."""
+        return self.expand(*self.search.reduced(effect, j, [value], role)[0])
 
-    def batch(self, effect: Effect, j: int, values: Sequence[float | None], role: str) -> list[np.ndarray]:
-        """Reduced columns for several values of the nonlinear parameter, filtered in one pass; only the
-        coordinates an effect acts on are filtered (the others stay zero)."""
-        signals = self.signals(role)
-        raw = [effect.columns_at(signals, j, v) for v in values]
-        widths = [r.shape[2] for r in raw]
-        stacked = np.concatenate(raw, axis=2)
-        rows = np.flatnonzero(np.any(stacked != 0, axis=(0, 2)))
-        if rows.size == 0:
-            rows = np.array([j])
-        reduced = self.design.sets[role].reduce(stacked[:, rows, :])
-        out = np.zeros((reduced.shape[0], stacked.shape[1], stacked.shape[2]))
-        out[:, rows, :] = reduced
-        return np.split(out, np.cumsum(widths)[:-1], axis=2)
+    def batch(self, effect: Effect, j: int, values: Sequence[Any], role: str) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Columns of a grid of values as (rows, columns on those rows), kept for the whole search."""
+        return self.search.reduced(effect, j, values, role)
 
-    def signals(self, role: str) -> Signals:
-        """The data set's filtered states at every sample, with time and rate (for :meth:`Effect.columns_at`)."""
-        if role not in self._signals:
-            data = self.design.sets[role]
-            record = None if data.record is None else self._signals_of(data.record)
-            self._signals[role] = self._signals_of(data, record)
-        return self._signals[role]
+    def expand(self, rows: np.ndarray, part: np.ndarray) -> np.ndarray:
+        out = np.zeros((part.shape[0], self.n, part.shape[2]))
+        out[:, rows, :] = part
+        return out
 
-    def _signals_of(self, data: DataSet, record: Signals | None = None) -> Signals:
-        s = data.states
-        return Signals(s.q, s.qd, s.qdd, np.asarray(data.measurements.t), float(s.processing.rate),
-                       self.search.context.robot, record, data.start)
-
-    def cross_validated(self, extra: tuple[np.ndarray, np.ndarray] | None) -> float:
-        """Residual power of the held-out blocks, each predicted by the fit on the others (normal
-        equations: a fold only subtracts its own small Gram blocks). ``extra`` = (rows, Z[rows]) adds a
-        candidate's columns, non-zero on ``rows`` only."""
-        total = 0.0
+    def cross_validated(self, extra: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+        """Residual power of the held-out blocks per coordinate, each block predicted by the fit on the others
+        (normal equations: a fold only subtracts its own small Gram blocks). ``extra`` = (rows, Z[rows]) adds
+        a candidate's columns, non-zero on ``rows`` only."""
+        total = np.zeros(self.n)
         if extra is not None:
             rows, Zr = extra
             cross, zz, zy = self.X[rows].T @ Zr, Zr.T @ Zr, Zr.T @ self.y[rows]
@@ -533,7 +871,7 @@ class _RoundState:
                 e = self.y[fold] - self.X[fold] @ coef[:p]
                 position = np.searchsorted(fold, inside)
                 e[position] -= Zf @ coef[p:]
-            total += float(e @ e)
+            total += np.bincount(fold // self.n_samples, weights=e * e, minlength=self.n)
         return total
 
     def project(self, Z: np.ndarray, optional: tuple[int, ...]):
@@ -561,43 +899,55 @@ class _RoundState:
             return None, "the model already holds it"
         return (rows, tuple(kept), a[:, kept], G[np.ix_(kept, kept)], Zr[:, kept].T @ self.r0[rows]), ""
 
-    def explained(self, effect: Effect, j: int, value: float | None, columns: np.ndarray | None = None) -> float:
+    def explained(self, effect: Effect, j: int, value: Any, columns: np.ndarray | None = None) -> float:
         """Residual power the effect explains at ``value`` (jointly with the model's terms)."""
         if columns is None:
-            columns = self.batch(effect, j, [value], "estimation")[0]
+            columns = self.columns(effect, j, value, "estimation")
         parts, _ = self.project(self.design.weighted("estimation", columns), effect.optional)
         if parts is None:
             return 0.0
         _, _, _, G, b = parts
         return float(b @ np.linalg.solve(G, b))
 
-    def explained_on_row(self, effect: Effect, j: int, columns: list[np.ndarray]) -> list[float]:
-        """:meth:`explained` for many column sets at once, when they all act on coordinate ``j`` only and
-        none is optional (a grid of values): the same quantities b = Zᵀr0 and G = ZᵀZ − (QᵀZ)ᵀ(QᵀZ) on
-        coordinate j's rows, for every set in one matrix product. A set with a column in the model's span
+    def explained_on_row(self, j: int, blocks: Sequence[np.ndarray]) -> list[float]:
+        """:meth:`explained` for many column sets at once, each acting on coordinate ``j`` only (``samples × k``
+        there) and none optional (a grid of values): the same quantities b = Zᵀr0 and G = ZᵀZ − (QᵀZ)ᵀ(QᵀZ)
+        on coordinate j's rows, for every set in one matrix product. A set with a column in the model's span
         (its part outside below :data:`COLLINEAR` of its norm) explains 0, as :meth:`project` has it."""
-        others = [i for i in range(self.n) if i != j]
-        if effect.optional or any(np.any(z[:, others, :]) for z in columns):
-            return [self.explained(effect, j, None, z) for z in columns]
         rows = slice(j * self.n_samples, (j + 1) * self.n_samples)
-        k = columns[0].shape[2]
-        Z = np.stack([z[:, j, :] for z in columns], axis=1) * self.design.weights[j]  # samples × sets × k
-        a = np.einsum("sp,smk->pmk", self.Q[rows], Z)
-        b = np.einsum("smk,s->mk", Z, self.r0[rows])
-        zz = np.einsum("smk,sml->mkl", Z, Z)
-        G = zz - np.einsum("pmk,pml->mkl", a, a)
+        k = blocks[0].shape[1]
+        Z = np.stack(blocks, axis=0) * self.design.weights[j]  # sets × samples × k
+        a = np.matmul(self.Q[rows].T, Z)  # sets × p × k (matrix products: BLAS, unlike einsum)
+        b = np.matmul(self.r0[rows], Z)  # sets × k
+        zz = np.matmul(Z.transpose(0, 2, 1), Z)
+        G = zz - np.matmul(a.transpose(0, 2, 1), a)
         diagonal = np.einsum("mkk->mk", G)
         norms = np.einsum("mkk->mk", zz)
-        fine = np.all((norms > 0) & (diagonal > COLLINEAR**2 * norms), axis=1) if k else np.zeros(len(columns), bool)
-        out = np.zeros(len(columns))
+        fine = np.all((norms > 0) & (diagonal > COLLINEAR**2 * norms), axis=1) if k else np.zeros(len(blocks), bool)
+        out = np.zeros(len(blocks))
         if fine.any():
             out[fine] = np.einsum("mk,mk->m", b[fine], np.linalg.solve(G[fine], b[fine][:, :, None])[:, :, 0])
         return [float(x) for x in out]
 
+    def explained_grid(self, effect: Effect, j: int, values: Sequence[Any],
+                       quick: list[np.ndarray] | None = None) -> list[float]:
+        """:meth:`explained` at each of ``values``: by :meth:`explained_on_row` when the columns (``quick``: the
+        effect's shortcut columns, else the treated ones) act on coordinate ``j`` only and none is optional."""
+        if quick is not None:
+            others = [i for i in range(self.n) if i != j]
+            stacked = np.stack(quick)
+            if not effect.optional and not np.any(stacked[:, :, others, :]):
+                return self.explained_on_row(j, list(stacked[:, :, j, :]))
+            return [self.explained(effect, j, v, z) for v, z in zip(values, quick)]
+        compact = self.batch(effect, j, values, "estimation")
+        if not effect.optional and all(len(rows) == 1 and rows[0] == j for rows, _ in compact):
+            return self.explained_on_row(j, [part[:, 0, :] for _, part in compact])
+        return [self.explained(effect, j, v, self.expand(*c)) for v, c in zip(values, compact)]
+
     def evaluate(self, effect: Effect, j: int) -> Candidate:
         search = self.search
         coordinate = search.context.coordinates[j]
-        c = Candidate(effect, j, coordinate)
+        c = Candidate(effect=effect, j=j, coordinate=coordinate)
         taken = [a for a in search.accepted if a.candidate.j == j]
         if any(a.effect.name == effect.name for a in taken) and not getattr(effect, "repeatable", False):
             c.status, c.reason = "in the model", "accepted in an earlier round"
@@ -610,8 +960,8 @@ class _RoundState:
         if reason:
             c.status, c.reason = "not applicable", reason
             return c
-        reference_map = _reference_map(search, self.design, effect, j)
-        if effect.refines and reference_map is None:
+        c.reference_map = _reference_map(search, self.design, effect, j)
+        if effect.refines and c.reference_map is None:
             c.status, c.reason = f"needs {effect.refines}", f"the model has no {effect.refines} friction on {coordinate}"
             return c
         scanned = None
@@ -628,33 +978,162 @@ class _RoundState:
         if parts is None:
             c.status, c.reason = "in the model", why
             return c
-        rows, kept, a, G, b = parts
+        rows, kept, _, _, _ = parts
         c.kept, c.width = kept, Z.shape[1]
         c.added = len(kept) + (1 if effect.nonlinear else 0)
-        step = np.linalg.solve(G, b)
-        r1 = self.r0 - self.Q @ (-(a @ step))
-        r1[rows] -= Z[np.ix_(rows, kept)] @ step
-        c.rss0, c.rss1 = self.rss0, float(r1 @ r1)
-        c.tau = pooled_autocorrelation_time(r1.reshape(self.n, self.n_samples).T)
-        c.F, c.p_value = f_test(c.rss0, c.rss1, len(self.y), self.X.shape[1], c.added, c.tau)
-        Zr = Z[np.ix_(rows, kept)]
-        cross = self.X[rows].T @ Zr
-        coef = _solve(np.block([[self.gram, cross], [cross.T, Zr.T @ Zr]]), np.concatenate([self.right, Zr.T @ self.y[rows]]))
-        c.model_coefficients = coef
-        c.coefficients = _expand(c, coef[self.X.shape[1]:])
-        if search.cross_validate:
-            c.held_out0, c.held_out1 = self.held_out0, self.cross_validated((rows, Zr))
-        else:
-            Zv = self.design.weighted("validation", self.columns(effect, j, c.value, "validation"))[:, list(kept)]
-            e = self.yv - np.concatenate([self.Xv, Zv], axis=1) @ coef
-            c.held_out0, c.held_out1 = self.held_out0, float(e @ e)
-        c.reference = _reference_value(reference_map, coef)
+        Zv = None if search.cross_validate else \
+            self.design.weighted("validation", self.columns(effect, j, c.value, "validation"))[:, list(kept)]
+        joint = _Joint(self, rows, Z[np.ix_(rows, kept)], Zv)
+        fit = joint.fit(range(len(kept)))
+        own = tuple(int(i) for i in np.unique(rows // self.n_samples))
+        self.record(c, fit, [(own, len(kept), c.added)], outside=joint.outside(range(len(kept))) if len(own) == 1 else None)
+        c.model_coefficients = fit.coef
+        c.coefficients = _expand(c, fit.coef[self.X.shape[1]:])
+        c.reference = _reference_value(c.reference_map, fit.coef)
         c.roles = effect.roles_of(c.coefficients, c.value, c.reference)
+        # the share of the whole (stacked) residual: a resonance exempt from showing a spectral peak must
+        # dominate it; on its own coordinate the 14-bit arm's null fit explained 55 % of q1's residual, the
+        # 14-bit axis's real 8 Hz load 59 % (docs/workflow.md, "Name")
         c.invalid = effect.check(c.roles, c.reference, search.context, j) or \
-            effect.check_residual(c.roles, *self.residual_spectrum(j), c.share)
+            effect.check_residual(c.roles, *self.residual_spectrum(j), c.stacked_share)
         if c.invalid is None and effect.nonlinear and scanned is not None:
             c.invalid = effect.scan_verdict(*scanned, search.context)
         return c
+
+    def record(self, c: Judged, fit: _Fit, pieces: list[tuple[tuple[int, ...], int, int]], before: _Fit | None = None,
+               beside: Sequence[tuple[tuple[int, ...], int]] = (), outside: Mapping[int, np.ndarray] | None = None) -> None:
+        """Set ``c``'s per-coordinate figures from ``fit`` against ``before`` (default: the round's model);
+        ``pieces`` (coordinates, columns, parameters added) say what it adds where (:func:`_parts`);
+        ``beside`` (coordinates, columns): what both fits hold besides the model (a group's other members);
+        ``outside``: per coordinate, the added columns' part outside the model's span on its rows, whose
+        score's variance inflation is used where it exceeds τ_int (:func:`~symbolic.workflow.statistics.score_inflation`)."""
+        before = before or _Fit(self.power0, self.held0, self.coef, self.r0)
+        c.power0, c.power1, c.held0, c.held1 = before.power, fit.power, before.held, fit.held
+        c.own = tuple(sorted({j for own, _, _ in pieces for j in own}))
+        residual = fit.residual.reshape(self.n, -1)
+        c.taus = {j: autocorrelation_time(residual[j]) for j in c.own}
+        for j, z in (outside or {}).items():  # the more conservative of the two variance corrections
+            b = z.T @ before.residual.reshape(self.n, -1)[j]
+            c.taus[j] = max(c.taus[j], score_inflation(z, residual[j], b))
+        taus = {own: (c.taus[own[0]] if len(own) == 1 else _tau(residual, own)) for own, _, _ in pieces}
+        c.tau = c.taus[c.own[0]] if len(c.own) == 1 else _tau(residual, c.own)
+        leverage = self.leverage.copy()
+        for own, columns in beside:
+            leverage[list(own)] += columns / len(own)
+        parts = _parts(pieces, before.power, fit.power, leverage, taus, self.n_samples, held=False)
+        c.F, c.p_value = combined_f_test([part for _, part in parts])
+        c.p_by = {}
+        for own, (p0, p1, _, _, added, _) in parts:  # each coordinate on its own rows
+            for j in own:
+                c.p_by[j] = combined_f_test([(float(before.power[j]), float(fit.power[j]), float(self.n_samples),
+                                              float(leverage[j]), added, c.taus[j])])[1]
+
+    @staticmethod
+    def pool(group: Group, candidates: Sequence[Candidate]) -> list[Candidate]:
+        """The round's single candidates that are members of ``group``: its effects, tested on its coordinates."""
+        return [c for c in candidates if c.status == "tested" and c.effect.name in group.effects
+                and c.coordinate in group.coordinates and c.own == (c.j,) and not c.effect.nonlinear]
+
+    def evaluate_group(self, group: Group, pool: Sequence[Candidate], effective: np.ndarray) -> Grouped:
+        """The grouped hypothesis ``group`` of the single candidates ``pool`` (module docstring): members
+        refitted together, those that do not earn their place on their own coordinate dropped (the worst per
+        coordinate, then the rest refitted)."""
+        g = Grouped(group=group)
+        blocks, index, start = [], [], 0
+        for c in pool:
+            blocks.append([self.design.weighted(role, self.columns(c.effect, c.j, None, role))[:, list(c.kept)]
+                           for role in (("estimation",) if self.search.cross_validate else ("estimation", "validation"))])
+            index.append(list(range(start, start + len(c.kept))))
+            start += len(c.kept)
+        Z = np.concatenate([b[0] for b in blocks], axis=1)
+        rows = np.flatnonzero(np.any(Z != 0, axis=1))
+        Zv = None if self.search.cross_validate else np.concatenate([b[1] for b in blocks], axis=1)
+        joint = _Joint(self, rows, Z[rows], Zv)
+        alive = list(range(len(pool)))
+        while True:
+            columns = [i for m in alive for i in index[m]]
+            full = joint.fit(columns)
+            verdicts = {m: self.member(pool[m], joint, full, columns, index[m],
+                                       [((pool[o].j,), len(index[o])) for o in alive if o != m], effective) for m in alive}
+            failing = [m for m in alive if verdicts[m].failed]
+            if not failing:
+                break
+            for j in sorted({pool[m].j for m in failing}):
+                worst = max((m for m in failing if pool[m].j == j),
+                            key=lambda m: (verdicts[m].invalid is not None, verdicts[m].delta_bic_own))
+                alive.remove(worst)
+                g.dropped.append((verdicts[worst], "; ".join(verdicts[worst].failed)))
+            if len(alive) < 2:
+                break
+        g.members = [verdicts[m] for m in alive]
+        if len(alive) < 2:
+            g.status = "reduced"
+            g.reason = "no member earns its place" if not alive else \
+                f"only {g.members[0].label()} earns its place: that is its single candidate"
+            return g
+        g.added = sum(pool[m].added for m in alive)
+        self.record(g, full, [((pool[m].j,), len(index[m]), pool[m].added) for m in alive], outside=joint.outside(columns))
+        return g
+
+    def member(self, single: Candidate, joint: _Joint, full: _Fit, columns: list[int], mine: list[int],
+               beside: list[tuple[tuple[int, ...], int]], effective: np.ndarray) -> Candidate:
+        """A group's member judged on its own coordinate: the group's fit (of ``columns``) against the fit
+        without its columns ``mine``; ``beside``: the other members (coordinates, columns)."""
+        j = single.j
+        rest = [i for i in columns if i not in mine]
+        without = joint.fit(rest, held=False)  # the held-out error only for a member that passes the rest
+        m = dataclasses.replace(single, failed=[], taus={}, p_by={})
+        self.record(m, full, [((j,), len(mine), single.added)], before=without, beside=beside)
+        ratio = math.log(max(float(full.power[j]), 1e-300) / max(float(without.power[j]), 1e-300))
+        m.delta_bic = m.delta_bic_own = effective[j] * ratio + single.added * math.log(effective[j])
+        positions = [columns.index(i) for i in mine]
+        p = self.X.shape[1]
+        m.model_coefficients = full.coef
+        m.coefficients = _expand(m, full.coef[p + np.asarray(positions)])
+        m.reference = _reference_value(m.reference_map, full.coef)
+        m.roles = m.effect.roles_of(m.coefficients, m.value, m.reference)
+        m.invalid = m.effect.check(m.roles, m.reference, self.search.context, j)
+        s = self.search.settings
+        if m.invalid:
+            m.failed.append(f"physical: {m.invalid}")
+        if not m.delta_bic_own < 0:
+            m.failed.append(f"BIC: ΔBIC = {m.delta_bic_own:.3g} on {m.coordinate}'s rows is not negative")
+        if not m.failed:
+            m.held0 = joint.fit(rest).held
+            if m.gain < s.min_gain:
+                m.failed.append(f"held-out: removes {100 * m.gain:.3g} % of {m.coordinate}'s held-out residual power "
+                                f"left without it (at least {100 * s.min_gain:g} % needed)")
+        return m
+
+    def score(self, c: Judged, effective: np.ndarray) -> None:
+        """ΔBIC over every coordinate (ranking) and on the own coordinates (which must be negative)."""
+        ratio = np.log(np.maximum(c.power1, 1e-300) / np.maximum(c.power0, 1e-300))
+        own = list(c.own)
+        if isinstance(c, Grouped):
+            penalty = sum(m.added * math.log(effective[m.j]) for m in c.members)
+        else:
+            penalty = c.added * math.log(float(effective[own].sum()))
+        c.delta_bic = float(effective @ ratio) + penalty
+        c.delta_bic_own = float(effective[own] @ ratio[own]) + penalty
+
+    def where(self, c: Judged) -> str:
+        names = self.search.context.coordinates
+        if len(c.own) == len(names) > 1:
+            return "every coordinate's"
+        return ", ".join(names[j] for j in c.own) + "'s"
+
+    def judge(self, c: Judged, threshold: float) -> None:
+        s = self.search.settings
+        where = self.where(c)
+        if c.invalid:
+            c.failed.append(f"physical: {c.invalid}")
+        if not c.p_value < threshold:
+            c.failed.append(f"significance: p = {c.p_value:.3g} on {where} rows is not below {threshold:.3g}")
+        if c.gain < s.min_gain:
+            c.failed.append(f"held-out: removes {100 * c.gain:.3g} % of {where} held-out residual power "
+                            f"(at least {100 * s.min_gain:g} % needed)")
+        if not c.delta_bic_own < 0:
+            c.failed.append(f"BIC: ΔBIC = {c.delta_bic_own:.3g} on {where} rows is not negative")
 
     def residual_spectrum(self, j: int) -> tuple[np.ndarray, np.ndarray]:
         """Welch spectrum of the round's residual on coordinate ``j`` (at the kept samples' rate)."""
@@ -671,7 +1150,7 @@ class _RoundState:
         (several parameters: the best grid row, refined by a simplex search within the grid's box)."""
         if np.ndim(values) == 2:
             return self.scan_several(effect, j, np.asarray(values, float))
-        explained = []
+        explained: list[float] = []
         kept = self.design.sets["estimation"].t
 
         def quick(v: float) -> np.ndarray | None:  # the effect's shortcut (Effect.scan_columns), if it has one
@@ -680,8 +1159,7 @@ class _RoundState:
 
         for chunk in np.array_split(values, max(1, math.ceil(len(values) / self.CHUNK))):
             points = [float(v) for v in chunk]
-            columns = effect.scan_columns(kept, self.n, j, points) or self.batch(effect, j, points, "estimation")
-            explained += self.explained_on_row(effect, j, columns)
+            explained += self.explained_grid(effect, j, points, effect.scan_columns(kept, self.n, j, points))
         self._scanned = (np.asarray(values, float), np.asarray(explained))
         best = int(np.argmax(explained))
         low, high = values[max(best - 1, 0)], values[min(best + 1, len(values) - 1)]
@@ -694,11 +1172,9 @@ class _RoundState:
 
     def scan_several(self, effect: Effect, j: int, values: np.ndarray) -> tuple[float, ...]:
         rows = [tuple(float(x) for x in row) for row in values]
-        explained = []
+        explained: list[float] = []
         for start in range(0, len(rows), self.CHUNK):
-            chunk = rows[start:start + self.CHUNK]
-            columns = self.batch(effect, j, chunk, "estimation")
-            explained += [self.explained(effect, j, v, z) for v, z in zip(chunk, columns)]
+            explained += self.explained_grid(effect, j, rows[start:start + self.CHUNK])
         best = int(np.argmax(explained))
         low, high = np.log(values.min(axis=0)), np.log(values.max(axis=0))
 
@@ -716,15 +1192,3 @@ class _RoundState:
         if -result.fun >= explained[best]:
             return tuple(float(v) for v in np.exp(result.x))
         return rows[best]
-
-    def judge(self, c: Candidate, threshold: float) -> None:
-        s = self.search.settings
-        if c.invalid:
-            c.failed.append(f"physical: {c.invalid}")
-        if not c.p_value < threshold:
-            c.failed.append(f"significance: p = {c.p_value:.3g} is not below {threshold:.3g}")
-        if c.gain < s.min_gain:
-            c.failed.append(f"held-out: removes {100 * c.gain:.3g} % of the held-out residual power "
-                            f"(at least {100 * s.min_gain:g} % needed)")
-        if not c.delta_bic < 0:
-            c.failed.append(f"BIC: ΔBIC = {c.delta_bic:.3g} is not negative")

@@ -10,6 +10,8 @@ slowly varying regressor and conservative otherwise.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import scipy.stats
 
@@ -43,6 +45,38 @@ def autocorrelation_time(x: np.ndarray) -> float:
     return float(max(value, 1.0))
 
 
+def score_inflation(z: np.ndarray, residual: np.ndarray, b: np.ndarray) -> float:
+    """How much the residual's autocorrelation inflates the variance of the score b = zᵀe of columns ``z``
+    (``samples × k``, outside the model's span) in the direction of ``b``: bᵀG⁻¹b / bᵀV⁻¹b with G = zᵀz and
+    V = Σ_{|l|≤M} ρ_l·Σ_t z_t z_{t+l}ᵀ (Bartlett 1946; ρ the residual's autocorrelation, M Sokal's window of
+    :func:`autocorrelation_time`). It equals τ_int for slowly varying columns and differs where the residual's
+    power is not at zero frequency: less for fast columns, more for columns at a residual's resonance, whose
+    integrated autocorrelation time is small because its lobes cancel. 1 where V is not positive definite
+    (a truncated estimate)."""
+    z = np.asarray(z, dtype=float).reshape(len(z), -1)
+    acf = autocorrelation(residual)
+    tau = 1.0 + 2.0 * np.cumsum(acf[1:])
+    lags = np.arange(1, len(acf))
+    stop = np.flatnonzero(lags >= SOKAL_WINDOW * tau)
+    window = int(lags[stop[0]]) if stop.size else len(acf) - 1
+    n = len(z)
+    size = 1 << int(np.ceil(np.log2(2 * n)))
+    spectra = np.fft.rfft(z, size, axis=0)
+    k = z.shape[1]
+    V = np.empty((k, k))
+    for i in range(k):
+        for j in range(k):
+            cross = np.fft.irfft(spectra[:, i] * np.conj(spectra[:, j]), size)  # Σ_t z_i[t+l] z_j[t] at lag l
+            V[i, j] = cross[0] + acf[1:window + 1] @ (cross[1:window + 1] + cross[size - window:][::-1])
+    V = 0.5 * (V + V.T)
+    G = z.T @ z
+    try:
+        np.linalg.cholesky(V)
+        return float((b @ np.linalg.solve(G, b)) / (b @ np.linalg.solve(V, b)))
+    except np.linalg.LinAlgError:
+        return 1.0
+
+
 def pooled_autocorrelation_time(residual: np.ndarray) -> float:
     """τ_int of a ``samples × N`` residual: the coordinates' values weighted by their residual power."""
     residual = np.asarray(residual, dtype=float).reshape(len(residual), -1)
@@ -53,7 +87,7 @@ def pooled_autocorrelation_time(residual: np.ndarray) -> float:
     return float(np.dot(taus, power) / power.sum())
 
 
-def f_test(rss0: float, rss1: float, rows: int, parameters: int, added: int, tau: float) -> tuple[float, float]:
+def f_test(rss0: float, rss1: float, rows: float, parameters: float, added: int, tau: float) -> tuple[float, float]:
     """(F, p) of adding ``added`` parameters to a model of ``parameters``, corrected for autocorrelation.
 
     F = ((RSS₀ − RSS₁)/k) / (RSS₁/(n − p − k)) divided by τ_int, against F(k, n/τ_int − p − k).
@@ -65,6 +99,30 @@ def f_test(rss0: float, rss1: float, rows: int, parameters: int, added: int, tau
     effective = rows / tau - parameters - added
     if effective <= 0:
         return statistic, 1.0
+    return float(statistic), float(scipy.stats.f.sf(statistic, added, effective))
+
+
+def combined_f_test(parts: Sequence[tuple[float, float, float, float, int, float]]) -> tuple[float, float]:
+    """(F, p) of parameters added on several coordinates at once, each part a coordinate (or rows pooled)
+    with its own noise level and autocorrelation: (RSS₀, RSS₁, rows n, model parameters p, added k, τ_int).
+
+    χ² = Σ_c ((RSS₀,c − RSS₁,c)/(RSS₁,c/(n_c − p_c − k_c)))/τ_c, F = χ²/K with K = Σ k_c, against
+    F(K, Σ_c (n_c/τ_c − p_c − k_c)); with one part this is :func:`f_test` (docs/workflow.md, "Name").
+    ``p`` may be fractional: the model's parameters counted by their leverage on the part's rows.
+    """
+    chi2, added, effective = 0.0, 0, 0.0
+    for rss0, rss1, rows, parameters, k, tau in parts:
+        dof = rows - parameters - k
+        if rss1 <= 0 or dof <= 0 or k <= 0:
+            return float("inf"), 0.0
+        chi2 += (rss0 - rss1) / (rss1 / dof) / tau
+        added += k
+        effective += rows / tau - parameters - k
+    if added <= 0:
+        return float("inf"), 0.0
+    statistic = chi2 / added
+    if effective <= 0:
+        return float(statistic), 1.0
     return float(statistic), float(scipy.stats.f.sf(statistic, added, effective))
 
 
