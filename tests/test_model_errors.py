@@ -357,3 +357,11 @@ def test_thousands_of_long_frame_names_give_a_short_message() -> None:
     message = str(info.value)
     assert "parent frame 'nowhere' does not exist" in message and "… and 20 more" in message
     assert len(message) < 1000 and "\n" not in message
+
+
+def test_an_expression_sympy_cannot_evaluate_exactly_is_a_one_line_error() -> None:
+    """The model fuzz found sinh(1E20) raising decimal.InvalidOperation from SymPy's exact evaluation."""
+    from symbolic.description.expressions import parse_expression
+
+    with pytest.raises(symbolic.ModelError, match=r"m.toml: \[\[frame\]\] 'a' dh.theta: .*cannot be evaluated exactly"):
+        parse_expression("(sinh(1E20))", {}, "m.toml", "[[frame]] 'a' dh.theta")

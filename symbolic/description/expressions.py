@@ -177,7 +177,11 @@ def parse_expression(
         raise ModelError(source, key, f"expression {shorten(text)} is nested too deeply to parse (at most {MAX_DEPTH} levels)") from None
     except ValueError as exc:  # e.g. a hexadecimal literal over Python's int-digit limit, a NUL character
         raise ModelError(source, key, f"cannot parse expression {shorten(text)}: {str(exc).split(';')[0]}") from None
-    return _Translator(symbols, source, key, stripped).visit(tree.body, 0)
+    try:
+        return _Translator(symbols, source, key, stripped).visit(tree.body, 0)
+    except ArithmeticError as exc:  # SymPy's exact evaluation overflowing (sinh(1E20): decimal.InvalidOperation)
+        raise ModelError(source, key, f"expression {shorten(text)} cannot be evaluated exactly "
+                                      f"({type(exc).__name__}): a value out of range") from None
 
 
 def check_value(expr: sp.Expr, source: str, key: str, what: str | Callable[[], str]) -> sp.Expr:
