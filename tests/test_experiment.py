@@ -241,23 +241,21 @@ def cart_log(folder: Path, model: symbolic.DynamicModel) -> Path:
 
 
 def test_an_unactuated_coordinate_has_its_rows_in_the_stacked_system(tmp_path: Path) -> None:
-    """tau_th = "0": the pendulum's rows are in y = W·β (zeros in y, its regressor in W), and the pendulum's
-    friction Ft — which only that homogeneous equation holds — is identified with the rest, to 1e-9.
-    Without those rows W would be rank-deficient."""
+    """tau_th = "0": the pendulum's rows are in y = W·β (zeros in y, its regressor in W). Their equation is
+    homogeneous, so identify refuses it until a value of it is known (issue 21 §3); with the mass m kept at its
+    value, the pendulum's friction Ft — which only that equation holds — is identified to 1e-9."""
     model = symbolic.derive(symbolic.loads(CART, str(tmp_path / "cart.toml")))
     experiment = cart_log(tmp_path, model)
     loaded = data.load(experiment, model=model.robot)
     assert np.all(loaded.tau[:, 1] == 0.0) and loaded.tau.shape == (loaded.samples, 2)
-    result = identify_model(model, experiment)
+    with pytest.raises(symbolic.IdentificationError, match="no actuator in the data"):
+        identify_model(model, experiment)
+    result = identify_model(model, experiment, fix=["m"])
     observation = result.observation
     rows = observation.samples
     assert observation.y.shape == (2 * rows,) and observation.W.shape[0] == 2 * rows
-    assert np.all(observation.y[rows:] == 0.0) and np.abs(observation.W[rows:]).max() > 1.0
-    reg, base = model_base(model)
-    truth = base.from_theta(theta_values(model, reg))
-    np.testing.assert_allclose(result.identification.values, truth, rtol=1e-9, atol=1e-9 * np.abs(truth).max())
+    assert np.abs(observation.W[rows:]).max() > 1.0
     assert result.parameters["Ft"].value == pytest.approx(0.02, rel=1e-9)
-    assert np.linalg.matrix_rank(observation.W[:rows]) < len(base.names)  # the cart's rows alone do not suffice
 
 
 def test_only_a_generalized_force_may_be_a_number(tmp_path: Path) -> None:
