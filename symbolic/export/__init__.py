@@ -8,12 +8,8 @@
 ['emps.c', 'emps.h']
 
 Everything is rendered in memory first, then the output directory's files are replaced as one set
-(:mod:`symbolic.export.output`): at every instant the directory holds the complete previous set or the
-complete new one, never a mixture, whatever interrupts the run (an error, Ctrl-C, SIGKILL), and the
-next run removes what an interrupted one left behind. Other files in the directory are kept. Output
-depends only on the model (its file's hash appears in each header) and the targets, never on time,
-host, path or hash seed; the banner's regeneration command names the model file without its
-directory and the output directory as ``<dir>``.
+(:mod:`symbolic.export.output`). The output depends only on the model file (its hash is in each header)
+and the targets: docs/contracts.md, "generated/ and make generate" and "Output directories".
 """
 
 from __future__ import annotations

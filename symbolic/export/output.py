@@ -1,33 +1,12 @@
-"""Replacing a directory's generated files as one set (used by :func:`symbolic.export.write_files`).
+"""Replacing a directory's generated files as one set (:func:`replace_files`, used by :func:`symbolic.export.write_files`).
 
-Guarantee: at every instant the output path names a directory holding either the complete previous
-set of files or the complete new one, never a mixture, whatever interrupts the writer (an exception,
-Ctrl-C, SIGKILL, a crash). Files in the directory that the new set does not name are kept (unless
-the caller owns the whole directory), and a run cleans up what an interrupted run left behind.
-
-How: the new set, plus hard links (or copies) of the files it does not replace, is written and
-fsync-ed into a sibling staging directory ``.OUT.symbolic-staging-XXXXXX``; the two directories are
-then exchanged in one ``renameat2(RENAME_EXCHANGE)`` system call (Linux 3.15, glibc 2.28) and the
-staging name, now holding the previous set, is deleted. Files created in the output directory while
-the set was being staged are moved over after the exchange. Each run holds an ``flock`` on the
-parent directory, so concurrent runs into one parent take turns and each can treat what it finds
-under the staging names as debris of an interrupted run, which it deletes first.
-
-Fallbacks, each chosen only when the better one fails:
-
-* no ``renameat2`` or no exchange support in the file system (ENOSYS, EINVAL, EOPNOTSUPP): the
-  output directory is renamed to ``.OUT.symbolic-previous-XXXXXX`` and the staging directory into its
-  place. Between the two renames the output path does not exist (never a mixture); if the run dies
-  there, the next run first renames the previous set back.
-* the output directory cannot be renamed at all (a mount point, a parent directory that is not
-  writable or on another file system, EXDEV/EBUSY): files are replaced one at a time through
-  temporary names ``.NAME.symbolic-partial-XXXXXX`` inside it, which guarantees complete files but
-  not a complete set; a warning says so. Leftover temporary names are removed by the next run.
-
-A reader that must see one set across several opens should open the directory once and read the
-files relative to that descriptor (``os.open(name, dir_fd=...)``): the path may be swapped between
-two opens. Processes whose working directory is the output directory keep the previous one, which
-is deleted.
+At every instant the output path holds the complete previous set or the complete new one, whatever
+interrupts the writer; files the new set does not name are kept unless the caller owns the directory.
+The set is staged and fsync-ed in a sibling ``.OUT.symbolic-staging-XXXXXX`` and exchanged in one
+``renameat2(RENAME_EXCHANGE)`` call, with two fallbacks (rename aside, then file by file with a
+warning), under an ``flock`` on the parent; each run first removes or restores what an interrupted run
+left. The guarantee, each step, the fallbacks and what a reader should do: docs/contracts.md, "Output
+directories".
 """
 
 from __future__ import annotations
