@@ -1,23 +1,13 @@
 """Measured data: data files, experiment files, and the signal treatments of identification.
 
-One entry point, :func:`load`, takes either
-
-* a **data file** with canonical columns — ``t`` and, for every coordinate ``c`` of the model,
-  ``q_c`` and ``tau_c``, optionally ``qd_c``, ``qdd_c``, ``ref_c``; other columns are kept as extra
-  signals — as CSV with a header line, NumPy ``.npz`` or MATLAB ``.mat`` (v5), or
-* an **experiment file** (``.toml``, see :mod:`symbolic.data.experiment`) that maps any such file's
-  variables onto those names by expressions, with constants, a time window, and the model and
-  controller of the experiment,
-
-and returns :class:`Measurements`. Problems are a :class:`DataError` (a
-:class:`~symbolic.errors.ModelError`) naming the file, the column or key, what is wrong and what is
-allowed: missing column, a signal for a coordinate the model does not have, length mismatch, NaN or
-infinity (column and sample), time not increasing or not uniform (the steps found; resampling only
-on request), an empty window, unknown file type, unknown variable in an expression, a constant that
-is also a variable of the file.
-
-:mod:`symbolic.data.filters` holds the zero-phase low-pass, central differences and decimation
-used on such data.
+:func:`load` reads a **data file** with the canonical columns (``t`` and, per coordinate ``c``, ``q_c``,
+``tau_c``, optionally ``qd_c``, ``qdd_c``, ``ref_c``; CSV, NumPy ``.npz`` or MATLAB ``.mat`` v5) or an
+**experiment file** (``.toml``, :mod:`symbolic.data.experiment`: a data file's variables mapped onto those
+names, constants, a window, the model and the controller) into a frozen :class:`Measurements`;
+:func:`write` writes the canonical columns back. Each problem is a one-line :class:`DataError` naming the
+file, the column or key, what is wrong and what is allowed. :mod:`symbolic.data.filters` and
+:mod:`symbolic.data.treatment` hold the zero-phase low-pass, central differences and decimation applied
+to such data. The formats, the checks and experiment files: docs/data.md.
 """
 
 from __future__ import annotations
