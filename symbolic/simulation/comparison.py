@@ -71,7 +71,7 @@ class Motion:
 
 
 def measured_motion(measurements: Measurements) -> Motion:
-    """q̇ and q̈ of the data by the identification's filtering and central differences (module docstring)."""
+    """q̇ and q̈ of the data by the identification's filtering and central differences (docs/simulation.md, "Comparison")."""
     how = treatment(measurements)
     _, qd, qdd = filtered_motion(measurements, how.cutoff, how.order)
     return Motion(qd, qdd, how)
@@ -156,7 +156,7 @@ class Comparison:
 
 
 def compare(measured: Measurements, simulated: Measurements, window: float = 1.0) -> Comparison:
-    """Compare a simulation with its log, coordinate by coordinate (module docstring).
+    """Compare a simulation with its log, coordinate by coordinate (docs/simulation.md, "Comparison").
 
     ``simulated`` must have the log's time stamps and every coordinate of the log (extra coordinates,
     e.g. modal ones, are ignored).
