@@ -71,7 +71,7 @@ class Motion:
 
 
 def measured_motion(measurements: Measurements) -> Motion:
-    """q̇ and q̈ of the data by the identification's filtering and central differences (docs/simulation.md, "Comparison")."""
+    """q̇ and q̈ of the data, filtered and differenced as for identification (docs/simulation.md, "Comparison")."""
     how = treatment(measurements)
     _, qd, qdd = filtered_motion(measurements, how.cutoff, how.order)
     return Motion(qd, qdd, how)
