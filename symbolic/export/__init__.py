@@ -7,9 +7,9 @@
 >>> [p.name for p in symbolic.export.c(model, "out")]              # out/NAME.h, out/NAME.c
 ['emps.c', 'emps.h']
 
-Everything is rendered in memory first, then the output directory's files are replaced as one set
+Everything is rendered in memory first, then written into the output folder as one set
 (:mod:`symbolic.export.output`). The output depends only on the model file (its hash is in each header)
-and the targets: docs/contracts.md, "generated/ and make generate" and "Output directories".
+and the targets: docs/contracts.md, "generated/ and make generate" and "Output folders".
 """
 
 from __future__ import annotations
@@ -135,7 +135,12 @@ def check_output_directory(path: str | os.PathLike) -> None:
     large model), so that a mistyped ``--out`` is reported at once. :func:`write_files` still
     reports what only the write itself can find out (a full disk, a race).
     """
+    if not str(path).strip():
+        raise ExportError("--out is empty: name an output folder (e.g. --out out)")
     target = Path(path)
+    if _contains(target, Path.cwd()):
+        raise ExportError(f"output folder {target} contains the working folder: name a folder inside it (e.g. --out out) "
+                          "so that the command's files stay apart from everything else here")
     existing = target
     while True:  # the nearest part of the path that exists
         try:
@@ -156,11 +161,21 @@ def check_output_directory(path: str | os.PathLike) -> None:
         raise ExportError(f"output directory {target} {what}")
 
 
+def _contains(folder: Path, inner: Path) -> bool:
+    """Whether ``inner`` is ``folder`` or inside it (symlinks resolved)."""
+    try:
+        folder, inner = Path(os.path.realpath(folder)), Path(os.path.realpath(inner))
+    except OSError:
+        return False
+    return inner == folder or folder in inner.parents
+
+
 def write_files(files: dict[str, bytes], out: str | os.PathLike, *, owned: bool = False) -> list[Path]:
     """Replace the files of ``out`` by ``files`` as one set (:mod:`symbolic.export.output`); paths sorted by name.
 
-    At every instant ``out`` holds the complete previous set or the complete new one. Other files in
-    ``out`` are kept, unless ``owned`` says the directory belongs to this set alone.
+    The command owns the files it writes and nothing else: other files and every sub-folder of ``out`` are
+    kept; the files of the previous set that the new one does not name are removed. ``owned``: the folder
+    belongs to this set alone (every other regular file in it is removed).
     """
     directory = Path(out)
     if directory.exists() and not directory.is_dir():
@@ -174,7 +189,7 @@ def write_files(files: dict[str, bytes], out: str | os.PathLike, *, owned: bool 
     try:
         replace_files(files, directory, owned=owned)
     except OSError as error:
-        raise ExportError(f"cannot write into {directory}: {error.strerror}") from None
+        raise ExportError(f"cannot write into {directory}: {error.filename or directory}: {error.strerror}") from None
     return [directory / name for name in sorted(files)]
 
 
