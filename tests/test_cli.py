@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+import models
 from symbolic import cli, robots
 
 
@@ -25,11 +26,7 @@ def test_derive_builtin_prints_compact_inertia() -> None:
 
 def test_derive_file(tmp_path: Path) -> None:
     model = tmp_path / "pendulum.toml"
-    model.write_text(
-        'name = "pendulum"\ncoordinates = ["q"]\ngravity = ["0", "-g", "0"]\n[parameters]\nm = 1.0\nl = 0.5\ng = 9.81\n'
-        '[[frame]]\nname = "1"\nparent = "base"\ndh = { theta = "q", d = "0", a = "l", alpha = "0" }\n'
-        '[[body]]\nname = "bob"\nframe = "1"\nmass = "m"\n'
-    )
+    model.write_text(models.pendulum())  # m on a massless link of length l, gravity g
     result = run("-q", "derive", str(model))
     assert result.returncode == 0, result.stderr
     assert "D[0,0] = l**2*m" in result.stdout
@@ -62,45 +59,13 @@ def test_report_of_flexible_model_lists_elastic_terms() -> None:
 
 # -- issue 15: every refusal one line, exit status 2 -----------------------------------------------
 
-TWO_LINK = """name = "arm"
-coordinates = ["q1", "q2"]
-gravity = ["0", "0", "-g"]
-[parameters]
-g = 9.81
-l1 = 0.5
-l2 = 0.4
-m1 = 1.0
-m2 = 0.5
-[[frame]]
-name = "1"
-parent = "base"
-dh = { theta = "q1", d = "0", a = "l1", alpha = "0" }
-[[frame]]
-name = "2"
-parent = "1"
-dh = { theta = THETA, d = "0", a = A, alpha = "0" }
-[[body]]
-name = "link1"
-frame = "1"
-mass = MASS
-com = ["-l1/2", "0", "0"]
-inertia = { xx = "0.001", yy = "0.02", zz = "0.02" }
-[[body]]
-name = "tip"
-frame = "2"
-mass = "m2"
-"""
 FIELDS = {"THETA": ("theta", "[[frame]] '2' dh.theta"), "A": ("a", "[[frame]] '2' dh.a"), "MASS": ("mass", "[[body]] 'link1' mass")}
 
 
 def two_link(tmp_path: Path, **fields: str) -> Path:
-    """The 2-link model with THETA, A and MASS as given (default q2, l2, m1), written to tmp_path."""
-    values = {"THETA": "q2", "A": "l2", "MASS": "m1"} | fields
-    text = TWO_LINK
-    for name, value in values.items():
-        text = text.replace(f"= {name}", f"= {json.dumps(value)}")
+    """:func:`models.two_link` with THETA, A and MASS as given (default q2, l2, m1), written to tmp_path."""
     path = tmp_path / "arm.toml"
-    path.write_text(text)
+    path.write_text(models.two_link(**{FIELDS[name][0]: value for name, value in fields.items()}))
     return path
 
 

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
+import models
 import symbolic
 from symbolic.cli import main
 from symbolic.data import DataError, Measurements, write
@@ -18,29 +19,12 @@ from symbolic.reproduction.madill import first_peak as fp
 from symbolic.simulation import simulate
 from symbolic.description import modelfile
 
-JOINT = """
-name = "joint"
-description = "one revolute joint: rotor inertia J, viscous B, Coulomb f"
-coordinates = ["q"]
-gravity = ["0", "0", "-9.81"]
-[parameters]
-J = 0.2
-B = 0.3
-f = 0.09
-[[frame]]
-name = "rotor"
-parent = "base"
-dh = { theta = "q", d = "0", a = "0", alpha = "0" }
-[[body]]
-name = "rotor"
-frame = "rotor"
-mass = "0"
-inertia = { xx = "J", yy = "J", zz = "J" }
-[[friction]]
-coordinate = "q"
-viscous = "B"
-coulomb = "f"
-"""
+
+def joint_text(parameters: str = "") -> str:
+    """One revolute joint (:func:`models.axis`): rotor inertia J, viscous B, Coulomb f, no gravity torque;
+    ``parameters``: more [parameters] lines."""
+    return models.axis(J=0.2, parameters="B = 0.3\nf = 0.09\n" + parameters, friction='viscous = "B"\ncoulomb = "f"')
+
 
 PERIOD = 1e-3
 SIGNALS = '[signals]\nt = "t"\nq_q = "q_q"\ntau_q = "tau_q"\nref_q = "ref_q"\n'
@@ -48,7 +32,7 @@ SIGNALS = '[signals]\nt = "t"\nq_q = "q_q"\ntau_q = "tau_q"\nref_q = "ref_q"\n'
 
 @pytest.fixture(scope="module")
 def joint() -> symbolic.DynamicModel:
-    return symbolic.derive(modelfile.loads(JOINT))
+    return symbolic.derive(modelfile.loads(joint_text()))
 
 
 def step_log(levels: list[float], hold: float) -> tuple[np.ndarray, np.ndarray]:
@@ -135,7 +119,7 @@ def test_derivative_term_and_delay_are_taken_out_of_the_damping(joint) -> None:
 def test_experiment_file_and_command_line(joint, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The gain declared as an expression of the model's parameters (gtau·kp), read through an experiment file."""
     model = tmp_path / "joint.toml"
-    model.write_text(JOINT.replace("f = 0.09", "f = 0.09\ngtau = 2.0"), encoding="utf-8")
+    model.write_text(joint_text("gtau = 2.0\n"), encoding="utf-8")
     controller = {"kind": "pd", "kp": [2.0], "kd": [0.0], "gain": "gtau"}
     t, reference, simulated = run(joint, {"J": 0.2, "B": 0.3, "f": 0.09}, [0.0, 0.1, -0.2, 0.3, -0.1], 5.0,
                                   {**controller, "gain": [2.0]})

@@ -16,6 +16,7 @@ import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import models
 import symbolic
 from conftest import derived
 from symbolic.derive.friction import friction_force
@@ -23,33 +24,10 @@ from symbolic.errors import ModelError
 from symbolic.numeric import natural_frequencies, numeric_model
 from symbolic.description import Directional, Drive, Force, Friction, Parameter, Stribeck
 
-AXIS = """
-name = "axis"
-coordinates = ["x"]
-gravity = ["0", "-9.81", "0"]
-
-[parameters]
-M = 2.0
-Fv = 3.0
-Fc = 1.5
-off = -0.25
-
-[[frame]]
-name = "slider"
-parent = "base"
-dh = { theta = "0", d = "x", a = "0", alpha = "0" }
-
-[[body]]
-name = "slider"
-frame = "slider"
-mass = "M"
-"""
-
-
 def axis(tmp_path: Path, extra: str, parameters: str = "") -> symbolic.DynamicModel:
-    text = AXIS.replace("off = -0.25\n", "off = -0.25\n" + parameters) + extra
+    """:func:`models.slider` with more ``parameters`` and the ``extra`` entries, written to tmp_path and derived."""
     path = tmp_path / "axis.toml"
-    path.write_text(text)
+    path.write_text(models.slider(parameters, extra))
     return symbolic.derive(symbolic.load(path))
 
 
@@ -190,7 +168,7 @@ def test_friction_without_offset_dissipates(fvp, fvn, fcp, fcn, fs, vs, offset, 
 )
 def test_bad_friction_drive_and_force_entries(tmp_path: Path, extra: str, key: str, problem: str) -> None:
     path = tmp_path / "axis.toml"
-    path.write_text(AXIS + "\n" + extra)
+    path.write_text(models.slider(extra="\n" + extra))
     with pytest.raises(ModelError) as info:
         symbolic.load(path)
     message = str(info.value)
@@ -202,7 +180,7 @@ def test_cli_reports_a_bad_friction_entry_in_one_line(tmp_path: Path) -> None:
     from symbolic.cli import main
 
     path = tmp_path / "axis.toml"
-    path.write_text(AXIS + '\n[[friction]]\ncoordinate = "x"\nviscous = "-Fv"\n')
+    path.write_text(models.slider(extra='\n[[friction]]\ncoordinate = "x"\nviscous = "-Fv"\n'))
     import contextlib
     import io
 

@@ -16,6 +16,7 @@ import casadi
 import numpy as np
 import pytest
 
+import models
 import symbolic
 from c_library import STRICT, CModel, compile_shared, gcc
 from symbolic.numeric import numeric_model
@@ -23,53 +24,8 @@ from symbolic.numeric import numeric_model
 M, A, G = 2.0, 0.5, 9.81  # the single pendulum: mass, length, gravity
 M1, M2, L1, L2 = 1.0, 0.8, 0.5, 0.4  # the double pendulum
 
-SINGLE = f"""
-name = "pendulum1"
-description = "point mass on a massless link, every value inline"
-coordinates = ["q1"]
-gravity = ["0", "-{G}", "0"]
-
-[[frame]]
-name = "1"
-parent = "base"
-dh = {{ theta = "q1", d = "0", a = "{A}", alpha = "0" }}
-
-[[body]]
-name = "bob"
-frame = "1"
-mass = "{M}"
-
-[end_effector]
-frame = "1"
-point = ["0", "0", "0"]
-"""
-
-DOUBLE = f"""
-name = "pendulum2"
-description = "planar double pendulum, every value inline"
-coordinates = ["q1", "q2"]
-gravity = ["0", "-{G}", "0"]
-
-[[frame]]
-name = "1"
-parent = "base"
-dh = {{ theta = "q1", d = "0", a = "{L1}", alpha = "0" }}
-
-[[frame]]
-name = "2"
-parent = "1"
-dh = {{ theta = "q2", d = "0", a = "{L2}", alpha = "0" }}
-
-[[body]]
-name = "bob1"
-frame = "1"
-mass = "{M1}"
-
-[[body]]
-name = "bob2"
-frame = "2"
-mass = "{M2}"
-"""
+SINGLE = models.pendulum("pendulum1", ("q1",), (M,), (A,), G, inline=True, end_effector=True)
+DOUBLE = models.pendulum("pendulum2", ("q1", "q2"), (M1, M2), (L1, L2), G, inline=True)
 
 
 def single_reference(q, qd, qdd):

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+import models
 import symbolic
 import symbolic.export as export
 import workflow_cases as cases
@@ -45,8 +46,8 @@ VALUES = {"Ps": 0.07, "Pc": -0.03, "H": 0.2}
 
 
 def mains_text() -> str:
-    parameters = cases.ARM_PARAMETERS + "".join(f"{k} = {v}\n" for k, v in VALUES.items())
-    return cases.arm(parameters=parameters, extra=MAINS)
+    parameters = models.ARM_PARAMETERS + "".join(f"{k} = {v}\n" for k, v in VALUES.items())
+    return models.arm(parameters=parameters, extra=MAINS)
 
 
 def load(text: str, name: str = "<mains>"):
@@ -94,7 +95,7 @@ def test_cli_refuses_time_outside_forces_in_one_line(tmp_path: Path, capsys) -> 
 
 def test_the_derived_model_holds_time(model) -> None:
     assert model.time_varying and model.time.name == "t"
-    assert not symbolic.derive(load(cases.arm())).time_varying
+    assert not symbolic.derive(load(models.arm())).time_varying
     assert model.time in model.applied.free_symbols and model.time in model.inverse_dynamics.free_symbols
     assert model.time not in model.D.free_symbols and model.time not in model.gravity.free_symbols
 
@@ -122,7 +123,7 @@ def test_numeric_model_takes_the_time(model) -> None:
 
 
 def test_a_model_without_time_is_unchanged() -> None:
-    model = symbolic.derive(load(cases.arm()))
+    model = symbolic.derive(load(models.arm()))
     specs = {s.name: s.inputs for s in function_specs(model)}
     assert specs["applied"] == ("q", "qd", "p") and specs["inverse_dynamics"] == ("q", "qd", "qdd", "p")
     assert specs["regressor"] == ("q", "qd", "qdd", "p")
@@ -205,8 +206,8 @@ def test_the_simulator_applies_the_force_at_each_instant() -> None:
     """Replaying a torque (zero-order hold) on an axis with a disturbance in time: the simulator's RK4
     agrees with solve_ivp of NumericModel.state_derivative(t=…) to 1e-8 of the motion; started 3 s later
     (other phases of the disturbance), the motion differs."""
-    text = cases.axis(parameters="Fv = 0.3\nA = 0.12\n", friction='viscous = "Fv"',
-                      extra=f'[[force]]\nname = "mains"\ncoordinate = "q"\nexpression = "-A*sin(2*pi*{F1}*t + 0.4)"\n')
+    text = models.axis(parameters="Fv = 0.3\nA = 0.12\n", friction='viscous = "Fv"',
+                       extra=f'[[force]]\nname = "mains"\ncoordinate = "q"\nexpression = "-A*sin(2*pi*{F1}*t + 0.4)"\n')
     model = symbolic.derive(load(text))
     num = numeric_model(model)
     runs = []

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import scipy.stats
 
+import models
 import symbolic
 import workflow_cases as cases
 from symbolic.workflow import diagnose
@@ -71,7 +72,7 @@ def test_corrected_f_test_holds_its_level_on_coloured_noise() -> None:
 
 
 def test_split_and_slice_keep_every_signal() -> None:
-    m = cases.measurements(cases.axis(), 1, 0.0, seconds=2.0)
+    m = cases.measurements(models.axis(), 1, 0.0, seconds=2.0)
     first, last = split(m)
     assert first.samples + last.samples == m.samples
     assert last.t[0] > first.t[-1] and last.samples == round(0.2 * m.samples)
@@ -80,7 +81,7 @@ def test_split_and_slice_keep_every_signal() -> None:
 
 
 def test_where_points_at_velocity_for_a_missing_coulomb_term(tmp_path: Path) -> None:
-    model, truth = cases.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'), cases.axis()
+    model, truth = models.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'), models.axis()
     d = diagnose(cases.model_file(tmp_path, model), cases.measurements(truth, 1, 0.01), figures=False)
     where = d.where_before["coordinates"]["q"]
     eta = {kind: where[kind]["eta_squared"] for kind in ("position", "velocity", "acceleration")}
@@ -91,7 +92,7 @@ def test_where_points_at_velocity_for_a_missing_coulomb_term(tmp_path: Path) -> 
 
 
 def test_output_is_byte_identical_from_run_to_run(tmp_path: Path) -> None:
-    model, truth = cases.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'), cases.axis()
+    model, truth = models.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'), models.axis()
     data, path = cases.measurements(truth, 1, 0.01), cases.model_file(tmp_path, model)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", symbolic.ModelWarning)
@@ -106,8 +107,8 @@ def test_output_is_byte_identical_from_run_to_run(tmp_path: Path) -> None:
 
 
 def test_a_model_without_a_file_is_diagnosed_but_not_patched() -> None:
-    robot = symbolic.loads(cases.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'), "<python>")
-    d = diagnose(robot, cases.measurements(cases.axis(), 1, 0.01))
+    robot = symbolic.loads(models.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'), "<python>")
+    d = diagnose(robot, cases.measurements(models.axis(), 1, 0.01))
     assert [f.effect for f in d.found] == ["coulomb"] and d.patched_path is None and d.patched_text is None
     assert d.after.gap["validation"] < 0.1 * d.before.gap["validation"]
     assert any("no file" in note for note in d.notes)
@@ -149,7 +150,7 @@ def test_the_held_out_tail_continues_the_record_for_a_resonance() -> None:
 
 
 def test_only_the_held_out_tail_of_the_record_continues_it() -> None:
-    data = cases.measurements(cases.axis(), 2, 0.01, seconds=10.0)
+    data = cases.measurements(models.axis(), 2, 0.01, seconds=10.0)
     estimation, held, _ = load_sets(("q",), data)
     assert estimation.record is None and held.record is not None and held.start == estimation.measurements.samples
     assert np.allclose(held.record.measurements.q[held.start:], held.measurements.q)
@@ -171,7 +172,7 @@ def test_a_replaced_parameter_leaves_the_patched_file() -> None:
 
     from symbolic.workflow.patch import Editor
 
-    text = cases.axis(parameters="Fv = 0.3\nFc = 0.4\nspare = 1.0\n")
+    text = models.axis(parameters="Fv = 0.3\nFc = 0.4\nspare = 1.0\n")
     robot = symbolic.loads(text, "axis.toml")
     editor = Editor(text, robot, "axis.toml")
     positive = editor.parameter("Fvp_q", 0.2, "test")

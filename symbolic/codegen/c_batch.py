@@ -1,19 +1,9 @@
 """A C function evaluating one straight-line program over many samples (for compiled identification).
 
-The exported ``NAME_regressor`` (templates/model.c.j2) evaluates one sample per call; identification
-evaluates the base regressor at tens of thousands of samples, where a Python or NumPy loop pays an
-interpreter cost per statement. :func:`batch_source` prints the program once inside a loop over
-samples:
-
-.. code-block:: c
-
-    void NAME(long samples, const double *a0, const double *a1, ..., const double *fixed, double *out);
-
-Varying inputs are ``samples × len(group)`` row-major arrays; the last group (parameters) is the same
-for every sample, and statements that depend on it alone are computed once before the loop. Each
-output row is ``len(outputs)`` doubles. No CSE is run here: the derivation's intermediates already
-share the work (a SymPy ``cse`` over the Panda's base regressor saves 6 % of the operations and costs
-2 s).
+:func:`batch_source` prints the program of a derivation's intermediates (the base regressor) once,
+inside a loop over samples: identification evaluates it at tens of thousands of samples, where a Python
+or NumPy loop pays an interpreter cost per statement, while the exported ``NAME_regressor`` evaluates one
+sample per call. When it is used and how it is compiled: docs/data.md, "IDIM-LS".
 """
 
 from __future__ import annotations
@@ -33,7 +23,14 @@ def batch_source(
     fixed: Sequence[sp.Symbol],
     outputs: Sequence[sp.Expr],
 ) -> str:
-    """C99 source of ``name`` (module docstring) evaluating ``outputs`` for each sample.
+    """C99 source of ``name`` evaluating ``outputs`` for each sample.
+
+    .. code-block:: c
+
+        void NAME(long samples, const double *a0, const double *a1, ..., const double *fixed, double *out);
+
+    Varying inputs are ``samples × len(group)`` row-major arrays; the last group (parameters) is the
+    same for every sample, and statements that depend on it alone are computed once before the loop.
 
     Parameters
     ----------
@@ -44,6 +41,8 @@ def batch_source(
     outputs : the expressions, written row-major into ``out + sample·len(outputs)``
     """
     outputs = [sp.sympify(e) for e in outputs]
+    # no CSE here: the derivation's intermediates already share the work (a SymPy ``cse`` over the
+    # Panda's base regressor saves 6 % of the operations and costs 2 s)
     definitions = sub.program(outputs)
     fixed_set = set(fixed)
     slots = {s: f"a{g}[{i}]" for g, group in enumerate(varying) for i, s in enumerate(group)}

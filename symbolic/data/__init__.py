@@ -1,25 +1,13 @@
 """Measured data: data files, experiment files, and the signal treatments of identification.
 
-One entry point, :func:`load` (:mod:`symbolic.data.experiment`), takes either
-
-* a **data file** with canonical columns — ``t`` and, for every coordinate ``c`` of the model,
-  ``q_c`` and ``tau_c`` (or the drive signal ``u_c``, times the model's ``[[drive]] gain``),
-  optionally ``qd_c``, ``qdd_c``, ``ref_c``; other columns are kept as extra signals — as CSV with a
-  header line, NumPy ``.npz`` or MATLAB ``.mat`` (v5), or
-* an **experiment file** (``.toml``) that maps any such file's variables onto those names by
-  expressions, with constants, a time window, the model, the data treatment (``[identification]``)
-  and the controller (``[controller]``) of the experiment,
-
-and returns an :class:`Experiment` (:class:`Measurements` with the experiment's model, treatment
-settings, controller and validation set), every table checked once. Problems are a
-:class:`DataError` naming the file, the column or key, what is wrong and what is allowed: missing
-column, a signal for a coordinate the model does not have, length mismatch, NaN or infinity (column
-and sample), time not increasing or not uniform (the steps found; resampling only on request), an
-empty window, unknown file type, a CSV file without a header line, unknown variable in an
-expression, a constant that is also a variable of the file, an unknown key of any table.
-
-:mod:`symbolic.data.filters` holds the zero-phase low-pass, central differences and decimation
-used on such data.
+:func:`load` reads a **data file** with the canonical columns (``t`` and, per coordinate ``c``, ``q_c``,
+``tau_c`` or the drive signal ``u_c``, optionally ``qd_c``, ``qdd_c``, ``ref_c``; CSV, NumPy ``.npz`` or
+MATLAB ``.mat`` v5) or an **experiment file** (``.toml``, :mod:`symbolic.data.experiment`) into an
+:class:`Experiment` (:class:`Measurements` with the experiment's model, treatment settings, controller and
+validation set), every table checked once; :func:`write` writes the canonical columns back. Each problem is
+a one-line :class:`DataError` naming the file, the column or key, what is wrong and what is allowed.
+:mod:`symbolic.data.filters` and :mod:`symbolic.data.treatment` hold the zero-phase low-pass, central
+differences and decimation applied to such data. The formats, the checks and experiment files: docs/data.md.
 """
 
 from __future__ import annotations

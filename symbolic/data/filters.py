@@ -1,23 +1,11 @@
 """Zero-phase low-pass filtering, central differences and decimation of sampled signals.
 
-These are the data treatments of the inverse-dynamics identification (IDIM-LS) as Gautier and Janot
-apply them, and of the comparison of simulated with measured motion; they live in the data layer so
-that both :mod:`symbolic.identify` and :mod:`symbolic.numeric` can use the same ones.
-
-Conventions follow MATLAB's ``filtfilt`` and ``decimate``, with which the published EMPS results
-were computed (Janot, Gautier, Brunot 2019), so that those numbers are reproduced to their printed
-digits:
-
-* :func:`lowpass`: Butterworth, forward and backward (zero phase, squared magnitude), the signal
-  extended at each end by its odd reflection over ``3·order`` samples (MATLAB's ``3*(nfilt-1)``;
-  SciPy's own default is ``3·(order+1)``), second-order sections for numerical robustness;
-* :func:`central_difference`: ``(x[k+1] − x[k−1])/(2h)`` inside, one-sided at the two ends;
-* :func:`decimate`: Chebyshev type I low-pass (order 8, 0.05 dB ripple, cut-off 0.8 of the new
-  Nyquist frequency), forward and backward with a ``3·8``-sample odd reflection, then every n-th
-  sample counted back from the last one (MATLAB keeps the last sample; ``scipy.signal.decimate``
-  keeps the first).
-
-All functions work along ``axis`` (default 0, the sample axis) of arrays of any shape.
+The data treatments of the inverse-dynamics identification (IDIM-LS) as Gautier and Janot apply them,
+and of the comparison of simulated with measured motion, in the data layer so that identification and
+simulation use the same ones. :func:`lowpass` and :func:`decimate` follow MATLAB's ``filtfilt`` and
+``decimate``, with which the published EMPS results were computed (Janot, Gautier, Brunot 2019), so that
+those numbers are reproduced to their printed digits (docs/data.md, "IDIM-LS" and "EMPS"). Every
+function works along ``axis`` (default 0, the sample axis) of arrays of any shape.
 """
 
 from __future__ import annotations
@@ -35,6 +23,10 @@ DECIMATION_RIPPLE = 0.05
 
 def lowpass(x: np.ndarray, cutoff: float, rate: float, order: int = 4, axis: int = 0) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``x`` sampled at ``rate``.
+
+    Forward and backward (zero phase, squared magnitude), in second-order sections for numerical
+    robustness, the signal extended at each end by its odd reflection over ``3·order`` samples
+    (MATLAB's ``3*(nfilt-1)``; SciPy's own default is ``3·(order+1)``).
 
     Parameters
     ----------
@@ -78,6 +70,9 @@ def central_difference(x: np.ndarray, step: float, axis: int = 0) -> np.ndarray:
 def decimate(x: np.ndarray, factor: int, axis: int = 0) -> np.ndarray:
     """Low-pass ``x`` and keep every ``factor``-th sample, the last sample always kept.
 
+    The low-pass is a Chebyshev type I filter (order 8, 0.05 dB ripple, cut-off 0.8 of the new Nyquist
+    frequency) run forward and backward with a ``3·8``-sample odd reflection; the samples kept are
+    counted back from the last one (MATLAB keeps the last sample, ``scipy.signal.decimate`` the first).
     ``factor = 1`` returns a copy of ``x`` unfiltered. Applied with the same ``factor`` to the
     torques and to every column of the regressor ("parallel decimation"), the filter, which is linear,
     keeps ``τ = W·β`` exact sample by sample (its border transients included).

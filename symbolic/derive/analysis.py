@@ -1,24 +1,14 @@
 """Decoupling and gravity-balancing conditions, and counterbalance design (Madill 4.2.1–4.2.4).
 
-Every configuration-dependent quantity is brought to the canonical trigonometric form of
-:func:`symbolic.simplify.reduce_pythagoras` (sin/cos of sums expanded, each sine at most linear),
-in which distinct monomials in sin qᵢ, cos qᵢ (and powers of other coordinates and of velocities)
-are linearly independent functions. A quantity vanishes identically exactly when the coefficient of
-every monomial — a combination of parameters — vanishes; those combinations are the conditions:
-
-* ``decoupling``: off-diagonal entries of D(Q) vanish (Madill 4.2.2, (4.6)/(4.9): α₃ = 0);
-* ``constant_inertia``: a diagonal entry of D(Q) does not depend on Q;
-* ``coriolis``: row k of (I⊗Q̇ᵀ)CQ̇ does not depend on Q_j or Q̇_j (4.2.3: "no coupling between q₁
-  and q₂ even in the Coriolis and centripetal terms");
-* ``balancing``: V_g(Q) does not depend on Q, i.e. g ≡ 0 (4.2.1, (4.2)/(4.3)).
-
-A factor that is a single parameter (g, a length) is set aside as "assumed non-zero": g = 0 is no
-design. Each condition is checked numerically for a parameter set: its value, the size of its terms
-and whether it holds to a relative tolerance of 1e-9.
-
-Expanding a quantity into monomials costs time and memory in proportion to its expanded size, so
-entries larger than :data:`symbolic.derive.simplify.SIZE_LIMIT` (the Panda's Coriolis rows) are not
-analysed; they are listed in :attr:`Analysis.skipped` and in the output, never dropped silently.
+:func:`decoupling` returns, for a derived model, the parameter combinations that must vanish for D(Q) to
+be diagonal (``decoupling``, Madill (4.6)/(4.9): α₃ = 0), for a diagonal entry of D(Q) to be constant
+(``constant_inertia``), for a Coriolis row to be free of a coordinate and its velocity (``coriolis``,
+4.2.3) and for V_g(Q) to be constant (``balancing``, (4.2)/(4.3)), each checked at a parameter set to a
+relative tolerance of :data:`RELATIVE_TOLERANCE` (an :class:`Analysis`); :func:`counterbalance` solves
+them for chosen parameters (4.2.4, a :class:`Design`). A condition is the coefficient of one
+trigonometric monomial in the canonical form of :func:`symbolic.derive.simplify.reduce_pythagoras`;
+entries larger than :data:`symbolic.derive.simplify.SIZE_LIMIT` are not analysed but listed in
+:attr:`Analysis.skipped`. The method and why: docs/architecture.md, "Decoupling and balancing".
 """
 
 from __future__ import annotations

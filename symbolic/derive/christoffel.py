@@ -4,9 +4,8 @@ Madill (3.81): C(Q) = Z D'(Q)ᵀ with D' = ∂D/∂Q = [∂D/∂Q_1 … ∂D/∂
 Z = T_NN − ½ I_{N²}, T_NN the permutation of (3.2). C is N²×N, partitioned into N×N blocks C_k; the
 centripetal/Coriolis vector is (I_N ⊗ Q̇ᵀ) C Q̇ (3.82), whose k-th entry is Q̇ᵀ C_k Q̇.
 
-Taken literally, the blocks of Z D'ᵀ are not symmetric; their symmetric parts are the Christoffel
-symbols of the first kind c_ijk = ½(∂d_kj/∂Q_i + ∂d_ki/∂Q_j − ∂d_ij/∂Q_k) and the quadratic form is
-the same (docs/contracts.md). We store the symmetric form and keep the literal one for comparison.
+The symmetric form c_ijk = ½(∂d_kj/∂Q_i + ∂d_ki/∂Q_j − ∂d_ij/∂Q_k) is stored and the literal Z D'ᵀ kept
+for comparison: they give the same (3.82) (why both: docs/contracts.md, "Python API").
 
 The Coriolis matrix C(Q,Q̇)_kj = Σ_i c_ijk Q̇_i satisfies C(Q,Q̇)Q̇ = (I⊗Q̇ᵀ)CQ̇ and makes Ḋ − 2C(Q,Q̇)
 skew-symmetric.

@@ -11,9 +11,7 @@ A beam clamped at frame e with modal coordinates ν (deflection v along y_e) and
 * gravity (3.78)–(3.79): V = −m_f g₀ᵀ(R p_cm + d), p_cm = [l/2, ν ᵀα_v/l, ηᵀα_w/l]ᵀ (3.67), and the tip mass;
 * strain (3.80): V_s = ½EI_v νᵀΛ_vν + ½EI_w ηᵀΛ_wη.
 
-Small deflections as in the thesis: the beam is a line (no rotary inertia of its cross-sections),
-no axial shortening, and (v')² = (w')² = v'w' ≈ 0; the terms quadratic in ν, η that Ξ₃ carries
-(νᵀν, ηᵀη, νᵀγη) are kept, as Madill keeps them.
+The small-deflection assumptions (as Madill's): docs/model-format.md, "Beams".
 """
 
 from __future__ import annotations

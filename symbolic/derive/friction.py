@@ -1,17 +1,13 @@
 """Friction laws: the generalized friction force f(q̇) of each [[friction]] entry (Janot (15)–(17)).
 
-Per coordinate (docs/model-format.md, "Friction")
+Per coordinate (docs/model-format.md, "Friction, drives and applied forces"), entering τ = D q̈ + … + f:
 
     f = Fv·q̇ + Fc·sign(q̇) + offset                                   Janot (15) and its offset (1)
     Coulomb with Stribeck:  (Fc + (Fs − Fc)·exp(−(q̇/vs)²))·sign(q̇)
     direction-dependent:    Fv⁺, Fc⁺ for q̇ > 0 and Fv⁻, Fc⁻ for q̇ < 0
 
-f opposes the motion for non-negative coefficients (q̇·(f − offset) ≥ 0) and enters
-τ = D q̈ + … + f. Direction-dependent terms are written with s = sign(q̇) as polynomials,
-(s² + s)/2 = [q̇ > 0] and (s² − s)/2 = [q̇ < 0], so that the law stays linear in its coefficients
-(for the regressor) and prints as plain arithmetic in C and CasADi. At q̇ = 0 exactly the Coulomb
-and Stribeck parts are zero (sign(0) = 0); how a simulation handles sticking is the simulator's
-business.
+:func:`friction_force` gives f of one entry, :func:`friction_vector` the vector of a robot, with friction
+at a constrained coordinate mapped through Janot (12) (:mod:`symbolic.derive.transmission`).
 """
 
 from __future__ import annotations
@@ -23,12 +19,17 @@ from symbolic.description.robot import Directional, Friction, Robot, velocity_sy
 
 
 def positive_part(s: sp.Expr) -> sp.Expr:
-    """[q̇ > 0] from s = sign(q̇)."""
+    """[q̇ > 0] from s = sign(q̇), as the polynomial (s² + s)/2.
+
+    Direction-dependent terms are written as polynomials in s (this and :func:`negative_part`) so that
+    the law stays linear in its coefficients (for the regressor) and prints as plain arithmetic in C and
+    CasADi.
+    """
     return (s**2 + s) / 2
 
 
 def negative_part(s: sp.Expr) -> sp.Expr:
-    """[q̇ < 0] from s = sign(q̇)."""
+    """[q̇ < 0] from s = sign(q̇), as the polynomial (s² − s)/2."""
     return (s**2 - s) / 2
 
 

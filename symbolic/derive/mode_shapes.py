@@ -13,12 +13,9 @@ stays a runtime parameter:
     Λᵢ = ∫(φᵢ'')² dx = kᵢ⁴ / l⁴               (3.80), (B.16)
     γ = ∫φψᵀ dx = I (identical shapes in both directions, orthonormal)   (3.71)
 
-The roots kᵢ and every constant above are computed with mpmath at PRECISION decimal digits (on
-cos k + 1/cosh k = 0, the same equation without overflow) and kept as SymPy Floats of that precision
-through the derivation, so a constant printed in generated code is rounded to a double once, when it
-is printed. Nothing here goes through numpy, scipy or the C library, whose results may differ in the
-last bit between processors (the generated code must be byte-identical on every machine); the
-closed forms are checked against quadrature in the tests.
+The roots kᵢ and every constant are computed with mpmath at :data:`PRECISION` decimal digits and kept
+as SymPy Floats, never through numpy, scipy or the C library (docs/contracts.md, "generated/ and make
+generate").
 """
 
 from __future__ import annotations

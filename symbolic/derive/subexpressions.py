@@ -1,18 +1,12 @@
 """Named intermediate expressions with chain-rule differentiation.
 
-Deriving dynamics by expanding everything makes expressions explode (a plain Lagrangian of a
-7-DOF arm has tens of thousands of operations). Instead every non-trivial quantity built during
-the derivation — a rotated vector component, a composite-inertia entry, a Jacobian column — is
-registered here under a fresh symbol ``_x<n>`` together with its (small) definition. Outputs are
-then short expressions in these symbols, the definitions form a straight-line program that code
-generators print directly, and identical definitions are shared automatically.
-
-Derivatives with respect to coordinates and velocities are taken by the chain rule through the
-definitions (forward mode), memoized per (symbol, variable) and registered in turn, so ∂D/∂Q for
-the Christoffel symbols costs a small multiple of D itself. The derivative of sign(v) is taken as
-zero (its value everywhere but at v = 0), so friction laws linearise as they behave in motion.
-
-The fully expanded SymPy form of any result is available through :meth:`Subexpressions.expand`.
+:class:`Subexpressions` registers each non-trivial quantity of a derivation (a rotated vector component,
+a composite-inertia entry, a Jacobian column) under a fresh symbol ``_x<n>`` with its short definition,
+sharing identical definitions; outputs are short expressions in these symbols, the definitions a
+straight-line program that code generators print. Derivatives in coordinates and velocities are taken by
+the chain rule through the definitions (forward mode, memoized; d sign(v)/dv = 0);
+:meth:`Subexpressions.expand` gives the fully expanded SymPy form. Why: docs/architecture.md,
+"Intermediate symbols".
 """
 
 from __future__ import annotations

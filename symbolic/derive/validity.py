@@ -1,22 +1,12 @@
 """A derived model's values at its nominal parameters: finite and real, or refused.
 
-The expression parser (:mod:`symbolic.description.expressions`) refuses what is visibly infinite or
-complex within one expression (``l2/0``, ``sqrt(-1)``), and validation evaluates expressions of
-parameters alone. What shows only in the assembled model — a mass ``m1/(l2 - 0.4)`` with
-``l2 = 0.4`` entering D, a joint angle ``acos(l2 + q2**2)`` with ``l2 = 3`` — is found here:
-:func:`check_values` evaluates the derived D(Q), g(Q), k(Q), friction, applied forces and τ, in
-the double-precision arithmetic of the generated code, at the nominal parameters.
-
-It runs in the derive layer (called by :func:`symbolic.derive.dynamics.derive`) rather than in
-``symbolic.numeric`` so that every user of a model — the library, ``derive``, ``analyze`` and
-``generate`` — gets the same refusal before any output is produced. It therefore cannot use
-:func:`symbolic.codegen.functions.compile_function`, and evaluates the same straight-line program
-the same way: :func:`sympy.lambdify` with Python's ``math`` module.
-
-An entry is refused when it is not finite or not real at *every* configuration tried (Q = 0 and
-:data:`SEEDED_CONFIGURATIONS` seeded ones): a problem in the parameters shows at all of them, while
-an expression defined only on part of a joint's range (``sqrt(q2)``, a closed loop through
-``acos``) is left alone.
+:func:`check_values` (called at the end of :func:`symbolic.derive.dynamics.derive`) evaluates D(Q), g(Q),
+k(Q), friction, applied forces and τ at the nominal parameters in double precision (the straight-line
+program through :func:`sympy.lambdify` with Python's ``math``), at Q = 0 and
+:data:`SEEDED_CONFIGURATIONS` seeded configurations, and raises a one-line
+:class:`~symbolic.errors.ModelError` for an entry that is not finite or not real at all of them. The
+rule: docs/model-format.md, "Limits"; why in the derive layer: docs/architecture.md, "Equations of
+motion".
 """
 
 from __future__ import annotations

@@ -6,13 +6,10 @@ tree and runs nothing) and the tree is translated node by node against a whiteli
 declared symbols, the operators ``+ - * / **``, parentheses, ``pi`` and the functions in
 :data:`FUNCTIONS`. Anything else is refused with a message naming the source, key and text.
 
-Model files come from other people, so size is bounded before anything is built (the limits are
-stated in docs/model-format.md): the text's length (:data:`MAX_LENGTH`) before Python's parser sees
-it, the nesting depth (:data:`MAX_DEPTH`) while translating, and every exponent
-(:data:`MAX_EXPONENT`) and every number (:data:`MAX_MAGNITUDE`, :data:`MAX_DIGITS`) before SymPy
-computes a power or folds constants, since SymPy evaluates ``10**10**10`` exactly and would run for
-minutes. Each sub-expression is refused as soon as it is not finite or not real (``l2/0``,
-``log(0)``, ``sqrt(-1)``), naming the offending part.
+Size is bounded before anything is built — the text's length (:data:`MAX_LENGTH`), the nesting depth
+(:data:`MAX_DEPTH`), every exponent (:data:`MAX_EXPONENT`) and number (:data:`MAX_MAGNITUDE`,
+:data:`MAX_DIGITS`) — and each sub-expression is refused as soon as it is not finite or not real: the
+limits, when each is checked and why: docs/model-format.md, "Limits".
 """
 
 from __future__ import annotations

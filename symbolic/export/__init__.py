@@ -8,10 +8,8 @@
 ['emps.c', 'emps.h']
 
 Everything is rendered in memory first, then written into the output folder as one set
-(:mod:`symbolic.export.output`: the command owns its files and nothing else; an interrupted run is
-completed or undone by the next). Output depends only on the model (its file's hash appears in each header) and the targets, never on time,
-host, path or hash seed; the banner's regeneration command names the model file without its
-directory and the output directory as ``<dir>``.
+(:mod:`symbolic.export.output`). The output depends only on the model file (its hash is in each header)
+and the targets: docs/contracts.md, "generated/ and make generate" and "Output folders".
 """
 
 from __future__ import annotations

@@ -1,26 +1,12 @@
 """Writing a command's set of files into an output folder it does not own (:func:`symbolic.export.write_files`).
 
-The command owns the files it writes and nothing else (docs/contracts.md, "Output folders"):
-
-* the folder is created when missing and otherwise left as it is: never renamed, replaced, re-owned or
-  chmod-ed; its sub-folders, mounts and every file the set does not name are never read, copied, moved or
-  deleted, so files other processes write into it during a run stay;
-* each file is written under a temporary name ``.NAME.symbolic-partial-XXXXXXXX`` beside its final name,
-  flushed to disk, then renamed over it: a reader sees the old file or the new one, never a part; a file
-  that exists keeps its permissions (and its owner, where the writer may set it);
-* the set: the renames and removals are listed in a journal (``.symbolic-journal.json``) once every new
-  file is on disk, and carried out after it. A run that dies before the journal leaves the previous set
-  and temporary files that the next run into the folder removes; one that dies after it is completed by
-  the next run (rolled forward) before anything else, so the folder returns to one complete set;
-* the previous set is known from a manifest (``.symbolic-manifest.json``: each file's name and SHA-256):
-  its files that the new set does not name are removed (the stale figures of an earlier diagnosis), unless
-  they changed since they were written — then they are kept, with a warning;
-* ``owned`` folders (``generated/NAME``: the folder belongs to this set alone) keep no manifest: every
-  regular file the set does not name is removed; sub-folders are still left alone.
-
-Concurrent runs into one folder take turns (an ``flock`` on the folder). Between the first and the last
-rename of a run a reader may see files of both sets (milliseconds); :func:`recover` completes the set a
-dead run left.
+:func:`replace_files` makes a folder hold a set of files (name: content): each written beside its final
+name as ``.NAME.symbolic-partial-XXXXXXXX``, flushed and renamed over it; the renames and removals listed
+first in a journal (``.symbolic-journal.json``) so that a dead run is rolled forward; the previous set
+known from a manifest (``.symbolic-manifest.json``), whose files the new set does not name are removed
+unless changed since; ``owned`` folders (``generated/NAME``) keep no manifest. Nothing else in the folder
+is touched, and concurrent runs take turns (an ``flock``); :func:`recover` completes the set a dead run
+left. The contract, step by step: docs/contracts.md, "Output folders".
 """
 
 from __future__ import annotations
@@ -54,7 +40,7 @@ _LEGACY_TEMPORARY = re.compile(r"\.(?P<name>.+)\.[a-z0-9_]{8}\.tmp")
 
 
 def replace_files(files: Mapping[str, bytes], directory: Path, *, owned: bool = False) -> None:
-    """Make ``directory`` hold ``files`` (name: content) as one set (see the module doc).
+    """Make ``directory`` hold ``files`` (name: content) as one set (docs/contracts.md, "Output folders").
 
     Raises OSError when the folder cannot be written; ValueError for a name that is not a plain file name.
     """

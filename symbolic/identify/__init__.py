@@ -1,12 +1,11 @@
 """Identification of model parameters from measured data by IDIM-LS (inverse dynamic model, least squares).
 
-Given a regressor ``Y(q, q̇, q̈)`` with ``τ = Y·β`` (a callable ``regressor(q, qd, qdd)`` returning
-``samples × N × P``) and parameter names, :func:`identify` treats the measurements as Gautier and Janot
-do (:mod:`symbolic.identify.processing`: zero-phase low-pass of positions, central differences, border
-samples dropped, parallel decimation of τ and Y, stacking over coordinates) and solves the stacked
-system by ordinary or weighted least squares (:mod:`symbolic.identify.least_squares`), returning each
-parameter's value, σ and relative σ, cond(W) and the relative error. :func:`cross_validate` gives the
-relative error on another data set; :func:`run` does it all from files (for the command line).
+:func:`identify` takes measurements, a regressor ``regressor(q, qd, qdd)`` returning Y (``samples × N ×
+P``, τ = Y·β) and the parameter names, treats the data as Gautier and Janot do and solves the stacked
+system by ordinary or weighted least squares: an :class:`Identification` (each parameter's value, σ and
+relative σ, cond(W), the relative error). :func:`cross_validate` gives the relative error on another
+data set; :func:`run` does it all from files (for the command line). The treatment, the estimator and
+its statistics: docs/data.md, "IDIM-LS".
 
 Example (the 1-DOF EMPS model τ = M q̈ + Fv q̇ + Fc sign(q̇) + offset)::
 

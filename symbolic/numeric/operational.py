@@ -1,22 +1,17 @@
 """What the hand on the end effector feels: apparent mass, stiffness and friction (Janot (18)–(20)).
 
-Operational-space (apparent) inertia at the model's ``end_effector`` point (linear part, 3×3):
+For a model with an ``end_effector``, at a configuration Q:
 
-    Φ = J D⁻¹ Jᵀ  (the mobility: ẍ = Φ F for a force F at the point, from rest, without other forces)
-    Λ = Φ⁻¹,   m_u = uᵀu / (uᵀ Φ u)  (the mass felt pushing along u with the point free in the other directions)
+    Φ = J D⁻¹ Jᵀ (:func:`mobility`),   Λ = Φ⁻¹ (:func:`operational_inertia`, Janot's M_op),
+    m_u = uᵀu / (uᵀ Φ u) (:func:`apparent_mass`: the mass felt pushing along u),
+    B_op = J̄ᵀF_vJ̄,  K_op = J̄ᵀK J̄,  F_cop = J̄ᵀF_c (:func:`handle_characteristics`),  K_tot of (19),
 
-Janot's M_op = J⁻ᵀ A J⁻¹ (A = D) is the same Λ when J is square and invertible. Λ and m_u are computed
-numerically from D(Q) and J(Q) (a symbolic inverse is far too large beyond three coordinates): with
-the Cholesky factor D = R Rᵀ, W = R⁻¹Jᵀ and Φ = WᵀW, m_u = |u|²/|W u|² — the same arithmetic as the
-generated C (``NAME_apparent_mass``, ``NAME_operational_inertia``) and CasADi functions.
-
-Stiffness and friction are mapped as Janot (18) does, B_op = J⁻ᵀF_vJ⁻¹, K_op = J⁻ᵀK_totJ⁻¹,
-F_cop = J⁻ᵀF_c, generalised to any J of full row rank with Khatib's dynamically consistent inverse
-J̄ = D⁻¹JᵀΛ in place of J⁻¹: the joints move as Q̇ = J̄ẋ (the least-kinetic-energy motion realising ẋ,
-the one the free dynamics takes) and a joint force τ is felt as F = J̄ᵀτ (power-consistent,
-Fᵀẋ = τᵀQ̇). For a square invertible J, J̄ = J⁻¹ exactly. Where J has rank below 3 (fewer than three
-coordinates reaching the point, or a singular configuration) Λ and J̄ do not exist; m_u is then still
-finite for directions u the point can move along (uᵀΦu > 0).
+with Khatib's dynamically consistent inverse J̄ = D⁻¹JᵀΛ (:func:`dynamically_consistent_inverse`) in
+place of Janot's J⁻¹ (equal for a square J). Computed numerically through the Cholesky factor of D, the
+arithmetic of the generated ``NAME_apparent_mass`` and ``NAME_operational_inertia``; where J has rank
+below 3, Λ and J̄ raise :class:`SingularConfiguration` while m_u stays finite along the directions the
+point can move in. Definitions, why J̄, and the checks: docs/seeds.md, "Janot: apparent mass, stiffness
+and friction at the handle"; the C status codes: docs/contracts.md, "Generated C".
 """
 
 from __future__ import annotations

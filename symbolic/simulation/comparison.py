@@ -1,22 +1,12 @@
 """Where simulation and measurement disagree: per coordinate and signal, relative error, RMS, worst window.
 
-Measured velocity and acceleration come from the data treatment of identification (IDIM-LS,
-:mod:`symbolic.data.treatment`), with the same rules and the same ``[identification]`` keys:
-
-* positions low-passed by a zero-phase Butterworth filter (:func:`symbolic.data.filters.lowpass`,
-  forward and backward) of ``order`` (default 4) at ``cutoff`` (default 5 × ``bandwidth``, the
-  bandwidth defaulting to rate/50: 100 Hz at 1 kHz, EMPS's);
-* q̇ by central differences of the filtered q, q̈ by central differences of q̇ (or the data's own
-  ``qd``/``qdd`` columns, low-passed by the same filter);
-* ``border`` samples left out at each end, where the filter and the one-sided differences distort
-  (default ⌈5·rate/cutoff⌉: 50 at 1 kHz and 100 Hz; 2 without filtering).
-
-The simulated velocity and acceleration are the integrator's state q̇(t_k) and q̈(t_k) = D⁻¹(τ_k − …),
-unfiltered; positions and forces are compared as they are. Over the kept samples, for each signal x:
-
-* relative error ``100·‖x_meas − x_sim‖/‖x_meas‖`` in % (the EMPS publication's definition);
-* RMS of x_meas − x_sim, in the signal's unit;
-* the worst window: the ``window`` seconds (default 1 s) over which the error's RMS is largest.
+Input: a measured log and the simulated one at its time stamps. The measured velocity and acceleration
+come from the data treatment of identification (:mod:`symbolic.data.treatment`, the same
+``[identification]`` keys), the simulated ones are the integrator's state, unfiltered; positions and
+forces are compared as they are, the treatment's border left out. Output: a :class:`Comparison` holding
+per coordinate and signal the relative error ``100·‖x_meas − x_sim‖/‖x_meas‖`` (the EMPS publication's
+definition), the RMS of the difference and the worst ``window`` (default 1 s). Defaults and reasons:
+docs/simulation.md, "Comparison".
 """
 
 from __future__ import annotations
@@ -81,7 +71,7 @@ class Motion:
 
 
 def measured_motion(measurements: Measurements) -> Motion:
-    """q̇ and q̈ of the data by the identification's filtering and central differences (module docstring)."""
+    """q̇ and q̈ of the data, filtered and differenced as for identification (docs/simulation.md, "Comparison")."""
     how = treatment(measurements)
     _, qd, qdd = filtered_motion(measurements, how.cutoff, how.order)
     return Motion(qd, qdd, how)
@@ -166,7 +156,7 @@ class Comparison:
 
 
 def compare(measured: Measurements, simulated: Measurements, window: float = 1.0) -> Comparison:
-    """Compare a simulation with its log, coordinate by coordinate (module docstring).
+    """Compare a simulation with its log, coordinate by coordinate (docs/simulation.md, "Comparison").
 
     ``simulated`` must have the log's time stamps and every coordinate of the log (extra coordinates,
     e.g. modal ones, are ignored).

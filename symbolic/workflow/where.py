@@ -1,18 +1,12 @@
 """Where the residual is: by coordinate, state, time and frequency; whether anything is left to explain.
 
-For each coordinate of the residual τ_meas − τ_model (on the estimation data, at the decimated samples):
-
-* its power and its share of the whole;
-* against position, velocity and acceleration: the residual's mean in ``BINS`` quantile bins of the
-  state and the share of its variance those means explain (the correlation ratio η²), with the one-way
-  ANOVA F-test on n/τ_int effective samples; against the sign of the velocity: the two means;
-* near velocity reversals (|q̇| below ``REVERSAL`` of its 95th percentile) and away from them: rms;
-* in ``WINDOWS`` equal time windows: rms per window;
-* its spectrum (Welch) and the peaks that stand ``PEAK_RATIO`` times above the median level;
-* whiteness (Ljung–Box) and its integrated autocorrelation time.
-
-The residual is *explained* when it is white at ``alpha`` (Ljung–Box) and no state dependence is
-significant at ``alpha`` divided by the number of tests (Bonferroni); otherwise something is left.
+Input: the estimation data and the model's prediction at the decimated samples. Output, per coordinate
+of the residual τ_meas − τ_model (:func:`coordinate_report`): its power share; its dependence on
+position, velocity and acceleration (:data:`BINS` quantile bins, η² and the one-way ANOVA F-test on n/τ_int
+samples) and on the sign of the velocity; rms near velocity reversals (:data:`REVERSAL`) and in
+:data:`WINDOWS` time windows; the Welch spectrum's peaks (:data:`PEAK_RATIO` above the median); whiteness
+(Ljung–Box) and τ_int. :func:`localise` adds the verdict: *explained* when white at ``alpha`` and no state
+dependence significant at ``alpha``/(number of tests). The rules and why: docs/workflow.md, "2. Where".
 """
 
 from __future__ import annotations
@@ -72,7 +66,7 @@ def peaks(frequency: np.ndarray, psd: np.ndarray, count: int = 3) -> list[dict[s
 
 
 def coordinate_report(data: DataSet, residual: np.ndarray, j: int) -> dict[str, Any]:
-    """The localisation of the residual of coordinate ``j`` (module docstring)."""
+    """The localisation of the residual of coordinate ``j`` (docs/workflow.md, "2. Where")."""
     r = residual[:, j]
     tau = autocorrelation_time(r)
     q, qd, qdd = data.q[:, j], data.qd[:, j], data.qdd[:, j]
@@ -113,7 +107,7 @@ def coordinate_report(data: DataSet, residual: np.ndarray, j: int) -> dict[str, 
 
 
 def localise(data: DataSet, predicted: np.ndarray, alpha: float = ALPHA) -> dict[str, Any]:
-    """Residual localisation on every coordinate and the verdict (module docstring)."""
+    """Residual localisation on every coordinate and the verdict (docs/workflow.md, "2. Where")."""
     residual = data.tau - predicted
     total = float(np.sum(residual**2))
     coordinates = {}

@@ -1,36 +1,15 @@
 """First-peak Coulomb friction identification from proportional-control step responses (Madill 5.3).
 
-A joint modelled as P(s) = 1/(s(Js + B)) with Coulomb friction f, under proportional control of loop
-gain K (generalized force per unit of position error), moves in one direction from rest until its first
-peak. Over that interval the friction is a constant and the loop is linear with the reference reduced
-by f/K (Madill Figure 5.6(b)), so the first peak of a step of size r is
-
-    y_p = α (r − f/K),   α = 1 + exp(−ζπ/√(1 − ζ²)),   t_p = π/(ωn √(1 − ζ²)).
-
-Regressing the first peaks y_i on the step sizes r_i gives the slope α and the r-intercept r0, hence
-(Madill (5.6)–(5.9), as printed)
-
-    f = K r0                                   (5.6)
-    β = −ln(α − 1),  ζ = β/√(π² + β²)          (5.8)
-    ωn = π/(t_p √(1 − ζ²))                     (5.9)
-    J = K/ωn²,  B = 2ζ√(K J)                   (5.7)
-
-:func:`from_peaks` is that chain; :func:`identify` finds the steps and first peaks in a log given as
-arrays, :func:`identify_experiment` in an experiment file whose ``[controller]`` declares the loop
-(``kind = "pd"``, ``kp``, optional ``kd``, ``gain``, ``delay``; docs/simulation.md).
-
-Two corrections the thesis does not need but a sampled log does (both printed in the result):
-
-* a step taken while the joint rests off its previous reference (friction holds it anywhere within
-  ±f/K of it) is measured from where the joint is: the step size is r − q_start and the peak
-  y = q_peak − q_start, which is Figure 5.6(b) started from q_start;
-* the discrete controller holds its output for one sample period T (and ``delay`` more samples): at
-  low frequency a delay d acts as K·e^{−sd} ≈ K − K d s, a negative damping K·d with d = (½ + delay)·T,
-  so the plant's B is the loop's 2ζ√(KJ) + K d (minus gain·kd of a derivative term). For Madill's
-  axial joint (K ≈ 3.6 N·m/rad, T = 1 ms) that is 0.0018 N·m·s/rad, 15 % of the B he identified.
-
-Sensitivity: dB/B ≈ dα/((α − 1)·β), so a lightly damped joint (Madill's ζ = 0.007, β = 0.022) needs
-the slope to 10⁻⁴ for B to 1 %; J and f are far less sensitive.
+A joint P(s) = 1/(s(Js + B)) with Coulomb friction f under a proportional loop of gain K: the first
+peaks y_i of steps r_i lie on y = α (r − f/K), and the slope α, the r-intercept r0 and the mean time to
+the first peak t_p give f, ζ, ωn, J and B by Madill (5.6)–(5.9) (:func:`from_peaks`). :func:`identify`
+finds the steps and first peaks in arrays (t, q, reference, K) and :func:`identify_experiment` in an
+experiment file whose ``[controller]`` declares the loop (``kind = "pd"``, ``kp``, optional ``kd``,
+``gain``, ``delay``; docs/simulation.md); both return a :class:`FirstPeak` listing the steps used and
+rejected. Beyond the thesis, for sampled logs: each step is measured from where the joint rests, and B
+is corrected for the sampled loop's hold (a negative damping K·(½ + delay)·T) and for a ``kd`` term.
+The derivation, the experiment, these corrections and the method's sensitivity: docs/seeds.md, "Madill:
+first-peak friction identification".
 """
 
 from __future__ import annotations

@@ -1,17 +1,12 @@
 """The statistics Milne et al. compare models with: Table 8 (sine sweeps) and Table 11 (step responses).
 
-* **Table 8**, per configuration: the magnitude (gain A₀/A_r) and phase (φ of Milne (16), in degrees) of
-  the fundamental of the measured and of the simulated response at each frequency of the sweep, each
-  from a whole-period sine fit (:func:`symbolic.reproduction.milne.sine.steady_state_response`, Milne (14)–(16)),
-  "the magnitude error is the absolute difference in response magnitude" and the phase error the
-  absolute difference of the phases (wrapped to [0°, 180°]); the table gives the 90th percentile of each
-  over the frequencies (:func:`frequency_response_errors`).
-* **Table 11**, per configuration: the median and the 90th percentile of the absolute angle error
-  |θ_model(t) − θ_measured(t)| over the samples of the square-wave (step) response (:func:`step_errors`).
-
-Percentiles are NumPy's default (linear interpolation between order statistics); Milne do not say which
-definition they used, nor the unit of the magnitude (a gain ratio here by default; ``decibels=True`` gives
-20 log₁₀ of it — Table 8's errors of 0.2–0.6 are plausible either way).
+:func:`frequency_response_errors`: per frequency of a sweep, the magnitude (A₀/A_r) and phase (Milne
+(16)) of the fundamental of the measured and the simulated response, each from a whole-period sine fit
+(:func:`symbolic.reproduction.milne.sine.steady_state_response`, Milne (14)–(16)), their absolute
+differences and the 90th percentiles over the frequencies (Table 8). :func:`step_errors`: the median and
+90th percentile of |θ_model − θ_measured| over the samples of a step response (Table 11). The
+definitions Milne leave open (the percentile, the magnitude's unit) and how they are read here:
+docs/seeds.md, "Milne: the α-invariant model".
 """
 
 from __future__ import annotations

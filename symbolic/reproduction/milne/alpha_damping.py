@@ -1,22 +1,13 @@
 """Milne et al.'s α-dependent damping C(α, I) and torque constant β̃(α, I) (Milne (38)–(42)).
 
-At one inertia the damping is tri-linear in α between break points α₀ < α₁ < α₂ < α₃ with the values
-C₀…C₃ at them (Milne (38)–(39)), and the torque constant is linear between β̃₀ at ᾱ₀ and β̃₁ at ᾱ₁
-(Milne (41)). Both are piecewise-linear interpolations through (break point, value) pairs, which is how
-:class:`AlphaCoefficients` stores them (any number of break points: one means a constant, so the global
-linear model (21) is the special case C(α) = C_linear, β̃(α) = β̃_linear).
-
-Reading of the source outside the break points: (38) multiplies each segment by a boxcar Π, so taken
-literally C = 0 for α < α₀ and α ≥ α₃ — no damping at all at high energy — and (41) is unbounded, turning
-β̃ negative for large α (at α ≈ 690 V²/s² for Table 10's numbers). Neither is physical; here both hold
-their end values outside the break points (C(α) = C₀ below α₀, C₃ above α₃), which agrees with (38) and
-(41) wherever the paper evaluates them.
-
-Inertia enters through the asymptotic curves (Milne (40), (42))
-
-    C_k(I) = 1/(C_k1 I),   β̃_k(I) = 1/(β̃_k1 I),
-
-stored by :class:`AlphaInertiaModel`; :meth:`AlphaInertiaModel.at` gives the coefficients at one inertia.
+:class:`AlphaCoefficients` holds, at one inertia, the tri-linear damping through (α_k, C_k), k = 0…3
+(Milne (38)–(39)), and the linear torque constant through (ᾱ₀, β̃₀), (ᾱ₁, β̃₁) (Milne (41)) as
+piecewise-linear interpolations through (break point, value) pairs (one break point: a constant, so the
+global linear model (21) is the special case), each held at its end values outside its break points.
+:class:`AlphaInertiaModel` holds the asymptotic curves C_k(I) = 1/(C_k1 I), β̃_k(I) = 1/(β̃_k1 I) (Milne
+(40), (42)); :meth:`AlphaInertiaModel.at` gives the coefficients at one inertia, and
+:func:`joint_inertia` that inertia from a derived model. Why the end values are held (read literally,
+(38) makes C = 0 and (41) β̃ negative at high α): docs/seeds.md, "Milne: the α-invariant model".
 """
 
 from __future__ import annotations

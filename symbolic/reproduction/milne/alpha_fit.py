@@ -1,25 +1,15 @@
 """Identification of Milne et al.'s α-invariant damping and torque-constant model (Milne 2.3.3–2.3.5).
 
-From sinusoidal steady states (one per frequency, :mod:`symbolic.reproduction.milne.sine`) of a joint under a P
-controller with gain k_p, each frequency gives a point
-
-    α_data   = k_p² ω² (A₁² + (A_r − A₂)²)       Milne (36), the "mean α-invariant" of 3.3
-    C_data   (Milne (19)),   β̃_data = β_data/k_p  (Milne (20), (26))
-
-— frequencies excluded by Milne's rule after (20) (negative C_data, β_data) are dropped. Then, at one
-inertia (Milne 2.3.5):
-
-* the torque constant (41) is the least-squares straight line through (α_data, β̃_data), reported as its
-  values β̃₀, β̃₁ at the predefined ᾱ₀, ᾱ₁ (:func:`fit_torque_constant`);
-* the damping (38)–(39) is the tri-linear curve through (α_k, C_k), k = 0…3: for given break points it
-  is linear in C₀…C₃ (hat functions), so they follow by linear least squares; the break points are
-  "chosen in a grid search to minimize the least squares error" (Milne after (39)): every increasing
-  quadruple from a grid of candidate α is tried and the one with the least sum of squared residuals of
-  C_data is kept (:func:`fit_damping`; shared by several configurations when given several).
-
-Across configurations of inertia I_j, the asymptotic curves (40), (42) are "inverted and fitted to the
-intermediate data by ordinary least squares" (Milne 2.3.5): 1/C_k(I_j) = C_k1·I_j, a line through the
-origin, so C_k1 = Σ I_j/C_k(I_j) / Σ I_j² (likewise β̃_k1) (:func:`fit_inertia_dependence`).
+Input: the sinusoidal steady states of one joint under a P controller (:mod:`symbolic.reproduction.milne.sine`),
+each frequency giving α_data (36), C_data (19) and β̃_data = β_data/k_p ((20), (26)); frequencies Milne's
+rule excludes are dropped (:func:`alpha_data`, :func:`joint_alpha_data`). Output, at one inertia: the
+torque constant (41) as the least-squares line through (α_data, β̃_data), given at the predefined ᾱ₀, ᾱ₁
+(:func:`fit_torque_constant`); the tri-linear damping (38)–(39), linear least squares in C₀…C₃ for the
+break points of a grid search (:func:`fit_damping`, shared by several configurations when given
+several); both as one :class:`~symbolic.reproduction.milne.alpha_damping.AlphaCoefficients`
+(:func:`fit_alpha_model`). Across inertias I_j: the inverted asymptotes (40), (42), 1/C_k(I_j) = C_k1·I_j,
+by least squares through the origin (:func:`fit_inertia_dependence`). The method and how it reads the
+paper: docs/seeds.md, "Milne: the α-invariant model".
 """
 
 from __future__ import annotations

@@ -1,21 +1,13 @@
 """Milne et al.'s α-invariant of a command signal v(t): instantaneous (33), cycle average (34), sine (36).
 
-For a sinusoid v = A sin(ωt + φ) the phase portrait (v, v̇) is the ellipse v²/a² + v̇²/b² = 1 (Milne (30)).
-Differentiating (30) in t gives 2vv̇/a² + 2v̇v̈/b² = 0, so a² = −(v/v̈)·b² — Milne (31) prints v̇ for v̈
-in the denominator; only v̈ leads to (32) — and substituting back into (30) gives b² = v̇² − v v̈ (32), which
-defines
-
     α = v̇² − v v̈                                                      Milne (33)
-
-For a sinusoid α = (Aω)², constant over time. For any periodic waveform the cycle average
-
     ᾱ = (1/T) ∫_{t₀−T}^{t₀} (v̇² − v v̈) dt                               Milne (34)
+    α = k_p² ω² (A₁² + (A_r − A₂)²)   (v = k_p(r − θ), r = A_r sin ωt)   Milne (36)
 
-equals (2/T)∫v̇² dt − [v v̇]/T after integrating by parts, so it needs v̇ only (Milne: "valid for any C⁰
-waveform"). Under a P controller v = k_p(r − θ) with r = A_r sin(ωt) and the steady-state response
-θ = A₁ cos(ωt) + A₂ sin(ωt) (Milne (14), (35)),
-
-    α = k_p² ω² (A₁² + (A_r − A₂)²)                                      Milne (36)
+:func:`alpha_invariant` takes arrays of v, v̇, v̈; :func:`cycle_average` the samples of one period (v̈
+optional: integrated by parts, (34) needs v̇ only); :func:`sine_alpha` the steady-state coefficients of
+:mod:`symbolic.reproduction.milne.sine`. The derivation from the ellipse (30), and the misprint of (31):
+docs/seeds.md, "Milne: the α-invariant model".
 """
 
 from __future__ import annotations

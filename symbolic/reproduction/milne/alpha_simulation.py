@@ -1,40 +1,13 @@
 """Simulation of Milne et al.'s α-invariant model of one joint under a P controller (Milne (43)–(47)).
 
-The model (Milne (37) in state-space form (43)) is
-
-    θ̇ = Φ
-    Φ̇ = −C(α) Φ + β̃(α) v
-    α  = v̇² − v v̈
-    v  = k_p (r − θ),
-
-with C and β̃ of :class:`~symbolic.reproduction.milne.alpha_damping.AlphaCoefficients`. It is an algebraic loop:
-v̈ = k_p(r̈ − Φ̇) needs Φ̇, which needs α, which needs v̈. Substituting,
-
-    α = F(α) = v̇² − k_p v r̈ + k_p v (β̃(α) v − C(α) Φ),
-
-and because C and β̃ are piecewise linear in α (held constant outside their break points), α − F(α) is
-a continuous piecewise-linear function going from −∞ to +∞: it has at least one root, and all of them
-are found exactly by examining each linear piece (:func:`solve_alpha`). When there are several, the one
-nearest the previous step's α is kept (the solution branch is followed continuously in time).
-
-Milne solve the loop by iteration (44)–(46) instead. As printed, (44) uses v̇^(i−1) where the quantity is
-v̈^(i−1) (α = v̇² − v v̈), its last line computes "v̇^(i) = k_p(r̈ − Φ̇^(i))" whose right-hand side is
-v̈^(i), and the start (45) "v̈^(0) = −C_linear Φ + β̃_linear v" is Φ̇ of the linear model, not v̈. The
-consistent reading, implemented by :func:`iterate_alpha`:
-
-    v̈^(0) = k_p (r̈ − Φ̇_lin),  Φ̇_lin = −C_linear Φ + β̃_linear v            (45), corrected
-    α^(i) = v̇² − v v̈^(i−1);  Φ̇^(i) = −C(α^(i)) Φ + β̃(α^(i)) v;
-    v̈^(i) = k_p (r̈ − Φ̇^(i))                                              (44), corrected
-
-stopped when |α^(i) − α^(i−1)| < max(10⁻⁶, 10⁻³|α^(i)|) (46). It is the fixed-point iteration
-α ← F(α), which converges when |F′| < 1 at the root; the exact solve needs no such condition.
-
-Time integration: classical Runge–Kutta with a fixed step h, the loop solved exactly at every stage. The
-step (square-wave) reference of Milne 2.4.3 is r(t) = A_r(2H(t) − 1) with θ(0⁻) = −A_r: Milne (47) prints
-v(t) = k_p A_r(2H(t) − 1), an open-loop voltage step, but the experiment drives the P-controlled joint
-with a square-wave *reference* (v = k_p(r − θ), (43)); a constant voltage would make θ ramp without
-bound. A square wave's jumps fall on step boundaries (half its period must be a multiple of h), and r is
-held constant within each step, so the jump of r (and the Dirac impulse of ṙ) never enters a stage.
+The model (43): θ̇ = Φ, Φ̇ = −C(α) Φ + β̃(α) v, α = v̇² − v v̈, v = k_p (r − θ), with C and β̃ of
+:class:`~symbolic.reproduction.milne.alpha_damping.AlphaCoefficients`. Its algebraic loop
+α = F(α) = v̇² − k_p v r̈ + k_p v (β̃(α) v − C(α) Φ) is solved exactly (:func:`solve_alpha`: every root of
+the piecewise-linear α − F(α), the one nearest the previous α kept); Milne's iteration (44)–(46), with
+its misprints corrected, is :func:`iterate_alpha`. :func:`simulate` integrates a batch of references by
+classical Runge–Kutta with a fixed step, the loop solved at every stage: :func:`sine_sweep` (Milne
+2.4.2) and :func:`square_wave` (2.4.3, (47) read as a reference step). The corrections, the reading of
+(47) and why the exact solve: docs/seeds.md, "Milne: the α-invariant model".
 """
 
 from __future__ import annotations
@@ -207,7 +180,7 @@ def _solve(knots: np.ndarray, c_k: np.ndarray, b_k: np.ndarray, kp: float, v: np
 def iterate_alpha(coefficients: AlphaCoefficients, kp: float, v: ArrayLike, vd: ArrayLike, rdd: ArrayLike,
                   phi: ArrayLike, linear: tuple[float, float], *, absolute: float = ABSOLUTE_TOLERANCE,
                   relative: float = RELATIVE_TOLERANCE, iterations: int = 100) -> tuple[np.ndarray, int]:
-    """Milne's iteration (44)–(46), corrected (see the module docstring), per element.
+    """Milne's iteration (44)–(46), corrected (docs/seeds.md, "Milne: the α-invariant model"), per element.
 
     Parameters
     ----------

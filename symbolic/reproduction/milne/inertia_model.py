@@ -1,22 +1,16 @@
 """Fit of Milne et al.'s inertia and damping model (6)–(8), (27)–(29) to per-configuration linear models.
 
-Each configuration (γ₁, γ₂) of the arm gives C_linear and β̃_linear (:mod:`symbolic.reproduction.milne.sine`).
-Milne models them through the yaw inertia I(γ₁, γ₂) of (6):
+Input: per configuration (γ₁, γ₂) the C_linear and β̃_linear of :mod:`symbolic.reproduction.milne.sine`.
+Output: I_base, I₁, I₂, I₃, γ_offs and C̄₀ of
 
     I = I_base + I₁ cos²γ₁ + I₂ cos²a + I₃ cos γ₁ cos a,  a = π − γ₁ − γ₂ − γ_offs     Milne (27)
     β̃_linear = 1/I                                                                 Milne (28)
     C_linear = 1/(C̄₀ I)                                                            Milne (29)
 
-:func:`fit_inertia_model` finds I_base, I₁, I₂, I₃, γ_offs and C̄₀ by nonlinear least squares
-(``scipy.optimize.least_squares``) on the relative residuals β̃_model/β̃ − 1 and C_model/C − 1 — so the
-two quantities, which differ by a factor C̄₀ ≈ 37, weigh alike (Milne does not state the objective).
-I_base, I₁, I₂, I₃ are bounded below by 0, Milne's condition for a physically valid model. The start
-is found without guessing: for fixed γ_offs, 1/β̃ = I is linear in the four inertias, so γ_offs is
-scanned over a grid of one degree, the inertias solved by non-negative least squares at each, and
-C̄₀ started at :func:`damping_ratio`.
-
-:func:`damping_ratio` is Milne's C̄₀ of Table 3: the simple linear regression through the origin
-β̃_linear = C̄₀·C_linear (from (28)/(29), C̄₀ = β̃/C).
+by bounded nonlinear least squares on relative residuals (:func:`fit_inertia_model`, an
+:class:`InertiaFit`), and Milne's C̄₀ of Table 3 by regression through the origin (:func:`damping_ratio`).
+The objective, the bounds and the start: docs/seeds.md, "Milne: sinusoidal identification and the
+inertia model".
 """
 
 from __future__ import annotations

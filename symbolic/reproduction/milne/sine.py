@@ -1,44 +1,17 @@
 """Sinusoidal steady-state identification of one joint under proportional control (Milne et al. 2.2).
 
-A joint under a P controller with the derivative acting on the measurement (Milne (9)–(13))
+For the joint θ̈ + C θ̇ + β θ = β r, β = β̃·k_p (Milne (13)), driven by r = A_r sin ωt at known
+frequencies: the steady response θ = A₁ cos ωt + A₂ sin ωt (+ offset) per frequency, by linear least
+squares over whole periods (Milne (14)–(16)); C_data and β_data (19)–(20) with Milne's exclusion rule;
+the global linear model (21) by least squares on (22) over all frequencies, with σ propagated from the
+sine fits. (18) and (22) are used with −ωA₁C in their second row, where Milne print +ωA₁C: the
+derivation, and how to record the logs, are in docs/seeds.md, "Milne: sinusoidal identification and
+the inertia model".
 
-    θ̈ + C θ̇ + β θ = β r,   β = β̃·k_p,                                  Milne (13)
-
-is driven by a reference r(t) = A_r sin(ωt) at a known frequency. After the transient has died out the
-response is a sinusoid; its Cartesian coefficients in the reference's phase,
-
-    θ(t) = A₁ cos(ωt) + A₂ sin(ωt) (+ offset),                          Milne (14)
-
-are found by linear least squares on cos, sin and a constant over whole periods (Milne (15); the
-constant absorbs a bias such as a gravity load, Milne (11)'s n(t)). The polar form (16) has
-A₀ = √(A₁² + A₂²) and φ = atan2(A₁, A₂).
-
-Substituting (14) into (13) and separating the cos and sin terms gives
-
-    −ω² A₁ + ω A₂ C + A₁ β = 0
-    −ω² A₂ − ω A₁ C + (A₂ − A_r) β = 0                                   Milne (18), corrected
-
-— Milne prints +ω A₁ C in the second row of (18) and of (22); the substitution gives −ω A₁ C, and only
-that sign yields the printed solutions (19)–(20):
-
-    C_data(ω) = −ω A_r A₁ / (A₁² + A₂(A₂ − A_r))                        Milne (19)
-    β_data(ω) = ω² (A₁² + A₂²) / (A₁² + A₂(A₂ − A_r))                    Milne (20)
-
-A frequency is excluded (Milne's rule after (20)) when A_r A₂ ≥ A₁² + A₂², i.e. when the common
-denominator is not positive: C_data and β_data are then negative (or infinite), physically impossible.
-The global linear model (21) stacks the corrected (18) over all frequencies and solves
-
-    [ ω∘A₂    A₁      ] [C_linear]   [A₁∘ω²]
-    [ −ω∘A₁   A₂ − A_r] [β_linear] = [A₂∘ω²]                             Milne (22), corrected
-
-by ordinary least squares, as Milne does; the standard deviations propagate the errors of the sine fits'
-A₁, A₂ through (22) (:func:`global_linear_fit`). The linear resonant frequency of (21) is √β_linear/(2π),
-where its phase crosses −90° (Milne 3.3's 3.4 Hz).
-
-Two entry points: plain arrays (:func:`fit_sine`, :func:`steady_state_response`,
-:func:`local_parameters`, :func:`global_linear_fit`) and measured logs (:func:`identify_joint`: one
-log per frequency with the joint's ``q`` and ``ref`` columns, the P gain read from the experiment's
-``[controller]``). Bad input raises :class:`~symbolic.data.DataError` with one line.
+Inputs are plain arrays (:func:`fit_sine`, :func:`steady_state_response`, :func:`local_parameters`,
+:func:`global_linear_fit`) or measured logs (:func:`identify_joint`: one log per frequency with the
+joint's ``q`` and ``ref`` columns, the P gain from the experiment's ``[controller]``). Bad input raises
+:class:`~symbolic.data.DataError` with one line.
 """
 
 from __future__ import annotations

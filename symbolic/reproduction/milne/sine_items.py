@@ -1,24 +1,11 @@
 """Milne et al.'s sinusoidal identification and inertia model (2.2, 3.1, 3.3; Tables 3, 4, 5, 9), recomputed.
 
-The published tables are kept here as printed (strings, so the printed precision is known). Each item
-is computed through :mod:`symbolic.reproduction.milne.sine` and :mod:`symbolic.reproduction.milne.inertia_model`.
-
-Where an item's inputs are themselves rounded table entries, its tolerance is the printed half unit of
-the output plus the first-order worst case of the inputs' rounding (:func:`rounding_tolerance`): the
-change of the output when each input moves by half a unit of its last printed digit, summed in absolute
-value. That is the precision the paper's own chain allows, not a tuning to its numbers.
-
-Findings (see each item's ``how``):
-
-* Table 4's value column is printed one row low. Table 5's 9 modelled β̃ determine the four inertias
-  of (6) at Table 4's γ_offs = 9.931° by linear least squares to 4·10⁻⁵ (Table 5's own rounding):
-  I_base = 1.401·10⁻³, I₁ = 2.889·10⁻³, I₂ = 9.40·10⁻⁴, I₃ = 3.16·10⁻³ — the values printed against
-  I₁, I₂, I₃ — while the 1.063·10⁻³ printed against I_base fits no coefficient and I₃ is lost. With the
-  rows realigned and I₃ from Table 10's I = 0.004366 (the inertia at 65°/90°), Table 5's 18 modelled
-  numbers follow.
-* The nonlinear fit (27)–(29) of Table 3 does not return Table 4: the paper's coefficients are not a
-  least-squares optimum of Table 3 under relative, absolute or inertia residuals (the objective is not
-  stated); the item shows ours.
+The published tables are kept here as printed (strings, so the printed precision is known); :func:`items`
+computes each through :mod:`symbolic.reproduction.milne.sine` and
+:mod:`symbolic.reproduction.milne.inertia_model`, with the tolerance of :func:`rounding_tolerance` where
+an item's inputs are themselves rounded table entries. The findings (Table 4 printed one row low, its I₃
+lost; the fit of Table 3 not returning Table 4) are in each item's ``how``, printed in
+docs/reproduction.md (the milne items of Tables 3–5 and 9).
 """
 
 from __future__ import annotations
@@ -80,7 +67,8 @@ def rounding_tolerance(function: Callable[[dict[str, np.ndarray]], np.ndarray], 
     """Relative tolerance for outputs computed from rounded inputs: own half unit + first-order input rounding.
 
     ``function`` maps ``{name: float array}`` to the outputs; each input element moves by its half unit
-    in turn and the absolute changes are summed (worst case), then divided by the output.
+    in turn and the absolute changes are summed (worst case), then divided by the output. That is the
+    precision the paper's own chain allows, not a tuning to its numbers.
     """
     values = {k: np.array([float(v)] if isinstance(v, str) else [float(x) for x in v]) for k, v in inputs.items()}
     base = np.asarray(function(values), dtype=float).reshape(-1)

@@ -1,19 +1,13 @@
 """Milne et al.'s minimal yaw-axis inertia model (6), obtained from a derived model's D(Q).
 
-Milne et al. lump the thin-rod inertia (5) of the Phantom Omni's yaw axis into
-
     I = I_base + I₁ cos²γ₁ + I₂ cos²a + I₃ cos γ₁ cos a,   a = π − γ₁ − γ₂ − γ_offs      Milne (6), (27)
 
-(a is the elevation of link 2). :func:`inertia_form` brings the diagonal entry D[j, j] of any derived
-model into this form: γ₂ is replaced by π − γ₁ − a − γ_offs, D[j, j] is expanded into monomials in
-sin/cos of γ₁ and a with every sine reduced to at most the first power
-(:func:`symbolic.derive.simplify.trig_monomials`), and the monomials must be exactly 1, cos²γ₁,
-cos²a and cos γ₁ cos a, with coefficients free of every coordinate and of γ_offs. Anything else — a
-sin γ₁ sin a term, a third coordinate, a coefficient that still holds γ_offs — is refused with a
-:class:`~symbolic.errors.ModelError` naming the offending terms.
-
-For the built-in ``omni`` (thin rods, Milne (5)): I_base, I₁ = m₁L₁²/3 + m₂L₁², I₂ = m₂L₂²/3,
-I₃ = m₂L₁L₂.
+:func:`inertia_form` brings the diagonal entry D[j, j] of any derived model into this form (a is the
+elevation of link 2) and returns its four coefficients in the model's parameters (an
+:class:`InertiaForm`); an entry of another form is refused with a :class:`~symbolic.errors.ModelError`
+naming the offending terms. For the built-in ``omni`` (thin rods, Milne (5)): I₁ = m₁L₁²/3 + m₂L₁²,
+I₂ = m₂L₂²/3, I₃ = m₂L₁L₂. How the form is recognised: docs/seeds.md, "Milne: sinusoidal identification
+and the inertia model".
 """
 
 from __future__ import annotations
