@@ -1,6 +1,6 @@
 """Synthetic hidden-truth cases for the discrepancy workflow (tests/test_workflow*.py).
 
-The truth is written here, in the tests, as model-file text with the effect (a ``[[friction]]`` key, a
+The truth is written in the tests, as model-file text (tests/models.py) with the effect (a ``[[friction]]`` key, a
 ``[[force]]``, a rotor inertia, a compliant load); the data are the truth model simulated in closed
 loop (:func:`symbolic.simulation.simulator.simulate`, a PD loop with an encoder, following a Swevers-type
 reference: five harmonics of a 0.1 Hz fundamental per joint), with white noise on the logged force
@@ -20,96 +20,9 @@ from symbolic.data import Experiment, Measurements
 from symbolic.numeric import numeric_model
 from symbolic.simulation.simulator import simulate
 
-AXIS = '''# A rotary axis about a vertical axis (gravity along the rotation axis: no gravity torque).
-name = "axis"
-description = "rotary axis: rotor inertia and friction"
-coordinates = ["q"]
-gravity = ["0", "0", "-9.81"]
-
-[parameters]
-J = {{ value = {J}, unit = "kg*m^2", description = "inertia about the axis" }}
-{parameters}
-[[frame]]
-name = "rotor"
-parent = "base"
-dh = {{ theta = "q", d = "0", a = "0", alpha = "0" }}
-
-[[body]]
-name = "rotor"
-frame = "rotor"
-mass = "2.0"
-inertia = {{ xx = "{inertia}/2", yy = "{inertia}/2", zz = "{inertia}" }}
-
-[[friction]]
-coordinate = "q"
-{friction}
-{extra}'''
-
-ARM = '''# A two-link planar arm in a vertical plane (standard DH), friction on both joints.
-name = "arm"
-description = "two-link planar arm in a vertical plane"
-coordinates = ["q1", "q2"]
-gravity = ["0", "-9.81", "0"]
-
-[parameters]
-l1 = 0.4
-m1 = 3.0
-m2 = 2.0
-c1 = 0.2
-c2 = 0.15
-I1 = 0.04
-I2 = 0.02
-{parameters}
-[[frame]]
-name = "1"
-parent = "base"
-dh = {{ theta = "q1", d = "0", a = "l1", alpha = "0" }}
-
-[[frame]]
-name = "2"
-parent = "1"
-dh = {{ theta = "q2", d = "0", a = "0.3", alpha = "0" }}
-
-[[body]]
-name = "link1"
-frame = "1"
-mass = "m1"
-com = ["c1 - l1", "0", "0"]
-inertia = {{ zz = "I1" }}
-
-[[body]]
-name = "link2"
-frame = "2"
-mass = "m2"
-com = ["c2 - 0.3", "0", "0"]
-inertia = {{ zz = "I2" }}
-
-[[friction]]
-coordinate = "q1"
-{friction1}
-
-[[friction]]
-coordinate = "q2"
-{friction2}
-{extra}'''
-
-
-def axis(parameters: str = "Fv = 0.3\nFc = 0.4\n", friction: str = 'viscous = "Fv"\ncoulomb = "Fc"',
-         extra: str = "", J: float = 0.05, inertia: str = "J") -> str:
-    """Text of the rotary axis model; the defaults are the nominal model (inertia, viscous, Coulomb)."""
-    return AXIS.format(J=J, parameters=parameters, friction=friction, extra=extra, inertia=inertia)
-
-
-ARM_PARAMETERS = "Fv1 = 0.8\nFv2 = 0.5\nFc1 = 0.6\nFc2 = 0.4\n"
-ARM_FRICTION1 = 'viscous = "Fv1"\ncoulomb = "Fc1"'
-ARM_FRICTION2 = 'viscous = "Fv2"\ncoulomb = "Fc2"'
-
-
-def arm(parameters: str = ARM_PARAMETERS, friction1: str = ARM_FRICTION1, friction2: str = ARM_FRICTION2,
-        extra: str = "") -> str:
-    """Text of the two-link arm; the defaults are the nominal model (viscous and Coulomb on both joints)."""
-    return ARM.format(parameters=parameters, friction1=friction1, friction2=friction2, extra=extra)
-
+# the models (tests/models.py), here for the tests that name them cases.arm, cases.axis, ...
+from models import (ARM_FRICTION1, ARM_FRICTION2, ARM_PARAMETERS, arm, axis,  # noqa: F401
+                    flexible_link, rigid_link, with_load)
 
 def trajectory(n: int, t: np.ndarray, seed: int, amplitude: float = 1.2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q, q̇, q̈: per joint a finite Fourier series (5 harmonics of 0.1 Hz, random coefficients) about a
@@ -252,95 +165,9 @@ def _feedforward(model, coordinates, q, qd, qdd, t) -> np.ndarray:
     return np.array([num.inverse_dynamics(x[:, 0], x[:, 1], x[:, 2])[rows] for x in full])
 
 
-def with_load(text: str, coordinate: str, frame: str, load: float, frequency: float, damping: float,
-              name: str = "x", parent: str = "base") -> str:
-    """``text`` with a load of inertia ``load`` on a compliant coupling to revolute ``coordinate`` (whose
-    frame ``frame`` has parent ``parent`` and θ = coordinate): a second mass whose deflection ``name`` the
-    data do not measure, ringing at ``frequency`` Hz with ``damping`` when the coordinate is held."""
-    w = 2 * np.pi * frequency
-    coordinates = text.split("coordinates = ", 1)[1].split("\n", 1)[0]
-    text = text.replace(f"coordinates = {coordinates}", f"coordinates = {coordinates[:-1]}, \"{name}\"]", 1)
-    return text + f'''
-[[frame]]
-name = "{frame}_load"
-parent = "{parent}"
-dh = {{ theta = "{coordinate} + {name}", d = "0", a = "0", alpha = "0" }}
-
-[[body]]
-name = "{frame}_load"
-frame = "{frame}_load"
-mass = "0"
-inertia = {{ xx = "{load / 2!r}", yy = "{load / 2!r}", zz = "{load!r}" }}
-
-[[force]]
-name = "coupling"
-coordinate = "{name}"
-expression = "-{load * w * w!r}*{name} - {2 * damping * w * load!r}*qd_{name}"
-'''
-
-
 def model_file(folder: Path, text: str, name: str = "model.toml") -> Path:
     """Write a model file for the workflow to read (and patch)."""
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / name
     path.write_text(text, encoding="utf-8")
     return path
-
-
-def flexible_link(tip_mass: float, damper: float, friction: str = 'viscous = "Fv"', parameters: str = "Fv = 0.5\n") -> str:
-    """The built-in flexible single link (Madill's beam on a hub, ``single_flexible_link.toml``) made to ring
-    within the data treatment's pass band: a tip mass of ``tip_mass`` kg (1 kg brings the first bending mode
-    with the hub held from ≈ 65 Hz down to ≈ 8.6 Hz and gives it ≈ 30 % of the hub's inertia), one vertical
-    mode (gravity acts along the hub's axis: the vertical bending does not couple to the hub at rest), a
-    damper ``damper`` on the first horizontal modal coordinate (structural damping; the model format has no
-    beam damping key, a ``[[force]]`` on the modal coordinate is one) and friction on the hub."""
-    from symbolic import robots
-
-    text = robots.path("single_flexible_link").read_text(encoding="utf-8")
-    for old, new in (("modes_w = 2", 'modes_w = 1\ntip_mass = "m_t"'),
-                     ("\n[[frame]]", f"m_t = {tip_mass!r}\nc_b = {damper!r}\n{parameters}\n[[frame]]")):
-        assert text.count(old) == 1, old
-        text = text.replace(old, new)
-    return text + f'''
-[[friction]]
-coordinate = "q0"
-{friction}
-
-[[force]]
-name = "structural_damping"
-coordinate = "link_nu1"
-expression = "-c_b*qd_link_nu1"
-'''
-
-
-RIGID_LINK = '''# The flexible single link as a rigid body: hub and beam (with its tip mass) turning as one.
-name = "rigid_link"
-description = "hub and link as one rigid body"
-coordinates = ["q0"]
-gravity = ["0", "0", "-9.81"]
-
-[parameters]
-J = {{ value = {J!r}, unit = "kg*m^2", description = "hub, beam and tip mass about the hub axis" }}
-Fv = 0.5
-
-[[frame]]
-name = "e"
-parent = "base"
-dh = {{ theta = "q0", d = "0", a = "0", alpha = "0" }}
-
-[[body]]
-name = "hub_and_link"
-frame = "e"
-mass = "0"
-inertia = {{ xx = "J/2", yy = "J/2", zz = "J" }}
-
-[[friction]]
-coordinate = "q0"
-viscous = "Fv"
-'''
-
-
-def rigid_link(inertia: float) -> str:
-    """The rigid counterpart of :func:`flexible_link`: one body of the whole ``inertia`` about the hub axis
-    and the same friction, nothing but the flexibility missing."""
-    return RIGID_LINK.format(J=inertia)
