@@ -18,17 +18,21 @@ PANDA_FILES = ("exciting_traj_time.txt", "exciting_traj_positions.txt", "excitin
 """Gaz et al. 2019's exciting trajectory (GPL-3.0: read from the shared folder, never copied)."""
 
 
-def emps_folder() -> Path:
-    """The folder holding the EMPS ``.mat`` files; skips the calling test when there is none."""
-    candidates = [ROOT.parent / "shared" / "data" / "emps"]
+def data_folder(name: str, files: tuple[str, ...], how: str) -> Path:
+    """The folder ``../shared/data/<name>`` (or one on SYMBOLIC_DATA_PATH) holding ``files``; skips the calling
+    test, saying where it looked and ``how`` to provide them, when there is none."""
+    candidates = [ROOT.parent / "shared" / "data" / name]
     candidates += [Path(d) for d in os.environ.get("SYMBOLIC_DATA_PATH", "").split(os.pathsep) if d]
     for folder in candidates:
-        if all((folder / name).is_file() for name in EMPS_FILES):
+        if all((folder / f).is_file() for f in files):
             return folder
-    pytest.skip(
-        f"EMPS data not found (looked in {', '.join(map(str, candidates))}): put DATA_EMPS.mat and "
-        "DATA_EMPS_PULSES.mat in ../shared/data/emps beside the checkout or set SYMBOLIC_DATA_PATH"
-    )
+    pytest.skip(f"{how} not found (looked in {', '.join(map(str, candidates))}): put {', '.join(files)} in "
+                f"../shared/data/{name} beside the checkout or set SYMBOLIC_DATA_PATH")
+
+
+def emps_folder() -> Path:
+    """The folder holding the EMPS ``.mat`` files; skips the calling test when there is none."""
+    return data_folder("emps", EMPS_FILES, "EMPS data")
 
 
 @pytest.fixture
@@ -41,16 +45,8 @@ def emps(monkeypatch: pytest.MonkeyPatch) -> Path:
 
 def panda_folder() -> Path:
     """The folder holding the Franka Panda log (:data:`PANDA_FILES`); skips the calling test when there is none."""
-    candidates = [ROOT.parent / "shared" / "data" / "franka_panda"]
-    candidates += [Path(d) for d in os.environ.get("SYMBOLIC_DATA_PATH", "").split(os.pathsep) if d]
-    for folder in candidates:
-        if all((folder / name).is_file() for name in PANDA_FILES):
-            return folder
-    pytest.skip(
-        f"Franka Panda data not found (looked in {', '.join(map(str, candidates))}): put {', '.join(PANDA_FILES)} "
-        "(Gaz et al. 2019, marcocognetti/FrankaEmikaPandaDynModel, Exciting_Traj/Trajectory_1) in "
-        "../shared/data/franka_panda beside the checkout or set SYMBOLIC_DATA_PATH"
-    )
+    return data_folder("franka_panda", PANDA_FILES, "Franka Panda data (Gaz et al. 2019, "
+                       "marcocognetti/FrankaEmikaPandaDynModel, Exciting_Traj/Trajectory_1)")
 
 
 def panda_measurements(folder: Path):

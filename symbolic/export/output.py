@@ -25,9 +25,10 @@ import time
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
+from symbolic.writing import PARTIAL  # one naming of temporary files for single files and sets
+
 log = logging.getLogger(__name__)
 
-PARTIAL = ".symbolic-partial-"
 JOURNAL = ".symbolic-journal.json"
 MANIFEST = ".symbolic-manifest.json"
 # Sibling directories of the versions that replaced the whole folder (0.1): removed when found.

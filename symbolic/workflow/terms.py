@@ -90,7 +90,11 @@ def model_terms(model: DynamicModel, fixed: frozenset[sp.Symbol] = frozenset()) 
     kept in ``model.products``)."""
     if not fixed:
         return model.products.get(TERMS)
-    return _build_terms(model, frozenset(fixed))
+    built = model.products.get(FIXED_TERMS)
+    fixed = frozenset(fixed)
+    if fixed not in built:  # each fit of a diagnosis asks again: the base regressor compiles once per set
+        built[fixed] = _build_terms(model, fixed)
+    return built[fixed]
 
 
 def _build_terms(model: DynamicModel, fixed: frozenset[sp.Symbol] = frozenset()) -> ModelTerms:
@@ -106,6 +110,7 @@ def _build_terms(model: DynamicModel, fixed: frozenset[sp.Symbol] = frozenset())
 
 
 TERMS: Product[ModelTerms] = Product("model terms", _build_terms)
+FIXED_TERMS: Product[dict[frozenset, ModelTerms]] = Product("model terms with fixed parameters", lambda model: {})
 
 
 def hold_scales(terms: ModelTerms, data: DataSet) -> tuple[ModelTerms, tuple[str, ...]]:
