@@ -25,7 +25,7 @@ from typing import Any
 from symbolic import robots
 from symbolic.data.errors import DataError
 from symbolic.data.keys import check_keys
-from symbolic.data.settings import SETTING_KEYS, Settings
+from symbolic.data.settings import Settings
 from symbolic.description.modelfile import loads
 from symbolic.description.robot import Robot, digest
 from symbolic.errors import ModelError, ModelWarning, one_line, shown
@@ -247,8 +247,13 @@ def _task(value: Any, source: str, where: str) -> Task:
         options["substeps"] = int(_number(table["substeps"], source, f"{where} substeps", 0, 10_000, integer=True))
     if "friction_velocity" in table:
         options["friction_velocity"] = float(_number(table["friction_velocity"], source, f"{where} friction_velocity", 0))
-    settings = Settings.from_table(_table(table["identification"], source, f"{where} identification"), source) \
-        if "identification" in table else Settings()
+    settings = Settings()
+    if "identification" in table:
+        try:
+            settings = Settings.from_table(_table(table["identification"], source, f"{where} identification"), source)
+        except DataError as error:  # named as the campaign file has it: [task] identification bandwidth
+            key = error.key.replace("[identification]", f"{where} identification", 1)
+            raise DataError(source, key, error.problem) from None
     events = Events()
     if "events" in table:
         events_table = _table(table["events"], source, f"{where} events")

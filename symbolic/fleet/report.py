@@ -81,7 +81,7 @@ def summary(outcome) -> list[str]:
     lines += [f"drift: {drift_line(d, every[d.series.robot].get(d.series.parameter))}" for d in outcome.drifts if d.flagged]
     lines += [f"outlier: {outlier_line(o, every[o.robot].get(o.parameter))}" for o in outcome.outliers if o.flagged]
     lines += [f"event: {e['robot']} {e['log']}: {describe(e)}" for e in outcome.events]
-    lines += [f"error: {r['robot']} {r['log']}: {r['error']}" for r in outcome.errors]
+    lines += [f"error: {r['robot']}: {r['error']}" for r in outcome.errors]
     if not any(d.flagged for d in outcome.drifts) and not any(o.flagged for o in outcome.outliers) and not outcome.events:
         lines.append("no drift, no outlier, no event")
     return lines

@@ -1,0 +1,280 @@
+"""Campaigns over a fleet (symbolic.fleet, docs/fleet.md): the campaign file's checks, the drift, outlier and
+event statistics on cases with a known truth, and a synthetic fleet (tests/fleet_cases.py) run on a local
+Dask cluster and on real ``dask scheduler`` + ``dask worker`` processes with identical results.
+
+The truth of each case is written here and in tests/fleet_cases.py; the code that searches sees only the
+model file, the logs and the campaign file.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from symbolic import fleet
+from symbolic.data import DataError
+from symbolic.fleet import campaign as campaigns
+from symbolic.fleet.campaign import Analysis, Events
+from symbolic.fleet.drift import Series, drifts
+from symbolic.fleet.events import bursts
+from symbolic.fleet.outliers import outliers
+
+import fleet_cases
+
+ROOT = Path(__file__).resolve().parents[1]
+DASK = fleet.available()
+needs_dask = pytest.mark.skipif(not DASK, reason="dask.distributed is not installed: pip install 'symbolic[fleet]'")
+
+# --- the campaign file ---------------------------------------------------------------------------------------------
+
+GOOD = '''name = "plant"
+[task]
+kind = "identify"
+[[robot]]
+id = "r1"
+model = "emps"
+logs = "logs/*.csv"
+time = { from = "name", pattern = '(\\d{8})', format = "%Y%m%d" }
+'''
+
+
+def write_campaign(folder: Path, text: str) -> Path:
+    (folder / "logs").mkdir(parents=True, exist_ok=True)
+    (folder / "logs" / "a_20240301.csv").write_text("t,q_q,tau_q\n0,0,0\n")
+    path = folder / "plant.toml"
+    path.write_text(text)
+    return path
+
+
+def test_a_good_campaign_file_is_read(tmp_path: Path) -> None:
+    c = campaigns.load(write_campaign(tmp_path, GOOD))
+    (robot,) = c.robots
+    assert robot.id == "r1" and robot.robot.name == "emps" and robot.task.kind == "identify"
+    (log,) = robot.logs
+    assert log.name == "logs/a_20240301.csv" and log.time.isoformat() == "2024-03-01T00:00:00+00:00"
+
+
+@pytest.mark.parametrize("change, key, words", [
+    (("name =", "nmae ="), "nmae", ["unknown key", "allowed", "did you mean 'name'"]),
+    (('kind = "identify"', 'kind = "fit"'), "[task] kind", ["unknown task 'fit'", "identify, diagnose, simulate"]),
+    (('kind = "identify"', 'kind = "identify"\nmethod = "lsq"'), "[task] method", ["unknown method", "wls, ols"]),
+    (('kind = "identify"', 'kind = "diagnose"\neffects = ["colomb"]'), "[task] effects", ["colomb", "catalogue"]),
+    (('kind = "identify"', 'kind = "identify"\n[task.identification]\nbandwith = 3'),
+     "[task] identification bandwith", ["unknown key", "did you mean 'bandwidth'"]),
+    (('model = "emps"', 'model = "emsp"'), "[[robot]] 'r1' model", ["no model file", "built-in"]),
+    (('logs = "logs/*.csv"', 'logs = "log/*.csv"'), "[[robot]] 'r1' logs", ["matches no file"]),
+    (("time = {", "tim = {"), "[[robot]] 'r1' tim", ["unknown key", "did you mean 'time'"]),
+    (("pattern = '(\\d{8})'", "pattern = '(\\d{8'"), "[[robot]] 'r1' time pattern", ["not a regular expression"]),
+    (('from = "name"', 'from = "mtime"'), "[[robot]] 'r1' time from", ['"name"', '"column"']),
+    (('id = "r1"', 'id = "r 1"'), "[[robot]] #1 id", ["letters, digits"]),
+    (("[task]", "[analysis]\nalpha = 2\n[task]"), "[analysis] alpha", ["expected a number in (0, 1)"]),
+])
+def test_a_bad_campaign_file_is_one_line_naming_file_key_and_what_is_allowed(tmp_path, change, key, words) -> None:
+    path = write_campaign(tmp_path, GOOD.replace(*change))
+    with pytest.raises(DataError) as raised:
+        campaigns.load(path)
+    message = str(raised.value)
+    assert "\n" not in message and message.startswith(f"{path}: {key}: "), message
+    for word in words:
+        assert word in message, message
+
+
+def test_a_robot_listed_twice_and_a_missing_time_are_refused(tmp_path: Path) -> None:
+    with pytest.raises(DataError, match=r"\[\[robot\]\] 'r1' id: used twice"):
+        campaigns.load(write_campaign(tmp_path, GOOD + "[[robot]]" + GOOD.split("[[robot]]")[1]))
+    no_time = GOOD.replace("time = {", "# time = {")
+    with pytest.raises(DataError, match=r"\[\[robot\]\] 'r1' time: missing: say how each log's date"):
+        campaigns.load(write_campaign(tmp_path, no_time))
+
+
+# --- drift, outliers, events on cases with a known truth ------------------------------------------------------------
+
+def series(robot: str, values, sigma: float, days=None, name: str = "Fc") -> Series:
+    days = np.arange(len(values), dtype=float) * 7 if days is None else np.asarray(days, float)
+    times = tuple(f"2024-01-{1 + k:02d}T00:00:00+00:00" for k in range(len(values)))
+    return Series(robot, name, days, np.asarray(values, float), np.full(len(values), sigma), times,
+                  tuple(f"log{k}" for k in range(len(values))))
+
+
+def test_drift_finds_a_trend_and_a_step_and_nothing_in_noise() -> None:
+    rng = np.random.default_rng(1)
+    sigma = 0.01
+    quiet = [series(f"q{k}", 1.0 + sigma * rng.normal(size=8), sigma) for k in range(200)]
+    rising = series("wear", 1.0 + 0.25 * np.linspace(0, 1, 8) + sigma * rng.normal(size=8), sigma)
+    jump = series("step", np.r_[np.ones(5), 1.3 * np.ones(3)] + sigma * rng.normal(size=8), sigma)
+    found = {d.series.robot: d for d in drifts([*quiet, rising, jump], Analysis()) if d.flagged}
+    assert set(found) == {"wear", "step"}
+    assert found["wear"].kind == "trend" and found["wear"].fit.relative == pytest.approx(0.25, abs=0.03)
+    assert found["step"].kind == "step" and found["step"].fit.detail["after"] == jump.times[5]
+    assert found["step"].fit.relative == pytest.approx(0.30, abs=0.03)
+
+
+def test_drift_uses_the_scatter_when_the_estimates_vary_more_than_their_sigma() -> None:
+    # the σ the identification reports is 10 times too small (a log-to-log variation it does not hold):
+    # without the Birge ratio every one of these constant series would be a drift
+    rng = np.random.default_rng(2)
+    scattered = [series(f"s{k}", 1.0 + 0.02 * rng.normal(size=8), 0.002) for k in range(100)]
+    assert not [d for d in drifts(scattered, Analysis()) if d.flagged]
+
+
+def test_a_small_significant_change_is_not_flagged() -> None:
+    # 2 % over the logs with σ = 0.01 %: significant, but below min_change (5 %)
+    tiny = series("tiny", 1.0 + 0.02 * np.linspace(0, 1, 8), 1e-4)
+    (d,) = drifts([tiny], Analysis())
+    assert d.trend.p_value < 1e-10 and not d.flagged
+
+
+def test_outliers_name_the_robot_that_differs_and_not_one_that_drifts() -> None:
+    rng = np.random.default_rng(3)
+    sigma = 0.002
+    group = [series(f"r{k}", 0.5 * (1 + 0.01 * rng.normal()) + sigma * rng.normal(size=6), sigma, name="m2")
+             for k in range(5)]
+    heavy = series("heavy", 0.65 + sigma * rng.normal(size=6), sigma, name="m2")
+    wearing = series("wearing", 0.5 * (1 + 0.5 * np.linspace(0, 1, 6)) + sigma * rng.normal(size=6), sigma, name="m2")
+    every = [*group, heavy, wearing]
+    tested = drifts(every, Analysis())
+    assert {d.series.robot for d in tested if d.flagged} == {"wearing"}
+    found = outliers(every, tested, {s.robot: "arm" for s in every}, Analysis())
+    assert {o.robot for o in found if o.flagged} == {"heavy"}
+
+
+def test_events_find_a_burst_with_its_window_and_nothing_in_noise_or_spikes() -> None:
+    rng = np.random.default_rng(4)
+    t = np.arange(0, 20, 0.002)
+    residual = rng.normal(size=(len(t), 2))
+    residual[::997, 1] += 60.0  # isolated spikes (a Coulomb step at each velocity reversal): not events
+    assert bursts(t, residual, ("a", "b"), Events()) == []
+    inside = (t >= 7.3) & (t <= 7.5)
+    residual[inside, 0] += 12 * np.sin(np.pi * (t[inside] - 7.3) / 0.2)
+    (event,) = bursts(t, residual, ("a", "b"), Events())
+    assert event["coordinates"] == ["a"]
+    assert abs(event["start"] - 7.3) < 0.03 and abs(event["end"] - 7.5) < 0.03
+    assert 7.3 < event["peak_time"] < 7.5 and event["size"]["a"]["peak"] > 8
+    quiet = [bursts(t, rng.normal(size=(len(t), 3)), ("a", "b", "c"), Events()) for _ in range(20)]
+    assert not any(quiet)
+
+
+def test_the_command_without_dask_says_how_to_install_it(monkeypatch, capsys) -> None:
+    from symbolic import cli
+
+    monkeypatch.setattr(fleet, "available", lambda: False)
+    assert cli.main(["campaign", "plant.toml", "--out", "out"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "pip install 'symbolic[fleet]'" in err
+
+
+# --- the synthetic fleet on Dask ------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory) -> Path:
+    return fleet_cases.fleet(tmp_path_factory.mktemp("fleet"))
+
+
+@pytest.fixture(scope="module")
+def local(synthetic: Path, tmp_path_factory):
+    out = tmp_path_factory.mktemp("local") / "out"
+    return out, fleet.run(fleet.load(synthetic), out, workers=2)
+
+
+def without_run_times(text: str) -> list[dict[str, str]]:
+    rows = list(csv.DictReader(io.StringIO(text)))
+    for row in rows:
+        row.pop("seconds")
+    return rows
+
+
+@needs_dask
+def test_the_local_cluster_reports_the_truth_and_nothing_else(local) -> None:
+    out, outcome = local
+    truth = fleet_cases.TRUTH
+    assert len(outcome.rows) == len(fleet_cases.ROBOTS) * fleet_cases.LOGS and outcome.computed == len(outcome.rows)
+    flagged = {(d.series.robot, d.series.parameter): d for d in outcome.drifts if d.flagged}
+    assert set(flagged) == set(truth["drift"])
+    for key, (kind, size) in truth["drift"].items():
+        assert flagged[key].kind == kind and flagged[key].fit.relative == pytest.approx(size, abs=0.05)
+    step = flagged[("r03", "Fv1")].fit.detail["after"]
+    assert step.startswith(f"{fleet_cases.START + truth['step_log'] * fleet_cases.WEEK:%Y-%m-%d}")
+    robot, parameter, _ = truth["outlier"]
+    different = [o for o in outcome.outliers if o.flagged]
+    assert {o.robot for o in different} == {robot}
+    # m2 enters the base parameters of the inertia and first moments (ZZR1 = ZZ1 − 0.16(M1 + M2), MXR2 = MX2 + 0.3·M2, ...)
+    assert {o.parameter for o in different} <= {"ZZR1", "MXR1", "ZZR2", "MXR2"} and len(different) >= 2
+    (event,) = outcome.events
+    robot, index, start, end = truth["event"]
+    moment = fleet_cases.START + index * fleet_cases.WEEK
+    assert event["robot"] == robot and event["log"] == f"logs/{robot}_{moment:%Y-%m-%d}.csv"
+    assert abs(event["start"] - start) < 0.06 and abs(event["end"] - end) < 0.06
+    assert set(event["coordinates"]) == {"q1", "q2"}
+    (error,) = outcome.errors
+    robot, index = truth["bad"]
+    moment = fleet_cases.START + index * fleet_cases.WEEK
+    assert error["robot"] == robot and error["log"] == f"logs/{robot}_{moment:%Y-%m-%d}.csv"
+    assert "column 'tau_q1': value nan" in error["error"]
+    names = {p.name for p in outcome.files}
+    assert {"results.csv", "report.md", "drift_r02_Fc2.png", "drift_r03_Fv1.png"} <= names
+    report = (out / "report.md").read_text()
+    assert "r02, Coulomb friction on q2 (Fc2): up" in report and f"| {truth['event'][0]} |" in report
+
+
+@needs_dask
+def test_a_real_scheduler_and_worker_give_the_same_results(synthetic: Path, local, tmp_path: Path) -> None:
+    local_out, _ = local
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    address_file = tmp_path / "scheduler.json"
+    started = []
+    try:
+        started.append(subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--scheduler-file", str(address_file),
+                                         "--port", "0", "--no-dashboard"], env=env, cwd=tmp_path,
+                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
+        deadline = time.monotonic() + 60
+        while not address_file.exists():
+            assert time.monotonic() < deadline and started[0].poll() is None, "the dask scheduler did not start"
+            time.sleep(0.2)
+        started.append(subprocess.Popen([sys.executable, "-m", "dask", "worker", "--scheduler-file", str(address_file),
+                                         "--nworkers", "1", "--nthreads", "1", "--no-dashboard"], env=env, cwd=tmp_path,
+                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
+        import json
+
+        address = json.loads(address_file.read_text())["address"]
+        out = tmp_path / "remote"
+        done = subprocess.run([sys.executable, "-m", "symbolic", "campaign", str(synthetic), "--out", str(out),
+                               "--scheduler", address, "--workers", "1", "--json"], env=env, cwd=tmp_path,
+                              capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr
+        summary = json.loads(done.stdout)
+        assert summary["computed"] == summary["logs"] and len(summary["errors"]) == 1
+    finally:
+        for process in reversed(started):
+            os.killpg(process.pid, signal.SIGTERM)
+            process.wait(timeout=30)
+    assert without_run_times((out / "results.csv").read_text()) == \
+        without_run_times((local_out / "results.csv").read_text())
+    assert (out / "report.md").read_text() == (local_out / "report.md").read_text()
+
+
+@needs_dask
+def test_a_rerun_computes_only_what_is_new(synthetic: Path, local, tmp_path: Path) -> None:
+    local_out, first = local
+    folder = tmp_path / "fleet"
+    shutil.copytree(synthetic.parent, folder)
+    out = tmp_path / "out"
+    shutil.copytree(local_out, out)
+    again = fleet.run(fleet.load(folder / synthetic.name), out)
+    assert (again.computed, again.cached) == (0, len(first.rows))  # the bad file's error is kept too: its bytes decide it
+    assert (out / "results.csv").read_text() == (local_out / "results.csv").read_text()
+    logs = folder / "logs"
+    shutil.copy(logs / "r01_2024-03-04.csv", logs / "r01_2024-05-06.csv")  # the same bytes under a new name
+    text = (logs / "r01_2024-03-11.csv").read_text().replace(",0.", ",-0.", 1)  # one value changed
+    (logs / "r01_2024-05-13.csv").write_text(text)
+    more = fleet.run(fleet.load(folder / synthetic.name), out)
+    assert more.computed == 1 and len(more.rows) == len(first.rows) + 2
