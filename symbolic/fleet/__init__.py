@@ -9,12 +9,12 @@ A campaign file (:mod:`.campaign`) names robots, their logs and the task per log
 log as one Dask task (:mod:`.tasks`), keeps each result in the output folder's cache (:mod:`.store`), and
 tells what the fleet shows: drift (:mod:`.drift`), outliers among siblings (:mod:`.outliers`), residual
 bursts within a log (:mod:`.events`), in ``report.md`` (:mod:`.report`). Dask (``pip install
-'symbolic[fleet]'``) is imported only when logs are run (:mod:`.run`).
+'symbolic[fleet]'``) is imported only when logs are run (:mod:`.execution`).
 """
 
 from __future__ import annotations
 
 from symbolic.fleet.campaign import Campaign, load
-from symbolic.fleet.run import INSTALL, Outcome, available, run
+from symbolic.fleet.execution import INSTALL, Outcome, available, run
 
 __all__ = ["INSTALL", "Campaign", "Outcome", "available", "load", "run"]

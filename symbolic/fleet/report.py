@@ -1,6 +1,6 @@
 """``DIR/report.md`` of a campaign and its figures, and the lines the command prints (docs/fleet.md, "Report").
 
-Input: an :class:`~symbolic.fleet.run.Outcome`. Output: {file name: bytes} — ``report.md``, a figure per
+Input: an :class:`~symbolic.fleet.execution.Outcome`. Output: {file name: bytes} — ``report.md``, a figure per
 drifting parameter (``drift_<robot>_<parameter>.png``: the estimates against time with σ bars and the
 fitted trend or step) and ``fleet_gap.png`` (every log's gap against time, per robot) — and notes (figures
 skipped without matplotlib). The text depends on the results only (no run times, no paths but the logs'

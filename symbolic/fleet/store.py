@@ -10,7 +10,7 @@
   computed; and ``files.json``, the SHA-256 of each log by (path, size, modification time), so a rerun
   over thousands of unchanged logs reads none of them. The folder is the campaign's own: the output set
   (:mod:`symbolic.export.output`) never touches a sub-folder.
-* :func:`table`: the results as CSV text, one row per log (module docstring of :mod:`symbolic.fleet.run`).
+* :func:`table`: the results as CSV text, one row per log (module docstring of :mod:`symbolic.fleet.execution`).
 """
 
 from __future__ import annotations
