@@ -49,6 +49,11 @@ TRUTH = {
 }
 
 
+def number(name: str) -> int:
+    """0 for r01, 1 for r02, ..."""
+    return int(name[1:]) - 1
+
+
 def trajectory(t: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q, q̇, q̈ of both joints: five harmonics of 0.1 Hz with random coefficients, speeds up to about 1.5 rad/s."""
     rng = np.random.default_rng(seed)
@@ -66,7 +71,7 @@ def trajectory(t: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray, np.nda
 
 def robot_parameters(name: str) -> dict[str, float]:
     """The robot's own values: the nominal ones with its manufacturing spread, and r05's heavier tool."""
-    rng = np.random.default_rng(ROBOTS.index(name) + 100)
+    rng = np.random.default_rng(number(name) + 100)
     values = {k: v * (1 + SPREAD * rng.uniform(-1, 1)) for k, v in NOMINAL.items()}
     if name == TRUTH["outlier"][0]:
         values[TRUTH["outlier"][1]] *= TRUTH["outlier"][2]
@@ -80,7 +85,7 @@ def log_parameters(name: str, index: int) -> dict[str, float]:
         if robot != name:
             continue
         if kind == "trend":
-            values[parameter] *= 1 + size * index / (LOGS - 1)
+            values[parameter] *= 1 + size * min(index, LOGS - 1) / (LOGS - 1)
         elif index >= TRUTH["step_log"]:
             values[parameter] *= 1 + size
     return values
@@ -95,7 +100,7 @@ def rigid_and_friction(name: str, t: np.ndarray):
     model = symbolic.derive(symbolic.loads(arm(), "<truth>"))
     p = model.parameter_vector.updated({**values, "Fv1": 0.0, "Fv2": 0.0, "Fc1": 0.0, "Fc2": 0.0}).array()
     num = numeric_model(model)
-    q, qd, qdd = trajectory(t, ROBOTS.index(name))
+    q, qd, qdd = trajectory(t, number(name))
     rigid = np.array([num.inverse_dynamics(a, b, c, p) for a, b, c in zip(q, qd, qdd)])
     return rigid, q, qd
 
@@ -111,7 +116,7 @@ def log_force(name: str, index: int, rigid: np.ndarray, qd: np.ndarray, t: np.nd
         inside = (t >= start) & (t <= end)
         pulse = np.sin(np.pi * (t[inside] - start) / (end - start))
         tau[inside] += np.outer(pulse, 0.5 * np.abs(tau).max(axis=0))
-    rng = np.random.default_rng(1000 * ROBOTS.index(name) + index)
+    rng = np.random.default_rng(1000 * number(name) + index)
     return tau + rng.normal(0, 1, tau.shape) * NOISE * np.sqrt(np.mean(tau**2, axis=0))
 
 
@@ -121,17 +126,22 @@ def write_csv(path: Path, columns: dict[str, np.ndarray]) -> None:
     np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
 
 
-def fleet(folder: Path, logs: int = LOGS) -> Path:
-    """Write the model, the logs and the campaign file into ``folder``; return the campaign file."""
+def fleet(folder: Path, logs: int = LOGS, robots: int = len(ROBOTS), seconds: float = SECONDS,
+          spacing: dt.timedelta = WEEK, kind: str = "identify") -> Path:
+    """Write the model, the logs and the campaign file into ``folder``; return the campaign file.
+
+    The defaults are the fleet of the module docstring; the benchmark (bench/fleet.py) asks for more robots,
+    logs, longer or shorter logs, another spacing in time and another task."""
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "arm.toml").write_text(arm(), encoding="utf-8")
-    t = np.arange(0.0, SECONDS, 1.0 / RATE)
+    t = np.arange(0.0, seconds, 1.0 / RATE)
     listed = []
-    for name in ROBOTS:
+    names = [f"r{k + 1:02d}" for k in range(robots)]
+    for name in names:
         rigid, q, qd = rigid_and_friction(name, t)
         (folder / "logs").mkdir(exist_ok=True)
         for index in range(logs):
-            moment = START + index * WEEK + dt.timedelta(hours=ROBOTS.index(name))
+            moment = START + index * spacing + dt.timedelta(hours=number(name))
             tau = log_force(name, index, rigid, qd, t)
             if (name, index) == TRUTH["bad"]:
                 tau[100, 0] = np.nan
@@ -143,18 +153,20 @@ def fleet(folder: Path, logs: int = LOGS) -> Path:
             write_csv(file, columns)
             if name == "r06":
                 listed.append((file.relative_to(folder).as_posix(), moment))
-    return campaign_file(folder, listed)
+    return campaign_file(folder, listed, names, kind)
 
 
-def campaign_file(folder: Path, listed) -> Path:
-    text = ['name = "synthetic fleet"', 'description = "six two-link arms, weekly logs"', "",
-            "[task]", 'kind = "identify"', "", "[task.identification]", "bandwidth = 4.0", ""]
-    for name in ROBOTS[:4]:
+def campaign_file(folder: Path, listed, names, kind: str) -> Path:
+    text = ['name = "synthetic fleet"', f'description = "{len(names)} two-link arms"', "",
+            "[task]", f'kind = "{kind}"', "", "[task.identification]", "bandwidth = 4.0", ""]
+    for name in [n for n in names if n not in ("r05", "r06")]:
         text += ["[[robot]]", f'id = "{name}"', 'model = "arm.toml"', f'logs = "logs/{name}_*.csv"',
                  r'time = { from = "name", pattern = "_(\\d{4}-\\d{2}-\\d{2})", format = "%Y-%m-%d" }', ""]
-    text += ["[[robot]]", 'id = "r05"', 'model = "arm.toml"', 'logs = "logs/r05_*.csv"',
-             'time = { from = "column", column = "epoch" }', ""]
-    text += ["[[robot]]", 'id = "r06"', 'model = "arm.toml"', ""]
+    if "r05" in names:
+        text += ["[[robot]]", 'id = "r05"', 'model = "arm.toml"', 'logs = "logs/r05_*.csv"',
+                 'time = { from = "column", column = "epoch" }', ""]
+    if "r06" in names:
+        text += ["[[robot]]", 'id = "r06"', 'model = "arm.toml"', ""]
     for file, moment in listed:
         text += ["[[robot.log]]", f'file = "{file}"', f"time = {moment:%Y-%m-%dT%H:%M:%SZ}", ""]
     path = folder / "fleet.toml"

@@ -1,0 +1,169 @@
+"""Fleet benchmark (issue 25, "Scale"): a campaign's speed-up over one log at a time, the scheduler's overhead,
+and 1 000 short logs with the workers' memory.
+
+Synthetic fleets of the two-link arm (tests/fleet_cases.py: the logs are written into a temporary folder):
+
+1. **Speed-up.** 24 logs of 60 s at 200 Hz (4 robots × 6), task ``diagnose`` (a few seconds per log).
+   *One at a time*: :func:`symbolic.fleet.tasks.run_log` on each log in turn in this process (no Dask).
+   *Campaign*: ``symbolic.fleet.run`` on a local cluster of 2 worker processes (started before, its start
+   reported apart), the whole campaign: planning, the tasks, the analysis, report and figures.
+2. **Scheduler overhead.** The same 24 tasks through :func:`symbolic.fleet.execution.execute` on a cluster
+   of 1 worker: (wall time − Σ the tasks' own run times) / Σ the tasks' run times.
+3. **1 000 short logs.** 10 robots × 100 daily logs of 2 s, task ``identify``, on 2 workers: wall time,
+   logs per second, and each worker's resident memory after the first 100 and after all 1 000.
+
+Each part starts from an empty campaign cache; the derivation cache (``SYMBOLIC_CACHE_DIR``) is a
+temporary folder filled by a first derivation before the timings. The machine is shared: its load
+average is printed with the results.
+
+    python bench/fleet.py --out bench/results/fleet.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import logging
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+
+
+def cluster(workers: int):
+    from dask.distributed import Client, LocalCluster
+
+    started = time.perf_counter()
+    local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
+                         scheduler_kwargs={"dashboard": False}, worker_dashboard_address=None)
+    client = Client(local)
+    return local, client, time.perf_counter() - started
+
+
+def rss(client) -> list[float]:
+    """Resident memory of each worker process, MB."""
+    import psutil
+
+    return sorted(v / 1e6 for v in client.run(lambda: psutil.Process().memory_info().rss).values())
+
+
+def speed_up(folder: Path) -> dict:
+    import fleet_cases
+    from symbolic import fleet
+    from symbolic.fleet.execution import execute, plan
+    from symbolic.fleet.store import Store
+    from symbolic.fleet.tasks import run_log
+
+    path = fleet_cases.fleet(folder / "long", logs=6, robots=4, seconds=60.0, kind="diagnose")
+    campaign = fleet.load(path)
+    _, jobs = plan(campaign, Store(folder / "serial"))
+    run_log(jobs[0])  # derivation, regressor and base parameters into the derivation cache (as a worker reads them)
+    started = time.perf_counter()
+    serial = [run_log(job) for job in jobs]
+    one_at_a_time = time.perf_counter() - started
+    local, client, start_2 = cluster(2)
+    try:
+        started = time.perf_counter()
+        outcome = fleet.run(campaign, folder / "out2", scheduler=local.scheduler_address)
+        campaign_2 = time.perf_counter() - started
+    finally:
+        client.close()
+        local.close()
+    local, client, start_1 = cluster(1)
+    try:
+        started = time.perf_counter()
+        results = execute(jobs, Store(folder / "out1"), scheduler=local.scheduler_address)
+        wall_1 = time.perf_counter() - started
+    finally:
+        client.close()
+        local.close()
+    own = sum(r["seconds"] for r in results.values())
+    return {"logs": len(jobs), "errors": sum(r["status"] != "ok" for r in serial), "one_at_a_time": one_at_a_time,
+            "task_mean": sum(r["seconds"] for r in serial) / len(serial), "campaign_2": campaign_2, "start_2": start_2,
+            "speed_up": one_at_a_time / campaign_2, "speed_up_with_start": one_at_a_time / (campaign_2 + start_2),
+            "wall_1": wall_1, "own_1": own, "overhead": (wall_1 - own) / own, "start_1": start_1,
+            "computed": outcome.computed}
+
+
+def short_logs(folder: Path) -> dict:
+    import fleet_cases
+    from symbolic import fleet
+    from symbolic.fleet.execution import execute, plan
+    from symbolic.fleet.store import Store
+
+    path = fleet_cases.fleet(folder / "short", logs=100, robots=10, seconds=2.0, spacing=dt.timedelta(days=1))
+    campaign = fleet.load(path)
+    _, jobs = plan(campaign, Store(folder / "short_out"))
+    local, client, _ = cluster(2)
+    try:
+        execute(jobs[:100], Store(folder / "short_out"), scheduler=local.scheduler_address)
+        after_100 = rss(client)
+        started = time.perf_counter()
+        results = execute(jobs, Store(folder / "short_all"), scheduler=local.scheduler_address)
+        wall = time.perf_counter() - started
+        after_all = rss(client)
+    finally:
+        client.close()
+        local.close()
+    return {"logs": len(jobs), "wall": wall, "rate": len(jobs) / wall, "after_100": after_100, "after_all": after_all,
+            "errors": sum(r["status"] != "ok" for r in results.values())}
+
+
+def markdown(a: dict, b: dict) -> str:
+    load = os.getloadavg()
+    return "\n".join([
+        "# Fleet benchmark (bench/fleet.py)",
+        "",
+        f"Run {dt.date.today().isoformat()} on {platform.machine()}, {os.cpu_count()} processors (shared; load average "
+        f"{load[0]:.2f} {load[1]:.2f} {load[2]:.2f} at the end), Python {platform.python_version()}. "
+        "Regenerate: `python bench/fleet.py --out bench/results/fleet.md`.",
+        "",
+        f"## Speed-up: {a['logs']} logs of 60 s, task diagnose",
+        "",
+        "| | seconds |",
+        "|---|---|",
+        f"| one at a time (run_log in turn, no Dask) | {a['one_at_a_time']:.1f} (mean task {a['task_mean']:.2f} s) |",
+        f"| campaign on 2 local workers (plan, tasks, analysis, report, figures) | {a['campaign_2']:.1f} |",
+        f"| starting the 2-worker local cluster | {a['start_2']:.1f} |",
+        f"| **speed-up** | **{a['speed_up']:.2f}×** ({a['speed_up_with_start']:.2f}× with the cluster's start) |",
+        "",
+        "## Scheduler overhead: the same tasks on 1 worker",
+        "",
+        f"Wall time of the tasks through Dask {a['wall_1']:.2f} s, their own run times {a['own_1']:.2f} s: "
+        f"**overhead {100 * a['overhead']:.1f} %** (cluster start {a['start_1']:.1f} s, apart).",
+        "",
+        f"## {b['logs']} short logs (2 s each, identify) on 2 workers",
+        "",
+        f"{b['wall']:.1f} s, {b['rate']:.1f} logs/s ({b['errors']} error rows: the fleet's bad file). Resident memory "
+        f"per worker after 100 logs: {', '.join(f'{m:.0f}' for m in b['after_100'])} MB; after all "
+        f"{b['logs']}: {', '.join(f'{m:.0f}' for m in b['after_all'])} MB.",
+        "",
+    ])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", help="write the results as Markdown here")
+    parser.add_argument("--skip-short", action="store_true", help="leave out the 1 000 short logs")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory(prefix="symbolic-bench-fleet-") as tmp:
+        os.environ["SYMBOLIC_CACHE_DIR"] = str(Path(tmp) / "derivations")
+        a = speed_up(Path(tmp))
+        print(a, flush=True)
+        b = short_logs(Path(tmp)) if not args.skip_short else {"logs": 0, "wall": 0, "rate": 0, "after_100": [],
+                                                               "after_all": [], "errors": 0}
+        print(b, flush=True)
+    text = markdown(a, b)
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text, encoding="utf-8")
+
+
+if __name__ == "__main__":
+    main()
