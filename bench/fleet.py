@@ -88,7 +88,8 @@ def speed_up(folder: Path) -> dict:
             "task_mean": sum(r["seconds"] for r in serial) / len(serial), "campaign_2": campaign_2, "start_2": start_2,
             "speed_up": one_at_a_time / campaign_2, "speed_up_with_start": one_at_a_time / (campaign_2 + start_2),
             "wall_1": wall_1, "own_1": own, "overhead": (wall_1 - own) / own, "start_1": start_1,
-            "computed": outcome.computed}
+            "computed": outcome.computed, "campaign_errors": len(outcome.errors),
+            "overhead_errors": sum(r["status"] != "ok" for r in results.values())}
 
 
 def short_logs(folder: Path) -> dict:
@@ -133,6 +134,8 @@ def markdown(a: dict, b: dict) -> str:
         f"| starting the 2-worker local cluster | {a['start_2']:.1f} |",
         f"| **speed-up** | **{a['speed_up']:.2f}×** ({a['speed_up_with_start']:.2f}× with the cluster's start) |",
         "",
+        f"Error rows: {a['errors']} one at a time, {a['campaign_errors']} in the campaign, {a['overhead_errors']} on 1 worker.",
+        "",
         "## Scheduler overhead: the same tasks on 1 worker",
         "",
         f"Wall time of the tasks through Dask {a['wall_1']:.2f} s, their own run times {a['own_1']:.2f} s: "
@@ -140,7 +143,7 @@ def markdown(a: dict, b: dict) -> str:
         "",
         f"## {b['logs']} short logs (2 s each, identify) on 2 workers",
         "",
-        f"{b['wall']:.1f} s, {b['rate']:.1f} logs/s ({b['errors']} error rows: the fleet's bad file). Resident memory "
+        f"{b['wall']:.1f} s, {b['rate']:.1f} logs/s ({b['errors']} error row(s): the fleet's bad file is among them). Resident memory "
         f"per worker after 100 logs: {', '.join(f'{m:.0f}' for m in b['after_100'])} MB; after all "
         f"{b['logs']}: {', '.join(f'{m:.0f}' for m in b['after_all'])} MB.",
         "",

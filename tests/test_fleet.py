@@ -215,6 +215,10 @@ def test_the_local_cluster_reports_the_truth_and_nothing_else(local) -> None:
     assert event["robot"] == robot and event["log"] == f"logs/{robot}_{moment:%Y-%m-%d}.csv"
     assert abs(event["start"] - start) < 0.06 and abs(event["end"] - end) < 0.06
     assert set(event["coordinates"]) == {"q1", "q2"}
+    # the burst is left out of that log's second fit: its friction estimate is as certain as the other logs'
+    sigmas = {r["log"]: {p["name"]: p["sigma"] for p in r["parameters"]} for r in outcome.rows if r["robot"] == robot}
+    others = [s["Fv1"] for log, s in sigmas.items() if log != event["log"]]
+    assert sigmas[event["log"]]["Fv1"] < 1.5 * np.median(others)
     (error,) = outcome.errors
     robot, index = truth["bad"]
     moment = fleet_cases.START + index * fleet_cases.WEEK

@@ -60,7 +60,7 @@ class Events:
         A burst is where that windowed RMS exceeds ``ratio`` times the log's own robust residual RMS.
     """
 
-    window: float = 0.2
+    window: float = 0.1
     ratio: float = 4.0
 
 

@@ -206,7 +206,7 @@ def draw(outcome) -> dict[str, bytes]:
             ax.plot(days, gaps, "o-", ms=3, label=robot.id)
     ax.set_xlabel("days since the campaign's first log")
     ax.set_ylabel("gap ‖τ − τ_model‖/‖τ‖ (%)")
-    if len(outcome.campaign.robots) <= 12:
+    if ax.lines and len(outcome.campaign.robots) <= 12:
         ax.legend(loc="best", fontsize=7)
     fig.tight_layout()
     out["fleet_gap.png"] = png_bytes(fig, dpi=90)

@@ -123,19 +123,33 @@ def _column_time(experiment: Experiment, job: Job) -> str:
 
 
 def _identify(model: DynamicModel, experiment: Experiment, task: Task) -> dict[str, Any]:
-    """IDIM-LS of the model's parameters on the log, and the events of its own residual."""
+    """IDIM-LS of the model's parameters on the log, the events of its own residual, and, when there are
+    events, the parameters again without them (:func:`excluded`): a collision says nothing about friction."""
     from symbolic.identify.model import base_regressor, identify_model
     from symbolic.identify.pipeline import cross_validate
 
-    result = identify_model(model, experiment, settings=task.identification, method=task.option("method", "wls"),
-                            consistent=task.option("consistent", False), fix=task.option("fix", ()))
+    options = dict(settings=task.identification, method=task.option("method", "wls"),
+                   consistent=task.option("consistent", False), fix=task.option("fix", ()))
+    result = identify_model(model, experiment, **options)
     # the residual of the log's own model at every sample (no decimation) for the events
     every = dataclasses.replace(settings_for(experiment, task.identification), decimation=1)
     full = cross_validate(result.identification, experiment, base_regressor(model, base=result.base), every)
     residual = full.observation.tau - full.predicted
-    return {"gap": result.identification.relative_error, "parameters": _parameters(result),
-            "events": bursts(full.observation.t, residual, full.observation.coordinates, task.events),
+    events = bursts(full.observation.t, residual, full.observation.coordinates, task.events)
+    if events:
+        result = identify_model(model, experiment, exclude=excluded(events, result.identification.processing,
+                                                                      task.events.window), **options)
+    return {"gap": result.identification.relative_error, "parameters": _parameters(result), "events": events,
             "samples": experiment.samples, "duration": float(experiment.t[-1] - experiment.t[0])}
+
+
+def excluded(events: list[dict[str, Any]], processing, window: float) -> list[tuple[float, float]]:
+    """The intervals left out of the second fit: each event widened by half a window and by the decimation
+    filter's reach, 4/f_c with f_c its cut-off (0.8 of the decimated Nyquist frequency), over which a burst in τ
+    still moves the decimated samples."""
+    reach = 4.0 / (0.8 * processing.rate / (2.0 * processing.decimation)) if processing.decimation > 1 else 0.0
+    margin = window / 2 + reach
+    return [(e["start"] - margin, e["end"] + margin) for e in events]
 
 
 def _parameters(result) -> list[dict[str, Any]]:
