@@ -164,6 +164,23 @@ def test_events_find_a_burst_with_its_window_and_nothing_in_noise_or_spikes() ->
     assert not any(quiet)
 
 
+def test_a_burst_that_recurs_at_the_same_state_is_the_models_not_an_event() -> None:
+    # a periodic excitation (5 s): the same burst at the same phase in two periods is a misfit of that state
+    rng = np.random.default_rng(5)
+    t = np.arange(0, 20, 0.002)
+    motion = np.column_stack([np.sin(2 * np.pi * t / 5), np.cos(2 * np.pi * t / 5)])
+    residual = rng.normal(size=(len(t), 1))
+    for start in (6.3, 11.3):
+        inside = (t >= start) & (t <= start + 0.2)
+        residual[inside, 0] += 12.0
+    assert bursts(t, residual, ("a",), Events(), motion) == []
+    assert len(bursts(t, residual, ("a",), Events())) == 2  # without the states, two bursts
+    inside = (t >= 2.0) & (t <= 2.2)  # once, at another state: an event
+    residual[inside, 0] += 12.0
+    (event,) = bursts(t, residual, ("a",), Events(), motion)
+    assert abs(event["start"] - 2.0) < 0.03
+
+
 def test_the_command_without_dask_says_how_to_install_it(monkeypatch, capsys) -> None:
     from symbolic import cli
 

@@ -21,6 +21,12 @@ reversal, one bad sample — and to the burst itself):
   the run (widened by half a window) whose own residual exceeds ``ratio`` times the typical one on a
   triggering coordinate, so that the reported interval is the burst's, not the window's.
 
+A burst that recurs is not an event: when ``states`` (positions and velocities at the same samples) are
+given, two bursts on a coordinate whose states at their peaks are within :data:`RECUR` standard deviations
+of each other in every position and velocity are the model's misfit of that state (a coarse encoder's
+quantisation near a velocity reversal, a friction law the model lacks: docs/workflow.md names those), which
+a periodic excitation repeats every period, while a collision happens once; both are dropped.
+
 The size of an event, per coordinate that triggered: the peak r_j (force units) and its time, the RMS of
 r_j over the event, and ``ratio`` = that RMS / s_j.
 """
@@ -42,6 +48,10 @@ WINDOW_P = 1e-3
 """Probability that a white Gaussian residual gives one event in a log (before the size rule): Bonferroni over the
 log's windows and coordinates."""
 
+RECUR = 0.25
+"""Distance, in standard deviations over the log of each position and velocity, within which two bursts' states
+are the same state (module docstring)."""
+
 MOST = 20
 """Events kept per log (the largest): a log that bursts everywhere is a bad log, not a list of collisions."""
 
@@ -58,8 +68,9 @@ def windowed(r2: np.ndarray, m: int) -> np.ndarray:
     return median_filter(r2, size=(m, 1), mode="reflect")
 
 
-def bursts(t: np.ndarray, residual: np.ndarray, coordinates: Sequence[str], settings: Events) -> list[dict[str, Any]]:
-    """The events of one log (module docstring), in time order.
+def bursts(t: np.ndarray, residual: np.ndarray, coordinates: Sequence[str], settings: Events,
+           states: np.ndarray | None = None) -> list[dict[str, Any]]:
+    """The events of one log (module docstring), in time order; bursts that recur at one state are left out.
 
     Parameters
     ----------
@@ -71,6 +82,8 @@ def bursts(t: np.ndarray, residual: np.ndarray, coordinates: Sequence[str], sett
         The N coordinate names.
     settings
         Window length (s) and size ratio.
+    states
+        Positions and velocities at the same samples (``samples × 2N``, any order), or None (no recurrence test).
     """
     from scipy.stats import binom, chi2
 
@@ -94,8 +107,25 @@ def bursts(t: np.ndarray, residual: np.ndarray, coordinates: Sequence[str], sett
     hot = windowed(ratio2, m) >= settings.ratio**2
     rows = np.flatnonzero(hot.any(axis=1))
     found = [_event(t, r, level, ratio2, hot, run, m, settings, coordinates) for run in _runs(rows, m)]
+    if states is not None:
+        found = [e for e in found if not e.get("recurs")] if _mark_recurring(found, t, states) else found
     found.sort(key=lambda e: -e["ratio"])
     return sorted(found[:MOST], key=lambda e: e["start"])
+
+
+def _mark_recurring(found: list[dict[str, Any]], t: np.ndarray, states: np.ndarray) -> bool:
+    """Mark (``"recurs": True``) the bursts whose state at the peak another burst on a shared coordinate has."""
+    x = np.asarray(states, float).reshape(len(t), -1)
+    spread = x.std(axis=0)
+    z = (x - x.mean(axis=0)) / np.where(spread > 0, spread, 1.0)
+    at = [z[int(np.argmin(np.abs(t - e["peak_time"])))] for e in found]
+    marked = False
+    for i in range(len(found)):
+        for j in range(i + 1, len(found)):
+            shared = set(found[i]["coordinates"]) & set(found[j]["coordinates"])
+            if shared and np.max(np.abs(at[i] - at[j])) < RECUR:
+                found[i]["recurs"] = found[j]["recurs"] = marked = True
+    return marked
 
 
 def _runs(rows: np.ndarray, gap: int) -> list[np.ndarray]:

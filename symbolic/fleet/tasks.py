@@ -27,7 +27,7 @@ import numpy as np
 
 from symbolic.cache import stamp
 from symbolic.data import DataError, Experiment, load
-from symbolic.data.treatment import settings_for
+from symbolic.data.treatment import settings_for, states
 from symbolic.derive.dynamics import DynamicModel, derive
 from symbolic.description.modelfile import loads
 from symbolic.description.robot import digest
@@ -135,7 +135,9 @@ def _identify(model: DynamicModel, experiment: Experiment, task: Task) -> dict[s
     every = dataclasses.replace(settings_for(experiment, task.identification), decimation=1)
     full = cross_validate(result.identification, experiment, base_regressor(model, base=result.base), every)
     residual = full.observation.tau - full.predicted
-    events = bursts(full.observation.t, residual, full.observation.coordinates, task.events)
+    treated = states(experiment, every)
+    motion = np.hstack([full.observation.processing.reduce(treated.q), full.observation.processing.reduce(treated.qd)])
+    events = bursts(full.observation.t, residual, full.observation.coordinates, task.events, motion)
     if events:
         result = identify_model(model, experiment, exclude=excluded(events, result.identification.processing,
                                                                       task.events.window), **options)
@@ -192,9 +194,11 @@ def _simulate(model: DynamicModel, experiment: Experiment, task: Task) -> dict[s
     order = [names.index(c) for c in experiment.coordinates]
     residual = np.asarray(experiment.tau, float) - np.asarray(run.simulated.tau, float)[:, order]
     norm = float(np.linalg.norm(experiment.tau))
+    q = np.asarray(experiment.q, float)
+    motion = np.hstack([q, np.gradient(q, np.asarray(experiment.t, float), axis=0)])
     return {"gap": 100.0 * float(np.linalg.norm(residual)) / norm if norm > 0 else float("nan"),
             "simulation": {c: dict(e) for c, e in errors.items()}, "parameters": [],
-            "events": bursts(experiment.t, residual, experiment.coordinates, task.events),
+            "events": bursts(experiment.t, residual, experiment.coordinates, task.events, motion),
             "samples": experiment.samples, "duration": float(experiment.t[-1] - experiment.t[0])}
 
 
