@@ -346,6 +346,7 @@ def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Searc
     }
     if c.effect.nonlinear:
         evidence["nonlinear"] = {c.effect.nonlinear: list(c.value) if isinstance(c.value, tuple) else c.value}
+    evidence.update(c.effect.describe(c.value))
     evidence.update(final.get("measured", {}))
     roles = {k: v for k, v in final["roles"].items() if k in c.effect.roles}
     evidence.update({k: v for k, v in final.get("fitted", final["roles"]).items() if k not in c.effect.roles})
