@@ -521,7 +521,7 @@ def test_emps_symmetric_stage_names_coulomb_and_offset(tmp_path: Path, emps: Pat
 @pytest.mark.slow
 def test_emps_published_model_names_the_direction_dependence(tmp_path: Path, emps: Path) -> None:  # noqa: F811
     """From the published symmetric model: asymmetric viscous friction (Fv+ 166.7, Fv− 240.4); the
-    relative force error falls from ≈ 4.1 % to ≈ 3.1 % as in the publication."""
+    relative force error falls from ≈ 4.1 % to ≈ 3.1 % as in the publication; the offset is corrected."""
     d = emps_diagnose(robots.path("emps"), out=tmp_path / "out")
     assert [f.effect for f in d.found] == ["asymmetric_viscous"]
     roles = d.found[0].parameters
@@ -532,6 +532,15 @@ def test_emps_published_model_names_the_direction_dependence(tmp_path: Path, emp
     assert d.after.gap["validation"] < d.before.gap["validation"]
     patched = symbolic.load(d.patched_path)
     assert patched.frictions[0].viscous.positive.name == "Fvp_q"
+    # the offset the symmetric model needed is a wrong value now: the publication's direction-dependent model
+    # has (Fc⁺ − Fc⁻)/2 = −0.25 N; Fv, replaced by Fv±, is removed, and both are reported (issue 21 §2)
+    (correction,) = d.corrections
+    assert correction["parameter"] == "offset" and correction["nominal"] == pytest.approx(-3.1648)
+    assert correction["value"] == pytest.approx(-0.25, abs=0.1) and correction["evidence"]["sigmas"] > 3
+    changes = {c["parameter"]: c for c in d.changes}
+    assert changes["Fv"]["status"] == "removed" and changes["offset"]["correction"]
+    assert {"M", "Fc"} <= {name for name, c in changes.items() if c["status"] == "re-identified"}
+    assert d.modes is None  # no elastic coordinate
 
 
 @pytest.mark.slow

@@ -148,7 +148,8 @@ def controller_table(model, q0: np.ndarray, resolution: float, coordinates: tupl
 
 def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate: float = 500.0,
                  resolution: float = 2 * np.pi / 2**20, measured: tuple[str, ...] | None = None,
-                 pulses: float = 0.0, held: bool = False, logged_feedforward: bool = False) -> Measurements:
+                 pulses: float = 0.0, held: bool = False, logged_feedforward: bool = False,
+                 unactuated: tuple[str, ...] = ()) -> Measurements:
     """Data of the truth model ``text`` simulated in closed loop (:func:`symbolic.simulation.simulator.simulate`):
     a PD loop (:func:`controller_table`) with a computed-torque feedforward (:func:`_feedforward`) follows
     the Fourier reference, reads an encoder of ``resolution`` (default 20 bits per turn: with 18 bits, the twice-differentiated quantisation left in q̈ below the 50 Hz cut-off — errors in the regressor that the F-test does not model — made 1–2 % effects at the band edge significant);
@@ -161,7 +162,9 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     log of the drive voltage does), which leads the force acting over the sample by half a sample.
     ``logged_feedforward``: the log keeps the feedforward
     (columns ``ff_<c>``) and the controller table adds it as its disturbance, so that a simulation of a
-    model in the logged loop (``diagnose(simulate=True)``) is driven as the truth was."""
+    model in the logged loop (``diagnose(simulate=True)``) is driven as the truth was. ``unactuated``:
+    coordinates without an actuator (a link's deflection) that the log holds as well, quantised like the
+    others, with τ = 0 (their equation is homogeneous); the loop does not act on them."""
     model = symbolic.derive(symbolic.loads(text, "<truth>"))
     coordinates = tuple(measured or model.robot.coordinates)
     t = np.arange(0.0, seconds, 1.0 / rate)
@@ -179,12 +182,17 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     order = [names.index(c) for c in coordinates]
     q = np.asarray(run.simulated.q)[:, order]
     command = np.asarray(run.simulated.tau)[:, order]
+    free = np.asarray(run.simulated.q)[:, [names.index(c) for c in unactuated]]
     # the force the controller holds over [t_k, t_k+1), reported at t_k as an integrating current sensor
     # does: its mean over [t_k − T/2, t_k + T/2], aligned with the positions (a log of the held command
     # leads them by half a sample, which the inverse model reads as a small inertia or lag term)
     tau = command if held else np.concatenate([command[:1], 0.5 * (command[1:] + command[:-1])])
     rng = np.random.default_rng(seed + 1000)
     tau = tau + rng.normal(0, 1, tau.shape) * noise * np.sqrt(np.mean(tau**2, axis=0))
+    if unactuated:
+        q, tau = np.hstack([q, free]), np.hstack([tau, np.zeros_like(free)])
+        reference = np.hstack([reference, np.zeros_like(free)])  # the loop holds no reference for them
+        coordinates = coordinates + tuple(unactuated)
     logged = Measurements.from_arrays(t, coordinates, np.round(q / resolution) * resolution, tau, ref=reference,
                                       extras=extras if logged_feedforward else None)
     if logged_feedforward:
@@ -235,6 +243,19 @@ name = "coupling"
 coordinate = "{name}"
 expression = "-{load * w * w!r}*{name} - {2 * damping * w * load!r}*qd_{name}"
 '''
+
+
+MODELS = Path(__file__).resolve().parent / "models"
+"""Model files written for the tests (tests/models/)."""
+
+
+def flexible_rig(stiffness_factor: float = 1.0) -> str:
+    """Text of the hub + link + torsional spring rig (tests/models/flexible_rig.toml), its root stiffness
+    Ks multiplied by ``stiffness_factor`` (the truth of a case whose model file has it wrong)."""
+    text = (MODELS / "flexible_rig.toml").read_text(encoding="utf-8")
+    old = "Ks = { value = 1.0,"
+    assert text.count(old) == 1
+    return text.replace(old, f"Ks = {{ value = {1.0 * stiffness_factor!r},")
 
 
 def model_file(folder: Path, text: str, name: str = "model.toml") -> Path:
