@@ -72,6 +72,7 @@ def test_a_stiffness_too_high_is_named_with_its_factor_and_the_modes(tmp_path: P
     evidence = correction["evidence"]
     assert evidence["kind"] == "stiffness" and evidence["sigmas"] > 100
     assert evidence["held_out_gap_at_nominal"] > 5 * evidence["held_out_gap"]  # keeping 1.0 costs the fit
+    assert evidence["held_out_gain"] == pytest.approx(1 - (evidence["held_out_gap"] / evidence["held_out_gap_at_nominal"]) ** 2)
     # the modes: the file's exactly, the patched ones the truth's
     before = rig_modes(**RIG)
     truth = rig_modes(**{**RIG, "Ks": 1.0 / FACTOR})
@@ -101,6 +102,19 @@ def test_the_right_file_has_no_correction(tmp_path: Path) -> None:
     d = run_rig(tmp_path, 1.0)
     assert d.found == () and d.corrections == ()
     assert d.modes["after"][0]["frequency_hz"] == pytest.approx(d.modes["before"][0]["frequency_hz"], rel=0.01)
+
+
+@pytest.mark.slow
+def test_a_coarse_encoder_makes_no_correction(tmp_path: Path) -> None:
+    """The arm with nothing wrong behind a 14-bit encoder: the quantisation left in q̈ moves the base
+    parameter ZZR2 by 10 % at 14σ, but the file's value predicts the held-out data as well — not named a
+    correction (the effect-size rule), only noted."""
+    data = cases.measurements(cases.arm(), 300, 0.01, resolution=2 * np.pi / 2**14)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", symbolic.ModelWarning)
+        d = diagnose(cases.model_file(tmp_path, cases.arm()), data, figures=False)
+    assert d.found == () and d.corrections == ()
+    assert any("ZZR2" in note and "not named a correction" in note for note in d.notes), d.notes
 
 
 @pytest.mark.slow

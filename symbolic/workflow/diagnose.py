@@ -172,7 +172,7 @@ def diagnose(
         final_fit = FinalFit.of_design(before.nominal.terms, selection.final, sets) if unmeasured else \
             FinalFit.of_nominal(after.nominal, sets)
         reviewed = review(model, patched, {**{s.name: float(v) for s, v in patched.parameters.items()}, **own},
-                          final_fit, own, removed, kept, estimation, notes)
+                          final_fit, own, removed, kept, estimation, notes, selection.settings.min_gain)
     else:
         notes.append(f"the model has no file ({model.robot.source}) to patch: the gap after is that of the search's final fit")
         written = [{} for _ in accepted]
@@ -180,7 +180,8 @@ def diagnose(
         predicted = {role: design.predicted(role) for role in sets}
         after = Fit(model, before.nominal, predicted, _gaps(sets, predicted)[0], _gaps(sets, predicted)[1])
         reviewed = review(model, model, {s.name: float(v) for s, v in model.parameters.items()},
-                          FinalFit.of_design(before.nominal.terms, selection.final, sets), {}, [], [], estimation, notes)
+                          FinalFit.of_design(before.nominal.terms, selection.final, sets), {}, [], [], estimation,
+                          notes, selection.settings.min_gain)
     lap("patch and shrink")
     where_after = localise(estimation, after.predicted["estimation"])
     for a, final, parameters in zip(accepted, finals, written):
