@@ -302,3 +302,27 @@ def test_every_error_class_is_under_the_root() -> None:
 
     for cls in (NoEndEffector, SingularConfiguration, AlphaLoopError):
         assert issubclass(cls, symbolic.SymbolicError), cls
+
+
+def test_json_output_is_strict_json_with_the_non_finite_values_listed() -> None:
+    """issue 22 item 9: --json printed NaN and Infinity, which strict parsers refuse."""
+    import math
+
+    import numpy as np
+
+    text = cli.strict_json({"gap": {"q1": float("nan"), "q2": 1.5}, "sigma": [np.float64("inf"), np.float32(2.0)]})
+    value = json.loads(text, parse_constant=lambda name: pytest.fail(f"{name} in strict JSON"))
+    assert value["gap"] == {"q1": None, "q2": 1.5} and value["sigma"] == [None, 2.0]
+    assert value["not_finite"] == [{"path": "gap.q1", "value": "nan"}, {"path": "sigma[0]", "value": "inf"}]
+    assert math.isfinite(value["sigma"][1])
+
+
+def test_identify_checks_figures_and_out_before_the_work(tmp_path: Path) -> None:
+    """issue 22 item 12: `identify --figures EXISTING_FILE` raised FileExistsError after the identification."""
+    existing = tmp_path / "notes.txt"
+    existing.write_text("mine")
+    _one_line_exit_2(run("-q", "identify", "emps", str(tmp_path / "no_data.csv"), "--figures", str(existing)),
+                     "--figures", "is not a folder")
+    _one_line_exit_2(run("-q", "identify", "emps", str(tmp_path / "no_data.csv"), "--out", str(tmp_path)),
+                     "--out", "name the model file")
+    assert existing.read_text() == "mine"

@@ -377,12 +377,12 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
                     substeps: int) -> ca.Function:
     """One sample of the closed loop: ``(z, w, p, c, eps) -> (z_next, y)``.
 
-    z = [x; controller memory], w = [reference; disturbance; logged τ; t_k] of the sample, y = [q; q̇; q̈; τ]
-    at t_k (q̈ with τ_k applied), z_next after ``substeps`` RK4 steps of period/substeps (each at its
-    own times, for a model whose forces depend on time).
+    z = [x; controller memory], w = [reference (x_ref of a state feedback); disturbance; logged τ; t_k] of
+    the sample, y = [q; q̇; q̈; τ] at t_k (q̈ with τ_k applied), z_next after ``substeps`` RK4 steps of
+    period/substeps (each at its own times, for a model whose forces depend on time).
     """
     n, memory = plant.n, ctrl.memory_size()
-    nc = ctrl.size
+    nc, nr = ctrl.size, ctrl.reference_size
     step_controller = control.controller_function(ctrl, names, period)
     X, T = ca.MX.sym("x", 2 * n), ca.MX.sym("tau", n)
     P, E = ca.MX.sym("p", plant.rhs.size1_in(2)), ca.MX.sym("eps")
@@ -393,11 +393,11 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     k3 = plant.rhs(X + h / 2 * k2, T, P, E, S + h / 2)
     k4 = plant.rhs(X + h * k3, T, P, E, S + h)
     rk4 = ca.Function("rk4", [X, T, P, E, S], [X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-    Z, W = ca.MX.sym("z", 2 * n + memory), ca.MX.sym("w", 2 * nc + n + 1)
+    Z, W = ca.MX.sym("z", 2 * n + memory), ca.MX.sym("w", nr + nc + n + 1)
     C = ca.MX.sym("c", step_controller.size1_in(5))
     x, m = Z[: 2 * n], Z[2 * n:]
-    m_next, tau = step_controller(m, x[:n], W[:nc], W[nc:2 * nc], W[2 * nc:2 * nc + n], C)
-    t_k = W[2 * nc + n]
+    m_next, tau = step_controller(m, x[:n], W[:nr], W[nr:nr + nc], W[nr + nc:nr + nc + n], C)
+    t_k = W[nr + nc + n]
     x_next = _repeat(rk4, substeps, x, tau, P, E, starts=t_k + h * ca.DM(range(substeps)).T)
     xdot = plant.rhs(x, tau, P, E, t_k)
     return ca.Function("closed_loop_sample", [Z, W, P, C, E], [ca.vertcat(x_next, m_next),
@@ -423,7 +423,7 @@ _SAMPLE_FUNCTIONS: weakref.WeakKeyDictionary[Plant, dict] = weakref.WeakKeyDicti
 def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float, substeps: int,
                  compiled: bool | None) -> tuple[ca.Function, bool]:
     """The (compiled) sample function, built once per plant and controller structure."""
-    key = (ctrl.kind, ctrl.coordinates, ctrl.delay, len(ctrl.velocity_filter), names, period, substeps, compiled)
+    key = (ctrl.structure(), names, period, substeps, compiled)
     cache = _SAMPLE_FUNCTIONS.setdefault(plant, {})
     if key not in cache:
         function = sample_function(ctrl, plant, names, period, substeps)
