@@ -384,6 +384,22 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         group = f" (as one of {f.evidence['group']['name']})" if "group" in f.evidence else ""
         print(f"found {f.label()} on {f.coordinate}: {values}{group}")
     print(f"gap after:  {gap(result.after)}")
+    for c in result.corrections:
+        print(f"correction: {c['summary']}")
+    changed = [c for c in result.changes if c["status"] == "re-identified"]
+    if changed:
+        print("values re-identified (model file -> patched): " + ", ".join(
+            f"{c['parameter']} {c['nominal']:.6g} -> {c['value']:.6g}"
+            + (f" ± {c['sigma']:.2g}" if c["sigma"] is not None else "")
+            + ("" if c["relative_change"] is None else f" ({100 * c['relative_change']:+.3g} %)") for c in changed))
+    for c in result.changes:
+        if c["status"] == "removed":
+            print(f"removed {c['parameter']} (was {c['nominal']:.6g}): no longer used by the patched model")
+        elif c["status"] == "kept":
+            print(f"kept {c['parameter']} = {c['nominal']:.6g}: the fitted {c['fitted']:.6g} is not physical ({c['reason']})")
+    if result.modes is not None:
+        modes = lambda ms: ", ".join(f"{m['frequency_hz']:.4g} Hz (ζ {m['damping_ratio']:.3g})" for m in ms) or "none"  # noqa: E731
+        print(f"modes (linearised at rest): {modes(result.modes['before'])} -> {modes(result.modes['after'])}")
     for finding in result.data_findings:
         if finding["finding"] == "held_force":
             g = finding["gap_validation"]
