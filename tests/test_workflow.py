@@ -26,6 +26,7 @@ import symbolic
 import workflow_cases as cases
 from shared_data import emps  # noqa: F401  (fixture)
 from symbolic.cli import main
+from symbolic.data import Controller
 from symbolic.identify.model import identify_model
 from symbolic import robots
 from symbolic.workflow import EFFECTS, NOT_SUPPORTED, Effect, diagnose, register
@@ -574,23 +575,27 @@ def test_emps_simulated_path(tmp_path: Path, emps: Path) -> None:  # noqa: F811
 
 # -- flexible_mode: a resonance the model lacks, named with the ringing's frequency ----------------------
 
-def closed_loop(A: np.ndarray, B: np.ndarray, rows: list[int], table: dict, period: float, own: float) -> tuple[float, float]:
+def closed_loop(A: np.ndarray, B: np.ndarray, rows: list[int], controller: Controller, period: float,
+                own: float) -> tuple[float, float]:
     """Damped frequency (Hz) and damping ratio of the closed-loop mode nearest ``own`` (rad/s) of the plant
-    ẋ = A·x + B·τ (x = [q, q̇]) under the PD loops of ``table`` on coordinates ``rows`` (2-tap velocity
-    filter), sampled with zero-order hold at ``period``: the test's own discrete closed loop, independent
-    of the workflow's (symbolic/workflow/modes.py)."""
+    ẋ = A·x + B·τ (x = [q, q̇]) under the experiment's PD ``controller`` on coordinates ``rows`` (its 2-tap
+    velocity filter, no delay, unit gain), sampled with zero-order hold at ``period``: the test's own
+    discrete closed loop, independent of the workflow's (symbolic/workflow/modes.py)."""
     import scipy.signal
 
+    # the loop written out below is this one: refuse any other rather than model it wrongly
+    assert controller.kind == "pd" and controller.size == len(rows) and controller.delay == 0, controller.describe()
+    assert len(controller.velocity_filter) == 2 and all(g == 1 for g in controller.gain), controller.describe()
     n, m = A.shape[0], len(rows)
     Ad, Bd, *_ = scipy.signal.cont2discrete((A, B, np.eye(n), np.zeros((n, B.shape[1]))), period, "zoh")
-    kp, kd = np.asarray(table["kp"]), np.asarray(table["kd"])
-    # state: x (n), q_{k-1} (m), v_{k-1} (m); u_k = −kp·q_k − kd·(v_k + v_{k−1})/2, v_k = (q_k − q_{k−1})/T
+    kp, kd, (a, b) = controller.kp, controller.kd, controller.velocity_filter
+    # state: x (n), q_{k-1} (m), v_{k-1} (m); u_k = −kp·q_k − kd·(a·v_k + b·v_{k−1}), v_k = (q_k − q_{k−1})/T
     size = n + 2 * m
     G = np.zeros((m, size))  # u_k as a function of the state
     for i, r in enumerate(rows):
-        G[i, r] = -kp[i] - kd[i] / (2 * period)
-        G[i, n + i] = kd[i] / (2 * period)
-        G[i, n + m + i] = -kd[i] / 2
+        G[i, r] = -kp[i] - kd[i] * a / period
+        G[i, n + i] = kd[i] * a / period
+        G[i, n + m + i] = -kd[i] * b
     M = np.zeros((size, size))
     M[:n, :n] = Ad
     M[:n] += Bd[:, rows] @ G
@@ -603,21 +608,21 @@ def closed_loop(A: np.ndarray, B: np.ndarray, rows: list[int], table: dict, peri
     return float(best.imag / (2 * np.pi)), float(-best.real / abs(best))
 
 
-def ringing(J: float, load: float, k: float, c: float, viscous: float, table: dict, period: float) -> tuple[float, float]:
+def ringing(J: float, load: float, k: float, c: float, viscous: float, controller: Controller,
+            period: float) -> tuple[float, float]:
     """The closed-loop ringing of a motor of inertia ``J`` with a load on a spring ``k`` and damper ``c``
     (coordinates: motor angle q, deflection x; the load turns at q + x), written out by hand."""
     D = np.array([[J + load, load], [load, load]])
     K, C = np.diag([0.0, k]), np.diag([viscous, c])
     A = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(D, K), -np.linalg.solve(D, C)]])
     B = np.vstack([np.zeros((2, 2)), np.linalg.inv(D)])
-    return closed_loop(A, B, [0], table, period, np.sqrt(k / load))
+    return closed_loop(A, B, [0], controller, period, np.sqrt(k / load))
 
 
 FLEX = {"load": 0.03, "frequency": 8.0, "damping": 0.05}
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="written against the API before the one experiment loader (Measurements.identification, [controller] as a table); to port next session", strict=True)
 def test_flexible_mode_on_an_axis(tmp_path: Path) -> None:
     """A load on a compliant coupling (8 Hz with the motor held, ζ = 0.05), excited by pulses on the drive:
     flexible_mode is named on q with the closed-loop ringing's frequency (3 %) and damping (15 %), the
@@ -715,7 +720,6 @@ def test_payload_in_the_span_of_free_link_parameters_is_not_a_candidate(tmp_path
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="written against the API before the one experiment loader (Measurements.identification, [controller] as a table); to port next session", strict=True)
 def test_flexible_mode_on_one_joint_of_an_arm(tmp_path: Path) -> None:
     """A load of 0.2 kg·m² on a compliant coupling at joint 1 (8 Hz with the joint held, ζ = 0.05), pulses
     on both drives: flexible_mode named on q1 only, q2 stays clean; the ringing against the truth's
@@ -914,7 +918,6 @@ def cantilever_mode(l: float, rho: float, EI: float, tip: float) -> tuple[float,
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="written against the API before the one experiment loader (Measurements.identification, [controller] as a table); to port next session", strict=True)
 def test_flexible_mode_of_the_flexible_single_link(tmp_path: Path) -> None:
     """Data from the flexible single link (Madill's beam on its hub, a 1 kg tip mass, a damper on the first
     modal coordinate), simulated in closed loop under a PD on the hub with pulses on the drive; the workflow
