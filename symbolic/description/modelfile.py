@@ -37,8 +37,10 @@ TOP_KEYS = {
 }
 
 
-def load(path: str | Path) -> Robot:
-    """Load and validate a model file.
+def load(path: str | Path, *, root: str | None = None, tip: str | None = None) -> Robot:
+    """Load and validate a model file: TOML (docs/model-format.md), or URDF when the name ends in ``.urdf``.
+
+    ``root``/``tip`` choose a chain of a URDF tree (:func:`symbolic.description.urdf.load`).
 
     Raises
     ------
@@ -47,6 +49,12 @@ def load(path: str | Path) -> Robot:
     """
     path = Path(path)
     source = str(path)
+    if path.suffix.lower() == ".urdf":
+        from symbolic.description.urdf import load as load_urdf
+
+        return load_urdf(path, root=root, tip=tip)
+    if root is not None or tip is not None:
+        raise ModelError(source, "--root/--tip", "choose a chain only in a URDF file (a .urdf model)")
     try:
         text = path.read_bytes().decode("utf-8")
     except OSError as exc:
