@@ -95,10 +95,12 @@ class UrdfReference:
     its own there, as it has none in symbolic (a constrained coordinate).
     """
 
-    def __init__(self, path, coordinates, xml: str | None = None, mimic: bool = True) -> None:
+    def __init__(self, path, coordinates, xml: str | None = None, mimic: bool = True, model: pin.Model | None = None) -> None:
         """``mimic=False`` builds mimic joints as independent ones (their velocity 0 here): Pinocchio's
-        joint-torque regressor does not support mimic joints."""
-        self.model = pin.buildModelFromXML(xml, mimic=mimic) if xml is not None else pin.buildModelFromUrdf(str(path), mimic=mimic)
+        joint-torque regressor does not support mimic joints. ``model``: a Pinocchio model built otherwise."""
+        if model is None:
+            model = pin.buildModelFromXML(xml, mimic=mimic) if xml is not None else pin.buildModelFromUrdf(str(path), mimic=mimic)
+        self.model = model
         self.data = self.model.createData()
         names = list(self.model.names)
         joints = [self.model.joints[names.index(c)] for c in coordinates]

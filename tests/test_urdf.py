@@ -87,11 +87,10 @@ def compare_regressor(robot: symbolic.Robot, path: Path | None, states: int = 3,
         for k, (name, kind) in enumerate(zip(reg.names, reg.kinds)):
             if kind != "inertial":
                 continue
-            prefix = next(p for p in sorted(PINOCCHIO_COLUMNS, key=len, reverse=True)
-                          if name.startswith(p) and any(name == p + frame_label(f) for f in joint_of))
-            frame = next(f for f in joint_of if name == prefix + frame_label(f))
-            if joint_of[frame] in coupled:
-                continue
+            match = [(p, f) for p in PINOCCHIO_COLUMNS for f in joint_of if name == p + frame_label(f)]
+            if not match or joint_of[match[0][1]] in coupled:
+                continue  # a fixed frame's columns (Pinocchio merges it into its joint) or a mimic's
+            (prefix, frame), = match
             column = 10 * (names.index(joint_of[frame]) - 1) + PINOCCHIO_COLUMNS[prefix]
             assert np.abs(ours[:, k] - theirs[:, column]).max() < TOLERANCE, name
             checked += 1
@@ -108,3 +107,176 @@ def test_real_arm_agrees_with_pinocchio(arm: str) -> None:
     reference = UrdfReference(path, robot.coordinates)
     compare(robot, reference)
     compare_regressor(robot, path)
+
+
+# -- general frames written by hand, and the import of the same robot ------------------------------------
+GENERAL_TOML = '''
+name = "general"
+coordinates = ["q1", "q2", "q3", "q4"]
+[parameters]
+m1 = 1.3
+m2 = 0.8
+l = 0.25
+[[frame]]
+name = "a"
+parent = "base"
+origin = { xyz = [0.1, 0.0, 0.3] }
+joint = { type = "revolute", axis = [0, 0, 1], limit = { lower = -3, upper = 3 } }
+coordinate = "q1"
+[[frame]]
+name = "b"
+parent = "a"
+origin = { xyz = [0.0, "l", 0.05], rpy = ["pi/2", 0, 0] }
+joint = { type = "continuous", axis = [0, -1, 0] }
+coordinate = "q2"
+[[frame]]
+name = "c"
+parent = "b"
+origin = { xyz = [0.2, 0.01, -0.03], rpy = [0.3, -0.2, 0.7] }
+joint = { type = "prismatic", axis = [1, 0, 0] }
+coordinate = "q3"
+[[frame]]
+name = "f"
+parent = "c"
+origin = { xyz = [0.05, 0.02, 0.0], rpy = [0, "pi/2", 0] }
+[[frame]]
+name = "d"
+parent = "f"
+origin = { xyz = [0.1, 0.0, 0.02], rpy = [0.1, 0, 0] }
+joint = { type = "revolute", axis = [0, 0.6, 0.8] }
+coordinate = "q4"
+[[body]]
+name = "A"
+frame = "a"
+mass = "m1"
+com = [0.02, 0.01, 0.1]
+inertia = { xx = 0.02, yy = 0.03, zz = 0.015, xy = 0.001, xz = -0.002, yz = 0.0015 }
+[[body]]
+name = "B"
+frame = "b"
+mass = "m2"
+com = [0.1, -0.02, 0.01]
+inertia = { xx = 0.01, yy = 0.012, zz = 0.008, xy = 0.0005 }
+[[body]]
+name = "C"
+frame = "c"
+mass = 0.6
+com = [0.03, 0.0, 0.02]
+inertia = { xx = 0.004, yy = 0.005, zz = 0.006, yz = 0.0003 }
+[[body]]
+name = "F"
+frame = "f"
+mass = 0.2
+com = [0.01, 0.02, 0.03]
+inertia = { xx = 0.001, yy = 0.002, zz = 0.0015 }
+[[body]]
+name = "D"
+frame = "d"
+mass = 0.4
+com = [0.0, 0.05, 0.01]
+inertia = { xx = 0.003, yy = 0.002, zz = 0.0025, xz = 0.0002 }
+'''
+
+GENERAL_URDF = '''<?xml version="1.0"?>
+<robot name="general">
+ <link name="root"/>
+ <link name="a"><inertial><origin xyz="0.02 0.01 0.1"/><mass value="1.3"/>
+   <inertia ixx="0.02" iyy="0.03" izz="0.015" ixy="0.001" ixz="-0.002" iyz="0.0015"/></inertial></link>
+ <link name="b"><inertial><origin xyz="0.1 -0.02 0.01"/><mass value="0.8"/>
+   <inertia ixx="0.01" iyy="0.012" izz="0.008" ixy="0.0005" ixz="0" iyz="0"/></inertial></link>
+ <link name="c"><inertial><origin xyz="0.03 0 0.02"/><mass value="0.6"/>
+   <inertia ixx="0.004" iyy="0.005" izz="0.006" ixy="0" ixz="0" iyz="0.0003"/></inertial></link>
+ <link name="f"><inertial><origin xyz="0.01 0.02 0.03"/><mass value="0.2"/>
+   <inertia ixx="0.001" iyy="0.002" izz="0.0015" ixy="0" ixz="0" iyz="0"/></inertial></link>
+ <link name="d"><inertial><origin xyz="0 0.05 0.01"/><mass value="0.4"/>
+   <inertia ixx="0.003" iyy="0.002" izz="0.0025" ixy="0" ixz="0.0002" iyz="0"/></inertial></link>
+ <joint name="q1" type="revolute"><parent link="root"/><child link="a"/><origin xyz="0.1 0 0.3" rpy="0 0 0"/>
+   <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="2"/></joint>
+ <joint name="q2" type="continuous"><parent link="a"/><child link="b"/><origin xyz="0 0.25 0.05" rpy="1.5707963267948966 0 0"/>
+   <axis xyz="0 -1 0"/><dynamics damping="0.2" friction="0.1"/></joint>
+ <joint name="q3" type="prismatic"><parent link="b"/><child link="c"/><origin xyz="0.2 0.01 -0.03" rpy="0.3 -0.2 0.7"/>
+   <axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="10" velocity="2"/></joint>
+ <joint name="jf" type="fixed"><parent link="c"/><child link="f"/><origin xyz="0.05 0.02 0" rpy="0 1.5707963267948966 0"/></joint>
+ <joint name="q4" type="revolute"><parent link="f"/><child link="d"/><origin xyz="0.1 0 0.02" rpy="0.1 0 0"/>
+   <axis xyz="0 0.6 0.8"/><limit lower="-3" upper="3" effort="10" velocity="2"/></joint>
+</robot>
+'''
+
+
+def test_general_frames_agree_with_pinocchio() -> None:
+    """Any axis (±x, ±y, z, and (0, 0.6, 0.8)), prismatic, continuous, a fixed frame, rpy of all kinds."""
+    robot = symbolic.loads(GENERAL_TOML, "general.toml")
+    compare(robot, UrdfReference(None, robot.coordinates, xml=GENERAL_URDF))
+
+
+@pytest.mark.parametrize("merge", [True, False])
+def test_urdf_import_merged_or_kept_fixed_joints_agree_with_pinocchio(tmp_path: Path, merge: bool) -> None:
+    path = tmp_path / "general.urdf"
+    path.write_text(GENERAL_URDF)
+    from symbolic.description.urdf import load
+
+    robot = load(path, merge_fixed=merge)
+    assert len(robot.frames) == (4 if merge else 5)
+    reference = UrdfReference(path, robot.coordinates)
+    compare(robot, reference)
+    compare_regressor(robot, path)
+
+
+def test_urdf_parameters_friction_and_limits(tmp_path: Path) -> None:
+    path = tmp_path / "general.urdf"
+    path.write_text(GENERAL_URDF)
+    robot = symbolic.load(path)
+    values = {p.name: p.value for p in robot.parameters}
+    assert values["m_a"] == 1.3 and values["cz_a"] == 0.1 and values["xz_a"] == -0.002 and values["yz_a"] == 0.0015
+    # the fixed joint's rotation Ry(π/2) carries link f's inertia into frame c's axes: xx <-> zz, com rotated too
+    assert np.isclose(values["xx_f"], 0.0015, atol=1e-16) and np.isclose(values["zz_f"], 0.001, atol=1e-16)
+    assert np.allclose([values["cx_f"], values["cy_f"], values["cz_f"]], [0.05 + 0.03, 0.02 + 0.02, -0.01], atol=1e-16)
+    assert (values["fv_q2"], values["fc_q2"]) == (0.2, 0.1)
+    friction = {f.coordinate: f for f in robot.frictions}
+    assert set(friction) == {"q2"} and str(friction["q2"].viscous) == "fv_q2"
+    limits = {f.name: f.joint.limits for f in robot.frames}
+    assert limits["a"] == {"lower": -3.0, "upper": 3.0, "velocity": 2.0, "effort": 10.0} and limits["b"] == {}
+
+
+def test_panda_urdf_and_dh_give_the_same_dynamics() -> None:
+    """franka_description's URDF (link 7 as the tip: no hand) and the modified-DH Panda with the same values."""
+    dh = symbolic.derive(symbolic.robots.load("panda"))
+    robot = symbolic.load(robots_folder() / "panda_description/urdf/panda.urdf", tip="panda_link7")
+    urdf = symbolic.derive(robot)
+    a, b = numeric_model(dh), numeric_model(urdf)
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        q, qd, qdd = rng.uniform(-2, 2, (3, 7))
+        assert np.abs(a.inertia(q) - b.inertia(q)).max() < 1e-12
+        assert np.abs(a.gravity(q) - b.gravity(q)).max() < 1e-12
+        assert np.abs(a.coriolis(q, qd) - b.coriolis(q, qd)).max() < 1e-12
+        assert np.abs(a.inverse_dynamics(q, qd, qdd) - (b.inverse_dynamics(q, qd, qdd) - b.friction(q, qd))).max() < 1e-12
+
+
+CHAIN_URDF = '''<robot name="branch">
+ <link name="world"/><link name="l1"><inertial><origin xyz="0.1 0 0"/><mass value="2"/><inertia ixx="0.01" iyy="0.02" izz="0.03" ixy="0" ixz="0" iyz="0"/></inertial></link>
+ <link name="l2"><inertial><origin xyz="0 0.2 0"/><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+ <link name="side"><inertial><origin xyz="0 0 0.1"/><mass value="0.5"/><inertia ixx="0.002" iyy="0.002" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+ <link name="past"><inertial><origin xyz="0.1 0 0"/><mass value="3"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+ <joint name="j1" type="revolute"><parent link="world"/><child link="l1"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+ <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.3 0 0" rpy="1.5707963267948966 0 0"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+ <joint name="js" type="revolute"><parent link="l1"/><child link="side"/><origin xyz="0.1 0.1 0"/><axis xyz="1 0 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+ <joint name="jp" type="revolute"><parent link="l2"/><child link="past"/><origin xyz="0 0.4 0"/><axis xyz="1 0 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+</robot>'''
+
+
+def test_tip_locks_branches_and_drops_what_lies_past_it(tmp_path: Path) -> None:
+    """--tip l2: j1, j2 move; the side branch js is locked at 0 and carried; link 'past' is left out.
+
+    Reference: Pinocchio's model of the file without link 'past', with js locked by buildReducedModel."""
+    import pinocchio as pin
+
+    path = tmp_path / "branch.urdf"
+    path.write_text(CHAIN_URDF)
+    robot = symbolic.load(path, tip="l2")
+    assert robot.coordinates == ("j1", "j2") and "past" not in {b.name for b in robot.bodies}
+    cut = CHAIN_URDF.replace('<mass value="3"/>', '<mass value="0"/>').replace(
+        '<inertia ixx="0.1" iyy="0.1" izz="0.1"', '<inertia ixx="0" iyy="0" izz="0"')
+    full = pin.buildModelFromXML(cut)
+    reduced = pin.buildReducedModel(full, [full.getJointId("js"), full.getJointId("jp")], pin.neutral(full))
+    compare(robot, UrdfReference(None, robot.coordinates, model=reduced))
