@@ -280,3 +280,66 @@ def test_tip_locks_branches_and_drops_what_lies_past_it(tmp_path: Path) -> None:
     full = pin.buildModelFromXML(cut)
     reduced = pin.buildReducedModel(full, [full.getJointId("js"), full.getJointId("jp")], pin.neutral(full))
     compare(robot, UrdfReference(None, robot.coordinates, model=reduced))
+
+
+# -- hostile and broken files: one line each, naming the element --------------------------------------------
+LINK = '<link name="{0}"><inertial><mass value="{1}"/><inertia ixx="{2}" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+JOINT = '<joint name="{0}" type="{3}"><parent link="{1}"/><child link="{2}"/><axis xyz="0 0 1"/></joint>'
+
+
+def arm(mass: str = "1", ixx: str = "0.1", extra: str = "", kind: str = "revolute", parent: str = "l0") -> str:
+    return (f'<robot name="r"><link name="l0"/>{LINK.format("l1", mass, ixx)}{JOINT.format("j1", parent, "l1", kind)}'
+            f'{extra}</robot>')
+
+
+BILLION_LAUGHS = '''<?xml version="1.0"?>
+<!DOCTYPE lolz [<!ENTITY lol "lol"><!ENTITY lol2 "&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;">
+<!ENTITY lol3 "&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;">]>
+<robot name="&lol3;"><link name="l0"/></robot>'''
+
+EXTERNAL = '''<?xml version="1.0"?>
+<!DOCTYPE robot [<!ENTITY secret SYSTEM "file:///etc/passwd">]>
+<robot name="r"><link name="&secret;"/></robot>'''
+
+HOSTILE = {
+    "malformed": ("<robot name='r'><link name='l0'></robot>", "XML", "not well-formed"),
+    "not a robot": ("<sdf/>", "XML", "root element is <sdf>"),
+    "entity expansion": (BILLION_LAUGHS, "XML", "DTD"),
+    "external entity": (EXTERNAL, "XML", "DTD"),
+    "missing child": (arm(extra=JOINT.format("j2", "l1", "nowhere", "revolute")), "<joint 'j2'> <child>", "does not exist"),
+    "missing parent": (arm(parent="ghost"), "<joint 'j1'> <parent>", "does not exist"),
+    "cycle": (arm(extra=LINK.format("l2", "1", "0.1") + JOINT.format("j2", "l1", "l2", "revolute")
+                  + JOINT.format("j3", "l2", "l0", "revolute")), "<joint", "cycle"),
+    "negative mass": (arm(mass="-1"), "<link 'l1'> <inertial> <mass> value", "non-negative"),
+    "not PSD": (arm(ixx="-0.5"), "<link 'l1'> <inertial> <inertia>", "not positive semidefinite"),
+    "NaN": (arm(ixx="nan"), "<link 'l1'> <inertial> <inertia> ixx", "not finite"),
+    "infinity": (arm(mass="inf"), "<link 'l1'> <inertial> <mass> value", "not finite"),
+    "not a number": (arm(mass="heavy"), "<link 'l1'> <inertial> <mass> value", "not a number"),
+    "floating base": (arm(kind="floating"), "<joint 'j1'> type", "fixed-base"),
+    "unknown type": (arm(kind="spherical"), "<joint 'j1'> type", "unknown joint type"),
+    "two parents": (arm(extra=JOINT.format("j2", "l0", "l1", "revolute")), "<joint 'j2'> <child>", "already the child"),
+    "nothing moves": (arm(kind="fixed"), "<joint>", "nothing moves"),
+    "duplicate link": (arm(extra=LINK.format("l1", "1", "0.1")), "<link 'l1'>", "defined twice"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(HOSTILE))
+def test_hostile_urdf_gets_one_line_error(tmp_path: Path, case: str) -> None:
+    text, key, problem = HOSTILE[case]
+    path = tmp_path / "robot.urdf"
+    path.write_text(text)
+    with pytest.raises(ModelError) as error:
+        symbolic.load(path)
+    message = str(error.value)
+    assert "\n" not in message and str(path) in message and key in message and problem in message, message
+
+
+def test_tip_and_root_that_do_not_exist_are_named(tmp_path: Path) -> None:
+    path = tmp_path / "branch.urdf"
+    path.write_text(CHAIN_URDF)
+    with pytest.raises(ModelError, match="--tip: link 'hand' does not exist"):
+        symbolic.load(path, tip="hand")
+    with pytest.raises(ModelError, match="--root: link 'torso' does not exist"):
+        symbolic.load(path, root="torso")
+    with pytest.raises(ModelError, match="only in a URDF"):
+        symbolic.load(Path(symbolic.robots.__file__).parent / "panda.toml", tip="7")

@@ -111,7 +111,7 @@ def parse_xml(data: str | bytes, source: str) -> Element:
     except (ValueError, UnicodeDecodeError) as exc:
         raise ModelError(source, "XML", f"not readable XML ({shown(str(exc), 80)})") from None
     if element.tag != "robot":
-        raise ModelError(source, "XML", f"the root element is <{shown(element.tag, 40)}>, a URDF file has <robot>")
+        raise ModelError(source, "XML", f"the root element is <{str(element.tag)[:40]}>, a URDF file has <robot>")
     return element
 
 
