@@ -343,3 +343,65 @@ def test_tip_and_root_that_do_not_exist_are_named(tmp_path: Path) -> None:
         symbolic.load(path, root="torso")
     with pytest.raises(ModelError, match="only in a URDF"):
         symbolic.load(Path(symbolic.robots.__file__).parent / "panda.toml", tip="7")
+
+
+# -- export ----------------------------------------------------------------------------------------------------
+def same_dynamics(a: symbolic.Robot, b: symbolic.Robot, tolerance: float = 1e-12, rigid: bool = False) -> None:
+    """D, g, C·q̇ and τ of two robots with the same coordinates agree at random states."""
+    x, y = numeric_model(symbolic.derive(a)), numeric_model(symbolic.derive(b))
+    rng = np.random.default_rng(17)
+    n = len(a.coordinates)
+    for _ in range(4):
+        q, qd, qdd = rng.uniform(-2, 2, (3, n))
+        assert np.abs(x.inertia(q) - y.inertia(q)).max() < tolerance
+        assert np.abs(x.gravity(q) - y.gravity(q)).max() < tolerance
+        assert np.abs(x.coriolis(q, qd) - y.coriolis(q, qd)).max() < tolerance
+        tau_x, tau_y = x.inverse_dynamics(q, qd, qdd), y.inverse_dynamics(q, qd, qdd)
+        if rigid:
+            tau_x, tau_y = tau_x - x.friction(q, qd), tau_y - y.friction(q, qd)
+        assert np.abs(tau_x - tau_y).max() < tolerance
+
+
+@pytest.mark.parametrize("name", ["panda", "puma560"])
+def test_dh_model_exported_as_urdf_has_the_same_dynamics(tmp_path: Path, name: str) -> None:
+    """Modified (Panda) and standard (PUMA 560) DH written as URDF: read back by symbolic and by Pinocchio."""
+    from symbolic.export.urdf import urdf
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", symbolic.ModelWarning)
+        dh = symbolic.robots.load(name)
+        path = tmp_path / f"{name}.urdf"
+        path.write_text(urdf(dh))
+        back = symbolic.load(path)
+    assert back.coordinates == dh.coordinates
+    same_dynamics(dh, back)
+    compare(dh, UrdfReference(path, dh.coordinates))
+
+
+def test_urdf_round_trip_keeps_the_dynamics(tmp_path: Path) -> None:
+    """URDF → model → URDF → model: the same dynamics to 1e-12, friction included (Panda with its mimic finger)."""
+    from symbolic.export.urdf import urdf
+
+    first = symbolic.load(robots_folder() / "panda_description/urdf/panda.urdf")
+    path = tmp_path / "again.urdf"
+    path.write_text(urdf(first))
+    again = symbolic.load(path)
+    assert again.coordinates == first.coordinates and len(again.constraints) == 1
+    same_dynamics(first, again)
+    assert {p.name: p.value for p in again.parameters if p.name.startswith("fv_")} == \
+           {p.name: p.value for p in first.parameters if p.name.startswith("fv_")}
+
+
+def test_export_writes_given_values_and_refuses_what_urdf_cannot_hold(tmp_path: Path) -> None:
+    from symbolic.errors import ExportError
+    from symbolic.export.urdf import urdf
+
+    robot = symbolic.loads(GENERAL_TOML, "general.toml")
+    text = urdf(robot, {"m1": 2.5})
+    assert '<mass value="2.5"/>' in text and '<mass value="1.3"/>' not in text
+    with pytest.raises(ExportError, match="several coordinates"):
+        urdf(symbolic.robots.load("fivebar"))
+    with pytest.raises(ExportError, match="flexible links"):
+        urdf(symbolic.robots.load("single_flexible_link"))
+    with pytest.warns(symbolic.ModelWarning, match="offset"):
+        urdf(symbolic.robots.load("emps"))
