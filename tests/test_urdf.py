@@ -405,3 +405,29 @@ def test_export_writes_given_values_and_refuses_what_urdf_cannot_hold(tmp_path: 
         urdf(symbolic.robots.load("single_flexible_link"))
     with pytest.warns(symbolic.ModelWarning, match="offset"):
         urdf(symbolic.robots.load("emps"))
+
+
+# -- the command line and generated C --------------------------------------------------------------------------
+def test_cli_derives_generates_and_exports_a_urdf(tmp_path: Path, capsys) -> None:
+    """``symbolic derive robot.urdf``, ``generate`` (C compiled with the strict flags, values checked against
+    the numeric model) and ``export-urdf`` on the UR5 of example-robot-data."""
+    from c_library import STRICT, CModel, compile_shared
+
+    from symbolic.cli import main
+
+    path = robots_folder() / "ur_description/urdf/ur5_robot.urdf"
+    assert main(["derive", str(path), "--tip", "wrist_3_link"]) == 0
+    assert "coordinates (6): shoulder_pan_joint" in capsys.readouterr().out
+    assert main(["generate", str(path), "--out", str(tmp_path / "out"), "--targets", "c"]) == 0
+    robot = symbolic.load(path)
+    name = robot.name
+    library = CModel(compile_shared(tmp_path / "out" / f"{name}.c", tmp_path / f"lib{name}.so", STRICT), name, 6, len(robot.parameters))
+    num = numeric_model(symbolic.derive(robot))
+    q = np.linspace(-1, 1, 6)
+    assert np.abs(library.inertia(q, library.defaults) - num.inertia(q)).max() < 1e-12
+    assert np.abs(library.gravity(q, library.defaults) - num.gravity(q)).max() < 1e-12
+    out = tmp_path / "ur5_again.urdf"
+    assert main(["export-urdf", str(path), "--out", str(out)]) == 0
+    same_dynamics(robot, symbolic.load(out))
+    assert main(["derive", str(path), "--root", "nowhere"]) == 2
+    assert "--root: link 'nowhere' does not exist" in capsys.readouterr().err
