@@ -121,7 +121,7 @@ def diagnose(
     notes: list[str] = []
     found: list[Found] = []
     patched_text = patched_path = None
-    if source.is_file():
+    if source.is_file() and source.suffix.lower() != ".urdf":  # a URDF has no TOML text to patch (note below)
         editor = Editor(source.read_text(encoding="utf-8"), model.robot, str(source))
         written = []
         for a, final in zip(accepted, finals):
@@ -167,7 +167,8 @@ def diagnose(
                                                 controller, period)
             final["fitted"], final["roles"], final["measured"] = final["roles"], dict(roles), extra
     else:
-        notes.append(f"the model has no file ({model.robot.source}) to patch: the gap after is that of the search's final fit")
+        what = "model file to patch (a URDF: write it as TOML to patch it)" if source.suffix.lower() == ".urdf" else "file"
+        notes.append(f"the model has no {what} ({model.robot.source}) to patch: the gap after is that of the search's final fit")
         written = [{} for _ in accepted]
         design = selection.final
         predicted = {role: design.predicted(role) for role in sets}
