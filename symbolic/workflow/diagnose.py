@@ -167,7 +167,7 @@ def diagnose(
                                                 controller, period)
             final["fitted"], final["roles"], final["measured"] = final["roles"], dict(roles), extra
     else:
-        what = "model file to patch (a URDF: write it as TOML to patch it)" if source.suffix.lower() == ".urdf" else "file"
+        what = "TOML text to patch (a URDF model)" if source.suffix.lower() == ".urdf" else "file"
         notes.append(f"the model has no {what} ({model.robot.source}) to patch: the gap after is that of the search's final fit")
         written = [{} for _ in accepted]
         design = selection.final
