@@ -18,7 +18,8 @@ What becomes what (docs/model-format.md, "URDF import"):
 
 ``root``/``tip`` choose a chain of a tree: the joints on the path from ``root`` to ``tip`` move, every other
 joint below ``root`` is locked at 0 (its links carried rigidly, as Pinocchio's ``buildReducedModel`` at
-the neutral configuration), and whatever is not below ``root`` is the fixed world. Floating and planar
+the neutral configuration), links past ``tip`` are left out, and whatever is not below ``root`` is the
+fixed world (bodies on the root link do not move and are dropped). Floating and planar
 joints are refused (fixed-base robots only); visuals, collisions, meshes, sensors, transmissions and
 Gazebo tags are ignored.
 
@@ -565,8 +566,11 @@ class _Importer:
                 what = {"m": "mass", "cx": "centre of mass x", "cy": "centre of mass y", "cz": "centre of mass z"}.get(
                     k, f"inertia {k} about the centre of mass")
                 parameters.append(Parameter(name, value, units.get(k, "kg*m^2"), f"{link}: {what} ({where_text})"))
+            body = re.sub(r"[^A-Za-z0-9_]", "_", link)
+            while body in {b.name for b in bodies}:
+                body += "_"
             bodies.append(Body(
-                name=re.sub(r"[^A-Za-z0-9_]", "_", link),
+                name=body,
                 frame=where.frame,
                 mass=names["m"],
                 com=(names["cx"], names["cy"], names["cz"]),
