@@ -431,3 +431,38 @@ def test_cli_derives_generates_and_exports_a_urdf(tmp_path: Path, capsys) -> Non
     same_dynamics(robot, symbolic.load(out))
     assert main(["derive", str(path), "--root", "nowhere"]) == 2
     assert "--root: link 'nowhere' does not exist" in capsys.readouterr().err
+
+
+FRAME_ERRORS = {
+    "both": ('dh = { theta = "q1", d = "0", a = "0", alpha = "0" }\norigin = { xyz = [0, 0, 1] }',
+             "[[frame]] 'a'", "either dh or origin"),
+    "type": ('joint = { type = "ball", axis = [0, 0, 1] }\ncoordinate = "q1"', "[[frame]] 'a' joint.type", "unknown joint type"),
+    "axis": ('joint = { type = "revolute", axis = [0, 0, 0] }\ncoordinate = "q1"', "[[frame]] 'a' joint.axis", "must not be zero"),
+    "no coordinate": ('joint = { type = "revolute" }', "[[frame]] 'a' coordinate", "needs a coordinate"),
+    "fixed with coordinate": ('joint = { type = "fixed" }\ncoordinate = "q1"', "[[frame]] 'a' coordinate", "has no coordinate"),
+    "limits": ('joint = { type = "revolute", limit = { lower = 2, upper = 1 } }\ncoordinate = "q1"', "[[frame]] 'a' joint lower", "above upper"),
+    "rpy": ('origin = { rpy = [0, "q1", 0] }\njoint = { type = "revolute" }\ncoordinate = "q1"', "[[frame]] 'a' origin.rpy[1]", "may not depend on"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(FRAME_ERRORS))
+def test_general_frame_errors_name_the_key(case: str) -> None:
+    table, key, problem = FRAME_ERRORS[case]
+    text = f'name = "e"\ncoordinates = ["q1"]\n[[frame]]\nname = "a"\nparent = "base"\n{table}\n'
+    with pytest.raises(ModelError) as error:
+        symbolic.loads(text, "e.toml")
+    assert key in str(error.value) and problem in str(error.value), str(error.value)
+
+
+def test_general_frame_from_python() -> None:
+    from symbolic.description.robot import Body, Frame, Joint, Robot
+
+    robot = symbolic.validate(Robot(
+        name="pendulum", coordinates=("q",),
+        frames=(Frame("link", "base", theta="q", joint=Joint("revolute", axis=(1, 0, 0), xyz=(0, 0, 1))),),
+        bodies=(Body("bob", "link", 2.0, com=(0, 0, -0.5)),),
+    ))
+    num = numeric_model(symbolic.derive(robot))
+    # a point mass 2 kg at 0.5 m below an x axis, gravity −z: D = m l², g = m g l sin q
+    assert np.isclose(num.inertia([0.3])[0, 0], 2.0 * 0.25, rtol=1e-14)
+    assert np.isclose(num.gravity([0.3])[0], 2.0 * 9.81 * 0.5 * np.sin(0.3), rtol=1e-14)
