@@ -127,7 +127,7 @@ def diagnose(
     notes: list[str] = list(before.nominal.notes)
     found: list[Found] = []
     patched_text = patched_path = None
-    if source.is_file():
+    if source.is_file() and source.suffix.lower() != ".urdf":  # a URDF has no TOML text to patch (note below)
         editor = Editor(source.read_text(encoding="utf-8"), model.robot, str(source))
         written = []
         for a, final in zip(accepted, finals):
@@ -179,7 +179,8 @@ def diagnose(
         reviewed = review(model, patched, {**{s.name: float(v) for s, v in patched.parameters.items()}, **own},
                           final_fit, own, removed, kept, estimation, notes, selection.settings.min_gain)
     else:
-        notes.append(f"the model has no file ({model.robot.source}) to patch: the gap after is that of the search's final fit")
+        what = "TOML text to patch (a URDF model)" if source.suffix.lower() == ".urdf" else "file"
+        notes.append(f"the model has no {what} ({model.robot.source}) to patch: the gap after is that of the search's final fit")
         written = [{} for _ in accepted]
         design = selection.final
         predicted = {role: design.predicted(role) for role in sets}
