@@ -97,6 +97,30 @@ def test_a_robot_listed_twice_and_a_missing_time_are_refused(tmp_path: Path) -> 
         campaigns.load(write_campaign(tmp_path, no_time))
 
 
+URDF = ('<robot name="r"><link name="l0"/>'
+        '<link name="l1"><inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/>'
+        '</inertial></link><link name="l2"><inertial><origin xyz="0.2 0 0"/><mass value="0.5"/><inertia ixx="0.01" '
+        'iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+        '<joint name="j1" type="revolute"><parent link="l0"/><child link="l1"/><axis xyz="0 0 1"/></joint>'
+        '<joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.3 0 0"/>'
+        '<axis xyz="0 0 1"/></joint></robot>')
+
+
+def test_a_urdf_model_with_a_chain_is_read_alike_by_the_campaign_and_a_worker(tmp_path: Path) -> None:
+    from symbolic.fleet.execution import plan
+    from symbolic.fleet.store import Store
+    from symbolic.fleet.tasks import model_for
+
+    (tmp_path / "arm.urdf").write_text(URDF)
+    text = GOOD.replace('model = "emps"', 'model = "arm.urdf"\ntip = "l1"')
+    c = campaigns.load(write_campaign(tmp_path, text))
+    assert c.robots[0].robot.coordinates == ("j1",)
+    _, (job,) = plan(c, Store(tmp_path / "out"))
+    assert model_for(job).robot.coordinates == ("j1",)  # the worker checks its reading has the client's digest
+    with pytest.raises(DataError, match="root and tip choose a chain of a URDF model"):
+        campaigns.load(write_campaign(tmp_path, GOOD.replace('model = "emps"', 'model = "emps"\ntip = "l1"')))
+
+
 # --- drift, outliers, events on cases with a known truth ------------------------------------------------------------
 
 def series(robot: str, values, sigma: float, days=None, name: str = "Fc") -> Series:

@@ -34,7 +34,7 @@ KINDS = ("identify", "diagnose", "simulate")
 """What a campaign does with each log: the library functions of ``symbolic identify``, ``diagnose``, ``simulate``."""
 
 TOP_KEYS = ("name", "description", "task", "analysis", "robot")
-ROBOT_KEYS = ("id", "model", "logs", "experiment", "time", "log", "task")
+ROBOT_KEYS = ("id", "model", "root", "tip", "logs", "experiment", "time", "log", "task")
 LOG_KEYS = ("file", "time")
 TIME_KEYS = {"name": ("from", "pattern", "format"), "column": ("from", "column")}
 EVENT_KEYS = ("window", "ratio")
@@ -108,6 +108,8 @@ class RobotEntry:
     task: Task
     experiment: Path | None = None
     time_column: str | None = None
+    chain: tuple[str | None, str | None] = (None, None)
+    """``root``, ``tip``: the chain of a URDF model's tree."""
 
     @property
     def model_digest(self) -> str:
@@ -297,7 +299,8 @@ def _robot(entry: Mapping[str, Any], k: int, campaign: Path, task: Task, models:
                                                          f"not starting with '_', '.' or '-'), got {shown(ident)}")
     where = f"[[robot]] '{ident}'"
     check_keys(entry, ROBOT_KEYS, source, where)
-    model_source, text, robot = _model(entry.get("model"), campaign, f"{where} model", models)
+    chain = tuple(_link(entry.get(key), source, f"{where} {key}") for key in ("root", "tip"))
+    model_source, text, robot = _model(entry.get("model"), campaign, f"{where} model", models, chain)
     if "task" in entry:
         task = _task(entry["task"], source, f"{where} task")
     experiment = None
@@ -326,7 +329,13 @@ def _robot(entry: Mapping[str, Any], k: int, campaign: Path, task: Task, models:
     twice = [log.name for i, log in enumerate(logs) if log.path in [x.path for x in logs[:i]]]
     if twice:
         raise DataError(source, f"{where} logs", f"{twice[0]!r} is listed twice")
-    return RobotEntry(ident, model_source, text, robot, tuple(logs), task, experiment, column)
+    return RobotEntry(ident, model_source, text, robot, tuple(logs), task, experiment, column, chain)
+
+
+def _link(value: Any, source: str, where: str) -> str | None:
+    if value is not None and (not isinstance(value, str) or not value.strip()):
+        raise DataError(source, where, f"expected the name of a link of the URDF model, got {shown(value)}")
+    return value
 
 
 def _relative(name: str, campaign: Path) -> Path:
@@ -334,8 +343,10 @@ def _relative(name: str, campaign: Path) -> Path:
     return given if given.is_absolute() else campaign.parent / given
 
 
-def _model(value: Any, campaign: Path, where: str, models: dict) -> tuple[str, str, Robot]:
-    """(file, text, validated robot) of a robot's model: a file relative to the campaign file, or a built-in name."""
+def _model(value: Any, campaign: Path, where: str, models: dict,
+           chain: tuple[str | None, str | None] = (None, None)) -> tuple[str, str, Robot]:
+    """(file, text, validated robot) of a robot's model: a file (TOML, or URDF with the chain ``root``, ``tip``)
+    relative to the campaign file, or a built-in name."""
     source = str(campaign)
     if not isinstance(value, str) or not value.strip():
         raise DataError(source, where, f"expected a model file (relative to the campaign file) or a built-in robot "
@@ -347,7 +358,9 @@ def _model(value: Any, campaign: Path, where: str, models: dict) -> tuple[str, s
         else:
             raise DataError(source, where, f"no model file {str(path)!r} and no built-in robot {value!r} (built-in: "
                                            f"{', '.join(robots.names())})")
-    key = str(path.resolve())
+    key = (str(path.resolve()), chain)
+    if chain != (None, None) and path.suffix.lower() != ".urdf":
+        raise DataError(source, where, "root and tip choose a chain of a URDF model (a .urdf file) only")
     if key not in models:
         try:
             text = path.read_bytes().decode("utf-8")
@@ -356,11 +369,21 @@ def _model(value: Any, campaign: Path, where: str, models: dict) -> tuple[str, s
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ModelWarning)  # the model's own warnings are for symbolic derive
             try:
-                robot = loads(text, str(path))
+                robot = read_model(str(path), text, chain)
             except ModelError as error:
                 raise DataError(source, where, f"the model does not load: {error}") from None
         models[key] = (str(path), text, robot)
     return models[key]
+
+
+def read_model(source: str, text: str, chain: tuple[str | None, str | None] = (None, None)) -> Robot:
+    """The validated description of a model file's ``text`` (a URDF file is read from ``source``, its chain
+    chosen by ``chain``): the one reading of a campaign's models, by the client and by every worker."""
+    if source.lower().endswith(".urdf"):
+        from symbolic.description.modelfile import load
+
+        return load(source, root=chain[0], tip=chain[1])
+    return loads(text, source)
 
 
 def _time_reader(value: Any, source: str, where: str):

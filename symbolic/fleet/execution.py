@@ -108,7 +108,7 @@ def plan(campaign: Campaign, store: Store) -> tuple[list[dict[str, Any]], list[J
             rows.append({**row, "key": key})
             jobs.append(Job(key, robot.id, entry.name, str(entry.path), robot.model_source, robot.model_text,
                             robot.model_digest, robot.task, None if robot.experiment is None else str(robot.experiment),
-                            robot.time_column))
+                            robot.time_column, robot.chain))
     return rows, jobs
 
 

@@ -123,7 +123,7 @@ def job_key(store: Store, robot: RobotEntry, entry: Log) -> str:
         "log": log_digest(store, entry.path),
         "experiment": None if robot.experiment is None else log_digest(store, robot.experiment),
         "time_column": robot.time_column,
-    }
+    }  # a URDF chain (root, tip) is in the model's digest: the description of the chain it gives
     return hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()
 
 

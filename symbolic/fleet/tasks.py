@@ -29,10 +29,9 @@ from symbolic.cache import stamp
 from symbolic.data import DataError, Experiment, load
 from symbolic.data.treatment import settings_for, states
 from symbolic.derive.dynamics import DynamicModel, derive
-from symbolic.description.modelfile import loads
 from symbolic.description.robot import digest
 from symbolic.errors import ModelWarning, SymbolicError, one_line
-from symbolic.fleet.campaign import Task
+from symbolic.fleet.campaign import Task, read_model
 from symbolic.fleet.events import bursts
 
 MODELS_KEPT = 8
@@ -55,6 +54,7 @@ class Job:
     task: Task
     experiment: str | None = None
     time_column: str | None = None
+    chain: tuple[str | None, str | None] = (None, None)
 
 
 def model_for(job: Job) -> DynamicModel:
@@ -63,7 +63,7 @@ def model_for(job: Job) -> DynamicModel:
     if model is None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ModelWarning)
-            robot = loads(job.model_text, job.model_source)
+            robot = read_model(job.model_source, job.model_text, job.chain)
         if digest(robot) != job.model_digest:  # the client and the worker read the model differently
             raise DataError(job.model_source, "model", "the worker's symbolic reads this model differently from "
                                                        "the client's: run the same symbolic version on both")
