@@ -62,6 +62,9 @@ def test_a_good_campaign_file_is_read(tmp_path: Path) -> None:
     assert robot.id == "r1" and robot.robot.name == "emps" and robot.task.kind == "identify"
     (log,) = robot.logs
     assert log.name == "logs/a_20240301.csv" and log.time.isoformat() == "2024-03-01T00:00:00+00:00"
+    # without a pattern, the format is found in the name
+    plain = campaigns.load(write_campaign(tmp_path, GOOD.replace("pattern = '(\\d{8})', ", "")))
+    assert plain.robots[0].logs[0].time.isoformat() == "2024-03-01T00:00:00+00:00"
 
 
 @pytest.mark.parametrize("change, key, words", [
@@ -87,6 +90,17 @@ def test_a_bad_campaign_file_is_one_line_naming_file_key_and_what_is_allowed(tmp
     assert "\n" not in message and message.startswith(f"{path}: {key}: "), message
     for word in words:
         assert word in message, message
+
+
+def test_a_log_whose_name_gives_no_time_is_a_row_with_its_error(tmp_path: Path) -> None:
+    from symbolic.fleet.execution import plan
+    from symbolic.fleet.store import Store
+
+    path = write_campaign(tmp_path, GOOD)
+    (tmp_path / "logs" / "b_undated.csv").write_text("t,q_q,tau_q\n0,0,0\n")
+    rows, jobs = plan(campaigns.load(path), Store(tmp_path / "out"))
+    assert [r["log"] for r in rows] == ["logs/a_20240301.csv", "logs/b_undated.csv"] and len(jobs) == 1
+    assert rows[1]["status"] == "error" and "does not match the pattern" in rows[1]["error"]
 
 
 def test_a_robot_listed_twice_and_a_missing_time_are_refused(tmp_path: Path) -> None:

@@ -417,12 +417,15 @@ def _time_reader(value: Any, source: str, where: str):
             raise DataError(source, f"{where} pattern", f"not a regular expression ({error}): e.g. '(\\d{{8}})'") \
                 from None
 
+    search = compiled if compiled is not None else _format_pattern(form)
+
     def read(name: str) -> tuple[dt.datetime | None, str | None]:
         text = Path(name).stem
-        if compiled is not None:
-            found = compiled.search(Path(name).name)
+        if search is not None:
+            found = search.search(Path(name).name)
             if found is None:
-                return None, f"time: the file name does not match the pattern {pattern!r} of {where}"
+                what = f"the pattern {pattern!r}" if compiled is not None else f"the format {form!r}"
+                return None, f"time: the file name does not match {what} of {where}"
             text = found.group(1) if found.groups() else found.group(0)
         try:
             return _utc(dt.datetime.strptime(text, form)), None
@@ -430,6 +433,27 @@ def _time_reader(value: Any, source: str, where: str):
             return None, f"time: {text!r} of the file name does not read as {form!r} ({where})"
 
     return read, None
+
+
+DIRECTIVES = {"Y": r"\d{4}", "m": r"\d{1,2}", "d": r"\d{1,2}", "H": r"\d{1,2}", "M": r"\d{1,2}", "S": r"\d{1,2}",
+              "y": r"\d{2}", "j": r"\d{1,3}", "f": r"\d{1,6}", "b": r"[A-Za-z]{3}", "%": "%"}
+"""Regular expressions of the strptime directives a date in a file name is found by (without a ``pattern``)."""
+
+
+def _format_pattern(form: str) -> re.Pattern | None:
+    """A regular expression finding ``form``'s date anywhere in a file name (``r07_2024-03-01.csv`` with
+    ``%Y-%m-%d``), or None when the format has a directive not in :data:`DIRECTIVES` (the whole name is read)."""
+    parts, k = [], 0
+    while k < len(form):
+        if form[k] == "%" and k + 1 < len(form):
+            if form[k + 1] not in DIRECTIVES:
+                return None
+            parts.append(DIRECTIVES[form[k + 1]] if form[k + 1] != "%" else "%")
+            k += 2
+        else:
+            parts.append(re.escape(form[k]))
+            k += 1
+    return re.compile("".join(parts))
 
 
 def _utc(moment: dt.datetime) -> dt.datetime:
