@@ -6,7 +6,8 @@ Synthetic fleets of the two-link arm (tests/fleet_cases.py: the logs are written
 1. **Speed-up.** 24 logs of 60 s at 200 Hz (4 robots × 6), task ``diagnose`` (a few seconds per log).
    *One at a time*: :func:`symbolic.fleet.tasks.run_log` on each log in turn in this process (no Dask).
    *Campaign*: ``symbolic.fleet.run`` on a local cluster of 2 worker processes (started before, its start
-   reported apart), the whole campaign: planning, the tasks, the analysis, report and figures.
+   reported apart), the whole campaign: planning, the tasks, the analysis, report and figures. The two are
+   run :data:`ROUNDS` times, interleaved, and the medians compared (the machine is shared).
 2. **Scheduler overhead.** The same 24 tasks through :func:`symbolic.fleet.execution.execute` on a cluster
    of 1 worker: (wall time − Σ the tasks' own run times) / Σ the tasks' run times.
 3. **1 000 short logs.** 10 robots × 100 daily logs of 2 s, task ``identify``, on 2 workers: wall time,
@@ -31,7 +32,11 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
+ROUNDS = 2
+"""Rounds of (one at a time, campaign), interleaved; the medians are reported."""
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
@@ -64,17 +69,21 @@ def speed_up(folder: Path) -> dict:
     campaign = fleet.load(path)
     _, jobs = plan(campaign, Store(folder / "serial"))
     run_log(jobs[0])  # derivation, regressor and base parameters into the derivation cache (as a worker reads them)
-    started = time.perf_counter()
-    serial = [run_log(job) for job in jobs]
-    one_at_a_time = time.perf_counter() - started
-    local, client, start_2 = cluster(2)
-    try:
+    serial_times, campaign_times, starts = [], [], []
+    for round_ in range(ROUNDS):  # interleaved: the machine is shared, its load moves between the phases
         started = time.perf_counter()
-        outcome = fleet.run(campaign, folder / "out2", scheduler=local.scheduler_address)
-        campaign_2 = time.perf_counter() - started
-    finally:
-        client.close()
-        local.close()
+        serial = [run_log(job) for job in jobs]
+        serial_times.append(time.perf_counter() - started)
+        local, client, start_2 = cluster(2)
+        starts.append(start_2)
+        try:
+            started = time.perf_counter()
+            outcome = fleet.run(campaign, folder / f"out2_{round_}", scheduler=local.scheduler_address)
+            campaign_times.append(time.perf_counter() - started)
+        finally:
+            client.close()
+            local.close()
+    one_at_a_time, campaign_2, start_2 = (float(np.median(x)) for x in (serial_times, campaign_times, starts))
     local, client, start_1 = cluster(1)
     try:
         started = time.perf_counter()
@@ -88,6 +97,7 @@ def speed_up(folder: Path) -> dict:
             "task_mean": sum(r["seconds"] for r in serial) / len(serial), "campaign_2": campaign_2, "start_2": start_2,
             "speed_up": one_at_a_time / campaign_2, "speed_up_with_start": one_at_a_time / (campaign_2 + start_2),
             "wall_1": wall_1, "own_1": own, "overhead": (wall_1 - own) / own, "start_1": start_1,
+            "rounds": [(a, b) for a, b in zip(serial_times, campaign_times)],
             "computed": outcome.computed, "campaign_errors": len(outcome.errors),
             "overhead_errors": sum(r["status"] != "ok" for r in results.values())}
 
@@ -121,18 +131,22 @@ def markdown(a: dict, b: dict) -> str:
     return "\n".join([
         "# Fleet benchmark (bench/fleet.py)",
         "",
-        f"Run {dt.date.today().isoformat()} on {platform.machine()}, {os.cpu_count()} processors (shared; load average "
-        f"{load[0]:.2f} {load[1]:.2f} {load[2]:.2f} at the end), Python {platform.python_version()}. "
+        f"Run {dt.date.today().isoformat()} on {platform.machine()}, {os.cpu_count()} processors (shared with other "
+        f"sessions: load average {START_LOAD[0]:.2f} at the start, {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} at the end), "
+        f"Python {platform.python_version()}. "
         "Regenerate: `python bench/fleet.py --out bench/results/fleet.md`.",
         "",
         f"## Speed-up: {a['logs']} logs of 60 s, task diagnose",
         "",
         "| | seconds |",
         "|---|---|",
-        f"| one at a time (run_log in turn, no Dask) | {a['one_at_a_time']:.1f} (mean task {a['task_mean']:.2f} s) |",
+        f"| one at a time (run_log in turn, no Dask; median of {len(a['rounds'])} rounds) | {a['one_at_a_time']:.1f} "
+        f"(mean task {a['task_mean']:.2f} s) |",
         f"| campaign on 2 local workers (plan, tasks, analysis, report, figures) | {a['campaign_2']:.1f} |",
         f"| starting the 2-worker local cluster | {a['start_2']:.1f} |",
         f"| **speed-up** | **{a['speed_up']:.2f}×** ({a['speed_up_with_start']:.2f}× with the cluster's start) |",
+        "",
+        "Rounds (one at a time, campaign), s: " + ", ".join(f"({x:.1f}, {y:.1f})" for x, y in a["rounds"]) + ".",
         "",
         f"Error rows: {a['errors']} one at a time, {a['campaign_errors']} in the campaign, {a['overhead_errors']} on 1 worker.",
         "",
@@ -148,6 +162,9 @@ def markdown(a: dict, b: dict) -> str:
         f"{b['logs']}: {', '.join(f'{m:.0f}' for m in b['after_all'])} MB.",
         "",
     ])
+
+
+START_LOAD = os.getloadavg()
 
 
 def main() -> None:
