@@ -98,12 +98,12 @@ def plan(campaign: Campaign, store: Store) -> tuple[list[dict[str, Any]], list[J
             row = {"robot": robot.id, "log": entry.name, "time": entry.time.isoformat() if entry.time else None,
                    "task": robot.task.kind, "model": robot.model_digest}
             if entry.time_problem:
-                rows.append({**row, "key": None, "status": "error", "error": f"{entry.path}: {entry.time_problem}"})
+                rows.append({**row, "key": None, "status": "error", "error": f"{entry.name}: {entry.time_problem}"})
                 continue
             try:
                 key = job_key(store, robot, entry)
             except OSError as error:  # unreadable log: a row, not a stopped campaign
-                rows.append({**row, "key": None, "status": "error", "error": one_line(f"{entry.path}: {error.strerror}")})
+                rows.append({**row, "key": None, "status": "error", "error": one_line(f"{entry.name}: {error.strerror}")})
                 continue
             rows.append({**row, "key": key})
             jobs.append(Job(key, robot.id, entry.name, str(entry.path), robot.model_source, robot.model_text,
@@ -198,11 +198,11 @@ def _result(future, job: Job) -> dict[str, Any]:
         result = future.result()
     except Exception as error:  # noqa: BLE001 - the cluster's failure, not the log's: a row, not cached
         return {"key": job.key, "status": "error", "cacheable": False,
-                "error": one_line(f"{job.path}: the cluster could not run this log: {type(error).__name__}: {error}")}
+                "error": one_line(f"{job.log}: the cluster could not run this log: {type(error).__name__}: {error}")}
     if result.get("stamp") != stamp():
         theirs = result.get("stamp", {})
         return {**result, "status": "error", "cacheable": False,
-                "error": f"{job.path}: the worker runs symbolic {theirs.get('symbolic')} (sources "
+                "error": f"{job.log}: the worker runs symbolic {theirs.get('symbolic')} (sources "
                          f"{theirs.get('sources')}), this client {stamp()['symbolic']} ({stamp()['sources']}): "
                          "install the same version on both"}
     return result

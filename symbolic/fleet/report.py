@@ -143,7 +143,7 @@ def markdown(outcome, pictures: Mapping[str, bytes], notes: list[str]) -> str:
             out.append(f"| {e['robot']} | {e['log']} | {_date(e['time'])} | {e['start']:.3f}–{e['end']:.3f} | "
                        f"{', '.join(e['coordinates'])} | {e['size'][c]['peak']:.4g} on {c} | {e['ratio']:.3g} |")
     out += ["", "## Logs that could not be processed", ""]
-    out += ["None."] if not outcome.errors else [f"* {r['robot']}, {r['log']}: {r['error']}" for r in outcome.errors]
+    out += ["None."] if not outcome.errors else [f"* {r['robot']}: {r['error']}" for r in outcome.errors]
     out += ["", "## Fleet", "", *fleet_table(outcome), ""]
     if "fleet_gap.png" in pictures:
         out += ["![the gap of every log](fleet_gap.png)", ""]

@@ -105,8 +105,12 @@ def run_log(job: Job) -> dict[str, Any]:
 
 
 def _located(error: SymbolicError, job: Job) -> str:
-    """The error's message, preceded by the log when it does not name a file itself."""
-    return str(error) if error.source is not None else f"{job.path}: {error}"
+    """The error's message naming the log as the results do (its path relative to the campaign file, not to
+    the folder the command ran in), preceded by it when the message names no file itself."""
+    text = str(error)
+    if error.source is None:
+        return f"{job.log}: {text}"
+    return job.log + text[len(job.path):] if text.startswith(f"{job.path}:") else text
 
 
 def _column_time(experiment: Experiment, job: Job) -> str:
