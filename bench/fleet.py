@@ -58,7 +58,7 @@ def cluster(workers: int):
 
     started = time.perf_counter()
     local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
-                         scheduler_kwargs={"dashboard": False}, worker_dashboard_address=None)
+                         dashboard_address=None, worker_dashboard_address=None)
     client = Client(local)
     return local, client, time.perf_counter() - started
 

@@ -26,6 +26,7 @@ import datetime as dt
 import logging
 import os
 import time
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -234,8 +235,10 @@ def _client(scheduler: str | None, workers: int | None, tasks: int):
         logging.getLogger(name).setLevel(logging.ERROR)
     log.info("campaign: starting a local cluster of %d worker process(es)", count)
     try:
-        cluster = LocalCluster(n_workers=count, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
-                               scheduler_kwargs={"dashboard": False}, worker_dashboard_address=None)
+        with warnings.catch_warnings():  # "port 8787 is in use, using another": the scheduler's HTTP port, unused here
+            warnings.simplefilter("ignore", UserWarning)
+            cluster = LocalCluster(n_workers=count, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
+                                   dashboard_address=None, worker_dashboard_address=None)
     except OSError as error:
         raise ClusterError(f"cannot start a local Dask cluster: {one_line(str(error))}") from None
     try:
