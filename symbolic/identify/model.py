@@ -34,7 +34,6 @@ import sympy as sp
 from symbolic.data import Measurements, load
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.derive.regressor import Regressor
-from symbolic.errors import ModelError
 from symbolic.codegen.compiled_regressor import compiled_batch
 from symbolic.identify.least_squares import Identification, solve
 from symbolic.identify.least_squares import Validation
@@ -129,9 +128,6 @@ def model_base(model: DynamicModel) -> tuple[Regressor, BaseParameters]:
     """The regressor and base parameters of ``model`` (computed once per model object)."""
     if model not in _CACHE:
         reg = model_regressor(model)
-        if reg is None:
-            raise ModelError(model.robot.source, "[[beam]]", "identification does not support flexible links yet "
-                             "(the regressor covers rigid models); identify the rigid part")
         _CACHE[model] = (reg, base_parameters(model, reg))
     return _CACHE[model]
 
@@ -297,9 +293,11 @@ def consistent_fit(model, reg: Regressor, base: BaseParameters, ident: Identific
 
 
 def _lower_bound(model: DynamicModel, symbol: sp.Symbol) -> float:
-    """0 for parameters that are masses, friction coefficients or rotor inertias by their use; else −∞."""
+    """0 for parameters that are masses, friction coefficients, rotor inertias, beam densities, stiffnesses or tip
+    masses by their use; else −∞."""
     robot = model.robot
     positive = {b.mass for b in robot.bodies} | {d.rotor_inertia for d in robot.drives}
+    positive |= {value for beam in robot.beams for value in (beam.density, beam.EI_v, beam.EI_w, beam.tip_mass)}
     for f in robot.frictions:
         for value in (f.viscous, f.coulomb):
             if isinstance(value, Directional):
