@@ -148,7 +148,8 @@ def controller_table(model, q0: np.ndarray, resolution: float, coordinates: tupl
 
 def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate: float = 500.0,
                  resolution: float = 2 * np.pi / 2**20, measured: tuple[str, ...] | None = None,
-                 pulses: float = 0.0, held: bool = False, logged_feedforward: bool = False) -> Measurements:
+                 pulses: float = 0.0, held: bool = False, logged_feedforward: bool = False,
+                 unactuated: tuple[str, ...] = (), deflection_noise: float = 0.0) -> Measurements:
     """Data of the truth model ``text`` simulated in closed loop (:func:`symbolic.simulation.simulator.simulate`):
     a PD loop (:func:`controller_table`) with a computed-torque feedforward (:func:`_feedforward`) follows
     the Fourier reference, reads an encoder of ``resolution`` (default 20 bits per turn: with 18 bits, the twice-differentiated quantisation left in q̈ below the 50 Hz cut-off — errors in the regressor that the F-test does not model — made 1–2 % effects at the band edge significant);
@@ -161,7 +162,10 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     log of the drive voltage does), which leads the force acting over the sample by half a sample.
     ``logged_feedforward``: the log keeps the feedforward
     (columns ``ff_<c>``) and the controller table adds it as its disturbance, so that a simulation of a
-    model in the logged loop (``diagnose(simulate=True)``) is driven as the truth was."""
+    model in the logged loop (``diagnose(simulate=True)``) is driven as the truth was.
+    ``unactuated``: coordinates logged as well, outside the loop and with zero force (a beam's modal
+    coordinates, as strain gauges give them), with white noise of ``deflection_noise`` × the largest of
+    their ranges (a noise floor of the gauges, the same on each)."""
     model = symbolic.derive(symbolic.loads(text, "<truth>"))
     coordinates = tuple(measured or model.robot.coordinates)
     t = np.arange(0.0, seconds, 1.0 / rate)
@@ -185,8 +189,13 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     tau = command if held else np.concatenate([command[:1], 0.5 * (command[1:] + command[:-1])])
     rng = np.random.default_rng(seed + 1000)
     tau = tau + rng.normal(0, 1, tau.shape) * noise * np.sqrt(np.mean(tau**2, axis=0))
-    logged = Measurements.from_arrays(t, coordinates, np.round(q / resolution) * resolution, tau, ref=reference,
-                                      extras=extras if logged_feedforward else None)
+    q = np.round(q / resolution) * resolution
+    if unactuated:
+        free = np.asarray(run.simulated.q)[:, [names.index(c) for c in unactuated]]
+        free = free + rng.normal(0, 1, free.shape) * deflection_noise * np.ptp(free, axis=0).max()  # one gauge noise floor
+        q, tau, coordinates = np.hstack([q, free]), np.hstack([tau, np.zeros_like(free)]), coordinates + tuple(unactuated)
+        reference = np.hstack([reference, np.zeros_like(free)])
+    logged = Measurements.from_arrays(t, coordinates, q, tau, ref=reference, extras=extras if logged_feedforward else None)
     if logged_feedforward:
         return dataclasses.replace(logged, controller=table)
     return dataclasses.replace(logged, controller={k: v for k, v in table.items() if k != "disturbance"})
@@ -269,6 +278,21 @@ name = "structural_damping"
 coordinate = "link_nu1"
 expression = "-c_b*qd_link_nu1"
 '''
+
+
+def planar_flexible_link(hub: float = 0.05, tip_mass: float = 0.1, stiffness: float = 10.0, damper: float = 3.3,
+                         friction: str = 'viscous = "Fv"', damped: bool = True) -> str:
+    """:func:`flexible_link` as a laboratory flexible-link rig: one horizontal mode, no vertical bending
+    (``modes_w = 0``: gravity acts along the hub's axis, the out-of-plane bending does not couple to the hub),
+    a light hub of ``hub`` kg·m² and a soft beam (EI = ``stiffness`` N·m²) with a tip mass of ``tip_mass`` kg,
+    so that the beam's first mode (10.4 Hz with the hub free, 8.7 Hz held) is within the treatment's band and
+    the hub's torque feels it. ``damped=False`` leaves out the structural damper of the first mode."""
+    text = flexible_link(tip_mass, damper, friction).replace("modes_v = 2", "modes_v = 1").replace("modes_w = 1", "modes_w = 0")
+    for old, new in (("EIv = { value = 88.32", f"EIv = {{ value = {stiffness!r}"), ("EIw = { value = 88.32", f"EIw = {{ value = {stiffness!r}"),
+                     ("I_h = { value = 0.677", f"I_h = {{ value = {hub!r}")):
+        assert text.count(old) == 1, old
+        text = text.replace(old, new)
+    return text if damped else text[:text.index("[[force]]")]
 
 
 RIGID_LINK = '''# The flexible single link as a rigid body: hub and beam (with its tip mass) turning as one.

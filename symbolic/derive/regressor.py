@@ -7,8 +7,8 @@
   tensor's (x, y) entry), MXj MYj MZj (first moments m·c) and Mj (mass) — the sums over the frame's
   bodies;
 * per [[beam]] (in file order; Madill 3.4–3.8), with the beam's name as label: rho_<beam> (the linear
-  density ρ), EIv_<beam> and EIw_<beam> (the bending stiffnesses) and, when a tip mass is declared,
-  mp_<beam> (m_p). The beam's D_f (3.76) is ρ times a matrix of Q and the length, plus m_p·J_tipᵀJ_tip;
+  density ρ), EIv_<beam> and EIw_<beam> (the bending stiffnesses, for a direction with modes) and, when
+  a tip mass is declared, mp_<beam> (m_p). The beam's D_f (3.76) is ρ times a matrix of Q and the length, plus m_p·J_tipᵀJ_tip;
   its gravitational energy (3.79) is ρ and m_p times functions of Q; its strain energy (3.80) is
   ½EI_v νᵀΛ_vν + ½EI_w ηᵀΛ_wη. The mode shapes (Appendix B) depend only on the boundary condition
   and the length, so all three are linear in these four numbers, and so is the beam's part of τ,
@@ -167,8 +167,10 @@ def _beam_parameters(robot: Robot) -> list[tuple[Beam, list[tuple[sp.Symbol, sp.
     out = []
     for beam in robot.beams:
         label = frame_label(beam.name)
-        fields = [("density", "rho"), ("EI_v", "EIv"), ("EI_w", "EIw")] + ([("tip_mass", "mp")] if beam.tip_mass is not None else [])
+        fields = ([("density", "rho")] + [(field, kind) for field, kind, modes in (("EI_v", "EIv", beam.modes_v), ("EI_w", "EIw", beam.modes_w))
+                                           if modes] + ([("tip_mass", "mp")] if beam.tip_mass is not None else []))
         pairs = [(StandardParameter(f"{kind}{label}", real=True), getattr(beam, field)) for field, kind in fields]
+        # a direction without modes has no strain energy: its stiffness stays as written (it acts on nothing)
         written = dataclasses.replace(beam, **{field: t for (field, _), (t, _) in zip(fields, pairs)})
         out.append((written, pairs))
     return out

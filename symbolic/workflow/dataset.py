@@ -121,7 +121,7 @@ def load_sets(
     file, as in ``symbolic identify``; without it the last :data:`HOLDOUT_FRACTION` of ``data`` in time
     is held out and the rest is the estimation set.
     """
-    measurements = data if isinstance(data, Measurements) else load(data, coordinates, experiment=experiment)
+    measurements = data.arranged(coordinates) if isinstance(data, Measurements) else load(data, coordinates, experiment=experiment)
     if validation is None:
         first, last = split(measurements)
         start = first.samples
@@ -136,7 +136,7 @@ def load_sets(
                             f"too few samples to hold out the last {100 * HOLDOUT_FRACTION:g} % ({error.problem}); "
                             "give a validation data set (--validate)") from None
     if isinstance(validation, Measurements):
-        other = validation
+        other = validation.arranged(coordinates)
     else:
         own = Path(validation).suffix == ".toml"
         other = load(validation, coordinates, experiment=None if own else experiment)
