@@ -891,7 +891,15 @@ class Payload(Effect):
                 frictions=(), drives=(), forces=(), beams=(), validated=False))
             model = derive(point)
             regressor, values = base_regressor(model), np.asarray(model_base(model)[1].values, float)
-            self._unit[key] = (robot, lambda q, qd, qdd: regressor(q, qd, qdd) @ values)
+            # the point is fixed in its frame: a beam's modal coordinates do not move it (its rows stay zero)
+            rigid = [robot.generalized_coordinates.index(c) for c in point.generalized_coordinates]
+
+            def unit(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+                out = np.zeros(np.shape(q))
+                out[:, rigid] = regressor(q[:, rigid], qd[:, rigid], qdd[:, rigid]) @ values
+                return out
+
+            self._unit[key] = (robot, unit)
         return self._unit[key][1]
 
     def columns_at(self, signals, j, value):
