@@ -15,16 +15,70 @@ import traceback
 import warnings
 from pathlib import Path
 
-import sympy as sp
+from typing import TYPE_CHECKING
 
-from symbolic import robots
-from symbolic.derive.dynamics import derive
-from symbolic.errors import ModelError, ModelWarning, SymbolicError, one_line
-from symbolic.version import __version__
-from symbolic.description.modelfile import load
-from symbolic.derive.simplify import SIZE_LIMIT, compact, tree_size
-from symbolic.description.robot import Robot
+from symbolic.errors import IdentificationError, ModelError, ModelWarning, SimulationError, SymbolicError, one_line
 from symbolic.reproduction.item import SOURCES as REPRODUCTION_SOURCES
+from symbolic.version import __version__
+
+if TYPE_CHECKING:
+    import sympy as sp
+
+    from symbolic.derive.dynamics import DynamicModel
+    from symbolic.description.robot import Robot
+
+# SymPy, NumPy and the layers are imported by the commands that use them, not here: `symbolic --help` and a
+# mistyped command answer at once (docs/contracts.md, "Command line").
+
+
+def derive(robot: Robot) -> DynamicModel:
+    from symbolic.derive.dynamics import derive as derived
+
+    return derived(robot)
+
+
+def load(path: Path) -> Robot:
+    from symbolic.description.modelfile import load as loaded
+
+    return loaded(path)
+
+
+class _Robots:
+    """:mod:`symbolic.robots`, imported on first use."""
+
+    def __getattr__(self, name: str):
+        import symbolic.robots
+
+        return getattr(symbolic.robots, name)
+
+
+robots = _Robots()
+
+
+def strict_json(value: object) -> str:
+    """``value`` as JSON that strict parsers accept: a value that is not finite (NaN, ±inf) becomes ``null``,
+    and the top-level ``"not_finite"`` lists where each was and what it was (``{"path": "gap.q7", "value": "nan"}``)."""
+    import json
+    import math
+
+    found: list[dict[str, str]] = []
+
+    def clean(x: object, path: str) -> object:
+        if isinstance(x, dict):
+            return {k: clean(v, f"{path}.{k}" if path else str(k)) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [clean(v, f"{path}[{i}]") for i, v in enumerate(x)]
+        if isinstance(x, float) and not math.isfinite(x):
+            found.append({"path": path, "value": repr(float(x))})
+            return None
+        if type(x).__module__ == "numpy" and hasattr(x, "item"):  # NumPy scalars
+            return clean(x.item(), path)
+        return x
+
+    cleaned = clean(value, "")
+    if found and isinstance(cleaned, dict):
+        cleaned["not_finite"] = found
+    return json.dumps(cleaned, indent=2, allow_nan=False)
 
 
 def resolve(model: str) -> Robot:
@@ -66,6 +120,10 @@ def cmd_derive(args: argparse.Namespace) -> int:
 def show(model) -> None:
     """Print D(Q) and V_g(Q) compacted; entries too large to expand (above ``SIZE_LIMIT``) in
     intermediates, whose definitions follow."""
+    import sympy as sp
+
+    from symbolic.derive.simplify import SIZE_LIMIT, compact, tree_size
+
     log = logging.getLogger(__name__)
     large: list[sp.Expr] = []
 
@@ -150,7 +208,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         return 0
     analysis = decoupling(model, kinds=kinds)
     if args.json:
-        print(json.dumps(analysis.to_dict(), indent=2))
+        print(strict_json(analysis.to_dict()))
     else:
         print(analysis.summary())
     return 0
@@ -167,12 +225,29 @@ def write_text_atomically(path: Path, text: str) -> None:
         raise ModelError(str(path), "--out", f"cannot write: {error.strerror}") from None
 
 
+def _check_targets(args: argparse.Namespace) -> None:
+    """``identify``'s --figures must be a folder (or creatable as one) and --out a file, checked before the work."""
+    from symbolic.errors import ExportError
+
+    if args.figures is not None:
+        if not str(args.figures).strip():
+            raise ExportError("--figures is empty: name a folder for the figures (e.g. --figures figures)")
+        figures = Path(args.figures)
+        if figures.exists() and not figures.is_dir():
+            raise ExportError(f"--figures {figures}: exists and is not a folder (name a folder for the PNG files)")
+    if args.out is not None:
+        out = Path(args.out)
+        if not str(args.out).strip() or out.is_dir():
+            raise ExportError(f"--out {args.out!r}: name the model file to write (e.g. --out identified.toml)")
+
+
 def cmd_identify(args: argparse.Namespace) -> int:
     import json
 
     from symbolic.identify.model import identify_model
     from symbolic.description.modelfile import with_parameter_values
 
+    _check_targets(args)  # before the work: a mistyped --out or --figures is reported at once
     model = derive(resolve(args.model))
     result = identify_model(model, args.data, experiment=args.experiment, validation=args.validate,
                             method=args.method, consistent=args.consistent)
@@ -195,7 +270,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         out = result.to_dict()
         out["patched_model"] = args.out
         out["figures"] = figures
-        print(json.dumps(out, indent=2))
+        print(strict_json(out))
     else:
         print(result.table())
         for path in [args.out, *figures] if args.out else figures:
@@ -229,7 +304,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         except MatplotlibMissing as missing:
             notes.append(str(missing))
     if args.json:
-        print(json.dumps({**simulation.to_dict(comparison), "files": [str(f) for f in files], "notes": notes}, indent=2))
+        print(strict_json({**simulation.to_dict(comparison), "files": [str(f) for f in files], "notes": notes}))
         return 0
     print(simulation.summary())
     print(comparison.summary())
@@ -257,11 +332,14 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
             print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join(EFFECTS)}; "
                   "periodic means both periodic in position and periodic_time)", file=sys.stderr)
             return 2
+    from symbolic import export
+
+    export.check_output_directory(args.out)  # before the analysis: a mistyped --out is reported at once
     model = derive(resolve(args.model))
     result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects,
                       simulate=args.simulate or None)
     if args.json:
-        print(json.dumps(result.to_dict(), indent=2))
+        print(strict_json(result.to_dict()))
         return 0
     gap = lambda fit: f"{fit.gap['estimation']:.4g} % (estimation), {fit.gap['validation']:.4g} % (held out)"  # noqa: E731
     print(f"gap before: {gap(result.before)}")
@@ -310,7 +388,7 @@ def cmd_first_peak(args: argparse.Namespace) -> int:
     from symbolic.reproduction.madill.first_peak import identify_experiment
 
     result = identify_experiment(args.experiment, args.coordinate)
-    print(json.dumps(result.to_dict(), indent=2) if args.json else result.summary())
+    print(strict_json(result.to_dict()) if args.json else result.summary())
     return 0
 
 
@@ -387,6 +465,15 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def _located(error: SymbolicError, args: argparse.Namespace) -> str:
+    """The error's message, preceded by the data file the command read when the error is about what those data
+    can give (an identification or a simulation) and does not name a file itself."""
+    data = getattr(args, "data", None) or getattr(args, "experiment", None)
+    if error.source is None and data and isinstance(error, (IdentificationError, SimulationError)):
+        return f"{data}: {error}"
+    return str(error)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     if not args.quiet:
@@ -396,7 +483,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except SymbolicError as error:  # the user's input or environment: one line, exit 2
-        print(f"error: {one_line(str(error))}", file=sys.stderr)
+        print(f"error: {one_line(_located(error, args))}", file=sys.stderr)
         return 2
     except MemoryError:
         print("error: out of memory (the data or the model is too large for this machine)", file=sys.stderr)

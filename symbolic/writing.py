@@ -23,19 +23,62 @@ def default_file_mode() -> int:
     return 0o666 & ~mask
 
 
+PARTIAL = ".symbolic-partial-"
+"""Temporary files are ``.NAME.symbolic-partial-XXXXXXXX`` beside their target (also in :mod:`symbolic.export.output`)."""
+
+
 @contextmanager
-def replacing(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]:
-    """A temporary path in ``path``'s folder that replaces ``path`` when the block succeeds."""
+def replacing(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
+    """A temporary path in ``path``'s folder that replaces ``path`` when the block succeeds.
+
+    The temporary file is locked (``flock``) while it is written: a run killed before the rename leaves it
+    unlocked, and the next write of ``path`` removes it, while a concurrent writer's file, still locked, stays.
+    """
     path = Path(path)
-    descriptor, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
-    os.close(descriptor)
+    _remove_leftovers(path)
+    descriptor, temporary = tempfile.mkstemp(prefix=f".{path.name}{PARTIAL}", suffix=suffix, dir=path.parent)
     try:
-        yield Path(temporary)
-        os.chmod(temporary, default_file_mode())
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+        _lock(descriptor)
+        try:
+            yield Path(temporary)
+            os.chmod(temporary, default_file_mode())
+            os.replace(temporary, path)
+        except BaseException:
+            Path(temporary).unlink(missing_ok=True)
+            raise
+    finally:
+        os.close(descriptor)
+
+
+def _lock(descriptor: int, blocking: bool = True) -> bool:
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: leftovers are not recognised
+        return False
+    try:
+        fcntl.flock(descriptor, fcntl.LOCK_EX | (0 if blocking else fcntl.LOCK_NB))
+    except OSError:
+        return False
+    return True
+
+
+def _remove_leftovers(path: Path) -> None:
+    """Temporary files of ``path`` that no live writer holds (theirs died before renaming them)."""
+    try:
+        names = [n for n in os.listdir(path.parent) if n.startswith(f".{path.name}{PARTIAL}")]
+    except OSError:
+        return
+    for name in names:
+        leftover = path.parent / name
+        try:
+            descriptor = os.open(leftover, os.O_RDONLY | os.O_NOFOLLOW)
+        except OSError:
+            continue
+        try:
+            if _lock(descriptor, blocking=False):
+                leftover.unlink(missing_ok=True)
+        finally:
+            os.close(descriptor)
 
 
 def safe_stem(name: str) -> str:

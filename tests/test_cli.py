@@ -246,3 +246,83 @@ def test_a_misspelled_built_in_name_gets_a_suggestion(capsys: pytest.CaptureFixt
     assert cli.main(["-q", "derive", "pandaa"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "did you mean 'panda'?" in err
+
+
+def _one_line_exit_2(result: subprocess.CompletedProcess, *parts: str) -> None:
+    """A user-facing failure: exit 2, one line on stderr naming where, no traceback."""
+    assert result.returncode == 2, (result.returncode, result.stderr)
+    lines = [line for line in result.stderr.splitlines() if not line.startswith(("symbolic: ", "warning: "))]
+    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
+    assert "Traceback" not in result.stderr
+    for part in parts:
+        assert part in lines[0], (part, lines[0])
+
+
+def test_rank_deficient_identification_is_one_line(tmp_path: Path) -> None:
+    """An axis that never moves cannot give its mass or friction: an IdentificationError, one line, exit 2
+    (it printed a traceback and exited 1 before the one error root)."""
+    t = [i * 1e-3 for i in range(2000)]
+    data = tmp_path / "still.csv"
+    data.write_text("t,q_q,tau_q\n" + "".join(f"{x:.6f},0.25,1.5\n" for x in t))
+    _one_line_exit_2(run("-q", "identify", "emps", str(data)), f"error: {data}: ", "rank-deficient")
+
+
+def test_export_c_after_generate(tmp_path: Path) -> None:
+    """symbolic.export.c stays the function after symbolic.export.generate has run (no module of the package
+    shadows it: the C sources are symbolic.codegen.c_source)."""
+    import symbolic
+
+    model = symbolic.derive(symbolic.robots.load("emps"))
+    symbolic.export.generate(model, tmp_path / "all", targets=["c", "report"])
+    written = symbolic.export.c(model, tmp_path / "c")
+    assert [p.name for p in written] == ["emps.c", "emps.h"]
+    assert callable(symbolic.export.report) and callable(symbolic.export.casadi)
+
+
+def test_a_bug_is_reported_as_one(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture) -> None:
+    """Anything that is not a SymbolicError (nor the OS's own error) is a bug: a traceback and a line saying so."""
+    def broken(args):
+        raise ZeroDivisionError("an internal mistake")
+
+    monkeypatch.setattr(cli, "cmd_list", broken)
+    assert cli.main(["-q", "list"]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" in err and "ZeroDivisionError: an internal mistake" in err
+    assert "this is a bug of symbolic, not of your input" in err
+
+
+def test_every_error_class_is_under_the_root() -> None:
+    import symbolic
+    from symbolic import errors
+
+    for name in ("ModelError", "DataError", "IdentificationError", "ExportError", "SimulationError", "MatplotlibMissing"):
+        assert issubclass(getattr(errors, name), symbolic.SymbolicError), name
+    from symbolic.numeric.operational import NoEndEffector, SingularConfiguration
+    from symbolic.reproduction.milne.alpha_simulation import AlphaLoopError
+
+    for cls in (NoEndEffector, SingularConfiguration, AlphaLoopError):
+        assert issubclass(cls, symbolic.SymbolicError), cls
+
+
+def test_json_output_is_strict_json_with_the_non_finite_values_listed() -> None:
+    """issue 22 item 9: --json printed NaN and Infinity, which strict parsers refuse."""
+    import math
+
+    import numpy as np
+
+    text = cli.strict_json({"gap": {"q1": float("nan"), "q2": 1.5}, "sigma": [np.float64("inf"), np.float32(2.0)]})
+    value = json.loads(text, parse_constant=lambda name: pytest.fail(f"{name} in strict JSON"))
+    assert value["gap"] == {"q1": None, "q2": 1.5} and value["sigma"] == [None, 2.0]
+    assert value["not_finite"] == [{"path": "gap.q1", "value": "nan"}, {"path": "sigma[0]", "value": "inf"}]
+    assert math.isfinite(value["sigma"][1])
+
+
+def test_identify_checks_figures_and_out_before_the_work(tmp_path: Path) -> None:
+    """issue 22 item 12: `identify --figures EXISTING_FILE` raised FileExistsError after the identification."""
+    existing = tmp_path / "notes.txt"
+    existing.write_text("mine")
+    _one_line_exit_2(run("-q", "identify", "emps", str(tmp_path / "no_data.csv"), "--figures", str(existing)),
+                     "--figures", "is not a folder")
+    _one_line_exit_2(run("-q", "identify", "emps", str(tmp_path / "no_data.csv"), "--out", str(tmp_path)),
+                     "--out", "name the model file")
+    assert existing.read_text() == "mine"

@@ -254,14 +254,14 @@ def test_failed_export_leaves_previous_output_intact(tmp_path: Path, monkeypatch
     monkeypatch.setattr("symbolic.export.markdown.report_markdown", broken)
     with pytest.raises(RuntimeError):
         export.generate(model, out, ["c", "report"])
-    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != ".symbolic-manifest.json"} == before
 
 
 def test_cli_generate(tmp_path: Path) -> None:
     result = subprocess.run([sys.executable, "-m", "symbolic", "-q", "generate", "omni", "--out", str(tmp_path), "--targets", "c,report"],
                             capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["omni.c", "omni.h", "omni.md"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".symbolic-manifest.json", "omni.c", "omni.h", "omni.md"]
     bad = subprocess.run([sys.executable, "-m", "symbolic", "-q", "generate", "omni", "--out", str(tmp_path), "--targets", "fortran"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "unknown target(s) ['fortran']" in bad.stderr

@@ -83,19 +83,29 @@ def test_inertia_not_positive_semidefinite(tmp_path: Path) -> None:
 
 
 def test_triangle_inequality_only_warns(tmp_path: Path) -> None:
-    text = VALID.replace('xx = "0.001", yy = "0.02", zz = "0.02"', 'xx = "0", yy = "0.35", zz = "0"')  # Corke's PUMA link 1
+    text = VALID.replace('xx = "0.001", yy = "0.02", zz = "0.02"', 'xx = "0.01", yy = "0.02", zz = "0.05"')
     with pytest.warns(ModelWarning, match=r"\[\[body\]\] 'link1' inertia.*triangle inequality"):
         symbolic.load(write(tmp_path, text))
 
 
-def test_puma_link1_warns() -> None:
-    """Corke's PUMA 560: link 1 (0, 0.35, 0) and link 3 (0.066, 0.086, 0.0125) violate the triangle inequality."""
+def test_a_single_principal_moment_is_a_deliberate_simplification_and_does_not_warn(tmp_path: Path) -> None:
+    """issue 22 item 17: planar links given by zz alone (and Corke's PUMA link 1, (0, 0.35, 0)) warned at every
+    command; only the moment about the joint axis enters their dynamics, so the model is as meant."""
+    for moments in ('xx = "0", yy = "0", zz = "0.02"', 'xx = "0", yy = "0.35", zz = "0"'):
+        text = VALID.replace('xx = "0.001", yy = "0.02", zz = "0.02"', moments)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", ModelWarning)
+            symbolic.load(write(tmp_path, text))
+
+
+def test_puma_link3_warns() -> None:
+    """Corke's PUMA 560: link 3 (0.066, 0.086, 0.0125) violates the triangle inequality; link 1 (0, 0.35, 0) is the
+    single-moment simplification and does not warn."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         symbolic.robots.load("puma560")
     messages = [str(w.message) for w in caught if issubclass(w.category, ModelWarning)]
-    assert len(messages) == 2
-    assert "'link1' inertia" in messages[0] and "'link3' inertia" in messages[1]
+    assert len(messages) == 1 and "'link3' inertia" in messages[0]
 
 
 def test_missing_parent(tmp_path: Path) -> None:

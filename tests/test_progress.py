@@ -94,7 +94,9 @@ def test_show_prints_large_entries_as_intermediates(monkeypatch, capsys) -> None
     """With the limit below some of fivebar's entries, those are printed in intermediates whose
     definitions follow; entries under the limit keep their compact form."""
     fivebar = derived("fivebar")
-    monkeypatch.setattr(cli, "SIZE_LIMIT", 40)
+    from symbolic.derive import simplify
+
+    monkeypatch.setattr(simplify, "SIZE_LIMIT", 40)
     cli.show(fivebar)
     out = capsys.readouterr().out
     lines = out.splitlines()

@@ -53,6 +53,10 @@ def pendulum() -> symbolic.DynamicModel:
 # -- the controller ---------------------------------------------------------------------------------------------
 
 
+LOOP_KINDS = [k for k in control.KINDS if k != control.STATE_FEEDBACK]
+"""The kinds with per-coordinate loops; state feedback has its own contract test (tests/test_state_feedback.py)."""
+
+
 def reference_loop(kind: str, q: np.ndarray, r: np.ndarray, d: np.ndarray, tau_log: np.ndarray, period: float,
                    gains: dict, gain: np.ndarray, saturation: np.ndarray, resolution: np.ndarray, taps: np.ndarray,
                    delay: int) -> np.ndarray:
@@ -78,7 +82,7 @@ def reference_loop(kind: str, q: np.ndarray, r: np.ndarray, d: np.ndarray, tau_l
     return gain * (applied + d)
 
 
-@pytest.mark.parametrize("kind", control.KINDS)
+@pytest.mark.parametrize("kind", LOOP_KINDS)
 @pytest.mark.parametrize("delay", [0, 2])
 def test_controller_function_is_the_contract(kind: str, delay: int) -> None:
     rng = np.random.default_rng(7)
@@ -346,3 +350,17 @@ def test_panda_closed_loop_agrees_with_pinocchio_aba() -> None:
             q, v = (q + h / 6 * (v + 2 * (v + h / 2 * a1) + 2 * (v + h / 2 * a2) + (v + h * a3)),
                     v + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4))
     assert worst < 1e-11, worst
+
+
+def test_rk4_stability_bounds_are_where_the_stability_function_has_modulus_one() -> None:
+    """docs/simulation.md ("Sub-steps"): RK4's R(z) = 1 + z + z²/2 + z³/6 + z⁴/24 has |R| = 1 at z = ±i·2√2 and
+    at z = −2.785…; just inside each bound |R| < 1, just outside > 1."""
+    from symbolic.simulation.simulator import RK4_IMAGINARY_BOUND, RK4_REAL_BOUND
+
+    def R(z: complex) -> float:
+        return abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24)
+
+    assert RK4_IMAGINARY_BOUND == pytest.approx(2.8284271247461903, rel=1e-15)
+    for z in (1j * RK4_IMAGINARY_BOUND, -RK4_REAL_BOUND):
+        assert R(z) == pytest.approx(1.0, abs=1e-12)
+        assert R(z * (1 - 1e-6)) < 1.0 < R(z * (1 + 1e-6))

@@ -2,6 +2,29 @@
 expression parser and TOML model files. The built-in robots' files are in :mod:`symbolic.robots`.
 
 Nothing here derives anything: :mod:`symbolic.derive` turns a :class:`Robot` into equations.
+
+>>> from symbolic.description import loads
+>>> robot = loads('''
+... name = "pendulum"
+... coordinates = ["q1"]
+... gravity = ["0", "-9.81", "0"]
+... [parameters]
+... m = { value = 1.0, unit = "kg" }
+... l = { value = 0.5, unit = "m" }
+... [[frame]]
+... name = "link"
+... parent = "base"
+... dh = { theta = "q1", d = "0", a = "l", alpha = "0" }
+... [[body]]
+... name = "bob"
+... frame = "link"
+... mass = "m"
+... ''', "pendulum.toml")
+>>> robot.generalized_coordinates, [p.name for p in robot.parameters]
+(('q1',), ['m', 'l'])
+>>> loads('colour = 1', "x.toml")                # one line: file, key, what is wrong, what is allowed
+Traceback (most recent call last):
+symbolic.errors.ModelError: x.toml: top level: unknown key(s) ['colour'] (allowed: beam, body, ...)
 """
 
 from __future__ import annotations

@@ -294,7 +294,8 @@ class _Validator:
                 f"inertia tensor is not positive semidefinite at the nominal values (eigenvalues {eig.round(12).tolist()})",
             )
         a, b, c = eig
-        if a + b < c - tol:
+        planar = abs(a) <= tol and abs(b) <= tol  # only the moment about one axis given: a planar model's body
+        if a + b < c - tol and not planar:
             warnings.warn(
                 f"{self.source}: {key}: principal moments {eig.round(12).tolist()} violate the triangle inequality "
                 "(no physical body has them); accepted as given",

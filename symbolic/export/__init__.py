@@ -1,13 +1,15 @@
 """Code and report export: C, CasADi and Markdown (docs/contracts.md, "Generated C/CasADi/report").
 
->>> symbolic.export.generate(model, "out/")            # all targets
->>> symbolic.export.c(model, "out/")                   # out/NAME.h, out/NAME.c
+>>> import symbolic
+>>> model = symbolic.derive(symbolic.robots.load("emps"))
+>>> [p.name for p in symbolic.export.generate(model, "out")]       # all targets  # doctest: +ELLIPSIS
+['emps.c', 'emps.h', 'emps.md', 'emps_A.casadi', ..., 'emps_casadi.py', ..., 'emps_inverse_dynamics.casadi', ...]
+>>> [p.name for p in symbolic.export.c(model, "out")]              # out/NAME.h, out/NAME.c
+['emps.c', 'emps.h']
 
-Everything is rendered in memory first, then the output directory's files are replaced as one set
-(:mod:`symbolic.export.output`): at every instant the directory holds the complete previous set or the
-complete new one, never a mixture, whatever interrupts the run (an error, Ctrl-C, SIGKILL), and the
-next run removes what an interrupted one left behind. Other files in the directory are kept. Output
-depends only on the model (its file's hash appears in each header) and the targets, never on time,
+Everything is rendered in memory first, then written into the output folder as one set
+(:mod:`symbolic.export.output`: the command owns its files and nothing else; an interrupted run is
+completed or undone by the next). Output depends only on the model (its file's hash appears in each header) and the targets, never on time,
 host, path or hash seed; the banner's regeneration command names the model file without its
 directory and the output directory as ``<dir>``.
 """
@@ -135,7 +137,12 @@ def check_output_directory(path: str | os.PathLike) -> None:
     large model), so that a mistyped ``--out`` is reported at once. :func:`write_files` still
     reports what only the write itself can find out (a full disk, a race).
     """
+    if not str(path).strip():
+        raise ExportError("--out is empty: name an output folder (e.g. --out out)")
     target = Path(path)
+    if _contains(target, Path.cwd()):
+        raise ExportError(f"output folder {target} contains the working folder: name a folder inside it (e.g. --out out) "
+                          "so that the command's files stay apart from everything else here")
     existing = target
     while True:  # the nearest part of the path that exists
         try:
@@ -156,11 +163,21 @@ def check_output_directory(path: str | os.PathLike) -> None:
         raise ExportError(f"output directory {target} {what}")
 
 
+def _contains(folder: Path, inner: Path) -> bool:
+    """Whether ``inner`` is ``folder`` or inside it (symlinks resolved)."""
+    try:
+        folder, inner = Path(os.path.realpath(folder)), Path(os.path.realpath(inner))
+    except OSError:
+        return False
+    return inner == folder or folder in inner.parents
+
+
 def write_files(files: dict[str, bytes], out: str | os.PathLike, *, owned: bool = False) -> list[Path]:
     """Replace the files of ``out`` by ``files`` as one set (:mod:`symbolic.export.output`); paths sorted by name.
 
-    At every instant ``out`` holds the complete previous set or the complete new one. Other files in
-    ``out`` are kept, unless ``owned`` says the directory belongs to this set alone.
+    The command owns the files it writes and nothing else: other files and every sub-folder of ``out`` are
+    kept; the files of the previous set that the new one does not name are removed. ``owned``: the folder
+    belongs to this set alone (every other regular file in it is removed).
     """
     directory = Path(out)
     if directory.exists() and not directory.is_dir():
@@ -174,7 +191,7 @@ def write_files(files: dict[str, bytes], out: str | os.PathLike, *, owned: bool 
     try:
         replace_files(files, directory, owned=owned)
     except OSError as error:
-        raise ExportError(f"cannot write into {directory}: {error.strerror}") from None
+        raise ExportError(f"cannot write into {directory}: {error.filename or directory}: {error.strerror}") from None
     return [directory / name for name in sorted(files)]
 
 

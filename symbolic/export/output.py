@@ -1,40 +1,34 @@
-"""Replacing a directory's generated files as one set (used by :func:`symbolic.export.write_files`).
+"""Writing a command's set of files into an output folder it does not own (:func:`symbolic.export.write_files`).
 
-Guarantee: at every instant the output path names a directory holding either the complete previous
-set of files or the complete new one, never a mixture, whatever interrupts the writer (an exception,
-Ctrl-C, SIGKILL, a crash). Files in the directory that the new set does not name are kept (unless
-the caller owns the whole directory), and a run cleans up what an interrupted run left behind.
+The command owns the files it writes and nothing else (docs/contracts.md, "Output folders"):
 
-How: the new set, plus hard links (or copies) of the files it does not replace, is written and
-fsync-ed into a sibling staging directory ``.OUT.symbolic-staging-XXXXXX``; the two directories are
-then exchanged in one ``renameat2(RENAME_EXCHANGE)`` system call (Linux 3.15, glibc 2.28) and the
-staging name, now holding the previous set, is deleted. Files created in the output directory while
-the set was being staged are moved over after the exchange. Each run holds an ``flock`` on the
-parent directory, so concurrent runs into one parent take turns and each can treat what it finds
-under the staging names as debris of an interrupted run, which it deletes first.
+* the folder is created when missing and otherwise left as it is: never renamed, replaced, re-owned or
+  chmod-ed; its sub-folders, mounts and every file the set does not name are never read, copied, moved or
+  deleted, so files other processes write into it during a run stay;
+* each file is written under a temporary name ``.NAME.symbolic-partial-XXXXXXXX`` beside its final name,
+  flushed to disk, then renamed over it: a reader sees the old file or the new one, never a part; a file
+  that exists keeps its permissions (and its owner, where the writer may set it);
+* the set: the renames and removals are listed in a journal (``.symbolic-journal.json``) once every new
+  file is on disk, and carried out after it. A run that dies before the journal leaves the previous set
+  and temporary files that the next run into the folder removes; one that dies after it is completed by
+  the next run (rolled forward) before anything else, so the folder returns to one complete set;
+* the previous set is known from a manifest (``.symbolic-manifest.json``: each file's name and SHA-256):
+  its files that the new set does not name are removed (the stale figures of an earlier diagnosis), unless
+  they changed since they were written — then they are kept, with a warning;
+* ``owned`` folders (``generated/NAME``: the folder belongs to this set alone) keep no manifest: every
+  regular file the set does not name is removed; sub-folders are still left alone.
 
-Fallbacks, each chosen only when the better one fails:
-
-* no ``renameat2`` or no exchange support in the file system (ENOSYS, EINVAL, EOPNOTSUPP): the
-  output directory is renamed to ``.OUT.symbolic-previous-XXXXXX`` and the staging directory into its
-  place. Between the two renames the output path does not exist (never a mixture); if the run dies
-  there, the next run first renames the previous set back.
-* the output directory cannot be renamed at all (a mount point, a parent directory that is not
-  writable or on another file system, EXDEV/EBUSY): files are replaced one at a time through
-  temporary names ``.NAME.symbolic-partial-XXXXXX`` inside it, which guarantees complete files but
-  not a complete set; a warning says so. Leftover temporary names are removed by the next run.
-
-A reader that must see one set across several opens should open the directory once and read the
-files relative to that descriptor (``os.open(name, dir_fd=...)``): the path may be swapped between
-two opens. Processes whose working directory is the output directory keep the previous one, which
-is deleted.
+Concurrent runs into one folder take turns (an ``flock`` on the folder). Between the first and the last
+rename of a run a reader may see files of both sets (milliseconds); :func:`recover` completes the set a
+dead run left.
 """
 
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import errno
+import hashlib
+import json
 import logging
 import os
 import re
@@ -47,183 +41,138 @@ from pathlib import Path
 
 log = logging.getLogger(__name__)
 
-STAGING = ".symbolic-staging-"
-PREVIOUS = ".symbolic-previous-"
 PARTIAL = ".symbolic-partial-"
+JOURNAL = ".symbolic-journal.json"
+MANIFEST = ".symbolic-manifest.json"
+# Sibling directories of the versions that replaced the whole folder (0.1): removed when found.
+_OLD_SIBLINGS = (".symbolic-staging-", ".symbolic-previous-")
 # Set only by tests/test_output.py: seconds to sleep before each step of the write phase, so that a
 # test can interrupt the writer at chosen moments. Never set in normal use.
 DELAY_VARIABLE = "SYMBOLIC_TEST_WRITE_DELAY"
 # Temporary names of versions before the staging directory: ".NAME.XXXXXXXX.tmp" (tempfile.mkstemp).
 _LEGACY_TEMPORARY = re.compile(r"\.(?P<name>.+)\.[a-z0-9_]{8}\.tmp")
-_NO_EXCHANGE = {errno.ENOSYS, errno.EINVAL, errno.EOPNOTSUPP, errno.ENOTSUP}
-_NOT_RENAMEABLE = {errno.EXDEV, errno.EBUSY, errno.EACCES, errno.EPERM, errno.EROFS}
-
-
-class _Unrenameable(Exception):
-    """The output directory cannot be replaced by renaming; files must be replaced one at a time."""
 
 
 def replace_files(files: Mapping[str, bytes], directory: Path, *, owned: bool = False) -> None:
-    """Make ``directory`` hold ``files`` (name: content), all of them or none (see the module doc).
+    """Make ``directory`` hold ``files`` (name: content) as one set (see the module doc).
 
-    ``owned``: the directory belongs to this set alone, so files it does not name are dropped rather
-    than kept. Raises OSError when the directory cannot be written.
+    Raises OSError when the folder cannot be written; ValueError for a name that is not a plain file name.
     """
-    directory = Path(os.path.realpath(directory))  # swap the real directory, not a symlink to it
-    parent = directory.parent
-    parent.mkdir(parents=True, exist_ok=True)
+    for name in files:
+        if not name or name in (".", "..") or "/" in name or "\0" in name or name in (JOURNAL, MANIFEST):
+            raise ValueError(f"{name!r} is not a file name this writer may use")
+    directory = Path(os.path.realpath(directory))  # write into the real folder, not a symlink's name
+    directory.mkdir(parents=True, exist_ok=True)
     pace = _pace()
-    with _locked(parent):
-        _recover(directory)
+    with _locked(directory):
+        recover(directory)
         _remove_debris(directory, files)
-        if directory.exists() and (not os.access(parent, os.W_OK | os.X_OK) or _is_mount_point(directory)):
-            _replace_in_place(files, directory, owned, pace, "it is a mount point or its parent is not writable")
-            return
-        try:
-            _replace_by_rename(files, directory, owned, pace)
-        except _Unrenameable as reason:
-            _replace_in_place(files, directory, owned, pace, str(reason))
-
-
-def _replace_by_rename(files: Mapping[str, bytes], directory: Path, owned: bool, pace) -> None:
-    parent = directory.parent
-    staging = _unique(parent, f".{directory.name}{STAGING}")
-    os.mkdir(staging, 0o777)  # the umask applies, as to a directory made by mkdir(1)
-    try:
-        if directory.exists():
-            os.chmod(staging, stat.S_IMODE(os.stat(directory).st_mode))
-        carried = _carry_over(directory, staging, files, owned, pace) if directory.exists() else []
-        for name in sorted(files):
-            pace()
-            _write_file(staging / name, files[name])
-        _fsync(staging)
+        journal = _stage(files, directory, owned, pace)
         pace()
-        if not directory.exists():
-            os.rename(staging, directory)
-        else:
-            _swap(staging, directory, pace)
-            pace()
-            _move_late_arrivals(staging, directory, files, owned, set(carried))
-        _fsync(parent)
-        pace()
-    finally:
-        _remove_tree(staging)  # the unfinished new set, or after the swap the previous one
+        _roll_forward(directory, journal, pace)
 
 
-def _swap(staging: Path, directory: Path, pace) -> None:
-    """Exchange the two directories (afterwards ``staging`` names the previous set)."""
+def recover(directory: str | os.PathLike) -> None:
+    """Complete the set a run that died after its journal left in ``directory`` (nothing to do otherwise)."""
+    directory = Path(directory)
     try:
-        _exchange(staging, directory)
+        journal = json.loads((directory / JOURNAL).read_text())
+    except FileNotFoundError:
         return
-    except OSError as error:
-        if error.errno in _NOT_RENAMEABLE:
-            raise _Unrenameable(f"renaming it fails ({os.strerror(error.errno)})") from None
-        if error.errno not in _NO_EXCHANGE:
-            raise
-    # No atomic exchange: move the previous set aside, then the new one into place.
-    previous = _unique(directory.parent, f".{directory.name}{PREVIOUS}")
-    try:
-        os.rename(directory, previous)
-    except OSError as error:
-        if error.errno in _NOT_RENAMEABLE:
-            raise _Unrenameable(f"renaming it fails ({os.strerror(error.errno)})") from None
-        raise
-    pace()
-    os.rename(staging, directory)
-    os.rename(previous, staging)  # deleted with the staging directory by the caller
-
-
-def _exchange(a: Path, b: Path) -> None:
-    """renameat2(a, b, RENAME_EXCHANGE) through the C library; OSError(ENOSYS) where it has none."""
-    try:
-        function = ctypes.CDLL(None, use_errno=True).renameat2
-    except (AttributeError, OSError):
-        raise OSError(errno.ENOSYS, "renameat2 is not available") from None
-    at_fdcwd, rename_exchange = -100, 2
-    function.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
-    if function(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) != 0:
-        code = ctypes.get_errno()
-        raise OSError(code, os.strerror(code), str(b))
-
-
-def _carry_over(directory: Path, staging: Path, files: Mapping[str, bytes], owned: bool, pace) -> list[str]:
-    """Hard-link (or copy) into ``staging`` the entries of ``directory`` that the new set does not replace."""
-    if owned:
-        return []
-    carried = []
-    for entry in sorted(os.scandir(directory), key=lambda e: e.name):
-        if entry.name in files or _is_temporary(entry.name, files):
-            continue
-        pace()
-        target = staging / entry.name
-        if entry.is_symlink():
-            os.symlink(os.readlink(entry.path), target)
-        elif entry.is_dir():
-            shutil.copytree(entry.path, target, symlinks=True, copy_function=_link_or_copy)
-        else:
-            _link_or_copy(entry.path, target)
-        carried.append(entry.name)
-    return carried
-
-
-def _move_late_arrivals(previous: Path, directory: Path, files: Mapping[str, bytes], owned: bool, carried: set[str]) -> None:
-    """Move entries created in the output directory while the new set was being staged."""
-    if owned:
+    except (OSError, ValueError):
+        log.warning("%s: unreadable journal of an interrupted run; removed", directory / JOURNAL)
+        (directory / JOURNAL).unlink(missing_ok=True)
         return
-    for entry in os.scandir(previous):
-        if entry.name in files or entry.name in carried or _is_temporary(entry.name, files):
-            continue
-        try:
-            os.rename(entry.path, directory / entry.name)
-        except OSError as error:
-            log.warning("%s was created during generation and could not be kept: %s", directory / entry.name, error.strerror)
+    _roll_forward(directory, journal, lambda: None)
 
 
-def _replace_in_place(files: Mapping[str, bytes], directory: Path, owned: bool, pace, reason: str) -> None:
-    """Fallback: replace the files one at a time (each file complete, the set not)."""
-    log.warning("%s cannot be replaced as a whole (%s): replacing its files one at a time", directory, reason)
-    staged: list[tuple[Path, Path]] = []
+def _stage(files: Mapping[str, bytes], directory: Path, owned: bool, pace) -> dict:
+    """Write every file under a temporary name, then the journal: nothing visible changes until it exists."""
+    for name in files:
+        if (directory / name).is_dir() and not (directory / name).is_symlink():
+            raise IsADirectoryError(errno.EISDIR, "a folder has the name of an output file", str(directory / name))
+    previous = {} if owned else _manifest(directory)
+    staged: list[list[str]] = []
     try:
         for name in sorted(files):
             pace()
             temporary = _unique(directory, f".{name}{PARTIAL}")
-            staged.append((temporary, directory / name))
-            _write_file(temporary, files[name])
-        for temporary, final in staged:
-            pace()
-            os.replace(temporary, final)
-        if owned:
-            for entry in os.scandir(directory):
-                if entry.name not in files and entry.is_file(follow_symlinks=False):
-                    os.unlink(entry.path)
+            _write_file(temporary, files[name], like=directory / name)
+            staged.append([temporary.name, name])
         _fsync(directory)
-    finally:
+        if owned:
+            stale = {n: None for n in _regular_files(directory) if n not in files and n != JOURNAL and PARTIAL not in n}
+        else:
+            stale = {n: digest for n, digest in previous.items() if n not in files}
+        journal = {"renames": staged, "remove": stale, "owned": owned,
+                   "files": {name: hashlib.sha256(content).hexdigest() for name, content in sorted(files.items())}}
+        _write_json(directory / JOURNAL, journal)
+    except BaseException:
         for temporary, _ in staged:
-            temporary.unlink(missing_ok=True)
+            (directory / temporary).unlink(missing_ok=True)
+        raise
+    return journal
 
 
-def _recover(directory: Path) -> None:
-    """After a run died between the two renames of the fallback: put the previous set back."""
-    if directory.exists():
+def _roll_forward(directory: Path, journal: dict, pace) -> None:
+    for temporary, name in journal["renames"]:
+        if not _plain(temporary) or not _plain(name):
+            continue  # a journal edited by hand: never follow a path out of the folder
+        pace()
+        with contextlib.suppress(FileNotFoundError):  # renamed before the previous run died
+            os.replace(directory / temporary, directory / name)
+    for name, digest in journal["remove"].items():
+        if _plain(name):
+            _remove_stale(directory / name, digest)
+    _fsync(directory)
+    if not journal.get("owned"):
+        _write_json(directory / MANIFEST, {"files": journal["files"]})
+    (directory / JOURNAL).unlink(missing_ok=True)
+    _fsync(directory)
+
+
+def _remove_stale(path: Path, digest: str | None) -> None:
+    """Remove a file of the previous set, if it is still a regular file with the content written (or owned)."""
+    try:
+        info = os.lstat(path)
+    except FileNotFoundError:
         return
-    previous = sorted(_siblings(directory, PREVIOUS), key=lambda p: p.stat().st_mtime_ns)
-    if previous:
-        os.rename(previous[-1], directory)
+    if not stat.S_ISREG(info.st_mode):
+        return
+    if digest is not None and hashlib.sha256(path.read_bytes()).hexdigest() != digest:
+        log.warning("%s was written by an earlier run and changed since: kept", path)
+        return
+    path.unlink(missing_ok=True)
+
+
+def _manifest(directory: Path) -> dict[str, str]:
+    """{name: sha256} of the set an earlier run wrote (empty when there is none or it is unreadable)."""
+    try:
+        files = json.loads((directory / MANIFEST).read_text())["files"]
+        return {str(n): str(d) for n, d in files.items() if _plain(str(n))}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {}
 
 
 def _remove_debris(directory: Path, files: Mapping[str, bytes]) -> None:
-    """Delete what interrupted runs left: sibling staging/previous directories, temporary files."""
-    for path in _siblings(directory, STAGING) + _siblings(directory, PREVIOUS):
-        _remove_tree(path)
-    if directory.is_dir():
-        for entry in os.scandir(directory):
-            if _is_temporary(entry.name, files) and entry.is_file(follow_symlinks=False):
-                os.unlink(entry.path)
+    """Temporary files of runs that died before their journal, and the sibling folders of 0.1's writer."""
+    for entry in os.scandir(directory):
+        if _is_temporary(entry.name, files) and entry.is_file(follow_symlinks=False):
+            os.unlink(entry.path)
+    prefixes = tuple(f".{directory.name}{marker}" for marker in _OLD_SIBLINGS)
+    with contextlib.suppress(OSError):
+        for name in os.listdir(directory.parent):
+            path = directory.parent / name
+            if name.startswith(prefixes) and path.is_dir() and not path.is_symlink() and not _is_mount_point(path):
+                shutil.rmtree(path, ignore_errors=True)
 
 
-def _siblings(directory: Path, marker: str) -> list[Path]:
-    prefix = f".{directory.name}{marker}"
-    return [directory.parent / name for name in os.listdir(directory.parent) if name.startswith(prefix)]
+def _regular_files(directory: Path) -> list[str]:
+    return sorted(e.name for e in os.scandir(directory) if e.is_file(follow_symlinks=False))
+
+
+def _plain(name: str) -> bool:
+    return bool(name) and name not in (".", "..") and "/" not in name and "\0" not in name
 
 
 def _is_temporary(name: str, files: Mapping[str, bytes]) -> bool:
@@ -240,19 +189,35 @@ def _unique(directory: Path, prefix: str) -> Path:
             return path
 
 
-def _write_file(path: Path, content: bytes) -> None:
+def _write_file(path: Path, content: bytes, like: Path | None = None) -> None:
+    """``content`` into the new file ``path``, on disk; with the mode and owner of ``like`` when it exists."""
     descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # the umask applies
     with os.fdopen(descriptor, "wb") as handle:
         handle.write(content)
         handle.flush()
+        if like is not None:
+            _keep_mode_and_owner(handle.fileno(), like)
         os.fsync(handle.fileno())
 
 
-def _link_or_copy(source: str, target: str) -> None:
+def _keep_mode_and_owner(descriptor: int, like: Path) -> None:
     try:
-        os.link(source, target, follow_symlinks=False)
-    except OSError:  # no hard links here (file system, fs.protected_hardlinks): a copy will do
-        shutil.copy2(source, target, follow_symlinks=False)
+        info = os.stat(like, follow_symlinks=False)
+    except FileNotFoundError:
+        return
+    if not stat.S_ISREG(info.st_mode):
+        return
+    os.fchmod(descriptor, stat.S_IMODE(info.st_mode))
+    if (info.st_uid, info.st_gid) != (os.geteuid(), os.getegid()):
+        with contextlib.suppress(PermissionError):  # only a privileged writer may give a file away
+            os.fchown(descriptor, info.st_uid, info.st_gid)
+
+
+def _write_json(path: Path, value: dict) -> None:
+    temporary = _unique(path.parent, f"{path.name}{PARTIAL}")
+    _write_file(temporary, json.dumps(value, sort_keys=True, indent=1).encode())
+    os.replace(temporary, path)
+    _fsync(path.parent)
 
 
 def _fsync(directory: Path) -> None:
@@ -265,28 +230,21 @@ def _fsync(directory: Path) -> None:
         os.close(descriptor)
 
 
-def _remove_tree(path: Path) -> None:
-    if path.is_symlink() or path.is_file():
-        path.unlink(missing_ok=True)
-    elif path.exists():
-        shutil.rmtree(path, ignore_errors=True)
-
-
-def _is_mount_point(directory: Path) -> bool:
-    return os.stat(directory).st_dev != os.stat(directory.parent).st_dev
+def _is_mount_point(path: Path) -> bool:
+    return os.stat(path).st_dev != os.stat(path.parent).st_dev
 
 
 @contextlib.contextmanager
-def _locked(parent: Path) -> Iterator[None]:
-    """An exclusive flock on the parent directory for the duration of the run (where there is flock)."""
+def _locked(directory: Path) -> Iterator[None]:
+    """An exclusive flock on the folder for the duration of the run (where there is flock)."""
     try:
         import fcntl
-    except ImportError:  # not POSIX: no lock; concurrent runs into one directory are then unsupported
+    except ImportError:  # not POSIX: no lock; concurrent runs into one folder are then unsupported
         yield
         return
     try:
-        descriptor = os.open(parent, os.O_RDONLY)
-    except OSError:  # a directory we may write but not read: no lock
+        descriptor = os.open(directory, os.O_RDONLY)
+    except OSError:  # a folder we may write but not read: no lock
         yield
         return
     try:

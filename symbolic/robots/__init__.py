@@ -16,6 +16,8 @@ from symbolic.description.robot import Robot
 
 EXPERIMENT_SUFFIX = ".experiment.toml"
 
+__all__ = ["EXPERIMENT_SUFFIX", "example_path", "examples", "load", "names", "path"]
+
 
 def names() -> list[str]:
     """Names of the built-in robots, sorted (experiment files are not robots)."""

@@ -7,33 +7,11 @@ sample period T with zero-order hold, and returns the trajectory at the log's ti
 canonical columns (t, q_c, qd_c, qdd_c, tau_c), so that it can be compared sample by sample
 (:mod:`symbolic.simulation.comparison`).
 
-Integration (docs/simulation.md):
-
-* **Right-hand side** in CasADi, built from the same straight-line program as the generated code;
-  the controller, the sub-steps and the outputs of one sample form one CasADi function, compiled to
-  machine code with the system's C compiler when there is one (:mod:`symbolic.codegen.compiled`),
-  and mapped over all samples (``mapaccum``): no Python runs per sample.
-* **Friction's sign** is smoothed: every sign(v) of the equations of motion becomes tanh(v/ε) with
-  the velocity scale ε = ``friction_velocity`` (default 1e-4 coordinate units per second). Below ε
-  the Coulomb force acts as a steep viscous damper Fc/ε, so a body held by a force F < Fc creeps at
-  v = ε·artanh(F/Fc) instead of chattering between ±Fc; the sub-step resolves the damper's time
-  constant (below).
-* **Fixed step** (default, ``method="rk4"``): m classical Runge–Kutta sub-steps per sample period,
-  m = ⌈T·ρ⌉ with ρ the spectral radius of A = ∂ẋ/∂x at the initial position, at rest, held in
-  equilibrium (τ = bias). For a model without friction the eigenvalues of A are ±iω of the natural
-  frequencies (:func:`symbolic.numeric.natural_frequencies`: K x = ω² D x, the same ω), so h·ω_max ≤ 1
-  for the highest modal frequency of a flexible model; with smoothed friction A also holds the
-  damper's rate. RK4 is stable for h·|λ| up to 2.8 on the imaginary and 2.78 on the real axis: the
-  factor 2.8 covers the change of D(Q) along the motion and keeps the highest mode's numerical
-  damping per step below (h·ω)⁶/144 ≈ 0.7 %.
-* **Stiff methods** on request (``method="Radau"``, ``"BDF"``, ``"LSODA"``): SciPy's ``solve_ivp``
-  from sample to sample with CasADi's exact Jacobian; the controller is the same CasADi function,
-  called per sample (slower: for checks of the fixed step).
-
-Initial state: the measured positions at the first sample; coordinates the data lack start at 0,
-except the modal coordinates of a flexible model, which start at their static gravity sag
-(:func:`symbolic.numeric.statics.residual_imbalance`); velocities: the slope of a parabola fitted to
-the first samples (:func:`initial_velocity`; 0 for coordinates the data lack).
+How it integrates — the right-hand side in CasADi from the same straight-line program as the generated
+code, compiled and mapped over the samples; friction's sign smoothed as tanh(v/ε); m = ⌈T·ρ⌉ fixed RK4
+sub-steps per sample (ρ the spectral radius of ∂ẋ/∂x at rest) or SciPy's stiff methods on request; the
+initial state from the first samples — and why, with the measured effects of each choice, is
+docs/simulation.md ("Integration").
 """
 
 from __future__ import annotations
@@ -66,7 +44,12 @@ FRICTION_VELOCITY = 1e-4
 """Default ε of the smoothed sign tanh(v/ε), in coordinate units per second (m/s, rad/s)."""
 
 STEP_BOUND = 1.0
-"""Sub-steps are chosen so that h·ρ ≤ STEP_BOUND (ρ: spectral radius of ∂ẋ/∂x; RK4 is stable to 2.8)."""
+"""Sub-steps are chosen so that h·ρ ≤ STEP_BOUND (ρ: spectral radius of ∂ẋ/∂x), well inside RK4's stability
+region (:data:`RK4_IMAGINARY_BOUND`, :data:`RK4_REAL_BOUND`)."""
+RK4_IMAGINARY_BOUND = 2.0 * math.sqrt(2.0)
+"""|R(iy)| = 1 for RK4's stability function R(z) = 1 + z + z²/2 + z³/6 + z⁴/24 at y = 2√2 ≈ 2.83."""
+RK4_REAL_BOUND = float(-min(r.real for r in np.roots([1 / 24, 1 / 6, 1 / 2, 1, 0]) if abs(r.imag) < 1e-12 and r.real < 0))
+"""R(x) = 1 on the negative real axis at x ≈ −2.785: RK4 is stable for real λ with h·|λ| up to this."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -216,10 +199,10 @@ def simulate(
     x0 = _initial_state(model, measurements, p, initial)
     radius = _spectral_radius(plant, x0, p, friction_velocity, float(measurements.t[0]))
     m = substeps or max(1, math.ceil(measurements.sample_period * radius / STEP_BOUND))
-    if substeps and measurements.sample_period / substeps * radius > 2.78:
-        LOG.warning("%d sub-step(s) of %.3g s: h·ρ = %.2f exceeds RK4's stability bound 2.78 (ρ = %.4g 1/s)",
+    if substeps and measurements.sample_period / substeps * radius > RK4_REAL_BOUND:
+        LOG.warning("%d sub-step(s) of %.3g s: h·ρ = %.2f exceeds RK4's stability bound %.3f (ρ = %.4g 1/s)",
                     substeps, measurements.sample_period / substeps, measurements.sample_period / substeps * radius,
-                    radius)
+                    RK4_REAL_BOUND, radius)
     c = control.constants(ctrl, dict(zip(model.parameter_symbols, p)))
     timings = {"build": time.perf_counter() - started}
     args = (ctrl, plant, measurements, signals, x0, p, c, friction_velocity)
@@ -394,12 +377,12 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
                     substeps: int) -> ca.Function:
     """One sample of the closed loop: ``(z, w, p, c, eps) -> (z_next, y)``.
 
-    z = [x; controller memory], w = [reference; disturbance; logged τ; t_k] of the sample, y = [q; q̇; q̈; τ]
-    at t_k (q̈ with τ_k applied), z_next after ``substeps`` RK4 steps of period/substeps (each at its
-    own times, for a model whose forces depend on time).
+    z = [x; controller memory], w = [reference (x_ref of a state feedback); disturbance; logged τ; t_k] of
+    the sample, y = [q; q̇; q̈; τ] at t_k (q̈ with τ_k applied), z_next after ``substeps`` RK4 steps of
+    period/substeps (each at its own times, for a model whose forces depend on time).
     """
     n, memory = plant.n, ctrl.memory_size()
-    nc = ctrl.size
+    nc, nr = ctrl.size, ctrl.reference_size
     step_controller = control.controller_function(ctrl, names, period)
     X, T = ca.MX.sym("x", 2 * n), ca.MX.sym("tau", n)
     P, E = ca.MX.sym("p", plant.rhs.size1_in(2)), ca.MX.sym("eps")
@@ -410,11 +393,11 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     k3 = plant.rhs(X + h / 2 * k2, T, P, E, S + h / 2)
     k4 = plant.rhs(X + h * k3, T, P, E, S + h)
     rk4 = ca.Function("rk4", [X, T, P, E, S], [X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-    Z, W = ca.MX.sym("z", 2 * n + memory), ca.MX.sym("w", 2 * nc + n + 1)
+    Z, W = ca.MX.sym("z", 2 * n + memory), ca.MX.sym("w", nr + nc + n + 1)
     C = ca.MX.sym("c", step_controller.size1_in(5))
     x, m = Z[: 2 * n], Z[2 * n:]
-    m_next, tau = step_controller(m, x[:n], W[:nc], W[nc:2 * nc], W[2 * nc:2 * nc + n], C)
-    t_k = W[2 * nc + n]
+    m_next, tau = step_controller(m, x[:n], W[:nr], W[nr:nr + nc], W[nr + nc:nr + nc + n], C)
+    t_k = W[nr + nc + n]
     x_next = _repeat(rk4, substeps, x, tau, P, E, starts=t_k + h * ca.DM(range(substeps)).T)
     xdot = plant.rhs(x, tau, P, E, t_k)
     return ca.Function("closed_loop_sample", [Z, W, P, C, E], [ca.vertcat(x_next, m_next),
@@ -440,7 +423,7 @@ _SAMPLE_FUNCTIONS: weakref.WeakKeyDictionary[Plant, dict] = weakref.WeakKeyDicti
 def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float, substeps: int,
                  compiled: bool | None) -> tuple[ca.Function, bool]:
     """The (compiled) sample function, built once per plant and controller structure."""
-    key = (ctrl.kind, ctrl.coordinates, ctrl.delay, len(ctrl.velocity_filter), names, period, substeps, compiled)
+    key = (ctrl.structure(), names, period, substeps, compiled)
     cache = _SAMPLE_FUNCTIONS.setdefault(plant, {})
     if key not in cache:
         function = sample_function(ctrl, plant, names, period, substeps)

@@ -1,12 +1,16 @@
 """The discrepancy workflow: where a model and measurements disagree, which physical effect is missing,
 the model file patched with it, and the gap before and after (docs/workflow.md).
 
->>> from symbolic.workflow import diagnose
->>> result = diagnose("axis.toml", "log.csv", out="diagnosis")      # doctest: +SKIP
->>> [(f.effect, f.coordinate, f.parameters) for f in result.found]  # doctest: +SKIP
-[('coulomb', 'q', {'coulomb': 20.39})]
+>>> from symbolic.workflow import EFFECTS, diagnose
+>>> {"coulomb", "stribeck", "flexible_mode", "payload"} <= set(EFFECTS)     # the catalogue
+True
 
-The catalogue of effects is :data:`EFFECTS`; :func:`register` adds one (:class:`Effect`).
+With a model file and a measured log (the EMPS data are not shipped: ``../shared/data/emps/``)::
+
+    result = diagnose("emps", "emps_estimation.experiment.toml", out="diagnosis")
+    [(f.effect, f.coordinate, f.parameters) for f in result.found]      # [('coulomb', 'q', {...}), ...]
+
+:func:`register` adds an effect to the catalogue (:class:`Effect`).
 """
 
 from __future__ import annotations

@@ -5,8 +5,11 @@ The plant is linearised about a rest position (``NumericModel.linearize``: A = �
 q̇ = 0) and sampled with zero-order hold at the controller's period T (Φ = e^{AT}, Γ = ∫₀ᵀ e^{As} ds B).
 The controller of :mod:`symbolic.simulation.controller` is linear apart from saturation and quantisation,
 which are left out: it reads q_k, forms the backward-difference velocity and filters it with its taps,
-and outputs ``pd``: −kp·q − kd·v, ``pid``: + ki·I, ``cascade``: kv·(−kp·q − v), delayed by ``delay``
-samples and multiplied by its gain. The closed loop's eigenvalues z give s = ln(z)/T: the damped
+and outputs ``pd``: −kp·q − kd·v, ``pid``: + ki·I, ``cascade``: kv·(−kp·q − v), ``state_feedback``:
+−K·x with x the positions and velocities its ``states`` name, delayed by ``delay`` samples and
+multiplied by its gain. For a state feedback this is the sampled form of eig(A − B·K): as T → 0 the
+modes tend to those of the continuous loop, the backward difference and the hold delaying the
+feedback by about T (the tests check both). The closed loop's eigenvalues z give s = ln(z)/T: the damped
 frequency Im(s)/2π and the damping ratio −Re(s)/|s| of each oscillatory mode — what a ringing in the
 data shows.
 """
@@ -45,9 +48,8 @@ def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], tabl
     p = np.array([float(parameters.get(n, model.parameters[s])) for n, s in zip(names, model.parameter_symbols)])
     coordinates = list(model.robot.generalized_coordinates)
     ctrl = control.parse(table, coordinates, model.parameter_symbols, source, coordinates)
-    constants = control.constants(ctrl, dict(zip(model.parameter_symbols, p)))
+    gain = control.drive_gains(ctrl, dict(zip(model.parameter_symbols, p)))
     nc = ctrl.size
-    gain = constants[4 * nc:5 * nc]
     num = numeric_model(model)
     n = model.n
     q0 = np.zeros(n) if position is None else np.asarray(position, float)
@@ -59,25 +61,32 @@ def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], tabl
     E = scipy.linalg.expm(block)
     phi, gamma = E[:2 * n, :2 * n], E[:2 * n, 2 * n:]
     rows = [coordinates.index(c) for c in ctrl.coordinates]
+    sensed = [coordinates.index(c) for c in ctrl.sensors]
+    ns = len(sensed)
     taps = np.asarray(ctrl.velocity_filter, float)
     m, delay = len(taps), ctrl.delay
-    # state: x (2n), q_{k-1} (nc), v_b,k-1 … v_b,k-m+1 (nc each), I_{k-1} (nc), u_{k-1} … u_{k-delay} (nc each)
-    sizes = [2 * n, nc, nc * (m - 1), nc, nc * delay]
+    # state: x (2n), q_{k-1} (ns), v_b,k-1 … v_b,k-m+1 (ns each), I_{k-1} (nc), u_{k-1} … u_{k-delay} (nc each)
+    sizes = [2 * n, ns, ns * (m - 1), nc, nc * delay]
     offsets = np.cumsum([0] + sizes)
     size = int(offsets[-1])
+    # a state feedback's x = selection · [y; v] (positions, then velocities, of the sensed coordinates)
+    pick = [(0 if signal == "q" else ns) + ctrl.sensors.index(c) for signal, c in ctrl.states]
 
     def step(z: np.ndarray) -> np.ndarray:
         x, previous = z[:2 * n], z[offsets[1]:offsets[2]]
-        history = z[offsets[2]:offsets[3]].reshape(m - 1, nc)
+        history = z[offsets[2]:offsets[3]].reshape(m - 1, ns)
         integral, outputs = z[offsets[3]:offsets[4]], z[offsets[4]:].reshape(delay, nc)
-        y = x[rows]
+        y = x[sensed]
         vb = (y - previous) / period
         v = taps[0] * vb + (taps[1:, None] * history).sum(axis=0) if m > 1 else taps[0] * vb
-        integral = integral - period * y
-        if ctrl.kind == "cascade":
-            u = ctrl.kv * (-ctrl.kp * y - v)
+        if ctrl.kind == control.STATE_FEEDBACK:
+            u = -ctrl.K @ np.concatenate([y, v])[pick]
         else:
-            u = -ctrl.kp * y - ctrl.kd * v + ctrl.ki * integral
+            integral = integral - period * y
+            if ctrl.kind == "cascade":
+                u = ctrl.kv * (-ctrl.kp * y - v)
+            else:
+                u = -ctrl.kp * y - ctrl.kd * v + ctrl.ki * integral
         applied = outputs[-1] if delay else u
         tau = np.zeros(n)
         tau[rows] = gain * applied
