@@ -125,10 +125,7 @@ class DynamicModel:
         return Products(self)
 
     def regressor(self) -> Regressor:
-        """The parameter regressor τ = Y·θ (:mod:`symbolic.derive.regressor`), derived once.
-
-        Raises :class:`~symbolic.errors.ModelError` for a model with beams (not covered yet).
-        """
+        """The parameter regressor τ = Y·θ (:mod:`symbolic.derive.regressor`, beams included), derived once."""
         return self.products.get(REGRESSOR)
 
     @property

@@ -158,6 +158,10 @@ def role_signs(model: DynamicModel) -> dict[sp.Symbol, str]:
                 scaled(part, "a friction coefficient")
         if f.stribeck is not None:
             scaled(f.stribeck.static, "a friction coefficient")
+    for beam in robot.beams:
+        for value, role in ((beam.density, "a beam's density"), (beam.EI_v, "a bending stiffness"),
+                            (beam.EI_w, "a bending stiffness"), (beam.tip_mass, "a tip mass")):
+            scaled(value, role)
     for force in robot.forces:
         for variable, role in ((coordinate_symbol(force.coordinate), "a stiffness"),
                                (velocity_symbol(force.coordinate), "a damping")):

@@ -219,8 +219,13 @@ def _structure(model: Any, frame: str, coordinate: str) -> PayloadStructure:
                                         frictions=(), drives=(), forces=(), beams=(), validated=False))
     reg = regressor(lone)  # the body's ten standard parameters, in INERTIAL order
     n = model.n
+    # the point is fixed in its frame: a beam's modal coordinates (not in ``lone``) do not move it, their rows stay 0
+    rows = [list(robot.generalized_coordinates).index(c) for c in lone.generalized_coordinates]
+    Y = sp.zeros(n, len(reg.theta))
+    for k, row in enumerate(rows):
+        Y[row, :] = reg.Y[k, :]
     raw = compile_vectorized(reg.sub, [model.coordinates, model.velocities, model.accelerations, model.parameter_symbols],
-                             reg.Y, (n, len(reg.theta)))
+                             Y, (n, len(reg.theta)))
     p = np.array([model.parameters[s] for s in model.parameter_symbols], float)
 
     def evaluate(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
