@@ -22,8 +22,8 @@ import sympy as sp
 import symbolic
 from symbolic import cache, export
 from symbolic.codegen import exported
-from symbolic.derive import dynamics
-from symbolic.derive.products import Product
+from symbolic.derivation import dynamics
+from symbolic.derivation.products import Product
 from symbolic.description.parameters import ParameterVector
 from symbolic.description.robot import digest
 from symbolic.errors import ModelError

@@ -11,7 +11,7 @@ from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
 import symbolic
-from symbolic.derive.mode_shapes import clamped_free_roots, modal_constants, modes
+from symbolic.derivation.mode_shapes import clamped_free_roots, modal_constants, modes
 from symbolic.numeric.statespace import natural_frequencies
 from symbolic.numeric import numeric_model
 from symbolic.description.validation import with_parameters

@@ -18,7 +18,7 @@ import sympy as sp
 
 import symbolic
 from conftest import derived
-from symbolic.derive.regressor import regressor
+from symbolic.derivation.regressor import regressor
 from symbolic.errors import ModelError
 from symbolic.numeric import numeric_model
 from symbolic.numeric.base_parameters import base_parameters, regressor_function, theta_values

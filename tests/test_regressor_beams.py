@@ -9,7 +9,7 @@ Checks:
   random parameters, for every built-in beam model (hypothesis; 1e-9 relative);
 * the beam's columns against a derivation by hand for Madill's experimental beam (a hub turning about the
   vertical with a horizontal beam, Lagrange's equations written out below), with the modal constants
-  computed here by quadrature of the clamped-free shapes, not by symbolic.derive.mode_shapes (1e-9);
+  computed here by quadrature of the clamped-free shapes, not by symbolic.derivation.mode_shapes (1e-9);
   also bending in the horizontal plane only (modes_w = 0);
 * the base parameters keep ρ, EI_v, EI_w and m_p as parameters of their own;
 * the exported C regressor and standard parameters, the CasADi regressor and the compiled batch loop
@@ -31,7 +31,7 @@ from hypothesis import strategies as st
 import symbolic
 from c_library import CModel, compile_shared
 from conftest import derived
-from symbolic.derive.regressor import regressor
+from symbolic.derivation.regressor import regressor
 from symbolic.identify.model import geometric_parameters, model_base
 from symbolic.numeric import numeric_model
 from symbolic.numeric.base_parameters import regressor_function, theta_values

@@ -14,10 +14,10 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.products import Product
-from symbolic.derive.regressor import Regressor
-from symbolic.derive.subexpressions import Subexpressions
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.products import Product
+from symbolic.derivation.regressor import Regressor
+from symbolic.derivation.subexpressions import Subexpressions
 from symbolic.codegen.program import BatchedTrig, Program, batch_trig, build_program
 
 log = logging.getLogger(__name__)
@@ -110,7 +110,7 @@ def function_specs(model: DynamicModel) -> list[FunctionSpec]:
     """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, applied, inverse_dynamics, and
     end_effector_jacobian (models with an end effector) and the regressor.
 
-    Every output is a part of the one composition in :func:`symbolic.derive.derive`; nothing is
+    Every output is a part of the one composition in :func:`symbolic.derivation.derive`; nothing is
     assembled here.
     """
     r = model.reduced

@@ -33,7 +33,7 @@ _STANDALONE_TIME = re.compile(rf"(?<![A-Za-z0-9_]){TIME_NAME}(?![A-Za-z0-9_])")
 """Time written as a name of its own (a cheap test before parsing for it: most expressions have none)."""
 
 MAX_MODES = 6
-"""Assumed modes per beam direction (:mod:`symbolic.derive.mode_shapes` is accurate up to 6)."""
+"""Assumed modes per beam direction (:mod:`symbolic.derivation.mode_shapes` is accurate up to 6)."""
 
 
 def _modes_ok(beam: Beam) -> bool:

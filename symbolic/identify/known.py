@@ -39,8 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.regressor import Regressor
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.regressor import Regressor
 from symbolic.description.robot import Directional, coordinate_symbol, velocity_symbol
 from symbolic.errors import IdentificationError, ModelError, listing
 from symbolic.numeric.base_parameters import BaseParameters, base_parameters, theta_values

@@ -1,7 +1,7 @@
 """Identification of a model file's parameters: the symbolic regressor, base parameters, IDIM-LS, and
 the way back to the model file (Janot IV–V; Khalil & Dombre 14; Gautier's IDIM-LS).
 
-:func:`identify_model` evaluates the model's regressor τ = Y·θ (:mod:`symbolic.derive.regressor`) on
+:func:`identify_model` evaluates the model's regressor τ = Y·θ (:mod:`symbolic.derivation.regressor`) on
 the measured states, keeps the base columns (:mod:`symbolic.numeric.base_parameters`) and solves for
 the base parameters β by the IDIM-LS pipeline of :mod:`symbolic.identify.pipeline`. The model file's
 own parameters follow in two ways:
@@ -36,8 +36,8 @@ import numpy as np
 import sympy as sp
 
 from symbolic.data import Measurements, load
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.regressor import Regressor
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.regressor import Regressor
 from symbolic.codegen.compiled_regressor import compiled_batch
 from symbolic.identify.known import (beta_bounds, fixed_symbols, homogeneous_groups, model_parameters_of, not_separable,
                                      parameter_bounds, rank_hint, split_base)

@@ -30,9 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.products import Product
-from symbolic.derive.regressor import Regressor
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.products import Product
+from symbolic.derivation.regressor import Regressor
 from symbolic.codegen.functions import compile_function
 
 TOLERANCE = 1e-8

@@ -39,7 +39,7 @@ import sympy as sp
 from symbolic.description.robot import Body, Robot, coordinate_symbol
 
 INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
-"""The standard parameters of a body, in the regressor's order (:mod:`symbolic.derive.regressor`)."""
+"""The standard parameters of a body, in the regressor's order (:mod:`symbolic.derivation.regressor`)."""
 PHYSICAL = ("mass", "com_x", "com_y", "com_z", "ixx", "iyy", "izz", "ixy", "ixz", "iyz")
 """The payload's roles: mass (kg), centre of mass in F (m), inertia tensor about it in F's axes (kg·m²)."""
 TYPICAL = np.array([1.0, 0.1, 0.1, 0.1, 0.01, 0.01, 0.01, 0.01, 0.01, 0.01])
@@ -210,7 +210,7 @@ def structure(model: Any, frame: str, coordinate: str) -> PayloadStructure:
 
 def _structure(model: Any, frame: str, coordinate: str) -> PayloadStructure:
     from symbolic.codegen.functions import compile_vectorized
-    from symbolic.derive.regressor import regressor
+    from symbolic.derivation.regressor import regressor
     from symbolic.description.validation import validate
     from symbolic.workflow.terms import model_terms
 

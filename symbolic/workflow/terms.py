@@ -29,9 +29,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.products import Product
-from symbolic.derive.regressor import Regressor
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.products import Product
+from symbolic.derivation.regressor import Regressor
 from symbolic.identify.least_squares import Identification, ParameterEstimate, solve
 from symbolic.identify.known import FIX_HINT, beta_bounds, homogeneous_groups, model_parameters_of, scale_holds, split_base
 from symbolic.identify.model import ModelParameter, base_regressor, direct_parameters, geometric_parameters, model_base

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import Controller, DataError, Experiment, Measurements
-from symbolic.derive.dynamics import DynamicModel, derive
+from symbolic.derivation.dynamics import DynamicModel, derive
 from symbolic.errors import ModelError
 from symbolic.identify.known import fixed_symbols
 from symbolic.identify.least_squares import IdentificationError

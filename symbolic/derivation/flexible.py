@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.derive.kinematics import Kinematics, skew
-from symbolic.derive.mode_shapes import ModalConstants, modal_constants, phi
+from symbolic.derivation.kinematics import Kinematics, skew
+from symbolic.derivation.mode_shapes import ModalConstants, modal_constants, phi
 from symbolic.description.robot import Beam, coordinate_symbol
 
 

@@ -15,9 +15,9 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.flexible import beam_jacobian, column, geometry
-from symbolic.derive.kinematics import Kinematics
-from symbolic.derive.mode_shapes import phi
+from symbolic.derivation.flexible import beam_jacobian, column, geometry
+from symbolic.derivation.kinematics import Kinematics
+from symbolic.derivation.mode_shapes import phi
 from symbolic.description.robot import Beam
 
 CONDITION_LIMIT = 1e12

@@ -41,14 +41,14 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.derive import christoffel as ch
-from symbolic.derive.flexible import beam_energy
-from symbolic.derive.friction import friction_force
-from symbolic.derive.inertia import SpatialInertia
-from symbolic.derive.kinematics import Kinematics, cross
-from symbolic.derive.newton_euler import inverse_dynamics
-from symbolic.derive.subexpressions import Subexpressions
-from symbolic.derive.transmission import map_to_generalized
+from symbolic.derivation import christoffel as ch
+from symbolic.derivation.flexible import beam_energy
+from symbolic.derivation.friction import friction_force
+from symbolic.derivation.inertia import SpatialInertia
+from symbolic.derivation.kinematics import Kinematics, cross
+from symbolic.derivation.newton_euler import inverse_dynamics
+from symbolic.derivation.subexpressions import Subexpressions
+from symbolic.derivation.transmission import map_to_generalized
 from symbolic.errors import ModelError
 from symbolic.description.robot import Beam, Directional, Friction, Robot, Stribeck, acceleration_symbol, coordinate_symbol, velocity_symbol
 from symbolic.description.validation import validate
