@@ -28,7 +28,7 @@ import numpy as np
 from symbolic.cache import stamp
 from symbolic.data import DataError, Experiment, load
 from symbolic.data.treatment import settings_for, states
-from symbolic.derive.dynamics import DynamicModel, derive
+from symbolic.derivation.dynamics import DynamicModel, derive
 from symbolic.description.robot import digest
 from symbolic.errors import ModelWarning, SymbolicError, one_line
 from symbolic.fleet.campaign import Task, read_model
