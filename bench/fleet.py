@@ -54,13 +54,44 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 
 def cluster(workers: int):
-    from dask.distributed import Client, LocalCluster
+    from dask.distributed import Client
+
+    from symbolic.fleet.execution import local_cluster
 
     started = time.perf_counter()
-    local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
-                         dashboard_address=None, worker_dashboard_address=None)
+    local = local_cluster(workers)  # as symbolic campaign starts it
     client = Client(local)
     return local, client, time.perf_counter() - started
+
+
+def trim_cost(folder: Path) -> dict:
+    """CPU time of 8 diagnoses (120 s logs) in a fresh process, with and without Dask's MALLOC_TRIM_THRESHOLD_=65536."""
+    import subprocess
+
+    import fleet_cases
+    from symbolic import fleet
+    from symbolic.fleet.execution import plan
+    from symbolic.fleet.store import Store
+
+    path = fleet_cases.fleet(folder / "trim", logs=4, robots=2, seconds=SECONDS, kind="diagnose")
+    code = ("import resource, sys, pickle; from symbolic.fleet.tasks import run_log; jobs = pickle.load(open(sys.argv[1], 'rb')); "
+            "run_log(jobs[0]); r0 = resource.getrusage(resource.RUSAGE_SELF); [run_log(j) for j in jobs]; "
+            "r1 = resource.getrusage(resource.RUSAGE_SELF); print(r1.ru_utime - r0.ru_utime, r1.ru_stime - r0.ru_stime)")
+    import pickle
+
+    _, jobs = plan(fleet.load(path), Store(folder / "trim_out"))
+    (folder / "jobs.pickle").write_bytes(pickle.dumps(jobs))
+    out = {}
+    for label, value in (("glibc default", None), ("MALLOC_TRIM_THRESHOLD_=65536", "65536")):
+        env = {k: v for k, v in os.environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
+        if value:
+            env["MALLOC_TRIM_THRESHOLD_"] = value
+        env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
+        done = subprocess.run([sys.executable, "-c", code, str(folder / "jobs.pickle")], env=env, capture_output=True,
+                              text=True, check=True)
+        user, system = map(float, done.stdout.split()[-2:])
+        out[label] = (user, system)
+    return out
 
 
 def rss(client) -> list[float]:
@@ -168,7 +199,7 @@ def short_logs(folder: Path) -> dict:
             "errors": sum(r["status"] != "ok" for r in results.values())}
 
 
-def markdown(a: dict, b: dict) -> str:
+def markdown(a: dict, b: dict, c: dict) -> str:
     load = os.getloadavg()
     return "\n".join([
         "# Fleet benchmark (bench/fleet.py)",
@@ -203,6 +234,14 @@ def markdown(a: dict, b: dict) -> str:
         f"Wall time of the tasks through Dask {a['wall_1']:.2f} s, their own run times {a['own_1']:.2f} s: "
         f"**overhead {100 * a['overhead']:.1f} %** (cluster start {a['start_1']:.1f} s, apart).",
         "",
+        "## Dask's MALLOC_TRIM_THRESHOLD_ (why symbolic's local cluster leaves it out)",
+        "",
+        f"CPU time of 8 diagnoses of {SECONDS:g} s logs in a fresh process (one BLAS thread), user + system, s:",
+        "",
+        "| glibc malloc | user | system |",
+        "|---|---|---|",
+        *[f"| {label} | {u:.1f} | {s_:.1f} |" for label, (u, s_) in c.items()],
+        "",
         f"## {b['logs']} short logs (2 s each, identify) on 2 workers",
         "",
         f"{b['wall']:.1f} s, {b['rate']:.1f} logs/s ({b['errors']} error row(s): the fleet's bad file is among them). Resident memory "
@@ -228,10 +267,12 @@ def main() -> None:
         os.environ["SYMBOLIC_CACHE_DIR"] = str(Path(tmp) / "derivations")
         a = speed_up(Path(tmp))
         print(a, flush=True)
+        c = trim_cost(Path(tmp))
+        print(c, flush=True)
         b = short_logs(Path(tmp)) if not args.skip_short else {"logs": 0, "wall": 0, "rate": 0, "after_100": [],
                                                                "after_all": [], "errors": 0}
         print(b, flush=True)
-    text = markdown(a, b)
+    text = markdown(a, b, c)
     print(text)
     if args.out:
         Path(args.out).write_text(text, encoding="utf-8")

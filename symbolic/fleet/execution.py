@@ -212,7 +212,7 @@ def _result(future, job: Job) -> dict[str, Any]:
 @contextlib.contextmanager
 def _client(scheduler: str | None, workers: int | None, tasks: int):
     """A Dask client of the cluster at ``scheduler``, or of a local cluster of worker processes (closed after)."""
-    from dask.distributed import Client, LocalCluster
+    from dask.distributed import Client
 
     if scheduler:
         try:
@@ -231,14 +231,9 @@ def _client(scheduler: str | None, workers: int | None, tasks: int):
             client.close()
         return
     count = workers or max(1, min(os.cpu_count() or 1, tasks))
-    for name in ("distributed", "tornado"):  # Dask's own lines (ports, plugins) are not the campaign's progress
-        logging.getLogger(name).setLevel(logging.ERROR)
     log.info("campaign: starting a local cluster of %d worker process(es)", count)
     try:
-        with warnings.catch_warnings():  # "port 8787 is in use, using another": the scheduler's HTTP port, unused here
-            warnings.simplefilter("ignore", UserWarning)
-            cluster = LocalCluster(n_workers=count, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
-                                   dashboard_address=None, worker_dashboard_address=None)
+        cluster = local_cluster(count)
     except OSError as error:
         raise ClusterError(f"cannot start a local Dask cluster: {one_line(str(error))}") from None
     try:
@@ -246,6 +241,27 @@ def _client(scheduler: str | None, workers: int | None, tasks: int):
             yield client
     finally:
         cluster.close()
+
+
+def local_cluster(workers: int):
+    """A local Dask cluster of ``workers`` processes of one thread each, without a dashboard.
+
+    Dask's nanny starts its workers with ``MALLOC_TRIM_THRESHOLD_=65536`` (to hand freed memory back to the
+    system at once); that also turns off glibc's adaptive mmap threshold, so every array above 128 KB is a
+    fresh mapping whose pages are faulted in again: on a diagnosis of a 120 s log it cost 70 % more CPU time
+    (24 times the page faults; bench/results/fleet.md). The workers here keep the other settings (one BLAS
+    thread each) and glibc's default; memory stays bounded (1 000 logs, bench/results/fleet.md)."""
+    import dask
+    from dask.distributed import LocalCluster
+
+    for name in ("distributed", "tornado"):  # Dask's own lines (ports, plugins) are not the campaign's progress
+        logging.getLogger(name).setLevel(logging.ERROR)
+    environment = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
+                   if k != "MALLOC_TRIM_THRESHOLD_"}
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": environment}), warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # "port 8787 is in use": the scheduler's HTTP port, unused here
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
+                            dashboard_address=None, worker_dashboard_address=None)
 
 
 class _Progress:
