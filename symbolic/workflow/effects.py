@@ -39,6 +39,7 @@ import sympy as sp
 
 from symbolic.data.controller import Controller
 from symbolic.description.robot import Directional, Robot, coordinate_symbol
+from symbolic.description.units import coordinate_kind
 
 if TYPE_CHECKING:
     from symbolic.derive.dynamics import DynamicModel
@@ -67,14 +68,9 @@ class Context:
     """Sampling rate of ``q``, ``qd``, ``qdd`` (Hz)."""
 
     def kind(self, coordinate: str) -> str:
-        """``"revolute"`` (the coordinate is in a DH θ), ``"prismatic"`` (in a d) or ``"modal"``."""
-        symbol = coordinate_symbol(coordinate)
-        substitution = self.robot.constraint_substitution
-        for frame in self.robot.frames:
-            theta = sp.sympify(frame.theta).xreplace(substitution)
-            if symbol in theta.free_symbols:
-                return "revolute"
-        return "prismatic" if coordinate in self.robot.coordinates else "modal"
+        """``"revolute"`` (the coordinate is in a DH θ), ``"prismatic"`` (in a d) or ``"modal"``
+        (:func:`symbolic.description.units.coordinate_kind`)."""
+        return coordinate_kind(self.robot, coordinate)
 
 
 @dataclass(frozen=True, eq=False)
