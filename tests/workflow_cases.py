@@ -62,7 +62,7 @@ def controller_table(model, q0: np.ndarray, resolution: float, coordinates: tupl
 def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate: float = 500.0,
                  resolution: float = 2 * np.pi / 2**20, measured: tuple[str, ...] | None = None,
                  pulses: float = 0.0, held: bool = False, logged_feedforward: bool = False,
-                 current: tuple[float, int] | None = None) -> Measurements:
+                 current: tuple[float, int] | None = None, unactuated: tuple[str, ...] = ()) -> Measurements:
     """Data of the truth model ``text`` simulated in closed loop (:func:`symbolic.simulation.simulator.simulate`):
     a PD loop (:func:`controller_table`) with a computed-torque feedforward (:func:`_feedforward`) follows
     the Fourier reference, reads an encoder of ``resolution`` (default 20 bits per turn: with 18 bits, the twice-differentiated quantisation left in q̈ below the 50 Hz cut-off — errors in the regressor that the F-test does not model — made 1–2 % effects at the band edge significant);
@@ -76,7 +76,9 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     ``logged_feedforward``: the log keeps the feedforward
     (columns ``ff_<c>``) and the controller table adds it as its disturbance, so that a simulation of a
     model in the logged loop (``diagnose(simulate=True)``) is driven as the truth was. ``current`` = (level,
-    bits) adds the force measured as a drive's current (:func:`current_like`) after the white noise."""
+    bits) adds the force measured as a drive's current (:func:`current_like`) after the white noise.
+    ``unactuated``: coordinates without an actuator (a link's deflection) that the log holds as well, quantised
+    like the others, with τ = 0 (their equation is homogeneous); the loop does not act on them."""
     model = symbolic.derive(symbolic.loads(text, "<truth>"))
     coordinates = tuple(measured or model.robot.coordinates)
     t = np.arange(0.0, seconds, 1.0 / rate)
@@ -94,6 +96,7 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     order = [names.index(c) for c in coordinates]
     q = np.asarray(run.simulated.q)[:, order]
     command = np.asarray(run.simulated.tau)[:, order]
+    free = np.asarray(run.simulated.q)[:, [names.index(c) for c in unactuated]]
     # the force the controller holds over [t_k, t_k+1), reported at t_k as an integrating current sensor
     # does: its mean over [t_k − T/2, t_k + T/2], aligned with the positions (a log of the held command
     # leads them by half a sample, which the inverse model reads as a small inertia or lag term)
@@ -102,6 +105,10 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     tau = tau + rng.normal(0, 1, tau.shape) * noise * np.sqrt(np.mean(tau**2, axis=0))
     if current is not None:
         tau = current_like(tau, rng, *current)
+    if unactuated:
+        q, tau = np.hstack([q, free]), np.hstack([tau, np.zeros_like(free)])
+        reference = np.hstack([reference, np.zeros_like(free)])  # the loop holds no reference for them
+        coordinates = coordinates + tuple(unactuated)
     logged = Measurements.from_arrays(t, coordinates, np.round(q / resolution) * resolution, tau, ref=reference,
                                       extras=extras if logged_feedforward else None)
     if logged_feedforward:
@@ -163,6 +170,19 @@ def _feedforward(model, coordinates, q, qd, qdd, t) -> np.ndarray:
     full = np.zeros((len(q), model.n, 3))
     full[:, rows, 0], full[:, rows, 1], full[:, rows, 2] = q, qd, qdd
     return np.array([num.inverse_dynamics(x[:, 0], x[:, 1], x[:, 2])[rows] for x in full])
+
+
+MODELS = Path(__file__).resolve().parent / "models"
+"""Model files written for the tests (tests/models/)."""
+
+
+def flexible_rig(stiffness_factor: float = 1.0) -> str:
+    """Text of the hub + link + torsional spring rig (tests/models/flexible_rig.toml), its root stiffness
+    Ks multiplied by ``stiffness_factor`` (the truth of a case whose model file has it wrong)."""
+    text = (MODELS / "flexible_rig.toml").read_text(encoding="utf-8")
+    old = "Ks = { value = 1.0,"
+    assert text.count(old) == 1
+    return text.replace(old, f"Ks = {{ value = {1.0 * stiffness_factor!r},")
 
 
 def model_file(folder: Path, text: str, name: str = "model.toml") -> Path:

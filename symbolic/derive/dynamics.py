@@ -282,6 +282,10 @@ class DynamicModel:
             f"  intermediates {len(self.sub)}; derivation {sum(self.timings.values()):.2f} s",
             "  operations: " + ", ".join(f"{k} {v}" for k, v in ops.items()),
         ]
+        limits = [(f.theta if f.joint.type != "prismatic" else f.d, f.joint.limits) for f in self.robot.frames
+                  if f.joint is not None and f.joint.limits]
+        if limits:  # a URDF's <limit>: kept with the model, reported here (the equations do not use them)
+            lines.append("  joint limits: " + "; ".join(f"{c} " + " ".join(f"{k} {v:g}" for k, v in lim.items()) for c, lim in limits))
         return "\n".join(lines)
 
 

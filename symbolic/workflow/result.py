@@ -94,6 +94,12 @@ class Diagnosis:
     figures: tuple[Path, ...] = ()
     data_findings: tuple[dict[str, Any], ...] = ()
     """What the data's treatment, not the model, explains (:func:`held_force_finding`)."""
+    corrections: tuple[dict[str, Any], ...] = ()
+    """Model-file values the data move beyond 3σ and 10 % (:mod:`symbolic.workflow.corrections`)."""
+    changes: tuple[dict[str, Any], ...] = ()
+    """Every model-file value the patch re-identified, removed, or kept because the fit is not physical."""
+    modes: dict[str, Any] | None = None
+    """Linearised modes before and after, for a model with elastic coordinates (``None`` otherwise)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON contract: model, found, gap_before, gap_after, gap_detail, patched_model (and more)."""
@@ -128,6 +134,9 @@ class Diagnosis:
                         for a, p, others in self.search.removed],
             "not_supported": dict(NOT_SUPPORTED),
             "data_findings": [dict(f) for f in self.data_findings],
+            "corrections": _plain(list(self.corrections)),
+            "parameter_changes": _plain(list(self.changes)),
+            "modes": _plain(self.modes),
             "notes": list(self.notes),
             "figures": [str(p) for p in self.figures],
         }
