@@ -40,7 +40,8 @@ ROLE_UNITS: dict[str, dict[str, str]] = {
     "periodic": {"amplitude": "{force}", "period": "{position}"},
     "periodic_time": {"amplitude": "{force}", "frequency_hz": "Hz"},
     "flexible_mode": {"frequency_hz": "Hz", "damping_ratio": ""},
-    "payload": {"mass": "kg"},
+    "payload": {"mass": "kg", "com_x": "m", "com_y": "m", "com_z": "m",
+                **{f"i{axes}": "kg·m²" for axes in ("xx", "yy", "zz", "xy", "xz", "yz")}},
 }
 """The unit of each role of the catalogue's effects (by registry key), written from the coordinate's units
 (:meth:`~symbolic.description.units.CoordinateUnits.compose`): a viscous coefficient is force per velocity,
