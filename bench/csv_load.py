@@ -103,6 +103,7 @@ def main() -> int:
     data = args.rows * len(COLUMNS) * 8
     readers = ["streamed", "load"] + ([] if args.no_reference else ["whole file"])
     rows = []
+    load_before = os.getloadavg()[0]
     environment = {**os.environ, "PYTHONPATH": str(ROOT)}
     for which in readers:
         done = subprocess.run([sys.executable, __file__, "--one", which, "--file", str(path)], env=environment,
@@ -119,7 +120,9 @@ def main() -> int:
         f"digits, {size / 1e6:.0f} MB; the data's float64 size is {data / 1e6:.0f} MB. Each reader in a fresh "
         f"process on {platform.machine()}, Python {platform.python_version()}, NumPy {np.__version__}; peak = the "
         "highest resident memory during the call minus the resident memory before it; held = what stays resident "
-        "after it (the result). A 2-core machine shared with other work: times ±30 %.",
+        "after it (the result). A 2-core machine shared with other work: the load average was "
+        f"{load_before:.1f} before and {os.getloadavg()[0]:.1f} after the runs, and the times stretch with it (the "
+        "memory does not).",
         "",
         "| reader | seconds | peak (MB) | peak / float64 size | held (MB) | MB/s |",
         "|---|---|---|---|---|---|",

@@ -77,6 +77,7 @@ def main() -> int:
     cases += [(n, n - 2, False) for n in (25_000, 50_000, 100_000, 200_000)]
     cases += [(100_000, d, False) for d in (0, limit, limit + 1, 1000)]
     rows = []
+    load_before = os.getloadavg()[0]
     for samples, delay, in_memory in cases:
         seconds, timings = run(model, samples, delay, in_memory, args.repeat)
         where = "shift register (forced)" if in_memory else ("ring buffer" if delay > limit else "shift register")
@@ -88,7 +89,8 @@ def main() -> int:
         "",
         f"`bench/delay.py`: one-coordinate rotary axis, PD at 1 kHz, 1 RK4 step per sample, best of {args.repeat}. "
         f"Seconds of wall time on {platform.machine()}, Python {platform.python_version()}, CasADi {casadi.__version__}; "
-        f"a 2-core machine shared with other work (expect ±30 %). LINE_IN_MEMORY = {limit}: longer delays use the "
+        f"a 2-core machine shared with other work (load average {load_before:.1f} before, {os.getloadavg()[0]:.1f} "
+        f"after: times stretch with it). LINE_IN_MEMORY = {limit}: longer delays use the "
         "ring buffer.",
         "",
         "| samples | delay | delay line | run (s) | compile, first run (s) | integrate (s) | µs per sample |",

@@ -82,8 +82,8 @@ LINE_IN_MEMORY = 32
 copies per sample, and the compiled closed loop carries (and copies) its whole state at every sample, so a
 longer delay goes to a :class:`DelayLine` outside it. The compiled loop is then run in chunks of at most
 ``delay`` samples, whose outputs the line returns ``delay`` samples later: a Python call per chunk, which
-the short delays, the common ones (a sample or two of computation), never pay. About 32 the two cost the
-same on a one-coordinate loop (bench/delay.py, bench/results/delay.md: 7 to 10 µs per sample)."""
+the short delays, the common ones (a sample or two of computation), never pay. About 32 the two cost about
+the same on a one-coordinate loop (bench/delay.py, bench/results/delay.md: within 25 % per sample at 32 and 33)."""
 
 
 # -- the signals a controller reads from the log -------------------------------------------------------
