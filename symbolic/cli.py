@@ -24,7 +24,7 @@ from symbolic.version import __version__
 if TYPE_CHECKING:
     import sympy as sp
 
-    from symbolic.derive.dynamics import DynamicModel
+    from symbolic.derivation.dynamics import DynamicModel
     from symbolic.description.robot import Robot
 
 # SymPy, NumPy and the layers are imported by the commands that use them, not here: `symbolic --help` and a
@@ -32,7 +32,7 @@ if TYPE_CHECKING:
 
 
 def derive(robot: Robot) -> DynamicModel:
-    from symbolic.derive.dynamics import derive as derived
+    from symbolic.derivation.dynamics import derive as derived
 
     return derived(robot)
 
@@ -125,7 +125,7 @@ def show(model) -> None:
     intermediates, whose definitions follow."""
     import sympy as sp
 
-    from symbolic.derive.simplify import SIZE_LIMIT, compact, tree_size
+    from symbolic.derivation.simplify import SIZE_LIMIT, compact, tree_size
 
     log = logging.getLogger(__name__)
     large: list[sp.Expr] = []
@@ -188,7 +188,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
 def cmd_analyze(args: argparse.Namespace) -> int:
     import json
 
-    from symbolic.derive.analysis import KINDS, counterbalance, decoupling
+    from symbolic.derivation.analysis import KINDS, counterbalance, decoupling
 
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
     unknown = set(kinds) - set(KINDS)

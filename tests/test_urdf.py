@@ -18,7 +18,7 @@ import pytest
 
 import symbolic
 from reference_pinocchio import UrdfReference
-from symbolic.derive.regressor import frame_label, regressor
+from symbolic.derivation.regressor import frame_label, regressor
 from symbolic.errors import ModelError
 from symbolic.numeric import numeric_model
 from symbolic.numeric.base_parameters import regressor_function, theta_values

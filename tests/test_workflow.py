@@ -956,12 +956,48 @@ def test_flexible_mode_of_the_flexible_single_link(tmp_path: Path) -> None:
     assert symbolic.load(d.patched_path).generalized_coordinates == ("q0", "q0_flex")
 
 
-def test_the_flexible_link_itself_is_not_diagnosed_yet(tmp_path: Path) -> None:
-    """Given the flexible model (its modal coordinates not in the data), the workflow stops with the
-    identification's one-line error: IDIM-LS needs every coordinate's q̈ and a regressor, and a beam's
-    modal coordinates are unmeasured and not in the regressor (docs/workflow.md)."""
+def test_the_flexible_link_without_its_deflection_is_refused(tmp_path: Path) -> None:
+    """Given the flexible model and a log without its modal coordinates, the workflow stops with the data's
+    one-line error: IDIM-LS needs every coordinate's q̈, and a beam's deflection must be logged (docs/data.md,
+    "Flexible links")."""
     data = cases.measurements(cases.axis(), 1, 0.01, seconds=2.0)
     data = dataclasses.replace(data, coordinates=("q0",))
-    with pytest.raises(symbolic.ModelError, match=r"\[\[beam\]\]: identification does not support flexible links"):
+    with pytest.raises(symbolic.DataError, match=r"coordinates: no signal for coordinates link_nu1, link_nu2, link_eta1"):
         run_on(tmp_path, cases.flexible_link(1.0, 30.0), data)
     assert not (tmp_path / "out").exists()
+
+
+# -- the flexible link itself, its deflection logged ----------------------------------------------------
+
+def rig_data(seed: int = 1):
+    """The planar rig (workflow_cases.planar_flexible_link) in its PD loop with 0.1 N·m pulses on the hub,
+    1 % force noise; the log holds the hub angle (20-bit encoder) and the modal coordinate, unactuated, as
+    a root strain gauge gives it (docs/data.md), with 0.1 % noise."""
+    return cases.measurements(cases.planar_flexible_link(), seed, 0.01, measured=("q0",), pulses=0.1,
+                              unactuated=("link_nu1",), deflection_noise=1e-3)
+
+
+def test_flexible_link_that_is_the_truth_names_nothing(tmp_path: Path) -> None:
+    d = run_on(tmp_path, cases.planar_flexible_link(), rig_data())
+    assert d.found == (), [(f.effect, f.coordinate) for f in d.found]
+    assert d.after.gap == d.before.gap and d.before.gap["validation"] < 1.0
+    assert symbolic.load(d.patched_path).beams[0].modes_w == 0
+
+
+def test_missing_structural_damping_is_named_on_the_modal_coordinate(tmp_path: Path) -> None:
+    """The beam's damper (c_b·ν̇ on the modal coordinate) left out of the model: viscous friction on link_nu1
+    with the damper's value (3.3 N·s/m^(1/2)·…, the units of the modal force); the held-out gap falls to the
+    truth's (seeds 1, 2, 5, 6 name it; seed 4 names a flexible_mode on q0 at 8.54 Hz instead, seed 3 too
+    with the vertical mode modelled)."""
+    d = run_on(tmp_path, cases.planar_flexible_link(damped=False), rig_data())
+    assert [(f.effect, f.coordinate) for f in d.found] == [("viscous", "link_nu1")], [(f.effect, f.coordinate) for f in d.found]
+    assert d.found[0].parameters["viscous"] == pytest.approx(3.3, rel=0.1), d.found[0].parameters
+    assert d.after.gap["validation"] < 0.7 * d.before.gap["validation"], (d.before.gap, d.after.gap)
+    patched = symbolic.derive(symbolic.load(d.patched_path))
+    assert [f.coordinate for f in patched.robot.frictions] == ["q0", "link_nu1"]
+
+
+def test_missing_hub_friction_is_named_beside_the_beam(tmp_path: Path) -> None:
+    model = cases.planar_flexible_link().replace('[[friction]]\ncoordinate = "q0"\nviscous = "Fv"\n', "")
+    d = run_on(tmp_path, model, rig_data())
+    check(d, "viscous", "q0", {"viscous": 0.5})

@@ -1,7 +1,7 @@
 """The description layer: frozen, validated descriptions of robots (:class:`Robot` and its entries), the safe
 expression parser, TOML model files and URDF files (:mod:`symbolic.description.urdf`). The built-in robots' files are in :mod:`symbolic.robots`.
 
-Nothing here derives anything: :mod:`symbolic.derive` turns a :class:`Robot` into equations.
+Nothing here derives anything: :mod:`symbolic.derivation` turns a :class:`Robot` into equations.
 
 >>> from symbolic.description import loads
 >>> robot = loads('''

@@ -32,7 +32,7 @@ JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
 """Joint types of a frame given as a URDF joint is (:class:`Joint`)."""
 LIMIT_KEYS = ("lower", "upper", "velocity", "effort")
 BOUNDARIES = ("clamped-free",)
-"""Beam boundary conditions whose mode shapes :mod:`symbolic.derive.mode_shapes` provides."""
+"""Beam boundary conditions whose mode shapes :mod:`symbolic.derivation.mode_shapes` provides."""
 BASE = "base"
 C_KEYWORDS = frozenset(
     """auto break case char const continue default do double else enum extern float for goto if inline int long

@@ -33,11 +33,11 @@ _STANDALONE_TIME = re.compile(rf"(?<![A-Za-z0-9_]){TIME_NAME}(?![A-Za-z0-9_])")
 """Time written as a name of its own (a cheap test before parsing for it: most expressions have none)."""
 
 MAX_MODES = 6
-"""Assumed modes per beam direction (:mod:`symbolic.derive.mode_shapes` is accurate up to 6)."""
+"""Assumed modes per beam direction (:mod:`symbolic.derivation.mode_shapes` is accurate up to 6)."""
 
 
 def _modes_ok(beam: Beam) -> bool:
-    return all(isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= MAX_MODES for n in (beam.modes_v, beam.modes_w))
+    return all(isinstance(n, int) and not isinstance(n, bool) and 0 <= n <= MAX_MODES for n in (beam.modes_v, beam.modes_w))
 
 
 def validate(robot: Robot) -> Robot:
@@ -342,10 +342,13 @@ class _Validator:
                 raise self.fail(f"{key} frame", f"frame {shown(b.frame, 40)} does not exist (frames: {listing(sorted(frames))})")
             for attr in ("modes_v", "modes_w"):
                 n = getattr(b, attr)
-                if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-                    raise self.fail(f"{key} {attr}", f"number of modes must be an integer >= 1, got {shown(n, 40)}")
+                if isinstance(n, bool) or not isinstance(n, int) or n < 0:
+                    raise self.fail(f"{key} {attr}", f"number of modes must be an integer >= 0, got {shown(n, 40)}")
                 if n > MAX_MODES:
                     raise self.fail(f"{key} {attr}", f"at most {MAX_MODES} modes per direction are supported (the mode shapes lose precision beyond), got {n}")
+            if b.modes_v + b.modes_w == 0:
+                raise self.fail(f"{key} modes_v", "a beam needs at least one mode (modes_v + modes_w >= 1; 0 in one "
+                                                  "direction for a beam that bends in one plane)")
             if b.boundary not in BOUNDARIES:
                 raise self.fail(f"{key} boundary", f"boundary {shown(b.boundary, 40)} is not supported (supported: {', '.join(BOUNDARIES)})")
             values = {}

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
+from symbolic.derivation.dynamics import DynamicModel
 from symbolic.description.modelfile import loads, with_parameter_values
 from symbolic.description.robot import Directional, Robot, coordinate_symbol, velocity_symbol
 from symbolic.errors import ModelError

@@ -42,7 +42,7 @@ from symbolic.description.units import coordinate_kind
 from symbolic.workflow.payload import PHYSICAL, chain_ends, physical_inertia, structure
 
 if TYPE_CHECKING:
-    from symbolic.derive.dynamics import DynamicModel
+    from symbolic.derivation.dynamics import DynamicModel
     from symbolic.workflow.patch import Editor
 
 Roles = dict[str, float | None]
@@ -67,7 +67,7 @@ class Context:
     rate: float = 0.0
     """Sampling rate of ``q``, ``qd``, ``qdd`` (Hz)."""
     model: Any = None
-    """The derived model (:class:`symbolic.derive.dynamics.DynamicModel`), for an effect whose columns
+    """The derived model (:class:`symbolic.derivation.dynamics.DynamicModel`), for an effect whose columns
     depend on the model's own span (a payload)."""
     unactuated: frozenset[str] = frozenset()
     """Coordinates whose force is zero throughout the data (no actuator: a homogeneous equation)."""

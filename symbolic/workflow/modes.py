@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from symbolic.derive.dynamics import DynamicModel
+from symbolic.derivation.dynamics import DynamicModel
 from symbolic.simulation import controller as control
 from symbolic.numeric import numeric_model
 

@@ -39,7 +39,7 @@ import sympy as sp
 from symbolic.description.robot import Body, Robot, coordinate_symbol
 
 INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
-"""The standard parameters of a body, in the regressor's order (:mod:`symbolic.derive.regressor`)."""
+"""The standard parameters of a body, in the regressor's order (:mod:`symbolic.derivation.regressor`)."""
 PHYSICAL = ("mass", "com_x", "com_y", "com_z", "ixx", "iyy", "izz", "ixy", "ixz", "iyz")
 """The payload's roles: mass (kg), centre of mass in F (m), inertia tensor about it in F's axes (kg·m²)."""
 TYPICAL = np.array([1.0, 0.1, 0.1, 0.1, 0.01, 0.01, 0.01, 0.01, 0.01, 0.01])
@@ -210,7 +210,7 @@ def structure(model: Any, frame: str, coordinate: str) -> PayloadStructure:
 
 def _structure(model: Any, frame: str, coordinate: str) -> PayloadStructure:
     from symbolic.codegen.functions import compile_vectorized
-    from symbolic.derive.regressor import regressor
+    from symbolic.derivation.regressor import regressor
     from symbolic.description.validation import validate
     from symbolic.workflow.terms import model_terms
 
@@ -219,8 +219,13 @@ def _structure(model: Any, frame: str, coordinate: str) -> PayloadStructure:
                                         frictions=(), drives=(), forces=(), beams=(), validated=False))
     reg = regressor(lone)  # the body's ten standard parameters, in INERTIAL order
     n = model.n
+    # the point is fixed in its frame: a beam's modal coordinates (not in ``lone``) do not move it, their rows stay 0
+    rows = [list(robot.generalized_coordinates).index(c) for c in lone.generalized_coordinates]
+    Y = sp.zeros(n, len(reg.theta))
+    for k, row in enumerate(rows):
+        Y[row, :] = reg.Y[k, :]
     raw = compile_vectorized(reg.sub, [model.coordinates, model.velocities, model.accelerations, model.parameter_symbols],
-                             reg.Y, (n, len(reg.theta)))
+                             Y, (n, len(reg.theta)))
     p = np.array([model.parameters[s] for s in model.parameter_symbols], float)
 
     def evaluate(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:

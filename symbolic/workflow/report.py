@@ -26,6 +26,10 @@ def _roles(roles: dict[str, Any], sigmas: dict[str, Any] | None = None) -> str:
     return ", ".join(parts)
 
 
+def _gap(value: float | None) -> str:
+    return "—" if value is None else f"{value:.4g} %"
+
+
 def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     lines += ["| " + " | ".join(_g(c) for c in row) + " |" for row in rows]
@@ -119,10 +123,12 @@ def markdown(d: Diagnosis) -> str:
             ["held out", f"{d.before.gap['validation']:.4g} %", f"{d.after.gap['validation']:.4g} %"]]
     lines += _table(["data", "before", "after"], rows)
     lines += ["", "Per coordinate (force):", ""]
-    rows = [[c, f"{d.before.detail['estimation'][c]:.4g} %", f"{d.after.detail['estimation'][c]:.4g} %",
-             f"{d.before.detail['validation'][c]:.4g} %", f"{d.after.detail['validation'][c]:.4g} %"]
+    rows = [[c] + [_gap(fit.detail[role][c]) for role in ("estimation", "validation") for fit in (d.before, d.after)]
             for c in est.coordinates]
     lines += _table(["coordinate", "estimation before", "estimation after", "held out before", "held out after"], rows)
+    if any(gap is None for gap in d.before.detail["estimation"].values()):
+        lines += ["", "— an unactuated coordinate (τ = 0 logged: a beam's modal coordinate): no gap relative to its "
+                      "force; its residual counts in the gap above."]
     if d.before.motion and d.after.motion:
         lines += ["", "Position and velocity of the simulation, 100·‖x_meas − x_sim‖/‖x_meas‖:", ""]
         rows = [[c, signal] + [f"{fit.motion[role][signal][c]:.4g} %" for role in ("estimation", "validation")

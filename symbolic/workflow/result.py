@@ -1,4 +1,4 @@
-"""What :func:`symbolic.workflow.diagnose.diagnose` returns: the fits, the effects found, the JSON contract.
+"""What :func:`symbolic.workflow.diagnosis.diagnose` returns: the fits, the effects found, the JSON contract.
 
 Kept apart from the procedure so that the report and the figures (:mod:`.report`, :mod:`.figures`) read
 a diagnosis without importing the code that makes one.
@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import Measurements
-from symbolic.derive.dynamics import DynamicModel
+from symbolic.derivation.dynamics import DynamicModel
 from symbolic.workflow.dataset import DataSet
 from symbolic.workflow.effects import NOT_SUPPORTED
 from symbolic.workflow.search import Search, variant_of

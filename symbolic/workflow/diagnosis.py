@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import Controller, DataError, Experiment, Measurements
-from symbolic.derive.dynamics import DynamicModel, derive
+from symbolic.derivation.dynamics import DynamicModel, derive
 from symbolic.errors import ModelError
 from symbolic.identify.known import fixed_symbols
 from symbolic.identify.least_squares import IdentificationError
@@ -159,6 +159,8 @@ def diagnose(
         else:
             after = _fit(patched, sets, simulate, [n for n in fix if n in {p.name for p in patched.robot.parameters}])
         own = {k: v.value for k, v in after.nominal.parameters.items() if k in {p.name for p in model.robot.parameters}}
+        own, unphysical = _physical_beams(patched.robot, own)
+        notes += unphysical
         data_name = Path(str(estimation.measurements.source)).name
         patched_text, own, kept = physical_values(editor.text(), own, str(target),
                                                   f"re-identified by symbolic diagnose on {data_name}", model.robot)
@@ -269,6 +271,28 @@ def simulated_path(controller: Controller | Mapping[str, Any] | None = None) -> 
 def _controller(measurements: Measurements) -> Controller | None:
     """The experiment's ``[controller]``, checked when it was loaded (``None`` for plain measurements)."""
     return measurements.controller if isinstance(measurements, Experiment) else None
+def _physical_beams(robot: Robot, values: dict[str, float]) -> tuple[dict[str, float], list[str]]:
+    """``values`` without the re-identified parameters that would make a beam unphysical — a density or bending
+    stiffness not positive, a tip mass negative (the patched file would not load) — each kept at the model
+    file's value, and a note for each. With one mode, a beam's density and its tip mass act on the motion almost
+    alike, so the data can leave one of them poorly determined and its estimate on the wrong side of zero."""
+    nominal = {p.name: float(p.value) for p in robot.parameters}
+    out, notes = dict(values), []
+    rules = (("density", 0.0, "positive"), ("EI_v", 0.0, "positive"), ("EI_w", 0.0, "positive"), ("tip_mass", None, "non-negative"))
+    for beam in robot.beams:
+        for attr, bound, rule in rules:
+            expression = getattr(beam, attr)
+            if expression is None:
+                continue
+            value = float(expression.xreplace({s: out.get(s.name, nominal[s.name]) for s in expression.free_symbols}))
+            if value > 0 or (bound is None and value == 0):
+                continue
+            names = sorted(s.name for s in expression.free_symbols if s.name in out)
+            for name in names:
+                del out[name]
+            notes.append(f"[[beam]] {beam.name!r} {attr} re-identified as {value:.4g} is not physical (it must be {rule}): "
+                         f"{', '.join(names)} kept at the model file's value in the patched model (the data determine it poorly)")
+    return out, notes
 
 
 def _derived(model: DynamicModel | Robot | str | Path) -> DynamicModel:

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from symbolic.description.robot import BASE, Robot
-from symbolic.derive.subexpressions import Subexpressions
+from symbolic.derivation.subexpressions import Subexpressions
 
 Vec = sp.Matrix
 ZERO3 = sp.ImmutableMatrix.zeros(3, 1)
