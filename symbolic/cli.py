@@ -315,6 +315,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     from symbolic import data, export
     from symbolic.simulation import simulate
+    from symbolic.description.units import coordinate_units
     from symbolic.simulation.figures import MatplotlibMissing, draw
 
     try:
@@ -332,7 +333,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.out:
         files.append(simulation.write(args.out))
         try:
-            files += draw(comparison, Path(args.out), title=f"{model.robot.name}, {Path(args.experiment).name}")
+            files += draw(comparison, Path(args.out), title=f"{model.robot.name}, {Path(args.experiment).name}",
+                          units=coordinate_units(model.robot))
         except MatplotlibMissing as missing:
             notes.append(str(missing))
     if args.json:

@@ -128,10 +128,11 @@ class Controller:
         """The states as written in the table (``q_<c>``, ``qd_<c>``)."""
         return [f"{signal}_{c}" for signal, c in self.states]
 
-    def memory_size(self) -> int:
-        """Length of the controller's state: started flag, last positions, past velocities, integral, delay line."""
+    def memory_size(self, line: bool = True) -> int:
+        """Length of the controller's state: started flag, last positions, past velocities, integral, and
+        the delay line (``nc·delay``) unless ``line`` is false (a line kept outside the state)."""
         nc, ns = self.size, len(self.sensors)
-        return 1 + ns + ns * (len(self.velocity_filter) - 1) + nc + nc * self.delay
+        return 1 + ns + ns * (len(self.velocity_filter) - 1) + nc + (nc * self.delay if line else 0)
 
     def structure(self) -> tuple[Any, ...]:
         """What the controller's compiled function depends on besides its numbers (:func:`constants`)."""
@@ -167,6 +168,7 @@ def parse(
     source: str = "<controller>",
     model_coordinates: Sequence[str] | None = None,
     columns: Collection[str] | None = None,
+    samples: int | None = None,
 ) -> Controller:
     """Validate a ``[controller]`` table: the one place where it is checked (the experiment loader calls it).
 
@@ -188,6 +190,9 @@ def parse(
         The names of the data's signals (``t``, the canonical columns, the extras): ``reference = "ref"``
         then needs the ``ref_<c>`` columns, and ``reference`` and ``disturbance`` expressions may use
         only these names. ``None``: checked when the signals are read (simulation).
+    samples
+        The length of the log: ``delay`` must leave the controller at least one interval to act
+        (:func:`check_delay`). ``None``: checked when the controller runs (simulation).
 
     Raises
     ------
@@ -210,7 +215,7 @@ def parse(
         controller = _state_feedback(table, data_coordinates, model, model_parameters, source)
         if columns is not None:
             _check_signals(None, controller.disturbance, controller.coordinates, columns, source)
-        return controller
+        return check_delay(controller, samples)
     coordinates = _coordinates(table, "coordinates", data_coordinates, model, source)
     nc = len(coordinates)
     per = _PerCoordinate(table, coordinates, source)
@@ -219,7 +224,7 @@ def parse(
     reference = _reference(table, nc, source) if kind != "torque" else None
     if columns is not None:
         _check_signals(reference, per.strings("disturbance"), coordinates, columns, source)
-    return Controller(
+    return check_delay(Controller(
         kind=kind,
         coordinates=coordinates,
         kp=gains.get("kp", zeros),
@@ -234,7 +239,7 @@ def parse(
         delay=_delay(table, source),
         velocity_filter=_taps(table, source),
         source=source,
-    )
+    ), samples)
 
 
 _STATE_FEEDBACK_HELP = 'inputs = ["<c>", ...], states = ["q_<c>", "qd_<c>", ...], K = [[...], ...] one row per input'
@@ -422,6 +427,24 @@ def _delay(table: Mapping[str, Any], source: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
         raise DataError(source, "[controller] delay", f"expected a whole number of samples ≥ 0, got {value!r}")
     return value
+
+
+def check_delay(controller: Controller, samples: int | None) -> Controller:
+    """``controller`` if its delay leaves it a sample to act on a log of ``samples`` samples.
+
+    The output computed at sample 0 is applied at sample ``delay`` and held over [t_delay, t_delay+1):
+    with ``delay ≥ samples − 1`` no output acts within the log, and the controller is only a cost.
+
+    Raises
+    ------
+    DataError
+        ``[controller] delay`` of ``samples − 1`` or more, with the allowed range.
+    """
+    if samples is not None and controller.delay > max(samples - 2, 0):
+        raise DataError(controller.source, "[controller] delay",
+                        f"{controller.delay} samples reaches the end of the log ({samples} samples): no output "
+                        f"would act within it (allowed: 0 to {max(samples - 2, 0)})")
+    return controller
 
 
 def _taps(table: Mapping[str, Any], source: str) -> np.ndarray:

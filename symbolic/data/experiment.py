@@ -90,7 +90,7 @@ class Experiment(Measurements):
         names when a model uses it)."""
         if isinstance(controller, Mapping):
             controller = parse(controller, measurements.coordinates, None, str(measurements.source),
-                               columns=measurements.columns())
+                               columns=measurements.columns(), samples=measurements.samples)
         given = {"settings": settings, "controller": controller, **context}
         given = {k: v for k, v in given.items() if v is not None}
         if isinstance(measurements, cls):
@@ -216,7 +216,7 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
     if "controller" in spec:
         controller_table = _table(spec, "controller", source)
         controller = parse(controller_table, measurements.coordinates, used.parameters(controller_table), source,
-                           coordinates or _coordinates_of(model), measurements.columns())
+                           coordinates or _coordinates_of(model), measurements.columns(), measurements.samples)
     return Experiment.of(measurements, model=named, settings=settings, controller=controller, window=window,
                          drive_gains=used.used())
 

@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import math
+import warnings
 import zipfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -96,48 +98,122 @@ def read(path: Path, columns: Sequence[str] | None = None, named_by: str = "<pyt
     return readers[which](path)
 
 
+BLOCK_CHARACTERS = 1 << 22
+"""Characters of CSV text parsed at once (4 Mi, about 55 000 rows of four 17-digit numbers): the reader holds
+one block of text besides its result, whatever the file's size."""
+
+
 def read_csv(path: Path, columns: Sequence[str] | None = None, named_by: str = "<python>") -> Table:
     """CSV: lines starting with ``#`` before the header are comments; then a header line of names —
     or, when ``columns`` is given, no header line: every line is a row of numbers, named by ``columns``.
 
     A file whose first line is numbers and no ``columns`` is refused with a message saying so and how
-    to name the columns (a numeric first line read as names would make names of numbers)."""
+    to name the columns (a numeric first line read as names would make names of numbers).
+
+    The file is streamed: read in blocks of :data:`BLOCK_CHARACTERS`, each block's rows parsed by
+    :func:`numpy.loadtxt` straight into one float64 array per column, whose length is known beforehand from
+    the file's line count (bench/csv_load.py measures the peak memory: the result and a block). Lines are
+    split as :meth:`str.splitlines` splits them; blank lines are skipped; a block that ``loadtxt`` cannot
+    read is parsed field by field, which names the line and column of a bad cell. That is the whole
+    file's reading of the reader that decoded it at once (tests/csv_reference.py), applied block by block,
+    with one difference: rows of ``#`` comment lines only are no rows (that reader read a body of only
+    comments field by field and refused it as a length mismatch; a header alone was 0 rows already).
+    """
     source = str(path)
     try:
-        text = path.read_bytes().decode("utf-8-sig")
+        with path.open(encoding="utf-8-sig", newline=None) as handle:
+            blocks = _blocks(handle, source)
+            header, body = _header(blocks, path, columns, named_by)
+            _check_names(header, source)
+            return _columns(header, body, _line_count(path), source)
     except OSError as exc:
         raise DataError(source, "file", f"cannot read: {exc.strerror}") from None
-    except UnicodeDecodeError:
-        raise DataError(source, "file", "CSV file is not UTF-8 text") from None
-    lines = text.splitlines()
-    first = next((i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")), None)
-    if first is None:
+
+
+def _blocks(handle: io.TextIOBase, source: str) -> Iterator[tuple[int, list[str]]]:
+    """(number of the first line, lines) of successive blocks of whole lines. The text is read with universal
+    newlines (every line end is ``\\n``), cut after a block's last ``\\n`` and split by :meth:`str.splitlines`:
+    the lines and their numbers are those of the whole text's :meth:`str.splitlines`."""
+    number, carry = 1, ""
+    while True:
+        try:
+            piece = handle.read(BLOCK_CHARACTERS)
+        except UnicodeDecodeError:
+            raise DataError(source, "file", "CSV file is not UTF-8 text") from None
+        text = carry + piece
+        if not piece:
+            if text:
+                yield number, text.splitlines()
+            return
+        cut = text.rfind("\n") + 1
+        if cut == 0:  # no line end yet: a longer line, or one ended by another of splitlines' separators
+            carry = text
+            continue
+        lines, carry = text[:cut].splitlines(), text[cut:]
+        yield number, lines
+        number += len(lines)
+
+
+def _header(blocks: Iterator[tuple[int, list[str]]], path: Path, columns: Sequence[str] | None,
+            named_by: str) -> tuple[list[str], Iterator[tuple[int, list[str]]]]:
+    """The column names and the blocks of the rows after them: comments and blank lines before the first
+    line are skipped, which is the header line, or with ``columns`` the first row."""
+    source = str(path)
+    for number, lines in blocks:
+        first = next((i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")), None)
+        if first is not None:
+            break
+    else:
         what = "no rows" if columns is not None else "no header line (expected comma-separated column names, e.g. t,q_q,tau_q)"
         raise DataError(source, "header" if columns is None else "rows", what)
-    fields = [name.strip() for name in next(csv.reader([lines[first]]))]
+    line = lines[first]
+    fields = [name.strip() for name in next(csv.reader([line]))]
     if columns is None:
         if _numbers(fields):
             raise DataError(
                 source, "header",
-                f"the first line {shorten(lines[first].strip(), 60)} is numbers: the file has no header line; name its "
+                f"the first line {shorten(line.strip(), 60)} is numbers: the file has no header line; name its "
                 f"{len(fields)} columns in an experiment file, columns = [\"t\", \"q1\", ...] ({len(fields)} names, "
                 "in file order; docs/data.md), or add a header line of names (e.g. t,q_q,tau_q)")
         header, start = fields, first + 1
     else:
         if not _numbers(fields):
-            raise DataError(named_by, "columns", f"{path.name} has a header line ({shorten(lines[first].strip(), 60)}); "
+            raise DataError(named_by, "columns", f"{path.name} has a header line ({shorten(line.strip(), 60)}); "
                                                  "columns is for a CSV file without one: leave out columns, or remove "
                                                  "the header line")
         if len(fields) != len(columns):
             raise DataError(named_by, "columns", f"names {len(columns)} column(s), but the lines of {path.name} have "
-                                                 f"{len(fields)} field(s) (line {first + 1}); give one name per column")
+                                                 f"{len(fields)} field(s) (line {number + first}); give one name per column")
         header, start = list(columns), first
-    _check_names(header, source)
-    body = [(i + 1, line) for i, line in enumerate(lines[start:], start=start) if line.strip()]
-    values = _parse_rows(body, header, source)
+    return header, itertools.chain([(number + start, lines[start:])], blocks)
+
+
+def _line_count(path: Path) -> int:
+    """An upper bound of the rows: the file's ``\\n`` count + 1 (a file whose lines end otherwise grows its arrays)."""
+    count = 1
+    with path.open("rb") as f:
+        while chunk := f.read(1 << 24):
+            count += chunk.count(b"\n")
+    return count
+
+
+def _columns(header: list[str], body: Iterator[tuple[int, list[str]]], capacity: int, source: str) -> Table:
+    """Parse the blocks of rows into one float64 vector per column (each its own array: a view kept of one
+    column, as ``Measurements.t`` is, keeps no other column alive)."""
+    out = [np.empty(capacity) for _ in header]
+    rows = 0
+    for number, lines in body:
+        values = _parse_block(number, lines, header, source)
+        if rows + len(values) > capacity:  # lines ended by \r or another separator: not counted
+            capacity = max(2 * capacity, rows + len(values))
+            out = [np.concatenate([column[:rows], np.empty(capacity - rows)]) for column in out]
+        for column, v in zip(out, values.T):
+            column[rows:rows + len(values)] = v
+        rows += len(values)
     table = Table(source)
-    for j, name in enumerate(header):
-        table.vectors[name] = values[:, j]
+    for name, column in zip(header, out):
+        # many blank or comment lines: do not keep their room
+        table.vectors[name] = column[:rows].copy() if rows < 0.9 * capacity else column[:rows]
     return table
 
 
@@ -161,17 +237,24 @@ def _check_names(header: list[str], source: str) -> None:
         seen.add(name)
 
 
-def _parse_rows(body: list[tuple[int, str]], header: list[str], source: str) -> np.ndarray:
+def _parse_block(number: int, lines: list[str], header: list[str], source: str) -> np.ndarray:
+    """The rows of one block (rows × columns); ``number`` is the line number of ``lines[0]``."""
+    body = [line for line in lines if line.strip()]
     if not body:
         return np.empty((0, len(header)))
     try:  # fast path; on any problem the slow path below says where
-        values = np.loadtxt(io.StringIO("\n".join(line for _, line in body)), delimiter=",", ndmin=2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # a block of comments only: "input contained no data"
+            values = np.loadtxt(body, delimiter=",", ndmin=2)
         if values.shape[1] == len(header):
             return values
+        if len(values) == 0:  # comment lines only: no rows (the reader of the whole file took them for a row)
+            return np.empty((0, len(header)))
     except ValueError:
         pass
-    values = np.empty((len(body), len(header)))
-    for row, (lineno, fields) in enumerate(zip((n for n, _ in body), csv.reader(line for _, line in body))):
+    numbered = [(number + i, line) for i, line in enumerate(lines) if line.strip()]
+    values = np.empty((len(numbered), len(header)))
+    for row, (lineno, fields) in enumerate(zip((n for n, _ in numbered), csv.reader(line for _, line in numbered))):
         if len(fields) != len(header):
             raise DataError(
                 source,

@@ -90,9 +90,11 @@ class ModelIdentification:
 
         Raises :class:`symbolic.identify.figures.MatplotlibMissing` without matplotlib.
         """
+        from symbolic.description.units import coordinate_units
         from symbolic.identify.figures import draw
 
-        return draw(self.identification, self.observation, Path(folder), self.validation)
+        return draw(self.identification, self.observation, Path(folder), self.validation,
+                    coordinate_units(self.model.robot))
 
     def values(self) -> dict[str, float]:
         """{model parameter: identified value}, for writing back into the model file."""

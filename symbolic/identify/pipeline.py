@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import Measurements, load
+from symbolic.description.units import CoordinateUnits
 from symbolic.identify.least_squares import RELATIVE_SIGMA_THRESHOLD, Identification, Validation, solve
 from symbolic.identify.processing import Observation, RegressorFunction, Settings, observe
 
@@ -102,12 +103,14 @@ def run(
     method: str = "wls",
     figures: str | Path | None = None,
     resample: bool = False,
+    units: Mapping[str, CoordinateUnits] | None = None,
 ) -> Report:
     """Load data (a data or experiment file), identify, optionally cross-test and draw figures.
 
     The function a command line calls: errors in the files are :class:`~symbolic.data.DataError`.
     ``figures`` names a folder for PNG figures (:mod:`symbolic.identify.figures`); without matplotlib
-    none are drawn and the report's notes say so.
+    none are drawn and the report's notes say so; ``units`` (per coordinate,
+    :func:`symbolic.description.units.coordinate_units` of the model) label their axes.
     """
     measurements = load(data, tuple(coordinates), validation=validation, resample=resample)
     observation = observe(measurements, regressor, len(names), settings)
@@ -121,7 +124,7 @@ def run(
         from symbolic.identify import figures as drawing
 
         try:
-            written = drawing.draw(identification, observation, Path(figures), checked)
+            written = drawing.draw(identification, observation, Path(figures), checked, units)
         except drawing.MatplotlibMissing as missing:
             notes = (str(missing),)
     return Report(identification, observation, measurements, checked, written, notes)

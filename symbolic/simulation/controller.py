@@ -50,7 +50,9 @@ A feedforward is declared as for the other kinds: a ``disturbance`` column or ex
 after saturation and delay.
 
 :func:`controller_function` builds this step as a CasADi function, so that the closed loop runs in
-compiled code. The table itself is validated where the experiment is loaded, by
+compiled code. A delay of up to :data:`LINE_IN_MEMORY` samples is a shift register in the step's memory
+(a copy of nc·delay numbers per sample); a longer one is a :class:`DelayLine` outside the compiled step, a
+ring buffer that costs O(1) per sample whatever the delay (docs/simulation.md, "The controller"). The table itself is validated where the experiment is loaded, by
 :func:`symbolic.data.controller.parse` (re-exported here with :class:`Controller`): this module holds
 the law, that one the description.
 """
@@ -66,13 +68,22 @@ import numpy as np
 import sympy as sp
 
 from symbolic.data import DataError, Measurements
-from symbolic.data.controller import (GAINS, KEYS, KINDS, STATE_FEEDBACK, Controller, allowed_keys, check_names, parse,
-                                      replay)
+from symbolic.data.controller import (GAINS, KEYS, KINDS, STATE_FEEDBACK, Controller, allowed_keys, check_delay,
+                                      check_names, parse, replay)
 from symbolic.errors import ModelError
 from symbolic.description.expressions import RESERVED_NAMES, parse_expression
 
-__all__ = ["GAINS", "KEYS", "KINDS", "STATE_FEEDBACK", "Controller", "Inputs", "allowed_keys", "constants",
-           "controller_function", "drive_gains", "evaluate", "inputs", "parse", "replay", "state_reference"]
+__all__ = ["GAINS", "KEYS", "KINDS", "LINE_IN_MEMORY", "STATE_FEEDBACK", "Controller", "DelayLine", "Inputs",
+           "allowed_keys", "check_delay", "constants", "controller_function", "drive_gains", "evaluate", "inputs",
+           "line_outside", "parse", "replay", "state_reference"]
+
+LINE_IN_MEMORY = 32
+"""The longest delay (samples) kept as a shift register in the controller's memory. Shifting costs nc·delay
+copies per sample, and the compiled closed loop carries (and copies) its whole state at every sample, so a
+longer delay goes to a :class:`DelayLine` outside it. The compiled loop is then run in chunks of at most
+``delay`` samples, whose outputs the line returns ``delay`` samples later: a Python call per chunk, which
+the short delays, the common ones (a sample or two of computation), never pay. About 32 the two cost about
+the same on a one-coordinate loop (bench/delay.py, bench/results/delay.md: within 25 % per sample at 32 and 33)."""
 
 
 # -- the signals a controller reads from the log -------------------------------------------------------
@@ -194,7 +205,44 @@ def constants(controller: Controller, parameters: Mapping[sp.Symbol, float]) -> 
                            controller.velocity_filter, controller.K.ravel()])
 
 
-def controller_function(controller: Controller, model_coordinates: Sequence[str], period: float) -> ca.Function:
+# -- the delay line -------------------------------------------------------------------------------------------
+
+
+def line_outside(controller: Controller) -> bool:
+    """Whether ``controller``'s delay is kept in a :class:`DelayLine` (longer than :data:`LINE_IN_MEMORY`)."""
+    return controller.delay > LINE_IN_MEMORY
+
+
+class DelayLine:
+    """u_k applied at sample k + delay, as a ring buffer: ``delay`` rows of nc, u_k in row k mod delay.
+
+    The output applied at sample k is u_{k−delay}, in the row where u_k goes: :meth:`exchange` reads the
+    rows of a run of samples, then writes the run's outputs there — O(1) per sample. Rows start at 0: no
+    output before the first computed one arrives (module docstring).
+    """
+
+    def __init__(self, delay: int, size: int) -> None:
+        if delay < 1:
+            raise ValueError(f"a delay line needs a delay ≥ 1, got {delay}")
+        self.delay = delay
+        self.rows = np.zeros((delay, size))
+
+    def applied(self, start: int, count: int) -> np.ndarray:
+        """The outputs applied at samples start … start+count−1 (count × nc), count ≤ delay."""
+        if count > self.delay:
+            raise ValueError(f"{count} samples at once exceed the delay {self.delay}: their outputs are not known yet")
+        return self.rows[(start + np.arange(count)) % self.delay]
+
+    def computed(self, start: int, outputs: np.ndarray) -> None:
+        """Store the outputs u computed at samples start … (count × nc), after :meth:`applied` read their rows."""
+        self.rows[(start + np.arange(len(outputs))) % self.delay] = outputs
+
+
+# -- the step ---------------------------------------------------------------------------------------------------
+
+
+def controller_function(controller: Controller, model_coordinates: Sequence[str], period: float,
+                        external: bool = False) -> ca.Function:
     """One controller sample as a CasADi function.
 
     ``(m, q, r, d, tau_log, c) -> (m_next, tau)``: ``m`` the memory (:meth:`Controller.memory_size`,
@@ -202,13 +250,18 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
     coordinates, or x_ref of a state feedback: :attr:`Controller.reference_size`), ``d`` the
     disturbance of the controlled coordinates, ``tau_log`` the logged generalized forces (n, for
     ``torque``), ``c`` from :func:`constants`; ``tau`` the generalized force over the coming sample (n).
+
+    ``external``: the delay line is the caller's (:class:`DelayLine`): ``(m, q, r, d, tau_log, c, a) ->
+    (m_next, tau, u)`` with ``m`` of :meth:`Controller.memory_size` ``(line=False)``, ``a`` the output
+    applied at this sample (u of ``delay`` samples ago) and ``u`` the one computed now.
     """
     nc, n, taps = controller.size, len(model_coordinates), len(controller.velocity_filter)
     names = list(model_coordinates)
     index = [names.index(c) for c in controller.coordinates]
     sensors = controller.sensors
     ns, nx = len(sensors), controller.reference_size
-    memory = ca.SX.sym("m", controller.memory_size())
+    delay = 0 if external else controller.delay
+    memory = ca.SX.sym("m", controller.memory_size(line=not external))
     q, r, d = ca.SX.sym("q", n), ca.SX.sym("r", nx), ca.SX.sym("d", nc)
     tau_log = ca.SX.sym("tau_log", n)
     c = ca.SX.sym("c", 6 * nc + ns + taps + controller.K.size)
@@ -223,7 +276,7 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
     at += ns * (taps - 1)
     integral = memory[at:at + nc]
     at += nc
-    line = [memory[at + i * nc: at + (i + 1) * nc] for i in range(controller.delay)]  # oldest first
+    line = [memory[at + i * nc: at + (i + 1) * nc] for i in range(delay)]  # oldest first
 
     position = ca.vertcat(*[q[names.index(s)] for s in sensors])
     # the sensor: rounding to the resolution (floor(x + 1/2): round half up, as a counter does)
@@ -246,12 +299,16 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
             "cascade": kv * (kp * error - velocity),
         }[controller.kind]
     u = ca.fmin(ca.fmax(u, -saturation), saturation)
-    applied = line[0] if line else u
+    a = ca.SX.sym("a", nc) if external else None
+    applied = a if external else line[0] if line else u
     force = gain * (applied + d)
     tau = ca.SX.zeros(n)
     for j, i in enumerate(index):
         tau[i] = force[j]
     next_memory = ca.vertcat(ca.SX(1), measured, *([backward] + past[:-1] if taps > 1 else []), integral_next,
                              *(line[1:] + [u] if line else []))
+    if external:
+        return ca.Function("controller", [memory, q, r, d, tau_log, c, a], [next_memory, tau, u],
+                           ["m", "q", "r", "d", "tau_log", "c", "a"], ["m_next", "tau", "u"])
     return ca.Function("controller", [memory, q, r, d, tau_log, c], [next_memory, tau],
                        ["m", "q", "r", "d", "tau_log", "c"], ["m_next", "tau"])

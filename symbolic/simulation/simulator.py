@@ -193,7 +193,7 @@ def simulate(
     _check_options(method, substeps, friction_velocity, source)
     _check_data(measurements, names, model.robot.name)
     p = _parameters(model, parameters, source)
-    ctrl = _controller(controller, measurements, model, names)
+    ctrl = control.check_delay(_controller(controller, measurements, model, names), measurements.samples)
     signals = control.inputs(ctrl, measurements, names)
     started = time.perf_counter()
     plant = _plant(model)
@@ -371,16 +371,19 @@ def initial_velocity(measurements: Measurements) -> np.ndarray:
 
 
 def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float,
-                    substeps: int) -> ca.Function:
+                    substeps: int, external: bool = False) -> ca.Function:
     """One sample of the closed loop: ``(z, w, p, c, eps) -> (z_next, y)``.
 
     z = [x; controller memory], w = [reference (x_ref of a state feedback); disturbance; logged τ; t_k] of
     the sample, y = [q; q̇; q̈; τ] at t_k (q̈ with τ_k applied), z_next after ``substeps`` RK4 steps of
     period/substeps (each at its own times, for a model whose forces depend on time).
+
+    ``external``: the delay line is the caller's (:class:`~symbolic.simulation.controller.DelayLine`): w
+    ends with the output applied at the sample and y with the output computed there.
     """
-    n, memory = plant.n, ctrl.memory_size()
+    n, memory = plant.n, ctrl.memory_size(line=not external)
     nc, nr = ctrl.size, ctrl.reference_size
-    step_controller = control.controller_function(ctrl, names, period)
+    step_controller = control.controller_function(ctrl, names, period, external)
     X, T = ca.MX.sym("x", 2 * n), ca.MX.sym("tau", n)
     P, E = ca.MX.sym("p", plant.rhs.size1_in(2)), ca.MX.sym("eps")
     h = period / substeps
@@ -390,15 +393,19 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     k3 = plant.rhs(X + h / 2 * k2, T, P, E, S + h / 2)
     k4 = plant.rhs(X + h * k3, T, P, E, S + h)
     rk4 = ca.Function("rk4", [X, T, P, E, S], [X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-    Z, W = ca.MX.sym("z", 2 * n + memory), ca.MX.sym("w", nr + nc + n + 1)
+    Z, W = ca.MX.sym("z", 2 * n + memory), ca.MX.sym("w", nr + nc + n + 1 + (nc if external else 0))
     C = ca.MX.sym("c", step_controller.size1_in(5))
     x, m = Z[: 2 * n], Z[2 * n:]
-    m_next, tau = step_controller(m, x[:n], W[:nr], W[nr:nr + nc], W[nr + nc:nr + nc + n], C)
+    read = (m, x[:n], W[:nr], W[nr:nr + nc], W[nr + nc:nr + nc + n], C)
     t_k = W[nr + nc + n]
+    if external:
+        m_next, tau, u = step_controller(*read, W[nr + nc + n + 1:])
+    else:
+        (m_next, tau), u = step_controller(*read), ca.MX(0, 1)
     x_next = _repeat(rk4, substeps, x, tau, P, E, starts=t_k + h * ca.DM(range(substeps)).T)
     xdot = plant.rhs(x, tau, P, E, t_k)
     return ca.Function("closed_loop_sample", [Z, W, P, C, E], [ca.vertcat(x_next, m_next),
-                                                                 ca.vertcat(x, xdot[n:], tau)],
+                                                                 ca.vertcat(x, xdot[n:], tau, u)],
                        ["z", "w", "p", "c", "eps"], ["z_next", "y"])
 
 
@@ -417,10 +424,11 @@ with its length (0.03 s for 1000 samples, 0.7 s for 10 000), so long logs are ru
 def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float, substeps: int,
                  compiled: bool | None) -> tuple[ca.Function, bool]:
     """The (compiled) sample function, built once per plant and controller structure."""
-    key = (ctrl.structure(), names, period, substeps, compiled)
+    external = control.line_outside(ctrl)
+    key = (ctrl.structure(), external, names, period, substeps, compiled)
     cache = plant.closed_loops
     if key not in cache:
-        function = sample_function(ctrl, plant, names, period, substeps)
+        function = sample_function(ctrl, plant, names, period, substeps, external)
         fast = compile_casadi(function) if compiled is not False else None
         if compiled and fast is None:
             LOG.warning("no working C compiler: the simulation runs in CasADi's virtual machine")
@@ -435,17 +443,26 @@ def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measur
     function, is_compiled = _closed_loop(ctrl, plant, names, measurements.sample_period, substeps, compiled)
     timings["compile"] = time.perf_counter() - started
     started = time.perf_counter()
-    z = np.concatenate([x0, np.zeros(ctrl.memory_size())])
+    line = control.DelayLine(ctrl.delay, ctrl.size) if control.line_outside(ctrl) else None
+    z = np.concatenate([x0, np.zeros(ctrl.memory_size(line=line is None))])
     w = np.hstack([signals.reference, signals.disturbance, signals.torque, measurements.t[:, None]]).T
     loops: dict[int, ca.Function] = {}
     outputs = []
-    for start in range(0, measurements.samples, CHUNK):
-        size = min(CHUNK, measurements.samples - start)
+    # with a delay line, a chunk's applied outputs were computed at least `delay` samples before it
+    chunk = CHUNK if line is None else min(CHUNK, ctrl.delay)
+    n4 = 4 * plant.n
+    for start in range(0, measurements.samples, chunk):
+        size = min(chunk, measurements.samples - start)
         if size not in loops:
             loops[size] = function.mapaccum("closed_loop", size)
-        states, y = loops[size](z, w[:, start:start + size], p, c, eps)
-        z = np.asarray(states)[:, -1]
-        outputs.append(np.asarray(y))
+        inputs = w[:, start:start + size]
+        if line is not None:
+            inputs = np.vstack([inputs, line.applied(start, size).T])
+        states, y = loops[size](z, inputs, p, c, eps)
+        z, y = np.asarray(states)[:, -1], np.asarray(y)
+        if line is not None:
+            line.computed(start, y[n4:].T)
+        outputs.append(y[:n4])
     timings["integrate"] = time.perf_counter() - started
     return np.hstack(outputs).T, is_compiled
 
@@ -460,17 +477,22 @@ def _run_solve_ivp(ctrl: control.Controller, plant: Plant, measurements: Measure
 
     n = plant.n
     period = measurements.sample_period
-    step_controller = control.controller_function(ctrl, names, period)
+    line = control.DelayLine(ctrl.delay, ctrl.size) if control.line_outside(ctrl) else None
+    step_controller = control.controller_function(ctrl, names, period, external=line is not None)
     x, tau, t = ca.SX.sym("x", 2 * n), ca.SX.sym("tau", n), ca.SX.sym("t")
     xdot = plant.rhs(x, tau, p, eps, t)
     rhs = ca.Function("f", [x, tau, t], [xdot])
     jac = ca.Function("J", [x, tau, t], [ca.jacobian(xdot, x)])
-    memory = np.zeros(ctrl.memory_size())
+    memory = np.zeros(ctrl.memory_size(line=line is None))
     state = x0.copy()
     out = np.empty((measurements.samples, 4 * n))
     for k in range(measurements.samples):
-        memory_next, tau_k = step_controller(memory, state[:n], signals.reference[k], signals.disturbance[k],
-                                             signals.torque[k], c)
+        read = (memory, state[:n], signals.reference[k], signals.disturbance[k], signals.torque[k], c)
+        if line is None:
+            memory_next, tau_k = step_controller(*read)
+        else:
+            memory_next, tau_k, u_k = step_controller(*read, line.applied(k, 1)[0])
+            line.computed(k, np.asarray(u_k).reshape(1, -1))
         tau_k, t_k = np.asarray(tau_k).ravel(), float(measurements.t[k])
         derivative = np.asarray(rhs(state, tau_k, t_k)).ravel()
         out[k] = np.concatenate([state, derivative[n:], tau_k])
