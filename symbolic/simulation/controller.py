@@ -1,60 +1,17 @@
-"""The machine's controller, as declared in an experiment file's ``[controller]`` table.
+"""The law of the machine's controller declared in an experiment's ``[controller]`` (docs/simulation.md,
+"The controller", holds the table's keys, the laws and their checks).
 
-::
+Discrete at the log's sample period T with zero-order hold: at sample k the controller reads the position
+q_m,k rounded to the sensor's resolution, filters the backward-difference velocity with the FIR
+``velocity_filter``, computes u_k by its ``kind`` (``torque``: the logged force replayed; ``pd``, ``pid``,
+``cascade``; ``state_feedback``: u_k = −K·(x_k − x_ref,k)), saturates it, delays it by ``delay`` samples, adds
+the ``disturbance`` and applies τ_k = gain·(u + d_k) over [t_k, t_k+1).
 
-    [controller]
-    kind = "pd"                   # torque | pd | pid | cascade | state_feedback
-    coordinates = ["q"]           # controlled coordinates (default: those of the data)
-    kp = [40.0]                   # per coordinate, in the order of `coordinates`
-    kd = [2.0]                    # pd, pid;  ki: pid;  kv: cascade
-    gain = [1.0]                  # output -> generalized force: numbers or expressions of the model's
-                                  # parameters (a single string applies to every coordinate: "gtau")
-    reference = "ref"             # the data's ref_<c> columns, or one expression of t (and of the data's
-                                  # columns) per coordinate: ["0.3*sin(2*pi*0.5*t)"]
-    saturation = [10.0]           # limit of the controller output (before the gain)
-    quantisation = [1.5708e-4]    # the position sensor's resolution (units of q per count)
-    disturbance = ["pulses_N"]    # an expression of the data's columns added after saturation
-    delay = 0                     # samples between measuring q_k and applying u_k
-    velocity_filter = [0.5, 0.5]  # FIR taps applied to the backward-difference velocity
-
-The controller is discrete, at the log's sample period T, with zero-order hold. At sample k it reads
-the position q_m,k (the simulated position, rounded to the sensor's resolution), forms the
-backward-difference velocity v_b,k = (q_m,k − q_m,k−1)/T (0 at the first sample), filters it,
-v_k = Σ_i taps_i·v_b,k−i (v_b before the first sample is 0), and computes
-
-* ``torque``: u_k = τ_measured,k (open-loop replay of the log's generalized force, gain 1 by default);
-* ``pd``: u_k = kp·(r_k − q_m,k) − kd·v_k;
-* ``pid``: the same + ki·I_k with I_k = I_k−1 + T·(r_k − q_m,k) (no anti-windup);
-* ``cascade`` (EMPS's P/P position–velocity loop): u_k = kv·(kp·(r_k − q_m,k) − v_k);
-* ``state_feedback``: u_k = −K·(x_k − x_ref,k), see below;
-
-then u is saturated to ±saturation, delayed by ``delay`` samples (zero before the first computed
-output arrives), the disturbance d_k is added and the generalized force is τ_k = gain·(u + d_k),
-held over [t_k, t_k+1). Coordinates the controller does not drive get τ = 0.
-
-State feedback (an LQR, a pole placement) names the driven coordinates ``inputs`` and the state vector
-``states`` in the canonical signal names, and K has one row per input and one column per state::
-
-    [controller]
-    kind = "state_feedback"
-    inputs = ["theta"]                                    # the driven coordinates (rows of K)
-    states = ["q_theta", "q_alpha", "qd_theta", "qd_alpha"]  # the state vector x (columns of K)
-    K = [[6.32, -1.67, 1.05, 0.30]]                       # signed; one row per input
-    gain = [0.05]                 # per input; saturation, disturbance likewise
-    quantisation = [1e-3, 1e-3]   # per sensed coordinate: those of `states`, in order (theta, alpha)
-
-x_k holds, for ``q_<c>``, the measured position q_m,k of c and, for ``qd_<c>``, its filtered
-backward-difference velocity v_k — the same sensor as the other kinds, for every coordinate named in
-``states``; x_ref,k holds the data's ``ref_<c>`` and ``refd_<c>`` columns (0 where the data have none).
-A feedforward is declared as for the other kinds: a ``disturbance`` column or expression, added
-after saturation and delay.
-
-:func:`controller_function` builds this step as a CasADi function, so that the closed loop runs in
-compiled code. A delay of up to :data:`LINE_IN_MEMORY` samples is a shift register in the step's memory
-(a copy of nc·delay numbers per sample); a longer one is a :class:`DelayLine` outside the compiled step, a
-ring buffer that costs O(1) per sample whatever the delay (docs/simulation.md, "The controller"). The table itself is validated where the experiment is loaded, by
-:func:`symbolic.data.controller.parse` (re-exported here with :class:`Controller`): this module holds
-the law, that one the description.
+:func:`controller_function` builds this step as a CasADi function, so that the closed loop runs in compiled
+code. A delay of up to :data:`LINE_IN_MEMORY` samples is a shift register in the step's memory; a longer one
+is a :class:`DelayLine` outside the compiled step, a ring buffer costing O(1) per sample. The table itself is
+validated where the experiment is loaded, by :func:`symbolic.data.controller.parse` (re-exported here with
+:class:`Controller`): that module holds the description, this one the law.
 """
 
 from __future__ import annotations
