@@ -73,7 +73,7 @@ class DataSet:
     def stack(self, x: np.ndarray) -> np.ndarray:
         """Reduced ``samples × N [× k]`` arranged as the stacked system: coordinate by coordinate."""
         x = np.asarray(x, dtype=float)
-        return x.transpose(1, 0, *range(2, x.ndim)).reshape(-1, *x.shape[2:])
+        return x.transpose(1, 0, *range(2, x.ndim)).reshape(x.shape[0] * x.shape[1], *x.shape[2:])  # 0 columns too
 
 
 def treat(measurements: Measurements, role: str, settings: Settings | None = None) -> DataSet:
@@ -91,6 +91,16 @@ def with_held_force(data: DataSet) -> DataSet:
     record = None if data.record is None else with_held_force(data.record)
     return dataclasses.replace(data, states=dataclasses.replace(data.states, processing=p),
                                tau=p.reduce(p.forces(data.measurements.tau)), record=record)
+
+
+def check_forces(measurements: Measurements) -> None:
+    """Refuse data whose forces are zero at every sample of every coordinate: the relative gap
+    ‖τ_meas − τ_model‖/‖τ_meas‖ has nothing to measure against, and every model fits them (a coordinate
+    without an actuator, τ = 0, is fine while another has a force)."""
+    if not np.any(measurements.tau):
+        names = ", ".join(f"tau_{c}" for c in measurements.coordinates)
+        raise DataError(str(measurements.source), names, "the forces are zero at every sample: nothing to identify "
+                        "or compare with (a log without its force signal? check the tau_<c> or u_<c> mapping)")
 
 
 def time_slice(measurements: Measurements, start: int, stop: int) -> Measurements:
@@ -122,8 +132,15 @@ def load_sets(
     robot = model if isinstance(model, Robot) else None
     coordinates = tuple(robot.generalized_coordinates if robot is not None else model)
     measurements = load(data, coordinates, model=robot, experiment=experiment, validation=validation)
+    for loaded in (measurements, measurements.validation):
+        if loaded is not None:
+            check_forces(loaded)
     if measurements.validation is None:
         first, last = split(measurements)
+        if min(first.samples, last.samples) < 2:
+            raise DataError(str(measurements.source), "samples",
+                            f"{measurements.samples} samples are too few to hold out the last "
+                            f"{100 * HOLDOUT_FRACTION:g} % and estimate on the rest; give a validation data set (--validate)")
         start = first.samples
         held_out = (f"the last {100 * HOLDOUT_FRACTION:g} % of the data in time "
                     f"({last.t[0]:.6g} s to {last.t[-1]:.6g} s), not used for estimation")

@@ -94,6 +94,9 @@ class Diagnosis:
     figures: tuple[Path, ...] = ()
     data_findings: tuple[dict[str, Any], ...] = ()
     """What the data's treatment, not the model, explains (:func:`held_force_finding`)."""
+    caveats: tuple[str, ...] = ()
+    """Notes the terminal shows too: how the diagnosis departed from what was asked (nothing to re-identify, a
+    simulated path that diverged and was replaced by the inverse model); also among :attr:`notes`."""
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON contract: model, found, gap_before, gap_after, gap_detail, patched_model (and more)."""
