@@ -359,3 +359,21 @@ def test_many_data_files_identify_or_are_refused(tmp_path_factory, capsys, quiet
 @given(data=st.data())
 def test_many_experiment_files_identify_or_are_refused(tmp_path_factory, capsys, quiet_cli, data) -> None:
     identify_experiment(tmp_path_factory, capsys, data)
+
+
+@pytest.mark.slow
+@settings(FUZZ, max_examples=40)
+@given(data=st.data())
+def test_experiment_files_diagnose_or_are_refused(tmp_path_factory, capsys, quiet_cli, data) -> None:
+    """diagnose, on the inverse or the simulated path, of experiment files (a few seconds each)."""
+    folder = tmp_path_factory.mktemp("fuzz")
+    columns = data.draw(logs(plausible=True))
+    names = list(columns)
+    (folder / "log.csv").write_text(",".join(names) + "\n" + "".join(",".join(map(number, row)) + "\n"
+                                                                      for row in zip(*(columns[k] for k in names))))
+    spec = data.draw(experiments("log.csv", tuple(names)))
+    experiment = folder / "run.toml"
+    experiment.write_text(toml_document(spec), encoding="utf-8")
+    simulate = ["--simulate"] if data.draw(st.booleans()) else []
+    check(["diagnose", "emps", str(experiment), "--out", str(folder / "out"), "--effects", "offset,spring", *simulate],
+          300.0, capsys)

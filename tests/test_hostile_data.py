@@ -94,6 +94,9 @@ def test_a_force_of_zeros_is_refused_and_no_model_is_written(tmp_path: Path, run
     line = refused(run("diagnose", "emps", str(data), "--out", str(tmp_path / "out")), str(data))
     assert "zero" in line and "tau_q" in line
     assert not (tmp_path / "id.toml").exists() and not (tmp_path / "out" / "emps_patched.toml").exists()
+    good = write_csv(tmp_path / "good.csv", axis_log())
+    line = refused(run("identify", "emps", str(good), "--validate", str(data)), f"{data}: tau_q: ")  # "nan %" before
+    assert "zero" in line
 
 
 @pytest.mark.parametrize("command", ["identify", "diagnose"])

@@ -464,6 +464,16 @@ def _uniform(t: np.ndarray, step: float, source: Source, allow: bool) -> bool:
     )
 
 
+def check_forces(measurements: Measurements) -> None:
+    """Refuse data whose forces are zero at every sample of every coordinate: every model fits them, and a
+    relative error ‖τ_meas − τ_model‖/‖τ_meas‖ has nothing to measure against (a coordinate without an
+    actuator, τ = 0, is fine while another has a force)."""
+    if not np.any(measurements.tau):
+        names = ", ".join(f"tau_{c}" for c in measurements.coordinates)
+        raise DataError(str(measurements.source), names, "the forces are zero at every sample: nothing to identify "
+                        "or compare with (a log without its force signal? check the tau_<c> or u_<c> mapping)")
+
+
 def duration(seconds: float, like: float | None = None) -> str:
     """A time span in the unit that suits ``like`` (default: itself): ``1 ms``, ``0.9 ms``, ``2.5 s``."""
     like = seconds if like is None else like

@@ -27,9 +27,10 @@ SETTING_KEYS = ("bandwidth", "cutoff", "order", "decimation", "border", "filter_
 MAX_ORDER = 16
 """Highest order of the positions' Butterworth filter. The zero-phase filter's impulse response lengthens
 with the order while the border stays five periods of the cut-off: on a signal inside the pass band the
-error left after the border grows from 3e-7 (order 4) to 1e-3 (order 16) and 0.1–100 % (orders 64–100)
-at cut-offs from 1 Hz to 20 Hz at 1 kHz (tests/test_hostile_data.py checks the identification at this
-order; order 200 gave EMPS a mass of 0.94 kg instead of 95)."""
+largest error left after the border grows from 3e-7 (order 4) to 1e-3 (order 16), 5 % (order 64) and
+50–90 % (order 100) at cut-offs from 0.2 Hz to 5 Hz at 1 kHz (bench/filter_order.py), and q̈, its second
+difference, amplifies it. tests/test_hostile_data.py identifies a known truth at this order; order 200
+gave EMPS a mass of 0.94 kg instead of 95."""
 
 MIN_DECIMATED = 2
 """Fewest samples decimation may leave (of those after the border)."""

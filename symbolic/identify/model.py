@@ -36,6 +36,7 @@ import numpy as np
 import sympy as sp
 
 from symbolic.data import Measurements, load
+from symbolic.data.measurements import check_forces
 from symbolic.derive.dynamics import DynamicModel
 from symbolic.derive.regressor import Regressor
 from symbolic.errors import ModelError
@@ -228,6 +229,9 @@ def identify_model(
     split = split_base(model, reg, full, fixed, geometric) if fixed else None
     base, held = (split.base, split.known_values()) if split else (full, {})
     loaded = load(data, coordinates, model=model.robot, experiment=experiment, validation=validation)
+    for measured in (loaded, loaded.validation):  # zero forces: every parameter fits, a relative error is 0/0
+        if measured is not None:
+            check_forces(measured)
     regressor = base_regressor(model, base=base)
     observation = observe(loaded, regressor, len(base.names), settings)
     ident = _solve(model, reg, base, observation, method, held, geometric | fixed)

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from symbolic.data import DataError, Measurements, load
+from symbolic.data.measurements import check_forces
 from symbolic.data.treatment import Settings, States, states
 from symbolic.description.robot import Robot
 
@@ -91,16 +92,6 @@ def with_held_force(data: DataSet) -> DataSet:
     record = None if data.record is None else with_held_force(data.record)
     return dataclasses.replace(data, states=dataclasses.replace(data.states, processing=p),
                                tau=p.reduce(p.forces(data.measurements.tau)), record=record)
-
-
-def check_forces(measurements: Measurements) -> None:
-    """Refuse data whose forces are zero at every sample of every coordinate: the relative gap
-    ‖τ_meas − τ_model‖/‖τ_meas‖ has nothing to measure against, and every model fits them (a coordinate
-    without an actuator, τ = 0, is fine while another has a force)."""
-    if not np.any(measurements.tau):
-        names = ", ".join(f"tau_{c}" for c in measurements.coordinates)
-        raise DataError(str(measurements.source), names, "the forces are zero at every sample: nothing to identify "
-                        "or compare with (a log without its force signal? check the tau_<c> or u_<c> mapping)")
 
 
 def time_slice(measurements: Measurements, start: int, stop: int) -> Measurements:
