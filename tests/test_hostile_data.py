@@ -212,6 +212,17 @@ def test_controller_numbers_beyond_the_bound_are_refused(tmp_path: Path, run) ->
     refused(run("identify", "emps", str(path)), f"{path}: [controller] kp[0]", "1e+30")
 
 
+def test_simulate_options_at_their_extremes(tmp_path: Path, run) -> None:
+    """--window 1e308 raised OverflowError; --substeps and a friction velocity that needs 4.6e18 sub-steps per
+    sample (it would never end) are refused with the bound."""
+    data = write_csv(tmp_path / "log.csv", axis_log(seconds=2.0))
+    status, out, err = run("simulate", "emps", str(data), "--window", "1e308")
+    assert status == 0 and "worst" in out, err
+    refused(run("simulate", "emps", str(data), "--substeps", "100000"), "substeps", "from 1 to 10000")
+    refused(run("simulate", "emps", str(data), "--friction-velocity", "1e-300"), "sub-steps per sample",
+            "up to 10000", "--method Radau")
+
+
 # -- item 10: units that cannot be right ---------------------------------------------------------------------------
 
 
