@@ -385,6 +385,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         print(strict_json(result.to_dict()))
         return 0
     gap = lambda fit: f"{fit.gap['estimation']:.4g} % (estimation), {fit.gap['validation']:.4g} % (held out)"  # noqa: E731
+    for caveat in result.caveats:
+        print(f"note: {caveat}")
     print(f"gap before: {gap(result.before)}")
     if not result.found:
         print("no significant missing effect")

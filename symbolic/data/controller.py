@@ -26,9 +26,10 @@ import sympy as sp
 
 from symbolic.data.errors import DataError
 from symbolic.data.keys import suggestion, unknown_key
+from symbolic.data.measurements import MAX_MAGNITUDE
 from symbolic.description.expressions import parse_expression, variable_names
 from symbolic.description.robot import parameter_symbol
-from symbolic.errors import ModelError
+from symbolic.errors import ModelError, shown
 
 STATE_FEEDBACK = "state_feedback"
 
@@ -313,8 +314,9 @@ def _matrix(value: Any, inputs: tuple[str, ...], states: tuple[tuple[str, str], 
             raise DataError(source, f"[controller] K[{i}]", f"has {len(row)} number(s), expected {columns}: "
                                                             f"K has {shape}")
         for j, v in enumerate(row):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise DataError(source, f"[controller] K[{i}][{j}]", f"expected a finite number (signed), got {v!r}")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not abs(v) <= MAX_MAGNITUDE:
+                raise DataError(source, f"[controller] K[{i}][{j}]", f"expected a finite number (signed), got "
+                                                                     f"{shown(v)} (allowed: magnitudes up to {MAX_MAGNITUDE:g})")
     return np.array(value, dtype=float).reshape(rows, columns)
 
 
@@ -369,6 +371,10 @@ class _PerCoordinate:
                 bound = f"> {minimum:g}" if strict else f"≥ {minimum:g}"
                 raise DataError(self.source, key, f"{v!r} is {'negative' if v < 0 else 'not allowed'} "
                                                   f"(allowed: numbers {bound})")
+            if math.isfinite(v) and abs(v) > MAX_MAGNITUDE:
+                raise DataError(self.source, key, f"{v:g} is beyond the magnitude {MAX_MAGNITUDE:g} of the numbers a "
+                                                  "simulation can hold (allowed: numbers of magnitude at most "
+                                                  f"{MAX_MAGNITUDE:g}{', or inf' if strict else ''})")
             out.append(float(v))
         return np.array(out)
 
@@ -450,9 +456,10 @@ def check_delay(controller: Controller, samples: int | None) -> Controller:
 def _taps(table: Mapping[str, Any], source: str) -> np.ndarray:
     value = table.get("velocity_filter", [1.0])
     if (not isinstance(value, list) or not value or len(value) > 64
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)):
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) <= MAX_MAGNITUDE for v in value)):
         raise DataError(source, "[controller] velocity_filter",
-                        f"expected a list of 1 to 64 finite numbers (FIR taps, newest sample first), got {value!r}")
+                        f"expected a list of 1 to 64 finite numbers of magnitude at most {MAX_MAGNITUDE:g} (FIR taps, "
+                        f"newest sample first), got {shown(value)}")
     return np.array(value, dtype=float)
 
 

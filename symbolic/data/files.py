@@ -12,8 +12,11 @@ import csv
 import io
 import itertools
 import math
+import os
+import struct
 import warnings
 import zipfile
+import zlib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from symbolic.data.errors import DataError
-from symbolic.errors import shorten
+from symbolic.errors import one_line, shorten
 from symbolic.writing import replacing
 
 DATA_SUFFIXES = (".csv", ".npz", ".mat")
@@ -271,42 +274,167 @@ def _parse_block(number: int, lines: list[str], header: list[str], source: str) 
     return values
 
 
+INFLATION_LIMIT = 100
+"""Most bytes of numbers a compressed data file may hold per byte of file. Measured signals carry noise in
+their low bits and compress by a few times at most (savez_compressed of EMPS's log: 1.3); a larger ratio
+means long runs of identical bytes, no measurement, and a ratio of 1000 is a zip bomb's (1 MB that inflates
+to 1 GB)."""
+
+INFLATION_FLOOR = 256 * 2**20
+"""Bytes of numbers any data file may hold whatever its compression (a short log of constants is fine)."""
+
+MEMORY_SHARE = 4
+"""A data file's numbers may take at most this share (1/4) of the memory available: the commands hold a few
+copies of the data and the regressor besides."""
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to a new allocation (Linux's MemAvailable, else free physical pages), or
+    ``None`` when the system does not say."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def size(count: float) -> str:
+    """A byte count for a message: ``8 TiB``, ``381 MiB``, ``64 B``."""
+    for unit, scale in (("TiB", 2**40), ("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if count >= scale:
+            return f"{count / scale:.3g} {unit}"
+    return f"{int(count)} B"
+
+
+@dataclass
+class _Budget:
+    """The bytes of numbers a data file may inflate to (:data:`INFLATION_LIMIT`, :data:`MEMORY_SHARE`), and
+    those claimed so far; :meth:`claim` refuses past it, naming the variable and the limit."""
+
+    source: str
+    file_size: int
+    memory: int | None = field(default_factory=available_memory)
+    used: int = 0
+
+    def claim(self, name: str, nbytes: int, what: str) -> None:
+        self.used += nbytes
+        inflation = max(INFLATION_FLOOR, INFLATION_LIMIT * self.file_size)
+        if self.used > inflation:
+            raise DataError(self.source, f"{name}", f"{what}: the file's numbers would inflate to {size(self.used)} or "
+                                                    f"more, {self.used / max(self.file_size, 1):.3g} times its {size(self.file_size)} "
+                                                    f"(allowed: {INFLATION_LIMIT} times the file's size, or "
+                                                    f"{size(INFLATION_FLOOR)}); a file that compresses that far holds "
+                                                    "no measurement (a zip bomb?)")
+        if self.memory is not None and self.used > self.memory / MEMORY_SHARE:
+            raise DataError(self.source, f"{name}", f"{what}: {size(self.used)} of numbers, more than a "
+                                                    f"{MEMORY_SHARE}th of the {size(self.memory)} of memory available")
+
+
+NUMBER_KINDS = "biuf"
+"""NumPy dtype kinds read as numbers: booleans, integers, floating point."""
+
+
 def read_npz(path: Path) -> Table:
-    """NumPy ``.npz`` (``numpy.savez``); pickled objects are never loaded."""
+    """NumPy ``.npz`` (``numpy.savez``, ``savez_compressed``); pickled objects are never loaded.
+
+    Every member's ``.npy`` header is read first and the bytes its shape claims are checked against the
+    file's budget (:class:`_Budget`) before any array is allocated; the data are then read as exactly that
+    many bytes, so a member cannot inflate past what its header claims however its zip entry lies.
+    """
     source = str(path)
     table = Table(source)
+    budget = _Budget(source, path.stat().st_size)
     try:
-        archive = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        archive = zipfile.ZipFile(path)
+    except (OSError, zipfile.BadZipFile, ValueError) as exc:
         raise DataError(source, "file", f"cannot read as a NumPy .npz archive: {exc}") from None
     with archive:
-        for name in archive.files:
-            try:
-                value = archive[name]
-            except ValueError:
-                table.unusable[name] = "an array of Python objects (not loaded)"
+        for info in archive.infolist():
+            if info.is_dir():
                 continue
-            _classify(table, name, value)
+            name = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
+            try:
+                _read_member(archive, info, name, table, budget)
+            except DataError:
+                raise
+            except (OSError, ValueError, EOFError, zipfile.BadZipFile, NotImplementedError, RuntimeError) as exc:
+                raise DataError(source, name, f"cannot read as a NumPy array (.npy): {exc}") from None
     return table
 
 
+def _read_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, table: Table, budget: _Budget) -> None:
+    """One ``.npy`` member of an archive into ``table`` (see :func:`read_npz`)."""
+    fmt = np.lib.format
+    with archive.open(info) as member:
+        if not info.filename.endswith(".npy"):
+            table.unusable[name] = "not a NumPy array (.npy)"
+            return
+        version = fmt.read_magic(member)
+        reader = fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
+        shape, fortran, dtype = reader(member)
+        if dtype.hasobject:
+            table.unusable[name] = "an array of Python objects (not loaded)"
+            return
+        if dtype.kind not in NUMBER_KINDS or dtype.fields is not None:
+            table.unusable[name] = f"of type {dtype} (not numbers)"
+            return
+        count = math.prod(shape)
+        nbytes = count * dtype.itemsize
+        budget.claim(name, nbytes, f"its header claims {count} values of {dtype} ({size(nbytes)})")
+        data = member.read(nbytes)
+        if len(data) != nbytes:
+            raise DataError(budget.source, name, f"truncated: its header claims {count} values of {dtype} "
+                                                 f"({size(nbytes)}), the archive holds {size(len(data))}")
+        array = np.frombuffer(data, dtype=dtype).reshape(shape, order="F" if fortran else "C")
+    _classify(table, name, array)
+
+
+MAT_NUMBERS = ("double", "single", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "logical")
+"""MATLAB classes read as numbers; the others (char, cell, struct, sparse, object, ...) are named, not loaded."""
+
+
 def read_mat(path: Path) -> Table:
-    """MATLAB ``.mat`` v5 (``save -v7`` or older) through :func:`scipy.io.loadmat`."""
+    """MATLAB ``.mat`` v5 (``save -v7`` or older) through :func:`scipy.io.loadmat`.
+
+    The variables are listed first (:func:`scipy.io.whosmat` reads their headers only); the numeric ones
+    are loaded when their sizes fit the file's budget (:class:`_Budget`), the others are named as unusable
+    without being read."""
     import scipy.io
 
     source = str(path)
     table = Table(source)
+    budget = _Budget(source, path.stat().st_size)
     try:
-        contents = scipy.io.loadmat(str(path), squeeze_me=False)
+        listed = scipy.io.whosmat(str(path))
+        numeric = []
+        for name, shape, kind in listed:
+            if name.startswith("__"):
+                continue
+            if kind not in MAT_NUMBERS:
+                table.unusable[name] = f"a MATLAB {kind} (not numbers)"
+                continue
+            count = math.prod(shape)
+            budget.claim(name, 8 * count, f"a {kind} array of {'×'.join(map(str, shape))} values ({size(8 * count)})")
+            numeric.append(name)
+        contents = scipy.io.loadmat(str(path), squeeze_me=False, variable_names=numeric) if numeric else {}
+    except DataError:
+        raise
     except NotImplementedError:
         raise DataError(
             source, "file", "MATLAB v7.3 (HDF5) files are not supported; save with -v7 or -v6 in MATLAB"
         ) from None
-    except (OSError, ValueError, TypeError) as exc:
-        raise DataError(source, "file", f"cannot read as a MATLAB v5 .mat file: {exc}") from None
-    for name, value in contents.items():
-        if not name.startswith("__"):
-            _classify(table, name, value)
+    except (OSError, ValueError, TypeError, EOFError, zlib.error, struct.error, IndexError, KeyError,
+            AttributeError) as exc:
+        raise DataError(source, "file", f"cannot read as a MATLAB v5 .mat file: {one_line(str(exc), 200)}") from None
+    for name in numeric:
+        if name in contents:
+            _classify(table, name, contents[name])
     return table
 
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from symbolic.data import Measurements, load
 from symbolic.description.units import CoordinateUnits
-from symbolic.identify.least_squares import RELATIVE_SIGMA_THRESHOLD, Identification, Validation, solve
+from symbolic.identify.least_squares import RELATIVE_SIGMA_THRESHOLD, Identification, Validation, norm, solve
 from symbolic.identify.processing import Observation, RegressorFunction, Settings, observe
 
 
@@ -67,8 +67,8 @@ def cross_validate(
 def _relative(measured: np.ndarray, predicted: np.ndarray) -> float:
     """100·‖measured − predicted‖/‖measured‖ (%); NaN for a coordinate whose force is zero (no actuator:
     tau_<c> = "0"), where a relative error means nothing."""
-    norm = np.linalg.norm(measured)
-    return float(100.0 * np.linalg.norm(measured - predicted) / norm) if norm > 0 else float("nan")
+    size = norm(measured)
+    return float(100.0 * norm(measured - predicted) / size) if size > 0 else float("nan")
 
 
 @dataclass(frozen=True, eq=False)

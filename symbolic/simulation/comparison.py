@@ -173,7 +173,7 @@ def compare(measured: Measurements, simulated: Measurements, window: float = 1.0
            "acceleration": simulated.qdd[:, index], "force": simulated.tau[:, index]}
     border = motion.treatment.border
     kept = slice(border, measured.samples - border)
-    width = min(max(1, round(window * measured.rate)), kept.stop - kept.start)
+    width = min(max(1, round(min(window * measured.rate, kept.stop - kept.start))), kept.stop - kept.start)  # no overflow
     t = measured.t[kept]
     statistics = {
         c: {s: _statistic(meas[s][kept, j], sim[s][kept, j], t, width) for s in SIGNALS}
