@@ -235,11 +235,11 @@ def corrections(fit: FinalFit, values: Sequence[Value], robot: Robot, min_gain: 
         kind = "combination" if v.expression else parameter_kind(robot, v.parameter)
         evidence = {"sigmas": abs(v.value - v.nominal) / v.sigma if v.sigma > 0 else None,
                     "held_out_gap": held_out, "held_out_gap_at_nominal": kept, "held_out_gain": gain,
-                    "kind": kind, "bounds": [v.lower, v.upper], **({"expression": v.expression} if v.expression else {})}
+                    "kind": kind, "bounds": [b if math.isfinite(b) else None for b in (v.lower, v.upper)], **({"expression": v.expression} if v.expression else {})}
         other = low.get(v.parameter) if low is not None else None
         if other is not None:
-            evidence["lowered_bandwidth"] = {"value": other.value, "sigma": other.sigma,
-                                             "sigmas": abs(other.value - other.nominal) / other.sigma if other.sigma > 0 else None}
+            moved_by = abs(other.value - other.nominal) / other.sigma if other.sigma > 0 else None
+            evidence["lowered_bandwidth"] = {"value": other.value, "sigma": other.sigma, "sigmas": moved_by}
         entry = {"parameter": v.parameter, "nominal": v.nominal, "value": v.value, "sigma": v.sigma,
                  "relative_change": v.relative_change, "evidence": evidence, "summary": _sentence(v, kind)}
         if gain < min_gain:
@@ -291,7 +291,7 @@ def moved_note(m: Mapping[str, Any], min_gain: float = MIN_GAIN) -> str:
     head = f"{m['summary']} — beyond {SIGMAS:g}σ and {100 * RELATIVE:g} %, but "
     if m["why"] == "unphysical":
         lower, upper = e["bounds"]
-        allowed = f"≥ {lower:.4g}" if math.isinf(upper) else f"≤ {upper:.4g}" if math.isinf(lower) else \
+        allowed = f"≥ {lower:.4g}" if upper is None else f"≤ {upper:.4g}" if lower is None else \
             f"within [{lower:.4g}, {upper:.4g}]"
         return (head + f"moved to an unphysical value (the model's other values allow {allowed}): the model "
                 "probably misses something on these coordinates; not named a correction")
