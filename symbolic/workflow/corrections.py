@@ -6,7 +6,10 @@ or the search's final joint fit when the patch adds a coordinate the data lack).
 * **corrections**: the model-file parameters the data move far from the file's value — beyond
   :data:`SIGMAS` standard deviations *and* beyond :data:`RELATIVE` of the value — each with its evidence
   (how many σ, and the held-out gap if the value were kept at the file's while everything else is
-  re-identified, which must be worse by the search's effect size, :data:`MIN_GAIN`). Only what the data identify can be named: a base parameter that is one model parameter
+  re-identified, which must be worse by the search's effect size, :data:`MIN_GAIN`), a physical value
+  (within what the model's other values allow, :attr:`Value.physical`) and one that holds when the data
+  are treated at half the bandwidth (:meth:`Value.holds_with`: not an artefact of differentiating
+  quantised positions); a value failing one of these is noted with the reason. Only what the data identify can be named: a base parameter that is one model parameter
   up to known factors, β = a·p + b (p = (β − b)/a, σ_p = σ_β/|a|, as :func:`symbolic.identify.model.direct_parameters`);
   a base parameter that combines several model parameters (ZZR1 = I1 + m1·c1² + m2·l1²) is reported as that
   combination. σ is the fit's (IDIM-LS weighted least squares) × the residual's integrated
