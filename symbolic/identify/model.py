@@ -8,13 +8,12 @@ own parameters follow in two ways:
 
 * directly, where a base parameter is one model parameter up to known factors (EMPS: β = M, Fv, Fc,
   offset): p = (β − b)/a and σ_p = σ_β/|a| (:attr:`ModelIdentification.parameters`);
-* with ``consistent=True``, by bounded nonlinear least squares over all the parameters that enter θ
-  only (masses, centres of mass, inertias, friction, rotor inertias), starting from the nominal values,
-  with each body kept physically valid: mass ≥ 0, inertia tensor positive semidefinite and satisfying
-  the triangle inequality of its principal moments (penalty residuals), friction coefficients,
-  stiffnesses and dampings ≥ 0, and each parameter within its ``min``/``max``.
-  A weak pull towards the nominal values (:data:`PRIOR_WEIGHT`) fixes the parameters the data cannot
-  separate; only those the data determine (outside the null space of the fit's Jacobian) are reported.
+* with ``consistent=True``, as the physically consistent parameters closest to the least-squares fit in
+  its own metric (:mod:`symbolic.identify.consistent`: the R of the QR of [W y], so the problem's size
+  does not grow with the samples; each body parameterized exactly by log-Cholesky coordinates, friction,
+  stiffness and damping signs and ``min``/``max`` as bounds). Every parameter that enters θ and is neither
+  geometry nor fixed comes back (σ = ∞ for those the data do not determine alone), so that the written
+  model reproduces the consistent fit's relative error.
 
 Parameters kept at their values (``fixed = true``, ``fix=``) are not estimated: the standard parameters
 they determine move to the side of τ and the base parameters are those of the other columns
