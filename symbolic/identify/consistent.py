@@ -815,6 +815,7 @@ def _newton(prob: Problem, A: np.ndarray, summary: Summary, x1: np.ndarray, lowe
         return cache["out"]
 
     variance = summary.rho**2 / max(summary.rows - len(summary.z), 1)  # σ² per row of the weighted fit
+    gtol = max(GRADIENT_TOLERANCE * variance, 1e-300)
     costs: list[float] = []
 
     def stalled(intermediate_result) -> None:
@@ -826,13 +827,13 @@ def _newton(prob: Problem, A: np.ndarray, summary: Summary, x1: np.ndarray, lowe
         warnings.simplefilter("ignore", RuntimeWarning)  # a trust region below rounding ends the search
         solution = scipy.optimize.minimize(lambda u: parts(u)[0], coordinates.inverse(x1), jac=lambda u: parts(u)[1],
                                            hess=lambda u: parts(u)[2], method="trust-exact", callback=stalled,
-                                           options={"gtol": max(GRADIENT_TOLERANCE * variance, 1e-300),
-                                                    "maxiter": MAX_ITERATIONS})
+                                           options={"gtol": gtol, "maxiter": MAX_ITERATIONS})
     message = str(solution.message)
-    if "StopIteration" in message:
+    converged = bool(solution.success) or float(np.linalg.norm(parts(solution.x)[1])) <= gtol
+    if "StopIteration" in message and not converged:
         message = (f"χ² fell by less than {STALL_CHI2:g} in the last {STALL_ITERATIONS} Newton iterations, "
                    f"{len(costs)} in all")
-    return _Solution(coordinates.forward(solution.x)[0], message, bool(solution.success))
+    return _Solution(coordinates.forward(solution.x)[0], message, converged)
 
 
 @dataclass(frozen=True)
