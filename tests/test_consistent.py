@@ -343,6 +343,25 @@ def test_written_model_reproduces_the_reported_gap(fixed, tmp_path: Path, capsys
     assert gap == pytest.approx(report["consistent"]["relative_error"], rel=1e-9)
 
 
+def test_bodies_the_parameterization_cannot_hold_get_penalties() -> None:
+    """The tests' planar arm writes each centre of mass as an expression (c1 − l1) and gives only zz: its
+    bodies are kept physical by penalties, named as such; the answer's I1, I2 and masses are ≥ 0 within
+    1e-6 of their size although the data come from I2 = −0.01."""
+    from models import arm as arm_model
+
+    model = symbolic.derive(symbolic.loads(arm_model(), "arm.toml"))
+    truth = with_values(model, {"I2": -0.01})
+    t = np.arange(0.0, 10.0, 1 / 200)
+    q, qd, qdd = trajectory(t, 2)
+    num = numeric_model(model)
+    tau = np.array([num.inverse_dynamics(q[k], qd[k], qdd[k], truth) for k in range(len(t))])
+    result = identify_model(model, Measurements.from_arrays(t, ("q1", "q2"), q, tau, qd=qd, qdd=qdd), consistent=True)
+    assert result.consistent.penalized == ("link1", "link2") and result.consistent.exact == ()
+    values = result.values()
+    for name in ("I1", "I2", "m1", "m2"):
+        assert values[name] >= -1e-6 * max(abs(model.parameter_vector[name]), 1e-3), name
+
+
 def test_progress_is_reported_when_the_fit_is_long(arm, monkeypatch, caplog) -> None:
     monkeypatch.setattr(consistent, "PROGRESS_AFTER", 0.0)
     truth = with_values(arm, {"Izz2": -0.05})

@@ -353,8 +353,8 @@ def _pattern_order(free_products: set[tuple[int, int]]) -> tuple[tuple[int, int,
 
 def plan_bodies(bodies, free: Sequence[sp.Symbol], values: Mapping[sp.Symbol, float], elsewhere: set[sp.Symbol],
                 explicit_bounds: Mapping[sp.Symbol, tuple[float | None, float | None]]):
-    """Split the bodies into those (5) parameterizes exactly (:class:`BodyPlan`, without offsets yet) and
-    the others (names), from the slots of their model-file entries.
+    """Split the bodies into those (7) parameterizes exactly (:class:`BodyPlan`, offsets 0 until placed) and
+    the others (the bodies themselves, for penalties), from the slots of their model-file entries.
 
     ``elsewhere`` holds the free parameters used outside the bodies (drives, friction, forces);
     ``explicit_bounds`` the ``min``/``max`` written in the model file.
