@@ -692,7 +692,6 @@ def fit(prob: Problem, K: np.ndarray, W: np.ndarray, y: np.ndarray, weights: np.
     norm = max(float(np.linalg.norm(y)), 1e-300)
     relative = 100.0 * float(np.linalg.norm(y - W @ beta)) / norm
     best = 100.0 * float(np.linalg.norm(y - W @ least_squares_beta)) / norm
-    b = len(summary.z)
     residual = summary.R @ beta - summary.z
     covariance = _covariance(summary.R @ K @ prob.theta_jacobian(p), p, p0, residual, summary.rho, W.shape[0])
     seconds = time.perf_counter() - started
