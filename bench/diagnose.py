@@ -166,10 +166,10 @@ def null_cases(lines: list[str], seeds: int) -> None:
     lines += ["## False discoveries (nothing missing, closed-loop synthetic data)", "",
               f"{len(sets)} data sets with the tests' 20-bit encoder ({seeds} axis seeds × 0.5, 2, 5 % noise; "
               f"{seeds // 2} arm seeds × 1, 3 %), each simulated and diagnosed with the whole catalogue in {total:.0f} s: "
-              f"**{len(named)} effect(s) named**" + (": " + "; ".join(named) if named else "") + ".", ""]
+              f"**{len(named)} effect(s) or correction(s) named**" + (": " + "; ".join(named) if named else "") + ".", ""]
     per_bits = {bits: [n for n, (_, _, _, _, b) in zip(rough, coarse) if b == bits and n] for bits in (12, 14, 16, 18)}
     lines += [f"Coarser encoders ({max(seeds // 3, 1)} axis and arm seeds each, 1 % noise), in {rough_total:.0f} s:", "",
-              "| encoder | data sets | effects named |", "|---|---|---|"]
+              "| encoder | data sets | effects or corrections named |", "|---|---|---|"]
     for bits, hits in per_bits.items():
         count = sum(1 for (_, _, _, _, b) in coarse if b == bits)
         found = [x for n in hits for x in n]
@@ -215,7 +215,8 @@ def multi_joint_null_cases(lines: list[str], seeds: int) -> None:
 
 
 def _named(cases, sets) -> list[list[str]]:
-    """For each (kind, model text, seed, noise, encoder bits): the effects diagnose names given the truth."""
+    """For each (kind, model text, seed, noise, encoder bits): the effects and the corrections of model-file
+    values diagnose names given the truth (both are false discoveries)."""
     import numpy as np
 
     from symbolic.workflow import diagnose
@@ -227,7 +228,9 @@ def _named(cases, sets) -> list[list[str]]:
             path = cases.model_file(Path(folder) / str(k), text)
             data = cases.measurements(text, seed, noise, resolution=2 * np.pi / 2**bits)
             d = diagnose(path, data, figures=False)
-            out.append([f"{kind} seed {seed} noise {noise:g} {bits} bits: {f.effect} on {f.coordinate}" for f in d.found])
+            out.append([f"{kind} seed {seed} noise {noise:g} {bits} bits: {f.effect} on {f.coordinate}" for f in d.found]
+                       + [f"{kind} seed {seed} noise {noise:g} {bits} bits: correction of {c['parameter']}"
+                          for c in d.corrections])
     return out
 
 

@@ -11,21 +11,64 @@ The public API is :data:`__all__`, documented in docs/api.md.
 
 from __future__ import annotations
 
+import importlib
 import logging
+from typing import TYPE_CHECKING
 
-from symbolic import description, export, numeric, robots
-from symbolic.derive import analysis
-from symbolic.derive.dynamics import DynamicModel, derive
-from symbolic.description.modelfile import load, loads
-from symbolic.description.robot import Beam, Body, Constraint, EndEffector, Frame, Parameter, Robot
-from symbolic.description.validation import validate
 from symbolic.errors import (
     DataError, ExportError, IdentificationError, ModelError, ModelWarning, SimulationError, SymbolicError,
 )
-from symbolic.numeric import NumericModel, numeric_model
 from symbolic.version import __version__
 
+if TYPE_CHECKING:
+    from symbolic import description, export, numeric, robots  # noqa: F401
+    from symbolic.derivation import analysis  # noqa: F401
+    from symbolic.derivation.dynamics import DynamicModel, derive  # noqa: F401
+    from symbolic.description.modelfile import load, loads  # noqa: F401
+    from symbolic.description.robot import Beam, Body, Constraint, EndEffector, Frame, Parameter, Robot  # noqa: F401
+    from symbolic.description.validation import validate  # noqa: F401
+    from symbolic.numeric import NumericModel, numeric_model  # noqa: F401
+
 logging.getLogger(__name__).addHandler(logging.NullHandler())
+
+_LAZY: dict[str, tuple[str, str | None]] = {
+    # name: (module, attribute; None for the module itself). Imported on first use (PEP 562), so that
+    # `symbolic --help` and the first line of any command do not wait for SymPy and NumPy.
+    "analysis": ("symbolic.derivation.analysis", None),
+    "DynamicModel": ("symbolic.derivation.dynamics", "DynamicModel"),
+    "derive": ("symbolic.derivation.dynamics", "derive"),
+    "load": ("symbolic.description.modelfile", "load"),
+    "loads": ("symbolic.description.modelfile", "loads"),
+    "validate": ("symbolic.description.validation", "validate"),
+    "NumericModel": ("symbolic.numeric", "NumericModel"),
+    "numeric_model": ("symbolic.numeric", "numeric_model"),
+    **{name: ("symbolic.description.robot", name)
+       for name in ("Beam", "Body", "Constraint", "EndEffector", "Frame", "Parameter", "Robot")},
+}
+
+
+def __getattr__(name: str) -> object:
+    """The public names and the subpackages (``symbolic.robots``, ``symbolic.data``, ...), imported on first use."""
+    if name in _LAZY:
+        module, attribute = _LAZY[name]
+        value = importlib.import_module(module)
+        value = value if attribute is None else getattr(value, attribute)
+    elif not name.startswith("_"):
+        try:
+            value = importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as missing:
+            if missing.name != f"{__name__}.{name}":
+                raise
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value  # later lookups find it directly
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "Beam",

@@ -17,7 +17,7 @@ import warnings
 from pathlib import Path
 
 from symbolic import export, robots
-from symbolic.derive.dynamics import derive
+from symbolic.derivation.dynamics import derive
 from symbolic.errors import ModelWarning
 
 log = logging.getLogger(__name__)

@@ -24,7 +24,7 @@ from symbolic.version import __version__
 if TYPE_CHECKING:
     import sympy as sp
 
-    from symbolic.derive.dynamics import DynamicModel
+    from symbolic.derivation.dynamics import DynamicModel
     from symbolic.description.robot import Robot
 
 # SymPy, NumPy and the layers are imported by the commands that use them, not here: `symbolic --help` and a
@@ -32,15 +32,15 @@ if TYPE_CHECKING:
 
 
 def derive(robot: Robot) -> DynamicModel:
-    from symbolic.derive.dynamics import derive as derived
+    from symbolic.derivation.dynamics import derive as derived
 
     return derived(robot)
 
 
-def load(path: Path) -> Robot:
+def load(path: Path, root: str | None = None, tip: str | None = None) -> Robot:
     from symbolic.description.modelfile import load as loaded
 
-    return loaded(path)
+    return loaded(path, root=root, tip=tip)
 
 
 class _Robots:
@@ -81,15 +81,18 @@ def strict_json(value: object) -> str:
     return json.dumps(cleaned, indent=2, allow_nan=False)
 
 
-def resolve(model: str) -> Robot:
-    """A model file path, or a built-in robot name."""
+def resolve(model: str, args: argparse.Namespace | None = None) -> Robot:
+    """A model file path (TOML or URDF, with ``args.root``/``args.tip`` for a URDF chain), or a built-in robot name."""
     path = Path(model)
-    if path.suffix == ".toml" or path.is_file():
-        return load(path)
+    root, tip = getattr(args, "root", None), getattr(args, "tip", None)
+    if path.suffix.lower() in (".toml", ".urdf") or path.is_file():
+        return load(path, root, tip)
     if model in robots.names():
+        if root is not None or tip is not None:
+            raise ModelError(model, "--root/--tip", "choose a chain only in a URDF file (a .urdf model)")
         return robots.load(model)
     if path.exists():
-        return load(path)
+        return load(path, root, tip)
     import difflib
 
     close = difflib.get_close_matches(model.lower(), robots.names(), n=1, cutoff=0.6)
@@ -109,7 +112,7 @@ def cmd_list(args: argparse.Namespace) -> int:
 
 
 def cmd_derive(args: argparse.Namespace) -> int:
-    robot = resolve(args.model)
+    robot = resolve(args.model, args)
     model = derive(robot)
     print(model.summary())
     if args.show or (args.show is None and model.n <= 3):
@@ -122,7 +125,7 @@ def show(model) -> None:
     intermediates, whose definitions follow."""
     import sympy as sp
 
-    from symbolic.derive.simplify import SIZE_LIMIT, compact, tree_size
+    from symbolic.derivation.simplify import SIZE_LIMIT, compact, tree_size
 
     log = logging.getLogger(__name__)
     large: list[sp.Expr] = []
@@ -169,7 +172,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
         if importlib.util.find_spec("matplotlib") is None:  # before the derivation: seconds for a large model
             print("error: --figures needs matplotlib (pip install 'symbolic[plot]')", file=sys.stderr)
             return 2
-    robot = resolve(args.model)
+    robot = resolve(args.model, args)
     model = derive(robot)
     command = export.regenerate_command(args.model, targets)
     try:
@@ -185,14 +188,14 @@ def cmd_generate(args: argparse.Namespace) -> int:
 def cmd_analyze(args: argparse.Namespace) -> int:
     import json
 
-    from symbolic.derive.analysis import KINDS, counterbalance, decoupling
+    from symbolic.derivation.analysis import KINDS, counterbalance, decoupling
 
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
     unknown = set(kinds) - set(KINDS)
     if unknown or not kinds:
         print(f"error: --kinds: unknown kind(s) {sorted(unknown)} (allowed: {', '.join(KINDS)})", file=sys.stderr)
         return 2
-    model = derive(resolve(args.model))
+    model = derive(resolve(args.model, args))
     if args.design:
         free = [f.strip() for f in args.design.split(",") if f.strip()]
         try:
@@ -269,14 +272,18 @@ def cmd_identify(args: argparse.Namespace) -> int:
     from symbolic.description.modelfile import with_loadable_values
 
     _check_targets(args)  # before the work: a mistyped --out or --figures is reported at once
-    model = derive(resolve(args.model))
+    model = derive(resolve(args.model, args))
     result = identify_model(model, args.data, experiment=args.experiment, validation=args.validate,
                             method=args.method, consistent=args.consistent, fix=fix_names(args.fix))
     kept: dict[str, str] = {}
-    if args.out:
+    if args.out and Path(args.out).suffix.lower() == ".urdf":
+        from symbolic.export.urdf import urdf
+
+        write_text_atomically(Path(args.out), urdf(model.robot, result.values()))
+    elif args.out:
         source = Path(model.robot.source)
-        if not source.is_file():
-            raise ModelError(args.model, "--out", "the model has no file to update")
+        if not source.is_file() or source.suffix.lower() == ".urdf":
+            raise ModelError(args.model, "--out", "the model has no TOML file to update (write --out FILE.urdf for a URDF model)")
         text, kept = with_loadable_values(source.read_text(encoding="utf-8"), result.values(), str(source),
                                           provenance=f"identified by symbolic identify from {Path(args.data).name}")
         write_model_atomically(Path(args.out), text)
@@ -316,7 +323,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     except export.ExportError as error:
         print(f"error: --out: {error}", file=sys.stderr)
         return 2
-    model = derive(resolve(args.model))
+    model = derive(resolve(args.model, args))
     measurements = data.load(args.experiment, model=model.robot)
     simulation = simulate(model, measurements, method=args.method, substeps=args.substeps,
                           friction_velocity=args.friction_velocity)
@@ -368,7 +375,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from symbolic import export
 
     export.check_output_directory(args.out)  # before the analysis: a mistyped --out is reported at once
-    model = derive(resolve(args.model))
+    model = derive(resolve(args.model, args))
     search = SearchSettings(groups=groups) if groups else None
     result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects,
                       simulate=args.simulate or None, fix=fix_names(args.fix), search=search)
@@ -384,6 +391,22 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         group = f" (as one of {f.evidence['group']['name']})" if "group" in f.evidence else ""
         print(f"found {f.label()} on {f.coordinate}: {values}{group}")
     print(f"gap after:  {gap(result.after)}")
+    for c in result.corrections:
+        print(f"correction: {c['summary']}")
+    changed = [c for c in result.changes if c["status"] == "re-identified"]
+    if changed:
+        print("values re-identified (model file -> patched): " + ", ".join(
+            f"{c['parameter']} {c['nominal']:.6g} -> {c['value']:.6g}"
+            + (f" ± {c['sigma']:.2g}" if c["sigma"] is not None else "")
+            + ("" if c["relative_change"] is None else f" ({100 * c['relative_change']:+.3g} %)") for c in changed))
+    for c in result.changes:
+        if c["status"] == "removed":
+            print(f"removed {c['parameter']} (was {c['nominal']:.6g}): no longer used by the patched model")
+        elif c["status"] == "kept":
+            print(f"kept {c['parameter']} = {c['nominal']:.6g}: the fitted {c['fitted']:.6g} is not physical ({c['reason']})")
+    if result.modes is not None:
+        modes = lambda ms: ", ".join(f"{m['frequency_hz']:.4g} Hz (ζ {m['damping_ratio']:.3g})" for m in ms) or "none"  # noqa: E731
+        print(f"modes (linearised at rest): {modes(result.modes['before'])} -> {modes(result.modes['after'])}")
     for finding in result.data_findings:
         if finding["finding"] == "held_force":
             g = finding["gap_validation"]
@@ -417,6 +440,18 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_export_urdf(args: argparse.Namespace) -> int:
+    from symbolic.errors import ExportError
+    from symbolic.export.urdf import urdf
+
+    out = Path(args.out)
+    if not str(args.out).strip() or out.is_dir() or out.suffix.lower() != ".urdf":
+        raise ExportError(f"--out {args.out!r}: name the URDF file to write (e.g. --out robot.urdf)")
+    write_text_atomically(out, urdf(resolve(args.model, args)))
+    print(out)
+    return 0
+
+
 def cmd_first_peak(args: argparse.Namespace) -> int:
     import json
 
@@ -432,26 +467,26 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
     sub = p.add_subparsers(dest="command", required=True)
     d = sub.add_parser("derive", help="derive D(Q), Christoffel C, g and τ and print a summary")
-    d.add_argument("model", help="model file (.toml) or built-in robot name")
+    d.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
     d.add_argument("--show", dest="show", action="store_true", default=None, help="print D(Q) and V(Q) in compact form")
     d.add_argument("--no-show", dest="show", action="store_false", help="summary only")
     d.set_defaults(func=cmd_derive)
     g = sub.add_parser("generate", help="write C, CasADi and Markdown for a model")
-    g.add_argument("model", help="model file (.toml) or built-in robot name")
+    g.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
     g.add_argument("--out", required=True, help="output directory (created if missing)")
     g.add_argument("--targets", default="c,casadi,report", help="comma-separated subset of c,casadi,report (default: all)")
     g.add_argument("--figures", action="store_true",
                    help="with the report: the apparent mass over the workspace as NAME_apparent_mass.png (needs matplotlib)")
     g.set_defaults(func=cmd_generate)
     a = sub.add_parser("analyze", help="decoupling and gravity-balancing conditions (Madill 4.2)")
-    a.add_argument("model", help="model file (.toml) or built-in robot name")
+    a.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
     a.add_argument("--json", action="store_true", help="machine-readable list of conditions")
     a.add_argument("--kinds", default="decoupling,constant_inertia,coriolis,balancing",
                    help="comma-separated families: decoupling, constant_inertia, coriolis, balancing")
     a.add_argument("--design", metavar="PARAMS", help="solve the balancing and decoupling conditions for these free parameters")
     a.set_defaults(func=cmd_analyze)
     i = sub.add_parser("identify", help="identify the model's parameters from measured data (IDIM-LS)")
-    i.add_argument("model", help="model file (.toml) or built-in robot name")
+    i.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
     i.add_argument("data", help="data file (CSV, .npz, .mat with canonical columns) or experiment file (.toml)")
     i.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")
     i.add_argument("--validate", metavar="DATA2", help="cross-test data or experiment file")
@@ -462,12 +497,13 @@ def parser() -> argparse.ArgumentParser:
     i.add_argument("--fix", metavar="NAME[,NAME]", help="keep these parameters at their values in the model file "
                    "(as fixed = true in [parameters] does)")
     i.add_argument("--out", metavar="FILE.toml", help="write the model file with the identified values (a value the "
-                   "model file cannot hold, e.g. a negative mass, is not written and the reason is printed)")
+                   "model file cannot hold, e.g. a negative mass, is not written and the reason is printed; "
+                   "FILE.urdf: as URDF)")
     i.add_argument("--figures", metavar="DIR", help="PNG figures: measured vs predicted force and the residual per coordinate")
     i.add_argument("--json", action="store_true", help="machine-readable result")
     i.set_defaults(func=cmd_identify)
     s = sub.add_parser("simulate", help="simulate a model against a measured log with the machine's controller")
-    s.add_argument("model", help="model file (.toml) or built-in robot name")
+    s.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
     s.add_argument("experiment", help="experiment file (.toml, with [controller]) or data file")
     s.add_argument("--out", help="folder for simulated.csv and the figures")
     s.add_argument("--json", action="store_true", help="model, settings and relative errors (%%) as JSON")
@@ -477,7 +513,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--window", type=float, default=1.0, help="length of the worst window, seconds (default 1)")
     s.set_defaults(func=cmd_simulate)
     w = sub.add_parser("diagnose", help="find the effects the model misses in measured data and patch the model file")
-    w.add_argument("model", help="model file (.toml) or built-in robot name")
+    w.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
     w.add_argument("data", help="data file (CSV, .npz, .mat with canonical columns) or experiment file (.toml)")
     w.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")
     w.add_argument("--validate", metavar="DATA2", help="held-out data or experiment file (default: the last fifth of DATA)")
@@ -504,6 +540,13 @@ def parser() -> argparse.ArgumentParser:
     fp.add_argument("--coordinate", help="the joint to identify (default: the controller's only coordinate)")
     fp.add_argument("--json", action="store_true", help="machine-readable result")
     fp.set_defaults(func=cmd_first_peak)
+    u = sub.add_parser("export-urdf", help="write the model as a URDF file (inertials and friction at the parameter values)")
+    u.add_argument("model", help="model file (.toml, .urdf) or built-in robot name")
+    u.add_argument("--out", metavar="FILE.urdf", required=True, help="the URDF file to write")
+    u.set_defaults(func=cmd_export_urdf)
+    for command in (d, g, a, i, s, w, u):
+        command.add_argument("--root", metavar="LINK", help="URDF models: the fixed link the chain starts from (default: the tree's root)")
+        command.add_argument("--tip", metavar="LINK", help="URDF models: the last link of the chain (default: the whole tree moves)")
     ls = sub.add_parser("list", help="list the built-in robots")
     ls.set_defaults(func=cmd_list)
     return p

@@ -85,3 +85,63 @@ class Reference:
 
     def coriolis_matrix(self, q, qd) -> np.ndarray:
         return pin.computeCoriolisMatrix(self.model, self.data, np.asarray(q, float), np.asarray(qd, float)).copy()
+
+
+class UrdfReference:
+    """Pinocchio's answers for a URDF file (``buildModelFromUrdf``, mimic joints as mimics), in the order
+    and the names of ``coordinates`` (symbolic's coordinates, named after the URDF joints).
+
+    Continuous joints take (cos q, sin q) in Pinocchio's configuration; a mimic joint has no velocity of
+    its own there, as it has none in symbolic (a constrained coordinate).
+    """
+
+    def __init__(self, path, coordinates, xml: str | None = None, mimic: bool = True, model: pin.Model | None = None) -> None:
+        """``mimic=False`` builds mimic joints as independent ones (their velocity 0 here): Pinocchio's
+        joint-torque regressor does not support mimic joints. ``model``: a Pinocchio model built otherwise."""
+        if model is None:
+            model = pin.buildModelFromXML(xml, mimic=mimic) if xml is not None else pin.buildModelFromUrdf(str(path), mimic=mimic)
+        self.model = model
+        self.data = self.model.createData()
+        names = list(self.model.names)
+        joints = [self.model.joints[names.index(c)] for c in coordinates]
+        assert self.model.nv == len(coordinates) or not mimic, (self.model.nv, coordinates)
+        self.index = [j.idx_v for j in joints]
+
+    def configuration(self, q) -> np.ndarray:
+        v = np.zeros(self.model.nv)
+        v[self.index] = q
+        out = pin.neutral(self.model)
+        for j in self.model.joints[1:]:
+            if j.nv == 1 and j.nq == 2:
+                out[j.idx_q:j.idx_q + 2] = np.cos(v[j.idx_v]), np.sin(v[j.idx_v])
+            elif j.nv == 1:
+                out[j.idx_q] = v[j.idx_v]
+        return out
+
+    def tangent(self, x) -> np.ndarray:
+        v = np.zeros(self.model.nv)
+        v[self.index] = x
+        return v
+
+    def ours(self, x) -> np.ndarray:
+        return np.asarray(x)[self.index]
+
+    def inertia(self, q) -> np.ndarray:
+        M = pin.crba(self.model, self.data, self.configuration(q)).copy()
+        M = np.triu(M) + np.triu(M, 1).T
+        return M[np.ix_(self.index, self.index)]
+
+    def gravity(self, q) -> np.ndarray:
+        return self.ours(pin.computeGeneralizedGravity(self.model, self.data, self.configuration(q)))
+
+    def rnea(self, q, qd, qdd) -> np.ndarray:
+        return self.ours(pin.rnea(self.model, self.data, self.configuration(q), self.tangent(qd), self.tangent(qdd)))
+
+    def coriolis_vector(self, q, qd) -> np.ndarray:
+        return self.rnea(q, qd, np.zeros(len(q))) - self.gravity(q)
+
+    def regressor(self, q, qd, qdd) -> np.ndarray:
+        """Pinocchio's joint-torque regressor: 10 columns per joint body (m, m·c, I about the joint origin:
+        xx, xy, yy, xz, yz, zz), rows in symbolic's order."""
+        Y = pin.computeJointTorqueRegressor(self.model, self.data, self.configuration(q), self.tangent(qd), self.tangent(qdd))
+        return Y[self.index]

@@ -12,7 +12,7 @@ import sympy as sp
 
 import symbolic
 from conftest import derived
-from symbolic.derive.analysis import counterbalance, decoupling
+from symbolic.derivation.analysis import counterbalance, decoupling
 from symbolic.numeric import numeric_model
 from symbolic.description.validation import with_parameters
 

@@ -7,7 +7,7 @@ import numpy as np
 import sympy as sp
 
 from conftest import derived
-from symbolic.derive.analysis import decoupling, flexible_conditions
+from symbolic.derivation.analysis import decoupling, flexible_conditions
 from symbolic.numeric.statics import residual_imbalance
 
 

@@ -15,7 +15,7 @@ import pytest
 import symbolic
 
 API_DOC = Path(__file__).resolve().parents[1] / "docs" / "api.md"
-PUBLIC = ("symbolic", "symbolic.description", "symbolic.robots", "symbolic.data", "symbolic.derive", "symbolic.codegen",
+PUBLIC = ("symbolic", "symbolic.description", "symbolic.robots", "symbolic.data", "symbolic.derivation", "symbolic.codegen",
           "symbolic.numeric", "symbolic.simulation", "symbolic.export", "symbolic.identify", "symbolic.workflow",
           "symbolic.reproduction")
 
@@ -49,10 +49,10 @@ def packages() -> list[str]:
     return found
 
 
-KNOWN_CLASHES = {"symbolic.derive", "symbolic.workflow.diagnose"}
-"""Left for the next release (closing note of issue 20): the package ``symbolic.derive`` and the function
-``symbolic.derive``, the module ``symbolic.workflow.diagnose`` and its function. Both functions are bound after
-their module is first imported, so they stay callable; renaming the packages touches every import."""
+KNOWN_CLASHES: set[str] = set()
+"""None left: the package ``symbolic.derive`` became ``symbolic.derivation`` and the module
+``symbolic.workflow.diagnose`` became ``symbolic.workflow.diagnosis``, so the functions ``symbolic.derive`` and
+``symbolic.workflow.diagnose`` are never replaced by a submodule."""
 
 
 def test_no_submodule_shadows_a_function_of_its_package() -> None:

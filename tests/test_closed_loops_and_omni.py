@@ -7,8 +7,8 @@ import sympy as sp
 
 import symbolic
 from conftest import derived
-from symbolic.derive.transmission import constraint_jacobian, equivalent_tree, passive_state
-from symbolic.derive.simplify import trig_zero
+from symbolic.derivation.transmission import constraint_jacobian, equivalent_tree, passive_state
+from symbolic.derivation.simplify import trig_zero
 from symbolic.numeric import numeric_model
 
 

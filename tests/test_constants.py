@@ -28,7 +28,7 @@ import sympy as sp
 
 import symbolic
 import symbolic.export as export
-from symbolic.derive import mode_shapes
+from symbolic.derivation import mode_shapes
 
 GENERATED = Path(__file__).resolve().parents[1] / "generated"
 FLEXIBLE = ["single_flexible_link", "madill_beam", "fivebar_flexible"]

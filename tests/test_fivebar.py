@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.derive.christoffel import block
-from symbolic.derive.simplify import collect_monomials, compact, trig_zero
+from symbolic.derivation.christoffel import block
+from symbolic.derivation.simplify import collect_monomials, compact, trig_zero
 
 q0, q1, q2 = sp.symbols("q0 q1 q2", real=True)
 qd0, qd1, qd2 = sp.symbols("q0_dot q1_dot q2_dot", real=True)

@@ -17,8 +17,8 @@ import pytest
 import sympy as sp
 
 import symbolic
-from symbolic.derive.flexible import beam_jacobian, geometry, xi_matrices
-from symbolic.derive.simplify import reduce_pythagoras, trig_zero
+from symbolic.derivation.flexible import beam_jacobian, geometry, xi_matrices
+from symbolic.derivation.simplify import reduce_pythagoras, trig_zero
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
 import symbolic
-from symbolic.derive.mode_shapes import clamped_free_roots, modal_constants, modes
+from symbolic.derivation.mode_shapes import clamped_free_roots, modal_constants, modes
 from symbolic.numeric.statespace import natural_frequencies
 from symbolic.numeric import numeric_model
 from symbolic.description.validation import with_parameters
@@ -217,7 +217,8 @@ EI_w = "EI"
         (("l = 0.5", "l = -0.5"), "[[beam]] 'link' length: length must be positive"),
         (("rho = 0.2", "rho = -0.2"), "[[beam]] 'link' density: density must be positive"),
         (("EI = 10.0", "EI = 0.0"), "[[beam]] 'link' EI_v: EI_v must be positive"),
-        (('EI_w = "EI"', 'EI_w = "EI"\nmodes_v = 0'), "[[beam]] 'link' modes_v: number of modes must be an integer >= 1"),
+        (('EI_w = "EI"', 'EI_w = "EI"\nmodes_v = -1'), "[[beam]] 'link' modes_v: number of modes must be an integer >= 0"),
+        (('EI_w = "EI"', 'EI_w = "EI"\nmodes_v = 0\nmodes_w = 0'), "[[beam]] 'link' modes_v: a beam needs at least one mode"),
         (('length = "l"\n', 'tip_mass = "0.1"\n'), "missing key(s) ['length']"),
         (('frame = "e"\nlength', 'frame = "tool"\nlength'), "[[beam]] 'link' frame: frame 'tool' does not exist"),
     ],

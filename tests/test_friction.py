@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 import models
 import symbolic
 from conftest import derived
-from symbolic.derive.friction import friction_force
+from symbolic.derivation.friction import friction_force
 from symbolic.errors import ModelError
 from symbolic.numeric import natural_frequencies, numeric_model
 from symbolic.description import Directional, Drive, Force, Friction, Parameter, Stribeck

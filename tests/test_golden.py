@@ -12,7 +12,7 @@ import sympy as sp
 
 import symbolic
 import symbolic.export as export
-from symbolic.derive.simplify import trig_zero
+from symbolic.derivation.simplify import trig_zero
 
 GOLDEN = Path(__file__).parent / "golden"
 TEXT = ("double_pendulum.h", "double_pendulum.c", "double_pendulum.md", "double_pendulum_casadi.py")

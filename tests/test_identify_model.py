@@ -171,12 +171,6 @@ def test_patched_values_say_where_they_come_from() -> None:
     assert "l1 = 0.25   # identified from log.csv\n" in raw
 
 
-def test_flexible_model_is_refused_with_a_reason(tmp_path: Path) -> None:
-    model = symbolic.derive(robots.load("single_flexible_link"))
-    with pytest.raises(symbolic.ModelError, match="flexible links"):
-        identify_model(model, tmp_path / "missing.csv")
-
-
 @pytest.mark.slow
 def test_consistent_fit_keeps_bodies_valid_and_recovers_what_the_data_determine() -> None:
     """PUMA 560 (whose nominal link 1 violates the triangle inequality, as Corke's numbers do): the

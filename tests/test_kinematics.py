@@ -13,7 +13,7 @@ import pytest
 import sympy as sp
 
 from conftest import derived
-from symbolic.derive.kinematics import dh_transform, unskew
+from symbolic.derivation.kinematics import dh_transform, unskew
 from symbolic.numeric import numeric_model
 
 

@@ -20,7 +20,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("symbolic.errors", "symbolic.version", "symbolic.writing", "symbolic.plotting", "symbolic.cache"),
     ("symbolic.description", "symbolic.robots", "symbolic.spec"),  # symbolic.spec: the deprecated alias
     ("symbolic.data",),
-    ("symbolic.derive",),
+    ("symbolic.derivation",),
     ("symbolic.codegen",),
     ("symbolic.numeric",),
     ("symbolic.simulation",),
@@ -95,12 +95,12 @@ def test_no_module_imports_a_higher_layer() -> None:
 @pytest.mark.parametrize(
     "module, source",
     [
-        ("symbolic.description.robot", "from symbolic.derive.mode_shapes import BOUNDARIES\n"),
-        ("symbolic.derive.dynamics", "def f():\n    from symbolic.numeric import numeric_model\n"),
+        ("symbolic.description.robot", "from symbolic.derivation.mode_shapes import BOUNDARIES\n"),
+        ("symbolic.derivation.dynamics", "def f():\n    from symbolic.numeric import numeric_model\n"),
         ("symbolic.export.markdown", "from symbolic import __version__\n"),
         ("symbolic.codegen.casadi", "import symbolic.simulation.controller\n"),
         ("symbolic.numeric.statespace", "from symbolic.simulation import simulate\n"),
-        ("symbolic.derive.analysis", "from ..numeric import statics\n"),
+        ("symbolic.derivation.analysis", "from ..numeric import statics\n"),
     ],
 )
 def test_a_deliberately_upward_import_is_caught(module: str, source: str) -> None:
@@ -108,7 +108,7 @@ def test_a_deliberately_upward_import_is_caught(module: str, source: str) -> Non
 
 
 def test_downward_and_sibling_imports_pass() -> None:
-    source = "from symbolic.description.robot import Robot\nfrom symbolic.derive import christoffel\nfrom . import exported\n"
+    source = "from symbolic.description.robot import Robot\nfrom symbolic.derivation import christoffel\nfrom . import exported\n"
     assert upward_imports(source, "symbolic.codegen.casadi") == []
 
 

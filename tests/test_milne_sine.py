@@ -18,7 +18,7 @@ from scipy.integrate import solve_ivp
 import symbolic
 from symbolic import data
 from symbolic.data import DataError, Experiment, Measurements
-from symbolic.derive import DynamicModel, derive
+from symbolic.derivation import DynamicModel, derive
 from symbolic.reproduction.milne.yaw_inertia import inertia_form
 from symbolic.errors import ModelError
 from symbolic.reproduction.milne import sine

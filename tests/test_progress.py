@@ -14,8 +14,8 @@ import sympy as sp
 
 from conftest import derived
 from symbolic import cli
-from symbolic.derive import analysis
-from symbolic.derive.simplify import compact
+from symbolic.derivation import analysis
+from symbolic.derivation.simplify import compact
 
 
 def run(*args: str) -> subprocess.CompletedProcess:
@@ -96,7 +96,7 @@ def test_show_prints_large_entries_as_intermediates(monkeypatch, capsys) -> None
     """With the limit below some of fivebar's entries, those are printed in intermediates whose
     definitions follow; entries under the limit keep their compact form."""
     fivebar = derived("fivebar")
-    from symbolic.derive import simplify
+    from symbolic.derivation import simplify
 
     monkeypatch.setattr(simplify, "SIZE_LIMIT", 40)
     cli.show(fivebar)

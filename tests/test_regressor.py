@@ -1,8 +1,8 @@
 """The parameter regressor τ = Y(q, q̇, q̈)·θ and the base parameters (Khalil & Dombre 14; Janot (2)–(7), V.D).
 
 Checks: Y·θ(p) equals the inverse dynamics at random states and random parameters (1e-10 relative)
-for every rigid built-in robot, friction, drives and forces included; the map from model-file
-parameters to θ on a body written by hand; the number of base parameters against the rank of
+for every rigid built-in robot, friction, drives and forces included (models with beams:
+tests/test_regressor_beams.py); the map from model-file parameters to θ on a body written by hand; the number of base parameters against the rank of
 Pinocchio's joint-torque regressor (an independent implementation) for the Panda (43) and the
 PUMA 560 (36); Janot's regrouped set of V.D.
 """
@@ -18,7 +18,7 @@ import sympy as sp
 
 import symbolic
 from conftest import derived
-from symbolic.derive.regressor import regressor
+from symbolic.derivation.regressor import regressor
 from symbolic.errors import ModelError
 from symbolic.numeric import numeric_model
 from symbolic.numeric.base_parameters import base_parameters, regressor_function, theta_values
@@ -71,11 +71,6 @@ def test_emps_theta_and_base_parameters_are_the_published_model() -> None:
     base = base_parameters(model, reg)
     assert [str(e) for e in base.expressions] == ["M_carriage", "Fvq", "Fcq", "offq"]
     assert np.allclose(base.values, [95.1089, 203.5034, 20.3935, -3.1648], rtol=1e-15)
-
-
-def test_flexible_models_are_refused_with_a_reason() -> None:
-    with pytest.raises(ModelError, match="flexible links"):
-        regressor(load("single_flexible_link"))
 
 
 def test_force_that_is_not_polynomial_in_its_parameters_is_refused() -> None:

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from symbolic.derive.mode_shapes import clamped_free_roots
+from symbolic.derivation.mode_shapes import clamped_free_roots
 from symbolic.numeric.estimator import kalman_gain
 from symbolic.reproduction.madill import items as madill
 

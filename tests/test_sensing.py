@@ -7,9 +7,9 @@ import pytest
 import sympy as sp
 
 import symbolic
-from symbolic.derive.flexible import beam_jacobian, beam_point
+from symbolic.derivation.flexible import beam_jacobian, beam_point
 from symbolic.codegen.functions import compile_function
-from symbolic.derive.sensing import (check_strain_matrix, force_from_root_strain, generalized_force, strain_matrix,
+from symbolic.derivation.sensing import (check_strain_matrix, force_from_root_strain, generalized_force, strain_matrix,
                               tip_deflection, tip_deflection_from_strain)
 from symbolic.numeric import numeric_model
 

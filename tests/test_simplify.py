@@ -17,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import derived
-from symbolic.derive.simplify import compact, reduce_pythagoras, tree_size, trig_monomials, collect_monomials
+from symbolic.derivation.simplify import compact, reduce_pythagoras, tree_size, trig_monomials, collect_monomials
 
 a, b = sp.symbols("a b", real=True)
 q1, q2 = sp.symbols("q1 q2", real=True)

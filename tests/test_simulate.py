@@ -13,7 +13,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from pathlib import Path
 
@@ -23,7 +22,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, fsolve
 
 import symbolic
-from symbolic.data import DataError, Measurements
+from symbolic.data import DataError, Experiment, Measurements, Settings
 from symbolic.simulation import controller as control
 from symbolic.numeric import natural_frequencies
 from symbolic.simulation import simulate
@@ -179,19 +178,21 @@ def truth(model: symbolic.DynamicModel, duration: float = 1.5, rate: float = 100
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="written against the API before the one experiment loader (Measurements.identification, [controller] as a table); to port next session", strict=True)
 def test_resimulated_log_agrees_to_the_noise_level(pendulum: symbolic.DynamicModel) -> None:
     t, ref, q, qd, qdd, tau = truth(pendulum)
     rng = np.random.default_rng(1)
     logged = np.floor(q / RESOLUTION + 0.5) * RESOLUTION + rng.normal(0, SIGMA_Q, q.shape)
     log = Measurements.from_arrays(t, ["q1", "q2"], logged, tau + rng.normal(0, SIGMA_TAU, tau.shape), ref=ref)
-    log = dataclasses.replace(log, identification={"bandwidth": 3.0})
+    log = Experiment.of(log, settings=Settings(bandwidth=3.0))
     exact = Measurements.from_arrays(t, ["q1", "q2"], q, tau, qd=qd, qdd=qdd)
-    noise = compare(log, exact).relative_errors()  # the truth itself against its log: the noise level
     table = {"kind": "pd", "kp": KP.tolist(), "kd": KD.tolist(), "reference": "ref",
              "quantisation": [RESOLUTION, RESOLUTION]}
-    right = simulate(pendulum, log, controller=table).compare().relative_errors()
-    wrong = simulate(pendulum, log, controller=table, parameters={"m1": 1.1, "m2": 0.88}).compare().relative_errors()
+    comparisons = [compare(log, exact),  # the truth itself against its log: the noise level
+                   simulate(pendulum, log, controller=table).compare(),
+                   simulate(pendulum, log, controller=table, parameters={"m1": 1.1, "m2": 0.88}).compare()]
+    # every comparison filters the log with the experiment's treatment: cut-off 5 × 3 Hz, not the rule's 5 × 20 Hz
+    assert [c.treatment.cutoff for c in comparisons] == [15.0] * 3
+    noise, right, wrong = (c.relative_errors() for c in comparisons)
     for c in ("q1", "q2"):
         for signal in SIGNALS:
             assert right[c][signal] <= 1.3 * noise[c][signal], (c, signal, right[c][signal], noise[c][signal])

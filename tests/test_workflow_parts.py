@@ -160,7 +160,7 @@ def test_only_the_held_out_tail_of_the_record_continues_it() -> None:
 
 def test_diagnose_accepts_a_built_in_name_as_the_cli_does() -> None:
     """``diagnose("emps", ...)`` derives the built-in model (the CLI's MODEL argument is a path or a name)."""
-    from symbolic.workflow.diagnose import _derived
+    from symbolic.workflow.diagnosis import _derived
 
     assert _derived("emps").name == "emps"
 

@@ -62,7 +62,8 @@ def controller_table(model, q0: np.ndarray, resolution: float, coordinates: tupl
 def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate: float = 500.0,
                  resolution: float = 2 * np.pi / 2**20, measured: tuple[str, ...] | None = None,
                  pulses: float = 0.0, held: bool = False, logged_feedforward: bool = False,
-                 current: tuple[float, int] | None = None) -> Measurements:
+                 current: tuple[float, int] | None = None, unactuated: tuple[str, ...] = (),
+                 deflection_noise: float = 0.0) -> Measurements:
     """Data of the truth model ``text`` simulated in closed loop (:func:`symbolic.simulation.simulator.simulate`):
     a PD loop (:func:`controller_table`) with a computed-torque feedforward (:func:`_feedforward`) follows
     the Fourier reference, reads an encoder of ``resolution`` (default 20 bits per turn: with 18 bits, the twice-differentiated quantisation left in q̈ below the 50 Hz cut-off — errors in the regressor that the F-test does not model — made 1–2 % effects at the band edge significant);
@@ -76,7 +77,11 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     ``logged_feedforward``: the log keeps the feedforward
     (columns ``ff_<c>``) and the controller table adds it as its disturbance, so that a simulation of a
     model in the logged loop (``diagnose(simulate=True)``) is driven as the truth was. ``current`` = (level,
-    bits) adds the force measured as a drive's current (:func:`current_like`) after the white noise."""
+    bits) adds the force measured as a drive's current (:func:`current_like`) after the white noise.
+    ``unactuated``: coordinates logged as well, outside the loop and with zero force (a link's deflection, a
+    beam's modal coordinates): quantised like the others (an encoder on the deflection), or, with
+    ``deflection_noise`` > 0, with white noise of that fraction of the largest of their ranges instead (strain
+    gauges' noise floor, the same on each)."""
     model = symbolic.derive(symbolic.loads(text, "<truth>"))
     coordinates = tuple(measured or model.robot.coordinates)
     t = np.arange(0.0, seconds, 1.0 / rate)
@@ -94,6 +99,7 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     order = [names.index(c) for c in coordinates]
     q = np.asarray(run.simulated.q)[:, order]
     command = np.asarray(run.simulated.tau)[:, order]
+    free = np.asarray(run.simulated.q)[:, [names.index(c) for c in unactuated]]
     # the force the controller holds over [t_k, t_k+1), reported at t_k as an integrating current sensor
     # does: its mean over [t_k − T/2, t_k + T/2], aligned with the positions (a log of the held command
     # leads them by half a sample, which the inverse model reads as a small inertia or lag term)
@@ -102,8 +108,16 @@ def measurements(text: str, seed: int, noise: float, seconds: float = 40.0, rate
     tau = tau + rng.normal(0, 1, tau.shape) * noise * np.sqrt(np.mean(tau**2, axis=0))
     if current is not None:
         tau = current_like(tau, rng, *current)
-    logged = Measurements.from_arrays(t, coordinates, np.round(q / resolution) * resolution, tau, ref=reference,
-                                      extras=extras if logged_feedforward else None)
+    if unactuated:
+        if deflection_noise > 0:
+            free = free + rng.normal(0, 1, free.shape) * deflection_noise * np.ptp(free, axis=0).max()
+        else:
+            free = np.round(free / resolution) * resolution
+        reference = np.hstack([reference, np.zeros_like(free)])  # the loop holds no reference for them
+    q = np.round(q / resolution) * resolution
+    if unactuated:
+        q, tau, coordinates = np.hstack([q, free]), np.hstack([tau, np.zeros_like(free)]), coordinates + tuple(unactuated)
+    logged = Measurements.from_arrays(t, coordinates, q, tau, ref=reference, extras=extras if logged_feedforward else None)
     if logged_feedforward:
         return Experiment.of(logged, controller=table)
     return Experiment.of(logged, controller={k: v for k, v in table.items() if k != "disturbance"})
@@ -165,9 +179,96 @@ def _feedforward(model, coordinates, q, qd, qdd, t) -> np.ndarray:
     return np.array([num.inverse_dynamics(x[:, 0], x[:, 1], x[:, 2])[rows] for x in full])
 
 
+MODELS = Path(__file__).resolve().parent / "models"
+"""Model files written for the tests (tests/models/)."""
+
+
+def flexible_rig(stiffness_factor: float = 1.0) -> str:
+    """Text of the hub + link + torsional spring rig (tests/models/flexible_rig.toml), its root stiffness
+    Ks multiplied by ``stiffness_factor`` (the truth of a case whose model file has it wrong)."""
+    text = (MODELS / "flexible_rig.toml").read_text(encoding="utf-8")
+    old = "Ks = { value = 1.0,"
+    assert text.count(old) == 1
+    return text.replace(old, f"Ks = {{ value = {1.0 * stiffness_factor!r},")
+
+
 def model_file(folder: Path, text: str, name: str = "model.toml") -> Path:
     """Write a model file for the workflow to read (and patch)."""
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / name
     path.write_text(text, encoding="utf-8")
     return path
+
+
+def flexible_link(tip_mass: float, damper: float, friction: str = 'viscous = "Fv"', parameters: str = "Fv = 0.5\n") -> str:
+    """The built-in flexible single link (Madill's beam on a hub, ``single_flexible_link.toml``) made to ring
+    within the data treatment's pass band: a tip mass of ``tip_mass`` kg (1 kg brings the first bending mode
+    with the hub held from ≈ 65 Hz down to ≈ 8.6 Hz and gives it ≈ 30 % of the hub's inertia), one vertical
+    mode (gravity acts along the hub's axis: the vertical bending does not couple to the hub at rest), a
+    damper ``damper`` on the first horizontal modal coordinate (structural damping; the model format has no
+    beam damping key, a ``[[force]]`` on the modal coordinate is one) and friction on the hub."""
+    from symbolic import robots
+
+    text = robots.path("single_flexible_link").read_text(encoding="utf-8")
+    for old, new in (("modes_w = 2", 'modes_w = 1\ntip_mass = "m_t"'),
+                     ("\n[[frame]]", f"m_t = {tip_mass!r}\nc_b = {damper!r}\n{parameters}\n[[frame]]")):
+        assert text.count(old) == 1, old
+        text = text.replace(old, new)
+    return text + f'''
+[[friction]]
+coordinate = "q0"
+{friction}
+
+[[force]]
+name = "structural_damping"
+coordinate = "link_nu1"
+expression = "-c_b*qd_link_nu1"
+'''
+
+
+def planar_flexible_link(hub: float = 0.05, tip_mass: float = 0.1, stiffness: float = 10.0, damper: float = 3.3,
+                         friction: str = 'viscous = "Fv"', damped: bool = True) -> str:
+    """:func:`flexible_link` as a laboratory flexible-link rig: one horizontal mode, no vertical bending
+    (``modes_w = 0``: gravity acts along the hub's axis, the out-of-plane bending does not couple to the hub),
+    a light hub of ``hub`` kg·m² and a soft beam (EI = ``stiffness`` N·m²) with a tip mass of ``tip_mass`` kg,
+    so that the beam's first mode (10.4 Hz with the hub free, 8.7 Hz held) is within the treatment's band and
+    the hub's torque feels it. ``damped=False`` leaves out the structural damper of the first mode."""
+    text = flexible_link(tip_mass, damper, friction).replace("modes_v = 2", "modes_v = 1").replace("modes_w = 1", "modes_w = 0")
+    for old, new in (("EIv = { value = 88.32", f"EIv = {{ value = {stiffness!r}"), ("EIw = { value = 88.32", f"EIw = {{ value = {stiffness!r}"),
+                     ("I_h = { value = 0.677", f"I_h = {{ value = {hub!r}")):
+        assert text.count(old) == 1, old
+        text = text.replace(old, new)
+    return text if damped else text[:text.index("[[force]]")]
+
+
+RIGID_LINK = '''# The flexible single link as a rigid body: hub and beam (with its tip mass) turning as one.
+name = "rigid_link"
+description = "hub and link as one rigid body"
+coordinates = ["q0"]
+gravity = ["0", "0", "-9.81"]
+
+[parameters]
+J = {{ value = {J!r}, unit = "kg*m^2", description = "hub, beam and tip mass about the hub axis" }}
+Fv = 0.5
+
+[[frame]]
+name = "e"
+parent = "base"
+dh = {{ theta = "q0", d = "0", a = "0", alpha = "0" }}
+
+[[body]]
+name = "hub_and_link"
+frame = "e"
+mass = "0"
+inertia = {{ xx = "J/2", yy = "J/2", zz = "J" }}
+
+[[friction]]
+coordinate = "q0"
+viscous = "Fv"
+'''
+
+
+def rigid_link(inertia: float) -> str:
+    """The rigid counterpart of :func:`flexible_link`: one body of the whole ``inertia`` about the hub axis
+    and the same friction, nothing but the flexibility missing."""
+    return RIGID_LINK.format(J=inertia)

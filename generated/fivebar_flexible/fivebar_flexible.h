@@ -42,10 +42,67 @@ extern "C" {
  *   [20] m_p = 0.043 kg -- strain-gauge unit at the tip of link 5
  *
  * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
+ *
+ * Standard parameters theta (regressor column): tau = regressor(q, qd, qdd, p) * standard_parameters(p).
+ *   [0] XX_0p
+ *   [1] XY_0p
+ *   [2] XZ_0p
+ *   [3] YY_0p
+ *   [4] YZ_0p
+ *   [5] ZZ_0p
+ *   [6] MX_0p
+ *   [7] MY_0p
+ *   [8] MZ_0p
+ *   [9] M_0p
+ *   [10] XX_c2
+ *   [11] XY_c2
+ *   [12] XZ_c2
+ *   [13] YY_c2
+ *   [14] YZ_c2
+ *   [15] ZZ_c2
+ *   [16] MX_c2
+ *   [17] MY_c2
+ *   [18] MZ_c2
+ *   [19] M_c2
+ *   [20] XX_c3
+ *   [21] XY_c3
+ *   [22] XZ_c3
+ *   [23] YY_c3
+ *   [24] YZ_c3
+ *   [25] ZZ_c3
+ *   [26] MX_c3
+ *   [27] MY_c3
+ *   [28] MZ_c3
+ *   [29] M_c3
+ *   [30] XX_c1
+ *   [31] XY_c1
+ *   [32] XZ_c1
+ *   [33] YY_c1
+ *   [34] YZ_c1
+ *   [35] ZZ_c1
+ *   [36] MX_c1
+ *   [37] MY_c1
+ *   [38] MZ_c1
+ *   [39] M_c1
+ *   [40] XX_c4
+ *   [41] XY_c4
+ *   [42] XZ_c4
+ *   [43] YY_c4
+ *   [44] YZ_c4
+ *   [45] ZZ_c4
+ *   [46] MX_c4
+ *   [47] MY_c4
+ *   [48] MZ_c4
+ *   [49] M_c4
+ *   [50] rho_link5
+ *   [51] EIv_link5
+ *   [52] EIw_link5
+ *   [53] mp_link5
  */
 
 #define fivebar_flexible_NQ 7
 #define fivebar_flexible_NP 21
+#define fivebar_flexible_NTHETA 54
 #define fivebar_flexible_P_g 0
 #define fivebar_flexible_P_l1 1
 #define fivebar_flexible_P_l2 2
@@ -71,6 +128,7 @@ extern "C" {
 extern const char *const fivebar_flexible_coordinate_names[fivebar_flexible_NQ];
 extern const char *const fivebar_flexible_parameter_names[fivebar_flexible_NP];
 extern const double fivebar_flexible_parameter_defaults[fivebar_flexible_NP];
+extern const char *const fivebar_flexible_theta_names[fivebar_flexible_NTHETA];
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 447 operations, sine and cosine of 2 angles. */
@@ -107,6 +165,14 @@ void fivebar_flexible_inverse_dynamics(const double *q, const double *qd, const 
 /* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
  * 58 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_end_effector_jacobian(const double *q, const double *p, double *J);
+
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * 1467 operations, sine and cosine of 2 angles. */
+void fivebar_flexible_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y);
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, beams, rotor inertias, friction, forces)
+ * 1 operations. */
+void fivebar_flexible_standard_parameters(const double *p, double *theta);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */

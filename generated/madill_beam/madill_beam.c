@@ -6,6 +6,7 @@
 const char *const madill_beam_coordinate_names[madill_beam_NQ] = { "q0", "beam_nu1", "beam_nu2", "beam_nu3", "beam_eta1" };
 const char *const madill_beam_parameter_names[madill_beam_NP] = { "g", "J0", "L", "rho", "EI", "M_p" };
 const double madill_beam_parameter_defaults[madill_beam_NP] = { 9.81, 0.677, 0.449, 0.163, 88.32, 0.043 };
+const char *const madill_beam_theta_names[madill_beam_NTHETA] = { "XX_e", "XY_e", "XZ_e", "YY_e", "YZ_e", "ZZ_e", "MX_e", "MY_e", "MZ_e", "M_e", "rho_beam", "EIv_beam", "EIw_beam", "mp_beam" };
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output D[25]
@@ -234,6 +235,143 @@ void madill_beam_inverse_dynamics(const double *q, const double *qd, const doubl
     tau[2] = -v39;
     tau[3] = v40;
     tau[4] = v41;
+}
+
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qdd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output Y[70]
+ * 116 operations. */
+void madill_beam_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y)
+{
+    const double v0 = (q[1]*q[1]);
+    const double v1 = (q[2]*q[2]);
+    const double v2 = (q[3]*q[3]);
+    const double v3 = pow(p[2], 1.5);
+    const double v4 = 2.0*qd[0];
+    const double v5 = 1.0/(p[2]);
+    const double v6 = 8.0*v5;
+    const double v7 = q[2]*v6;
+    const double v8 = 4.0*v5;
+    const double v9 = sqrt(p[2]);
+    const double v10 = v6*(q[1] - q[2] + q[3]);
+    const double v11 = qd[0]*v10;
+    const double v12 = (qd[0]*qd[0]);
+    const double v13 = 1.0/((p[2]*p[2]*p[2]*p[2]));
+    const double v14 = 12.362363368326191*v13;
+    const double v15 = 2.0*v9;
+    const double v16 = qdd[0]*v15 - 0.5*v10*v12;
+    const double v17 = (0.3333333333333333)*(p[2]*p[2]*p[2]) + v0 + v1 + v2;
+    const double v18 = 0.5688257437099108*v3;
+    const double v19 = 0.09076678688638697*v3;
+    const double v20 = 0.032416374369744434*v3;
+    const double v21 = q[1]*qd[1]*v4 + qdd[1]*v18 + q[2]*qd[2]*v4 + qdd[2]*v19 + q[3]*qd[3]*v4 + qdd[3]*v20 + qdd[0]*v17;
+    const double v22 = (p[2]*p[2]) + q[1]*q[3]*v6 - q[1]*v7 - q[3]*v7 + v0*v8 + v1*v8 + v2*v8;
+    const double v23 = qdd[1]*v15 + qd[1]*v11 - qdd[2]*v15 - qd[2]*v11 + qdd[3]*v15 + qd[3]*v11 + qdd[0]*v22;
+    const double v24 = -q[1]*v12 + qdd[1] + qdd[0]*v18;
+    const double v25 = q[1]*v14;
+    const double v26 = qdd[1]*v8 + v16 - v8*(qdd[2] - qdd[3]);
+    const double v27 = -q[2]*v12 + qdd[2] + qdd[0]*v19;
+    const double v28 = 485.51881851337106*q[2]*v13;
+    const double v29 = qdd[2]*v8 - v16 - v8*(qdd[1] + qdd[3]);
+    const double v30 = -q[3]*v12 + qdd[3] + qdd[0]*v20;
+    const double v31 = 3806.546266391451*q[3]*v13;
+    const double v32 = qdd[3]*v8 + v16 + v8*(qdd[1] - qdd[2]);
+    const double v33 = 0.7829917560396258*p[0]*v9;
+    const double v34 = qdd[4] + v33;
+    const double v35 = q[4]*v14;
+    const double v36 = 2.0*p[0]/v9;
+    const double v37 = qdd[4]*v8 + v36;
+    Y[0] = 0.0;
+    Y[1] = 0.0;
+    Y[2] = 0.0;
+    Y[3] = 0.0;
+    Y[4] = 0.0;
+    Y[5] = qdd[0];
+    Y[6] = 0.0;
+    Y[7] = 0.0;
+    Y[8] = 0.0;
+    Y[9] = 0.0;
+    Y[10] = v21;
+    Y[11] = 0.0;
+    Y[12] = 0.0;
+    Y[13] = v23;
+    Y[14] = 0.0;
+    Y[15] = 0.0;
+    Y[16] = 0.0;
+    Y[17] = 0.0;
+    Y[18] = 0.0;
+    Y[19] = 0.0;
+    Y[20] = 0.0;
+    Y[21] = 0.0;
+    Y[22] = 0.0;
+    Y[23] = 0.0;
+    Y[24] = v24;
+    Y[25] = v25;
+    Y[26] = 0.0;
+    Y[27] = v26;
+    Y[28] = 0.0;
+    Y[29] = 0.0;
+    Y[30] = 0.0;
+    Y[31] = 0.0;
+    Y[32] = 0.0;
+    Y[33] = 0.0;
+    Y[34] = 0.0;
+    Y[35] = 0.0;
+    Y[36] = 0.0;
+    Y[37] = 0.0;
+    Y[38] = v27;
+    Y[39] = v28;
+    Y[40] = 0.0;
+    Y[41] = v29;
+    Y[42] = 0.0;
+    Y[43] = 0.0;
+    Y[44] = 0.0;
+    Y[45] = 0.0;
+    Y[46] = 0.0;
+    Y[47] = 0.0;
+    Y[48] = 0.0;
+    Y[49] = 0.0;
+    Y[50] = 0.0;
+    Y[51] = 0.0;
+    Y[52] = v30;
+    Y[53] = v31;
+    Y[54] = 0.0;
+    Y[55] = v32;
+    Y[56] = 0.0;
+    Y[57] = 0.0;
+    Y[58] = 0.0;
+    Y[59] = 0.0;
+    Y[60] = 0.0;
+    Y[61] = 0.0;
+    Y[62] = 0.0;
+    Y[63] = 0.0;
+    Y[64] = 0.0;
+    Y[65] = 0.0;
+    Y[66] = v34;
+    Y[67] = 0.0;
+    Y[68] = v35;
+    Y[69] = v37;
+}
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, beams, rotor inertias, friction, forces)
+ * Inputs: p[6] (see madill_beam_parameter_names); output theta[14]
+ * 1 operations. */
+void madill_beam_standard_parameters(const double *p, double *theta)
+{
+    const double v0 = (0.5)*p[1];
+    theta[0] = v0;
+    theta[1] = 0.0;
+    theta[2] = 0.0;
+    theta[3] = v0;
+    theta[4] = 0.0;
+    theta[5] = p[1];
+    theta[6] = 0.0;
+    theta[7] = 0.0;
+    theta[8] = 0.0;
+    theta[9] = 0.0;
+    theta[10] = p[3];
+    theta[11] = p[4];
+    theta[12] = p[4];
+    theta[13] = p[5];
 }
 
 /* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).

@@ -25,10 +25,27 @@ extern "C" {
  *   [5] M_p = 0.043 kg -- axial force sensor at the tip
  *
  * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
+ *
+ * Standard parameters theta (regressor column): tau = regressor(q, qd, qdd, p) * standard_parameters(p).
+ *   [0] XX_e
+ *   [1] XY_e
+ *   [2] XZ_e
+ *   [3] YY_e
+ *   [4] YZ_e
+ *   [5] ZZ_e
+ *   [6] MX_e
+ *   [7] MY_e
+ *   [8] MZ_e
+ *   [9] M_e
+ *   [10] rho_beam
+ *   [11] EIv_beam
+ *   [12] EIw_beam
+ *   [13] mp_beam
  */
 
 #define madill_beam_NQ 5
 #define madill_beam_NP 6
+#define madill_beam_NTHETA 14
 #define madill_beam_P_g 0
 #define madill_beam_P_J0 1
 #define madill_beam_P_L 2
@@ -39,6 +56,7 @@ extern "C" {
 extern const char *const madill_beam_coordinate_names[madill_beam_NQ];
 extern const char *const madill_beam_parameter_names[madill_beam_NP];
 extern const double madill_beam_parameter_defaults[madill_beam_NP];
+extern const char *const madill_beam_theta_names[madill_beam_NTHETA];
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 52 operations. */
@@ -71,6 +89,14 @@ void madill_beam_applied(const double *q, const double *qd, const double *p, dou
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * 138 operations. */
 void madill_beam_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
+
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * 116 operations. */
+void madill_beam_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y);
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, beams, rotor inertias, friction, forces)
+ * 1 operations. */
+void madill_beam_standard_parameters(const double *p, double *theta);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */

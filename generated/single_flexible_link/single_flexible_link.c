@@ -6,6 +6,7 @@
 const char *const single_flexible_link_coordinate_names[single_flexible_link_NQ] = { "q0", "link_nu1", "link_nu2", "link_eta1", "link_eta2" };
 const char *const single_flexible_link_parameter_names[single_flexible_link_NP] = { "g", "I_h", "l", "rho", "EIv", "EIw" };
 const double single_flexible_link_parameter_defaults[single_flexible_link_NP] = { 9.81, 0.677, 0.449, 0.163, 88.32, 88.32 };
+const char *const single_flexible_link_theta_names[single_flexible_link_NTHETA] = { "XX_e", "XY_e", "XZ_e", "YY_e", "YZ_e", "ZZ_e", "MX_e", "MY_e", "MZ_e", "M_e", "rho_link", "EIv_link", "EIw_link" };
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output D[25]
@@ -200,6 +201,120 @@ void single_flexible_link_inverse_dynamics(const double *q, const double *qd, co
     tau[2] = v24;
     tau[3] = v25;
     tau[4] = v26;
+}
+
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qdd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output Y[65]
+ * 46 operations. */
+void single_flexible_link_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y)
+{
+    const double v0 = pow(p[2], 1.5);
+    const double v1 = 2.0*qd[0];
+    const double v2 = (qd[0]*qd[0]);
+    const double v3 = 1.0/((p[2]*p[2]*p[2]*p[2]));
+    const double v4 = 12.362363368326191*v3;
+    const double v5 = 485.51881851337106*v3;
+    const double v6 = p[0]*sqrt(p[2]);
+    const double v7 = (0.3333333333333333)*(p[2]*p[2]*p[2]) + (q[1]*q[1]) + (q[2]*q[2]);
+    const double v8 = 0.5688257437099108*v0;
+    const double v9 = 0.09076678688638697*v0;
+    const double v10 = q[1]*qd[1]*v1 + qdd[1]*v8 + q[2]*qd[2]*v1 + qdd[2]*v9 + qdd[0]*v7;
+    const double v11 = -q[1]*v2 + qdd[1] + qdd[0]*v8;
+    const double v12 = q[1]*v4;
+    const double v13 = -q[2]*v2 + qdd[2] + qdd[0]*v9;
+    const double v14 = q[2]*v5;
+    const double v15 = 0.7829917560396258*v6;
+    const double v16 = qdd[3] + v15;
+    const double v17 = q[3]*v4;
+    const double v18 = 0.4339358951107193*v6;
+    const double v19 = qdd[4] + v18;
+    const double v20 = q[4]*v5;
+    Y[0] = 0.0;
+    Y[1] = 0.0;
+    Y[2] = 0.0;
+    Y[3] = 0.0;
+    Y[4] = 0.0;
+    Y[5] = qdd[0];
+    Y[6] = 0.0;
+    Y[7] = 0.0;
+    Y[8] = 0.0;
+    Y[9] = 0.0;
+    Y[10] = v10;
+    Y[11] = 0.0;
+    Y[12] = 0.0;
+    Y[13] = 0.0;
+    Y[14] = 0.0;
+    Y[15] = 0.0;
+    Y[16] = 0.0;
+    Y[17] = 0.0;
+    Y[18] = 0.0;
+    Y[19] = 0.0;
+    Y[20] = 0.0;
+    Y[21] = 0.0;
+    Y[22] = 0.0;
+    Y[23] = v11;
+    Y[24] = v12;
+    Y[25] = 0.0;
+    Y[26] = 0.0;
+    Y[27] = 0.0;
+    Y[28] = 0.0;
+    Y[29] = 0.0;
+    Y[30] = 0.0;
+    Y[31] = 0.0;
+    Y[32] = 0.0;
+    Y[33] = 0.0;
+    Y[34] = 0.0;
+    Y[35] = 0.0;
+    Y[36] = v13;
+    Y[37] = v14;
+    Y[38] = 0.0;
+    Y[39] = 0.0;
+    Y[40] = 0.0;
+    Y[41] = 0.0;
+    Y[42] = 0.0;
+    Y[43] = 0.0;
+    Y[44] = 0.0;
+    Y[45] = 0.0;
+    Y[46] = 0.0;
+    Y[47] = 0.0;
+    Y[48] = 0.0;
+    Y[49] = v16;
+    Y[50] = 0.0;
+    Y[51] = v17;
+    Y[52] = 0.0;
+    Y[53] = 0.0;
+    Y[54] = 0.0;
+    Y[55] = 0.0;
+    Y[56] = 0.0;
+    Y[57] = 0.0;
+    Y[58] = 0.0;
+    Y[59] = 0.0;
+    Y[60] = 0.0;
+    Y[61] = 0.0;
+    Y[62] = v19;
+    Y[63] = 0.0;
+    Y[64] = v20;
+}
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, beams, rotor inertias, friction, forces)
+ * Inputs: p[6] (see single_flexible_link_parameter_names); output theta[13]
+ * 1 operations. */
+void single_flexible_link_standard_parameters(const double *p, double *theta)
+{
+    const double v0 = (0.5)*p[1];
+    theta[0] = v0;
+    theta[1] = 0.0;
+    theta[2] = 0.0;
+    theta[3] = v0;
+    theta[4] = 0.0;
+    theta[5] = p[1];
+    theta[6] = 0.0;
+    theta[7] = 0.0;
+    theta[8] = 0.0;
+    theta[9] = 0.0;
+    theta[10] = p[3];
+    theta[11] = p[4];
+    theta[12] = p[5];
 }
 
 /* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).

@@ -25,10 +25,26 @@ extern "C" {
  *   [5] EIw = 88.32 N*m^2 -- bending stiffness, vertical
  *
  * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
+ *
+ * Standard parameters theta (regressor column): tau = regressor(q, qd, qdd, p) * standard_parameters(p).
+ *   [0] XX_e
+ *   [1] XY_e
+ *   [2] XZ_e
+ *   [3] YY_e
+ *   [4] YZ_e
+ *   [5] ZZ_e
+ *   [6] MX_e
+ *   [7] MY_e
+ *   [8] MZ_e
+ *   [9] M_e
+ *   [10] rho_link
+ *   [11] EIv_link
+ *   [12] EIw_link
  */
 
 #define single_flexible_link_NQ 5
 #define single_flexible_link_NP 6
+#define single_flexible_link_NTHETA 13
 #define single_flexible_link_P_g 0
 #define single_flexible_link_P_I_h 1
 #define single_flexible_link_P_l 2
@@ -39,6 +55,7 @@ extern "C" {
 extern const char *const single_flexible_link_coordinate_names[single_flexible_link_NQ];
 extern const char *const single_flexible_link_parameter_names[single_flexible_link_NP];
 extern const double single_flexible_link_parameter_defaults[single_flexible_link_NP];
+extern const char *const single_flexible_link_theta_names[single_flexible_link_NTHETA];
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * 13 operations. */
@@ -71,6 +88,14 @@ void single_flexible_link_applied(const double *q, const double *qd, const doubl
 /* tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)
  * 69 operations. */
 void single_flexible_link_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
+
+/* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
+ * 46 operations. */
+void single_flexible_link_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y);
+
+/* theta(p): the standard parameters (Khalil's per-frame inertial parameters, beams, rotor inertias, friction, forces)
+ * 1 operations. */
+void single_flexible_link_standard_parameters(const double *p, double *theta);
 
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 import sympy as sp
 
-from symbolic.derive.subexpressions import Subexpressions
+from symbolic.derivation.subexpressions import Subexpressions
 from symbolic.codegen.c_printer import CPrinter
 
 

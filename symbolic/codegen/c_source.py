@@ -7,7 +7,7 @@ import time
 
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
+from symbolic.derivation.dynamics import DynamicModel
 from symbolic.codegen.c_printer import CPrinter, c_double
 from symbolic.codegen.exported import (
     batched_programs, function_specs, input_symbols, model_regressor, programs, solved_specs,

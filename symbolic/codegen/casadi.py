@@ -16,7 +16,7 @@ import casadi as ca
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-from symbolic.derive.dynamics import DynamicModel
+from symbolic.derivation.dynamics import DynamicModel
 from symbolic.codegen.exported import (
     SOLVED_INPUT_SIZES, FunctionSpec, function_specs, input_symbols, programs, solved_specs, timed,
 )

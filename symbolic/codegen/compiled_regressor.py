@@ -16,7 +16,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.subexpressions import Subexpressions
+from symbolic.derivation.subexpressions import Subexpressions
 from symbolic.codegen.c_batch import batch_source
 from symbolic.codegen.compiled import shared_library
 

@@ -14,18 +14,18 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.products import Product
-from symbolic.derive.regressor import Regressor
-from symbolic.derive.subexpressions import Subexpressions
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.products import Product
+from symbolic.derivation.regressor import Regressor
+from symbolic.derivation.subexpressions import Subexpressions
 from symbolic.codegen.program import BatchedTrig, Program, batch_trig, build_program
 
 log = logging.getLogger(__name__)
 
 
-def model_regressor(model: DynamicModel) -> Regressor | None:
-    """The parameter regressor of ``model`` (:meth:`DynamicModel.regressor`), or None for models it does not cover (beams)."""
-    return None if model.robot.beams else model.regressor()
+def model_regressor(model: DynamicModel) -> Regressor:
+    """The parameter regressor of ``model`` (:meth:`DynamicModel.regressor`, derived once)."""
+    return model.regressor()
 
 
 @dataclass(frozen=True)
@@ -108,9 +108,9 @@ def solved_specs(model: DynamicModel) -> list[SolvedSpec]:
 
 def function_specs(model: DynamicModel) -> list[FunctionSpec]:
     """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, applied, inverse_dynamics, and
-    end_effector_jacobian (models with an end effector) and the regressor (rigid models).
+    end_effector_jacobian (models with an end effector) and the regressor.
 
-    Every output is a part of the one composition in :func:`symbolic.derive.derive`; nothing is
+    Every output is a part of the one composition in :func:`symbolic.derivation.derive`; nothing is
     assembled here.
     """
     r = model.reduced
@@ -142,14 +142,13 @@ def _jacobian_specs(model: DynamicModel) -> list[FunctionSpec]:
 
 def _regressor_specs(model: DynamicModel) -> list[FunctionSpec]:
     reg = model_regressor(model)
-    if reg is None:
-        return []
     n, t = model.n, len(reg.theta)
+    kinds = "per-frame inertial parameters, beams" if model.robot.beams else "per-frame inertial parameters"
     return [
         FunctionSpec("regressor", timed(model, "q", "qd", "qdd", "p"), "Y", n, t, tuple(reg.Y),
                      "Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)", reg.sub),
         FunctionSpec("standard_parameters", ("p",), "theta", t, 1, tuple(reg.theta_expressions),
-                     "theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)"),
+                     f"theta(p): the standard parameters (Khalil's {kinds}, rotor inertias, friction, forces)"),
     ]
 
 

@@ -12,7 +12,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.subexpressions import Subexpressions
+from symbolic.derivation.subexpressions import Subexpressions
 
 
 def _lambdified(sub: Subexpressions, arguments, outputs, shape, module: str):

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.derive.subexpressions import Subexpressions
+from symbolic.derivation.subexpressions import Subexpressions
 
 
 @dataclass(frozen=True)

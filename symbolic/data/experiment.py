@@ -143,6 +143,8 @@ def load(
     coordinates = None if coordinates is None else tuple(coordinates)
     if isinstance(data, Measurements):
         loaded = data if isinstance(data, Experiment) else Experiment.of(data)
+        if coordinates is not None:  # arrays in any order: arranged as the model's (a missing one named)
+            loaded = loaded.arranged(coordinates)
     elif experiment is not None:
         loaded = _read_experiment(Path(experiment), coordinates, model, resample, data=Path(data))
     elif files.kind(Path(data)) == "experiment":

@@ -10,8 +10,8 @@ reference velocity ``refd_c``).
 
 from __future__ import annotations
 
-import math
 import dataclasses
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -136,6 +136,25 @@ class Measurements:
             cut[kind] = None if values is None else _readonly(values[start:stop])
         extras = MappingProxyType({k: _readonly(v[start:stop]) for k, v in self.extras.items()})
         return dataclasses.replace(self, extras=extras, **cut)
+    def arranged(self, coordinates: tuple[str, ...] | list[str]) -> Measurements:
+        """These measurements with their columns in the order of a model's ``coordinates`` (what
+        :func:`symbolic.data.load` does for a file); a :class:`DataError` names the first coordinate without
+        a signal, or a signal for a coordinate the model does not have."""
+        coordinates = tuple(coordinates)
+        if coordinates == self.coordinates:
+            return self
+        extra = [c for c in self.coordinates if c not in coordinates]
+        if extra:
+            raise DataError(str(self.source), "coordinates", f"signal for coordinate {extra[0]!r}, which the model does not "
+                                                             f"have (its coordinates: {', '.join(coordinates)})")
+        missing = [c for c in coordinates if c not in self.coordinates]
+        if missing:
+            raise DataError(str(self.source), "coordinates", f"no signal for coordinate{'s' * (len(missing) > 1)} "
+                                                             f"{', '.join(missing)} ({_contract()})")
+        order = [self.coordinates.index(c) for c in coordinates]
+        columns = {kind: None if getattr(self, kind) is None else _readonly(getattr(self, kind)[:, order])
+                   for kind in ("q", "tau", "qd", "qdd", "ref")}
+        return dataclasses.replace(self, coordinates=coordinates, **columns)
 
     @classmethod
     def from_arrays(

@@ -1,7 +1,7 @@
 """The description layer: frozen, validated descriptions of robots (:class:`Robot` and its entries), the safe
-expression parser and TOML model files. The built-in robots' files are in :mod:`symbolic.robots`.
+expression parser, TOML model files and URDF files (:mod:`symbolic.description.urdf`). The built-in robots' files are in :mod:`symbolic.robots`.
 
-Nothing here derives anything: :mod:`symbolic.derive` turns a :class:`Robot` into equations.
+Nothing here derives anything: :mod:`symbolic.derivation` turns a :class:`Robot` into equations.
 
 >>> from symbolic.description import loads
 >>> robot = loads('''
@@ -32,11 +32,11 @@ from __future__ import annotations
 from symbolic.description.modelfile import load, loads
 from symbolic.description.parameters import ParameterVector
 from symbolic.description.robot import (
-    Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Parameter, Robot, Stribeck,
+    Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Joint, Parameter, Robot, Stribeck,
 )
 from symbolic.description.validation import validate
 
 __all__ = [
-    "Beam", "Body", "Constraint", "Directional", "Drive", "EndEffector", "Force", "Frame", "Friction", "Parameter",
-    "ParameterVector", "Robot", "Stribeck", "load", "loads", "validate",
+    "Beam", "Body", "Constraint", "Directional", "Drive", "EndEffector", "Force", "Frame", "Friction", "Joint",
+    "Parameter", "ParameterVector", "Robot", "Stribeck", "load", "loads", "validate",
 ]

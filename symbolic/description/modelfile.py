@@ -15,8 +15,8 @@ from symbolic.errors import ModelError, shown
 from symbolic.description.expressions import check_magnitude
 from symbolic.description.validation import validate
 from symbolic.description.robot import (
-    DH_KEYS, INERTIA_KEYS, Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Parameter,
-    Robot, Stribeck,
+    DH_KEYS, INERTIA_KEYS, LIMIT_KEYS, Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction,
+    Joint, Parameter, Robot, Stribeck,
 )
 
 TOP_KEYS = {
@@ -37,8 +37,10 @@ TOP_KEYS = {
 }
 
 
-def load(path: str | Path) -> Robot:
-    """Load and validate a model file.
+def load(path: str | Path, *, root: str | None = None, tip: str | None = None) -> Robot:
+    """Load and validate a model file: TOML (docs/model-format.md), or URDF when the name ends in ``.urdf``.
+
+    ``root``/``tip`` choose a chain of a URDF tree (:func:`symbolic.description.urdf.load`).
 
     Raises
     ------
@@ -47,6 +49,12 @@ def load(path: str | Path) -> Robot:
     """
     path = Path(path)
     source = str(path)
+    if path.suffix.lower() == ".urdf":
+        from symbolic.description.urdf import load as load_urdf
+
+        return load_urdf(path, root=root, tip=tip)
+    if root is not None or tip is not None:
+        raise ModelError(source, "--root/--tip", "choose a chain only in a URDF file (a .urdf model)")
     try:
         text = path.read_bytes().decode("utf-8")
     except OSError as exc:
@@ -143,10 +151,40 @@ class _Reader:
 
     def frame(self, value: Any, index: int) -> Frame:
         key = f"[[frame]] #{index + 1}"
-        f = self.table(value, key, {"name", "parent", "dh"}, {"name", "parent", "dh"})
+        f = self.table(value, key, {"name", "parent", "dh", "origin", "joint", "coordinate"}, {"name", "parent"})
         name = self.string(f["name"], f"{key} name")
-        dh = self.table(f["dh"], f"[[frame]] {name!r} dh", set(DH_KEYS), set(DH_KEYS))
-        return Frame(name=name, parent=self.string(f["parent"], f"[[frame]] {name!r} parent"), **{k: dh[k] for k in DH_KEYS})
+        key = f"[[frame]] {name!r}"
+        parent = self.string(f["parent"], f"{key} parent")
+        general = {"origin", "joint", "coordinate"} & set(f)
+        if "dh" in f:
+            if general:
+                raise self.fail(key, f"give either dh or origin/joint/coordinate, not both (found {', '.join(sorted(general))})")
+            dh = self.table(f["dh"], f"{key} dh", set(DH_KEYS), set(DH_KEYS))
+            return Frame(name=name, parent=parent, **{k: dh[k] for k in DH_KEYS})
+        if not general:
+            raise self.fail(key, "missing key(s) ['dh'] (or origin and joint, as a URDF joint)")
+        return self.joint_frame(f, key, name, parent)
+
+    def joint_frame(self, f: Mapping[str, Any], key: str, name: str, parent: str) -> Frame:
+        """A frame given as a URDF joint is: origin = { xyz, rpy }, joint = { type, axis, limit }, coordinate."""
+        origin = self.table(f.get("origin", {}), f"{key} origin", {"xyz", "rpy"})
+        joint = self.table(f.get("joint", {"type": "fixed"}), f"{key} joint", {"type", "axis", "limit"}, {"type"})
+        kind = self.string(joint["type"], f"{key} joint.type")
+        limit = self.table(joint.get("limit", {}), f"{key} joint.limit", set(LIMIT_KEYS))
+        placement = Joint(
+            type=kind,
+            axis=tuple(self.array(joint.get("axis", [0, 0, 1]), f"{key} joint.axis")),
+            xyz=tuple(self.array(origin.get("xyz", [0, 0, 0]), f"{key} origin.xyz")),
+            rpy=tuple(self.array(origin.get("rpy", [0, 0, 0]), f"{key} origin.rpy")),
+            limits=dict(limit),
+        )
+        coordinate = f.get("coordinate", 0)
+        if kind == "fixed" and "coordinate" in f:
+            raise self.fail(f"{key} coordinate", "a fixed joint has no coordinate")
+        if kind != "fixed" and "coordinate" not in f:
+            raise self.fail(f"{key} coordinate", f"a {kind} joint needs a coordinate (e.g. coordinate = \"q1\")")
+        variable = "d" if kind == "prismatic" else "theta"
+        return Frame(name=name, parent=parent, joint=placement, **{variable: coordinate})
 
     def body(self, value: Any, index: int) -> Body:
         key = f"[[body]] #{index + 1}"

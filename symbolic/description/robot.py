@@ -28,8 +28,11 @@ FRAME_NAME = re.compile(r"^[A-Za-z0-9_']+$")
 CONVENTIONS = ("standard", "modified")
 INERTIA_KEYS = ("xx", "yy", "zz", "xy", "xz", "yz")
 DH_KEYS = ("theta", "d", "a", "alpha")
+JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
+"""Joint types of a frame given as a URDF joint is (:class:`Joint`)."""
+LIMIT_KEYS = ("lower", "upper", "velocity", "effort")
 BOUNDARIES = ("clamped-free",)
-"""Beam boundary conditions whose mode shapes :mod:`symbolic.derive.mode_shapes` provides."""
+"""Beam boundary conditions whose mode shapes :mod:`symbolic.derivation.mode_shapes` provides."""
 BASE = "base"
 C_KEYWORDS = frozenset(
     """auto break case char const continue default do double else enum extern float for goto if inline int long
@@ -96,12 +99,32 @@ class Parameter:
 
 
 @dataclass(frozen=True)
+class Joint:
+    """A frame placed as a URDF joint places its child link (docs/model-format.md, "General frames").
+
+    ``T = Trans(xyz)·Rot(rpy)·Rot(axis, θ)·Trans(axis·d)``: the constant origin (``rpy`` are fixed-axis
+    roll, pitch, yaw, ``Rot(rpy) = Rz(yaw)·Ry(pitch)·Rx(roll)`` as in URDF), then the joint's motion about or
+    along ``axis`` (in the frame's own axes). The joint variable is the frame's ``theta`` for
+    ``revolute``/``continuous`` joints and its ``d`` for ``prismatic`` ones; a ``fixed`` joint has neither.
+    ``limits`` holds the URDF limits that were given (lower, upper, velocity, effort), kept for reports.
+    """
+
+    type: str = "revolute"
+    axis: tuple[ExprLike, ExprLike, ExprLike] = (0, 0, 1)
+    xyz: tuple[ExprLike, ExprLike, ExprLike] = (0, 0, 0)
+    rpy: tuple[ExprLike, ExprLike, ExprLike] = (0, 0, 0)
+    limits: Mapping[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
 class Frame:
-    """A frame placed relative to ``parent`` by Denavit–Hartenberg parameters.
+    """A frame placed relative to ``parent`` by Denavit–Hartenberg parameters, or as a URDF joint.
 
     Standard convention: ``T = Rz(theta)·Tz(d)·Tx(a)·Rx(alpha)`` (Madill's A(θ,d,a,α), Table 3.1).
     Modified (Khalil–Kleinfinger / Craig): ``T = Rx(alpha)·Tx(a)·Rz(theta)·Tz(d)`` (Janot Table 1:
-    alpha = α_j, a = d_j, theta = θ_j, d = r_j).
+    alpha = α_j, a = d_j, theta = θ_j, d = r_j). With ``joint`` (a :class:`Joint`) the frame is a general
+    one: ``theta`` turns it about the joint axis, ``d`` moves it along, ``a`` and ``alpha`` are 0, and the
+    robot's DH convention does not apply to it.
     """
 
     name: str
@@ -110,6 +133,7 @@ class Frame:
     d: ExprLike = 0
     a: ExprLike = 0
     alpha: ExprLike = 0
+    joint: Joint | None = None
 
 
 @dataclass(frozen=True)

@@ -22,8 +22,9 @@ from symbolic.description.expressions import (
     MAX_LENGTH, RESERVED_NAMES, check_magnitude, check_value, parse_expression, variable_names,
 )
 from symbolic.description.robot import (
-    BASE, BOUNDARIES, C_KEYWORDS, CONVENTIONS, DH_KEYS, FRAME_NAME, IDENTIFIER, INERTIA_KEYS, MODEL_NAME,
-    TIME, TIME_NAME, Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Robot, Stribeck,
+    BASE, BOUNDARIES, C_KEYWORDS, CONVENTIONS, DH_KEYS, FRAME_NAME, IDENTIFIER, INERTIA_KEYS, JOINT_TYPES, LIMIT_KEYS,
+    MODEL_NAME, TIME, TIME_NAME, Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Joint,
+    Robot, Stribeck,
     coordinate_symbol, velocity_name, velocity_symbol,
 )
 
@@ -32,11 +33,11 @@ _STANDALONE_TIME = re.compile(rf"(?<![A-Za-z0-9_]){TIME_NAME}(?![A-Za-z0-9_])")
 """Time written as a name of its own (a cheap test before parsing for it: most expressions have none)."""
 
 MAX_MODES = 6
-"""Assumed modes per beam direction (:mod:`symbolic.derive.mode_shapes` is accurate up to 6)."""
+"""Assumed modes per beam direction (:mod:`symbolic.derivation.mode_shapes` is accurate up to 6)."""
 
 
 def _modes_ok(beam: Beam) -> bool:
-    return all(isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= MAX_MODES for n in (beam.modes_v, beam.modes_w))
+    return all(isinstance(n, int) and not isinstance(n, bool) and 0 <= n <= MAX_MODES for n in (beam.modes_v, beam.modes_w))
 
 
 def validate(robot: Robot) -> Robot:
@@ -215,12 +216,72 @@ class _Validator:
                 raise self.fail(f"{key} parent", f"frame {shown(f.name, 40)} is its own parent")
             if f.parent != BASE and f.parent not in names:
                 raise self.fail(f"{key} parent", f"parent frame {shown(f.parent, 40)} does not exist (frames: {listing([BASE, *names])})")
+            if f.joint is not None:
+                converted[f.name] = self.joint_frame(f, key, coordinates, parameters)
+                continue
             values = {}
             for k in DH_KEYS:
                 allowed = coordinates | parameters if k in ("theta", "d") else parameters
                 values[k] = self.expr(getattr(f, k), f"{key} dh.{k}", allowed)
             converted[f.name] = Frame(f.name, f.parent, **values)
         self.set("frames", tuple(converted[n] for n in self.toposort(converted)))
+
+    def joint_frame(self, f: Frame, key: str, coordinates: set[str], parameters: set[str]) -> Frame:
+        """A general frame (docs/model-format.md, "General frames"): origin, joint type, unit axis, limits.
+
+        The axis is normalised (u/|u|, exact for numbers); the joint variable sits in ``theta`` (revolute,
+        continuous) or ``d`` (prismatic), and every other DH entry must be 0.
+        """
+        j = f.joint
+        if not isinstance(j, Joint):
+            raise self.fail(f"{key} joint", f"expected a Joint, got {type(j).__name__}")
+        if j.type not in JOINT_TYPES:
+            raise self.fail(f"{key} joint.type", f"unknown joint type {shown(j.type, 40)} (allowed: {', '.join(JOINT_TYPES)})")
+        vectors = {}
+        for name in ("xyz", "rpy", "axis"):
+            where = f"{key} {'joint.axis' if name == 'axis' else 'origin.' + name}"
+            value = tuple(getattr(j, name))
+            if len(value) != 3:
+                raise self.fail(where, f"needs 3 entries, got {len(value)}")
+            vectors[name] = tuple(self.expr(x, f"{where}[{i}]", parameters) for i, x in enumerate(value))
+        axis = sp.Matrix(vectors["axis"])
+        length = self.nominal(sp.sqrt((axis.T * axis)[0]), f"{key} joint.axis")
+        if j.type != "fixed" and not length > 1e-9:
+            raise self.fail(f"{key} joint.axis", f"the axis of a {j.type} joint must not be zero (nominal length {length:g})")
+        if j.type != "fixed":
+            norm = sp.sqrt(sp.Add(*[x**2 for x in axis]))
+            vectors["axis"] = tuple(x / norm for x in axis)
+        moving = {"revolute": "theta", "continuous": "theta", "prismatic": "d"}.get(j.type)
+        values = {}
+        for k in DH_KEYS:
+            allowed = coordinates | parameters if k == moving else set()
+            what = "coordinate" if k == moving else f"dh.{k}"
+            values[k] = self.expr(getattr(f, k), f"{key} {what}", allowed)
+            if k != moving and values[k] != 0:
+                raise self.fail(f"{key} {what}", f"a frame with a {j.type} joint has no {k} (it is given by origin and joint)")
+        if moving is not None and not values[moving].free_symbols & {coordinate_symbol(c) for c in coordinates}:
+            raise self.fail(f"{key} coordinate", f"a {j.type} joint needs a coordinate (e.g. coordinate = \"q1\")")
+        limits = self.limits(j.limits, f"{key} joint")
+        joint = Joint(j.type, vectors["axis"], vectors["xyz"], vectors["rpy"], limits)
+        return Frame(f.name, f.parent, joint=joint, **values)
+
+    def limits(self, limits: Any, key: str) -> dict[str, float]:
+        """URDF limits: finite numbers among lower, upper, velocity, effort; lower <= upper."""
+        if not isinstance(limits, Mapping):
+            raise self.fail(f"{key} limits", f"expected a table of {', '.join(LIMIT_KEYS)}")
+        extra = set(limits) - set(LIMIT_KEYS)
+        if extra:
+            raise self.fail(f"{key} limits", f"unknown entries {sorted(extra)} (allowed: {', '.join(LIMIT_KEYS)})")
+        out = {}
+        for k in LIMIT_KEYS:
+            if k in limits:
+                v = limits[k]
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(float(v)):
+                    raise self.fail(f"{key} {k}", f"must be a finite number, got {shown(v, 40)}")
+                out[k] = float(v)
+        if out.get("lower", -np.inf) > out.get("upper", np.inf):
+            raise self.fail(f"{key} lower", f"lower = {out['lower']:g} is above upper = {out['upper']:g}")
+        return out
 
     def toposort(self, frames: Mapping[str, Frame]) -> list[str]:
         order: list[str] = []
@@ -281,10 +342,13 @@ class _Validator:
                 raise self.fail(f"{key} frame", f"frame {shown(b.frame, 40)} does not exist (frames: {listing(sorted(frames))})")
             for attr in ("modes_v", "modes_w"):
                 n = getattr(b, attr)
-                if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-                    raise self.fail(f"{key} {attr}", f"number of modes must be an integer >= 1, got {shown(n, 40)}")
+                if isinstance(n, bool) or not isinstance(n, int) or n < 0:
+                    raise self.fail(f"{key} {attr}", f"number of modes must be an integer >= 0, got {shown(n, 40)}")
                 if n > MAX_MODES:
                     raise self.fail(f"{key} {attr}", f"at most {MAX_MODES} modes per direction are supported (the mode shapes lose precision beyond), got {n}")
+            if b.modes_v + b.modes_w == 0:
+                raise self.fail(f"{key} modes_v", "a beam needs at least one mode (modes_v + modes_w >= 1; 0 in one "
+                                                  "direction for a beam that bends in one plane)")
             if b.boundary not in BOUNDARIES:
                 raise self.fail(f"{key} boundary", f"boundary {shown(b.boundary, 40)} is not supported (supported: {', '.join(BOUNDARIES)})")
             values = {}

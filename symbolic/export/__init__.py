@@ -23,7 +23,7 @@ import time
 from collections.abc import Iterable
 from pathlib import Path
 
-from symbolic.derive.dynamics import DynamicModel
+from symbolic.derivation.dynamics import DynamicModel
 from symbolic.export.output import replace_files
 from symbolic.errors import ExportError, ModelError
 
@@ -83,7 +83,7 @@ def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str |
     if "casadi" in targets:
         files.update(_casadi_files(model, head))
     if "report" in targets:
-        from symbolic.derive.analysis import decoupling
+        from symbolic.derivation.analysis import decoupling
         from symbolic.export.markdown import SMALL_MODEL, report_markdown
         from symbolic.codegen.exported import batched_programs, programs
         from symbolic.version import __version__

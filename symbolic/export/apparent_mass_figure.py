@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from symbolic.derive.dynamics import DynamicModel
+from symbolic.derivation.dynamics import DynamicModel
 from symbolic.plotting import MatplotlibMissing, figure_class, png_bytes
 from symbolic.numeric.operational import workspace_points
 

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
+from symbolic.derivation.dynamics import DynamicModel
 from symbolic.codegen.templates import render
-from symbolic.derive.simplify import compact
+from symbolic.derivation.simplify import compact
 
 MAX_INTERMEDIATES = 24
 """Entries needing more intermediate definitions than this are not expanded for the report
@@ -56,7 +56,7 @@ def _entry(model: DynamicModel, expr: sp.Expr, variables, names) -> str | None:
 def _latex(expr: sp.Expr, names=None) -> str:
     """LaTeX with every Float shown as the double nearest to it (17 significant digits), as in the C.
 
-    The derivation carries the modal constants at 50 digits (symbolic.derive.mode_shapes); they are
+    The derivation carries the modal constants at 50 digits (symbolic.derivation.mode_shapes); they are
     rounded here once, like the C printer does, instead of being printed with all their digits.
     """
     doubles = {f: sp.Float(float(f), 17) for f in expr.atoms(sp.Float)}
@@ -113,7 +113,7 @@ def report_markdown(
     """The reviewer's report NAME.md.
 
     ``operations`` maps each C function to (operations, angles); ``analysis`` is the
-    :func:`~symbolic.derive.analysis.decoupling` result to list (None: the section says how to get it).
+    :func:`~symbolic.derivation.analysis.decoupling` result to list (None: the section says how to get it).
     """
     r = model.reduced
     names = _latex_names(model)

@@ -39,8 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.regressor import Regressor
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.regressor import Regressor
 from symbolic.description.robot import Directional, coordinate_symbol, velocity_symbol
 from symbolic.errors import IdentificationError, ModelError, listing
 from symbolic.numeric.base_parameters import BaseParameters, base_parameters, theta_values
@@ -158,6 +158,10 @@ def role_signs(model: DynamicModel) -> dict[sp.Symbol, str]:
                 scaled(part, "a friction coefficient")
         if f.stribeck is not None:
             scaled(f.stribeck.static, "a friction coefficient")
+    for beam in robot.beams:
+        for value, role in ((beam.density, "a beam's density"), (beam.EI_v, "a bending stiffness"),
+                            (beam.EI_w, "a bending stiffness"), (beam.tip_mass, "a tip mass")):
+            scaled(value, role)
     for force in robot.forces:
         for variable, role in ((coordinate_symbol(force.coordinate), "a stiffness"),
                                (velocity_symbol(force.coordinate), "a damping")):

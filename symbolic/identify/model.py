@@ -1,7 +1,7 @@
 """Identification of a model file's parameters: the symbolic regressor, base parameters, IDIM-LS, and
 the way back to the model file (Janot IV–V; Khalil & Dombre 14; Gautier's IDIM-LS).
 
-:func:`identify_model` evaluates the model's regressor τ = Y·θ (:mod:`symbolic.derive.regressor`) on
+:func:`identify_model` evaluates the model's regressor τ = Y·θ (:mod:`symbolic.derivation.regressor`) on
 the measured states, keeps the base columns (:mod:`symbolic.numeric.base_parameters`) and solves for
 the base parameters β by the IDIM-LS pipeline of :mod:`symbolic.identify.pipeline`. The model file's
 own parameters follow in two ways:
@@ -35,9 +35,8 @@ import numpy as np
 import sympy as sp
 
 from symbolic.data import Measurements, load
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.regressor import Regressor
-from symbolic.errors import ModelError
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.regressor import Regressor
 from symbolic.codegen.compiled_regressor import compiled_batch
 from symbolic.identify.consistent import ConsistentFit
 from symbolic.identify.known import (beta_bounds, fixed_symbols, homogeneous_groups, model_parameters_of, not_separable,
@@ -142,9 +141,6 @@ class ModelIdentification:
 
 def model_base(model: DynamicModel) -> tuple[Regressor, BaseParameters]:
     """The regressor and base parameters of ``model`` (built once per model, kept in ``model.products`` and on disk)."""
-    if model.robot.beams:
-        raise ModelError(model.robot.source, "[[beam]]", "identification does not support flexible links yet "
-                         "(the regressor covers rigid models); identify the rigid part")
     return model.regressor(), model_base_parameters(model)
 
 
@@ -272,11 +268,17 @@ def geometric_parameters(model: DynamicModel, reg: Regressor) -> set[sp.Symbol]:
 def direct_parameters(model: DynamicModel, reg: Regressor, base: BaseParameters, ident: Identification,
                       fixed: frozenset[sp.Symbol] = frozenset()) -> dict[str, ModelParameter]:
     """Model parameters that a single base parameter determines: β = a·p + b with the other model
-    parameters in β fixed (geometry, and the ``fixed`` ones) — p = (β − b)/a, σ_p = σ_β/|a|."""
+    parameters in β fixed (geometry, and the ``fixed`` ones) — p = (β − b)/a, σ_p = σ_β/|a|.
+
+    When several base parameters determine the same p (one model parameter written in several places, e.g.
+    an ``EI`` shared by a beam's two bending directions), their values p_k are combined by generalized least
+    squares, p = (1ᵀC⁻¹1)⁻¹1ᵀC⁻¹p_k and σ_p² = (1ᵀC⁻¹1)⁻¹, with C the covariance of the p_k
+    (``ident.covariance`` scaled by 1/(a_k a_l); the diagonal σ_k² when ``ident`` has no covariance).
+    """
     fixed = geometric_parameters(model, reg) | set(fixed)
     nominal = model.parameters
     theta = dict(zip(reg.theta, reg.theta_expressions))
-    out: dict[str, ModelParameter] = {}
+    found: dict[sp.Symbol, list[tuple[int, float, float]]] = {}
     for k, expression in enumerate(base.expressions):
         in_parameters = sp.expand(expression.xreplace(theta))
         unknown = in_parameters.free_symbols - fixed
@@ -289,17 +291,43 @@ def direct_parameters(model: DynamicModel, reg: Regressor, base: BaseParameters,
         values = {s: v for s, v in nominal.items() if s in fixed}
         a_value = float(a.xreplace(values))
         b_value = float(in_parameters.xreplace({p: sp.Integer(0)}).xreplace(values))
-        if a_value == 0:
-            continue
-        estimate = ident.parameters[k]
-        value = (estimate.value - b_value) / a_value
-        sigma = estimate.sigma / abs(a_value)
+        if a_value != 0:
+            found.setdefault(p, []).append((k, a_value, b_value))
+    out: dict[str, ModelParameter] = {}
+    for p, determinations in found.items():
+        value, sigma = _combined(determinations, ident)
         relative = 100.0 * sigma / abs(value) if value != 0 else float("inf")
-        bound = getattr(estimate, "bound", None)
-        if bound is not None and a_value < 0:
-            bound = {"min": "max", "max": "min"}[bound]
-        out[p.name] = ModelParameter(p.name, value, sigma, relative, nominal[p], f"base parameter {base.names[k]}", bound)
+        names = ", ".join(base.names[k] for k, _, _ in determinations)
+        source = f"base parameter{'s' if len(determinations) > 1 else ''} {names}"
+        out[p.name] = ModelParameter(p.name, value, sigma, relative, nominal[p], source, _bound(determinations, ident))
     return out
+
+
+def _bound(determinations: list[tuple[int, float, float]], ident) -> str | None:
+    """The bound ("min"/"max") at which the parameter's one base parameter was held, flipped when a < 0."""
+    if len(determinations) != 1:
+        return None
+    k, a, _ = determinations[0]
+    bound = getattr(ident.parameters[k], "bound", None)
+    return {"min": "max", "max": "min"}[bound] if bound is not None and a < 0 else bound
+
+
+def _combined(determinations: list[tuple[int, float, float]], ident) -> tuple[float, float]:
+    """p and σ_p from the base parameters k with β_k = a_k·p + b_k (:func:`direct_parameters`)."""
+    index = [k for k, _, _ in determinations]
+    a = np.array([a for _, a, _ in determinations])
+    values = np.array([(ident.parameters[k].value - b) / a_k for k, a_k, b in determinations])
+    sigmas = np.array([ident.parameters[k].sigma for k in index]) / np.abs(a)
+    if len(index) == 1:
+        return float(values[0]), float(sigmas[0])
+    if not np.all(sigmas > 0):  # a base parameter kept at its known value: p is that value
+        known = sigmas == 0
+        return float(values[known].mean()), 0.0
+    covariance = getattr(ident, "covariance", None)
+    C = np.diag(sigmas**2) if covariance is None else np.asarray(covariance)[np.ix_(index, index)] / np.outer(a, a)
+    weights = np.linalg.solve(C, np.ones(len(index)))
+    information = float(weights.sum())
+    return float(weights @ values / information), float(np.sqrt(1.0 / information))
 
 
 def consistent_fit(model, reg: Regressor, base: BaseParameters, ident: Identification, observation,

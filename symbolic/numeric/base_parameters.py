@@ -2,7 +2,7 @@
 
 The columns of the stacked regressor W (Y at many random states, one block of N rows per state)
 that are linear combinations of others cannot be identified. The columns are taken in θ's order
-(links from the base outwards, Khalil's XX … M within a link, then drives, friction, forces) and a
+(links from the base outwards, Khalil's XX … M within a link, then beams, drives, friction, forces) and a
 column is a base column when it is not a combination of the columns before it: QR without pivoting
 of the column-normalised W, |R_kk| > ``tolerance`` (the relative residual of column k after its
 predecessors). This is the numerical form of Khalil and Gautier's regrouping rules: a link's YY,
@@ -30,15 +30,15 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.products import Product
-from symbolic.derive.regressor import Regressor
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.products import Product
+from symbolic.derivation.regressor import Regressor
 from symbolic.codegen.functions import compile_function
 
 TOLERANCE = 1e-8
 """A column whose residual after its predecessors is below this fraction of its norm is dependent."""
 
-KINDS = re.compile(r"^(XX|XY|XZ|YY|YZ|ZZ|MX|MY|MZ|M|Ia|Fvp|Fvn|Fv|Fcp|Fcn|Fc|Fs|off)(.*)$")
+KINDS = re.compile(r"^(XX|XY|XZ|YY|YZ|ZZ|MX|MY|MZ|M|rho|EIv|EIw|mp|Ia|Fvp|Fvn|Fv|Fcp|Fcn|Fc|Fs|off)(.*)$")
 
 
 @dataclass(frozen=True)

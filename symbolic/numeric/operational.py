@@ -21,8 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.transmission import constraint_jacobian
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.transmission import constraint_jacobian
 from symbolic.description.robot import Directional
 from symbolic.errors import SymbolicError
 from symbolic.numeric.statespace import numeric_model

@@ -17,8 +17,8 @@ from functools import cached_property
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.products import Product
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.products import Product
 from symbolic.codegen.functions import compile_function
 
 def numeric_model(model: DynamicModel) -> NumericModel:

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from symbolic.derive.dynamics import DynamicModel
+from symbolic.derivation.dynamics import DynamicModel
 from symbolic.numeric.statespace import numeric_model
 
 

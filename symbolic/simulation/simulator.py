@@ -29,8 +29,8 @@ import numpy as np
 import sympy as sp
 
 from symbolic.data import DataError, Experiment, Measurements, load
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.products import Product
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.products import Product
 from symbolic.simulation import controller as control
 from symbolic.codegen.casadi import CASADI_MODULE, _CasadiPrinter, cholesky_solve
 from symbolic.codegen.compiled import compile_casadi

@@ -15,7 +15,7 @@ With a model file and a measured log (the EMPS data are not shipped: ``../shared
 
 from __future__ import annotations
 
-from symbolic.workflow.diagnose import diagnose, simulated_path
+from symbolic.workflow.diagnosis import diagnose, simulated_path
 from symbolic.workflow.result import Diagnosis, Found, SimulatedSignals, Simulator
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Context, Effect, Signals, register
 from symbolic.workflow.search import SearchSettings

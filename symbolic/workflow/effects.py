@@ -28,7 +28,6 @@ registry key, or a contract identifier meaning all its variants (``--effects per
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -39,9 +38,10 @@ import sympy as sp
 
 from symbolic.data.controller import Controller
 from symbolic.description.robot import Directional, Robot, coordinate_symbol
+from symbolic.workflow.payload import PHYSICAL, chain_ends, physical_inertia, structure
 
 if TYPE_CHECKING:
-    from symbolic.derive.dynamics import DynamicModel
+    from symbolic.derivation.dynamics import DynamicModel
     from symbolic.workflow.patch import Editor
 
 Roles = dict[str, float | None]
@@ -65,6 +65,11 @@ class Context:
     """Time span of the estimation data (s), first to last sample."""
     rate: float = 0.0
     """Sampling rate of ``q``, ``qd``, ``qdd`` (Hz)."""
+    model: Any = None
+    """The derived model (:class:`symbolic.derivation.dynamics.DynamicModel`), for an effect whose columns
+    depend on the model's own span (a payload)."""
+    unactuated: frozenset[str] = frozenset()
+    """Coordinates whose force is zero throughout the data (no actuator: a homogeneous equation)."""
 
     def kind(self, coordinate: str) -> str:
         """``"revolute"`` (the coordinate is in a DH θ), ``"prismatic"`` (in a d) or ``"modal"``."""
@@ -173,6 +178,17 @@ class Effect:
         grid value explains): why the best value is not the effect's, judged on the whole scan, or
         ``None``. Default: nothing to say."""
         return None
+
+    def setting(self, context: Context, j: int) -> Any:
+        """For an effect without a nonlinear parameter: what fixes its form on coordinate ``j`` (a payload's
+        frame and columns), passed as ``value`` to :meth:`columns_at`, :meth:`roles_of` and :meth:`patch`.
+        Default ``None``."""
+        return None
+
+    def describe(self, value: Any) -> dict[str, Any]:
+        """Evidence about the effect's form for the report and the JSON (at ``value``: its nonlinear
+        parameter or :meth:`setting`). Default: nothing."""
+        return {}
 
     def reference_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, j: int) -> np.ndarray | None:
         """The column (``samples × N``) of the model's term whose current coefficient the effect needs
@@ -676,6 +692,11 @@ class Inertia(Effect):
 
     def applicable(self, context, j):
         c = context.coordinates[j]
+        if c in context.unactuated:
+            # the equation's scale is held at one of its parameters (workflow/terms.py, hold_scales): an inertia
+            # term on it only moves that scale again, and fits the errors-in-variables of its twice
+            # differentiated positions (0.04 % of the link's inertia, p = 1e-47, on the flexible rig)
+            return f"{c} has no actuator (τ = 0): an inertia on its equation only rescales it"
         return None if c in context.robot.coordinates else f"{c} is a modal coordinate"
 
     def columns(self, q, qd, qdd, j, value):
@@ -859,86 +880,74 @@ class FlexibleMode(Effect):
 
 
 class Payload(Effect):
-    """A point mass missing at the model's ``end_effector``: its weight and inertia forces on every
-    coordinate, m·Y_p(q, q̇, q̈) with Y_p the generalized force of a unit point mass there (derived once
-    per model from the model's own frames). Linear in m; tested once, on the last coordinate that moves
-    the end effector (the one reported); in the span of the model when the last link's inertial
-    parameters are free (a point mass there only changes them)."""
+    """A rigid payload on the last body of a chain (a tool, a load; :mod:`symbolic.workflow.payload`): its
+    weight and inertia forces on every coordinate, linear in its standard parameters, of which the
+    combinations the model's own free parameters do not span are the columns. Tested once per chain, on
+    the last coordinate that moves the chain's end (the one reported); roles: mass, centre of mass in
+    the frame and, when the data determine it, the inertia about the centre of mass (else a point mass)."""
 
-    name, roles, axis = "payload", ("mass",), "acceleration"
-    summary = "a point mass missing at the model's end effector (a tool, a load)"
+    name, roles, axis = "payload", PHYSICAL, "acceleration"
+    summary = "a rigid payload on the last body of a chain (a tool, a load): mass, centre of mass, inertia"
     groupable = False  # one payload acts on every coordinate already
 
-    def __init__(self) -> None:
-        self._unit: dict[int, tuple[Robot, Any]] = {}
-
     def applicable(self, context, j):
-        robot = context.robot
-        if robot.end_effector is None:
-            return "the model has no [end_effector]"
-        moving = _moving(robot, robot.end_effector.frame)
-        if not moving:
-            return "no coordinate moves the end effector"
-        last = max(moving, key=list(context.coordinates).index)
-        if context.coordinates[j] != last:
-            return f"a payload acts at the end effector: tested once, on {last}"
-        return None
+        if context.model is None:
+            return "needs the derived model"
+        ends = chain_ends(context.robot)
+        coordinate = context.coordinates[j]
+        if coordinate not in ends:
+            return ("a payload acts at the end of a chain: tested once per chain, on "
+                    + (", ".join(ends) if ends else "no coordinate (no frame moves)"))
+        return structure(context.model, ends[coordinate], coordinate).reason
 
-    def unit(self, robot: Robot):
-        """``(q, q̇, q̈) -> samples × N``: the generalized force of a unit point mass at the end effector."""
-        key = id(robot)
-        if key not in self._unit or self._unit[key][0] is not robot:
-            from symbolic.derive.dynamics import derive
-            from symbolic.identify.model import base_regressor, model_base
-            from symbolic.description.robot import Body
-            from symbolic.description.validation import validate
-
-            ee = robot.end_effector
-            point = validate(dataclasses.replace(
-                robot, name=f"{robot.name}_payload", bodies=(Body("payload", ee.frame, 1, tuple(ee.point)),),
-                frictions=(), drives=(), forces=(), beams=(), validated=False))
-            model = derive(point)
-            regressor, values = base_regressor(model), np.asarray(model_base(model)[1].values, float)
-            self._unit[key] = (robot, lambda q, qd, qdd: regressor(q, qd, qdd) @ values)
-        return self._unit[key][1]
+    def setting(self, context, j):
+        coordinate = context.coordinates[j]
+        return structure(context.model, chain_ends(context.robot)[coordinate], coordinate)
 
     def columns_at(self, signals, j, value):
-        tau = self.unit(signals.robot)(signals.q, signals.qd, signals.qdd)
-        return tau[:, :, None]
+        return value.columns(signals.q, signals.qd, signals.qdd)
 
     def columns(self, q, qd, qdd, j, value):
         raise TypeError("payload needs the model's geometry: use columns_at")
 
     def roles_of(self, c, value, reference):
-        return {"mass": float(c[0])}
+        return value.parameters(c)
 
     def check(self, roles, reference, context, j):
-        return None if roles["mass"] > 0 else f"mass {roles['mass']:.4g} is not positive"
+        return None if roles["mass"] is not None and roles["mass"] > 0 else f"mass {roles['mass']:.4g} is not positive"
+
+    def describe(self, value):
+        return {"payload": {"frame": value.frame, "model": "rigid body" if value.rigid else "point mass",
+                            "combinations": value.size}}
 
     def patch(self, editor, context, j, roles, c, value, comment):
-        ee = context.robot.end_effector
-        name = editor.parameter("m_payload", roles["mass"], comment)
-        editor.add_body("payload", ee.frame, name, None, comment, com=[_expression_text(x) for x in ee.point])
-        return {name: roles["mass"]}
+        written = {}
+        mass = editor.parameter("m_payload", roles["mass"], comment + "; mass")
+        written[mass] = roles["mass"]
+        com = []
+        for axis in "xyz":
+            v = roles[f"com_{axis}"]
+            if v is None:
+                com.append("0")
+                continue
+            name = editor.parameter(f"c_payload_{axis}", v, f"{comment}; centre of mass, {axis} in frame {value.frame}")
+            written[name] = v
+            com.append(name)
+        inertia = None
+        if value.rigid:
+            inertia = {}
+            for key, v in physical_inertia(roles).items():
+                name = editor.parameter(f"I_payload_{key}", v, f"{comment}; inertia about the centre of mass, {key}")
+                written[name] = v
+                inertia[key] = name
+        editor.add_body("payload", value.frame, mass, inertia, comment
+                        + ("" if value.rigid else "; a point mass: the data do not separate its own inertia"),
+                        com=com)
+        return written
 
 
 def _expression_text(value: Any) -> str:
     return str(value)
-
-
-def _moving(robot: Robot, frame: str) -> list[str]:
-    """The generalized coordinates in the DH entries of ``frame`` and its ancestors."""
-    by_name = {f.name: f for f in robot.frames}
-    symbols = {coordinate_symbol(c): c for c in robot.generalized_coordinates}
-    substitution = robot.constraint_substitution
-    found: set[str] = set()
-    while frame in by_name:
-        f = by_name[frame]
-        for key in ("theta", "d"):
-            free = sp.sympify(getattr(f, key)).xreplace(substitution).free_symbols
-            found |= {symbols[s] for s in free if s in symbols}
-        frame = f.parent
-    return sorted(found, key=list(robot.generalized_coordinates).index)
 
 
 def _joint_frame(robot: Robot, coordinate: str):

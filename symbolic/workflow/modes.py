@@ -1,4 +1,5 @@
-"""Closed-loop modes of a model under an experiment's discrete ``[controller]``, linearised at rest.
+"""Modes of a model linearised at rest: the plant's own (:func:`plant_modes`) and the closed loop's under an
+experiment's discrete ``[controller]`` (:func:`closed_loop_modes`).
 
 The plant is linearised about a rest position (``NumericModel.linearize``: A = ∂ẋ/∂x, B = ∂ẋ/∂τ, with
 τ holding the rest position against gravity and springs; Coulomb friction has no derivative away from
@@ -22,9 +23,25 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from symbolic.derive.dynamics import DynamicModel
+from symbolic.derivation.dynamics import DynamicModel
 from symbolic.simulation import controller as control
 from symbolic.numeric import numeric_model
+
+
+def plant_modes(model: DynamicModel, parameters: Mapping[str, float], position: np.ndarray | None = None) -> list[tuple[float, float]]:
+    """(damped frequency in Hz, damping ratio) of every oscillatory mode of the plant alone (τ held at what
+    keeps it at rest at ``position``, default 0), by frequency: the eigenvalues s of A = ∂ẋ/∂x
+    (``NumericModel.linearize``), Im(s)/2π and −Re(s)/|s| for Im(s) > 0 — the same measures as
+    :func:`closed_loop_modes`. Rigid-body motion (s = 0) and overdamped modes (real s) are not listed."""
+    p = model.parameter_vector.updated(parameters).array()  # a name the model does not have is refused
+    num = numeric_model(model)
+    n = model.n
+    q0 = np.zeros(n) if position is None else np.asarray(position, float)
+    A, _ = num.linearize(np.concatenate([q0, np.zeros(n)]), num.bias(q0, np.zeros(n), p), p)
+    s = np.linalg.eigvals(A)
+    scale = max(float(np.abs(s).max(initial=0.0)), 1e-300)
+    s = s[s.imag > 1e-9 * scale]
+    return sorted((float(v.imag / (2 * np.pi)), float(-v.real / abs(v))) for v in s)
 
 
 def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], table: control.Controller | Mapping[str, Any],

@@ -25,6 +25,10 @@ def _roles(roles: dict[str, Any], sigmas: dict[str, Any] | None = None) -> str:
     return ", ".join(parts)
 
 
+def _gap(value: float | None) -> str:
+    return "—" if value is None else f"{value:.4g} %"
+
+
 def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     lines += ["| " + " | ".join(_g(c) for c in row) + " |" for row in rows]
@@ -63,6 +67,45 @@ def _group_rows(g: Grouped, chosen: Judged | None) -> list[list[Any]]:
     return rows
 
 
+def _corrections(d: Diagnosis) -> list[str]:
+    """The model file's own values as the data re-identify them: corrections, every value changed, the modes."""
+    lines = ["## Corrections", "",
+             "The model file's own parameters, re-identified with the effects found: a value the data move beyond "
+             "3σ and beyond 10 % is a correction (σ of the fit × the residual's autocorrelation time; only a "
+             "parameter that one base parameter determines can be named, a combination is named as such).", ""]
+    if d.corrections:
+        lines += [f"* **{c['summary']}**" for c in d.corrections]
+        lines += [""] + _table(["parameter", "model file", "data (± σ)", "change", "σ away",
+                                "held-out gap at the file's value (with it)"],
+                               [[c["parameter"], c["nominal"], f"{_g(c['value'])} ± {_g(c['sigma'], 2)}",
+                                 "—" if c["relative_change"] is None else f"{100 * c['relative_change']:+.3g} %",
+                                 _g(c["evidence"]["sigmas"], 3),
+                                 f"{_g(c['evidence']['held_out_gap_at_nominal'])} % ({_g(c['evidence']['held_out_gap'])} %)"]
+                                for c in d.corrections])
+    else:
+        lines.append("No model-file value moves beyond 3σ and 10 %.")
+    lines.append("")
+    if d.changes:
+        lines += ["Values the patch changes:", ""]
+        lines += _table(["parameter", "model file", "patched", "σ", "change", ""],
+                        [[c["parameter"], c["nominal"], "removed" if c["status"] == "removed" else c["value"], c["sigma"],
+                          "—" if c["relative_change"] is None else f"{100 * c['relative_change']:+.3g} %",
+                          ("correction" if c["correction"] else "") + (f"kept: fitted {_g(c['fitted'])}, {c['reason']}"
+                                                                       if c["status"] == "kept" else "")]
+                         for c in d.changes])
+        lines.append("")
+    if d.modes is not None:
+        mode = lambda ms: ", ".join(f"{m['frequency_hz']:.4g} Hz (ζ {m['damping_ratio']:.3g})" for m in ms) or "none"  # noqa: E731
+        where = ", ".join(f"{c} = {v:.3g}" for c, v in d.modes["position"].items())
+        lines += [f"Modes, linearised at rest at the data's mean position ({where}): the plant alone with the model "
+                  f"file's values {mode(d.modes['before'])}; with the patched values {mode(d.modes['after'])}."]
+        loop = d.modes.get("closed_loop")
+        if loop is not None:
+            lines += [f"In the data's [controller] loop: {mode(loop['before'])} → {mode(loop['after'])}."]
+        lines.append("")
+    return lines
+
+
 def markdown(d: Diagnosis) -> str:
     """The report (module docstring)."""
     est, val = d.sets["estimation"], d.sets["validation"]
@@ -79,10 +122,12 @@ def markdown(d: Diagnosis) -> str:
             ["held out", f"{d.before.gap['validation']:.4g} %", f"{d.after.gap['validation']:.4g} %"]]
     lines += _table(["data", "before", "after"], rows)
     lines += ["", "Per coordinate (force):", ""]
-    rows = [[c, f"{d.before.detail['estimation'][c]:.4g} %", f"{d.after.detail['estimation'][c]:.4g} %",
-             f"{d.before.detail['validation'][c]:.4g} %", f"{d.after.detail['validation'][c]:.4g} %"]
+    rows = [[c] + [_gap(fit.detail[role][c]) for role in ("estimation", "validation") for fit in (d.before, d.after)]
             for c in est.coordinates]
     lines += _table(["coordinate", "estimation before", "estimation after", "held out before", "held out after"], rows)
+    if any(gap is None for gap in d.before.detail["estimation"].values()):
+        lines += ["", "— an unactuated coordinate (τ = 0 logged: a beam's modal coordinate): no gap relative to its "
+                      "force; its residual counts in the gap above."]
     if d.before.motion and d.after.motion:
         lines += ["", "Position and velocity of the simulation, 100·‖x_meas − x_sim‖/‖x_meas‖:", ""]
         rows = [[c, signal] + [f"{fit.motion[role][signal][c]:.4g} %" for role in ("estimation", "validation")
@@ -149,6 +194,7 @@ def markdown(d: Diagnosis) -> str:
         lines.append("")
     if NOT_SUPPORTED:
         lines += ["Not yet in the catalogue: " + "; ".join(f"`{k}` ({v})" for k, v in NOT_SUPPORTED.items()) + ".", ""]
+    lines += _corrections(d)
     lines += ["## Patch", ""]
     if d.patched_path is not None or d.patched_text is not None:
         name = d.patched_path.name if d.patched_path is not None else f"{d.model.name}_patched.toml"

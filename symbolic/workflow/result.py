@@ -1,4 +1,4 @@
-"""What :func:`symbolic.workflow.diagnose.diagnose` returns: the fits, the effects found, the JSON contract.
+"""What :func:`symbolic.workflow.diagnosis.diagnose` returns: the fits, the effects found, the JSON contract.
 
 Kept apart from the procedure so that the report and the figures (:mod:`.report`, :mod:`.figures`) read
 a diagnosis without importing the code that makes one.
@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import Measurements
-from symbolic.derive.dynamics import DynamicModel
+from symbolic.derivation.dynamics import DynamicModel
 from symbolic.workflow.dataset import DataSet
 from symbolic.workflow.effects import NOT_SUPPORTED
 from symbolic.workflow.search import Search, variant_of
@@ -94,6 +94,12 @@ class Diagnosis:
     figures: tuple[Path, ...] = ()
     data_findings: tuple[dict[str, Any], ...] = ()
     """What the data's treatment, not the model, explains (:func:`held_force_finding`)."""
+    corrections: tuple[dict[str, Any], ...] = ()
+    """Model-file values the data move beyond 3σ and 10 % (:mod:`symbolic.workflow.corrections`)."""
+    changes: tuple[dict[str, Any], ...] = ()
+    """Every model-file value the patch re-identified, removed, or kept because the fit is not physical."""
+    modes: dict[str, Any] | None = None
+    """Linearised modes before and after, for a model with elastic coordinates (``None`` otherwise)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON contract: model, found, gap_before, gap_after, gap_detail, patched_model (and more)."""
@@ -128,6 +134,9 @@ class Diagnosis:
                         for a, p, others in self.search.removed],
             "not_supported": dict(NOT_SUPPORTED),
             "data_findings": [dict(f) for f in self.data_findings],
+            "corrections": _plain(list(self.corrections)),
+            "parameter_changes": _plain(list(self.changes)),
+            "modes": _plain(self.modes),
             "notes": list(self.notes),
             "figures": [str(p) for p in self.figures],
         }

@@ -388,7 +388,9 @@ class Search:
         if p.cutoff is not None:
             passband = min(passband, p.cutoff)
         self.context = Context(terms.model.robot, estimation.coordinates, s.q[inner], s.qd[inner], s.qdd[inner], passband,
-                               p.decimation / p.rate, float(estimation.t[-1] - estimation.t[0]), float(p.rate))
+                               p.decimation / p.rate, float(estimation.t[-1] - estimation.t[0]), float(p.rate), terms.model,
+                               frozenset(c for c, column in zip(estimation.coordinates, np.asarray(estimation.tau).T)
+                                         if not np.any(column)))
         self.hypotheses = self._hypotheses()
         self.rounds: list[Round] = []
         self.accepted: list[Accepted] = []
@@ -973,6 +975,8 @@ class _RoundState:
             values, c.trials = grid
             c.value = self.scan(effect, j, values)
             scanned = self._scanned if np.ndim(values) == 1 else None
+        else:
+            c.value = effect.setting(search.context, j)
         Z = self.design.weighted("estimation", self.columns(effect, j, c.value, "estimation"))
         parts, why = self.project(Z, effect.optional)
         if parts is None:

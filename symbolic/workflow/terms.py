@@ -29,9 +29,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.products import Product
-from symbolic.derive.regressor import Regressor
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.products import Product
+from symbolic.derivation.regressor import Regressor
 from symbolic.identify.least_squares import Identification, ParameterEstimate, solve
 from symbolic.identify.known import FIX_HINT, beta_bounds, homogeneous_groups, model_parameters_of, scale_holds, split_base
 from symbolic.identify.model import ModelParameter, base_regressor, direct_parameters, geometric_parameters, model_base
@@ -214,6 +214,8 @@ def relative_gap(measured: np.ndarray, predicted: np.ndarray) -> float:
     return float(100.0 * np.linalg.norm(measured - predicted) / np.linalg.norm(measured))
 
 
-def coordinate_gaps(data: DataSet, predicted: np.ndarray) -> dict[str, float]:
-    """The same per coordinate."""
-    return {c: relative_gap(data.tau[:, j], predicted[:, j]) for j, c in enumerate(data.coordinates)}
+def coordinate_gaps(data: DataSet, predicted: np.ndarray) -> dict[str, float | None]:
+    """The same per coordinate; ``None`` for an unactuated coordinate (τ = 0 logged, a beam's modal
+    coordinate), whose gap relative to its force is not defined (its residual counts in the stacked gap)."""
+    return {c: relative_gap(data.tau[:, j], predicted[:, j]) if np.any(data.tau[:, j]) else None
+            for j, c in enumerate(data.coordinates)}

@@ -42,7 +42,7 @@ MINIMUM_PARAMETERS = ("ZZ1R MX1 MY1R FV1 FS1 OFFSET1 XX2R XY2R XZ2R YZ2R ZZ2R MX
 
 def _model():
     import symbolic.robots as robots
-    from symbolic.derive.dynamics import derive
+    from symbolic.derivation.dynamics import derive
     from symbolic.errors import ModelWarning
 
     with warnings.catch_warnings():
@@ -67,14 +67,14 @@ def items() -> list[Item]:
 
 def closed_loop_item(model) -> Item:
     """(12): Lᵀ = [∂q_p/∂q_a]ᵀ from the model's constraints (8), (9), (11), q_p = [q3 q6 q4], q_a = [q1 q2 q5]."""
-    from symbolic.derive.transmission import constraint_jacobian
+    from symbolic.derivation.transmission import constraint_jacobian
 
     robot = model.robot
     assert robot.constrained_coordinates == ("q3", "q6", "q4") and robot.coordinates == ("q1", "q2", "q5")
     ours = [float(x) for x in constraint_jacobian(robot).T]
     return compare(SOURCE, "(12) Lᵀ (row-major)", ["0", "0", "0", "-1", "1", "0", "1", "-1", "-1"], ours, "",
                    tolerance=0.0,
-                   how="`symbolic.derive.transmission.constraint_jacobian` of the built-in `janot_branch` (constraints (8) "
+                   how="`symbolic.derivation.transmission.constraint_jacobian` of the built-in `janot_branch` (constraints (8) "
                        "q3 = q5 − q2, (9) q6 = q2 − q5, (11) q4 = π/2 − q5), transposed; exact integers, judged exactly.")
 
 
@@ -155,8 +155,8 @@ def _common_name(name: str) -> str:
 
 def minimum_parameters_item(model) -> Item:
     """V.D: the 29 minimum parameters of the branch, recomputed from the model's regressor by QR."""
-    from symbolic.derive.dynamics import derive
-    from symbolic.derive.regressor import regressor
+    from symbolic.derivation.dynamics import derive
+    from symbolic.derivation.regressor import regressor
     from symbolic.numeric.base_parameters import base_parameters
     from symbolic.description.validation import validate
 
@@ -171,7 +171,7 @@ def minimum_parameters_item(model) -> Item:
     return compare(
         SOURCE, "V.D number of minimum parameters", str(len(MINIMUM_PARAMETERS)), float(len(base.names)), "",
         tolerance=0.0,
-        how=(f"`symbolic.numeric.base_parameters` (QR of the regressor of `symbolic.derive.regressor` at random states; "
+        how=(f"`symbolic.numeric.base_parameters` (QR of the regressor of `symbolic.derivation.regressor` at random states; "
              f"smallest relative residual of a kept column {base.gap[0]:.2g}, of a dependent one "
              f"{'below 1e-12' if base.gap[1] < 1e-12 else format(base.gap[1], '.1g')}) of the built-in `janot_branch` without the "
              f"passive-joint friction (Janot sets F_V3R = F_C3R = 0 before listing the set): every link carries all ten "

@@ -4,7 +4,7 @@ A joint P(s) = 1/(s(Js + B)) with Coulomb friction f under a proportional loop o
 peaks y_i of steps r_i lie on y = α (r − f/K), and the slope α, the r-intercept r0 and the mean time to
 the first peak t_p give f, ζ, ωn, J and B by Madill (5.6)–(5.9) (:func:`from_peaks`). :func:`identify`
 finds the steps and first peaks in arrays (t, q, reference, K) and :func:`identify_experiment` in an
-experiment file whose ``[controller]`` declares the loop (``kind = "pd"``, ``kp``, optional ``kd``,
+experiment file whose ``[controller]`` declares the loop (``kind = "pd"``, ``kp``, ``kd`` (0 for a P loop),
 ``gain``, ``delay``; docs/simulation.md); both return a :class:`FirstPeak` listing the steps used and
 rejected. Beyond the thesis, for sampled logs: each step is measured from where the joint rests, and B
 is corrected for the sampled loop's hold (a negative damping K·(½ + delay)·T) and for a ``kd`` term.

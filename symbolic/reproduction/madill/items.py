@@ -6,7 +6,7 @@ flexible link's frequencies ((5.10), (5.11), Table 5.6) and the axial joint's st
 
 Each value is computed by the package's own path: the derived built-in models (``fivebar``,
 ``madill_beam``, ``single_flexible_link``) and :func:`~symbolic.numeric.statespace.natural_frequencies`,
-the mode shapes of :mod:`symbolic.derive.mode_shapes`, :mod:`symbolic.numeric.statics`,
+the mode shapes of :mod:`symbolic.derivation.mode_shapes`, :mod:`symbolic.numeric.statics`,
 :func:`symbolic.reproduction.madill.first_peak.from_peaks` and :func:`symbolic.numeric.estimator.kalman_gain`.
 Rossi's characteristic equation (5.11) is written out here, as the thesis prints it but with β⁴ for
 β, as the independent reference for the assumed-modes frequency.
@@ -23,10 +23,10 @@ import numpy as np
 import sympy as sp
 from scipy.optimize import brentq
 
-from symbolic.derive.dynamics import derive
-from symbolic.derive.mode_shapes import clamped_free_roots
-from symbolic.derive.sensing import tip_deflection
-from symbolic.derive.simplify import trig_zero
+from symbolic.derivation.dynamics import derive
+from symbolic.derivation.mode_shapes import clamped_free_roots
+from symbolic.derivation.sensing import tip_deflection
+from symbolic.derivation.simplify import trig_zero
 from symbolic.reproduction.madill.first_peak import from_peaks
 from symbolic.numeric.estimator import kalman_gain
 from symbolic.numeric.statespace import natural_frequencies, numeric_model
@@ -118,7 +118,7 @@ def _inertia_matrix() -> list[Item]:
     return [compare(SOURCE, "(4.10) five-bar inertia matrix D(Q), entries differing", "0", float(differing), "",
                     tolerance=0.0,
                     how="The derived `fivebar` model's D(Q) minus (4.10) with α1, α2, α3 of (4.7)–(4.9), each entry "
-                        "reduced to zero symbolically (`symbolic.derive.simplify.trig_zero`); ours counts the entries "
+                        "reduced to zero symbolically (`symbolic.derivation.simplify.trig_zero`); ours counts the entries "
                         "that are not identically zero. (4.10) treats only the links: the turntable and base rotor "
                         "J0 of the model is added to its D00.")]
 
@@ -143,7 +143,7 @@ def _static_sag() -> list[Item]:
     exact = m * 9.81 * length**3 / (8 * E_ALUMINIUM * 0.128e-8)
     how = (f"`single_flexible_link` with (4.4)'s beam (m = 0.077 kg, l = 47.35 cm, I = 0.128 cm⁴, E = 69 GPa; the thesis "
            f"prints E = 69×10⁵ N-cm², a unit misprint for N/cm²) and {modes} vertical modes; the static sag from "
-           f"`symbolic.numeric.statics.residual_imbalance`, the tip from `symbolic.derive.sensing.tip_deflection`. "
+           f"`symbolic.numeric.statics.residual_imbalance`, the tip from `symbolic.derivation.sensing.tip_deflection`. "
            f"(4.4) itself gives mgl³/(8EI) = {exact * 100:.6f} cm, within {abs(tip / exact - 1):.1e} of the modes. ")
     return [
         compare(SOURCE, "(4.4) area moment of inertia of the tube", "0.128", inertia * 1e8, "cm^4",
@@ -246,7 +246,7 @@ def _clamped_free() -> list[Item]:
            f"that value truncated; the thesis truncates 30.6 % in 5.3.3 too.")
     return [
         compare(SOURCE, "(5.10) pl, first root of (B.9)", "1.875", k1, "",
-                how="`symbolic.derive.mode_shapes.clamped_free_roots`: cos k cosh k = −1 to 50 digits."),
+                how="`symbolic.derivation.mode_shapes.clamped_free_roots`: cos k cosh k = −1 to 50 digits."),
         compare(SOURCE, "(5.10) coefficient (pl)²", "3.516", k1**2, "", how="k₁² of the same root."),
         compare(SOURCE, "5.4.2 area moment of inertia I", "1.28e-9", inertia, "m^4",
                 how="I = h⁴/12 − (h − 2d)⁴/12, h = 1.27 cm, d = 0.127 cm."),

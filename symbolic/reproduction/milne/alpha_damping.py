@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from symbolic.data import DataError
-from symbolic.derive.dynamics import DynamicModel
+from symbolic.derivation.dynamics import DynamicModel
 from symbolic.numeric.statespace import numeric_model
 
 SOURCE = "<arrays>"

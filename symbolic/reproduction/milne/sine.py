@@ -452,7 +452,7 @@ def identify_joint(
     logs
         Measurements (:func:`symbolic.data.load` of data or experiment files), one per frequency, each
         with the joint's ``q_<c>`` and ``ref_<c>`` columns and a ``[controller]`` of kind ``pd`` (or
-        ``pid`` with ki = 0) declaring kp (and kd, default 0).
+        ``pid`` with ki = 0) declaring kp and kd (``kd = [0.0]`` for a P loop; the loader requires both).
     frequencies
         The reference frequency of each log (Hz). When omitted, each log's ``[constants] frequency``.
     coordinate

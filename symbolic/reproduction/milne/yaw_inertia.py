@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.simplify import trig_monomials
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.simplify import trig_monomials
 from symbolic.errors import ModelError
 from symbolic.errors import one_line as _one_line
 
@@ -74,7 +74,7 @@ def inertia_form(model: DynamicModel, coordinate: str, gamma1: str, gamma2: str,
     Parameters
     ----------
     model
-        A derived model (:func:`symbolic.derive.derive`).
+        A derived model (:func:`symbolic.derivation.derive`).
     coordinate
         The axis whose inertia is modelled (the Omni's yaw, ``theta``).
     gamma1, gamma2

@@ -29,14 +29,15 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import Controller, DataError, Experiment, Measurements
-from symbolic.derive.dynamics import DynamicModel, derive
+from symbolic.derivation.dynamics import DynamicModel, derive
 from symbolic.errors import ModelError
 from symbolic.identify.known import fixed_symbols
 from symbolic.identify.least_squares import IdentificationError
 from symbolic.data.treatment import Settings, settings_for
 from symbolic.description.modelfile import load as load_model
-from symbolic.description.modelfile import loads, with_loadable_values
+from symbolic.description.modelfile import loads
 from symbolic.description.robot import Robot
+from symbolic.workflow.corrections import FinalFit, physical_values, review
 from symbolic.workflow.dataset import DataSet, load_sets, with_held_force
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
 import symbolic.robots as robots
@@ -126,7 +127,7 @@ def diagnose(
     notes: list[str] = list(before.nominal.notes)
     found: list[Found] = []
     patched_text = patched_path = None
-    if source.is_file():
+    if source.is_file() and source.suffix.lower() != ".urdf":  # a URDF has no TOML text to patch (note below)
         editor = Editor(source.read_text(encoding="utf-8"), model.robot, str(source))
         written = []
         for a, final in zip(accepted, finals):
@@ -135,7 +136,7 @@ def diagnose(
             label = f"symbolic diagnose: {c.label()}"
             written.append(c.effect.patch(editor, selection.context, c.j, final["roles"], final["coefficients_full"],
                                           c.value, label))
-        editor.drop_unused()
+        removed = editor.drop_unused()
         name = f"{model.name}_patched.toml"
         target = Path(out) / name if out is not None else Path(name)
         try:
@@ -158,10 +159,13 @@ def diagnose(
         else:
             after = _fit(patched, sets, simulate, [n for n in fix if n in {p.name for p in patched.robot.parameters}])
         own = {k: v.value for k, v in after.nominal.parameters.items() if k in {p.name for p in model.robot.parameters}}
+        own, unphysical = _physical_beams(patched.robot, own)
+        notes += unphysical
         data_name = Path(str(estimation.measurements.source)).name
-        patched_text, kept = with_loadable_values(editor.text(), own, str(target),
-                                                  provenance=f"re-identified by symbolic diagnose on {data_name}")
-        notes += [f"{name} keeps its value in the patched model: the re-identified {reason}" for name, reason in kept.items()]
+        patched_text, own, kept = physical_values(editor.text(), own, str(target),
+                                                  f"re-identified by symbolic diagnose on {data_name}", model.robot)
+        notes += [f"{k['parameter']} is kept at the model file's value: the fitted {k['value']:.6g} is not physical "
+                  f"({k['reason']})" for k in kept]
         patched_path = target if out is not None else None
         measured_model = derive(loads(patched_text, str(target))) if unmeasured else patched
         values = measured_model.parameter_vector.by_name()
@@ -172,12 +176,20 @@ def diagnose(
             roles, extra = c.effect.as_measured(measured_model, values, selection.context, c.j, final["roles"],
                                                 controller, period)
             final["fitted"], final["roles"], final["measured"] = final["roles"], dict(roles), extra
+        final_fit = FinalFit.of_design(before.nominal.terms, selection.final, sets) if unmeasured else \
+            FinalFit.of_nominal(after.nominal, sets)
+        reviewed = review(model, patched, {**{s.name: float(v) for s, v in patched.parameters.items()}, **own},
+                          final_fit, own, removed, kept, estimation, notes, selection.settings.min_gain)
     else:
-        notes.append(f"the model has no file ({model.robot.source}) to patch: the gap after is that of the search's final fit")
+        what = "TOML text to patch (a URDF model)" if source.suffix.lower() == ".urdf" else "file"
+        notes.append(f"the model has no {what} ({model.robot.source}) to patch: the gap after is that of the search's final fit")
         written = [{} for _ in accepted]
         design = selection.final
         predicted = {role: design.predicted(role) for role in sets}
         after = Fit(model, before.nominal, predicted, _gaps(sets, predicted)[0], _gaps(sets, predicted)[1])
+        reviewed = review(model, model, {s.name: float(v) for s, v in model.parameters.items()},
+                          FinalFit.of_design(before.nominal.terms, selection.final, sets), {}, [], [], estimation,
+                          notes, selection.settings.min_gain)
     lap("patch and shrink")
     where_after = localise(estimation, after.predicted["estimation"])
     for a, final, parameters in zip(accepted, finals, written):
@@ -187,7 +199,8 @@ def diagnose(
         notes.append(f"{c.label()} was accepted at round {gone.round} ({_roles_text(c.roles)}) and removed at the end: "
                      f"with {others} in the model it is not significant any more (p = {p_value:.3g})")
     diagnosis = Diagnosis(model, sets, held_out, before, where_before, selection, tuple(found), patched_text,
-                          patched_path, after, where_after, bool(simulate), seconds, tuple(notes), (), tuple(findings))
+                          patched_path, after, where_after, bool(simulate), seconds, tuple(notes), (), tuple(findings),
+                          corrections=tuple(reviewed[0]), changes=tuple(reviewed[1]), modes=reviewed[2])
     if out is not None:
         diagnosis = _write(diagnosis, Path(out), figures)
     lap("report")
@@ -258,6 +271,28 @@ def simulated_path(controller: Controller | Mapping[str, Any] | None = None) -> 
 def _controller(measurements: Measurements) -> Controller | None:
     """The experiment's ``[controller]``, checked when it was loaded (``None`` for plain measurements)."""
     return measurements.controller if isinstance(measurements, Experiment) else None
+def _physical_beams(robot: Robot, values: dict[str, float]) -> tuple[dict[str, float], list[str]]:
+    """``values`` without the re-identified parameters that would make a beam unphysical — a density or bending
+    stiffness not positive, a tip mass negative (the patched file would not load) — each kept at the model
+    file's value, and a note for each. With one mode, a beam's density and its tip mass act on the motion almost
+    alike, so the data can leave one of them poorly determined and its estimate on the wrong side of zero."""
+    nominal = {p.name: float(p.value) for p in robot.parameters}
+    out, notes = dict(values), []
+    rules = (("density", 0.0, "positive"), ("EI_v", 0.0, "positive"), ("EI_w", 0.0, "positive"), ("tip_mass", None, "non-negative"))
+    for beam in robot.beams:
+        for attr, bound, rule in rules:
+            expression = getattr(beam, attr)
+            if expression is None:
+                continue
+            value = float(expression.xreplace({s: out.get(s.name, nominal[s.name]) for s in expression.free_symbols}))
+            if value > 0 or (bound is None and value == 0):
+                continue
+            names = sorted(s.name for s in expression.free_symbols if s.name in out)
+            for name in names:
+                del out[name]
+            notes.append(f"[[beam]] {beam.name!r} {attr} re-identified as {value:.4g} is not physical (it must be {rule}): "
+                         f"{', '.join(names)} kept at the model file's value in the patched model (the data determine it poorly)")
+    return out, notes
 
 
 def _derived(model: DynamicModel | Robot | str | Path) -> DynamicModel:
@@ -373,6 +408,7 @@ def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Searc
                              "own_final_p_value": final["own_p_value"]}
     if c.effect.nonlinear:
         evidence["nonlinear"] = {c.effect.nonlinear: list(c.value) if isinstance(c.value, tuple) else c.value}
+    evidence.update(c.effect.describe(c.value))
     evidence.update(final.get("measured", {}))
     roles = {k: v for k, v in final["roles"].items() if k in c.effect.roles}
     evidence.update({k: v for k, v in final.get("fitted", final["roles"]).items() if k not in c.effect.roles})

@@ -17,9 +17,9 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.derive.kinematics import FrameKinematics, Kinematics, cross
+from symbolic.derivation.kinematics import FrameKinematics, Kinematics, cross
 from symbolic.description.robot import BASE, Body
-from symbolic.derive.subexpressions import Subexpressions
+from symbolic.derivation.subexpressions import Subexpressions
 
 
 @dataclass

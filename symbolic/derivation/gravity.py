@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.derive.kinematics import ZERO3, Kinematics, cross
+from symbolic.derivation.kinematics import ZERO3, Kinematics, cross
 from symbolic.description.robot import BASE
 
 

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.derive.kinematics import Kinematics, skew
-from symbolic.derive.mode_shapes import ModalConstants, modal_constants, phi
+from symbolic.derivation.kinematics import Kinematics, skew
+from symbolic.derivation.mode_shapes import ModalConstants, modal_constants, phi
 from symbolic.description.robot import Beam, coordinate_symbol
 
 
@@ -73,14 +73,21 @@ class BeamGeometry:
         return sp.Matrix([[0] * (len(self.nu) + len(self.eta)), row_v, row_w])
 
     def tip_point(self) -> sp.Matrix:
-        return sp.Matrix([self.length, (sp.Matrix(self.v.tip).T * self.nu)[0], (sp.Matrix(self.w.tip).T * self.eta)[0]])
+        return sp.Matrix([self.length, (column(self.v.tip).T * self.nu)[0], (column(self.w.tip).T * self.eta)[0]])
+
+
+def column(values) -> sp.Matrix:
+    """``values`` as an n×1 matrix, also for n = 0 (a direction without modes): ``sp.Matrix([])`` is 0×0,
+    and products with it would not be the 1×1 zero the formulas need."""
+    values = list(values)
+    return sp.Matrix(len(values), 1, values)
 
 
 def geometry(beam: Beam) -> BeamGeometry:
     return BeamGeometry(
         beam,
-        sp.Matrix([coordinate_symbol(n) for n in beam.nu]),
-        sp.Matrix([coordinate_symbol(n) for n in beam.eta]),
+        column([coordinate_symbol(n) for n in beam.nu]),
+        column([coordinate_symbol(n) for n in beam.eta]),
         modal_constants(beam.modes_v, beam.length, beam.boundary),
         modal_constants(beam.modes_w, beam.length, beam.boundary),
     )
@@ -89,8 +96,8 @@ def geometry(beam: Beam) -> BeamGeometry:
 def xi_matrices(g: BeamGeometry) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix, sp.Matrix]:
     """Ξ₁ (3.66), Ξ₂ (3.72), Ξ₃ (3.73) and 𝒜 (3.75)."""
     l, nu, eta = g.length, g.nu, g.eta
-    av, aw = sp.Matrix(g.v.alpha), sp.Matrix(g.w.alpha)
-    bv, bw = sp.Matrix(g.v.beta), sp.Matrix(g.w.beta)
+    av, aw = column(g.v.alpha), column(g.w.alpha)
+    bv, bw = column(g.v.beta), column(g.w.beta)
     gamma = g.gamma
     a_nu, a_eta = (av.T * nu)[0], (aw.T * eta)[0]
     xi1 = sp.Matrix([[0, -a_eta, a_nu], [a_eta, 0, -l**2 / 2], [-a_nu, l**2 / 2, 0]])
@@ -149,7 +156,7 @@ def beam_energy(kin: Kinematics, beam: Beam, coordinates: tuple[sp.Symbol, ...])
                 inertia[i, j] = inertia[j, i] = sub.add(sp.expand(d_rigid_modes[a, b]))
     R, d = kin.rotation(beam.frame), kin.translation(beam.frame)
     g0 = sp.Matrix(kin.robot.gravity)
-    p_cm = sp.Matrix([l / 2, (sp.Matrix(g.v.alpha).T * g.nu)[0] / l, (sp.Matrix(g.w.alpha).T * g.eta)[0] / l])
+    p_cm = sp.Matrix([l / 2, (column(g.v.alpha).T * g.nu)[0] / l, (column(g.w.alpha).T * g.eta)[0] / l])
     potential = -rho * l * (g0.T * (R * p_cm + d))[0]
     if beam.tip_mass is not None:
         potential += -beam.tip_mass * (g0.T * (R * g.tip_point() + d))[0]

@@ -28,21 +28,21 @@ from functools import cached_property
 import sympy as sp
 
 from symbolic import cache
-from symbolic.derive import christoffel as ch
-from symbolic.derive.drives import rotor_inertia
-from symbolic.derive.forces import applied_vector
-from symbolic.derive.friction import friction_vector
-from symbolic.derive.gravity import gravity_forces, potential_energy
-from symbolic.derive.inertia import composite_inertias, inertia_matrix
-from symbolic.derive.kinematics import Kinematics
-from symbolic.derive.newton_euler import inverse_dynamics
-from symbolic.derive.products import Product, Products, sympy_reducer
-from symbolic.derive.regressor import Regressor, regressor
+from symbolic.derivation import christoffel as ch
+from symbolic.derivation.drives import rotor_inertia
+from symbolic.derivation.forces import applied_vector
+from symbolic.derivation.friction import friction_vector
+from symbolic.derivation.gravity import gravity_forces, potential_energy
+from symbolic.derivation.inertia import composite_inertias, inertia_matrix
+from symbolic.derivation.kinematics import Kinematics
+from symbolic.derivation.newton_euler import inverse_dynamics
+from symbolic.derivation.products import Product, Products, sympy_reducer
+from symbolic.derivation.regressor import Regressor, regressor
 from symbolic.description.validation import validate
 from symbolic.description.parameters import ParameterVector
 from symbolic.description.robot import TIME, Robot, digest, acceleration_symbol, coordinate_symbol, velocity_symbol
-from symbolic.derive.subexpressions import Subexpressions
-from symbolic.derive.validity import check_values
+from symbolic.derivation.subexpressions import Subexpressions
+from symbolic.derivation.validity import check_values
 
 log = logging.getLogger(__name__)
 
@@ -103,7 +103,7 @@ class DynamicModel:
     """A robot's derived dynamics. Build with :func:`derive`.
 
     What the layers build from it (regressor, base parameters, programs, numeric model, ...) is kept in
-    :attr:`products` (:mod:`symbolic.derive.products`).
+    :attr:`products` (:mod:`symbolic.derivation.products`).
     """
 
     robot: Robot
@@ -121,14 +121,11 @@ class DynamicModel:
 
     @cached_property
     def products(self) -> Products:
-        """What has been built from this model, each built once (:mod:`symbolic.derive.products`)."""
+        """What has been built from this model, each built once (:mod:`symbolic.derivation.products`)."""
         return Products(self)
 
     def regressor(self) -> Regressor:
-        """The parameter regressor τ = Y·θ (:mod:`symbolic.derive.regressor`), derived once.
-
-        Raises :class:`~symbolic.errors.ModelError` for a model with beams (not covered yet).
-        """
+        """The parameter regressor τ = Y·θ (:mod:`symbolic.derivation.regressor`, beams included), derived once."""
         return self.products.get(REGRESSOR)
 
     @property
@@ -282,6 +279,10 @@ class DynamicModel:
             f"  intermediates {len(self.sub)}; derivation {sum(self.timings.values()):.2f} s",
             "  operations: " + ", ".join(f"{k} {v}" for k, v in ops.items()),
         ]
+        limits = [(f.theta if f.joint.type != "prismatic" else f.d, f.joint.limits) for f in self.robot.frames
+                  if f.joint is not None and f.joint.limits]
+        if limits:  # a URDF's <limit>: kept with the model, reported here (the equations do not use them)
+            lines.append("  joint limits: " + "; ".join(f"{c} " + " ".join(f"{k} {v:g}" for k, v in lim.items()) for c, lim in limits))
         return "\n".join(lines)
 
 
@@ -315,7 +316,7 @@ REGRESSOR: Product[Regressor] = Product("regressor", lambda model: regressor(mod
 
 def _derive(robot: Robot) -> DynamicModel:
     """:func:`derive` of a validated robot, computed."""
-    from symbolic.derive.flexible import beam_energy
+    from symbolic.derivation.flexible import beam_energy
 
     timings: dict[str, float] = {}
     names = robot.generalized_coordinates

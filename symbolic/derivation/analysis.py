@@ -6,8 +6,8 @@ be diagonal (``decoupling``, Madill (4.6)/(4.9): α₃ = 0), for a diagonal entr
 4.2.3) and for V_g(Q) to be constant (``balancing``, (4.2)/(4.3)), each checked at a parameter set to a
 relative tolerance of :data:`RELATIVE_TOLERANCE` (an :class:`Analysis`); :func:`counterbalance` solves
 them for chosen parameters (4.2.4, a :class:`Design`). A condition is the coefficient of one
-trigonometric monomial in the canonical form of :func:`symbolic.derive.simplify.reduce_pythagoras`;
-entries larger than :data:`symbolic.derive.simplify.SIZE_LIMIT` are not analysed but listed in
+trigonometric monomial in the canonical form of :func:`symbolic.derivation.simplify.reduce_pythagoras`;
+entries larger than :data:`symbolic.derivation.simplify.SIZE_LIMIT` are not analysed but listed in
 :attr:`Analysis.skipped`. The method and why: docs/architecture.md, "Decoupling and balancing".
 """
 
@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
-from symbolic.derive.dynamics import DynamicModel
-from symbolic.derive.simplify import SIZE_LIMIT, tree_size, trig_monomials
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.simplify import SIZE_LIMIT, tree_size, trig_monomials
 
 KINDS = ("decoupling", "constant_inertia", "coriolis", "balancing")
 RELATIVE_TOLERANCE = 1e-9

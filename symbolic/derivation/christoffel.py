@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 import sympy as sp
 
-from symbolic.derive.subexpressions import Subexpressions
+from symbolic.derivation.subexpressions import Subexpressions
 
 
 def inertia_derivatives(D: sp.Matrix, coordinates: Sequence[sp.Symbol], sub: Subexpressions) -> list[sp.Matrix]:

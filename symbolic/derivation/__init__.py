@@ -9,7 +9,7 @@ assumed modes (:mod:`.mode_shapes`, :mod:`.flexible`, :mod:`.sensing`), closed l
 
 from __future__ import annotations
 
-from symbolic.derive.dynamics import DynamicModel, derive
-from symbolic.derive.products import Product, Products
+from symbolic.derivation.dynamics import DynamicModel, derive
+from symbolic.derivation.products import Product, Products
 
 __all__ = ["DynamicModel", "Product", "Products", "derive"]

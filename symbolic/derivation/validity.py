@@ -1,6 +1,6 @@
 """A derived model's values at its nominal parameters: finite and real, or refused.
 
-:func:`check_values` (called at the end of :func:`symbolic.derive.dynamics.derive`) evaluates D(Q), g(Q),
+:func:`check_values` (called at the end of :func:`symbolic.derivation.dynamics.derive`) evaluates D(Q), g(Q),
 k(Q), friction, applied forces and τ at the nominal parameters in double precision (the straight-line
 program through :func:`sympy.lambdify` with Python's ``math``), at Q = 0 and
 :data:`SEEDED_CONFIGURATIONS` seeded configurations, and raises a one-line
@@ -23,8 +23,8 @@ from symbolic.errors import ModelError
 
 
 class DynamicModel(Protocol):
-    """What the check reads of the :class:`~symbolic.derive.dynamics.DynamicModel` being derived (the check
-    runs inside :func:`~symbolic.derive.dynamics.derive`, so it takes the model by these attributes
+    """What the check reads of the :class:`~symbolic.derivation.dynamics.DynamicModel` being derived (the check
+    runs inside :func:`~symbolic.derivation.dynamics.derive`, so it takes the model by these attributes
     instead of importing the module that calls it)."""
 
     robot: Any
@@ -36,7 +36,7 @@ class DynamicModel(Protocol):
     accelerations: Any
 
 CHECKED = (("D", "D"), ("gravity", "g"), ("stiffness", "k"), ("friction", "friction"), ("applied", "applied"), ("tau", "tau"))
-"""Fields of :class:`~symbolic.derive.dynamics.ReducedForms` checked, in order, with their names in
+"""Fields of :class:`~symbolic.derivation.dynamics.ReducedForms` checked, in order, with their names in
 messages. A field the model does not have is skipped; τ comes last because it contains every term
 of the equations of motion (a Coriolis term not already covered by D, g and k shows there)."""
 

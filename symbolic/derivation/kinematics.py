@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from symbolic.description.robot import BASE, Robot
-from symbolic.derive.subexpressions import Subexpressions
+from symbolic.derivation.subexpressions import Subexpressions
 
 Vec = sp.Matrix
 ZERO3 = sp.ImmutableMatrix.zeros(3, 1)
@@ -61,17 +61,33 @@ def _rx(c: sp.Expr, s: sp.Expr, x: sp.Matrix) -> sp.Matrix:
     return sp.Matrix([x[0], c * x[1] - s * x[2], s * x[1] + c * x[2]])
 
 
+def _ry(c: sp.Expr, s: sp.Expr, x: sp.Matrix) -> sp.Matrix:
+    return sp.Matrix([c * x[0] + s * x[2], x[1], -s * x[0] + c * x[2]])
+
+
+_ELEMENTARY = {"x": _rx, "y": _ry, "z": _rz}
+_PLANE = {"z": (0, 1, 2), "x": (1, 2, 0), "y": (2, 0, 1)}
+"""Axis -> (i, j, k): the rotation turns e_i towards e_j about e_k."""
+
+
+def _elementary_matrix(axis: str, c: sp.Expr, s: sp.Expr) -> sp.Matrix:
+    i, j, k = _PLANE[axis]
+    r = sp.zeros(3, 3)
+    r[i, i], r[i, j], r[j, i], r[j, j], r[k, k] = c, -s, s, c, 1
+    return r
+
+
 def _rotate_sym(m: sp.Matrix, c: sp.Expr, s: sp.Expr, axis: str, add) -> sp.Matrix:
-    """R M Rᵀ for an elementary rotation R about ``axis`` ("x" or "z") by (cos, sin) = (c, s).
+    """R M Rᵀ for an elementary rotation R about ``axis`` ("x", "y" or "z") by (cos, sin) = (c, s).
 
     In the rotation plane (i, j) with k the axis: with C₂ = c² − s², S₂ = 2cs, d = (M_ii − M_jj)/2,
     t = d C₂ − M_ij S₂: M'_ii = (M_ii + M_jj)/2 + t, M'_jj = M_ii + M_jj − M'_ii, M'_ij = d S₂ + M_ij C₂,
     M'_ik = c M_ik − s M_jk, M'_jk = s M_ik + c M_jk (18 operations instead of about 40).
     """
     if c.is_Number and s.is_Number:
-        r = sp.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]]) if axis == "z" else sp.Matrix([[1, 0, 0], [0, c, -s], [0, s, c]])
+        r = _elementary_matrix(axis, c, s)
         return (r * m * r.T).applyfunc(add)
-    i, j, k = (0, 1, 2) if axis == "z" else (1, 2, 0)
+    i, j, k = _PLANE[axis]
     c2, s2 = add(c * c - s * s), add(2 * c * s)
     total = add(m[i, i] + m[j, j])
     d = add((m[i, i] - m[j, j]) / 2)
@@ -188,6 +204,93 @@ class FrameKinematics:
         return wt * kt + wd * kd, vt * kt + vd * kd
 
 
+def origin_rotation(rpy: tuple[sp.Expr, sp.Expr, sp.Expr]) -> sp.Matrix:
+    """URDF's fixed-axis roll, pitch, yaw: Rot(rpy) = Rz(yaw)·Ry(pitch)·Rx(roll) (URDF spec, <origin>).
+
+    Entries that are constant numbers but not rational (cos 0.3) are evaluated once here, in 30 digits
+    rounded to a double's 17, so that programs do not recompute them; exact angles (pi/2) stay exact.
+    """
+    r, p, y = rpy
+    m = _elementary_matrix("z", sp.cos(y), sp.sin(y)) * _elementary_matrix("y", sp.cos(p), sp.sin(p))
+    m = m * _elementary_matrix("x", sp.cos(r), sp.sin(r))
+    return m.applyfunc(lambda e: sp.Float(e.evalf(30), 17) if e.is_number and not e.is_Rational else e)
+
+
+def axis_rotation(u: sp.Matrix, c: sp.Expr, s: sp.Expr) -> sp.Matrix:
+    """Rotation by (cos, sin) = (c, s) about the unit axis u (Rodrigues: c E + s S(u) + (1 − c) u uᵀ)."""
+    return c * sp.eye(3) + s * skew(u) + (1 - c) * u * u.T
+
+
+@dataclass
+class JointFrameKinematics(FrameKinematics):
+    """A general frame (URDF joint): ``T = [C, xyz]·Rot(u, θ)·Trans(u d)`` with C = Rot(rpy) constant.
+
+    The child origin lies on the joint axis, so (as in modified DH) the offset is constant in the
+    parent's axes, p_parent = xyz + C u d, and the joint's twist is (u, 0) per θ̇ and (0, u) per ḋ in the
+    frame's own axes. Rotations are applied as products with C (sparse for right angles: free) and the
+    elementary joint rotation about ±x, ±y or ±z (4 products), or Rodrigues' formula for another axis.
+    """
+
+    axis: sp.Matrix = field(default=E_Z)
+    constant: sp.Matrix = field(default_factory=lambda: sp.eye(3))
+    joint_axis: str | None = "z"
+    joint_sign: int = 1
+    add: object = None
+
+    def _joint(self, x: sp.Matrix, sign: int) -> sp.Matrix:
+        """Rot(u, ±θ) x."""
+        c, s = self.cos_theta, sign * self.sin_theta
+        if self.theta == 0:
+            return sp.Matrix(x)
+        if self.joint_axis is not None:
+            return _ELEMENTARY[self.joint_axis](c, self.joint_sign * s, x)
+        u = self.axis
+        ux = self.add((u.T * x)[0])
+        return (c * x + s * cross(u, x) + (1 - c) * ux * u).applyfunc(self.add)
+
+    def to_child(self, x: sp.Matrix) -> sp.Matrix:
+        """Rᵀx = Rot(u, θ)ᵀ Cᵀ x."""
+        return self._joint((self.constant.T * x).applyfunc(self.add), -1)
+
+    def to_parent(self, x: sp.Matrix) -> sp.Matrix:
+        """Rx = C Rot(u, θ) x."""
+        return self.constant * self._joint(x, 1).applyfunc(self.add)
+
+    @property
+    def shift_in_child(self) -> bool:
+        return False
+
+    def rotate_symmetric_to_parent(self, m: sp.Matrix, add) -> sp.Matrix:
+        """C Rot(u, θ) M Rot(u, θ)ᵀ Cᵀ, the upper triangle computed and mirrored (symmetric by construction)."""
+        if self.theta != 0:
+            if self.joint_axis is not None:
+                m = _rotate_sym(m, self.cos_theta, self.joint_sign * self.sin_theta, self.joint_axis, add)
+            else:
+                r = axis_rotation(self.axis, self.cos_theta, self.sin_theta)
+                m = _symmetric_product(r, m, add)
+        if self.constant != sp.eye(3):
+            m = _symmetric_product(self.constant, m, add)
+        return m
+
+
+def _symmetric_product(r: sp.Matrix, m: sp.Matrix, add) -> sp.Matrix:
+    """R M Rᵀ for a symmetric M: R M once, then the upper triangle of (R M) Rᵀ, mirrored."""
+    rm = (r * m).applyfunc(add)
+    out = sp.zeros(3, 3)
+    for i in range(3):
+        for j in range(i, 3):
+            out[i, j] = out[j, i] = add((rm[i, :] * r[j, :].T)[0])
+    return out
+
+
+def joint_axis_name(u: sp.Matrix) -> tuple[str | None, int]:
+    """("x", "y" or "z", ±1) when u = ±e_k, else (None, 1)."""
+    for name, k in (("x", 0), ("y", 1), ("z", 2)):
+        if all(u[i] == 0 for i in range(3) if i != k) and u[k] in (1, -1):
+            return name, int(u[k])
+    return None, 1
+
+
 class Kinematics:
     """Kinematics of all frames of a robot, with constraint expressions substituted.
 
@@ -207,7 +310,35 @@ class Kinematics:
         constraint = robot.constraint_substitution
         for f in robot.frames:
             values = {k: getattr(f, k).xreplace(constraint) for k in ("theta", "d", "a", "alpha")}
-            self.frames[f.name] = self._frame(f.name, f.parent, **values)
+            if f.joint is not None:
+                self.frames[f.name] = self._joint_frame(f.name, f.parent, f.joint, values["theta"], values["d"])
+            else:
+                self.frames[f.name] = self._frame(f.name, f.parent, **values)
+
+    def _joint_frame(self, name: str, parent: str, joint, theta: sp.Expr, d: sp.Expr) -> JointFrameKinematics:
+        """A general frame (:class:`JointFrameKinematics`)."""
+        add = self.sub.add
+        u = sp.ImmutableMatrix(joint.axis)
+        axis_name, sign = joint_axis_name(u)
+        constant = origin_rotation(joint.rpy).applyfunc(add)
+        fk = JointFrameKinematics(
+            name=name, parent=parent, convention="joint", theta=theta, d=d, a=sp.Integer(0), alpha=sp.Integer(0),
+            cos_theta=add(sp.cos(theta)), sin_theta=add(sp.sin(theta)), cos_alpha=sp.Integer(1), sin_alpha=sp.Integer(0),
+            axis=u, constant=constant, joint_axis=axis_name, joint_sign=sign, add=add,
+        )
+        for q in self.coordinates:
+            if theta.has(q):
+                fk.theta_rate[q] = add(sp.diff(theta, q))
+            if d.has(q):
+                fk.d_rate[q] = add(sp.diff(d, q))
+        fk.theta_twist = (u, ZERO3)
+        fk.d_twist = (ZERO3, u)
+        fk.theta_sq_accel = ZERO3
+        fk.p_parent = (sp.Matrix(joint.xyz) + constant * u * d).applyfunc(add)
+        fk.p_child = fk.to_child(fk.p_parent).applyfunc(add)
+        self._jacobians(fk)
+        self._placement(fk)
+        return fk
 
     def _frame(self, name: str, parent: str, theta: sp.Expr, d: sp.Expr, a: sp.Expr, alpha: sp.Expr) -> FrameKinematics:
         add = self.sub.add

@@ -1,7 +1,7 @@
 """Closed kinematic loops and how forces at constrained coordinates reach the actuated ones (Janot V.A, (8)–(12)).
 
 A constrained (passive) coordinate q_p = f_c(q_a) is substituted into the DH rows before derivation
-(:class:`~symbolic.derive.kinematics.Kinematics`), so the derived model is already the closed-loop one.
+(:class:`~symbolic.derivation.kinematics.Kinematics`), so the derived model is already the closed-loop one.
 Torques of the equivalent tree structure (constraints removed, :func:`equivalent_tree`) relate to the
 closed-loop generalized forces by Janot (12):
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.derive.transmission import map_to_generalized
+from symbolic.derivation.transmission import map_to_generalized
 from symbolic.description.robot import Robot
 
 

@@ -7,14 +7,14 @@ Per coordinate (docs/model-format.md, "Friction, drives and applied forces"), en
     direction-dependent:    Fv⁺, Fc⁺ for q̇ > 0 and Fv⁻, Fc⁻ for q̇ < 0
 
 :func:`friction_force` gives f of one entry, :func:`friction_vector` the vector of a robot, with friction
-at a constrained coordinate mapped through Janot (12) (:mod:`symbolic.derive.transmission`).
+at a constrained coordinate mapped through Janot (12) (:mod:`symbolic.derivation.transmission`).
 """
 
 from __future__ import annotations
 
 import sympy as sp
 
-from symbolic.derive.transmission import map_to_generalized
+from symbolic.derivation.transmission import map_to_generalized
 from symbolic.description.robot import Directional, Friction, Robot, velocity_symbol
 
 

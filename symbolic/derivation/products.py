@@ -1,7 +1,7 @@
-"""What is derived from a :class:`~symbolic.derive.dynamics.DynamicModel`, built once and owned by the model.
+"""What is derived from a :class:`~symbolic.derivation.dynamics.DynamicModel`, built once and owned by the model.
 
 Pinocchio keeps a frozen ``Model`` and a ``Data`` of what is computed from it; here the model holds SymPy
-expressions only and its :attr:`~symbolic.derive.dynamics.DynamicModel.products` hold what the layers
+expressions only and its :attr:`~symbolic.derivation.dynamics.DynamicModel.products` hold what the layers
 build from it: the parameter regressor (derive), the base parameters and the numeric model (numeric), the
 straight-line programs (codegen), the simulation plant (simulation), the identification's base regressor
 and terms (identify, workflow). A :class:`Product` names one and says how to build it;
@@ -39,7 +39,7 @@ T = TypeVar("T")
 
 
 class Model(Protocol):
-    """What a product holder needs of a model (:class:`~symbolic.derive.dynamics.DynamicModel`)."""
+    """What a product holder needs of a model (:class:`~symbolic.derivation.dynamics.DynamicModel`)."""
 
     robot: Robot
     sub: Any

@@ -14,7 +14,7 @@ from collections.abc import Callable
 
 import sympy as sp
 
-from symbolic.derive.kinematics import ZERO3, Kinematics, cross
+from symbolic.derivation.kinematics import ZERO3, Kinematics, cross
 from symbolic.description.robot import BASE
 
 

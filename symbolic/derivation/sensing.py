@@ -15,9 +15,9 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import sympy as sp
 
-from symbolic.derive.flexible import beam_jacobian, geometry
-from symbolic.derive.kinematics import Kinematics
-from symbolic.derive.mode_shapes import phi
+from symbolic.derivation.flexible import beam_jacobian, column, geometry
+from symbolic.derivation.kinematics import Kinematics
+from symbolic.derivation.mode_shapes import phi
 from symbolic.description.robot import Beam
 
 CONDITION_LIMIT = 1e12
@@ -52,7 +52,7 @@ def tip_deflection(beam: Beam) -> tuple[sp.Expr, sp.Expr]:
 def tip_deflection_from_strain(beam: Beam, K: sp.Matrix, direction: str = "v") -> sp.Matrix:
     """Row vector φ(l)ᵀ𝒦⁻¹ mapping measured strains E to the tip deflection (Appendix C)."""
     g = geometry(beam)
-    tip = sp.Matrix(g.v.tip if direction == "v" else g.w.tip).T
+    tip = column(g.v.tip if direction == "v" else g.w.tip).T
     return tip * K.inv()
 
 

@@ -6,6 +6,14 @@
   the frame's origin in its axes: XXj XYj XZj YYj YZj ZZj (the inertia tensor ʲJ_j, xy being the
   tensor's (x, y) entry), MXj MYj MZj (first moments m·c) and Mj (mass) — the sums over the frame's
   bodies;
+* per [[beam]] (in file order; Madill 3.4–3.8), with the beam's name as label: rho_<beam> (the linear
+  density ρ), EIv_<beam> and EIw_<beam> (the bending stiffnesses, for a direction with modes) and, when
+  a tip mass is declared, mp_<beam> (m_p). The beam's D_f (3.76) is ρ times a matrix of Q and the length, plus m_p·J_tipᵀJ_tip;
+  its gravitational energy (3.79) is ρ and m_p times functions of Q; its strain energy (3.80) is
+  ½EI_v νᵀΛ_vν + ½EI_w ηᵀΛ_wη. The mode shapes (Appendix B) depend only on the boundary condition
+  and the length, so all three are linear in these four numbers, and so is the beam's part of τ,
+  D_f Q̈ + (I⊗Q̇ᵀ)C_f Q̇ + ∂(V_g + V_s)/∂Qᵀ (3.82)–(3.83), which is derived from them with θ in
+  their place. The length stays a fixed parameter of Y, like the DH lengths;
 * per [[drive]] with a rotor inertia: Iaj = Ia·ratio², the rotor's inertia at its coordinate;
 * per [[friction]] (coordinate j): Fvj, Fcj, offj, or Fvpj/Fvnj, Fcpj/Fcnj for direction-dependent
   coefficients, and Fsj for a Stribeck level (its velocity scale vs stays a fixed parameter of Y,
@@ -18,28 +26,31 @@ Y is derived by a Newton–Euler pass in which each frame's wrench is written in
 
     f = M a + U·(MX, MY, MZ),   n = J ω̇ + ω × J ω + (MX, MY, MZ) × a,   U = S(ω̇) + S(ω)²,
 
-which is linear in them (Khalil's formulation); column θ_k of Y is ∂τ/∂θ_k, taken by the chain rule
+which is linear in them (Khalil's formulation), plus each beam's part from its energies (above);
+column θ_k of Y is ∂τ/∂θ_k, taken by the chain rule
 through the intermediate symbols. Y also depends on the fixed model parameters (lengths of the DH
 table, gravity, Stribeck velocities); :attr:`Regressor.theta_expressions` maps the model file's
-parameters to θ, so that Y(p)·θ(p) = τ(p) for every p. Models with [[beam]] entries are not
-supported (a beam's mass, stiffness and length enter through modal constants that are not linear).
+parameters to θ, so that Y(p)·θ(p) = τ(p) for every p.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from dataclasses import dataclass
 
 import sympy as sp
 
-from symbolic.derive.friction import friction_force
-from symbolic.derive.inertia import SpatialInertia
-from symbolic.derive.kinematics import Kinematics, cross
-from symbolic.derive.newton_euler import inverse_dynamics
-from symbolic.derive.subexpressions import Subexpressions
-from symbolic.derive.transmission import map_to_generalized
+from symbolic.derivation import christoffel as ch
+from symbolic.derivation.flexible import beam_energy
+from symbolic.derivation.friction import friction_force
+from symbolic.derivation.inertia import SpatialInertia
+from symbolic.derivation.kinematics import Kinematics, cross
+from symbolic.derivation.newton_euler import inverse_dynamics
+from symbolic.derivation.subexpressions import Subexpressions
+from symbolic.derivation.transmission import map_to_generalized
 from symbolic.errors import ModelError
-from symbolic.description.robot import Directional, Friction, Robot, Stribeck, acceleration_symbol, coordinate_symbol, velocity_symbol
+from symbolic.description.robot import Beam, Directional, Friction, Robot, Stribeck, acceleration_symbol, coordinate_symbol, velocity_symbol
 from symbolic.description.validation import validate
 
 INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
@@ -65,7 +76,7 @@ class Regressor:
     sub
         The intermediate registry of Y.
     kinds
-        For each θ: ``"inertial"``, ``"drive"``, ``"friction"`` or ``"force"``.
+        For each θ: ``"inertial"``, ``"beam"``, ``"drive"``, ``"friction"`` or ``"force"``.
     """
 
     robot: Robot
@@ -93,13 +104,12 @@ def frame_label(name: str) -> str:
 def regressor(robot: Robot) -> Regressor:
     """Derive Y and θ for ``robot`` (see the module docstring)."""
     robot = validate(robot)
-    if robot.beams:
-        raise ModelError(robot.source, "[[beam]]", "the parameter regressor does not support flexible links yet "
-                         "(beam parameters enter through modal constants that are not linear); identify the rigid part")
     inertial = _inertial_parameters(robot)
+    beams = _beam_parameters(robot)
     drives, frictions, forces = _drive_parameters(robot), _friction_parameters(robot), _force_parameters(robot)
     extra = drives + frictions + forces
-    theta = tuple(t for frame in inertial.values() for t, _ in frame) + tuple(t for t, _, _ in extra)
+    theta = (tuple(t for frame in inertial.values() for t, _ in frame) + tuple(t for _, pairs in beams for t, _ in pairs)
+             + tuple(t for t, _, _ in extra))
     names = robot.generalized_coordinates
     q = tuple(coordinate_symbol(c) for c in names)
     qd = tuple(velocity_symbol(c) for c in names)
@@ -107,13 +117,18 @@ def regressor(robot: Robot) -> Regressor:
     sub = Subexpressions(q + qd + qdd + theta)
     kin = Kinematics(robot, sub)
     symbols = {frame: [t for t, _ in parameters] for frame, parameters in inertial.items()}
-    tau = inverse_dynamics(kin, dict(zip(q, qd)), dict(zip(q, qdd)), gravity=True,
-                           frame_wrench=lambda frame, w, dw, a, U, add: _standard_wrench(symbols.get(frame), w, dw, a, U, add))
+    rigid = inverse_dynamics(kin, dict(zip(q, qd)), dict(zip(q, qdd)), gravity=True,
+                             frame_wrench=lambda frame, w, dw, a, U, add: _standard_wrench(symbols.get(frame), w, dw, a, U, add))
+    tau = sp.zeros(len(names), 1)
+    tau[: len(rigid), 0] = rigid  # the rigid coordinates come first; modal rows get the beams' terms only
+    for beam, _ in beams:
+        tau += _beam_forces(kin, beam, q, qd, qdd)
     tau = tau + sum((column * t for t, column, _ in extra), sp.zeros(len(names), 1))
     Y = sp.Matrix(len(names), len(theta), lambda i, k: sub.add(sub.diff(tau[i], theta[k])))
-    expressions = tuple(e for frame in inertial.values() for _, e in frame) + tuple(e for _, _, e in extra)
-    kinds = tuple(["inertial"] * sum(len(f) for f in inertial.values())) + tuple(kind for kind, part in
-                                                                             (("drive", drives), ("friction", frictions), ("force", forces)) for _ in part)
+    expressions = (tuple(e for frame in inertial.values() for _, e in frame) + tuple(e for _, pairs in beams for _, e in pairs)
+                   + tuple(e for _, _, e in extra))
+    kinds = (("inertial",) * sum(len(f) for f in inertial.values()) + ("beam",) * sum(len(pairs) for _, pairs in beams)
+             + tuple(kind for kind, part in (("drive", drives), ("friction", frictions), ("force", forces)) for _ in part))
     return Regressor(robot, theta, expressions, Y, sub, kinds)
 
 
@@ -145,6 +160,32 @@ def _standard_wrench(theta, w, dw, a, U, add) -> tuple[sp.Matrix, sp.Matrix]:
     Jw = (J * w).applyfunc(add)
     n = (J * dw + cross(w, Jw) + cross(h, a)).applyfunc(add)
     return n, f
+
+
+def _beam_parameters(robot: Robot) -> list[tuple[Beam, list[tuple[sp.Symbol, sp.Expr]]]]:
+    """Per beam: the beam with θ symbols in place of ρ, EI_v, EI_w (and m_p), and [(θ, its expression)]."""
+    out = []
+    for beam in robot.beams:
+        label = frame_label(beam.name)
+        fields = ([("density", "rho")] + [(field, kind) for field, kind, modes in (("EI_v", "EIv", beam.modes_v), ("EI_w", "EIw", beam.modes_w))
+                                           if modes] + ([("tip_mass", "mp")] if beam.tip_mass is not None else []))
+        pairs = [(StandardParameter(f"{kind}{label}", real=True), getattr(beam, field)) for field, kind in fields]
+        # a direction without modes has no strain energy: its stiffness stays as written (it acts on nothing)
+        written = dataclasses.replace(beam, **{field: t for (field, _), (t, _) in zip(fields, pairs)})
+        out.append((written, pairs))
+    return out
+
+
+def _beam_forces(kin: Kinematics, beam: Beam, q: tuple[sp.Symbol, ...], qd: tuple[sp.Symbol, ...],
+                 qdd: tuple[sp.Symbol, ...]) -> sp.Matrix:
+    """The beam's part of τ: D_f Q̈ + (I⊗Q̇ᵀ)C_f Q̇ + ∂(V_g + V_s)/∂Qᵀ (Madill (3.81)–(3.83)), over all of Q,
+    for ``beam`` written in its θ symbols (linear in them: module docstring)."""
+    sub = kin.sub
+    energy = beam_energy(kin, beam, q)
+    C = ch.christoffel_symbols(ch.inertia_derivatives(energy.inertia, q, sub), sub)
+    potential = energy.gravity_potential + energy.strain
+    gradient = sp.Matrix([sub.diff(potential, x) for x in q])
+    return energy.inertia * sp.Matrix(qdd) + ch.coriolis_vector(C, qd) + gradient
 
 
 def _drive_parameters(robot: Robot) -> list[tuple[sp.Symbol, sp.Matrix, sp.Expr]]:
