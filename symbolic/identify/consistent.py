@@ -12,7 +12,7 @@ and the physically consistent estimate
 
 has b residuals (b base parameters) whatever the number of samples. K maps the standard parameters θ
 to the base ones (β = K·θ, :class:`symbolic.numeric.base_parameters.BaseParameters`), θ(p) are the
-regressor's expressions of the model file's parameters p (:mod:`symbolic.derive.regressor`), and p(φ)
+regressor's expressions of the model file's parameters p (:mod:`symbolic.derivation.regressor`), and p(φ)
 parameterizes the feasible set exactly (below), so (2) is unconstrained but for box bounds. Its Jacobian
 is analytic,
 
@@ -141,7 +141,7 @@ def pseudo_inertia(mass: float, com: Sequence[float], inertia: np.ndarray) -> np
 
 def standard_parameters(mass: float, com: Sequence[float], inertia: np.ndarray) -> np.ndarray:
     """Khalil's ten standard parameters [XX XY XZ YY YZ ZZ MX MY MZ M] about the frame origin (the order of
-    :data:`symbolic.derive.regressor.INERTIAL`): I_O = I_c + m(cᵀc·1 − c·cᵀ), h = m·c."""
+    :data:`symbolic.derivation.regressor.INERTIAL`): I_O = I_c + m(cᵀc·1 − c·cᵀ), h = m·c."""
     c = np.asarray(com, float)
     IO = np.asarray(inertia, float) + mass * (c @ c * np.eye(3) - np.outer(c, c))
     h = mass * c
