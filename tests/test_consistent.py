@@ -6,7 +6,7 @@ References kept out of the code under test:
   :func:`pseudo_inertia` of the same body's mass, centre of mass and inertia computed from the points;
 * Pinocchio's ``LogCholeskyParameters`` (Rucker & Wensing's parameterization as Pinocchio implements it)
   against :func:`from_log_cholesky`, where Pinocchio is installed;
-* derivatives against central finite differences;
+* derivatives (the Jacobian of the first pass, the Hessian of the second) against central finite differences;
 * a synthetic two-joint spatial arm whose data come from an infeasible truth (a body with a negative
   inertia about its centre of mass: its ZZ about the joint axis is negative, which no feasible body has),
   so that the least-squares optimum is infeasible: the consistent answer is feasible and its full-sample
@@ -209,6 +209,37 @@ def test_jacobians_match_finite_differences(name: str, linear: bool, arm) -> Non
     full = model.parameter_vector.array()
     full[[model.parameter_vector.index(s) for s in free]] = p
     np.testing.assert_allclose(prob.theta(p), theta_values(model, reg, full), rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("linear", [False, True])
+@pytest.mark.parametrize("name", ["arm3d", "puma560"])
+def test_hessian_matches_finite_differences(name: str, linear: bool, arm) -> None:
+    """The second-order terms of Newton's pass, (∂p/∂φ)ᵀ·(Σ w_k·∇²θ_k)·(∂p/∂φ) + Σ q_j·∇²p_j, against central
+    differences of the gradient of wᵀθ(p(φ)) for a random w (agreement 1e-7 of the largest entry)."""
+    if name == "arm3d":
+        model = arm
+    else:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", symbolic.ModelWarning)
+            model = symbolic.derive(symbolic.robots.load(name))
+    reg, free = free_of(model)
+    prob = consistent.problem(model, reg, free, parameter_bounds(model))
+    rng = np.random.default_rng(1)
+    phi = prob.start(np.array([model.parameters[s] for s in free])) + rng.normal(0, 0.05, prob.size)
+    if linear:
+        phi = np.abs(prob.linear(phi))
+    w = rng.normal(0, 1, len(reg.theta))
+
+    def gradient(x):
+        p, dp = prob.parameters(x, linear)
+        return dp.T @ (prob.theta_jacobian(p).T @ w)
+
+    p, dp = prob.parameters(phi, linear)
+    H = dp.T @ prob.theta_hessian(p, w) @ dp + prob.curvature(phi, prob.theta_jacobian(p).T @ w, linear)
+    h = 1e-6
+    numeric = np.column_stack([(gradient(phi + h * e) - gradient(phi - h * e)) / (2 * h) for e in np.eye(prob.size)])
+    assert np.max(np.abs(H - numeric)) <= 1e-7 * np.max(np.abs(numeric))
+    np.testing.assert_array_equal(H, H.T)
 
 
 def test_start_reproduces_feasible_parameters(arm) -> None:
