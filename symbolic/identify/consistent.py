@@ -89,7 +89,6 @@ import functools
 import itertools
 import logging
 import time
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -778,8 +777,8 @@ class _Progress:
 
 def _newton(prob: Problem, A: np.ndarray, summary: Summary, x1: np.ndarray, lower: np.ndarray, upper: np.ndarray,
             typical: np.ndarray, weight: float, progress: _Progress) -> _Solution:
-    """The second pass: Newton's method with a trust region (:func:`scipy.optimize.minimize`, ``trust-exact``)
-    on F(φ) = ½‖A·θ(p(φ)) − z‖² (+ the penalties) with its exact Hessian
+    """The second pass: Newton's method with a trust region (Nocedal & Wright, Algorithm 4.1; the step of
+    :func:`_trust_step`) on F(φ) = ½‖A·θ(p(φ)) − z‖² (+ the penalties) with its exact Hessian
 
         ∇²F = JᵀJ + (∂p/∂φ)ᵀ·(Σ_k w_k·∇²θ_k)·(∂p/∂φ) + Σ_j q_j·∇²p_j,  w = Aᵀ·r,  q = (∂θ/∂p)ᵀ·w      (9)
 
@@ -788,8 +787,6 @@ def _newton(prob: Problem, A: np.ndarray, summary: Summary, x1: np.ndarray, lowe
     valleys of m·c and of the boundary (the Panda's log: 11 194 → 11 008 in 2000 evaluations, not done).
     Bounded coordinates are mapped to unbounded ones u (:class:`_Unbounded`), so the box bounds still hold
     exactly. Returns the solution in the coordinates (8)."""
-    import scipy.optimize
-
     coordinates = _Unbounded(lower, upper, typical)
     cache: dict[str, Any] = {}
 
@@ -815,24 +812,61 @@ def _newton(prob: Problem, A: np.ndarray, summary: Summary, x1: np.ndarray, lowe
 
     variance = summary.rho**2 / max(summary.rows - len(summary.z), 1)  # σ² per row of the weighted fit
     gtol = max(GRADIENT_TOLERANCE * variance, 1e-300)
-    costs: list[float] = []
-
-    def stalled(intermediate_result) -> None:
-        costs.append(float(intermediate_result.fun))
+    u = coordinates.inverse(x1)
+    cost, g, H = parts(u)
+    costs, radius, message, converged = [cost], 1.0, f"{MAX_ITERATIONS} Newton iterations", False
+    for _ in range(MAX_ITERATIONS):
+        if np.linalg.norm(g) <= gtol:
+            message, converged = "the gradient is below its tolerance", True
+            break
         if len(costs) > STALL_ITERATIONS and costs[-STALL_ITERATIONS - 1] - costs[-1] < 0.5 * STALL_CHI2 * variance:
-            raise StopIteration
+            message = (f"χ² fell by less than {STALL_CHI2:g} in the last {STALL_ITERATIONS} Newton iterations, "
+                       f"{len(costs) - 1} in all")
+            break
+        step, predicted = _trust_step(g, H, radius)
+        trial = parts(u + step)
+        ratio = (cost - trial[0]) / predicted if predicted > 0 and np.isfinite(trial[0]) else -1.0
+        if ratio < 0.25:
+            radius = 0.25 * np.linalg.norm(step)
+        elif ratio > 0.75 and np.linalg.norm(step) >= 0.99 * radius:
+            radius *= 2.0
+        if ratio > 1e-4:  # accepted
+            u, (cost, g, H) = u + step, trial
+            costs.append(cost)
+        if radius < 1e-14 * max(1.0, float(np.linalg.norm(u))):
+            message, converged = "the trust region fell below rounding", True
+            break
+    return _Solution(coordinates.forward(u)[0], message, converged)
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # a trust region below rounding ends the search
-        solution = scipy.optimize.minimize(lambda u: parts(u)[0], coordinates.inverse(x1), jac=lambda u: parts(u)[1],
-                                           hess=lambda u: parts(u)[2], method="trust-exact", callback=stalled,
-                                           options={"gtol": gtol, "maxiter": MAX_ITERATIONS})
-    message = str(solution.message)
-    converged = bool(solution.success) or float(np.linalg.norm(parts(solution.x)[1])) <= gtol
-    if "StopIteration" in message and not converged:
-        message = (f"χ² fell by less than {STALL_CHI2:g} in the last {STALL_ITERATIONS} Newton iterations, "
-                   f"{len(costs)} in all")
-    return _Solution(coordinates.forward(solution.x)[0], message, converged)
+
+def _trust_step(g: np.ndarray, H: np.ndarray, radius: float) -> tuple[np.ndarray, float]:
+    """The minimiser of gᵀs + ½·sᵀHs over ‖s‖ ≤ radius and the decrease it predicts (Moré & Sorensen 1983,
+    through the eigendecomposition H = V·diag(λ)·Vᵀ): s = −V·(λ + μ)⁻¹·Vᵀg with μ ≥ max(0, −λ_min) the root of
+    ‖s(μ)‖ = radius where the Newton step is longer or H is not positive definite; in the hard case (g
+    orthogonal to the eigenvectors of λ_min) the missing length is taken along that eigenvector."""
+    lam, V = np.linalg.eigh(0.5 * (H + H.T))
+    gt = V.T @ g
+    scale = max(float(np.abs(lam).max(initial=0.0)), 1e-300)
+
+    def length(mu: float) -> float:
+        return float(np.linalg.norm(gt / (lam + mu)))
+
+    if lam[0] > 1e-14 * scale and length(0.0) <= radius:
+        s = -V @ (gt / lam)
+    else:
+        low = max(0.0, -lam[0]) + 1e-14 * scale
+        if length(low) <= radius:  # the hard case: the step along λ_min's eigenvector makes up the length
+            s = -V @ (gt / (lam + low))
+            s = s + np.sqrt(max(radius**2 - float(s @ s), 0.0)) * V[:, 0]
+        else:
+            high = low + float(np.linalg.norm(g)) / radius + scale
+            for _ in range(200):  # bisection on μ in [low, high]: ‖s(μ)‖ decreases with μ
+                mu = 0.5 * (low + high)
+                low, high = (mu, high) if length(mu) > radius else (low, mu)
+                if high - low <= 1e-12 * high:
+                    break
+            s = -V @ (gt / (lam + high))
+    return s, -float(g @ s + 0.5 * s @ H @ s)
 
 
 @dataclass(frozen=True)
