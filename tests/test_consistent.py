@@ -242,6 +242,28 @@ def test_hessian_matches_finite_differences(name: str, linear: bool, arm) -> Non
     np.testing.assert_array_equal(H, H.T)
 
 
+@pytest.mark.parametrize("case", ["convex inside", "convex on the boundary", "indefinite", "hard case"])
+def test_trust_region_step_meets_the_optimality_conditions(case: str) -> None:
+    """The step of the Newton pass against Moré & Sorensen's conditions for the global minimiser of
+    gᵀs + ½·sᵀHs over ‖s‖ ≤ Δ: (H + μ·1)·s = −g with μ ≥ 0, H + μ·1 ⪰ 0, μ·(Δ − ‖s‖) = 0 (1e-8)."""
+    rng = np.random.default_rng(len(case))
+    V = np.linalg.qr(rng.normal(size=(6, 6)))[0]
+    lam = {"convex inside": [1, 2, 3, 4, 5, 6], "convex on the boundary": [1, 2, 3, 4, 5, 6],
+           "indefinite": [-2, -1, 1, 2, 3, 4], "hard case": [-2, 1, 1, 2, 3, 4]}[case]
+    H = V @ np.diag(lam) @ V.T
+    g = V @ np.array([0.0 if case == "hard case" else 1.0, 1.0, -1.0, 0.5, 0.2, 1.0])
+    radius = {"convex inside": 10.0, "convex on the boundary": 0.3, "indefinite": 1.0, "hard case": 5.0}[case]
+    step, predicted = consistent._trust_step(g, H, radius)
+    norm = np.linalg.norm(step)
+    assert norm <= radius * (1 + 1e-9)
+    mu = -float(step @ (H @ step + g)) / float(step @ step)
+    assert mu >= -1e-8
+    np.testing.assert_allclose((H + mu * np.eye(6)) @ step, -g, atol=1e-8 * np.linalg.norm(g))
+    assert np.linalg.eigvalsh(H + mu * np.eye(6))[0] >= -1e-8
+    assert abs(mu * (radius - norm)) <= 1e-8 * max(mu, 1.0) * radius
+    assert predicted == pytest.approx(-(g @ step + 0.5 * step @ H @ step), rel=1e-12)
+
+
 def test_start_reproduces_feasible_parameters(arm) -> None:
     """p(φ(p)) = p for the nominal (feasible) parameters: the parameterization covers them."""
     reg, free = free_of(arm)

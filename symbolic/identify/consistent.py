@@ -855,9 +855,13 @@ def _trust_step(g: np.ndarray, H: np.ndarray, radius: float) -> tuple[np.ndarray
         s = -V @ (gt / lam)
     else:
         low = max(0.0, -lam[0]) + 1e-14 * scale
-        if length(low) <= radius:  # the hard case: the step along λ_min's eigenvector makes up the length
-            s = -V @ (gt / (lam + low))
-            s = s + np.sqrt(max(radius**2 - float(s @ s), 0.0)) * V[:, 0]
+        lowest = lam - lam[0] <= 1e-12 * scale  # the eigenspace of λ_min
+        flat = np.all(np.abs(gt[lowest]) <= 1e-12 * max(float(np.linalg.norm(g)), 1e-300))
+        rest = -V[:, ~lowest] @ (gt[~lowest] / (lam[~lowest] - lam[0])) if lam[0] <= 0 else None
+        if flat and rest is not None and np.linalg.norm(rest) <= radius:
+            # the hard case: g has no part along λ_min's eigenvectors; μ = −λ_min and the missing length
+            # is taken along one of them
+            s = rest + np.sqrt(max(radius**2 - float(rest @ rest), 0.0)) * V[:, 0]
         else:
             high = low + float(np.linalg.norm(g)) / radius + scale
             for _ in range(200):  # bisection on μ in [low, high]: ‖s(μ)‖ decreases with μ
