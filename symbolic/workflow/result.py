@@ -100,6 +100,9 @@ class Diagnosis:
     """Every model-file value the patch re-identified, removed, or kept because the fit is not physical."""
     modes: dict[str, Any] | None = None
     """Linearised modes before and after, for a model with elastic coordinates (``None`` otherwise)."""
+    caveats: tuple[str, ...] = ()
+    """Notes the terminal shows too: how the diagnosis departed from what was asked (nothing to re-identify, a
+    simulated path that diverged and was replaced by the inverse model); also among :attr:`notes`."""
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON contract: model, found, gap_before, gap_after, gap_detail, patched_model (and more)."""
