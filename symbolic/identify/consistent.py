@@ -449,8 +449,8 @@ class ConsistentFit:
         lines = [f"consistent fit: relative error {self.relative_error:.4g} % (least squares {self.least_squares_relative_error:.4g} %), "
                  f"{self.evaluations} evaluations, {self.seconds:.2f} s"]
         if not self.converged:
-            lines.append(f"  not converged ({self.message}): the cost was still falling, by directions the data barely "
-                         "determine (an optimum on the boundary of consistency, or none at a finite point)")
+            lines.append(f"  stopped before convergence ({self.message}): what is left to gain lies along directions "
+                         "the data barely determine (an optimum on the boundary of consistency, or none at a finite point)")
         if self.boundary:
             lines.append("  on the boundary of physical consistency: " + ", ".join(self.boundary))
         if self.penalized:
