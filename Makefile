@@ -34,6 +34,7 @@ bench:
 	$(PYTHON) bench/emps_resonance.py --out bench/results/emps_resonance.md
 	$(PYTHON) bench/cache.py --out bench/results/cache.md
 	$(PYTHON) bench/beams.py --out bench/results/beams.md
+	$(PYTHON) bench/consistent.py --out bench/results/consistent.md
 
 clean:
 	rm -rf build dist *.egg-info .pytest_cache .hypothesis
