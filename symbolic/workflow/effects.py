@@ -165,9 +165,9 @@ class Effect:
         an effect that needs time or the sampling rate (a filter, a time-periodic term) overrides this."""
         return self.columns(signals.q, signals.qd, signals.qdd, j, value)
 
-    def scan_columns(self, t: np.ndarray, n: int, j: int, values: Sequence[float]) -> list[np.ndarray] | None:
+    def scan_columns(self, t: np.ndarray, n: int, j: int, values: Sequence[float]) -> list[np.ndarray] | np.ndarray | None:
         """For scanning a single nonlinear parameter's grid: the columns at the kept (decimated) times
-        ``t`` directly (``samples × n × k`` per value), when that is cheaper than treating
+        ``t`` directly (``samples × n × k`` per value: a list, or one ``values × samples × n × k`` array), when that is cheaper than treating
         :meth:`columns_at`'s and spans the same columns up to an invertible mixing (the scan compares only
         the power they explain, in the grid and in its refinement; the value found is then fitted with the
         treated columns). ``None``: no shortcut."""
@@ -631,7 +631,9 @@ class PeriodicTime(_Sinusoid):
         # (gain and phase change: a mixing of sin and cos), up to the filters' transients at the ends.
         # Sampled at the kept times directly, the grid costs nothing next to filtering every column.
         x = 2.0 * math.pi * np.outer(values, np.asarray(t, float))
-        return [on_row(j, n, [np.sin(row), np.cos(row)]) for row in x]
+        out = np.zeros((len(values), len(t), n, 2))
+        out[:, :, j, 0], out[:, :, j, 1] = np.sin(x), np.cos(x)
+        return out
 
     def roles_of(self, c, value, reference):
         amplitude, _ = self.polar(c)
@@ -785,7 +787,11 @@ class FlexibleMode(Effect):
         b = np.array([c1 + c0, 2.0 * c0, c0 - c1]) / a[0]
         a = a / a[0]
         x = signals.qdd[:, j]
-        load, _ = scipy.signal.lfilter(b, a, x, zi=scipy.signal.lfilter_zi(b, a) * x[0])
+        # the filter at rest on x[0] (what scipy.signal.lfilter_zi gives, without its linear solve): L has unit
+        # gain at DC, so in the transposed direct form the states for a constant input 1 are b2 − a2 and
+        # b1 − a1 + (b2 − a2)
+        rest = b[2] - a[2]
+        load, _ = scipy.signal.lfilter(b, a, x, zi=np.array([b[1] - a[1] + rest, rest]) * x[0])
         return on_row(j, signals.qdd.shape[1], [load])
 
     def roles_of(self, c, value, reference):

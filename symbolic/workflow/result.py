@@ -100,6 +100,8 @@ class Diagnosis:
     """Every model-file value the patch re-identified, removed, or kept because the fit is not physical."""
     modes: dict[str, Any] | None = None
     """Linearised modes before and after, for a model with elastic coordinates (``None`` otherwise)."""
+    cpu_seconds: dict[str, float] = field(default_factory=dict)
+    """CPU time of each step (``seconds`` is the wall time; on a shared machine only the CPU time repeats)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON contract: model, found, gap_before, gap_after, gap_detail, patched_model (and more)."""
