@@ -167,7 +167,8 @@ class Effect:
 
     def scan_columns(self, t: np.ndarray, n: int, j: int, values: Sequence[float]) -> list[np.ndarray] | np.ndarray | None:
         """For scanning a single nonlinear parameter's grid: the columns at the kept (decimated) times
-        ``t`` directly (``samples × n × k`` per value: a list, or one ``values × samples × n × k`` array), when that is cheaper than treating
+        ``t`` directly (``samples × n × k`` per value: a list, or one ``values × samples × n × k`` array; or,
+        for columns that act on coordinate ``j`` alone, the compact ``values × samples × k`` array), when that is cheaper than treating
         :meth:`columns_at`'s and spans the same columns up to an invertible mixing (the scan compares only
         the power they explain, in the grid and in its refinement; the value found is then fitted with the
         treated columns). ``None``: no shortcut."""
@@ -630,10 +631,22 @@ class PeriodicTime(_Sinusoid):
         # the treatment's filters are linear and time-invariant: a sinusoid stays one of the same frequency
         # (gain and phase change: a mixing of sin and cos), up to the filters' transients at the ends.
         # Sampled at the kept times directly, the grid costs nothing next to filtering every column.
-        x = 2.0 * math.pi * np.outer(values, np.asarray(t, float))
-        out = np.zeros((len(values), len(t), n, 2))
-        out[:, :, j, 0], out[:, :, j, 1] = np.sin(x), np.cos(x)
-        return out
+        # on coordinate j only: the compact form, values × samples × 2. A grid chunk is evenly spaced: each
+        # frequency's phasor is the previous one times exp(2πi·Δf·t) (angle addition; the rounding grows by
+        # one ulp a step, 1e-14 over a chunk), instead of a sine and a cosine of every sample at every value
+        t = np.asarray(t, float)
+        values = np.asarray(values, float)
+        step = (values[-1] - values[0]) / (len(values) - 1) if len(values) > 1 else 0.0
+        even = len(values) > 2 and np.allclose(np.diff(values), step, rtol=1e-9, atol=0.0)
+        if not even:
+            x = 2.0 * math.pi * np.outer(values, t)
+            return np.stack([np.sin(x), np.cos(x)], axis=2)
+        phasor = np.empty((len(values), len(t)), complex)
+        phasor[0] = np.exp(2j * math.pi * values[0] * t)
+        turn = np.exp(2j * math.pi * step * t)
+        for k in range(1, len(values)):
+            np.multiply(phasor[k - 1], turn, out=phasor[k])
+        return np.stack([phasor.imag, phasor.real], axis=2)
 
     def roles_of(self, c, value, reference):
         amplitude, _ = self.polar(c)

@@ -950,6 +950,12 @@ class _RoundState:
         on coordinate ``j`` only and none is optional."""
         if quick is not None:
             stacked = quick if isinstance(quick, np.ndarray) else np.stack(quick)
+            if stacked.ndim == 3:  # the compact form, on coordinate j only (Effect.scan_columns)
+                if not effect.optional:
+                    return self.explained_on_row(j, stacked)
+                wide = np.zeros(stacked.shape[:2] + (self.n,) + stacked.shape[2:])
+                wide[:, :, j, :] = stacked
+                stacked = wide
             acting = (stacked != 0).any(axis=(0, 1)).any(axis=-1)  # per coordinate (contiguous reductions first)
             if not effect.optional and not np.delete(acting, j).any():
                 return self.explained_on_row(j, stacked[:, :, j, :])
