@@ -134,6 +134,9 @@ class Effect:
     """Whether the search also offers the effect on every coordinate (or a named group) as one grouped
     hypothesis (docs/workflow.md, "Grouped hypotheses"); only effects without a nonlinear parameter whose
     columns act on their own coordinate are grouped."""
+    own_row: ClassVar[bool] = False
+    """Whether its columns on coordinate ``j`` act on ``j``'s row alone (built with :func:`on_row`): the search
+    then does not look for the rows they act on (it scans every other row of every column otherwise)."""
 
     @property
     def identifier(self) -> str:
@@ -344,6 +347,8 @@ class AsymmetricCoulomb(_Asymmetric):
 class Stribeck(Effect):
     """(Fc + (Fs − Fc)·exp(−(q̇/vs)²))·sign(q̇): the column exp(−(q̇/vs)²)·sign(q̇) with coefficient Fs − Fc."""
 
+    own_row = True
+
     name, roles, refines, nonlinear = "stribeck", ("static", "velocity"), "coulomb", "velocity"
     summary = "Stribeck rise of the Coulomb level at low speed: static level Fs, velocity scale vs"
     GRID = 32
@@ -467,6 +472,8 @@ class Gravity(_Sinusoid):
 
 class Periodic(_Sinusoid):
     """A disturbance periodic in position (cogging, a screw's or a gear's period): A·sin(2π·q/P + φ)."""
+
+    own_row = True
 
     name, roles, axis, nonlinear, variant = "periodic", ("amplitude", "period"), "position", "period", "position"
     summary = "disturbance periodic in position (cogging, screw or gear period): amplitude·sin(2π·q/period + φ)"
@@ -753,6 +760,8 @@ class FlexibleMode(Effect):
     one-axis machine, the first joint of a chain); on a later joint the load's inertia also reacts on the
     joints before it, which the column leaves out (the patched model holds it in full).
     """
+
+    own_row = True
 
     name, roles, axis, nonlinear = "flexible_mode", ("frequency_hz", "damping_ratio"), "time", "frequency and damping"
     summary = "unmodelled resonance: a load on a compliant coupling (second mass), ringing at frequency_hz"

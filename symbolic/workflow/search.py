@@ -542,7 +542,7 @@ class Search:
         if missing:
             signals = self.signals(role)
             raw = [effect.columns_at(signals, j, k[2]) for k in missing]
-            rows = _acting(raw)
+            rows = np.array([j]) if effect.own_row else _acting(raw)
             if rows.size == 0:
                 rows = np.array([j])
             widths = [r.shape[2] for r in raw]
