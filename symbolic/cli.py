@@ -315,6 +315,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     from symbolic import data, export
     from symbolic.simulation import simulate
+    from symbolic.description.units import coordinate_units
     from symbolic.simulation.figures import MatplotlibMissing, draw
 
     try:
@@ -332,7 +333,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.out:
         files.append(simulation.write(args.out))
         try:
-            files += draw(comparison, Path(args.out), title=f"{model.robot.name}, {Path(args.experiment).name}")
+            files += draw(comparison, Path(args.out), title=f"{model.robot.name}, {Path(args.experiment).name}",
+                          units=coordinate_units(model.robot))
         except MatplotlibMissing as missing:
             notes.append(str(missing))
     if args.json:
@@ -383,6 +385,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         print(strict_json(result.to_dict()))
         return 0
     gap = lambda fit: f"{fit.gap['estimation']:.4g} % (estimation), {fit.gap['validation']:.4g} % (held out)"  # noqa: E731
+    for caveat in result.caveats:
+        print(f"note: {caveat}")
     print(f"gap before: {gap(result.before)}")
     if not result.found:
         print("no significant missing effect")

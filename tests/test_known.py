@@ -22,13 +22,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import sympy as sp
 from scipy.integrate import solve_ivp
 
 import symbolic
 from symbolic.cli import main
 from symbolic.data import Measurements, write
 from symbolic.description.modelfile import with_loadable_values
-from symbolic.identify.known import fixed_symbols
+from symbolic.identify.known import fixed_symbols, polynomial_lower_bound
 from symbolic.identify.least_squares import solve
 from symbolic.identify.model import identify_model
 from symbolic.workflow import diagnose
@@ -355,3 +356,22 @@ def _run(argv: list[str], errors: bool = False):
         warnings.simplefilter("ignore")
         code = main(["-q", *argv])
     return (code, out.getvalue(), err.getvalue()) if errors else (code, out.getvalue())
+
+
+def test_the_lower_bound_of_a_parallel_axis_sum() -> None:
+    """A base parameter with products of unknowns, I + m2·c2² + m3·(c3² + 2·0.316·c3 + 0.316²) + 0.1·m4
+    (inertia I and masses ≥ 0, centres c free): each mass's polynomial in its centre is a square, ≥ 0, so the
+    sum is ≥ 0 — and ≥ 1.5·0.1 + 2·0.2 = 0.55 when m4 ≥ 1.5 and m2 ≥ 2 with the square shifted by 0.2; a
+    negative inertia term or a cross product of centres leaves it unbounded (−∞), as does a mass whose
+    polynomial dips below 0 without an upper bound on the mass."""
+    inertia, m2, m3, m4, c2, c3, other = sp.symbols("I m2 m3 m4 c2 c3 J")
+    free = (0.0, np.inf)
+    bounds = {inertia: free, m2: free, m3: free, m4: free, other: free}
+    square = m3 * (c3**2 + 0.632 * c3 + 0.099856)  # 0.316² = 0.099856: a square with rounded numbers
+    assert polynomial_lower_bound(inertia + m2 * c2**2 + square + 0.1 * m4, bounds) == 0.0
+    shifted = {**bounds, m4: (1.5, np.inf), m2: (2.0, np.inf)}
+    assert polynomial_lower_bound(inertia + m2 * (c2**2 + 0.2) + square + 0.1 * m4, shifted) == pytest.approx(0.55)
+    assert polynomial_lower_bound(inertia - other + m2 * c2**2, bounds) == -np.inf
+    assert polynomial_lower_bound(inertia + m2 * c2 * c3, bounds) == -np.inf
+    assert polynomial_lower_bound(m2 * (c2**2 - 1), bounds) == -np.inf
+    assert polynomial_lower_bound(m2 * (c2**2 - 1), {m2: (0.0, 3.0)}) == pytest.approx(-3.0)

@@ -28,6 +28,7 @@ from symbolic.numeric import natural_frequencies
 from symbolic.simulation import simulate
 from symbolic.simulation.comparison import SIGNALS, compare
 from symbolic.simulation.simulator import _plant, initial_velocity
+import models
 from conftest import derived
 
 GOLDEN = Path(__file__).parent / "golden"
@@ -82,8 +83,9 @@ def reference_loop(kind: str, q: np.ndarray, r: np.ndarray, d: np.ndarray, tau_l
 
 
 @pytest.mark.parametrize("kind", LOOP_KINDS)
-@pytest.mark.parametrize("delay", [0, 2])
+@pytest.mark.parametrize("delay", [0, 2, control.LINE_IN_MEMORY + 8])
 def test_controller_function_is_the_contract(kind: str, delay: int) -> None:
+    """A delay up to LINE_IN_MEMORY is in the function's memory; a longer one in a DelayLine, one sample at a time."""
     rng = np.random.default_rng(7)
     samples, period = 60, 2e-3
     names = ("a", "b", "c")  # the model's coordinates; the controller drives c and a, in that order
@@ -100,12 +102,20 @@ def test_controller_function_is_the_contract(kind: str, delay: int) -> None:
                                    ref=rng.normal(0, 1e-2, (samples, 2)), extras={"dist_c": rng.normal(0, 0.1, samples)})
     ctrl = control.parse(table, log.coordinates, (), "<test>", names)
     signals = control.inputs(ctrl, log, names)
-    function = control.controller_function(ctrl, names, period)
+    outside = control.line_outside(ctrl)
+    assert outside == (delay > control.LINE_IN_MEMORY)
+    function = control.controller_function(ctrl, names, period, external=outside)
     c = control.constants(ctrl, {})
-    memory = np.zeros(ctrl.memory_size())
+    memory = np.zeros(ctrl.memory_size(line=not outside))
+    line = control.DelayLine(delay, ctrl.size) if outside else None
     got = np.empty((samples, 3))
     for k in range(samples):
-        memory, tau = function(memory, q[k], signals.reference[k], signals.disturbance[k], signals.torque[k], c)
+        read = (memory, q[k], signals.reference[k], signals.disturbance[k], signals.torque[k], c)
+        if line is None:
+            memory, tau = function(*read)
+        else:
+            memory, tau, u = function(*read, line.applied(k, 1)[0])
+            line.computed(k, np.asarray(u).reshape(1, -1))
         got[k] = np.asarray(tau).ravel()
     expected_r = np.column_stack([0.01 * np.sin(t), log.ref[:, 0]])
     expected_d = np.column_stack([log.extras["dist_c"], 0.01 * t])
@@ -114,6 +124,90 @@ def test_controller_function_is_the_contract(kind: str, delay: int) -> None:
                               np.array([2.0, 0.5]), np.array([0.4, 1e9]), np.array([1e-4, 0.0]), taps, delay)
     np.testing.assert_allclose(got[:, [2, 0]], expected, rtol=1e-12, atol=1e-12)
     assert np.all(got[:, 1] == 0.0)  # b is not driven
+
+
+def delayed_axis_reference(J: float, Fv: float, kp: float, kd: float, t: np.ndarray, r: np.ndarray, delay: int,
+                           substeps: int) -> np.ndarray:
+    """The closed loop J·q̈ = τ − Fv·q̇ written out: PD on the exact position and the backward-difference
+    velocity, its output applied ``delay`` samples later (0 before), held, RK4 with ``substeps``; rows
+    [q, q̇, τ] at the samples, from rest at q = 0."""
+    period = t[1] - t[0]
+    h = period / substeps
+    x, previous = np.zeros(2), 0.0
+    outputs, rows = [], []
+    for k in range(len(t)):
+        v = 0.0 if k == 0 else (x[0] - previous) / period
+        previous = x[0]
+        outputs.append(kp * (r[k] - x[0]) - kd * v)
+        tau = outputs[k - delay] if k >= delay else 0.0
+        rows.append([x[0], x[1], tau])
+        f = lambda y: np.array([y[1], (tau - Fv * y[1]) / J])  # noqa: E731
+        for _ in range(substeps):
+            k1 = f(x)
+            k2 = f(x + h / 2 * k1)
+            k3 = f(x + h / 2 * k2)
+            k4 = f(x + h * k3)
+            x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("delay", [3, control.LINE_IN_MEMORY + 1, 57])
+def test_delayed_loop_matches_a_loop_written_out(delay: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Delays on both sides of LINE_IN_MEMORY (57 does not divide the 400 samples: a short last chunk)
+    against the loop written here, and the ring buffer against the shift register it replaces (the same
+    run with the whole line in memory)."""
+    model = symbolic.derive(symbolic.loads(models.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'), "axis"))
+    t = np.arange(400) * 1e-3
+    r = 0.2 * np.sin(2 * np.pi * 3 * t) + 0.1
+    log = Measurements.from_arrays(t, ["q"], np.zeros((400, 1)), np.zeros((400, 1)), ref=r[:, None])
+    table = {"kind": "pd", "kp": [8.0], "kd": [0.2], "reference": "ref", "delay": delay}
+    run = simulate(model, log, controller=table, initial=(np.zeros(1), np.zeros(1)), substeps=2)
+    expected = delayed_axis_reference(0.05, 0.3, 8.0, 0.2, t, r, delay, 2)
+    got = np.column_stack([run.simulated.q[:, 0], run.simulated.qd[:, 0], run.simulated.tau[:, 0]])
+    assert np.abs(expected[:, 2]).max() > 0.5  # the controller acts, and against its own delay
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+    monkeypatch.setattr(control, "LINE_IN_MEMORY", 10**6)
+    in_memory = simulate(model, log, controller=table, initial=(np.zeros(1), np.zeros(1)), substeps=2)
+    np.testing.assert_allclose(in_memory.simulated.q, run.simulated.q, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(in_memory.simulated.tau, run.simulated.tau, rtol=0, atol=1e-14)
+
+
+def test_delayed_loop_in_solve_ivp_matches_the_fixed_step() -> None:
+    """The solve_ivp path runs its delay line one sample at a time: the same forces as RK4's chunks, the
+    positions to the tolerances."""
+    model = symbolic.derive(symbolic.loads(models.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"'), "axis"))
+    t = np.arange(200) * 1e-3
+    log = Measurements.from_arrays(t, ["q"], np.zeros((200, 1)), np.zeros((200, 1)), ref=np.full((200, 1), 0.1))
+    table = {"kind": "pd", "kp": [8.0], "kd": [0.2], "reference": "ref", "delay": control.LINE_IN_MEMORY + 5}
+    start = (np.zeros(1), np.zeros(1))
+    rk4 = simulate(model, log, controller=table, initial=start, substeps=8)
+    radau = simulate(model, log, controller=table, initial=start, method="Radau", rtol=1e-11, atol=1e-13)
+    np.testing.assert_allclose(radau.simulated.q, rk4.simulated.q, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(radau.simulated.tau, rk4.simulated.tau, rtol=0, atol=1e-6)
+
+
+def test_delay_reaching_the_end_of_the_log_is_refused(tmp_path: Path) -> None:
+    """A delay of samples − 1 or more leaves no interval for any output to act: refused where the experiment
+    is read and where a table is given to simulate, with the allowed range."""
+    model = derived("emps")
+    t = np.arange(50) * 1e-3
+    log = Measurements.from_arrays(t, ["q"], np.zeros((50, 1)), np.zeros((50, 1)), ref=np.zeros((50, 1)))
+    table = {"kind": "pd", "kp": [1.0], "kd": [0.0], "reference": "ref"}
+    simulate(model, log, controller={**table, "delay": 48})  # the first output acts over the last interval
+    with pytest.raises(DataError) as info:
+        simulate(model, log, controller={**table, "delay": 49})
+    assert str(info.value) == ("<arrays>: [controller] delay: 49 samples reaches the end of the log (50 samples): "
+                               "no output would act within it (allowed: 0 to 48)")
+    data_file = symbolic.data.write_columns({"t": t, "q_q": t * 0, "tau_q": t * 0, "ref_q": t * 0},
+                                            tmp_path / "log.csv")
+    experiment = tmp_path / "run.experiment.toml"
+    experiment.write_text(f'data = "{data_file.name}"\n[signals]\nt = "t"\nq_q = "q_q"\ntau_q = "tau_q"\n'
+                          'ref_q = "ref_q"\n[controller]\nkind = "pd"\nkp = [1.0]\nkd = [0.0]\n'
+                          'reference = "ref"\ndelay = 100000\n')
+    with pytest.raises(DataError) as info:
+        symbolic.data.load(experiment)
+    assert str(info.value) == (f"{experiment}: [controller] delay: 100000 samples reaches the end of the log "
+                               "(50 samples): no output would act within it (allowed: 0 to 48)")
 
 
 def test_gain_may_name_a_parameter() -> None:

@@ -4,6 +4,7 @@ localisation, the data split, byte-identical output, a model given without a fil
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from pathlib import Path
 
@@ -15,7 +16,9 @@ import models
 import symbolic
 import workflow_cases as cases
 from symbolic.workflow import diagnose
+from symbolic.data.times import time_windows
 from symbolic.workflow.dataset import load_sets, split, time_slice
+from symbolic.workflow.report import markdown
 from symbolic.workflow.statistics import autocorrelation, autocorrelation_time, f_test, ljung_box
 
 
@@ -241,3 +244,32 @@ def test_periodic_time_scan_columns_match_sines_and_cosines() -> None:
     x = 8 * np.arctan(np.longdouble(1)) * np.outer(values.astype(np.longdouble), t.astype(np.longdouble))
     assert columns.shape == (64, len(t), 2)
     assert np.max(np.abs(columns[:, :, 0] - np.sin(x))) < 3e-12 and np.max(np.abs(columns[:, :, 1] - np.cos(x))) < 3e-12
+
+
+def test_report_time_windows_of_a_clock_near_1000_s() -> None:
+    """A log whose clock starts at 1000 s: the report's time windows once read ``1e+03–1e+03 s``. Each
+    header must give its window's own start and stop: the edges of the ten windows of the estimation set,
+    to the decimals that resolve their width (3 significant digits of about 3.2 s: 2 decimals)."""
+    data = cases.measurements(models.axis(), 1, 0.01)
+    late = dataclasses.replace(data, t=data.t + 1000.0)
+    d = diagnose(symbolic.loads(models.axis(), "<python>"), late)
+    report = markdown(d)
+    header = next(line for line in report.splitlines() if line.startswith("| coordinate | 1000"))
+    spans = header.strip("| ").split(" | ")[1:]
+    windows = d.where_before["coordinates"]["q"]["time"]
+    assert len(spans) == len(windows) == 10
+    for span, w in zip(spans, windows):
+        start, stop = span.removesuffix(" s").split("–")
+        assert len(start.partition(".")[2]) == 2 and len(stop.partition(".")[2]) == 2, span
+        assert float(start) == pytest.approx(w["start"], abs=0.005) and float(stop) == pytest.approx(w["stop"], abs=0.005)
+    assert spans[0].startswith("1000.") and len(set(spans)) == 10
+
+
+def test_time_windows_resolve_the_narrowest_width() -> None:
+    """Decimals from the width, not the clock: 3 significant digits of the narrowest window."""
+    assert time_windows([(1000.0, 1000.0123)]) == ["1000.0000–1000.0123 s"]
+    assert time_windows([(1e6, 1e6 + 250.0), (1e6 + 250.0, 1e6 + 255.5)]) == ["1000000.00–1000250.00 s",
+                                                                           "1000250.00–1000255.50 s"]
+    # instants: the step between them
+    assert time_windows([(5.0, 5.0), (5.002, 5.002)]) == ["5.00000–5.00000 s", "5.00200–5.00200 s"]
+    assert time_windows([(7.0, 7.0)]) == ["7.000–7.000 s"]

@@ -26,9 +26,10 @@ import sympy as sp
 
 from symbolic.data.errors import DataError
 from symbolic.data.keys import suggestion, unknown_key
+from symbolic.data.measurements import MAX_MAGNITUDE
 from symbolic.description.expressions import parse_expression, variable_names
 from symbolic.description.robot import parameter_symbol
-from symbolic.errors import ModelError
+from symbolic.errors import ModelError, shown
 
 STATE_FEEDBACK = "state_feedback"
 
@@ -128,10 +129,11 @@ class Controller:
         """The states as written in the table (``q_<c>``, ``qd_<c>``)."""
         return [f"{signal}_{c}" for signal, c in self.states]
 
-    def memory_size(self) -> int:
-        """Length of the controller's state: started flag, last positions, past velocities, integral, delay line."""
+    def memory_size(self, line: bool = True) -> int:
+        """Length of the controller's state: started flag, last positions, past velocities, integral, and
+        the delay line (``nc·delay``) unless ``line`` is false (a line kept outside the state)."""
         nc, ns = self.size, len(self.sensors)
-        return 1 + ns + ns * (len(self.velocity_filter) - 1) + nc + nc * self.delay
+        return 1 + ns + ns * (len(self.velocity_filter) - 1) + nc + (nc * self.delay if line else 0)
 
     def structure(self) -> tuple[Any, ...]:
         """What the controller's compiled function depends on besides its numbers (:func:`constants`)."""
@@ -167,6 +169,7 @@ def parse(
     source: str = "<controller>",
     model_coordinates: Sequence[str] | None = None,
     columns: Collection[str] | None = None,
+    samples: int | None = None,
 ) -> Controller:
     """Validate a ``[controller]`` table: the one place where it is checked (the experiment loader calls it).
 
@@ -188,6 +191,9 @@ def parse(
         The names of the data's signals (``t``, the canonical columns, the extras): ``reference = "ref"``
         then needs the ``ref_<c>`` columns, and ``reference`` and ``disturbance`` expressions may use
         only these names. ``None``: checked when the signals are read (simulation).
+    samples
+        The length of the log: ``delay`` must leave the controller at least one interval to act
+        (:func:`check_delay`). ``None``: checked when the controller runs (simulation).
 
     Raises
     ------
@@ -210,7 +216,7 @@ def parse(
         controller = _state_feedback(table, data_coordinates, model, model_parameters, source)
         if columns is not None:
             _check_signals(None, controller.disturbance, controller.coordinates, columns, source)
-        return controller
+        return check_delay(controller, samples)
     coordinates = _coordinates(table, "coordinates", data_coordinates, model, source)
     nc = len(coordinates)
     per = _PerCoordinate(table, coordinates, source)
@@ -219,7 +225,7 @@ def parse(
     reference = _reference(table, nc, source) if kind != "torque" else None
     if columns is not None:
         _check_signals(reference, per.strings("disturbance"), coordinates, columns, source)
-    return Controller(
+    return check_delay(Controller(
         kind=kind,
         coordinates=coordinates,
         kp=gains.get("kp", zeros),
@@ -234,7 +240,7 @@ def parse(
         delay=_delay(table, source),
         velocity_filter=_taps(table, source),
         source=source,
-    )
+    ), samples)
 
 
 _STATE_FEEDBACK_HELP = 'inputs = ["<c>", ...], states = ["q_<c>", "qd_<c>", ...], K = [[...], ...] one row per input'
@@ -308,8 +314,9 @@ def _matrix(value: Any, inputs: tuple[str, ...], states: tuple[tuple[str, str], 
             raise DataError(source, f"[controller] K[{i}]", f"has {len(row)} number(s), expected {columns}: "
                                                             f"K has {shape}")
         for j, v in enumerate(row):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise DataError(source, f"[controller] K[{i}][{j}]", f"expected a finite number (signed), got {v!r}")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not abs(v) <= MAX_MAGNITUDE:
+                raise DataError(source, f"[controller] K[{i}][{j}]", f"expected a finite number (signed), got "
+                                                                     f"{shown(v)} (allowed: magnitudes up to {MAX_MAGNITUDE:g})")
     return np.array(value, dtype=float).reshape(rows, columns)
 
 
@@ -364,6 +371,10 @@ class _PerCoordinate:
                 bound = f"> {minimum:g}" if strict else f"≥ {minimum:g}"
                 raise DataError(self.source, key, f"{v!r} is {'negative' if v < 0 else 'not allowed'} "
                                                   f"(allowed: numbers {bound})")
+            if math.isfinite(v) and abs(v) > MAX_MAGNITUDE:
+                raise DataError(self.source, key, f"{v:g} is beyond the magnitude {MAX_MAGNITUDE:g} of the numbers a "
+                                                  "simulation can hold (allowed: numbers of magnitude at most "
+                                                  f"{MAX_MAGNITUDE:g}{', or inf' if strict else ''})")
             out.append(float(v))
         return np.array(out)
 
@@ -424,12 +435,31 @@ def _delay(table: Mapping[str, Any], source: str) -> int:
     return value
 
 
+def check_delay(controller: Controller, samples: int | None) -> Controller:
+    """``controller`` if its delay leaves it a sample to act on a log of ``samples`` samples.
+
+    The output computed at sample 0 is applied at sample ``delay`` and held over [t_delay, t_delay+1):
+    with ``delay ≥ samples − 1`` no output acts within the log, and the controller is only a cost.
+
+    Raises
+    ------
+    DataError
+        ``[controller] delay`` of ``samples − 1`` or more, with the allowed range.
+    """
+    if samples is not None and controller.delay > max(samples - 2, 0):
+        raise DataError(controller.source, "[controller] delay",
+                        f"{controller.delay} samples reaches the end of the log ({samples} samples): no output "
+                        f"would act within it (allowed: 0 to {max(samples - 2, 0)})")
+    return controller
+
+
 def _taps(table: Mapping[str, Any], source: str) -> np.ndarray:
     value = table.get("velocity_filter", [1.0])
     if (not isinstance(value, list) or not value or len(value) > 64
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)):
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) <= MAX_MAGNITUDE for v in value)):
         raise DataError(source, "[controller] velocity_filter",
-                        f"expected a list of 1 to 64 finite numbers (FIR taps, newest sample first), got {value!r}")
+                        f"expected a list of 1 to 64 finite numbers of magnitude at most {MAX_MAGNITUDE:g} (FIR taps, "
+                        f"newest sample first), got {shown(value)}")
     return np.array(value, dtype=float)
 
 

@@ -34,12 +34,14 @@ from symbolic.data import files
 from symbolic.data.controller import Controller, parse
 from symbolic.data.errors import DataError
 from symbolic.data.keys import check_keys
-from symbolic.data.measurements import DriveGains, Measurements, Source, assemble, isfinite_number, split_name
+from symbolic.data.measurements import (MAX_MAGNITUDE, MAX_RATE, DriveGains, Measurements, Source, assemble,
+                                       isfinite_number, split_name)
 from symbolic.data.settings import Settings
+from symbolic.data.units import check_units
 from symbolic.description import modelfile
 from symbolic.description.expressions import RESERVED_NAMES, parse_expression, variable_names
 from symbolic.description.robot import Robot
-from symbolic.errors import ModelError
+from symbolic.errors import ModelError, shorten
 
 DATA_PATH_VARIABLE = "SYMBOLIC_DATA_PATH"
 """Environment variable: folders (separated by ``os.pathsep``) searched for a data file by its name
@@ -90,7 +92,7 @@ class Experiment(Measurements):
         names when a model uses it)."""
         if isinstance(controller, Mapping):
             controller = parse(controller, measurements.coordinates, None, str(measurements.source),
-                               columns=measurements.columns())
+                               columns=measurements.columns(), samples=measurements.samples)
         given = {"settings": settings, "controller": controller, **context}
         given = {k: v for k, v in given.items() if v is not None}
         if isinstance(measurements, cls):
@@ -169,6 +171,8 @@ def _read_data_file(path: Path, coordinates: tuple[str, ...] | None, model: Robo
     measurements = assemble(table.vectors, Source(str(path), lambda name: f"column '{name}'"),
                             coordinates=coordinates, resample=resample, drive=drive.drive(table.vectors),
                             model=_coordinates_of(model), source=path, data_file=path.resolve(), constants=table.scalars)
+    if model is not None:
+        check_units(measurements, model)
     return Experiment.of(measurements, drive_gains=drive.used())
 
 
@@ -212,11 +216,13 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
         source=path,
         constants={**table.scalars, **constants},
     )
+    if model is not None:
+        check_units(measurements, model)
     controller = None
     if "controller" in spec:
         controller_table = _table(spec, "controller", source)
         controller = parse(controller_table, measurements.coordinates, used.parameters(controller_table), source,
-                           coordinates or _coordinates_of(model), measurements.columns())
+                           coordinates or _coordinates_of(model), measurements.columns(), measurements.samples)
     return Experiment.of(measurements, model=named, settings=settings, controller=controller, window=window,
                          drive_gains=used.used())
 
@@ -395,8 +401,9 @@ def _rate(spec: Mapping[str, Any], signals: Mapping[str, Any], source: str) -> f
         other = "t in [signals]" if "t" in signals else "[signals] rate"
         raise DataError(source, given[0][0], f"give either the time ({other}) or a rate, not both")
     key, value = given[0]
-    if not isfinite_number(value) or value <= 0:
-        raise DataError(source, key, f"expected a positive sampling rate in Hz, got {value!r}")
+    if not isfinite_number(value) or not 1.0 / MAX_MAGNITUDE <= value <= MAX_RATE:
+        raise DataError(source, key, f"expected a sampling rate in Hz from {1.0 / MAX_MAGNITUDE:g} to {MAX_RATE:g}, "
+                                     f"got {value!r}")
     return float(value)
 
 
@@ -414,6 +421,9 @@ def _constants(spec: Any, table: files.Table, source: str) -> dict[str, float]:
             raise DataError(source, key, f"not a usable name (a Python identifier other than {', '.join(sorted(RESERVED_NAMES))})")
         if not isfinite_number(value):
             raise DataError(source, key, f"expected a finite number, got {value!r}")
+        if abs(value) > MAX_MAGNITUDE:
+            raise DataError(source, key, f"{value:g} is beyond the magnitude {MAX_MAGNITUDE:g} of any measured value "
+                                         "(allowed: numbers of magnitude at most 1e+30)")
         constants[name] = float(value)
     return constants
 
@@ -446,8 +456,14 @@ def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, 
         raise DataError(source, key, f"{text!r} uses no signal of the file (a signal varies with the samples; "
                                      "only a generalized force tau_<c> may be a number, e.g. \"0\" without an actuator)")
     function = sp.lambdify(used, expression, modules="numpy", dummify=True)
+    # NumPy numbers throughout: a scalar of 1e300 squared is inf (refused with the sample by the checks of
+    # the signals), where a Python float would raise OverflowError
+    arguments = [np.asarray(v, dtype=float) if isinstance(v, np.ndarray) else np.float64(v) for v in values]
     with np.errstate(all="ignore"):
-        result = np.asarray(function(*values), dtype=float)
+        try:
+            result = np.asarray(function(*arguments), dtype=float)
+        except (OverflowError, ZeroDivisionError, ValueError) as exc:
+            raise DataError(source, key, f"cannot compute {shorten(str(text))}: {exc}") from None
     return np.broadcast_to(result, (next(iter(lengths.values())),)).copy()
 
 

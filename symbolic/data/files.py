@@ -10,16 +10,21 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import math
+import os
+import struct
+import warnings
 import zipfile
-from collections.abc import Mapping, Sequence
+import zlib
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from symbolic.data.errors import DataError
-from symbolic.errors import shorten
+from symbolic.errors import one_line, shorten
 from symbolic.writing import replacing
 
 DATA_SUFFIXES = (".csv", ".npz", ".mat")
@@ -96,48 +101,122 @@ def read(path: Path, columns: Sequence[str] | None = None, named_by: str = "<pyt
     return readers[which](path)
 
 
+BLOCK_CHARACTERS = 1 << 22
+"""Characters of CSV text parsed at once (4 Mi, about 55 000 rows of four 17-digit numbers): the reader holds
+one block of text besides its result, whatever the file's size."""
+
+
 def read_csv(path: Path, columns: Sequence[str] | None = None, named_by: str = "<python>") -> Table:
     """CSV: lines starting with ``#`` before the header are comments; then a header line of names —
     or, when ``columns`` is given, no header line: every line is a row of numbers, named by ``columns``.
 
     A file whose first line is numbers and no ``columns`` is refused with a message saying so and how
-    to name the columns (a numeric first line read as names would make names of numbers)."""
+    to name the columns (a numeric first line read as names would make names of numbers).
+
+    The file is streamed: read in blocks of :data:`BLOCK_CHARACTERS`, each block's rows parsed by
+    :func:`numpy.loadtxt` straight into one float64 array per column, whose length is known beforehand from
+    the file's line count (bench/csv_load.py measures the peak memory: the result and a block). Lines are
+    split as :meth:`str.splitlines` splits them; blank lines are skipped; a block that ``loadtxt`` cannot
+    read is parsed field by field, which names the line and column of a bad cell. That is the whole
+    file's reading of the reader that decoded it at once (tests/csv_reference.py), applied block by block,
+    with one difference: rows of ``#`` comment lines only are no rows (that reader read a body of only
+    comments field by field and refused it as a length mismatch; a header alone was 0 rows already).
+    """
     source = str(path)
     try:
-        text = path.read_bytes().decode("utf-8-sig")
+        with path.open(encoding="utf-8-sig", newline=None) as handle:
+            blocks = _blocks(handle, source)
+            header, body = _header(blocks, path, columns, named_by)
+            _check_names(header, source)
+            return _columns(header, body, _line_count(path), source)
     except OSError as exc:
         raise DataError(source, "file", f"cannot read: {exc.strerror}") from None
-    except UnicodeDecodeError:
-        raise DataError(source, "file", "CSV file is not UTF-8 text") from None
-    lines = text.splitlines()
-    first = next((i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")), None)
-    if first is None:
+
+
+def _blocks(handle: io.TextIOBase, source: str) -> Iterator[tuple[int, list[str]]]:
+    """(number of the first line, lines) of successive blocks of whole lines. The text is read with universal
+    newlines (every line end is ``\\n``), cut after a block's last ``\\n`` and split by :meth:`str.splitlines`:
+    the lines and their numbers are those of the whole text's :meth:`str.splitlines`."""
+    number, carry = 1, ""
+    while True:
+        try:
+            piece = handle.read(BLOCK_CHARACTERS)
+        except UnicodeDecodeError:
+            raise DataError(source, "file", "CSV file is not UTF-8 text") from None
+        text = carry + piece
+        if not piece:
+            if text:
+                yield number, text.splitlines()
+            return
+        cut = text.rfind("\n") + 1
+        if cut == 0:  # no line end yet: a longer line, or one ended by another of splitlines' separators
+            carry = text
+            continue
+        lines, carry = text[:cut].splitlines(), text[cut:]
+        yield number, lines
+        number += len(lines)
+
+
+def _header(blocks: Iterator[tuple[int, list[str]]], path: Path, columns: Sequence[str] | None,
+            named_by: str) -> tuple[list[str], Iterator[tuple[int, list[str]]]]:
+    """The column names and the blocks of the rows after them: comments and blank lines before the first
+    line are skipped, which is the header line, or with ``columns`` the first row."""
+    source = str(path)
+    for number, lines in blocks:
+        first = next((i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")), None)
+        if first is not None:
+            break
+    else:
         what = "no rows" if columns is not None else "no header line (expected comma-separated column names, e.g. t,q_q,tau_q)"
         raise DataError(source, "header" if columns is None else "rows", what)
-    fields = [name.strip() for name in next(csv.reader([lines[first]]))]
+    line = lines[first]
+    fields = [name.strip() for name in next(csv.reader([line]))]
     if columns is None:
         if _numbers(fields):
             raise DataError(
                 source, "header",
-                f"the first line {shorten(lines[first].strip(), 60)} is numbers: the file has no header line; name its "
+                f"the first line {shorten(line.strip(), 60)} is numbers: the file has no header line; name its "
                 f"{len(fields)} columns in an experiment file, columns = [\"t\", \"q1\", ...] ({len(fields)} names, "
                 "in file order; docs/data.md), or add a header line of names (e.g. t,q_q,tau_q)")
         header, start = fields, first + 1
     else:
         if not _numbers(fields):
-            raise DataError(named_by, "columns", f"{path.name} has a header line ({shorten(lines[first].strip(), 60)}); "
+            raise DataError(named_by, "columns", f"{path.name} has a header line ({shorten(line.strip(), 60)}); "
                                                  "columns is for a CSV file without one: leave out columns, or remove "
                                                  "the header line")
         if len(fields) != len(columns):
             raise DataError(named_by, "columns", f"names {len(columns)} column(s), but the lines of {path.name} have "
-                                                 f"{len(fields)} field(s) (line {first + 1}); give one name per column")
+                                                 f"{len(fields)} field(s) (line {number + first}); give one name per column")
         header, start = list(columns), first
-    _check_names(header, source)
-    body = [(i + 1, line) for i, line in enumerate(lines[start:], start=start) if line.strip()]
-    values = _parse_rows(body, header, source)
+    return header, itertools.chain([(number + start, lines[start:])], blocks)
+
+
+def _line_count(path: Path) -> int:
+    """An upper bound of the rows: the file's ``\\n`` count + 1 (a file whose lines end otherwise grows its arrays)."""
+    count = 1
+    with path.open("rb") as f:
+        while chunk := f.read(1 << 24):
+            count += chunk.count(b"\n")
+    return count
+
+
+def _columns(header: list[str], body: Iterator[tuple[int, list[str]]], capacity: int, source: str) -> Table:
+    """Parse the blocks of rows into one float64 vector per column (each its own array: a view kept of one
+    column, as ``Measurements.t`` is, keeps no other column alive)."""
+    out = [np.empty(capacity) for _ in header]
+    rows = 0
+    for number, lines in body:
+        values = _parse_block(number, lines, header, source)
+        if rows + len(values) > capacity:  # lines ended by \r or another separator: not counted
+            capacity = max(2 * capacity, rows + len(values))
+            out = [np.concatenate([column[:rows], np.empty(capacity - rows)]) for column in out]
+        for column, v in zip(out, values.T):
+            column[rows:rows + len(values)] = v
+        rows += len(values)
     table = Table(source)
-    for j, name in enumerate(header):
-        table.vectors[name] = values[:, j]
+    for name, column in zip(header, out):
+        # many blank or comment lines: do not keep their room
+        table.vectors[name] = column[:rows].copy() if rows < 0.9 * capacity else column[:rows]
     return table
 
 
@@ -161,17 +240,24 @@ def _check_names(header: list[str], source: str) -> None:
         seen.add(name)
 
 
-def _parse_rows(body: list[tuple[int, str]], header: list[str], source: str) -> np.ndarray:
+def _parse_block(number: int, lines: list[str], header: list[str], source: str) -> np.ndarray:
+    """The rows of one block (rows × columns); ``number`` is the line number of ``lines[0]``."""
+    body = [line for line in lines if line.strip()]
     if not body:
         return np.empty((0, len(header)))
     try:  # fast path; on any problem the slow path below says where
-        values = np.loadtxt(io.StringIO("\n".join(line for _, line in body)), delimiter=",", ndmin=2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # a block of comments only: "input contained no data"
+            values = np.loadtxt(body, delimiter=",", ndmin=2)
         if values.shape[1] == len(header):
             return values
+        if len(values) == 0:  # comment lines only: no rows (the reader of the whole file took them for a row)
+            return np.empty((0, len(header)))
     except ValueError:
         pass
-    values = np.empty((len(body), len(header)))
-    for row, (lineno, fields) in enumerate(zip((n for n, _ in body), csv.reader(line for _, line in body))):
+    numbered = [(number + i, line) for i, line in enumerate(lines) if line.strip()]
+    values = np.empty((len(numbered), len(header)))
+    for row, (lineno, fields) in enumerate(zip((n for n, _ in numbered), csv.reader(line for _, line in numbered))):
         if len(fields) != len(header):
             raise DataError(
                 source,
@@ -188,42 +274,167 @@ def _parse_rows(body: list[tuple[int, str]], header: list[str], source: str) -> 
     return values
 
 
+INFLATION_LIMIT = 100
+"""Most bytes of numbers a compressed data file may hold per byte of file. Measured signals carry noise in
+their low bits and compress by a few times at most (savez_compressed of EMPS's log: 1.3); a larger ratio
+means long runs of identical bytes, no measurement, and a ratio of 1000 is a zip bomb's (1 MB that inflates
+to 1 GB)."""
+
+INFLATION_FLOOR = 256 * 2**20
+"""Bytes of numbers any data file may hold whatever its compression (a short log of constants is fine)."""
+
+MEMORY_SHARE = 4
+"""A data file's numbers may take at most this share (1/4) of the memory available: the commands hold a few
+copies of the data and the regressor besides."""
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to a new allocation (Linux's MemAvailable, else free physical pages), or
+    ``None`` when the system does not say."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def size(count: float) -> str:
+    """A byte count for a message: ``8 TiB``, ``381 MiB``, ``64 B``."""
+    for unit, scale in (("TiB", 2**40), ("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if count >= scale:
+            return f"{count / scale:.3g} {unit}"
+    return f"{int(count)} B"
+
+
+@dataclass
+class _Budget:
+    """The bytes of numbers a data file may inflate to (:data:`INFLATION_LIMIT`, :data:`MEMORY_SHARE`), and
+    those claimed so far; :meth:`claim` refuses past it, naming the variable and the limit."""
+
+    source: str
+    file_size: int
+    memory: int | None = field(default_factory=available_memory)
+    used: int = 0
+
+    def claim(self, name: str, nbytes: int, what: str) -> None:
+        self.used += nbytes
+        inflation = max(INFLATION_FLOOR, INFLATION_LIMIT * self.file_size)
+        if self.used > inflation:
+            raise DataError(self.source, f"{name}", f"{what}: the file's numbers would inflate to {size(self.used)} or "
+                                                    f"more, {self.used / max(self.file_size, 1):.3g} times its {size(self.file_size)} "
+                                                    f"(allowed: {INFLATION_LIMIT} times the file's size, or "
+                                                    f"{size(INFLATION_FLOOR)}); a file that compresses that far holds "
+                                                    "no measurement (a zip bomb?)")
+        if self.memory is not None and self.used > self.memory / MEMORY_SHARE:
+            raise DataError(self.source, f"{name}", f"{what}: {size(self.used)} of numbers, more than a "
+                                                    f"{MEMORY_SHARE}th of the {size(self.memory)} of memory available")
+
+
+NUMBER_KINDS = "biuf"
+"""NumPy dtype kinds read as numbers: booleans, integers, floating point."""
+
+
 def read_npz(path: Path) -> Table:
-    """NumPy ``.npz`` (``numpy.savez``); pickled objects are never loaded."""
+    """NumPy ``.npz`` (``numpy.savez``, ``savez_compressed``); pickled objects are never loaded.
+
+    Every member's ``.npy`` header is read first and the bytes its shape claims are checked against the
+    file's budget (:class:`_Budget`) before any array is allocated; the data are then read as exactly that
+    many bytes, so a member cannot inflate past what its header claims however its zip entry lies.
+    """
     source = str(path)
     table = Table(source)
+    budget = _Budget(source, path.stat().st_size)
     try:
-        archive = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        archive = zipfile.ZipFile(path)
+    except (OSError, zipfile.BadZipFile, ValueError) as exc:
         raise DataError(source, "file", f"cannot read as a NumPy .npz archive: {exc}") from None
     with archive:
-        for name in archive.files:
-            try:
-                value = archive[name]
-            except ValueError:
-                table.unusable[name] = "an array of Python objects (not loaded)"
+        for info in archive.infolist():
+            if info.is_dir():
                 continue
-            _classify(table, name, value)
+            name = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
+            try:
+                _read_member(archive, info, name, table, budget)
+            except DataError:
+                raise
+            except (OSError, ValueError, EOFError, zipfile.BadZipFile, NotImplementedError, RuntimeError) as exc:
+                raise DataError(source, name, f"cannot read as a NumPy array (.npy): {exc}") from None
     return table
 
 
+def _read_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, table: Table, budget: _Budget) -> None:
+    """One ``.npy`` member of an archive into ``table`` (see :func:`read_npz`)."""
+    fmt = np.lib.format
+    with archive.open(info) as member:
+        if not info.filename.endswith(".npy"):
+            table.unusable[name] = "not a NumPy array (.npy)"
+            return
+        version = fmt.read_magic(member)
+        reader = fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
+        shape, fortran, dtype = reader(member)
+        if dtype.hasobject:
+            table.unusable[name] = "an array of Python objects (not loaded)"
+            return
+        if dtype.kind not in NUMBER_KINDS or dtype.fields is not None:
+            table.unusable[name] = f"of type {dtype} (not numbers)"
+            return
+        count = math.prod(shape)
+        nbytes = count * dtype.itemsize
+        budget.claim(name, nbytes, f"its header claims {count} values of {dtype} ({size(nbytes)})")
+        data = member.read(nbytes)
+        if len(data) != nbytes:
+            raise DataError(budget.source, name, f"truncated: its header claims {count} values of {dtype} "
+                                                 f"({size(nbytes)}), the archive holds {size(len(data))}")
+        array = np.frombuffer(data, dtype=dtype).reshape(shape, order="F" if fortran else "C")
+    _classify(table, name, array)
+
+
+MAT_NUMBERS = ("double", "single", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "logical")
+"""MATLAB classes read as numbers; the others (char, cell, struct, sparse, object, ...) are named, not loaded."""
+
+
 def read_mat(path: Path) -> Table:
-    """MATLAB ``.mat`` v5 (``save -v7`` or older) through :func:`scipy.io.loadmat`."""
+    """MATLAB ``.mat`` v5 (``save -v7`` or older) through :func:`scipy.io.loadmat`.
+
+    The variables are listed first (:func:`scipy.io.whosmat` reads their headers only); the numeric ones
+    are loaded when their sizes fit the file's budget (:class:`_Budget`), the others are named as unusable
+    without being read."""
     import scipy.io
 
     source = str(path)
     table = Table(source)
+    budget = _Budget(source, path.stat().st_size)
     try:
-        contents = scipy.io.loadmat(str(path), squeeze_me=False)
+        listed = scipy.io.whosmat(str(path))
+        numeric = []
+        for name, shape, kind in listed:
+            if name.startswith("__"):
+                continue
+            if kind not in MAT_NUMBERS:
+                table.unusable[name] = f"a MATLAB {kind} (not numbers)"
+                continue
+            count = math.prod(shape)
+            budget.claim(name, 8 * count, f"a {kind} array of {'×'.join(map(str, shape))} values ({size(8 * count)})")
+            numeric.append(name)
+        contents = scipy.io.loadmat(str(path), squeeze_me=False, variable_names=numeric) if numeric else {}
+    except DataError:
+        raise
     except NotImplementedError:
         raise DataError(
             source, "file", "MATLAB v7.3 (HDF5) files are not supported; save with -v7 or -v6 in MATLAB"
         ) from None
-    except (OSError, ValueError, TypeError) as exc:
-        raise DataError(source, "file", f"cannot read as a MATLAB v5 .mat file: {exc}") from None
-    for name, value in contents.items():
-        if not name.startswith("__"):
-            _classify(table, name, value)
+    except (OSError, ValueError, TypeError, EOFError, zlib.error, struct.error, IndexError, KeyError,
+            AttributeError) as exc:
+        raise DataError(source, "file", f"cannot read as a MATLAB v5 .mat file: {one_line(str(exc), 200)}") from None
+    for name in numeric:
+        if name in contents:
+            _classify(table, name, contents[name])
     return table
 
 

@@ -40,6 +40,16 @@ EMPS's time stamps, stored in single precision, deviate by 1.6e-5 of the 1 ms st
 drops or repeats samples deviates by 100 % or more.
 """
 
+MAX_MAGNITUDE = 1e30
+"""Largest magnitude of a measured value (the bound of the numbers in model files): every sum of squares and
+product the treatment and the least squares form stays finite (with :data:`MAX_RATE`, q̈ ≤ 1e48 and its
+squares summed over 10⁹ samples ≤ 1e105), while time in nanoseconds since 1970 (1.7e18) and 64-bit
+encoder counts (1.8e19) are far inside."""
+
+MAX_RATE = 1e9
+"""Highest sampling rate in Hz (a time step of at least 1 ns): q̈ = Δ²q/h² then stays below 1e48 for
+positions up to :data:`MAX_MAGNITUDE`; no robot log comes near (EMPS and the Panda: 1 kHz)."""
+
 
 def split_name(name: str) -> tuple[str, str] | None:
     """``("q", "x")`` for ``"q_x"`` and the like; ``None`` for ``t`` and extra signals.
@@ -274,6 +284,9 @@ def assemble(
     for name, values in signals.items():
         _check_finite(name, values[start:stop], t, start, origin)
     sample_period = (t[-1] - t[0]) / (len(t) - 1)
+    if "t" in signals and not sample_period >= 1.0 / MAX_RATE:
+        raise DataError(origin.name, origin.where("t"), f"time step {sample_period:.3g} s is below 1 ns (allowed: "
+                                                        f"sampling rates up to {MAX_RATE:g} Hz; is t in seconds?)")
     resampled = False
     if not _uniform(t, sample_period, origin, allow=resample):
         uniform = t[0] + sample_period * np.arange(len(t))
@@ -399,9 +412,11 @@ def _common_length(signals: Mapping[str, np.ndarray], source: Source) -> int:
 
 
 def _check_time(t: np.ndarray, source: Source) -> None:
-    bad = np.flatnonzero(~np.isfinite(t))
+    with np.errstate(invalid="ignore"):
+        bad = np.flatnonzero(~(np.abs(t) <= MAX_MAGNITUDE))
     if bad.size:
-        raise DataError(source.name, source.where("t"), f"time is {t[bad[0]]} at sample {bad[0]} (allowed: finite numbers)")
+        raise DataError(source.name, source.where("t"), f"time is {t[bad[0]]:g} at sample {bad[0]} (allowed: finite "
+                                                        f"numbers of magnitude at most {MAX_MAGNITUDE:g})")
     steps = np.diff(t)
     bad = np.flatnonzero(steps <= 0)
     if bad.size:
@@ -435,14 +450,17 @@ def _interval(lo: float | None, hi: float | None) -> str:
 
 
 def _check_finite(name: str, values: np.ndarray, t: np.ndarray, offset: int, source: Source) -> None:
-    bad = np.flatnonzero(~np.isfinite(values))
+    """Refuse a value that is not finite or beyond :data:`MAX_MAGNITUDE`, naming the first and counting the others."""
+    with np.errstate(invalid="ignore"):
+        bad = np.flatnonzero(~(np.abs(values) <= MAX_MAGNITUDE))
     if bad.size:
         k = bad[0]
         more = f" and at {bad.size - 1} more sample(s)" if bad.size > 1 else ""
         raise DataError(
             source.name,
             source.where(name),
-            f"value {values[k]} at sample {k + offset} (t = {t[k]:.9g} s){more} (allowed: finite numbers)",
+            f"value {values[k]:g} at sample {k + offset} (t = {t[k]:.9g} s){more} (allowed: finite numbers of "
+            f"magnitude at most {MAX_MAGNITUDE:g})",
         )
 
 
@@ -463,6 +481,16 @@ def _uniform(t: np.ndarray, step: float, source: Source, allow: bool) -> bool:
         f"largest deviation is at sample {worst + 1}); steps must be uniform to {UNIFORM_TOLERANCE:.1%} — resample "
         "on request: resample = true in the experiment file, or load(..., resample=True)",
     )
+
+
+def check_forces(measurements: Measurements) -> None:
+    """Refuse data whose forces are zero at every sample of every coordinate: every model fits them, and a
+    relative error ‖τ_meas − τ_model‖/‖τ_meas‖ has nothing to measure against (a coordinate without an
+    actuator, τ = 0, is fine while another has a force)."""
+    if not np.any(measurements.tau):
+        names = ", ".join(f"tau_{c}" for c in measurements.coordinates)
+        raise DataError(str(measurements.source), names, "the forces are zero at every sample: nothing to identify "
+                        "or compare with (a log without its force signal? check the tau_<c> or u_<c> mapping)")
 
 
 def duration(seconds: float, like: float | None = None) -> str:

@@ -17,11 +17,23 @@ import numpy as np
 from symbolic.data.errors import DataError
 from symbolic.data.filters import DECIMATION_ORDER, decimate, kept_indices
 from symbolic.data.keys import check_keys
+from symbolic.data.measurements import MAX_MAGNITUDE, MAX_RATE
 
 BANDWIDTH_FRACTION = 50.0
 """Without a stated bandwidth, it is taken as rate / 50 (20 Hz at 1 kHz, EMPS's value)."""
 
 SETTING_KEYS = ("bandwidth", "cutoff", "order", "decimation", "border", "filter_positions", "held_force")
+
+MAX_ORDER = 16
+"""Highest order of the positions' Butterworth filter. The zero-phase filter's impulse response lengthens
+with the order while the border stays five periods of the cut-off: on a signal inside the pass band the
+largest error left after the border grows from 3e-7 (order 4) to 1e-3 (order 16), 5 % (order 64) and
+50–90 % (order 100) at cut-offs from 0.2 Hz to 5 Hz at 1 kHz (bench/filter_order.py), and q̈, its second
+difference, amplifies it. tests/test_hostile_data.py identifies a known truth at this order; order 200
+gave EMPS a mass of 0.94 kg instead of 95."""
+
+MIN_DECIMATED = 2
+"""Fewest samples decimation may leave (of those after the border)."""
 
 
 @dataclass(frozen=True)
@@ -59,6 +71,12 @@ class Settings:
     filter_positions: bool | None = None
     held_force: bool | None = None
 
+    def __post_init__(self) -> None:
+        # settings built in Python get the checks of an [identification] table
+        for key, value in asdict(self).items():
+            if value is not None:
+                _setting(key, list(value) if isinstance(value, tuple) else value, "<settings>")
+
     @classmethod
     def from_table(cls, table: Mapping[str, Any] | None, source: str) -> Settings:
         """The settings an experiment's ``[identification]`` table declares (the others unset), checked:
@@ -89,28 +107,59 @@ class Settings:
         filtering = self.filter_positions if self.filter_positions is not None else True
         cutoff = self.cutoff if self.cutoff is not None else 5.0 * bandwidth
         if self.border is None:
-            border = (math.ceil(5.0 * rate / cutoff),) * 2 if filtering else (2, 2)
+            # five periods of the cut-off; capped where the count would not fit an integer (refused by resolve)
+            border = (math.ceil(min(5.0 * rate / cutoff, 2.0**62)),) * 2 if filtering else (2, 2)
         else:
             border = (self.border, self.border) if isinstance(self.border, int) else tuple(self.border)
         order = self.order if self.order is not None else 4
         return bandwidth, cutoff if filtering else None, order, (int(border[0]), int(border[1]))
 
     def resolve(self, rate: float, samples: int, source: str = "<settings>") -> Processing:
-        """The concrete treatment for data at ``rate`` Hz with ``samples`` samples."""
+        """The concrete treatment for data at ``rate`` Hz with ``samples`` samples, refused (naming the key the
+        value came from, and the values allowed for these data) where it cannot be applied."""
         nyquist = rate / 2.0
         bandwidth, cutoff, order, border = self.rules(rate)
+        if not bandwidth < nyquist:
+            raise DataError(source, "[identification] bandwidth", f"{bandwidth:g} Hz is not below the Nyquist frequency "
+                                                                  f"{nyquist:g} Hz of the data")
+        given = "cutoff" if self.cutoff is not None else "bandwidth" if self.bandwidth is not None else None
+        why = "" if self.cutoff is not None else " (5 × the bandwidth)"
+        where = f"[identification] {given}" if given else "samples"
         if cutoff is not None and not 0 < cutoff < nyquist:
-            raise DataError(source, "cutoff", f"{cutoff:g} Hz is not below the Nyquist frequency {nyquist:g} Hz of the data")
-        decimation = self.decimation if self.decimation is not None else max(1, math.floor(0.4 * rate / (2 * bandwidth) + 0.5))
+            what = f"{cutoff:g} Hz" if self.cutoff is not None else f"the cut-off {cutoff:g} Hz{why}"
+            raise DataError(source, where, f"{what} is not below the Nyquist frequency {nyquist:g} Hz of the data")
+        if cutoff is not None and self.border is None and 5.0 * rate / cutoff > samples / 2:
+            lowest = 10.0 * rate / samples
+            allowed = (f"a cut-off above {lowest:.3g} Hz, or a border" if lowest < nyquist else
+                       "a border, or filter_positions = false")
+            raise DataError(source, where, f"{samples} samples are too few for the border of five periods of the "
+                                           f"{cutoff:g} Hz cut-off{why}, {5.0 * rate / cutoff:.3g} samples at each end "
+                                           f"(allowed: {allowed})")
+        if cutoff is not None and samples <= 3 * order:
+            raise DataError(source, "samples", f"{samples} samples are too few for the order-{order} low-pass of the "
+                                               f"positions (more than {3 * order} are needed)")
         kept = samples - border[0] - border[1]
-        # the decimation filter pads 3·8 samples; the position filter 3·order (it sees all samples)
-        if kept <= (3 * DECIMATION_ORDER if decimation > 1 else 1) or samples <= 3 * order:
-            raise DataError(
-                source,
-                "samples",
-                f"{samples} samples are too few: {border[0]} + {border[1]} border samples are dropped and "
-                f"decimation keeps one in {decimation}",
-            )
+        least = 2  # for the central differences
+        if kept < least:
+            raise DataError(source, "[identification] border" if self.border is not None else "samples",
+                            f"{samples} samples are too few: {border[0]} + {border[1]} border samples are dropped at "
+                            f"the ends and at least {least} must be left (the data need {border[0] + border[1] + least})")
+        decimation, from_rule = self.decimation, self.decimation is None
+        if from_rule:
+            decimation = math.floor(min(0.4 * rate / (2 * bandwidth), 2.0**62) + 0.5) or 1
+        if decimation > 1 and kept <= 3 * DECIMATION_ORDER:
+            raise DataError(source, "samples", f"{kept} samples left after the border are too few to decimate (the "
+                                               f"decimation filter needs more than {3 * DECIMATION_ORDER})")
+        if math.ceil(kept / decimation) < MIN_DECIMATED:
+            largest = max(1, (kept - 1) // (MIN_DECIMATED - 1))
+            if from_rule:
+                raise DataError(source, "[identification] bandwidth",
+                                f"{bandwidth:g} Hz gives a decimation by {decimation:g} (round(0.2·rate/bandwidth)), which "
+                                f"leaves fewer than {MIN_DECIMATED} of the {kept} samples after the border (allowed: a "
+                                f"bandwidth above {0.2 * rate / (largest + 0.5):.3g} Hz, or a decimation)")
+            raise DataError(source, "[identification] decimation",
+                            f"{decimation} leaves fewer than {MIN_DECIMATED} of the {kept} samples after the border "
+                            f"(allowed: 1 to {largest})")
         return Processing(
             rate=rate,
             bandwidth=bandwidth,
@@ -137,6 +186,11 @@ def _setting(key: str, value: Any, source: str) -> Any:
     if not ok or isinstance(value, bool) or not math.isfinite(value) or value < (0 if key == "border" else 1e-300):
         kind = "a non-negative integer" if key == "border" else "a positive integer" if integer else "a positive number (Hz)"
         raise DataError(source, where, f"expected {kind}, got {value!r}")
+    if key == "order" and value > MAX_ORDER:
+        raise DataError(source, where, f"{value} is outside 1 to {MAX_ORDER} (a higher-order filter rings past the "
+                                       "border and its result drifts from the signal)")
+    if key in ("bandwidth", "cutoff") and not 1.0 / MAX_MAGNITUDE <= value <= MAX_RATE:
+        raise DataError(source, where, f"{value:g} Hz is outside {1.0 / MAX_MAGNITUDE:g} to {MAX_RATE:g} Hz")
     return value
 
 

@@ -223,6 +223,65 @@ def _beta_bounds(model: DynamicModel, reg: Regressor, base: BaseParameters, name
     return out
 
 
+def polynomial_lower_bound(beta: sp.Expr, bounds: Mapping[sp.Symbol, tuple[float, float]]) -> float:
+    """A lower bound of the base parameter ``beta`` (a polynomial in the model's parameters, geometry
+    already replaced by numbers) over the parameters' ``bounds`` (:func:`parameter_bounds`; others free),
+    for the combinations :func:`beta_bounds` leaves out (products of unknowns: ZZR1 = I1 + m1·c1² + m2·l1²).
+
+    Each monomial is split into a multiplier M, the product of the parameters bounded below by 0 (masses,
+    principal inertias), and a rest; the rests of one multiplier form a polynomial Q in the sign-free
+    parameters (centres of mass). When Q is separable and at most quadratic in each of them,
+    Q = d + Σ_v (a_v·v² + b_v·v) with a_v > 0 (or a_v = b_v = 0), its minimum is L = d − Σ_v b_v²/(4·a_v),
+    and M·Q ≥ M_low·L (L ≥ 0) or M_high·L (L < 0). The sum over multipliers is the bound: the parallel-axis
+    sum m·(c² + 2·c·l + l²) = m·(c + l)² gives L = 0, not −∞. −∞ when any group is not of that form.
+    """
+    beta = sp.expand(beta)
+    unknown = sorted(beta.free_symbols, key=str)
+    if not unknown:
+        return float(beta)
+    nonneg = [bounds.get(u, (-np.inf, np.inf))[0] >= 0 for u in unknown]
+    groups: dict[tuple[int, ...], list[tuple[tuple[int, ...], float]]] = {}
+    for powers, coefficient in sp.Poly(beta, *unknown).terms():
+        key = tuple(k if n else 0 for k, n in zip(powers, nonneg))
+        rest = tuple(0 if n else k for k, n in zip(powers, nonneg))
+        groups.setdefault(key, []).append((rest, float(coefficient)))
+    total = 0.0
+    for key, terms in groups.items():
+        low = _separable_minimum(terms)
+        scale = sum(abs(c) for _, c in terms)
+        if abs(low) <= 1e-9 * scale:
+            low = 0.0  # a perfect square written with rounded numbers
+        lows = [bounds[u][0] ** k for u, k in zip(unknown, key) if k]
+        highs = [bounds[u][1] ** k for u, k in zip(unknown, key) if k]
+        total += low * (float(np.prod(lows)) if low >= 0 else float(np.prod(highs)))
+        if not np.isfinite(total):
+            return -np.inf
+    return total
+
+
+def _separable_minimum(terms: Sequence[tuple[tuple[int, ...], float]]) -> float:
+    """min over the reals of Σ c·Π v^k (``terms``) when it is d + Σ_v (a_v·v² + b_v·v), a_v > 0 or
+    a_v = b_v = 0; −∞ otherwise."""
+    constant, square, linear = 0.0, {}, {}
+    for powers, c in terms:
+        used = [(i, k) for i, k in enumerate(powers) if k]
+        if not used:
+            constant += c
+        elif len(used) == 1 and used[0][1] in (1, 2):
+            i, k = used[0]
+            target = square if k == 2 else linear
+            target[i] = target.get(i, 0.0) + c
+        else:
+            return -np.inf
+    for i in set(square) | set(linear):
+        a, b = square.get(i, 0.0), linear.get(i, 0.0)
+        if a > 0:
+            constant -= b * b / (4.0 * a)
+        elif a < 0 or b != 0:
+            return -np.inf
+    return constant
+
+
 # -- homogeneous equations ------------------------------------------------------------------------------
 
 @dataclass(frozen=True)

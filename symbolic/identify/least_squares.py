@@ -27,6 +27,7 @@ as "no significant viscous friction").
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -38,6 +39,16 @@ from symbolic.identify.processing import Observation, Processing
 
 RELATIVE_SIGMA_THRESHOLD = 10.0
 """Percent: a parameter whose relative standard deviation exceeds it is flagged."""
+
+
+def defined(relative: float) -> float | None:
+    """A relative σ for JSON: ``None`` where it is undefined (an estimate of exactly 0: 100·σ/0)."""
+    return float(relative) if math.isfinite(relative) else None
+
+
+def percent(relative: float) -> str:
+    """A relative σ for a table: 3 significant digits, or ``—`` where it is undefined (an estimate of 0)."""
+    return f"{relative:.3g}" if math.isfinite(relative) else "—"
 
 
 @dataclass(frozen=True)
@@ -60,7 +71,7 @@ class ParameterEstimate:
         out = {
             "value": self.value,
             "sigma": self.sigma,
-            "relative_sigma": self.relative_sigma,
+            "relative_sigma": defined(self.relative_sigma),
             "poorly_determined": self.poorly_determined,
         }
         if self.fixed:
@@ -183,7 +194,7 @@ class Identification:
         width = max(9, *(len(n) for n in self.names))
         lines = [f"{'parameter':<{width}}  {'value':>14}  {'sigma':>12}  {'sigma %':>8}"]
         for p in self.parameters:
-            lines.append(f"{p.name:<{width}}  {p.value:>14.6g}  {p.sigma:>12.4g}  {p.relative_sigma:>8.3g}{p.flag()}")
+            lines.append(f"{p.name:<{width}}  {p.value:>14.6g}  {p.sigma:>12.4g}  {percent(p.relative_sigma):>8s}{p.flag()}")
         lines.append(
             f"{self.method.upper()}: {self.rows} rows, cond(W) = {self.condition_number:.4g}, relative error "
             f"{self.relative_error:.4g} %"
@@ -235,6 +246,9 @@ def solve(
         raise ValueError(f"method must be 'ols' or 'wls', got {method!r}")
     names = tuple(names)
     y_all, W_all = observation.y, observation.W  # noqa: N806
+    if not np.any(y_all):
+        raise IdentificationError("the forces are zero at every sample: every parameter fits them, there is nothing to "
+                                  "identify (a log without its force signal? check the tau_<c> or u_<c> mapping)")
     rows, b = W_all.shape
     if len(names) != b:
         raise ValueError(f"{len(names)} parameter names for {b} regressor columns")
@@ -256,7 +270,7 @@ def solve(
         rows_j = slice(j * per, (j + 1) * per)
         dof = per - _rank(W[rows_j])
         e = y[rows_j] - W[rows_j] @ beta
-        coordinate_sigmas.append(float(np.sqrt(e @ e / dof)) if dof > 0 else float("nan"))
+        coordinate_sigmas.append(norm(e) / np.sqrt(dof) if dof > 0 else float("nan"))
     weights = np.ones(rows)
     usable = all(np.isfinite(s) and s > 0 for s in coordinate_sigmas)
     if method == "wls" and n > 1 and usable:
@@ -266,6 +280,7 @@ def solve(
     values[~held] = fit.beta
     covariance[np.ix_(~held, ~held)] = fit.covariance
     residual = y_all - W_all @ values
+    _check_finite(names, values, covariance, fit)
     return Identification(
         names=names,
         values=_readonly(values),
@@ -273,7 +288,7 @@ def solve(
         covariance=_readonly(covariance),
         method=method,
         condition_number=float(fit.condition_number),
-        relative_error=float(100.0 * np.linalg.norm(residual) / np.linalg.norm(y_all)),
+        relative_error=float(100.0 * norm(residual) / norm(y_all)),
         residual_sigma=float(fit.sigma),
         coordinate_sigmas=tuple(coordinate_sigmas),
         coordinates=observation.coordinates,
@@ -284,6 +299,35 @@ def solve(
         at_bound=fit.at_bound,
         unconstrained=fit.unconstrained,
     )
+
+
+def norm(x: np.ndarray) -> float:
+    """‖x‖₂ without overflow or underflow of the squares: x is scaled by a power of two near its largest
+    magnitude first (exact), so forces of 1e160 or 1e-160 give the norm their scale-free copy has."""
+    x = np.asarray(x, dtype=float).ravel()
+    largest = float(np.max(np.abs(x), initial=0.0))
+    if largest == 0.0 or not np.isfinite(largest):
+        return largest
+    scale = math.ldexp(1.0, math.frexp(largest)[1])
+    return float(np.linalg.norm(x / scale)) * scale
+
+
+def _power_of_two(x: np.ndarray) -> float:
+    """A power of two near ``max|x|`` (1 for zeros): dividing by it is exact."""
+    largest = float(np.max(np.abs(x), initial=0.0))
+    return math.ldexp(1.0, math.frexp(largest)[1]) if largest > 0 and np.isfinite(largest) else 1.0
+
+
+def _check_finite(names: tuple[str, ...], values: np.ndarray, covariance: np.ndarray, fit: _Fit) -> None:
+    """Refuse a solution whose estimates or statistics are not finite: a result of inf or nan is no estimate."""
+    with np.errstate(invalid="ignore"):
+        sigmas = np.sqrt(np.abs(np.diag(covariance)))
+    bad = [n for n, v, s in zip(names, values, sigmas) if not (np.isfinite(v) and np.isfinite(s))]
+    if bad or not (np.isfinite(fit.condition_number) and np.isfinite(fit.sigma)):
+        shown = ", ".join(f"{n} = {values[names.index(n)]:.3g} ± {sigmas[names.index(n)]:.3g}" for n in bad[:3])
+        raise IdentificationError(f"the least-squares solution is not finite ({shown or f'cond(W) = {fit.condition_number:.3g}'}): "
+                                  "the data's numbers are too large or too small for double precision against the "
+                                  "regressor's columns (check their units)")
 
 
 class RankDeficient(IdentificationError):
@@ -339,7 +383,7 @@ def _bounded(y: np.ndarray, W: np.ndarray, names: tuple[str, ...], lower: np.nda
         out_cov[np.ix_(~active, ~active)] = cov_rest
         out_cov[np.ix_(~active, active)] = out_cov[np.ix_(active, ~active)] = 0.0
     else:  # every parameter at a bound: nothing estimated, the residual is all there is
-        sigma = float(np.linalg.norm(y_rest) / np.sqrt(len(y)))
+        sigma = norm(y_rest) / float(np.sqrt(len(y)))
     sides = {n: ("min" if m < 0 else "max") for n, m in zip(names, solution.active_mask) if m != 0}
     return _Fit(out_beta, out_cov, cond, sigma, sides, {n: float(v) for n, v, a in zip(names, beta, active) if a})
 
@@ -356,6 +400,17 @@ def _ols(y: np.ndarray, W: np.ndarray, names: tuple[str, ...]) -> tuple[np.ndarr
     rows, b = W.shape
     if rows <= b:
         raise IdentificationError(f"{rows} equations for {b} parameters: more samples are needed")
+    # W and y scaled by powers of two (exact: the same digits at any scale) so that no square overflows
+    w_scale, y_scale = _power_of_two(W), _power_of_two(y)
+    beta, covariance, cond, sigma = _ols_scaled(y / y_scale, W / w_scale, names)
+    with np.errstate(over="ignore"):
+        ratio = y_scale / w_scale
+        return beta * ratio, covariance * ratio**2, cond, sigma * y_scale
+
+
+def _ols_scaled(y: np.ndarray, W: np.ndarray, names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, float, float]:  # noqa: N803
+    """:func:`_ols` on data of moderate scale."""
+    rows, b = W.shape
     R = np.linalg.qr(np.column_stack([W, y]), mode="r")  # noqa: N806
     U, s, Vt = np.linalg.svd(R[:b, :b])  # noqa: N806
     tolerance = max(rows, b) * np.finfo(float).eps * s[0]
@@ -367,9 +422,10 @@ def _ols(y: np.ndarray, W: np.ndarray, names: tuple[str, ...]) -> tuple[np.ndarr
             f"{', '.join(involved)} cannot be separated — use base parameters, or a more exciting trajectory",
             involved,
         )
-    beta = Vt.T @ ((U.T @ R[:b, b]) / s)
-    variance = R[b, b] ** 2 / (rows - b)
-    covariance = (Vt.T / s**2) @ Vt * variance
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # a result beyond doubles: refused by solve
+        beta = Vt.T @ ((U.T @ R[:b, b]) / s)
+        variance = R[b, b] ** 2 / (rows - b)
+        covariance = (Vt.T / s**2) @ Vt * variance
     return beta, covariance, s[0] / s[-1], float(np.sqrt(variance))
 
 

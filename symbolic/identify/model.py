@@ -36,12 +36,13 @@ import numpy as np
 import sympy as sp
 
 from symbolic.data import Measurements, load
+from symbolic.data.measurements import check_forces
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.derivation.regressor import Regressor
 from symbolic.codegen.compiled_regressor import compiled_batch
 from symbolic.identify.known import (beta_bounds, fixed_symbols, homogeneous_groups, model_parameters_of, not_separable,
                                      parameter_bounds, rank_hint, split_base)
-from symbolic.identify.least_squares import Identification, RankDeficient, solve
+from symbolic.identify.least_squares import Identification, RankDeficient, defined, percent, solve
 from symbolic.identify.least_squares import Validation
 from symbolic.identify.pipeline import cross_validate
 from symbolic.identify.processing import Observation, Settings, observe
@@ -66,7 +67,7 @@ class ModelParameter:
     bound: str | None = None  # "min"/"max": held at that bound by the bounded least squares
 
     def to_dict(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"value": self.value, "sigma": self.sigma, "relative_sigma": self.relative_sigma}
+        out: dict[str, Any] = {"value": self.value, "sigma": self.sigma, "relative_sigma": defined(self.relative_sigma)}
         if self.bound is not None:
             out["at_bound"] = self.bound
         return out
@@ -90,9 +91,11 @@ class ModelIdentification:
 
         Raises :class:`symbolic.identify.figures.MatplotlibMissing` without matplotlib.
         """
+        from symbolic.description.units import coordinate_units
         from symbolic.identify.figures import draw
 
-        return draw(self.identification, self.observation, Path(folder), self.validation)
+        return draw(self.identification, self.observation, Path(folder), self.validation,
+                    coordinate_units(self.model.robot))
 
     def values(self) -> dict[str, float]:
         """{model parameter: identified value}, for writing back into the model file."""
@@ -105,7 +108,7 @@ class ModelIdentification:
         for k, name in enumerate(ident.names):
             estimate = ident.parameters[k]
             entry = {"name": name, "expression": str(self.base.expressions[k]), "value": estimate.value,
-                     "sigma": estimate.sigma, "relative_sigma": estimate.relative_sigma}
+                     "sigma": estimate.sigma, "relative_sigma": defined(estimate.relative_sigma)}
             entry.update({key: value for key, value in estimate.to_dict().items()
                           if key in ("fixed", "at_bound", "unconstrained")})
             base.append(entry)
@@ -131,7 +134,7 @@ class ModelIdentification:
             lines.append(f"{'model parameter':<16}  {'identified':>14}  {'sigma':>12}  {'sigma %':>8}  {'nominal':>12}  from")
             for p in self.parameters.values():
                 bound = f" (at its {p.bound})" if p.bound else ""
-                lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {p.relative_sigma:>8.3g}  {p.nominal:>12.6g}  {p.source}{bound}")
+                lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {percent(p.relative_sigma):>8s}  {p.nominal:>12.6g}  {p.source}{bound}")
         if self.fixed:
             lines.append("kept at their values (fixed): " + ", ".join(f"{n} = {v:.6g}" for n, v in self.fixed.items()))
         if self.validation is not None:
@@ -224,6 +227,9 @@ def identify_model(
     split = split_base(model, reg, full, fixed, geometric) if fixed else None
     base, held = (split.base, split.known_values()) if split else (full, {})
     loaded = load(data, coordinates, model=model.robot, experiment=experiment, validation=validation)
+    for measured in (loaded, loaded.validation):  # zero forces: every parameter fits, a relative error is 0/0
+        if measured is not None:
+            check_forces(measured)
     regressor = base_regressor(model, base=base)
     observation = observe(loaded, regressor, len(base.names), settings)
     ident = _solve(model, reg, base, observation, method, held, geometric | fixed)

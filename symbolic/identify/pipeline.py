@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import Measurements, load
-from symbolic.identify.least_squares import RELATIVE_SIGMA_THRESHOLD, Identification, Validation, solve
+from symbolic.description.units import CoordinateUnits
+from symbolic.identify.least_squares import RELATIVE_SIGMA_THRESHOLD, Identification, Validation, norm, solve
 from symbolic.identify.processing import Observation, RegressorFunction, Settings, observe
 
 
@@ -66,8 +67,8 @@ def cross_validate(
 def _relative(measured: np.ndarray, predicted: np.ndarray) -> float:
     """100·‖measured − predicted‖/‖measured‖ (%); NaN for a coordinate whose force is zero (no actuator:
     tau_<c> = "0"), where a relative error means nothing."""
-    norm = np.linalg.norm(measured)
-    return float(100.0 * np.linalg.norm(measured - predicted) / norm) if norm > 0 else float("nan")
+    size = norm(measured)
+    return float(100.0 * norm(measured - predicted) / size) if size > 0 else float("nan")
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,12 +103,14 @@ def run(
     method: str = "wls",
     figures: str | Path | None = None,
     resample: bool = False,
+    units: Mapping[str, CoordinateUnits] | None = None,
 ) -> Report:
     """Load data (a data or experiment file), identify, optionally cross-test and draw figures.
 
     The function a command line calls: errors in the files are :class:`~symbolic.data.DataError`.
     ``figures`` names a folder for PNG figures (:mod:`symbolic.identify.figures`); without matplotlib
-    none are drawn and the report's notes say so.
+    none are drawn and the report's notes say so; ``units`` (per coordinate,
+    :func:`symbolic.description.units.coordinate_units` of the model) label their axes.
     """
     measurements = load(data, tuple(coordinates), validation=validation, resample=resample)
     observation = observe(measurements, regressor, len(names), settings)
@@ -121,7 +124,7 @@ def run(
         from symbolic.identify import figures as drawing
 
         try:
-            written = drawing.draw(identification, observation, Path(figures), checked)
+            written = drawing.draw(identification, observation, Path(figures), checked, units)
         except drawing.MatplotlibMissing as missing:
             notes = (str(missing),)
     return Report(identification, observation, measurements, checked, written, notes)

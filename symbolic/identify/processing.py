@@ -67,7 +67,8 @@ class Observation:
     @property
     def W(self) -> np.ndarray:  # noqa: N802 (the literature's name)
         """Stacked observation matrix (``N·samples × P``)."""
-        return self.regressor.transpose(1, 0, 2).reshape(-1, self.regressor.shape[2])
+        samples, n, p = self.regressor.shape
+        return self.regressor.transpose(1, 0, 2).reshape(n * samples, p)  # explicit: -1 is ambiguous for P = 0
 
     @property
     def samples(self) -> int:

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import DataError, Measurements
+from symbolic.data.times import time_windows
 from symbolic.data.treatment import Settings, filtered_motion, settings_for
 
 SIGNALS = ("position", "velocity", "acceleration", "force")
@@ -146,12 +147,11 @@ class Comparison:
     def summary(self) -> str:
         """A table: coordinate, signal, relative error, RMS, worst window."""
         lines = [f"{'coordinate':12s} {'signal':12s} {'relative %':>11s} {'RMS':>11s}  worst {self.window:g} s window"]
-        for c, signals in self.statistics.items():
-            for s, stat in signals.items():
-                relative = "-" if stat.relative is None else f"{stat.relative:.4g}"
-                start, stop, rms = stat.worst
-                lines.append(f"{c:12s} {s:12s} {relative:>11s} {stat.rms:11.4g}  {start:.3f}–{stop:.3f} s "
-                             f"(RMS {rms:.4g})")
+        rows = [(c, s, stat) for c, signals in self.statistics.items() for s, stat in signals.items()]
+        spans = time_windows([stat.worst[:2] for _, _, stat in rows])
+        for (c, s, stat), span in zip(rows, spans):
+            relative = "-" if stat.relative is None else f"{stat.relative:.4g}"
+            lines.append(f"{c:12s} {s:12s} {relative:>11s} {stat.rms:11.4g}  {span} (RMS {stat.worst[2]:.4g})")
         return "\n".join(lines)
 
 
@@ -173,7 +173,7 @@ def compare(measured: Measurements, simulated: Measurements, window: float = 1.0
            "acceleration": simulated.qdd[:, index], "force": simulated.tau[:, index]}
     border = motion.treatment.border
     kept = slice(border, measured.samples - border)
-    width = min(max(1, round(window * measured.rate)), kept.stop - kept.start)
+    width = min(max(1, round(min(window * measured.rate, kept.stop - kept.start))), kept.stop - kept.start)  # no overflow
     t = measured.t[kept]
     statistics = {
         c: {s: _statistic(meas[s][kept, j], sim[s][kept, j], t, width) for s in SIGNALS}

@@ -1,58 +1,17 @@
-"""The machine's controller, as declared in an experiment file's ``[controller]`` table.
+"""The law of the machine's controller declared in an experiment's ``[controller]`` (docs/simulation.md,
+"The controller", holds the table's keys, the laws and their checks).
 
-::
+Discrete at the log's sample period T with zero-order hold: at sample k the controller reads the position
+q_m,k rounded to the sensor's resolution, filters the backward-difference velocity with the FIR
+``velocity_filter``, computes u_k by its ``kind`` (``torque``: the logged force replayed; ``pd``, ``pid``,
+``cascade``; ``state_feedback``: u_k = −K·(x_k − x_ref,k)), saturates it, delays it by ``delay`` samples, adds
+the ``disturbance`` and applies τ_k = gain·(u + d_k) over [t_k, t_k+1).
 
-    [controller]
-    kind = "pd"                   # torque | pd | pid | cascade | state_feedback
-    coordinates = ["q"]           # controlled coordinates (default: those of the data)
-    kp = [40.0]                   # per coordinate, in the order of `coordinates`
-    kd = [2.0]                    # pd, pid;  ki: pid;  kv: cascade
-    gain = [1.0]                  # output -> generalized force: numbers or expressions of the model's
-                                  # parameters (a single string applies to every coordinate: "gtau")
-    reference = "ref"             # the data's ref_<c> columns, or one expression of t (and of the data's
-                                  # columns) per coordinate: ["0.3*sin(2*pi*0.5*t)"]
-    saturation = [10.0]           # limit of the controller output (before the gain)
-    quantisation = [1.5708e-4]    # the position sensor's resolution (units of q per count)
-    disturbance = ["pulses_N"]    # an expression of the data's columns added after saturation
-    delay = 0                     # samples between measuring q_k and applying u_k
-    velocity_filter = [0.5, 0.5]  # FIR taps applied to the backward-difference velocity
-
-The controller is discrete, at the log's sample period T, with zero-order hold. At sample k it reads
-the position q_m,k (the simulated position, rounded to the sensor's resolution), forms the
-backward-difference velocity v_b,k = (q_m,k − q_m,k−1)/T (0 at the first sample), filters it,
-v_k = Σ_i taps_i·v_b,k−i (v_b before the first sample is 0), and computes
-
-* ``torque``: u_k = τ_measured,k (open-loop replay of the log's generalized force, gain 1 by default);
-* ``pd``: u_k = kp·(r_k − q_m,k) − kd·v_k;
-* ``pid``: the same + ki·I_k with I_k = I_k−1 + T·(r_k − q_m,k) (no anti-windup);
-* ``cascade`` (EMPS's P/P position–velocity loop): u_k = kv·(kp·(r_k − q_m,k) − v_k);
-* ``state_feedback``: u_k = −K·(x_k − x_ref,k), see below;
-
-then u is saturated to ±saturation, delayed by ``delay`` samples (zero before the first computed
-output arrives), the disturbance d_k is added and the generalized force is τ_k = gain·(u + d_k),
-held over [t_k, t_k+1). Coordinates the controller does not drive get τ = 0.
-
-State feedback (an LQR, a pole placement) names the driven coordinates ``inputs`` and the state vector
-``states`` in the canonical signal names, and K has one row per input and one column per state::
-
-    [controller]
-    kind = "state_feedback"
-    inputs = ["theta"]                                    # the driven coordinates (rows of K)
-    states = ["q_theta", "q_alpha", "qd_theta", "qd_alpha"]  # the state vector x (columns of K)
-    K = [[6.32, -1.67, 1.05, 0.30]]                       # signed; one row per input
-    gain = [0.05]                 # per input; saturation, disturbance likewise
-    quantisation = [1e-3, 1e-3]   # per sensed coordinate: those of `states`, in order (theta, alpha)
-
-x_k holds, for ``q_<c>``, the measured position q_m,k of c and, for ``qd_<c>``, its filtered
-backward-difference velocity v_k — the same sensor as the other kinds, for every coordinate named in
-``states``; x_ref,k holds the data's ``ref_<c>`` and ``refd_<c>`` columns (0 where the data have none).
-A feedforward is declared as for the other kinds: a ``disturbance`` column or expression, added
-after saturation and delay.
-
-:func:`controller_function` builds this step as a CasADi function, so that the closed loop runs in
-compiled code. The table itself is validated where the experiment is loaded, by
-:func:`symbolic.data.controller.parse` (re-exported here with :class:`Controller`): this module holds
-the law, that one the description.
+:func:`controller_function` builds this step as a CasADi function, so that the closed loop runs in compiled
+code. A delay of up to :data:`LINE_IN_MEMORY` samples is a shift register in the step's memory; a longer one
+is a :class:`DelayLine` outside the compiled step, a ring buffer costing O(1) per sample. The table itself is
+validated where the experiment is loaded, by :func:`symbolic.data.controller.parse` (re-exported here with
+:class:`Controller`): that module holds the description, this one the law.
 """
 
 from __future__ import annotations
@@ -66,13 +25,22 @@ import numpy as np
 import sympy as sp
 
 from symbolic.data import DataError, Measurements
-from symbolic.data.controller import (GAINS, KEYS, KINDS, STATE_FEEDBACK, Controller, allowed_keys, check_names, parse,
-                                      replay)
+from symbolic.data.controller import (GAINS, KEYS, KINDS, STATE_FEEDBACK, Controller, allowed_keys, check_delay,
+                                      check_names, parse, replay)
 from symbolic.errors import ModelError
 from symbolic.description.expressions import RESERVED_NAMES, parse_expression
 
-__all__ = ["GAINS", "KEYS", "KINDS", "STATE_FEEDBACK", "Controller", "Inputs", "allowed_keys", "constants",
-           "controller_function", "drive_gains", "evaluate", "inputs", "parse", "replay", "state_reference"]
+__all__ = ["GAINS", "KEYS", "KINDS", "LINE_IN_MEMORY", "STATE_FEEDBACK", "Controller", "DelayLine", "Inputs",
+           "allowed_keys", "check_delay", "constants", "controller_function", "drive_gains", "evaluate", "inputs",
+           "line_outside", "parse", "replay", "state_reference"]
+
+LINE_IN_MEMORY = 32
+"""The longest delay (samples) kept as a shift register in the controller's memory. Shifting costs nc·delay
+copies per sample, and the compiled closed loop carries (and copies) its whole state at every sample, so a
+longer delay goes to a :class:`DelayLine` outside it. The compiled loop is then run in chunks of at most
+``delay`` samples, whose outputs the line returns ``delay`` samples later: a Python call per chunk, which
+the short delays, the common ones (a sample or two of computation), never pay. About 32 the two cost about
+the same on a one-coordinate loop (bench/delay.py, bench/results/delay.md: within 25 % per sample at 32 and 33)."""
 
 
 # -- the signals a controller reads from the log -------------------------------------------------------
@@ -194,7 +162,44 @@ def constants(controller: Controller, parameters: Mapping[sp.Symbol, float]) -> 
                            controller.velocity_filter, controller.K.ravel()])
 
 
-def controller_function(controller: Controller, model_coordinates: Sequence[str], period: float) -> ca.Function:
+# -- the delay line -------------------------------------------------------------------------------------------
+
+
+def line_outside(controller: Controller) -> bool:
+    """Whether ``controller``'s delay is kept in a :class:`DelayLine` (longer than :data:`LINE_IN_MEMORY`)."""
+    return controller.delay > LINE_IN_MEMORY
+
+
+class DelayLine:
+    """u_k applied at sample k + delay, as a ring buffer: ``delay`` rows of nc, u_k in row k mod delay.
+
+    The output applied at sample k is u_{k−delay}, in the row where u_k goes: :meth:`exchange` reads the
+    rows of a run of samples, then writes the run's outputs there — O(1) per sample. Rows start at 0: no
+    output before the first computed one arrives (module docstring).
+    """
+
+    def __init__(self, delay: int, size: int) -> None:
+        if delay < 1:
+            raise ValueError(f"a delay line needs a delay ≥ 1, got {delay}")
+        self.delay = delay
+        self.rows = np.zeros((delay, size))
+
+    def applied(self, start: int, count: int) -> np.ndarray:
+        """The outputs applied at samples start … start+count−1 (count × nc), count ≤ delay."""
+        if count > self.delay:
+            raise ValueError(f"{count} samples at once exceed the delay {self.delay}: their outputs are not known yet")
+        return self.rows[(start + np.arange(count)) % self.delay]
+
+    def computed(self, start: int, outputs: np.ndarray) -> None:
+        """Store the outputs u computed at samples start … (count × nc), after :meth:`applied` read their rows."""
+        self.rows[(start + np.arange(len(outputs))) % self.delay] = outputs
+
+
+# -- the step ---------------------------------------------------------------------------------------------------
+
+
+def controller_function(controller: Controller, model_coordinates: Sequence[str], period: float,
+                        external: bool = False) -> ca.Function:
     """One controller sample as a CasADi function.
 
     ``(m, q, r, d, tau_log, c) -> (m_next, tau)``: ``m`` the memory (:meth:`Controller.memory_size`,
@@ -202,13 +207,18 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
     coordinates, or x_ref of a state feedback: :attr:`Controller.reference_size`), ``d`` the
     disturbance of the controlled coordinates, ``tau_log`` the logged generalized forces (n, for
     ``torque``), ``c`` from :func:`constants`; ``tau`` the generalized force over the coming sample (n).
+
+    ``external``: the delay line is the caller's (:class:`DelayLine`): ``(m, q, r, d, tau_log, c, a) ->
+    (m_next, tau, u)`` with ``m`` of :meth:`Controller.memory_size` ``(line=False)``, ``a`` the output
+    applied at this sample (u of ``delay`` samples ago) and ``u`` the one computed now.
     """
     nc, n, taps = controller.size, len(model_coordinates), len(controller.velocity_filter)
     names = list(model_coordinates)
     index = [names.index(c) for c in controller.coordinates]
     sensors = controller.sensors
     ns, nx = len(sensors), controller.reference_size
-    memory = ca.SX.sym("m", controller.memory_size())
+    delay = 0 if external else controller.delay
+    memory = ca.SX.sym("m", controller.memory_size(line=not external))
     q, r, d = ca.SX.sym("q", n), ca.SX.sym("r", nx), ca.SX.sym("d", nc)
     tau_log = ca.SX.sym("tau_log", n)
     c = ca.SX.sym("c", 6 * nc + ns + taps + controller.K.size)
@@ -223,7 +233,7 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
     at += ns * (taps - 1)
     integral = memory[at:at + nc]
     at += nc
-    line = [memory[at + i * nc: at + (i + 1) * nc] for i in range(controller.delay)]  # oldest first
+    line = [memory[at + i * nc: at + (i + 1) * nc] for i in range(delay)]  # oldest first
 
     position = ca.vertcat(*[q[names.index(s)] for s in sensors])
     # the sensor: rounding to the resolution (floor(x + 1/2): round half up, as a counter does)
@@ -246,12 +256,16 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
             "cascade": kv * (kp * error - velocity),
         }[controller.kind]
     u = ca.fmin(ca.fmax(u, -saturation), saturation)
-    applied = line[0] if line else u
+    a = ca.SX.sym("a", nc) if external else None
+    applied = a if external else line[0] if line else u
     force = gain * (applied + d)
     tau = ca.SX.zeros(n)
     for j, i in enumerate(index):
         tau[i] = force[j]
     next_memory = ca.vertcat(ca.SX(1), measured, *([backward] + past[:-1] if taps > 1 else []), integral_next,
                              *(line[1:] + [u] if line else []))
+    if external:
+        return ca.Function("controller", [memory, q, r, d, tau_log, c, a], [next_memory, tau, u],
+                           ["m", "q", "r", "d", "tau_log", "c", "a"], ["m_next", "tau", "u"])
     return ca.Function("controller", [memory, q, r, d, tau_log, c], [next_memory, tau],
                        ["m", "q", "r", "d", "tau_log", "c"], ["m_next", "tau"])

@@ -31,6 +31,7 @@ import sympy as sp
 from symbolic.data import DataError, Experiment, Measurements, load
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.derivation.products import Product
+from symbolic.errors import SimulationError
 from symbolic.simulation import controller as control
 from symbolic.codegen.casadi import CASADI_MODULE, _CasadiPrinter, cholesky_solve
 from symbolic.codegen.compiled import compile_casadi
@@ -48,6 +49,34 @@ STEP_BOUND = 1.0
 region (:data:`RK4_IMAGINARY_BOUND`, :data:`RK4_REAL_BOUND`)."""
 RK4_IMAGINARY_BOUND = 2.0 * math.sqrt(2.0)
 """|R(iy)| = 1 for RK4's stability function R(z) = 1 + z + z²/2 + z³/6 + z⁴/24 at y = 2√2 ≈ 2.83."""
+MAX_SUBSTEPS = 10_000
+"""Most RK4 sub-steps per sample: beyond, a log of 25 000 samples (EMPS's) would take minutes to hours; a
+model that stiff needs a stiff method (``method="Radau"``, ``"BDF"``)."""
+
+
+class Diverged(DataError, SimulationError):
+    """The simulated state became infinite or NaN (or could not start: D(Q) singular at the initial state).
+
+    A :class:`DataError` of the log (``key`` ``"simulation"``) and a :class:`SimulationError`; ``time`` (s)
+    and ``coordinate`` say where it first did, so that a caller (``diagnose --simulate``) can report it and
+    fall back to the inverse model."""
+
+    def __init__(self, source: str, time: float, coordinate: str, problem: str) -> None:
+        self.time, self.coordinate = time, coordinate
+        super().__init__(source, "simulation", f"the simulation diverged at t = {time:.6g} s on coordinate "
+                                               f"{coordinate}: {problem}")
+
+    def __reduce__(self):
+        return (_diverged, (self.source, self.key, self.problem, self.time, self.coordinate))
+
+
+def _diverged(source: str, key: str, problem: str, time: float, coordinate: str) -> Diverged:
+    error = Diverged.__new__(Diverged)
+    DataError.__init__(error, source, key, problem)
+    error.time, error.coordinate = time, coordinate
+    return error
+
+
 RK4_REAL_BOUND = float(-min(r.real for r in np.roots([1 / 24, 1 / 6, 1 / 2, 1, 0]) if abs(r.imag) < 1e-12 and r.real < 0))
 """R(x) = 1 on the negative real axis at x ≈ −2.785: RK4 is stable for real λ with h·|λ| up to this."""
 
@@ -193,13 +222,17 @@ def simulate(
     _check_options(method, substeps, friction_velocity, source)
     _check_data(measurements, names, model.robot.name)
     p = _parameters(model, parameters, source)
-    ctrl = _controller(controller, measurements, model, names)
+    ctrl = control.check_delay(_controller(controller, measurements, model, names), measurements.samples)
     signals = control.inputs(ctrl, measurements, names)
     started = time.perf_counter()
     plant = _plant(model)
     x0 = _initial_state(model, measurements, p, initial)
-    radius = _spectral_radius(plant, x0, p, friction_velocity, float(measurements.t[0]))
-    m = substeps or max(1, math.ceil(measurements.sample_period * radius / STEP_BOUND))
+    radius = _spectral_radius(plant, x0, p, friction_velocity, float(measurements.t[0]), names, source)
+    m = substeps or max(1, math.ceil(min(measurements.sample_period * radius / STEP_BOUND, 2.0**62)))
+    if method == "rk4" and m > MAX_SUBSTEPS:
+        raise SimulationError(f"the model needs {m:.3g} RK4 sub-steps per sample of "
+                              f"{measurements.sample_period:.3g} s (spectral radius {radius:.4g} 1/s; allowed: up to "
+                              f"{MAX_SUBSTEPS}): simulate it with a stiff method (--method Radau or BDF)")
     if substeps and measurements.sample_period / substeps * radius > RK4_REAL_BOUND:
         LOG.warning("%d sub-step(s) of %.3g s: h·ρ = %.2f exceeds RK4's stability bound %.3f (ρ = %.4g 1/s)",
                     substeps, measurements.sample_period / substeps, measurements.sample_period / substeps * radius,
@@ -222,8 +255,9 @@ def simulate(
 def _check_options(method: str, substeps: int | None, friction_velocity: float, source: str) -> None:
     if method not in METHODS:
         raise DataError(source, "method", f"unknown integration method {method!r} (allowed: {', '.join(METHODS)})")
-    if substeps is not None and (isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1):
-        raise DataError(source, "substeps", f"expected a whole number ≥ 1, got {substeps!r}")
+    if substeps is not None and (isinstance(substeps, bool) or not isinstance(substeps, int) or not
+                                 1 <= substeps <= MAX_SUBSTEPS):
+        raise DataError(source, "substeps", f"expected a whole number from 1 to {MAX_SUBSTEPS}, got {substeps!r}")
     if not (isinstance(friction_velocity, (int, float)) and math.isfinite(friction_velocity) and friction_velocity > 0):
         raise DataError(source, "friction_velocity", f"expected a velocity > 0, got {friction_velocity!r}")
 
@@ -316,9 +350,10 @@ on disk, named by their C source). The CasADi version is part of the name, hence
 serialised CasADi function is read back only by the version that wrote it."""
 
 
-def _spectral_radius(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0: float) -> float:
+def _spectral_radius(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0: float,
+                     names: tuple[str, ...] = (), source: str = "<arrays>") -> float:
     """ρ of A = ∂ẋ/∂x at the initial position and time t0, Q̇ = 0, τ = bias (held at rest): see the
-    module docstring."""
+    module docstring. :class:`Diverged` at t0 when A is not finite (D(Q) singular there)."""
     n = plant.n
     x = ca.SX.sym("x", 2 * n)
     tau = ca.SX.sym("tau", n)
@@ -326,6 +361,12 @@ def _spectral_radius(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0
     rest = np.concatenate([x0[:n], np.zeros(n)])
     hold = np.asarray(plant.bias(rest[:n], rest[n:], p, eps, t0)).ravel()
     A = np.asarray(jacobian(rest, hold))
+    rows = np.flatnonzero(~np.isfinite(A).all(axis=1))
+    if rows.size:
+        coordinate = names[rows[0] % n] if names else str(rows[0] % n)
+        raise Diverged(source, t0, coordinate, "the model cannot be integrated from the initial state: D(Q) is "
+                                               "singular or not positive definite there with these parameter values "
+                                               "(a mass or inertia of zero?)")
     return float(np.max(np.abs(np.linalg.eigvals(A))))
 
 
@@ -379,16 +420,19 @@ def initial_velocity(measurements: Measurements) -> np.ndarray:
 
 
 def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float,
-                    substeps: int) -> ca.Function:
+                    substeps: int, external: bool = False) -> ca.Function:
     """One sample of the closed loop: ``(z, w, p, c, eps) -> (z_next, y)``.
 
     z = [x; controller memory], w = [reference (x_ref of a state feedback); disturbance; logged τ; t_k] of
     the sample, y = [q; q̇; q̈; τ] at t_k (q̈ with τ_k applied), z_next after ``substeps`` RK4 steps of
     period/substeps (each at its own times, for a model whose forces depend on time).
+
+    ``external``: the delay line is the caller's (:class:`~symbolic.simulation.controller.DelayLine`): w
+    ends with the output applied at the sample and y with the output computed there.
     """
-    n, memory = plant.n, ctrl.memory_size()
+    n, memory = plant.n, ctrl.memory_size(line=not external)
     nc, nr = ctrl.size, ctrl.reference_size
-    step_controller = control.controller_function(ctrl, names, period)
+    step_controller = control.controller_function(ctrl, names, period, external)
     X, T = ca.MX.sym("x", 2 * n), ca.MX.sym("tau", n)
     P, E = ca.MX.sym("p", plant.rhs.size1_in(2)), ca.MX.sym("eps")
     h = period / substeps
@@ -398,15 +442,19 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     k3 = plant.rhs(X + h / 2 * k2, T, P, E, S + h / 2)
     k4 = plant.rhs(X + h * k3, T, P, E, S + h)
     rk4 = ca.Function("rk4", [X, T, P, E, S], [X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-    Z, W = ca.MX.sym("z", 2 * n + memory), ca.MX.sym("w", nr + nc + n + 1)
+    Z, W = ca.MX.sym("z", 2 * n + memory), ca.MX.sym("w", nr + nc + n + 1 + (nc if external else 0))
     C = ca.MX.sym("c", step_controller.size1_in(5))
     x, m = Z[: 2 * n], Z[2 * n:]
-    m_next, tau = step_controller(m, x[:n], W[:nr], W[nr:nr + nc], W[nr + nc:nr + nc + n], C)
+    read = (m, x[:n], W[:nr], W[nr:nr + nc], W[nr + nc:nr + nc + n], C)
     t_k = W[nr + nc + n]
+    if external:
+        m_next, tau, u = step_controller(*read, W[nr + nc + n + 1:])
+    else:
+        (m_next, tau), u = step_controller(*read), ca.MX(0, 1)
     x_next = _repeat(rk4, substeps, x, tau, P, E, starts=t_k + h * ca.DM(range(substeps)).T)
     xdot = plant.rhs(x, tau, P, E, t_k)
     return ca.Function("closed_loop_sample", [Z, W, P, C, E], [ca.vertcat(x_next, m_next),
-                                                                 ca.vertcat(x, xdot[n:], tau)],
+                                                                 ca.vertcat(x, xdot[n:], tau, u)],
                        ["z", "w", "p", "c", "eps"], ["z_next", "y"])
 
 
@@ -425,10 +473,11 @@ with its length (0.03 s for 1000 samples, 0.7 s for 10 000), so long logs are ru
 def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float, substeps: int,
                  compiled: bool | None) -> tuple[ca.Function, bool]:
     """The (compiled) sample function, built once per plant and controller structure."""
-    key = (ctrl.structure(), names, period, substeps, compiled)
+    external = control.line_outside(ctrl)
+    key = (ctrl.structure(), external, names, period, substeps, compiled)
     cache = plant.closed_loops
     if key not in cache:
-        function = sample_function(ctrl, plant, names, period, substeps)
+        function = sample_function(ctrl, plant, names, period, substeps, external)
         fast = compile_casadi(function) if compiled is not False else None
         if compiled and fast is None:
             LOG.warning("no working C compiler: the simulation runs in CasADi's virtual machine")
@@ -443,17 +492,26 @@ def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measur
     function, is_compiled = _closed_loop(ctrl, plant, names, measurements.sample_period, substeps, compiled)
     timings["compile"] = time.perf_counter() - started
     started = time.perf_counter()
-    z = np.concatenate([x0, np.zeros(ctrl.memory_size())])
+    line = control.DelayLine(ctrl.delay, ctrl.size) if control.line_outside(ctrl) else None
+    z = np.concatenate([x0, np.zeros(ctrl.memory_size(line=line is None))])
     w = np.hstack([signals.reference, signals.disturbance, signals.torque, measurements.t[:, None]]).T
     loops: dict[int, ca.Function] = {}
     outputs = []
-    for start in range(0, measurements.samples, CHUNK):
-        size = min(CHUNK, measurements.samples - start)
+    # with a delay line, a chunk's applied outputs were computed at least `delay` samples before it
+    chunk = CHUNK if line is None else min(CHUNK, ctrl.delay)
+    n4 = 4 * plant.n
+    for start in range(0, measurements.samples, chunk):
+        size = min(chunk, measurements.samples - start)
         if size not in loops:
             loops[size] = function.mapaccum("closed_loop", size)
-        states, y = loops[size](z, w[:, start:start + size], p, c, eps)
-        z = np.asarray(states)[:, -1]
-        outputs.append(np.asarray(y))
+        inputs = w[:, start:start + size]
+        if line is not None:
+            inputs = np.vstack([inputs, line.applied(start, size).T])
+        states, y = loops[size](z, inputs, p, c, eps)
+        z, y = np.asarray(states)[:, -1], np.asarray(y)
+        if line is not None:
+            line.computed(start, y[n4:].T)
+        outputs.append(y[:n4])
     timings["integrate"] = time.perf_counter() - started
     return np.hstack(outputs).T, is_compiled
 
@@ -468,23 +526,34 @@ def _run_solve_ivp(ctrl: control.Controller, plant: Plant, measurements: Measure
 
     n = plant.n
     period = measurements.sample_period
-    step_controller = control.controller_function(ctrl, names, period)
+    line = control.DelayLine(ctrl.delay, ctrl.size) if control.line_outside(ctrl) else None
+    step_controller = control.controller_function(ctrl, names, period, external=line is not None)
     x, tau, t = ca.SX.sym("x", 2 * n), ca.SX.sym("tau", n), ca.SX.sym("t")
     xdot = plant.rhs(x, tau, p, eps, t)
     rhs = ca.Function("f", [x, tau, t], [xdot])
     jac = ca.Function("J", [x, tau, t], [ca.jacobian(xdot, x)])
-    memory = np.zeros(ctrl.memory_size())
+    memory = np.zeros(ctrl.memory_size(line=line is None))
     state = x0.copy()
-    out = np.empty((measurements.samples, 4 * n))
+    out = np.full((measurements.samples, 4 * n), np.nan)
     for k in range(measurements.samples):
-        memory_next, tau_k = step_controller(memory, state[:n], signals.reference[k], signals.disturbance[k],
-                                             signals.torque[k], c)
+        read = (memory, state[:n], signals.reference[k], signals.disturbance[k], signals.torque[k], c)
+        if line is None:
+            memory_next, tau_k = step_controller(*read)
+        else:
+            memory_next, tau_k, u_k = step_controller(*read, line.applied(k, 1)[0])
+            line.computed(k, np.asarray(u_k).reshape(1, -1))
         tau_k, t_k = np.asarray(tau_k).ravel(), float(measurements.t[k])
         derivative = np.asarray(rhs(state, tau_k, t_k)).ravel()
         out[k] = np.concatenate([state, derivative[n:], tau_k])
         memory = np.asarray(memory_next).ravel()
-        solution = solve_ivp(lambda t, s: np.asarray(rhs(s, tau_k, t_k + t)).ravel(), (0.0, period), state,
-                             method=method, rtol=rtol, atol=atol, jac=lambda t, s: np.asarray(jac(s, tau_k, t_k + t)))
+        if not np.isfinite(out[k]).all():
+            break  # reported by _trajectory with the time and the coordinate
+        try:
+            solution = solve_ivp(lambda t, s: np.asarray(rhs(s, tau_k, t_k + t)).ravel(), (0.0, period), state,
+                                 method=method, rtol=rtol, atol=atol, jac=lambda t, s: np.asarray(jac(s, tau_k, t_k + t)))
+        except (np.linalg.LinAlgError, ValueError):  # a state or Jacobian that is not finite any more
+            out[k + 1:] = np.nan
+            break
         if not solution.success:
             raise DataError(str(measurements.source), "method",
                             f"{method} failed at t = {measurements.t[k]:.6g} s: {solution.message}")
@@ -500,7 +569,7 @@ def _trajectory(measurements: Measurements, names: tuple[str, ...], y: np.ndarra
     q, qd, qdd, tau = (y[:, k * n:(k + 1) * n][:, index] for k in range(4))
     bad = np.flatnonzero(~np.isfinite(y).all(axis=1))
     if bad.size:
-        raise DataError(str(measurements.source), "simulation",
-                        f"the state became infinite or NaN at t = {measurements.t[bad[0]]:.6g} s (an unstable "
-                        "closed loop, or too few sub-steps: give more)")
+        column = int(np.flatnonzero(~np.isfinite(y[bad[0]]))[0])
+        raise Diverged(str(measurements.source), float(measurements.t[bad[0]]), names[column % n],
+                       "the state became infinite or NaN (an unstable closed loop, or too few sub-steps: give more)")
     return Measurements.from_arrays(measurements.t, order, q, tau, qd=qd, qdd=qdd)

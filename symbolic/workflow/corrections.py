@@ -6,7 +6,10 @@ or the search's final joint fit when the patch adds a coordinate the data lack).
 * **corrections**: the model-file parameters the data move far from the file's value — beyond
   :data:`SIGMAS` standard deviations *and* beyond :data:`RELATIVE` of the value — each with its evidence
   (how many σ, and the held-out gap if the value were kept at the file's while everything else is
-  re-identified, which must be worse by the search's effect size, :data:`MIN_GAIN`). Only what the data identify can be named: a base parameter that is one model parameter
+  re-identified, which must be worse by the search's effect size, :data:`MIN_GAIN`), a physical value
+  (within what the model's other values allow, :attr:`Value.physical`) and one that holds when the data
+  are treated at half the bandwidth (:meth:`Value.holds_with`: not an artefact of differentiating
+  quantised positions); a value failing one of these is noted with the reason. Only what the data identify can be named: a base parameter that is one model parameter
   up to known factors, β = a·p + b (p = (β − b)/a, σ_p = σ_β/|a|, as :func:`symbolic.identify.model.direct_parameters`);
   a base parameter that combines several model parameters (ZZR1 = I1 + m1·c1² + m2·l1²) is reported as that
   combination. σ is the fit's (IDIM-LS weighted least squares) × the residual's integrated
@@ -32,14 +35,17 @@ import numpy as np
 import sympy as sp
 
 from symbolic.derivation.dynamics import DynamicModel
+from symbolic.data import DataError
+from symbolic.data.treatment import Processing, Settings
 from symbolic.description.modelfile import loads, with_parameter_values
 from symbolic.description.robot import Directional, Robot, coordinate_symbol, velocity_symbol
 from symbolic.errors import ModelError
+from symbolic.identify.known import beta_bounds, parameter_bounds, polynomial_lower_bound
 from symbolic.identify.least_squares import Identification
 from symbolic.identify.model import geometric_parameters
-from symbolic.workflow.dataset import DataSet
+from symbolic.workflow.dataset import DataSet, treat
 from symbolic.workflow.statistics import pooled_autocorrelation_time
-from symbolic.workflow.terms import ModelTerms, relative_gap, wls
+from symbolic.workflow.terms import ModelTerms, fit_nominal, relative_gap, wls
 
 SIGMAS = 3.0
 """A value is a correction when it moves by more than this many standard deviations ..."""
@@ -52,6 +58,11 @@ residual power, 1 − (gap/gap at the file's value)² ≥ MIN_GAIN: the search's
 14-bit encoder "corrected" ZZR2 by 10.04 % at 14σ (the quantisation left in q̈ biases the inertias beyond
 their σ, docs/workflow.md), while keeping the file's value cost 2.9 % of the held-out power; the rig's
 stiffness costs 99 %, EMPS's offset 16 %."""
+LOWERED = 0.5
+"""... and it holds when the data are treated again with the bandwidth, the cut-off and the decimation's
+pass band all multiplied by this factor (:func:`lowered_settings`, :meth:`Value.holds_with`) ..."""
+AGREEMENT = 0.25
+"""... the two estimates agreeing within SIGMAS·√(σ² + σ_low²) or within this fraction of the change."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,6 +133,17 @@ class Value:
     """β = scale·p + offset: the base parameter's value at the file's value is scale·nominal + offset."""
     expression: str | None = None
     """For a combination: the base parameter in the model's parameters."""
+    lower: float = -math.inf
+    upper: float = math.inf
+    """What the model's other parameters allow (:func:`value_bounds`)."""
+    at_bound: bool = False
+    """The bounded fit holds the value at ``lower`` or ``upper``: the data alone want it beyond."""
+
+    @property
+    def physical(self) -> bool:
+        """Within [lower, upper] (a rounding of 1e-9 of the scale allowed) and not held at a bound."""
+        slack = 1e-9 * max(abs(self.nominal), abs(self.value), 1e-300)
+        return not self.at_bound and self.lower - slack <= self.value <= self.upper + slack
 
     @property
     def relative_change(self) -> float | None:
@@ -132,6 +154,22 @@ class Value:
         """Beyond :data:`SIGMAS` σ and beyond :data:`RELATIVE` of the file's value."""
         change = abs(self.value - self.nominal)
         return change > SIGMAS * self.sigma and change > RELATIVE * abs(self.nominal)
+
+    def holds_with(self, low: Value) -> bool:
+        """Whether ``low``, the same value estimated from the data treated at the lowered bandwidth
+        (:data:`LOWERED`), confirms this one: significant as well, moved in the same direction from the
+        file's value, and agreeing with it,
+
+            |v − v_low| ≤ max(SIGMAS·√(σ² + σ_low²), AGREEMENT·|v − v_file|).
+
+        Why: the quantisation (or any white measurement) error e of the logged q enters q̈ as ë, whose
+        power grows as the fifth power of the band kept, and a feedback loop puts the same e into the
+        logged force: an errors-in-variables bias of the inertias that the held-out data share. A value
+        that is wrong in the file is wrong at every bandwidth that holds the motion; a bias of the
+        differentiation shrinks steeply with the band (≈ 1/8 at half the band for a cubic growth)."""
+        change, low_change = self.value - self.nominal, low.value - low.nominal
+        agree = abs(self.value - low.value) <= max(SIGMAS * math.hypot(self.sigma, low.sigma), AGREEMENT * abs(change))
+        return low.significant and np.sign(change) == np.sign(low_change) and agree
 
 
 def identified_values(fit: FinalFit, names: Sequence[str]) -> list[Value]:
@@ -145,6 +183,10 @@ def identified_values(fit: FinalFit, names: Sequence[str]) -> list[Value]:
     tau = fit.autocorrelation_time()
     covariance = np.asarray(ident.covariance) * tau
     geometry = {s: v for s, v in model.parameters.items() if s in fixed}
+    bounds = parameter_bounds(model)
+    combined = beta_bounds(model, reg, base, base.names, fixed | terms.fixed)
+    known_values = {s: v for s, v in model.parameters.items() if s in fixed | terms.fixed}
+    held = ident.at_bound
     out = []
     for column, k in enumerate(fit.free):
         expression = sp.expand(base.expressions[k].xreplace(theta))
@@ -160,20 +202,36 @@ def identified_values(fit: FinalFit, names: Sequence[str]) -> list[Value]:
                 scale = float(a.xreplace(geometry))
                 offset = float(expression.xreplace({p: sp.Integer(0)}).xreplace(geometry))
                 if scale != 0:
+                    lower, upper = bounds.get(p, (-math.inf, math.inf))
                     out.append(Value(p.name, (nominal_beta - offset) / scale, (beta - offset) / scale,
-                                     sigma / abs(scale), column, scale))
+                                     sigma / abs(scale), column, scale, None, lower, upper,
+                                     base.names[k] in held))
                     continue
         text = str(expression.xreplace({s: sp.Float(v, 6) for s, v in geometry.items()}))
-        out.append(Value(base.names[k], nominal_beta, beta, sigma, column, 1.0, text))
+        lower, upper = combined.get(base.names[k], (-math.inf, math.inf))
+        if base.names[k] not in combined:  # products of unknowns: the parallel-axis sums
+            lower = polynomial_lower_bound(expression.xreplace(known_values), bounds)
+        out.append(Value(base.names[k], nominal_beta, beta, sigma, column, 1.0, text, lower, upper,
+                         base.names[k] in held))
     return out
 
 
-def corrections(fit: FinalFit, values: Sequence[Value], robot: Robot,
-                min_gain: float = MIN_GAIN) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+def corrections(fit: FinalFit, values: Sequence[Value], robot: Robot, min_gain: float = MIN_GAIN,
+                lowered: Sequence[Value] | None = None) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """The corrections (module docstring) with their evidence, largest first (in σ), and the values that
-    move beyond :data:`SIGMAS` σ and :data:`RELATIVE` but whose file value predicts the held-out data as
-    well (keeping it costs less than ``min_gain`` of the held-out residual power: not named)."""
+    move beyond :data:`SIGMAS` σ and :data:`RELATIVE` but are not named, each with ``"why"``:
+
+    * ``"held-out"``: the file's value predicts the held-out data as well (keeping it costs less than
+      ``min_gain`` of the held-out residual power);
+    * ``"unphysical"``: the value is outside what the model's other values allow (:attr:`Value.physical`):
+      the data move it because the model misses something on these coordinates, not because the file's
+      value is wrong;
+    * ``"bandwidth"``: re-estimated from the data treated at the lowered bandwidth (``lowered``, the same
+      parameters in the same order; ``None``: not checked) it does not hold (:meth:`Value.holds_with`):
+      an artefact of the differentiation.
+    """
     held_out = fit.held_out_gap()
+    low = {v.parameter: v for v in lowered} if lowered is not None else None
     named, moved = [], []
     for v in sorted((v for v in values if v.significant), key=lambda v: -abs(v.value - v.nominal) / max(v.sigma, 1e-300)):
         kept = fit.held_out_gap(v.column, v.scale * v.nominal + (fit.identification.values[v.column] - v.scale * v.value))
@@ -181,11 +239,74 @@ def corrections(fit: FinalFit, values: Sequence[Value], robot: Robot,
         kind = "combination" if v.expression else parameter_kind(robot, v.parameter)
         evidence = {"sigmas": abs(v.value - v.nominal) / v.sigma if v.sigma > 0 else None,
                     "held_out_gap": held_out, "held_out_gap_at_nominal": kept, "held_out_gain": gain,
-                    "kind": kind, **({"expression": v.expression} if v.expression else {})}
+                    "kind": kind, "bounds": [b if math.isfinite(b) else None for b in (v.lower, v.upper)], **({"expression": v.expression} if v.expression else {})}
+        other = low.get(v.parameter) if low is not None else None
+        if other is not None:
+            moved_by = abs(other.value - other.nominal) / other.sigma if other.sigma > 0 else None
+            evidence["lowered_bandwidth"] = {"value": other.value, "sigma": other.sigma, "sigmas": moved_by}
         entry = {"parameter": v.parameter, "nominal": v.nominal, "value": v.value, "sigma": v.sigma,
                  "relative_change": v.relative_change, "evidence": evidence, "summary": _sentence(v, kind)}
-        (named if gain >= min_gain else moved).append(entry)
+        if gain < min_gain:
+            moved.append({**entry, "why": "held-out"})
+        elif not v.physical:
+            moved.append({**entry, "why": "unphysical"})
+        elif low is not None and (other is None or not v.holds_with(other)):
+            moved.append({**entry, "why": "bandwidth"})
+        else:
+            named.append(entry)
     return named, moved
+
+
+def lowered_settings(p: Processing, factor: float = LOWERED) -> Settings:
+    """The treatment ``p`` with its band multiplied by ``factor`` (< 1): bandwidth and cut-off × factor,
+    decimation ÷ factor (its anti-alias pass band, 0.4·rate/decimation, scales alike), the border at
+    least the rule's five periods of the new cut-off; order, position filtering and held force kept."""
+    cutoff = None if p.cutoff is None else p.cutoff * factor
+    rule = math.ceil(5.0 * p.rate / cutoff) if cutoff is not None else 2
+    return Settings(bandwidth=p.bandwidth * factor, cutoff=cutoff, order=p.order,
+                    decimation=max(1, int(round(p.decimation / factor))),
+                    border=(max(p.border[0], rule), max(p.border[1], rule)),
+                    filter_positions=cutoff is not None, held_force=p.held_force)
+
+
+def lowered_values(fit: FinalFit, names: Sequence[str], notes: list[str]) -> list[Value] | None:
+    """:func:`identified_values` of the model's own fit on the estimation data treated at the lowered
+    bandwidth (:func:`lowered_settings`); ``None`` (with a note) when the final fit holds an effect's
+    columns, which the search computed for its own treatment only, or when the data are too short."""
+    if fit.columns["estimation"].shape[2] != len(fit.free):
+        notes.append("corrections are not checked at a lowered bandwidth: the final fit holds the effects' columns")
+        return None
+    data = fit.sets["estimation"]
+    try:
+        low = treat(data.measurements, "estimation", lowered_settings(data.states.processing))
+    except (DataError, ValueError) as error:  # too few samples for the longer border, a filter that cannot run
+        notes.append(f"corrections are not checked at a lowered bandwidth ({error})")
+        return None
+    refit = fit_nominal(fit.terms, low)
+    if list(refit.terms.free_names) != list(fit.terms.free_names):
+        notes.append("corrections are not checked at a lowered bandwidth: another scale is held there")
+        return None
+    return identified_values(FinalFit.of_nominal(refit, {"estimation": low}), names)
+
+
+def moved_note(m: Mapping[str, Any], min_gain: float = MIN_GAIN) -> str:
+    """The note for a value that moves but is not named a correction (:func:`corrections`' ``"why"``)."""
+    e = m["evidence"]
+    head = f"{m['summary']} — beyond {SIGMAS:g}σ and {100 * RELATIVE:g} %, but "
+    if m["why"] == "unphysical":
+        lower, upper = e["bounds"]
+        allowed = f"≥ {lower:.4g}" if upper is None else f"≤ {upper:.4g}" if lower is None else \
+            f"within [{lower:.4g}, {upper:.4g}]"
+        return (head + f"moved to an unphysical value (the model's other values allow {allowed}): the model "
+                "probably misses something on these coordinates; not named a correction")
+    if m["why"] == "bandwidth":
+        low = e.get("lowered_bandwidth")
+        seen = "not estimated there" if low is None else f"{low['value']:.4g} ± {low['sigma']:.2g}"
+        return (head + f"it does not hold with the data treated at {LOWERED:g}× the bandwidth ({seen}): an "
+                "artefact of the differentiation (measurement noise in q̈); not named a correction")
+    return (head + f"the file's value predicts the held-out data nearly as well ({e['held_out_gap_at_nominal']:.4g} % "
+            f"against {e['held_out_gap']:.4g} %, {100 * e['held_out_gain']:.2g} % of the residual power "
+            f"< {100 * min_gain:g} %): not named a correction")
 
 
 def _sentence(v: Value, kind: str) -> str:
@@ -254,11 +375,10 @@ def review(model: DynamicModel, patched: DynamicModel, patched_values: Mapping[s
     file's own parameters; ``data`` the estimation data (their mean position, their ``[controller]``)."""
     nominal = {p.name: p.value for p in model.robot.parameters}
     values = identified_values(fit, list(nominal))
-    found, moved = corrections(fit, values, model.robot, min_gain)
-    notes += [f"{m['summary']} — beyond {SIGMAS:g}σ and {100 * RELATIVE:g} %, but the file's value predicts the held-out "
-              f"data nearly as well ({m['evidence']['held_out_gap_at_nominal']:.4g} % against "
-              f"{m['evidence']['held_out_gap']:.4g} %, {100 * m['evidence']['held_out_gain']:.2g} % of the residual power "
-              f"< {100 * min_gain:g} %): not named a correction" for m in moved]
+    candidates = [v for v in values if v.significant and v.physical]
+    lowered = lowered_values(fit, list(nominal), notes) if candidates else None
+    found, moved = corrections(fit, values, model.robot, min_gain, lowered)
+    notes += [moved_note(m, min_gain) for m in moved]
     sigma = {v.parameter: v.sigma for v in values if v.expression is None}
     flagged = {c["parameter"] for c in found}
     why = {k["parameter"]: k["reason"] for k in kept}

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from symbolic.data import DataError, Measurements, load
+from symbolic.data.measurements import check_forces
 from symbolic.data.treatment import Settings, States, states
 from symbolic.description.robot import Robot
 
@@ -73,7 +74,7 @@ class DataSet:
     def stack(self, x: np.ndarray) -> np.ndarray:
         """Reduced ``samples × N [× k]`` arranged as the stacked system: coordinate by coordinate."""
         x = np.asarray(x, dtype=float)
-        return x.transpose(1, 0, *range(2, x.ndim)).reshape(-1, *x.shape[2:])
+        return x.transpose(1, 0, *range(2, x.ndim)).reshape(x.shape[0] * x.shape[1], *x.shape[2:])  # 0 columns too
 
 
 def treat(measurements: Measurements, role: str, settings: Settings | None = None) -> DataSet:
@@ -122,8 +123,15 @@ def load_sets(
     robot = model if isinstance(model, Robot) else None
     coordinates = tuple(robot.generalized_coordinates if robot is not None else model)
     measurements = load(data, coordinates, model=robot, experiment=experiment, validation=validation)
+    for loaded in (measurements, measurements.validation):
+        if loaded is not None:
+            check_forces(loaded)
     if measurements.validation is None:
         first, last = split(measurements)
+        if min(first.samples, last.samples) < 2:
+            raise DataError(str(measurements.source), "samples",
+                            f"{measurements.samples} samples are too few to hold out the last "
+                            f"{100 * HOLDOUT_FRACTION:g} % and estimate on the rest; give a validation data set (--validate)")
         start = first.samples
         held_out = (f"the last {100 * HOLDOUT_FRACTION:g} % of the data in time "
                     f"({last.t[0]:.6g} s to {last.t[-1]:.6g} s), not used for estimation")

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,7 +31,7 @@ import numpy as np
 
 from symbolic.data import Controller, DataError, Experiment, Measurements
 from symbolic.derivation.dynamics import DynamicModel, derive
-from symbolic.errors import ModelError
+from symbolic.errors import ModelError, ModelWarning, SimulationError
 from symbolic.identify.known import fixed_symbols
 from symbolic.identify.least_squares import IdentificationError
 from symbolic.data.treatment import Settings, settings_for
@@ -114,7 +115,10 @@ def diagnose(
         simulate = simulated_path(_controller(estimation.measurements))
     sets = {"estimation": estimation, "validation": held}
     lap("data")
-    before = _fit(model, sets, simulate, fix)
+    caveats: list[str] = []
+    before, simulate = _fit_or_inverse(model, sets, simulate, fix, caveats)
+    if not before.nominal.terms.free.any():
+        caveats.append(NOTHING_TO_REIDENTIFY)
     where_before = localise(estimation, before.predicted["estimation"])
     findings = held_force_finding(model, sets, before if not simulate else None, settings, search, fix)
     lap("gap")
@@ -125,7 +129,7 @@ def diagnose(
     accepted = selection.run()
     finals = selection.final_effects()
     lap("search")
-    notes: list[str] = list(before.nominal.notes)
+    notes: list[str] = [*caveats, *before.nominal.notes]
     found: list[Found] = []
     patched_text = patched_path = None
     if source.is_file() and source.suffix.lower() != ".urdf":  # a URDF has no TOML text to patch (note below)
@@ -158,7 +162,11 @@ def diagnose(
             own_fit = final_nominal(before.nominal.terms, design.identification.values)
             after = Fit(patched, own_fit, predicted, gap, detail)
         else:
-            after = _fit(patched, sets, simulate, [n for n in fix if n in {p.name for p in patched.robot.parameters}])
+            kept_fixed = [n for n in fix if n in {p.name for p in patched.robot.parameters}]
+            after, still = _fit_or_inverse(patched, sets, simulate, kept_fixed, caveats)
+            if simulate and not still:  # the patched model diverged: the model before on the inverse path too
+                before, simulate = _fit(model, sets, None, fix), None
+                where_before = localise(estimation, before.predicted["estimation"])
         own = {k: v.value for k, v in after.nominal.parameters.items() if k in {p.name for p in model.robot.parameters}}
         own, unphysical = _physical_beams(patched.robot, own)
         notes += unphysical
@@ -167,6 +175,7 @@ def diagnose(
                                                   f"re-identified by symbolic diagnose on {data_name}", model.robot)
         notes += [f"{k['parameter']} is kept at the model file's value: the fitted {k['value']:.6g} is not physical "
                   f"({k['reason']})" for k in kept]
+        _check_loads(patched_text, target, source)
         patched_path = target if out is not None else None
         measured_model = derive(loads(patched_text, str(target))) if unmeasured else patched
         values = measured_model.parameter_vector.by_name()
@@ -199,10 +208,11 @@ def diagnose(
         c = gone.candidate
         notes.append(f"{c.label()} was accepted at round {gone.round} ({_roles_text(c.roles)}) and removed at the end: "
                      f"with {others} in the model it is not significant any more (p = {p_value:.3g})")
+    notes += [c for c in caveats if c not in notes]  # a divergence of the patched model, found after the notes began
     diagnosis = Diagnosis(model, sets, held_out, before, where_before, selection, tuple(found), patched_text,
                           patched_path, after, where_after, bool(simulate), seconds, tuple(notes), (), tuple(findings),
                           corrections=tuple(reviewed[0]), changes=tuple(reviewed[1]), modes=reviewed[2],
-                          cpu_seconds=cpu_seconds)
+                          caveats=tuple(caveats), cpu_seconds=cpu_seconds)
     if out is not None:
         diagnosis = _write(diagnosis, Path(out), figures)
     lap("report")
@@ -339,6 +349,37 @@ def _fit(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | No
         return Fit(model, nominal, predicted, gap, detail, motion or None)
     gap, detail = _gaps(sets, predicted)
     return Fit(model, nominal, predicted, gap, detail)
+
+
+def _check_loads(text: str, target: Path, source: Path) -> None:
+    """Refuse to go on with a patched model file that :func:`symbolic.load` would refuse: it is never written."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ModelWarning)
+            loads(text, str(target))
+    except ModelError as error:
+        raise ModelError(str(source), "patch", f"the patched model with its re-identified values does not load "
+                                               f"({error}); nothing is written; this is a bug of the workflow") from None
+
+
+NOTHING_TO_REIDENTIFY = ("every value of the model is written inline (no [parameters] entry moves its terms): "
+                         "nothing to re-identify; the gap is that of the model as written, and the catalogue is "
+                         "searched against it")
+
+
+def _fit_or_inverse(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | None, fix: Sequence[str],
+                    caveats: list[str]) -> tuple[Fit, Simulator | None]:
+    """:func:`_fit`, and where the simulated path cannot run (it diverges, or the model is too stiff for it)
+    the inverse model's fit instead, with a caveat saying where and why; returns the simulator still in use."""
+    if not simulate:
+        return _fit(model, sets, None, fix), None
+    try:
+        return _fit(model, sets, simulate, fix), simulate
+    except SimulationError as error:
+        problem = error.problem if isinstance(error, DataError) else str(error)
+        caveats.append(f"--simulate: model {model.name}: {problem}; the gaps are measured with the inverse model "
+                       "instead (τ at the measured states)")
+        return _fit(model, sets, None, fix), None
 
 
 def _motion_gaps(data: DataSet, simulated: SimulatedSignals) -> dict[str, dict[str, float]]:

@@ -38,6 +38,7 @@ import sympy as sp
 
 from symbolic.data.controller import Controller
 from symbolic.description.robot import Directional, Robot, coordinate_symbol
+from symbolic.description.units import coordinate_kind
 from symbolic.workflow.payload import PHYSICAL, chain_ends, physical_inertia, structure
 
 if TYPE_CHECKING:
@@ -72,14 +73,9 @@ class Context:
     """Coordinates whose force is zero throughout the data (no actuator: a homogeneous equation)."""
 
     def kind(self, coordinate: str) -> str:
-        """``"revolute"`` (the coordinate is in a DH θ), ``"prismatic"`` (in a d) or ``"modal"``."""
-        symbol = coordinate_symbol(coordinate)
-        substitution = self.robot.constraint_substitution
-        for frame in self.robot.frames:
-            theta = sp.sympify(frame.theta).xreplace(substitution)
-            if symbol in theta.free_symbols:
-                return "revolute"
-        return "prismatic" if coordinate in self.robot.coordinates else "modal"
+        """``"revolute"`` (the coordinate is in a DH θ), ``"prismatic"`` (in a d) or ``"modal"``
+        (:func:`symbolic.description.units.coordinate_kind`)."""
+        return coordinate_kind(self.robot, coordinate)
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,76 +1,201 @@
 """PNG figures of a diagnosis (matplotlib, imported only here and only when figures are asked for).
 
 * ``residual_<c>.png``: the residual against time before and after, and against velocity;
-* ``effect_<k>_<effect>_<c>.png``: for each found effect, the partial residual (the final residual plus
-  the effect's own term) against the state the effect depends on, with the fitted term drawn over it;
+* ``effect_<k>_<effect>_<c>.png``: for each found effect, the partial residual against the state the effect
+  depends on, with the fitted term drawn over it. An effect that refines a term of the model
+  (direction-dependent viscous or Coulomb friction, a Stribeck rise) reports the total coefficients
+  (Fv⁺ and Fv⁻, not their difference from the model's Fv): the model's own term, as fitted with the effect,
+  is added to both, so that the slopes and levels seen are the printed ones;
 * ``spectrum_<c>.png``: Welch spectra of the residual before and after, found peaks marked.
+
+Every axis carries its unit, from the model's coordinates (rad or m, N·m or N:
+:mod:`symbolic.description.units`) and the data's time (s); every mark has a legend entry; the fitted
+curve's entry gives the effect's parameters as the report prints them, with their units.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from symbolic.description.units import CoordinateUnits, coordinate_units
 from symbolic.plotting import MatplotlibMissing, figure_class, png_bytes
+from symbolic.workflow.effects import Effect
 from symbolic.workflow.result import Diagnosis
 from symbolic.workflow.where import spectrum
+
+__all__ = ["MatplotlibMissing", "ROLE_SYMBOLS", "ROLE_UNITS", "draw", "figures"]
+
+ROLE_UNITS: dict[str, dict[str, str]] = {
+    "coulomb": {"coulomb": "{force}"},
+    "viscous": {"viscous": "{force}·s/{position}"},
+    "offset": {"offset": "{force}"},
+    "asymmetric_viscous": {"positive": "{force}·s/{position}", "negative": "{force}·s/{position}"},
+    "asymmetric_coulomb": {"positive": "{force}", "negative": "{force}"},
+    "stribeck": {"static": "{force}", "velocity": "{position}/s"},
+    "spring": {"stiffness": "{force}/{position}", "rest_position": "{position}"},
+    "gravity": {"moment": "{force}", "phase": "rad"},
+    "inertia": {"inertia": "{force}·s²/{position}"},
+    "periodic": {"amplitude": "{force}", "period": "{position}"},
+    "periodic_time": {"amplitude": "{force}", "frequency_hz": "Hz"},
+    "flexible_mode": {"frequency_hz": "Hz", "damping_ratio": ""},
+    "payload": {"mass": "kg", "com_x": "m", "com_y": "m", "com_z": "m",
+                **{f"i{axes}": "kg·m²" for axes in ("xx", "yy", "zz", "xy", "xz", "yz")}},
+}
+"""The unit of each role of the catalogue's effects (by registry key), written from the coordinate's units
+(:meth:`~symbolic.description.units.CoordinateUnits.compose`): a viscous coefficient is force per velocity,
+N·m·s/rad on a revolute coordinate. An effect registered without an entry here shows its numbers alone."""
+
+ROLE_SYMBOLS: dict[tuple[str, str], str] = {
+    ("asymmetric_viscous", "positive"): "Fv⁺", ("asymmetric_viscous", "negative"): "Fv⁻",
+    ("asymmetric_coulomb", "positive"): "Fc⁺", ("asymmetric_coulomb", "negative"): "Fc⁻",
+}
+"""Roles written as the effects' summaries write them; the others by their role name."""
+
+AXIS_SIGNAL = {"position": "position", "velocity": "velocity", "acceleration": "acceleration", "time": "time"}
 
 
 def draw(d: Diagnosis) -> dict[str, bytes]:
     """The figures as PNG bytes by file name (written with the report, all at once)."""
+    return {name: png_bytes(figure, dpi=100) for name, figure in figures(d).items()}
+
+
+def figures(d: Diagnosis) -> dict[str, Any]:
+    """The matplotlib figures :func:`draw` renders, by file name (in the order written)."""
     Figure = figure_class()
     est = d.sets["estimation"]
+    units = coordinate_units(d.model.robot)
     before = est.tau - d.before.predicted["estimation"]
     after = est.tau - d.after.predicted["estimation"]
-    written: dict[str, bytes] = {}
+    out: dict[str, Any] = {}
     rate = 1.0 / float(np.mean(np.diff(est.t)))
     for j, c in enumerate(est.coordinates):
-        fig = Figure(figsize=(9, 6))
-        top, bottom = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2)
-        top.plot(est.t, before[:, j], lw=0.6, label="nominal model")
-        top.plot(est.t, after[:, j], lw=0.6, label="patched model")
-        top.set_xlabel("t (s)")
-        top.set_ylabel(f"τ_meas − τ_model on {c}")
-        top.legend(loc="upper right")
-        bottom.plot(est.qd[:, j], before[:, j], ".", ms=1.5, label="nominal model")
-        bottom.plot(est.qd[:, j], after[:, j], ".", ms=1.5, label="patched model")
-        bottom.set_xlabel(f"velocity of {c}")
-        bottom.set_ylabel("residual")
-        bottom.legend(loc="upper right")
-        fig.tight_layout()
-        written[f"residual_{c}.png"] = png_bytes(fig, dpi=100)
-        fig = Figure(figsize=(9, 4))
-        ax = fig.add_subplot(1, 1, 1)
-        for label, r in (("nominal model", before[:, j]), ("patched model", after[:, j])):
-            f, psd = spectrum(r, rate)
-            ax.semilogy(f, psd, lw=0.8, label=label)
-        for peak in d.where_before["coordinates"][c]["spectrum"]["peaks"]:
-            ax.axvline(peak["frequency_hz"], color="k", lw=0.5, ls="--")
-        ax.set_xlabel("frequency (Hz)")
-        ax.set_ylabel("residual PSD")
-        ax.legend(loc="upper right")
-        fig.tight_layout()
-        written[f"spectrum_{c}.png"] = png_bytes(fig, dpi=100)
+        u = units[c]
+        out[f"residual_{c}.png"] = _residual(Figure(figsize=(9, 6)), est, before[:, j], after[:, j], j, c, u)
+        peaks = [p["frequency_hz"] for p in d.where_before["coordinates"][c]["spectrum"]["peaks"]]
+        out[f"spectrum_{c}.png"] = _spectrum(Figure(figsize=(9, 4)), before[:, j], after[:, j], rate, peaks, c, u)
     design = d.search.final
     final = est.tau - design.predicted("estimation")
+    finals = d.search.final_effects() if d.search.accepted else []
     start = len(d.search.terms.free_names)
-    axes = {"position": est.q, "velocity": est.qd, "acceleration": est.qdd,
-            "time": np.repeat(np.asarray(est.t)[:, None], est.q.shape[1], axis=1)}
-    for k, a in enumerate(d.search.accepted, start=1):
+    for k, (a, found) in enumerate(zip(d.search.accepted, d.found), start=1):
         width = a.columns["estimation"].shape[2]
         values = design.identification.values[start:start + width]
         start += width
-        term = a.columns["estimation"] @ values
-        j = a.candidate.j
-        x = axes[a.effect.axis][:, j]
-        order = np.argsort(x, kind="stable")
-        fig = Figure(figsize=(9, 4))
-        ax = fig.add_subplot(1, 1, 1)
-        ax.plot(x, final[:, j] + term[:, j], ".", ms=1.5, color="0.5", label="final residual + the effect's term")
-        ax.plot(x[order], term[order, j], lw=1.2, color="C3", label=f"fitted {a.effect.label()}")
-        ax.set_xlabel("time (s)" if a.effect.axis == "time" else f"{a.effect.axis} of {a.candidate.coordinate}")
-        ax.set_ylabel("generalized force")
-        ax.set_title(a.candidate.label())
-        ax.legend(loc="upper right")
-        fig.tight_layout()
-        written[f"effect_{k}_{a.effect.name}_{a.candidate.coordinate}.png"] = png_bytes(fig, dpi=100)
-    return written
+        j, c = a.candidate.j, a.candidate.coordinate
+        term = (a.columns["estimation"] @ values)[:, j]  # as fitted: the effect's columns treated like τ
+        curve = _law(a, est, values)
+        reference = finals[k - 1]["reference"]
+        refined = bool(a.effect.refines) and reference is not None
+        if refined:  # the model's term the effect refines, as fitted with it
+            column = a.effect.reference_column(est.states.q, est.states.qd, est.states.qdd, j)
+            term = term + reference * est.reduce(column)[:, j]
+            law = a.effect.reference_column(est.q, est.qd, est.qdd, j)
+            curve = None if curve is None else curve + reference * law[:, j]
+        figure = Figure(figsize=(9, 4.5))
+        _effect(figure, d, a, found, final[:, j] + term, term if curve is None else curve, refined, units[c])
+        out[f"effect_{k}_{a.effect.name}_{c}.png"] = figure
+    return out
+
+
+def _law(a: Any, est: Any, values: np.ndarray) -> np.ndarray | None:
+    """The fitted term as a function of the state it is drawn against (a smooth curve; the treated columns
+    of a nonlinear term, filtered and decimated, scatter about it), or ``None`` when the term is not a
+    function of that state alone (a filter, time, several coordinates): then the treated term is drawn."""
+    effect = a.effect
+    if effect.axis not in ("position", "velocity") or type(effect).columns_at is not Effect.columns_at:
+        return None
+    j = a.candidate.j
+    columns = effect.columns(est.q, est.qd, est.qdd, j, a.candidate.value)[:, :, list(a.candidate.kept)]
+    return (columns @ values)[:, j]
+
+
+def _residual(fig: Any, est: Any, before: np.ndarray, after: np.ndarray, j: int, c: str, u: CoordinateUnits) -> Any:
+    top, bottom = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2)
+    top.plot(est.t, before, lw=0.6, label="nominal model (re-identified)")
+    top.plot(est.t, after, lw=0.6, label="patched model")
+    top.set_xlabel("t (s)")
+    top.set_ylabel(u.label("force", f"τ_meas − τ_model on {c}"))
+    top.set_title(f"Residual on coordinate {c}" + (f" ({u.kind})" if u.kind else "") + ", estimation data")
+    top.legend(loc="upper right")
+    bottom.plot(est.qd[:, j], before, ".", ms=1.5, label="nominal model (re-identified)")
+    bottom.plot(est.qd[:, j], after, ".", ms=1.5, label="patched model")
+    bottom.set_xlabel(u.label("velocity", f"velocity of {c}"))
+    bottom.set_ylabel(u.label("force", f"τ_meas − τ_model on {c}"))
+    bottom.legend(loc="upper right")
+    fig.tight_layout()
+    return fig
+
+
+def _spectrum(fig: Any, before: np.ndarray, after: np.ndarray, rate: float, peaks: list[float], c: str,
+              u: CoordinateUnits) -> Any:
+    ax = fig.add_subplot(1, 1, 1)
+    for label, r in (("nominal model (re-identified)", before), ("patched model", after)):
+        f, psd = spectrum(r, rate)
+        ax.semilogy(f, psd, lw=0.8, label=label)
+    for k, peak in enumerate(peaks):
+        ax.axvline(peak, color="k", lw=0.5, ls="--",
+                   label=("peak of the nominal model's residual: " + ", ".join(f"{p:.3g}" for p in peaks) + " Hz")
+                   if k == 0 else None)
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel(f"PSD of τ_meas − τ_model on {c}" + (f" (({u.force})²/Hz)" if u.force else ""))
+    ax.set_title(f"Residual spectrum on coordinate {c} (Welch), estimation data")
+    ax.legend(loc="upper right")
+    fig.tight_layout()
+    return fig
+
+
+def _effect(fig: Any, d: Diagnosis, a: Any, found: Any, points: np.ndarray, curve: np.ndarray, refined: bool,
+            u: CoordinateUnits) -> Any:
+    """The partial residual of accepted effect ``a`` (``points``) against its state, the fitted ``curve`` over
+    it; ``refined``: both hold the model's own term that the effect refines."""
+    est = d.sets["estimation"]
+    j, c = a.candidate.j, a.candidate.coordinate
+    axis = a.effect.axis
+    x = np.asarray(est.t) if axis == "time" else {"position": est.q, "velocity": est.qd, "acceleration": est.qdd}[axis][:, j]
+    order = np.argsort(x, kind="stable")
+    ax = fig.add_subplot(1, 1, 1)
+    what = f"the model's {a.effect.refines} term and " if refined else ""
+    ax.plot(x, points, ".", ms=1.5, color="0.5", label=f"data: final residual + {what}the fitted effect")
+    ax.plot(x[order], curve[order], lw=1.2, color="C3", label=f"fitted {found.label()}: {_parameters(a.effect.name, found, u)}")
+    if refined and a.effect.name in ("asymmetric_viscous", "asymmetric_coulomb"):
+        _guides(ax, a.effect.name, x, found, u)
+    ax.set_xlabel("t (s)" if axis == "time" else u.label(AXIS_SIGNAL[axis], f"{axis} of {c}"))
+    force = f"{a.effect.refines} friction" if refined else "generalized force of the effect"
+    ax.set_ylabel(u.label("force", f"{force} on {c}"))
+    ax.set_title(f"{found.label()} on {c}" + (f" ({u.kind})" if u.kind else "") + ", estimation data")
+    ax.legend(loc="best", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def _guides(ax: Any, effect: str, x: np.ndarray, found: Any, u: CoordinateUnits) -> None:
+    """The printed direction-dependent coefficients drawn as what they are, across every velocity seen (the
+    data follow each on its own side): lines of slope Fv⁺ and Fv⁻ through 0, or the levels Fc⁺ and −Fc⁻."""
+    unit = u.compose(ROLE_UNITS[effect]["positive"])
+    span = np.array([min(float(x.min()), 0.0), max(float(x.max()), 0.0)])
+    for role, colour in (("positive", "C0"), ("negative", "C2")):
+        value = found.parameters.get(role)
+        if value is None:
+            continue
+        symbol = ROLE_SYMBOLS[(effect, role)]
+        where = " (q̇ > 0)" if role == "positive" else " (q̇ < 0)"
+        if effect == "asymmetric_viscous":
+            ax.plot(span, value * span, ls=":", lw=1.2, color=colour,
+                    label=f"slope {symbol} = {value:.4g}" + (f" {unit}" if unit else "") + where)
+        else:
+            level = value if role == "positive" else -value
+            ax.plot(span, [level, level], ls=":", lw=1.2, color=colour,
+                    label=f"level {'' if role == 'positive' else '−'}{symbol} = {level:.4g}" + (f" {unit}" if unit else "") + where)
+
+
+def _parameters(effect: str, found: Any, u: CoordinateUnits) -> str:
+    """The effect's parameters as the report prints them (final fit), with their units."""
+    parts = []
+    for role, value in found.parameters.items():
+        if value is None:
+            continue
+        unit = u.compose(ROLE_UNITS.get(effect, {}).get(role, ""))
+        parts.append(f"{ROLE_SYMBOLS.get((effect, role), role)} = {value:.4g}" + (f" {unit}" if unit else ""))
+    return ", ".join(parts)

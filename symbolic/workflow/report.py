@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from symbolic.data.times import time_windows
 from symbolic.workflow.effects import NOT_SUPPORTED
 from symbolic.workflow.result import Diagnosis
 from symbolic.workflow.search import Candidate, Grouped, Judged
@@ -154,7 +155,7 @@ def markdown(d: Diagnosis) -> str:
     if time_rows:
         windows = d.where_before["coordinates"][est.coordinates[0]]["time"]
         lines += ["Residual rms in time windows:", ""]
-        lines += _table(["coordinate"] + [f"{w['start']:.3g}–{w['stop']:.3g} s" for w in windows], time_rows)
+        lines += _table(["coordinate"] + time_windows([(w["start"], w["stop"]) for w in windows]), time_rows)
         lines.append("")
     lines += ["## Name", ""]
     s = d.search.settings

@@ -100,6 +100,9 @@ class Diagnosis:
     """Every model-file value the patch re-identified, removed, or kept because the fit is not physical."""
     modes: dict[str, Any] | None = None
     """Linearised modes before and after, for a model with elastic coordinates (``None`` otherwise)."""
+    caveats: tuple[str, ...] = ()
+    """Notes the terminal shows too: how the diagnosis departed from what was asked (nothing to re-identify, a
+    simulated path that diverged and was replaced by the inverse model); also among :attr:`notes`."""
     cpu_seconds: dict[str, float] = field(default_factory=dict)
     """CPU time of each step (``seconds`` is the wall time; on a shared machine only the CPU time repeats)."""
 

@@ -32,7 +32,7 @@ import sympy as sp
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.derivation.products import Product
 from symbolic.derivation.regressor import Regressor
-from symbolic.identify.least_squares import Identification, ParameterEstimate, solve
+from symbolic.identify.least_squares import Identification, ParameterEstimate, norm, solve
 from symbolic.identify.known import FIX_HINT, beta_bounds, homogeneous_groups, model_parameters_of, scale_holds, split_base
 from symbolic.identify.model import ModelParameter, base_regressor, direct_parameters, geometric_parameters, model_base
 from symbolic.identify.processing import Observation
@@ -144,9 +144,25 @@ def hold_scales(terms: ModelTerms, data: DataSet) -> tuple[ModelTerms, tuple[str
 def wls(data: DataSet, columns: np.ndarray, known: np.ndarray, names: Sequence[str],
         bounds: dict[str, tuple[float, float]] | None = None) -> Identification:
     """IDIM-LS weighted least squares of ``known = columns·x`` (``samples × N`` and ``samples × N × P``),
-    within ``bounds`` ({name: (lower, upper)}) where given."""
+    within ``bounds`` ({name: (lower, upper)}) where given. Without columns (a model whose every value is
+    written inline, before an effect is added) nothing is estimated: the residual is ``known`` itself, and its
+    per-coordinate RMS are the weights' σ_j."""
     observation = Observation(data.coordinates, data.t, known, columns, data.states.processing)
+    if columns.shape[2] == 0:
+        return _nothing_estimated(observation)
     return solve(observation, tuple(names), "wls", bounds=bounds)
+
+
+def _nothing_estimated(observation: Observation) -> Identification:
+    """The :class:`Identification` of a system without columns: no estimate, σ_j the RMS of each coordinate's
+    ``y`` (all its samples are degrees of freedom), the relative error 100 %."""
+    per = observation.samples
+    sigmas = tuple(norm(observation.tau[:, j]) / np.sqrt(per) for j in range(len(observation.coordinates)))
+    empty = np.zeros(0)
+    return Identification(names=(), values=empty, sigmas=empty, covariance=np.zeros((0, 0)), method="wls",
+                          condition_number=1.0, relative_error=100.0, residual_sigma=1.0, coordinate_sigmas=sigmas,
+                          coordinates=observation.coordinates, rows=per * len(observation.coordinates),
+                          processing=observation.processing)
 
 
 @dataclass(frozen=True, eq=False)
@@ -210,8 +226,10 @@ def final_nominal(terms: ModelTerms, values: np.ndarray) -> NominalFit:
 
 
 def relative_gap(measured: np.ndarray, predicted: np.ndarray) -> float:
-    """‖τ_meas − τ_model‖/‖τ_meas‖ in %, stacked over coordinates and samples."""
-    return float(100.0 * np.linalg.norm(measured - predicted) / np.linalg.norm(measured))
+    """‖τ_meas − τ_model‖/‖τ_meas‖ in %, stacked over coordinates and samples; NaN where τ_meas = 0 (a
+    coordinate without an actuator), where a relative gap means nothing."""
+    size = norm(measured)
+    return float(100.0 * norm(measured - predicted) / size) if size > 0 else float("nan")
 
 
 def coordinate_gaps(data: DataSet, predicted: np.ndarray) -> dict[str, float | None]:
