@@ -571,5 +571,5 @@ def _trajectory(measurements: Measurements, names: tuple[str, ...], y: np.ndarra
     if bad.size:
         column = int(np.flatnonzero(~np.isfinite(y[bad[0]]))[0])
         raise Diverged(str(measurements.source), float(measurements.t[bad[0]]), names[column % n],
-                       "the state became infinite or NaN (an unstable closed loop, or too few sub-steps: give more)")
+                       "the state is no longer finite (an unstable closed loop, or too few sub-steps: give more)")
     return Measurements.from_arrays(measurements.t, order, q, tau, qd=qd, qdd=qdd)
