@@ -24,7 +24,7 @@ check-generated: generate
 	@test -z "$$(git status --porcelain --untracked-files=all -- generated/)" || (git status --short -- generated/; echo "generated/ has untracked files: run 'make generate' and commit" >&2; exit 1)
 
 bench:
-	$(PYTHON) -m pip install --quiet -e '.[bench]'
+	$(PYTHON) -m pip install --quiet -e '.[bench,fleet]'
 	$(PYTHON) bench/derivation.py --out bench/results/derivation.md
 	$(PYTHON) bench/runtime.py --out bench/results/runtime.md
 	$(PYTHON) bench/export.py --out bench/results/export.md
@@ -36,6 +36,7 @@ bench:
 	$(PYTHON) bench/cache.py --out bench/results/cache.md
 	$(PYTHON) bench/beams.py --out bench/results/beams.md
 	$(PYTHON) bench/consistent.py --out bench/results/consistent.md
+	$(PYTHON) bench/fleet.py --out bench/results/fleet.md
 
 clean:
 	rm -rf build dist *.egg-info .pytest_cache .hypothesis

@@ -421,6 +421,38 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_campaign(args: argparse.Namespace) -> int:
+    from symbolic import export
+    from symbolic.fleet import INSTALL, available
+
+    if not available():  # before reading anything: the one line that says how to get it
+        print(f"error: {INSTALL}", file=sys.stderr)
+        return 2
+    if args.workers is not None and args.workers < 1:
+        print(f"error: --workers {args.workers}: expected a positive number of worker processes", file=sys.stderr)
+        return 2
+    try:
+        export.check_output_directory(args.out)  # before the campaign: a mistyped --out is reported at once
+    except export.ExportError as error:
+        print(f"error: --out: {error}", file=sys.stderr)
+        return 2
+    from symbolic import fleet
+    from symbolic.fleet.report import summary
+
+    campaign = fleet.load(args.campaign)
+    outcome = fleet.run(campaign, args.out, scheduler=args.scheduler, workers=args.workers)
+    if args.json:
+        print(strict_json(outcome.to_dict()))
+        return 0
+    for line in summary(outcome):
+        print(line)
+    print(f"wrote {Path(args.out) / 'results.csv'}, {Path(args.out) / 'report.md'} and "
+          f"{len(outcome.files) - 2} figure(s)")
+    for note in outcome.notes:
+        print(note)
+    return 0
+
+
 def cmd_reproduce(args: argparse.Namespace) -> int:
     from symbolic import reproduction
     from symbolic.reproduction import render
@@ -533,6 +565,17 @@ def parser() -> argparse.ArgumentParser:
                         "(besides every coordinate; repeatable)")
     w.add_argument("--json", action="store_true", help="machine-readable result")
     w.set_defaults(func=cmd_diagnose)
+    c = sub.add_parser("campaign", help="identify, diagnose or simulate every log of a fleet on Dask; drift, outliers, events")
+    c.add_argument("campaign", help="campaign file (.toml): robots, their models and logs, the task (docs/fleet.md)")
+    c.add_argument("--out", metavar="DIR", required=True, help="folder for results.csv, report.md, the figures and "
+                   "the cache of per-log results (cache/)")
+    c.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask cluster (tcp://host:8786); default: a "
+                   "local cluster of worker processes on this machine")
+    c.add_argument("--workers", type=int, metavar="N", help="worker processes of the local cluster (default: the "
+                   "processors); with --scheduler, the workers to wait for")
+    c.add_argument("--json", action="store_true", help="machine-readable summary (errors, drift, outliers, events)")
+    c.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS, help="no progress on stderr")
+    c.set_defaults(func=cmd_campaign)
     r = sub.add_parser("reproduce", help="recompute every checkable number of the seed documents and compare")
     r.add_argument("--json", action="store_true", help='{"items": [{"source", "item", "published", "ours", "unit", ...}]}')
     r.add_argument("--markdown", metavar="FILE", help="write the table as Markdown (docs/reproduction.md is this)")

@@ -118,6 +118,10 @@ class SimulationError(SymbolicError, RuntimeError):
     """A simulation cannot run or did not stay finite (divergence, an algebraic loop without a solution)."""
 
 
+class ClusterError(SymbolicError, RuntimeError):
+    """A Dask cluster cannot be reached or started, or ``dask.distributed`` is not installed (``symbolic campaign``)."""
+
+
 class MatplotlibMissing(SymbolicError, RuntimeError):
     """Figures were asked for and matplotlib is not installed (``pip install 'symbolic[plot]'``)."""
 

@@ -17,7 +17,7 @@ import symbolic
 API_DOC = Path(__file__).resolve().parents[1] / "docs" / "api.md"
 PUBLIC = ("symbolic", "symbolic.description", "symbolic.robots", "symbolic.data", "symbolic.derivation", "symbolic.codegen",
           "symbolic.numeric", "symbolic.simulation", "symbolic.export", "symbolic.identify", "symbolic.workflow",
-          "symbolic.reproduction")
+          "symbolic.fleet", "symbolic.reproduction")
 
 
 def documented(package: str) -> set[str]:

@@ -27,6 +27,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("symbolic.export", "symbolic.emit"),  # symbolic.emit: the deprecated alias
     ("symbolic.identify",),
     ("symbolic.workflow",),
+    ("symbolic.fleet",),  # campaigns over many logs on Dask: identify, diagnose, simulate per log
     ("symbolic.reproduction",),  # the seeds' numbers recomputed through the layers below
     ("symbolic", "symbolic.cli", "symbolic.__main__", "symbolic.builtin_outputs"),  # applications on top
 )

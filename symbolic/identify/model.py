@@ -204,6 +204,7 @@ def identify_model(
     method: str = "wls",
     consistent: bool = False,
     fix: Sequence[str] = (),
+    exclude: Sequence[tuple[float, float]] = (),
 ) -> ModelIdentification:
     """IDIM-LS of ``model``'s base parameters on ``data`` (a data or experiment file, or measurements).
 
@@ -211,7 +212,8 @@ def identify_model(
     ``validation`` (a data or experiment file) is the cross-test set. Both are loaded for the model by
     :func:`symbolic.data.load` (its rule for a validation file; the model's drive gains for ``u_<c>``). ``fix`` names parameters kept at their values
     besides those with ``fixed = true`` (:mod:`symbolic.identify.known`: their terms move to the side of
-    τ); ``min``/``max`` and the signs of the parameters' roles bound the estimates.
+    τ); ``min``/``max`` and the signs of the parameters' roles bound the estimates. ``exclude``: time intervals
+    ``(start, stop)`` (s) whose treated samples are left out of the least squares (a collision's burst).
 
     Raises
     ------
@@ -232,6 +234,8 @@ def identify_model(
             check_forces(measured)
     regressor = base_regressor(model, base=base)
     observation = observe(loaded, regressor, len(base.names), settings)
+    if exclude:
+        observation = observation.without(exclude)
     ident = _solve(model, reg, base, observation, method, held, geometric | fixed)
     checked = None
     if loaded.validation is not None:

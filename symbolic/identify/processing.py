@@ -21,6 +21,8 @@ Steps (Gautier 1997, "Dynamic identification of robots with power model"; the EM
 from __future__ import annotations
 
 from collections.abc import Callable
+import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,6 +76,14 @@ class Observation:
     def samples(self) -> int:
         """Kept samples per coordinate."""
         return len(self.t)
+
+    def without(self, intervals: Sequence[tuple[float, float]]) -> Observation:
+        """The system without its samples in any of ``intervals`` (``(start, stop)``, seconds): data that a
+        disturbance outside the model spoils (a collision, docs/fleet.md), left out of the least squares."""
+        keep = np.ones(len(self.t), dtype=bool)
+        for start, stop in intervals:
+            keep &= ~((self.t >= start) & (self.t <= stop))
+        return dataclasses.replace(self, t=self.t[keep], tau=self.tau[keep], regressor=self.regressor[keep])
 
 
 def observe(measurements: Measurements, regressor: RegressorFunction, parameters: int, settings: Settings | None = None) -> Observation:

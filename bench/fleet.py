@@ -1,0 +1,282 @@
+"""Fleet benchmark (issue 25, "Scale"): a campaign's speed-up over one log at a time, the scheduler's overhead,
+and 1 000 short logs with the workers' memory.
+
+Synthetic fleets of the two-link arm (tests/fleet_cases.py: the logs are written into a temporary folder):
+
+1. **Speed-up.** 24 logs of 120 s at 200 Hz (4 robots × 6), task ``diagnose`` (a few seconds per log).
+   *One at a time*: :func:`symbolic.fleet.tasks.run_log` on each log in turn in this process (no Dask).
+   *Campaign*: ``symbolic.fleet.run`` on a local cluster of 2 worker processes (started before, its start
+   reported apart; warm: each worker has run one log before, as on a cluster that outlives a campaign; the
+   cold campaign is reported too), the whole campaign: planning, the tasks, the analysis, report and
+   figures. The two are run :data:`ROUNDS` times, interleaved, and the medians compared (the machine is
+   shared); CPU times give what two idle cores would give.
+2. **Scheduler overhead.** The same 24 tasks through :func:`symbolic.fleet.execution.execute` on a cluster
+   of 1 worker: (wall time − Σ the tasks' own run times) / Σ the tasks' run times.
+3. **1 000 short logs.** 10 robots × 100 daily logs of 2 s, task ``identify``, on 2 workers: wall time,
+   logs per second, and each worker's resident memory after the first 100 and after all 1 000.
+
+BLAS runs one thread per process everywhere, as Dask starts its workers (``OMP_NUM_THREADS=1`` ...), so that
+one at a time and in parallel do the same work. Wall times on a machine shared with other sessions depend
+on their load; CPU times do not, and give the speed-up two idle cores would give. Each part starts from an
+empty campaign cache; the derivation cache (``SYMBOLIC_CACHE_DIR``) is a
+temporary folder filled by a first derivation before the timings. The machine is shared: its load
+average is printed with the results.
+
+    python bench/fleet.py --out bench/results/fleet.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import logging
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+for _variable in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")  # as Dask starts its workers: the same work one at a time and in parallel
+
+import numpy as np  # noqa: E402  (after the thread counts)
+
+ROOT = Path(__file__).resolve().parents[1]
+ROUNDS = 2
+"""Rounds of (one at a time, campaign), interleaved; the medians are reported."""
+SECONDS = 120.0
+"""Length of each log of the speed-up's campaign: a diagnosis of a few seconds."""
+SHORT = 1000
+"""Short logs of the memory part (10 robots)."""
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+
+
+def cluster(workers: int):
+    from dask.distributed import Client
+
+    from symbolic.fleet.execution import local_cluster
+
+    started = time.perf_counter()
+    local = local_cluster(workers)  # as symbolic campaign starts it
+    client = Client(local)
+    return local, client, time.perf_counter() - started
+
+
+def trim_cost(folder: Path) -> dict:
+    """CPU time of 8 diagnoses (120 s logs) in a fresh process, with and without Dask's MALLOC_TRIM_THRESHOLD_=65536."""
+    import subprocess
+
+    import fleet_cases
+    from symbolic import fleet
+    from symbolic.fleet.execution import plan
+    from symbolic.fleet.store import Store
+
+    path = fleet_cases.fleet(folder / "trim", logs=4, robots=2, seconds=SECONDS, kind="diagnose")
+    code = ("import resource, sys, pickle; from symbolic.fleet.tasks import run_log; jobs = pickle.load(open(sys.argv[1], 'rb')); "
+            "run_log(jobs[0]); r0 = resource.getrusage(resource.RUSAGE_SELF); [run_log(j) for j in jobs]; "
+            "r1 = resource.getrusage(resource.RUSAGE_SELF); print(r1.ru_utime - r0.ru_utime, r1.ru_stime - r0.ru_stime)")
+    import pickle
+
+    _, jobs = plan(fleet.load(path), Store(folder / "trim_out"))
+    (folder / "jobs.pickle").write_bytes(pickle.dumps(jobs))
+    out = {}
+    for label, value in (("glibc default", None), ("MALLOC_TRIM_THRESHOLD_=65536", "65536")):
+        env = {k: v for k, v in os.environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
+        if value:
+            env["MALLOC_TRIM_THRESHOLD_"] = value
+        env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
+        done = subprocess.run([sys.executable, "-c", code, str(folder / "jobs.pickle")], env=env, capture_output=True,
+                              text=True, check=True)
+        user, system = map(float, done.stdout.split()[-2:])
+        out[label] = (user, system)
+    return out
+
+
+def rss(client) -> list[float]:
+    """Resident memory of each worker process, MB."""
+    import psutil
+
+    return sorted(v / 1e6 for v in client.run(lambda: psutil.Process().memory_info().rss).values())
+
+
+def cpu(client) -> dict[str, float]:
+    """CPU seconds (user + system) each worker has used so far."""
+    import psutil
+
+    return client.run(lambda: sum(psutil.Process().cpu_times()[:2]))
+
+
+def warm(job) -> None:
+    """What a worker does once per model (imports, the derivation read from the cache, the regressor's
+    evaluators): done before the timing of a warm campaign, as on a cluster that outlives one campaign."""
+    from symbolic.fleet.tasks import run_log
+
+    run_log(job)
+
+
+def speed_up(folder: Path) -> dict:
+    import fleet_cases
+    from symbolic import fleet
+    from symbolic.fleet.execution import execute, plan
+    from symbolic.fleet.store import Store
+    from symbolic.fleet.tasks import run_log
+
+    path = fleet_cases.fleet(folder / "long", logs=6, robots=4, seconds=SECONDS, kind="diagnose")
+    campaign = fleet.load(path)
+    _, jobs = plan(campaign, Store(folder / "serial"))
+    run_log(jobs[0])  # derivation, regressor and base parameters into the derivation cache (as a worker reads them)
+    serial_times, campaign_times, starts, serial_cpu, worker_cpu, client_cpu, cold_times = [], [], [], [], [], [], []
+    workers_cpu = []
+    for round_ in range(ROUNDS):  # interleaved: the machine is shared, its load moves between the phases
+        started, used = time.perf_counter(), time.process_time()
+        serial = [run_log(job) for job in jobs]
+        serial_times.append(time.perf_counter() - started)
+        serial_cpu.append(time.process_time() - used)
+        local, client, start_2 = cluster(2)
+        starts.append(start_2)
+        try:
+            if round_ == 0:  # cold: each worker imports and reads the model during the campaign
+                started = time.perf_counter()
+                fleet.run(campaign, folder / "cold", scheduler=local.scheduler_address)
+                cold_times.append(time.perf_counter() - started)
+            client.run(warm, jobs[0])
+            used, own = cpu(client), time.process_time()
+            started = time.perf_counter()
+            outcome = fleet.run(campaign, folder / f"out2_{round_}", scheduler=local.scheduler_address)
+            campaign_times.append(time.perf_counter() - started)
+            after = cpu(client)
+            worker_cpu.append(max(after[w] - used[w] for w in after))
+            workers_cpu.append(sum(after[w] - used[w] for w in after))
+            client_cpu.append(time.process_time() - own)
+        finally:
+            client.close()
+            local.close()
+    one_at_a_time, campaign_2, start_2 = (float(np.median(x)) for x in (serial_times, campaign_times, starts))
+    local, client, start_1 = cluster(1)
+    try:
+        started = time.perf_counter()
+        results = execute(jobs, Store(folder / "out1"), scheduler=local.scheduler_address)
+        wall_1 = time.perf_counter() - started
+    finally:
+        client.close()
+        local.close()
+    own = sum(r["seconds"] for r in results.values())
+    return {"logs": len(jobs), "errors": sum(r["status"] != "ok" for r in serial), "one_at_a_time": one_at_a_time,
+            "task_mean": sum(r["seconds"] for r in serial) / len(serial), "campaign_2": campaign_2, "start_2": start_2,
+            "speed_up": one_at_a_time / campaign_2, "speed_up_with_start": one_at_a_time / (campaign_2 + start_2),
+            "wall_1": wall_1, "own_1": own, "overhead": (wall_1 - own) / own, "start_1": start_1,
+            "rounds": [(a, b) for a, b in zip(serial_times, campaign_times)],
+            "serial_cpu": float(np.median(serial_cpu)), "worker_cpu": float(np.median(worker_cpu)),
+            "client_cpu": float(np.median(client_cpu)), "cold": cold_times[0],
+            "workers_cpu": float(np.median(workers_cpu)),
+            "computed": outcome.computed, "campaign_errors": len(outcome.errors),
+            "overhead_errors": sum(r["status"] != "ok" for r in results.values())}
+
+
+def short_logs(folder: Path) -> dict:
+    import fleet_cases
+    from symbolic import fleet
+    from symbolic.fleet.execution import execute, plan
+    from symbolic.fleet.store import Store
+
+    path = fleet_cases.fleet(folder / "short", logs=SHORT // 10, robots=10, seconds=2.0, spacing=dt.timedelta(days=1))
+    campaign = fleet.load(path)
+    _, jobs = plan(campaign, Store(folder / "short_out"))
+    local, client, _ = cluster(2)
+    try:
+        execute(jobs[:SHORT // 10], Store(folder / "short_out"), scheduler=local.scheduler_address)
+        after_100 = rss(client)
+        started = time.perf_counter()
+        results = execute(jobs, Store(folder / "short_all"), scheduler=local.scheduler_address)
+        wall = time.perf_counter() - started
+        after_all = rss(client)
+    finally:
+        client.close()
+        local.close()
+    return {"logs": len(jobs), "wall": wall, "rate": len(jobs) / wall, "after_100": after_100, "after_all": after_all,
+            "errors": sum(r["status"] != "ok" for r in results.values())}
+
+
+def markdown(a: dict, b: dict, c: dict) -> str:
+    load = os.getloadavg()
+    return "\n".join([
+        "# Fleet benchmark (bench/fleet.py)",
+        "",
+        f"Run {dt.date.today().isoformat()} on {platform.machine()}, {os.cpu_count()} processors (shared with other "
+        f"sessions: load average {START_LOAD[0]:.2f} at the start, {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} at the end), "
+        f"Python {platform.python_version()}. "
+        "Regenerate: `python bench/fleet.py --out bench/results/fleet.md`.",
+        "",
+        f"## Speed-up: {a['logs']} logs of {SECONDS:g} s, task diagnose",
+        "",
+        "| | seconds |",
+        "|---|---|",
+        f"| one at a time (run_log in turn, no Dask; median of {len(a['rounds'])} rounds) | {a['one_at_a_time']:.1f} "
+        f"(mean task {a['task_mean']:.2f} s) |",
+        f"| campaign on 2 warm local workers (plan, tasks, analysis, report, figures) | {a['campaign_2']:.1f} |",
+        f"| the same on 2 cold workers (each imports and reads the model during the campaign) | {a['cold']:.1f} |",
+        f"| starting the 2-worker local cluster | {a['start_2']:.1f} |",
+        f"| **speed-up, wall time** | **{a['speed_up']:.2f}×** (cold workers: {a['one_at_a_time'] / a['cold']:.2f}×) |",
+        "",
+        "Rounds (one at a time, campaign), s: " + ", ".join(f"({x:.1f}, {y:.1f})" for x, y in a["rounds"]) + ".",
+        "",
+        f"CPU time, which the machine's other load does not change: one at a time {a['serial_cpu']:.1f} s; in the "
+        f"campaign the two workers {a['workers_cpu']:.1f} s together, the busier {a['worker_cpu']:.1f} s, and the client (planning, analysis, report, figures) "
+        f"{a['client_cpu']:.1f} s. On two idle cores the campaign would take about the busier worker's time plus the "
+        f"client's: **{a['serial_cpu'] / (a['worker_cpu'] + a['client_cpu']):.2f}×** faster than one at a time.",
+        "",
+        f"Error rows: {a['errors']} one at a time, {a['campaign_errors']} in the campaign, {a['overhead_errors']} on 1 worker.",
+        "",
+        "## Scheduler overhead: the same tasks on 1 worker",
+        "",
+        f"Wall time of the tasks through Dask {a['wall_1']:.2f} s, their own run times {a['own_1']:.2f} s: "
+        f"**overhead {100 * a['overhead']:.1f} %** (cluster start {a['start_1']:.1f} s, apart).",
+        "",
+        "## Dask's MALLOC_TRIM_THRESHOLD_ (why symbolic's local cluster leaves it out)",
+        "",
+        f"CPU time of 8 diagnoses of {SECONDS:g} s logs in a fresh process (one BLAS thread), user + system, s:",
+        "",
+        "| glibc malloc | user | system |",
+        "|---|---|---|",
+        *[f"| {label} | {u:.1f} | {s_:.1f} |" for label, (u, s_) in c.items()],
+        "",
+        f"## {b['logs']} short logs (2 s each, identify) on 2 workers",
+        "",
+        f"{b['wall']:.1f} s, {b['rate']:.1f} logs/s ({b['errors']} error row(s): the fleet's bad file is among them). Resident memory "
+        f"per worker after {b['logs'] // 10} logs: {', '.join(f'{m:.0f}' for m in b['after_100'])} MB; after all "
+        f"{b['logs']}: {', '.join(f'{m:.0f}' for m in b['after_all'])} MB.",
+        "",
+    ])
+
+
+START_LOAD = os.getloadavg()
+
+
+def main() -> None:
+    global SECONDS, SHORT
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", help="write the results as Markdown here")
+    parser.add_argument("--skip-short", action="store_true", help="leave out the 1 000 short logs")
+    parser.add_argument("--seconds", type=float, default=120.0, help="length of the speed-up's logs (smoke runs)")
+    parser.add_argument("--short", type=int, default=1000, help="number of short logs, a multiple of 10 (smoke runs)")
+    args = parser.parse_args()
+    SECONDS, SHORT = args.seconds, args.short
+    with tempfile.TemporaryDirectory(prefix="symbolic-bench-fleet-") as tmp:
+        os.environ["SYMBOLIC_CACHE_DIR"] = str(Path(tmp) / "derivations")
+        a = speed_up(Path(tmp))
+        print(a, flush=True)
+        c = trim_cost(Path(tmp))
+        print(c, flush=True)
+        b = short_logs(Path(tmp)) if not args.skip_short else {"logs": 0, "wall": 0, "rate": 0, "after_100": [],
+                                                               "after_all": [], "errors": 0}
+        print(b, flush=True)
+    text = markdown(a, b, c)
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text, encoding="utf-8")
+
+
+if __name__ == "__main__":
+    main()

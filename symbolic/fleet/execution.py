@@ -1,0 +1,295 @@
+"""A campaign on Dask: every log one task, results kept as they arrive, then what the fleet tells (docs/fleet.md).
+
+:func:`run` takes a checked :class:`~symbolic.fleet.campaign.Campaign` and an output folder and
+
+1. keys each log by content (:func:`symbolic.fleet.store.job_key`) and takes the results the cache
+   already holds (a rerun after an interruption, or with new logs, computes only what is new);
+2. submits the others to Dask, one task per log (:func:`symbolic.fleet.tasks.run_log`): without a
+   scheduler address on a local cluster of worker processes on this machine (``workers`` of them, one
+   thread each; default: the processors, at most one per log), else on the existing cluster at that
+   address; each result is written to the cache as it arrives, and progress goes to the ``symbolic``
+   logger (stderr in the command line, silenced by ``-q``);
+3. assembles one row per log — robot, log, time, the parameters with σ, the gap, the effects, the events,
+   the run time, or the error — and tests drift (:mod:`.drift`), outliers (:mod:`.outliers`) and lists
+   the events (:mod:`.events`);
+4. writes ``results.csv``, ``report.md`` and the figures into the folder as one set
+   (:func:`symbolic.export.write_files`: files of others and sub-folders are never touched; the cache
+   is the sub-folder ``cache/``).
+
+Only this module imports Dask, and only inside :func:`execute`: the rest of the package works without it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as dt
+import logging
+import os
+import time
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from symbolic.cache import stamp
+from symbolic.errors import ClusterError, one_line
+from symbolic.fleet.campaign import Campaign
+from symbolic.fleet.drift import Drift, drifts, series_of
+from symbolic.fleet.outliers import Outlier, outliers
+from symbolic.fleet.store import Store, job_key, table
+from symbolic.fleet.tasks import Job, run_log
+
+log = logging.getLogger("symbolic")
+
+INSTALL = "symbolic campaign needs dask.distributed: pip install 'symbolic[fleet]' (or pip install 'dask[distributed]')"
+WAIT_FOR_WORKERS = 120.0
+"""Seconds to wait for the workers of an existing cluster (``--scheduler``) before giving up."""
+PROGRESS_EVERY = 2.0
+"""Seconds between two progress lines."""
+
+
+@dataclass(frozen=True, eq=False)
+class Outcome:
+    """What a campaign found: the rows, the drift and outlier tests, the files written, and how many logs were
+    computed now or taken from the cache."""
+
+    campaign: Campaign = field(repr=False)
+    rows: tuple[dict[str, Any], ...]
+    drifts: tuple[Drift, ...]
+    outliers: tuple[Outlier, ...]
+    computed: int
+    cached: int
+    files: tuple[Path, ...] = ()
+    notes: tuple[str, ...] = ()
+
+    @property
+    def errors(self) -> list[dict[str, Any]]:
+        return [r for r in self.rows if r["status"] != "ok"]
+
+    @property
+    def events(self) -> list[dict[str, Any]]:
+        return [{"robot": r["robot"], "log": r["log"], "time": r["time"], **e} for r in self.rows
+                for e in r.get("events") or []]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``--json`` contract (docs/fleet.md)."""
+        return {
+            "campaign": self.campaign.name,
+            "logs": len(self.rows),
+            "robots": len(self.campaign.robots),
+            "computed": self.computed,
+            "cached": self.cached,
+            "errors": [{"robot": r["robot"], "log": r["log"], "error": r["error"]} for r in self.errors],
+            "drift": [d.to_dict() for d in self.drifts if d.flagged],
+            "outliers": [o.to_dict() for o in self.outliers if o.flagged],
+            "events": self.events,
+            "tested": {"series": len(self.drifts), "outlier_tests": len(self.outliers)},
+            "files": [str(p) for p in self.files],
+            "notes": list(self.notes),
+        }
+
+
+def plan(campaign: Campaign, store: Store) -> tuple[list[dict[str, Any]], list[Job]]:
+    """One row per log (robot, log, time when known before reading it, task, key) and the jobs of the logs
+    that can be run (a log whose file name gives no time is an error row at once)."""
+    rows, jobs = [], []
+    for robot in campaign.robots:
+        for entry in robot.logs:
+            row = {"robot": robot.id, "log": entry.name, "time": entry.time.isoformat() if entry.time else None,
+                   "task": robot.task.kind, "model": robot.model_digest}
+            if entry.time_problem:
+                rows.append({**row, "key": None, "status": "error", "error": f"{entry.name}: {entry.time_problem}"})
+                continue
+            try:
+                key = job_key(store, robot, entry)
+            except OSError as error:  # unreadable log: a row, not a stopped campaign
+                rows.append({**row, "key": None, "status": "error", "error": one_line(f"{entry.name}: {error.strerror}")})
+                continue
+            rows.append({**row, "key": key})
+            jobs.append(Job(key, robot.id, entry.name, str(entry.path), robot.model_source, robot.model_text,
+                            robot.model_digest, robot.task, None if robot.experiment is None else str(robot.experiment),
+                            robot.time_column, robot.chain))
+    return rows, jobs
+
+
+def run(campaign: Campaign, out: str | os.PathLike, *, scheduler: str | None = None, workers: int | None = None,
+        figures: bool = True) -> Outcome:
+    """Run ``campaign`` and write its results into ``out`` (module docstring)."""
+    from symbolic.export import write_files
+    from symbolic.fleet import report
+
+    store = Store(out)
+    rows, jobs = plan(campaign, store)
+    results: dict[str, dict[str, Any]] = {}
+    for job in jobs:
+        kept = store.get(job.key)
+        if kept is not None:
+            results[job.key] = kept
+    todo = list({job.key: job for job in jobs if job.key not in results}.values())  # one task per distinct content
+    cached = len(jobs) - sum(1 for job in jobs if job.key not in results)
+    log.info("campaign %s: %d logs of %d robots, %d from the cache, %d to compute", campaign.name, len(rows),
+             len(campaign.robots), cached, len(jobs) - cached)
+    store.save_digests()
+    if todo:
+        results.update(execute(todo, store, scheduler=scheduler, workers=workers))
+    rows = assemble(rows, results)
+    found_series = series_of(rows, 0.0)
+    tested = drifts(found_series, campaign.analysis)
+    models = {r.id: r.model_digest for r in campaign.robots}
+    different = outliers(found_series, tested, models, campaign.analysis)
+    outcome = Outcome(campaign, tuple(rows), tuple(tested), tuple(different), len(jobs) - cached, cached)
+    files, notes = report.render(outcome, figures=figures)
+    files["results.csv"] = table(rows).encode("utf-8")
+    written = write_files(files, out)
+    return Outcome(campaign, tuple(rows), tuple(tested), tuple(different), outcome.computed, cached, tuple(written),
+                   tuple(notes))
+
+
+def assemble(rows: Sequence[dict[str, Any]], results: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """The rows with their results, the time as days since the campaign's first log, in robot, time, log order."""
+    out = []
+    for row in rows:
+        result = results.get(row.get("key")) if row.get("key") else None
+        if result is not None:
+            row = {**row, **{k: v for k, v in result.items() if k not in ("key", "stamp", "cacheable", "time")},
+                   "time": row["time"] or result.get("time")}
+        out.append(row)
+    moments = [dt.datetime.fromisoformat(r["time"]) for r in out if r.get("time")]
+    origin = min(moments) if moments else None
+    for row in out:
+        row["days"] = (dt.datetime.fromisoformat(row["time"]) - origin).total_seconds() / 86400.0 \
+            if row.get("time") and origin is not None else None
+    order = {}
+    for row in out:
+        order.setdefault(row["robot"], len(order))
+    out.sort(key=lambda r: (order[r["robot"]], r["days"] is None, r["days"] or 0.0, r["log"]))
+    return out
+
+
+def execute(jobs: Sequence[Job], store: Store, *, scheduler: str | None = None,
+            workers: int | None = None) -> dict[str, dict[str, Any]]:
+    """Run ``jobs`` on Dask (module docstring); every result is kept in ``store`` as it arrives."""
+    try:
+        from dask.distributed import as_completed
+    except ImportError:
+        raise ClusterError(INSTALL) from None
+    results: dict[str, dict[str, Any]] = {}
+    progress = _Progress(len(jobs))
+    with _client(scheduler, workers, len(jobs)) as client:
+        futures = client.map(run_log, jobs, key=[f"symbolic-log-{job.key}" for job in jobs], pure=False)
+        by_key = {future.key: job for future, job in zip(futures, jobs)}
+        pending = as_completed(futures)
+        del futures  # as_completed holds each until it is taken and released: results do not pile up on the cluster
+        for future in pending:
+            job = by_key[future.key]
+            result = _result(future, job)
+            future.release()
+            if result.get("cacheable") and result.get("stamp") == stamp():
+                store.put(job.key, result)
+            results[job.key] = result
+            progress.step(result["status"] != "ok")
+    progress.done()
+    return results
+
+
+def _result(future, job: Job) -> dict[str, Any]:
+    """The task's result, or an error row when the cluster lost it (a worker died, a task was cancelled)."""
+    try:
+        result = future.result()
+    except Exception as error:  # noqa: BLE001 - the cluster's failure, not the log's: a row, not cached
+        return {"key": job.key, "status": "error", "cacheable": False,
+                "error": one_line(f"{job.log}: the cluster could not run this log: {type(error).__name__}: {error}")}
+    if result.get("stamp") != stamp():
+        theirs = result.get("stamp", {})
+        return {**result, "status": "error", "cacheable": False,
+                "error": f"{job.log}: the worker runs symbolic {theirs.get('symbolic')} (sources "
+                         f"{theirs.get('sources')}), this client {stamp()['symbolic']} ({stamp()['sources']}): "
+                         "install the same version on both"}
+    return result
+
+
+@contextlib.contextmanager
+def _client(scheduler: str | None, workers: int | None, tasks: int):
+    """A Dask client of the cluster at ``scheduler``, or of a local cluster of worker processes (closed after)."""
+    from dask.distributed import Client
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="30s")
+        except (OSError, TimeoutError) as error:
+            raise ClusterError(f"--scheduler {scheduler}: cannot connect: {one_line(str(error))}") from None
+        try:
+            try:
+                client.wait_for_workers(workers or 1, timeout=WAIT_FOR_WORKERS)
+            except TimeoutError:
+                raise ClusterError(f"--scheduler {scheduler}: fewer than {workers or 1} worker(s) after "
+                                   f"{WAIT_FOR_WORKERS:g} s (start them with: dask worker {scheduler})") from None
+            log.info("campaign: on the cluster at %s (%d workers)", scheduler, len(client.scheduler_info()["workers"]))
+            yield client
+        finally:
+            client.close()
+        return
+    count = workers or max(1, min(os.cpu_count() or 1, tasks))
+    log.info("campaign: starting a local cluster of %d worker process(es)", count)
+    try:
+        cluster = local_cluster(count)
+    except OSError as error:
+        raise ClusterError(f"cannot start a local Dask cluster: {one_line(str(error))}") from None
+    try:
+        with Client(cluster) as client:
+            yield client
+    finally:
+        cluster.close()
+
+
+def local_cluster(workers: int):
+    """A local Dask cluster of ``workers`` processes of one thread each, without a dashboard.
+
+    Dask's nanny starts its workers with ``MALLOC_TRIM_THRESHOLD_=65536`` (to hand freed memory back to the
+    system at once); that also turns off glibc's adaptive mmap threshold, so every array above 128 KB is a
+    fresh mapping whose pages are faulted in again: on a diagnosis of a 120 s log it cost 70 % more CPU time
+    (24 times the page faults; bench/results/fleet.md). The workers here keep the other settings (one BLAS
+    thread each) and glibc's default; memory stays bounded (1 000 logs, bench/results/fleet.md)."""
+    import dask
+    from dask.distributed import LocalCluster
+
+    for name in ("distributed", "tornado"):  # Dask's own lines (ports, plugins) are not the campaign's progress
+        logging.getLogger(name).setLevel(logging.ERROR)
+    environment = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
+                   if k != "MALLOC_TRIM_THRESHOLD_"}
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": environment}), warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # "port 8787 is in use": the scheduler's HTTP port, unused here
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
+                            dashboard_address=None, worker_dashboard_address=None)
+
+
+class _Progress:
+    """``symbolic: campaign: 12/30 logs (1 error), 4.1 s`` on the logger, at most every :data:`PROGRESS_EVERY` s."""
+
+    def __init__(self, total: int) -> None:
+        self.total, self.finished, self.failed = total, 0, 0
+        self.start = self.last = time.perf_counter()
+
+    def step(self, failed: bool) -> None:
+        self.finished += 1
+        self.failed += failed
+        now = time.perf_counter()
+        if now - self.last >= PROGRESS_EVERY and self.finished < self.total:
+            self.last = now
+            self._say()
+
+    def done(self) -> None:
+        self._say()
+
+    def _say(self) -> None:
+        errors = f" ({self.failed} error{'s' if self.failed != 1 else ''})" if self.failed else ""
+        log.info("campaign: %d/%d logs computed%s, %.1f s", self.finished, self.total, errors,
+                 time.perf_counter() - self.start)
+
+
+def available() -> bool:
+    """Whether ``dask.distributed`` can be imported (without importing it)."""
+    import importlib.util
+
+    return importlib.util.find_spec("dask") is not None and importlib.util.find_spec("distributed") is not None

@@ -1,0 +1,174 @@
+"""A synthetic fleet with a known truth, for tests/test_fleet.py and bench/fleet.py.
+
+Six robots of the two-link arm of tests/models.py (friction on both joints), each with its own small
+manufacturing spread (1 % on the masses, inertias and friction), log the same excitation every week:
+20 s at 200 Hz of a five-harmonic trajectory, the force computed by the truth's inverse dynamics with
+1 % white noise and the positions quantised by an 18-bit encoder (open loop: the motion is the
+trajectory; a stiff controller that follows it is assumed). The truth, :data:`TRUTH`, is written here and
+in the tests only; the code that searches the fleet sees the model file and the logs:
+
+* r02: Coulomb friction on q2 rises linearly by 40 % over its logs (wear);
+* r03: viscous friction on q1 steps up by 30 % from its fourth log on (a maintenance that went wrong);
+* r04: a collision in its third log — a half-sine force burst on both joints at 12.00–12.15 s;
+* r05: a heavier tool: m2 30 % above its siblings' (an outlier, constant);
+* r06: its fourth log is a bad file (a NaN in the force).
+
+Three ways of reading a log's time are used: from the file name (r01–r04), a column of UNIX seconds
+(r05), a ``[[robot.log]]`` list (r06).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from models import arm  # noqa: E402
+
+ROBOTS = ("r01", "r02", "r03", "r04", "r05", "r06")
+LOGS = 6
+START = dt.datetime(2024, 3, 4, 8, 0, tzinfo=dt.timezone.utc)
+WEEK = dt.timedelta(days=7)
+RATE = 200.0
+SECONDS = 20.0
+NOISE = 0.01
+RESOLUTION = 2 * np.pi / 2**18
+SPREAD = 0.01
+NOMINAL = {"m1": 3.0, "m2": 2.0, "I1": 0.04, "I2": 0.02, "Fv1": 0.8, "Fv2": 0.5, "Fc1": 0.6, "Fc2": 0.4}
+
+TRUTH = {
+    "drift": {("r02", "Fc2"): ("trend", 0.40), ("r03", "Fv1"): ("step", 0.30)},
+    "step_log": 3,  # r03's step from its fourth log (index 3) on
+    "event": ("r04", 2, 12.0, 12.15),  # robot, log index, start, end (s)
+    "outlier": ("r05", "m2", 1.30),
+    "bad": ("r06", 3),
+}
+
+
+def number(name: str) -> int:
+    """0 for r01, 1 for r02, ..."""
+    return int(name[1:]) - 1
+
+
+def trajectory(t: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q, q̇, q̈ of both joints: five harmonics of 0.1 Hz with random coefficients, speeds up to about 1.5 rad/s."""
+    rng = np.random.default_rng(seed)
+    wf = 2 * np.pi * 0.1
+    k = np.arange(1, 6)
+    a, b = rng.normal(0, 1, (2, 5)), rng.normal(0, 1, (2, 5))
+    scale = 1.5 / np.sum(np.hypot(a, b) / (wf * k), axis=1, keepdims=True)
+    a, b = a * scale, b * scale
+    phase = np.outer(t, k * wf)
+    q = np.sin(phase) @ (a / (wf * k)).T - np.cos(phase) @ (b / (wf * k)).T + rng.uniform(-0.3, 0.3, 2)
+    qd = np.cos(phase) @ a.T + np.sin(phase) @ b.T
+    qdd = -(np.sin(phase) * k * wf) @ a.T + (np.cos(phase) * k * wf) @ b.T
+    return q, qd, qdd
+
+
+def robot_parameters(name: str) -> dict[str, float]:
+    """The robot's own values: the nominal ones with its manufacturing spread, and r05's heavier tool."""
+    rng = np.random.default_rng(number(name) + 100)
+    values = {k: v * (1 + SPREAD * rng.uniform(-1, 1)) for k, v in NOMINAL.items()}
+    if name == TRUTH["outlier"][0]:
+        values[TRUTH["outlier"][1]] *= TRUTH["outlier"][2]
+    return values
+
+
+def log_parameters(name: str, index: int) -> dict[str, float]:
+    """The values of robot ``name`` at its log ``index``: drift applied."""
+    values = robot_parameters(name)
+    for (robot, parameter), (kind, size) in TRUTH["drift"].items():
+        if robot != name:
+            continue
+        if kind == "trend":
+            values[parameter] *= 1 + size * min(index, LOGS - 1) / (LOGS - 1)
+        elif index >= TRUTH["step_log"]:
+            values[parameter] *= 1 + size
+    return values
+
+
+def rigid_and_friction(name: str, t: np.ndarray):
+    """The rigid-body force along the robot's trajectory (friction set to zero) and the trajectory."""
+    import symbolic
+    from symbolic.numeric import numeric_model
+
+    values = robot_parameters(name)
+    model = symbolic.derive(symbolic.loads(arm(), "<truth>"))
+    p = model.parameter_vector.updated({**values, "Fv1": 0.0, "Fv2": 0.0, "Fc1": 0.0, "Fc2": 0.0}).array()
+    num = numeric_model(model)
+    q, qd, qdd = trajectory(t, number(name))
+    rigid = np.array([num.inverse_dynamics(a, b, c, p) for a, b, c in zip(q, qd, qdd)])
+    return rigid, q, qd
+
+
+def log_force(name: str, index: int, rigid: np.ndarray, qd: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """τ of log ``index``: the rigid part, the log's friction (f = Fv·q̇ + Fc·sign(q̇), the model file's law),
+    the collision where there is one, and 1 % white noise."""
+    values = log_parameters(name, index)
+    fv, fc = np.array([values["Fv1"], values["Fv2"]]), np.array([values["Fc1"], values["Fc2"]])
+    tau = rigid + fv * qd + fc * np.sign(qd)
+    robot, which, start, end = TRUTH["event"]
+    if (name, index) == (robot, which):
+        inside = (t >= start) & (t <= end)
+        pulse = np.sin(np.pi * (t[inside] - start) / (end - start))
+        tau[inside] += np.outer(pulse, 0.5 * np.abs(tau).max(axis=0))
+    rng = np.random.default_rng(1000 * number(name) + index)
+    return tau + rng.normal(0, 1, tau.shape) * NOISE * np.sqrt(np.mean(tau**2, axis=0))
+
+
+def write_csv(path: Path, columns: dict[str, np.ndarray]) -> None:
+    names = list(columns)
+    data = np.column_stack([columns[n] for n in names])
+    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+
+
+def fleet(folder: Path, logs: int = LOGS, robots: int = len(ROBOTS), seconds: float = SECONDS,
+          spacing: dt.timedelta = WEEK, kind: str = "identify") -> Path:
+    """Write the model, the logs and the campaign file into ``folder``; return the campaign file.
+
+    The defaults are the fleet of the module docstring; the benchmark (bench/fleet.py) asks for more robots,
+    logs, longer or shorter logs, another spacing in time and another task."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "arm.toml").write_text(arm(), encoding="utf-8")
+    t = np.arange(0.0, seconds, 1.0 / RATE)
+    listed = []
+    names = [f"r{k + 1:02d}" for k in range(robots)]
+    for name in names:
+        rigid, q, qd = rigid_and_friction(name, t)
+        (folder / "logs").mkdir(exist_ok=True)
+        for index in range(logs):
+            moment = START + index * spacing + dt.timedelta(hours=number(name))
+            tau = log_force(name, index, rigid, qd, t)
+            if (name, index) == TRUTH["bad"]:
+                tau[100, 0] = np.nan
+            columns = {"t": t, "q_q1": np.round(q[:, 0] / RESOLUTION) * RESOLUTION,
+                       "q_q2": np.round(q[:, 1] / RESOLUTION) * RESOLUTION, "tau_q1": tau[:, 0], "tau_q2": tau[:, 1]}
+            if name == "r05":
+                columns["epoch"] = moment.timestamp() + t
+            file = folder / "logs" / f"{name}_{moment:%Y-%m-%d}.csv"
+            write_csv(file, columns)
+            if name == "r06":
+                listed.append((file.relative_to(folder).as_posix(), moment))
+    return campaign_file(folder, listed, names, kind)
+
+
+def campaign_file(folder: Path, listed, names, kind: str) -> Path:
+    text = ['name = "synthetic fleet"', f'description = "{len(names)} two-link arms"', "",
+            "[task]", f'kind = "{kind}"', "", "[task.identification]", "bandwidth = 4.0", ""]
+    for name in [n for n in names if n not in ("r05", "r06")]:
+        text += ["[[robot]]", f'id = "{name}"', 'model = "arm.toml"', f'logs = "logs/{name}_*.csv"',
+                 r'time = { from = "name", pattern = "_(\\d{4}-\\d{2}-\\d{2})", format = "%Y-%m-%d" }', ""]
+    if "r05" in names:
+        text += ["[[robot]]", 'id = "r05"', 'model = "arm.toml"', 'logs = "logs/r05_*.csv"',
+                 'time = { from = "column", column = "epoch" }', ""]
+    if "r06" in names:
+        text += ["[[robot]]", 'id = "r06"', 'model = "arm.toml"', ""]
+    for file, moment in listed:
+        text += ["[[robot.log]]", f'file = "{file}"', f"time = {moment:%Y-%m-%dT%H:%M:%SZ}", ""]
+    path = folder / "fleet.toml"
+    path.write_text("\n".join(text), encoding="utf-8")
+    return path
