@@ -30,10 +30,12 @@ bench:
 	$(PYTHON) bench/export.py --out bench/results/export.md
 	$(PYTHON) bench/identification.py --out bench/results/identification.md
 	$(PYTHON) bench/simulate.py --out bench/results/simulate.md
+	$(PYTHON) bench/simulate_command.py --out bench/results/simulate_command.md
 	$(PYTHON) bench/diagnose.py --out bench/results/diagnose.md
 	$(PYTHON) bench/emps_resonance.py --out bench/results/emps_resonance.md
 	$(PYTHON) bench/cache.py --out bench/results/cache.md
 	$(PYTHON) bench/beams.py --out bench/results/beams.md
+	$(PYTHON) bench/consistent.py --out bench/results/consistent.md
 	$(PYTHON) bench/fleet.py --out bench/results/fleet.md
 
 clean:

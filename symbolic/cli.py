@@ -528,7 +528,8 @@ def parser() -> argparse.ArgumentParser:
     i.add_argument("--validate", metavar="DATA2", help="cross-test data or experiment file")
     i.add_argument("--method", choices=["wls", "ols"], default="wls", help="weighted (default) or ordinary least squares")
     i.add_argument("--consistent", action="store_true",
-                   help="estimate the model file's parameters by bounded nonlinear least squares (physically valid bodies)")
+                   help="all the model file's parameters, physically consistent (log-Cholesky bodies) and closest to the "
+                   "least-squares fit in its metric")
     i.add_argument("--fix", metavar="NAME[,NAME]", help="keep these parameters at their values in the model file "
                    "(as fixed = true in [parameters] does)")
     i.add_argument("--out", metavar="FILE.toml", help="write the model file with the identified values (a value the "

@@ -340,3 +340,21 @@ def test_a_models_parameter_vector_is_its_model_files(tmp_path: Path, folder: Pa
     p = model.parameter_vector
     assert p.symbols == model.parameter_symbols and p.by_symbol() == model.parameters
     assert p.names == ("g", "l1", "l2", "m1", "m2", "I1", "I2", "fv1") and p["m2"] == 0.8
+
+
+def test_a_warm_simulation_reads_the_plant_and_integrates_the_same(folder: Path, tmp_path: Path, monkeypatch) -> None:
+    """The CasADi plant is kept on disk (issue 23 §3): a second model of the same description simulates with
+    the plant read back (its builder raises) and gives the same trajectory to the last bit."""
+    from symbolic.data import Measurements
+    from symbolic.simulation import simulator
+
+    robot = symbolic.load(arm(tmp_path))
+    t = np.arange(501) / 500.0
+    ref = np.column_stack([0.2 * np.sin(2 * np.pi * t), 0.1 * np.cos(2 * np.pi * t)])
+    log = Measurements.from_arrays(t, ["q1", "q2"], np.zeros((len(t), 2)), np.zeros((len(t), 2)), ref=ref)
+    table = {"kind": "pd", "kp": [40.0, 20.0], "kd": [4.0, 2.0], "reference": "ref"}
+    first = simulator.simulate(symbolic.derive(robot), log, controller=table, initial=(np.zeros(2), np.zeros(2)))
+    assert len(entries(folder, "simulation_plant")) == 1
+    monkeypatch.setattr(simulator, "PLANT", Product(simulator.PLANT.name, fail, persist=True))
+    warm = simulator.simulate(symbolic.derive(robot), log, controller=table, initial=(np.zeros(2), np.zeros(2)))
+    assert np.array_equal(warm.simulated.q, first.simulated.q) and np.array_equal(warm.simulated.tau, first.simulated.tau)

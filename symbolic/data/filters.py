@@ -102,9 +102,25 @@ def _chebyshev(factor: int) -> np.ndarray:
 
 
 def _filtfilt(sos: np.ndarray, x: np.ndarray, padlen: int, axis: int) -> np.ndarray:
+    """``scipy.signal.sosfiltfilt(sos, x, axis=axis, padtype="odd", padlen=padlen)``, step by step as SciPy
+    does it (odd extension, forward pass from rest on the first sample, backward pass from rest on the
+    last output), with the sections' rest state computed once per filter instead of at every call (its
+    linear solves cost as much as filtering a short signal; the search filters thousands of columns)."""
     if x.shape[axis] <= padlen:
         raise ValueError(f"{x.shape[axis]} samples are too few for this filter: it needs more than {padlen}")
-    return _signal().sosfiltfilt(sos, x, axis=axis, padtype="odd", padlen=padlen)
+    signal = _signal()
+    x = np.moveaxis(x, axis, 0)
+    ext = np.concatenate((2 * x[:1] - x[padlen:0:-1], x, 2 * x[-1:] - x[-2:-(padlen + 2):-1]), axis=0)
+    zi = _rest(sos.tobytes(), sos.shape).reshape((len(sos), 2) + (1,) * (x.ndim - 1))
+    y, _ = signal.sosfilt(sos, ext, axis=0, zi=zi * ext[:1])
+    y, _ = signal.sosfilt(sos, y[::-1], axis=0, zi=zi * y[-1:])
+    return np.moveaxis(y[::-1][padlen:-padlen], 0, axis)
+
+
+@functools.lru_cache(maxsize=32)
+def _rest(sos: bytes, shape: tuple[int, ...]) -> np.ndarray:
+    """``scipy.signal.sosfilt_zi`` of the sections ``sos`` (their bytes and shape: a hashable key)."""
+    return _signal().sosfilt_zi(np.frombuffer(sos).reshape(shape))
 
 
 def _signal():

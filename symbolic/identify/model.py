@@ -8,13 +8,12 @@ own parameters follow in two ways:
 
 * directly, where a base parameter is one model parameter up to known factors (EMPS: β = M, Fv, Fc,
   offset): p = (β − b)/a and σ_p = σ_β/|a| (:attr:`ModelIdentification.parameters`);
-* with ``consistent=True``, by bounded nonlinear least squares over all the parameters that enter θ
-  only (masses, centres of mass, inertias, friction, rotor inertias), starting from the nominal values,
-  with each body kept physically valid: mass ≥ 0, inertia tensor positive semidefinite and satisfying
-  the triangle inequality of its principal moments (penalty residuals), friction coefficients,
-  stiffnesses and dampings ≥ 0, and each parameter within its ``min``/``max``.
-  A weak pull towards the nominal values (:data:`PRIOR_WEIGHT`) fixes the parameters the data cannot
-  separate; only those the data determine (outside the null space of the fit's Jacobian) are reported.
+* with ``consistent=True``, as the physically consistent parameters closest to the least-squares fit in
+  its own metric (:mod:`symbolic.identify.consistent`: the R of the QR of [W y], so the problem's size
+  does not grow with the samples; each body parameterized exactly by log-Cholesky coordinates, friction,
+  stiffness and damping signs and ``min``/``max`` as bounds). Every parameter that enters θ and is neither
+  geometry nor fixed comes back (σ = ∞ for those the data do not determine alone), so that the written
+  model reproduces the consistent fit's relative error.
 
 Parameters kept at their values (``fixed = true``, ``fix=``) are not estimated: the standard parameters
 they determine move to the side of τ and the base parameters are those of the other columns
@@ -40,6 +39,7 @@ from symbolic.data.measurements import check_forces
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.derivation.regressor import Regressor
 from symbolic.codegen.compiled_regressor import compiled_batch
+from symbolic.identify.consistent import ConsistentFit
 from symbolic.identify.known import (beta_bounds, fixed_symbols, homogeneous_groups, model_parameters_of, not_separable,
                                      parameter_bounds, rank_hint, split_base)
 from symbolic.identify.least_squares import Identification, RankDeficient, defined, percent, solve
@@ -48,11 +48,6 @@ from symbolic.identify.pipeline import cross_validate
 from symbolic.identify.processing import Observation, Settings, observe
 from symbolic.numeric.base_parameters import BaseParameters, model_base_parameters, theta_values
 from symbolic.codegen.functions import compile_vectorized
-
-PRIOR_WEIGHT = 1e-6
-"""Weight of the pull towards the nominal values in the consistent fit, relative to the weighted data:
-it decides only the parameters the data leave free (which are then reported as not determined)."""
-
 
 @dataclass(frozen=True)
 class ModelParameter:
@@ -85,6 +80,8 @@ class ModelIdentification:
     observation: Observation | None = field(default=None, repr=False)
     fixed: dict[str, float] = field(default_factory=dict)
     """Model-file parameters kept at their values (``fixed = true``, ``fix=``)."""
+    consistent: ConsistentFit | None = None
+    """With ``consistent=True``: the physically consistent fit (its own relative error, bodies, time)."""
 
     def figures(self, folder: str | Path) -> tuple[Path, ...]:
         """PNG figures of measured vs predicted τ and the residual per coordinate (and of the cross-test).
@@ -120,6 +117,7 @@ class ModelIdentification:
             "condition_number": ident.condition_number,
             "relative_error": ident.relative_error,
             "validation_relative_error": None if self.validation is None else self.validation.relative_error,
+            "consistent": None if self.consistent is None else self.consistent.to_dict(),
         }
 
     def table(self) -> str:
@@ -135,6 +133,8 @@ class ModelIdentification:
             for p in self.parameters.values():
                 bound = f" (at its {p.bound})" if p.bound else ""
                 lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {percent(p.relative_sigma):>8s}  {p.nominal:>12.6g}  {p.source}{bound}")
+        if self.consistent is not None:
+            lines.append(self.consistent.summary())
         if self.fixed:
             lines.append("kept at their values (fixed): " + ", ".join(f"{n} = {v:.6g}" for n, v in self.fixed.items()))
         if self.validation is not None:
@@ -240,12 +240,14 @@ def identify_model(
     checked = None
     if loaded.validation is not None:
         checked = cross_validate(ident, loaded.validation, regressor, settings)
+    fitted = None
     if consistent:
-        parameters = consistent_fit(model, reg, base, ident, observation, fixed)
+        parameters, fitted = consistent_fit(model, reg, base, ident, observation, fixed)
     else:
         parameters = direct_parameters(model, reg, base, ident, fixed)
     return ModelIdentification(model, base, ident, parameters, checked, observation,
-                               {s.name: float(model.parameters[s]) for s in model.parameter_symbols if s in fixed})
+                               {s.name: float(model.parameters[s]) for s in model.parameter_symbols if s in fixed},
+                               fitted)
 
 
 def _solve(model: DynamicModel, reg: Regressor, base: BaseParameters, observation: Observation, method: str,
@@ -339,66 +341,29 @@ def _combined(determinations: list[tuple[int, float, float]], ident) -> tuple[fl
 
 
 def consistent_fit(model, reg: Regressor, base: BaseParameters, ident: Identification, observation,
-                   fixed_parameters: frozenset[sp.Symbol] = frozenset()) -> dict[str, ModelParameter]:
-    """Bounded nonlinear least squares over the non-geometric model parameters that are not fixed
-    (module docstring), within their ``min``/``max`` and the signs of their roles."""
+                   fixed_parameters: frozenset[sp.Symbol] = frozenset()) -> tuple[dict[str, ModelParameter], ConsistentFit | None]:
+    """The physically consistent model-file parameters closest to the least-squares fit in its own metric
+    (:mod:`symbolic.identify.consistent`): every parameter that enters θ and is neither geometry nor
+    fixed comes back, with σ = ∞ for those the data do not determine alone."""
+    from symbolic.identify.consistent import fit, problem, row_weights
+
     fixed = geometric_parameters(model, reg) | set(fixed_parameters)
-    nominal = model.parameter_vector
-    symbols = list(nominal.symbols)
-    free = [s for s in symbols if s not in fixed and any(s in e.free_symbols for e in reg.theta_expressions)]
-    p0 = nominal.array()
-    index = [nominal.index(s) for s in free]
-    theta_of = sp.lambdify([symbols], list(reg.theta_expressions), modules="numpy")
-    bounds = parameter_bounds(model)
-    lower = np.array([bounds.get(s, (-np.inf, np.inf))[0] for s in free])
-    upper = np.array([bounds.get(s, (-np.inf, np.inf))[1] for s in free])
-    weights = np.repeat(1.0 / np.asarray(ident.coordinate_sigmas), observation.samples)
-    W, y = observation.W * weights[:, None], observation.y * weights
-    scale = max(np.linalg.norm(y), 1e-300)
-    bodies = _body_checks(model, symbols)
-
-    start = np.clip(p0[index], lower, upper)
-    typical = np.maximum(np.abs(start), 1e-3 * max(np.abs(start).max(initial=0.0), 1e-12))
-    prior = PRIOR_WEIGHT * scale / np.sqrt(len(free))
-
-    def residual(x: np.ndarray) -> np.ndarray:
-        p = p0.copy()
-        p[index] = x
-        beta = base.from_theta(np.array(theta_of(p), float))
-        penalty = [1e3 * scale * max(0.0, v) for check in bodies for v in check(p)]
-        return np.concatenate([W @ beta - y, penalty, prior * (x - start) / typical])
-
-    import scipy.optimize  # here: identification without --consistent never needs it (about 1 s to import)
-
-    fit = scipy.optimize.least_squares(residual, start, bounds=(lower, upper), x_scale=typical, method="trf")
-    J = fit.jac[: len(y)]
-    dof = max(len(y) - np.linalg.matrix_rank(J), 1)
-    sigma2 = float(np.sum(fit.fun[: len(y)] ** 2) / dof)
-    _, s, Vt = np.linalg.svd(J * typical, full_matrices=False)
-    rank = int(np.sum(s > 1e-8 * s.max(initial=0.0)))
-    null = Vt[rank:]
-    covariance = sigma2 * (Vt[:rank].T / s[:rank] ** 2) @ Vt[:rank] * np.outer(typical, typical)
+    free = [s for s in model.parameter_symbols if s not in fixed and any(s in e.free_symbols for e in reg.theta_expressions)]
+    if not free:
+        return {}, None
+    prob = problem(model, reg, free, parameter_bounds(model))
+    K = np.zeros((len(base.names), len(reg.theta)))  # β = K·θ: BaseParameters.from_theta as a matrix
+    K[np.arange(len(base.independent)), list(base.independent)] = 1.0
+    K[:, list(base.dependent)] = base.K
+    weights = row_weights(ident.method, ident.coordinate_sigmas, observation.samples)
+    p0 = np.array([model.parameters[s] for s in free], float)
+    result, p, covariance = fit(prob, K, observation.W, observation.y, weights, p0, np.asarray(ident.values),
+                                name=model.name)
     out = {}
     for k, symbol in enumerate(free):
-        if null.size and np.linalg.norm(null[:, k]) > 1e-6:
-            continue  # moves without changing τ (or only together with others): not determined by the data
-        sigma = float(np.sqrt(max(covariance[k, k], 0.0)))
-        value = float(fit.x[k])
-        out[symbol.name] = ModelParameter(symbol.name, value, sigma, 100.0 * sigma / abs(value) if value else float("inf"),
-                                          model.parameters[symbol], "consistent fit")
-    return out
-
-
-def _body_checks(model: DynamicModel, symbols: list[sp.Symbol]):
-    """Per body: a function of p giving violations (> 0) of inertia PSD and the triangle inequality."""
-    checks = []
-    for body in model.robot.bodies:
-        tensor = sp.lambdify([symbols], body.inertia_tensor, modules="numpy")
-
-        def check(p, tensor=tensor):
-            eig = np.linalg.eigvalsh(np.array(tensor(p), float))
-            a, b, c = eig
-            return [-a, c - a - b]
-
-        checks.append(check)
-    return checks
+        sigma, value = float(np.sqrt(covariance[k, k])), float(p[k])
+        determined = bool(np.isfinite(sigma))
+        relative = 100.0 * sigma / abs(value) if value and determined else float("inf")
+        out[symbol.name] = ModelParameter(symbol.name, value, sigma, relative, model.parameters[symbol],
+                                          "consistent fit" if determined else "consistent fit (not determined alone)")
+    return out, result

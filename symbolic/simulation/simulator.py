@@ -311,6 +311,11 @@ class Plant:
     closed_loops: dict = field(default_factory=dict, repr=False)
     """The (compiled) sample functions built on this plant, by controller structure (:func:`_closed_loop`)."""
 
+    def __reduce__(self) -> tuple:
+        # pickled for the cache folder without the closed loops of this process (their libraries are
+        # files of their own there); CasADi functions pickle through their serialisation
+        return Plant, (self.n, self.rhs, self.bias)
+
 
 def _plant(model: DynamicModel) -> Plant:
     return model.products.get(PLANT)
@@ -338,8 +343,11 @@ def _build_plant(model: DynamicModel) -> Plant:
     return Plant(n, rhs, ca.Function("bias", [q, qd, p, eps, t], [bias], ["q", "qd", "p", "eps", "t"], ["bias"]))
 
 
-PLANT: Product[Plant] = Product("simulation plant", _build_plant)
-"""The CasADi plant of a model (kept in memory; its compiled closed loops are libraries on disk)."""
+PLANT: Product[Plant] = Product(f"simulation plant (CasADi {ca.__version__})", _build_plant, persist=True)
+"""The CasADi plant of a model, kept in the cache folder: translating the SymPy expressions into CasADi
+is most of what a warm ``symbolic simulate`` would otherwise redo (its compiled closed loops are libraries
+on disk, named by their C source). The CasADi version is part of the name, hence of the entry's key: a
+serialised CasADi function is read back only by the version that wrote it."""
 
 
 def _spectral_radius(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0: float,
@@ -563,5 +571,5 @@ def _trajectory(measurements: Measurements, names: tuple[str, ...], y: np.ndarra
     if bad.size:
         column = int(np.flatnonzero(~np.isfinite(y[bad[0]]))[0])
         raise Diverged(str(measurements.source), float(measurements.t[bad[0]]), names[column % n],
-                       "the state became infinite or NaN (an unstable closed loop, or too few sub-steps: give more)")
+                       "the state is no longer finite (an unstable closed loop, or too few sub-steps: give more)")
     return Measurements.from_arrays(measurements.t, order, q, tau, qd=qd, qdd=qdd)

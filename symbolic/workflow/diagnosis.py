@@ -96,14 +96,15 @@ def diagnose(
         Parameters kept at their values when the model is re-identified, besides those with ``fixed = true``
         (:mod:`symbolic.identify.known`).
     """
-    clock = time.perf_counter()
+    clock, cpu = time.perf_counter(), time.process_time()
     seconds: dict[str, float] = {}
+    cpu_seconds: dict[str, float] = {}
 
-    def lap(name: str) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        seconds[name] = now - clock
-        clock = now
+    def lap(name: str) -> None:  # wall and CPU time: on a shared machine only the CPU time is repeatable
+        nonlocal clock, cpu
+        now, used = time.perf_counter(), time.process_time()
+        seconds[name], cpu_seconds[name] = now - clock, used - cpu
+        clock, cpu = now, used
 
     model = _derived(model)
     fixed_symbols(model, fix)  # an unknown name is refused before the data are read
@@ -211,7 +212,7 @@ def diagnose(
     diagnosis = Diagnosis(model, sets, held_out, before, where_before, selection, tuple(found), patched_text,
                           patched_path, after, where_after, bool(simulate), seconds, tuple(notes), (), tuple(findings),
                           corrections=tuple(reviewed[0]), changes=tuple(reviewed[1]), modes=reviewed[2],
-                          caveats=tuple(caveats))
+                          caveats=tuple(caveats), cpu_seconds=cpu_seconds)
     if out is not None:
         diagnosis = _write(diagnosis, Path(out), figures)
     lap("report")

@@ -130,6 +130,9 @@ class Effect:
     """Whether the search also offers the effect on every coordinate (or a named group) as one grouped
     hypothesis (docs/workflow.md, "Grouped hypotheses"); only effects without a nonlinear parameter whose
     columns act on their own coordinate are grouped."""
+    own_row: ClassVar[bool] = False
+    """Whether its columns on coordinate ``j`` act on ``j``'s row alone (built with :func:`on_row`): the search
+    then does not look for the rows they act on (it scans every other row of every column otherwise)."""
 
     @property
     def identifier(self) -> str:
@@ -161,9 +164,10 @@ class Effect:
         an effect that needs time or the sampling rate (a filter, a time-periodic term) overrides this."""
         return self.columns(signals.q, signals.qd, signals.qdd, j, value)
 
-    def scan_columns(self, t: np.ndarray, n: int, j: int, values: Sequence[float]) -> list[np.ndarray] | None:
+    def scan_columns(self, t: np.ndarray, n: int, j: int, values: Sequence[float]) -> list[np.ndarray] | np.ndarray | None:
         """For scanning a single nonlinear parameter's grid: the columns at the kept (decimated) times
-        ``t`` directly (``samples × n × k`` per value), when that is cheaper than treating
+        ``t`` directly (``samples × n × k`` per value: a list, or one ``values × samples × n × k`` array; or,
+        for columns that act on coordinate ``j`` alone, the compact ``values × samples × k`` array), when that is cheaper than treating
         :meth:`columns_at`'s and spans the same columns up to an invertible mixing (the scan compares only
         the power they explain, in the grid and in its refinement; the value found is then fitted with the
         treated columns). ``None``: no shortcut."""
@@ -339,6 +343,8 @@ class AsymmetricCoulomb(_Asymmetric):
 class Stribeck(Effect):
     """(Fc + (Fs − Fc)·exp(−(q̇/vs)²))·sign(q̇): the column exp(−(q̇/vs)²)·sign(q̇) with coefficient Fs − Fc."""
 
+    own_row = True
+
     name, roles, refines, nonlinear = "stribeck", ("static", "velocity"), "coulomb", "velocity"
     summary = "Stribeck rise of the Coulomb level at low speed: static level Fs, velocity scale vs"
     GRID = 32
@@ -462,6 +468,8 @@ class Gravity(_Sinusoid):
 
 class Periodic(_Sinusoid):
     """A disturbance periodic in position (cogging, a screw's or a gear's period): A·sin(2π·q/P + φ)."""
+
+    own_row = True
 
     name, roles, axis, nonlinear, variant = "periodic", ("amplitude", "period"), "position", "period", "position"
     summary = "disturbance periodic in position (cogging, screw or gear period): amplitude·sin(2π·q/period + φ)"
@@ -626,8 +634,22 @@ class PeriodicTime(_Sinusoid):
         # the treatment's filters are linear and time-invariant: a sinusoid stays one of the same frequency
         # (gain and phase change: a mixing of sin and cos), up to the filters' transients at the ends.
         # Sampled at the kept times directly, the grid costs nothing next to filtering every column.
-        x = 2.0 * math.pi * np.outer(values, np.asarray(t, float))
-        return [on_row(j, n, [np.sin(row), np.cos(row)]) for row in x]
+        # on coordinate j only: the compact form, values × samples × 2. A grid chunk is evenly spaced: each
+        # frequency's phasor is the previous one times exp(2πi·Δf·t) (angle addition; the rounding grows by
+        # one ulp a step, 1e-14 over a chunk), instead of a sine and a cosine of every sample at every value
+        t = np.asarray(t, float)
+        values = np.asarray(values, float)
+        step = (values[-1] - values[0]) / (len(values) - 1) if len(values) > 1 else 0.0
+        even = len(values) > 2 and np.allclose(np.diff(values), step, rtol=1e-9, atol=0.0)
+        if not even:
+            x = 2.0 * math.pi * np.outer(values, t)
+            return np.stack([np.sin(x), np.cos(x)], axis=2)
+        phasor = np.empty((len(values), len(t)), complex)
+        phasor[0] = np.exp(2j * math.pi * values[0] * t)
+        turn = np.exp(2j * math.pi * step * t)
+        for k in range(1, len(values)):
+            np.multiply(phasor[k - 1], turn, out=phasor[k])
+        return np.stack([phasor.imag, phasor.real], axis=2)
 
     def roles_of(self, c, value, reference):
         amplitude, _ = self.polar(c)
@@ -735,6 +757,8 @@ class FlexibleMode(Effect):
     joints before it, which the column leaves out (the patched model holds it in full).
     """
 
+    own_row = True
+
     name, roles, axis, nonlinear = "flexible_mode", ("frequency_hz", "damping_ratio"), "time", "frequency and damping"
     summary = "unmodelled resonance: a load on a compliant coupling (second mass), ringing at frequency_hz"
     DAMPING = (0.01, 0.03, 0.08, 0.2)
@@ -781,7 +805,11 @@ class FlexibleMode(Effect):
         b = np.array([c1 + c0, 2.0 * c0, c0 - c1]) / a[0]
         a = a / a[0]
         x = signals.qdd[:, j]
-        load, _ = scipy.signal.lfilter(b, a, x, zi=scipy.signal.lfilter_zi(b, a) * x[0])
+        # the filter at rest on x[0] (what scipy.signal.lfilter_zi gives, without its linear solve): L has unit
+        # gain at DC, so in the transposed direct form the states for a constant input 1 are b2 − a2 and
+        # b1 − a1 + (b2 − a2)
+        rest = b[2] - a[2]
+        load, _ = scipy.signal.lfilter(b, a, x, zi=np.array([b[1] - a[1] + rest, rest]) * x[0])
         return on_row(j, signals.qdd.shape[1], [load])
 
     def roles_of(self, c, value, reference):

@@ -20,8 +20,8 @@ at the random states, one scale for all), with a weak pull towards c = 0 and I_c
 free: as a **rigid body** (m, c, I_c) when that determines the mass and more than a point mass would,
 else as a **point mass** (I_c = 0): on a planar arm whose first link is free the three combinations left
 determine m and the centre of mass in the plane only if the payload's own inertia is taken as zero.
-A parameter is determined when it lies outside the null space of the fit's Jacobian (as in
-:func:`symbolic.identify.model.consistent_fit`); the others are reported as ``None``.
+A parameter is determined when it lies outside the null space of the fit's Jacobian (as the consistent fit of
+:mod:`symbolic.identify.consistent` decides it); the others are reported as ``None``.
 """
 
 from __future__ import annotations

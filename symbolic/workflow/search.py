@@ -542,7 +542,7 @@ class Search:
         if missing:
             signals = self.signals(role)
             raw = [effect.columns_at(signals, j, k[2]) for k in missing]
-            rows = np.flatnonzero(np.any([r.any(axis=(0, 2)) for r in raw], axis=0))
+            rows = np.array([j]) if effect.own_row else _acting(raw)
             if rows.size == 0:
                 rows = np.array([j])
             widths = [r.shape[2] for r in raw]
@@ -550,6 +550,17 @@ class Search:
             for key, part in zip(missing, np.split(reduced, np.cumsum(widths)[:-1], axis=2)):
                 store[key] = (rows, part)
         return [store[k] for k in keys]
+
+
+def _acting(raw: Sequence[np.ndarray]) -> np.ndarray:
+    """The coordinates (axis 1) on which any of the ``samples × N × k`` arrays ``raw`` is non-zero. A
+    coordinate found acting is not looked at again (``ndarray.any`` stops at the first non-zero); only
+    those still zero are scanned: far cheaper than reducing over axes 0 and 2 at once."""
+    acting = np.zeros(raw[0].shape[1], bool)
+    for r in raw:
+        for i in np.flatnonzero(~acting):
+            acting[i] = r[:, i, :].any()
+    return np.flatnonzero(acting)
 
 
 def _roles_with_sigma(c: Candidate, values: np.ndarray, covariance: np.ndarray, block: list[int],
@@ -911,36 +922,44 @@ class _RoundState:
         _, _, _, G, b = parts
         return float(b @ np.linalg.solve(G, b))
 
-    def explained_on_row(self, j: int, blocks: Sequence[np.ndarray]) -> list[float]:
+    def explained_on_row(self, j: int, blocks: Sequence[np.ndarray] | np.ndarray) -> list[float]:
         """:meth:`explained` for many column sets at once, each acting on coordinate ``j`` only (``samples × k``
-        there) and none optional (a grid of values): the same quantities b = Zᵀr0 and G = ZᵀZ − (QᵀZ)ᵀ(QᵀZ)
-        on coordinate j's rows, for every set in one matrix product. A set with a column in the model's span
-        (its part outside below :data:`COLLINEAR` of its norm) explains 0, as :meth:`project` has it."""
+        there; ``blocks`` a list of them or a ``sets × samples × k`` array) and none optional (a grid of
+        values): the same quantities b = Zᵀr0 and G = ZᵀZ − (QᵀZ)ᵀ(QᵀZ) on coordinate j's rows, for every set
+        in one matrix product. A set with a column in the model's span (its part outside below
+        :data:`COLLINEAR` of its norm) explains 0, as :meth:`project` has it."""
         rows = slice(j * self.n_samples, (j + 1) * self.n_samples)
-        k = blocks[0].shape[1]
-        Z = np.stack(blocks, axis=0) * self.design.weights[j]  # sets × samples × k
+        Z = (blocks if isinstance(blocks, np.ndarray) else np.stack(blocks, axis=0)) * self.design.weights[j]
+        k = Z.shape[2]  # sets × samples × k
         a = np.matmul(self.Q[rows].T, Z)  # sets × p × k (matrix products: BLAS, unlike einsum)
         b = np.matmul(self.r0[rows], Z)  # sets × k
         zz = np.matmul(Z.transpose(0, 2, 1), Z)
         G = zz - np.matmul(a.transpose(0, 2, 1), a)
         diagonal = np.einsum("mkk->mk", G)
         norms = np.einsum("mkk->mk", zz)
-        fine = np.all((norms > 0) & (diagonal > COLLINEAR**2 * norms), axis=1) if k else np.zeros(len(blocks), bool)
-        out = np.zeros(len(blocks))
+        fine = np.all((norms > 0) & (diagonal > COLLINEAR**2 * norms), axis=1) if k else np.zeros(len(Z), bool)
+        out = np.zeros(len(Z))
         if fine.any():
             out[fine] = np.einsum("mk,mk->m", b[fine], np.linalg.solve(G[fine], b[fine][:, :, None])[:, :, 0])
         return [float(x) for x in out]
 
     def explained_grid(self, effect: Effect, j: int, values: Sequence[Any],
-                       quick: list[np.ndarray] | None = None) -> list[float]:
+                       quick: Sequence[np.ndarray] | np.ndarray | None = None) -> list[float]:
         """:meth:`explained` at each of ``values``: by :meth:`explained_on_row` when the columns (``quick``: the
-        effect's shortcut columns, else the treated ones) act on coordinate ``j`` only and none is optional."""
+        effect's shortcut columns, a list or a ``values × samples × N × k`` array; else the treated ones) act
+        on coordinate ``j`` only and none is optional."""
         if quick is not None:
-            others = [i for i in range(self.n) if i != j]
-            stacked = np.stack(quick)
-            if not effect.optional and not np.any(stacked[:, :, others, :]):
-                return self.explained_on_row(j, list(stacked[:, :, j, :]))
-            return [self.explained(effect, j, v, z) for v, z in zip(values, quick)]
+            stacked = quick if isinstance(quick, np.ndarray) else np.stack(quick)
+            if stacked.ndim == 3:  # the compact form, on coordinate j only (Effect.scan_columns)
+                if not effect.optional:
+                    return self.explained_on_row(j, stacked)
+                wide = np.zeros(stacked.shape[:2] + (self.n,) + stacked.shape[2:])
+                wide[:, :, j, :] = stacked
+                stacked = wide
+            acting = (stacked != 0).any(axis=(0, 1)).any(axis=-1)  # per coordinate (contiguous reductions first)
+            if not effect.optional and not np.delete(acting, j).any():
+                return self.explained_on_row(j, stacked[:, :, j, :])
+            return [self.explained(effect, j, v, z) for v, z in zip(values, stacked)]
         compact = self.batch(effect, j, values, "estimation")
         if not effect.optional and all(len(rows) == 1 and rows[0] == j for rows, _ in compact):
             return self.explained_on_row(j, [part[:, 0, :] for _, part in compact])
@@ -1157,9 +1176,8 @@ class _RoundState:
         explained: list[float] = []
         kept = self.design.sets["estimation"].t
 
-        def quick(v: float) -> np.ndarray | None:  # the effect's shortcut (Effect.scan_columns), if it has one
-            z = effect.scan_columns(kept, self.n, j, [v])
-            return None if z is None else z[0]
+        def at(v: float) -> float:  # one value, by the grid's own route (the effect's shortcut, if it has one)
+            return self.explained_grid(effect, j, [v], effect.scan_columns(kept, self.n, j, [v]))[0]
 
         for chunk in np.array_split(values, max(1, math.ceil(len(values) / self.CHUNK))):
             points = [float(v) for v in chunk]
@@ -1170,7 +1188,7 @@ class _RoundState:
         if high <= low:
             return float(values[best])
         result = scipy.optimize.minimize_scalar(
-            lambda x: -self.explained(effect, j, float(math.exp(x)), quick(float(math.exp(x)))),
+            lambda x: -at(float(math.exp(x))),
             bounds=(math.log(low), math.log(high)), method="bounded", options={"xatol": effect.refinement})
         return float(math.exp(result.x)) if -result.fun >= explained[best] else float(values[best])
 
@@ -1185,7 +1203,7 @@ class _RoundState:
         def loss(x: np.ndarray) -> float:
             if np.any(x < low) or np.any(x > high):
                 return 0.0
-            return -self.explained(effect, j, tuple(float(v) for v in np.exp(x)))
+            return -self.explained_grid(effect, j, [tuple(float(v) for v in np.exp(x))])[0]
 
         start = np.log(np.asarray(rows[best]))
         steps = np.diag(np.maximum((high - low) / max(len(rows) ** (1 / values.shape[1]), 1.0), 1e-3))
