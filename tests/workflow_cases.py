@@ -200,32 +200,6 @@ def model_file(folder: Path, text: str, name: str = "model.toml") -> Path:
     return path
 
 
-def flexible_link(tip_mass: float, damper: float, friction: str = 'viscous = "Fv"', parameters: str = "Fv = 0.5\n") -> str:
-    """The built-in flexible single link (Madill's beam on a hub, ``single_flexible_link.toml``) made to ring
-    within the data treatment's pass band: a tip mass of ``tip_mass`` kg (1 kg brings the first bending mode
-    with the hub held from ≈ 65 Hz down to ≈ 8.6 Hz and gives it ≈ 30 % of the hub's inertia), one vertical
-    mode (gravity acts along the hub's axis: the vertical bending does not couple to the hub at rest), a
-    damper ``damper`` on the first horizontal modal coordinate (structural damping; the model format has no
-    beam damping key, a ``[[force]]`` on the modal coordinate is one) and friction on the hub."""
-    from symbolic import robots
-
-    text = robots.path("single_flexible_link").read_text(encoding="utf-8")
-    for old, new in (("modes_w = 2", 'modes_w = 1\ntip_mass = "m_t"'),
-                     ("\n[[frame]]", f"m_t = {tip_mass!r}\nc_b = {damper!r}\n{parameters}\n[[frame]]")):
-        assert text.count(old) == 1, old
-        text = text.replace(old, new)
-    return text + f'''
-[[friction]]
-coordinate = "q0"
-{friction}
-
-[[force]]
-name = "structural_damping"
-coordinate = "link_nu1"
-expression = "-c_b*qd_link_nu1"
-'''
-
-
 def planar_flexible_link(hub: float = 0.05, tip_mass: float = 0.1, stiffness: float = 10.0, damper: float = 3.3,
                          friction: str = 'viscous = "Fv"', damped: bool = True) -> str:
     """:func:`flexible_link` as a laboratory flexible-link rig: one horizontal mode, no vertical bending
@@ -239,36 +213,3 @@ def planar_flexible_link(hub: float = 0.05, tip_mass: float = 0.1, stiffness: fl
         assert text.count(old) == 1, old
         text = text.replace(old, new)
     return text if damped else text[:text.index("[[force]]")]
-
-
-RIGID_LINK = '''# The flexible single link as a rigid body: hub and beam (with its tip mass) turning as one.
-name = "rigid_link"
-description = "hub and link as one rigid body"
-coordinates = ["q0"]
-gravity = ["0", "0", "-9.81"]
-
-[parameters]
-J = {{ value = {J!r}, unit = "kg*m^2", description = "hub, beam and tip mass about the hub axis" }}
-Fv = 0.5
-
-[[frame]]
-name = "e"
-parent = "base"
-dh = {{ theta = "q0", d = "0", a = "0", alpha = "0" }}
-
-[[body]]
-name = "hub_and_link"
-frame = "e"
-mass = "0"
-inertia = {{ xx = "J/2", yy = "J/2", zz = "J" }}
-
-[[friction]]
-coordinate = "q0"
-viscous = "Fv"
-'''
-
-
-def rigid_link(inertia: float) -> str:
-    """The rigid counterpart of :func:`flexible_link`: one body of the whole ``inertia`` about the hub axis
-    and the same friction, nothing but the flexibility missing."""
-    return RIGID_LINK.format(J=inertia)

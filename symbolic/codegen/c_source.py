@@ -78,7 +78,7 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
         ],
         "end_effector": model.robot.end_effector is not None,
         "time_varying": model.time_varying,
-        "theta": [] if (reg := model_regressor(model)) is None else [{"index": i, "name": t} for i, t in enumerate(reg.names)],
+        "theta": [{"index": i, "name": t} for i, t in enumerate(model_regressor(model).names)],
     }
     sources = {f"{name}.h": render("model.h.j2", **context), f"{name}.c": render("model.c.j2", **context)}
     logging.getLogger(__name__).info("%s: C source printed in %.1f s", model.name, time.perf_counter() - start)
