@@ -6,11 +6,20 @@ simulation use the same ones. :func:`lowpass` and :func:`decimate` follow MATLAB
 ``decimate``, with which the published EMPS results were computed (Janot, Gautier, Brunot 2019), so that
 those numbers are reproduced to their printed digits (docs/data.md, "IDIM-LS" and "EMPS"). Every
 function works along ``axis`` (default 0, the sample axis) of arrays of any shape.
+
+NumPy only, on purpose: importing :mod:`scipy.signal` costs about 0.8 s of wall time (it imports
+:mod:`scipy.stats`), the largest part of a warm ``symbolic simulate`` (issue 23 §3). The filters are
+designed here as SciPy's ``butter`` and ``cheby1`` design them (the same second-order sections, to
+rounding) and run as ``sosfiltfilt`` runs them, by a block state-space form of the sections that is
+as fast as ``sosfilt`` on thousands of columns (bench/filters.py). SciPy is the reference of the
+tests (tests/test_data_filters.py), not a dependency of this module.
 """
 
 from __future__ import annotations
 
 import functools
+import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -93,39 +102,265 @@ def kept_indices(samples: int, factor: int) -> np.ndarray:
 
 @functools.lru_cache(maxsize=32)
 def _butterworth(order: int, cutoff: float) -> np.ndarray:
-    return _signal().butter(order, cutoff, output="sos")
+    """Second-order sections of the digital Butterworth low-pass, as ``scipy.signal.butter(order, cutoff,
+    output="sos")``: analog poles ``−exp(iπm/(2·order))``, m = −order+1, −order+3, …, order−1, on the unit
+    circle (gain 1), then :func:`_digital_lowpass`."""
+    m = np.arange(-order + 1, order, 2)
+    return _digital_lowpass(-np.exp(1j * np.pi * m / (2 * order)), 1.0, cutoff)
 
 
 @functools.lru_cache(maxsize=32)
 def _chebyshev(factor: int) -> np.ndarray:
-    return _signal().cheby1(DECIMATION_ORDER, DECIMATION_RIPPLE, 0.8 / factor, output="sos")
+    """Sections of :func:`decimate`'s filter, ``scipy.signal.cheby1(8, 0.05, 0.8/factor, output="sos")``."""
+    return _chebyshev_sections(DECIMATION_ORDER, DECIMATION_RIPPLE, 0.8 / factor)
 
 
-def _filtfilt(sos: np.ndarray, x: np.ndarray, padlen: int, axis: int) -> np.ndarray:
-    """``scipy.signal.sosfiltfilt(sos, x, axis=axis, padtype="odd", padlen=padlen)``, step by step as SciPy
-    does it (odd extension, forward pass from rest on the first sample, backward pass from rest on the
-    last output), with the sections' rest state computed once per filter instead of at every call (its
-    linear solves cost as much as filtering a short signal; the search filters thousands of columns)."""
-    if x.shape[axis] <= padlen:
-        raise ValueError(f"{x.shape[axis]} samples are too few for this filter: it needs more than {padlen}")
-    signal = _signal()
-    x = np.moveaxis(x, axis, 0)
-    ext = np.concatenate((2 * x[:1] - x[padlen:0:-1], x, 2 * x[-1:] - x[-2:-(padlen + 2):-1]), axis=0)
-    zi = _rest(sos.tobytes(), sos.shape).reshape((len(sos), 2) + (1,) * (x.ndim - 1))
-    y, _ = signal.sosfilt(sos, ext, axis=0, zi=zi * ext[:1])
-    y, _ = signal.sosfilt(sos, y[::-1], axis=0, zi=zi * y[-1:])
-    return np.moveaxis(y[::-1][padlen:-padlen], 0, axis)
+def _chebyshev_sections(order: int, ripple: float, cutoff: float) -> np.ndarray:
+    """Chebyshev type I low-pass of ``ripple`` dB, as ``scipy.signal.cheby1`` (its ``cheb1ap`` prototype).
+
+    Analog poles on an ellipse, ``−sinh(μ + iθ_m)`` with ``θ_m = πm/(2·order)``, ``μ = asinh(1/ε)/order``
+    and ``ε = sqrt(10^(ripple/10) − 1)``; gain ``Π(−p)``, divided by ``sqrt(1 + ε²)`` for an even order,
+    so that the DC gain is 1 for an odd order and ``10^(−ripple/20)`` (the bottom of the ripple) for an
+    even one (the equiripple pass band starts at its bottom; Oppenheim and Schafer, *Discrete-Time Signal
+    Processing*, 3rd ed., appendix B; SciPy's ``cheb1ap``).
+    """
+    epsilon = math.sqrt(10 ** (ripple / 10) - 1)
+    mu = math.asinh(1 / epsilon) / order
+    poles = -np.sinh(mu + 1j * np.pi * np.arange(-order + 1, order, 2) / (2 * order))
+    gain = float(np.prod(-poles).real)
+    if order % 2 == 0:
+        gain /= math.sqrt(1 + epsilon**2)
+    return _digital_lowpass(poles, gain, cutoff)
+
+
+def _digital_lowpass(poles: np.ndarray, gain: float, cutoff: float) -> np.ndarray:
+    """Second-order sections of an analog all-pole low-pass prototype (cut-off 1 rad/s) moved to the
+    cut-off ``cutoff`` (a fraction of the Nyquist frequency) by the bilinear transform, as SciPy's
+    ``iirfilter`` and ``zpk2sos(pairing="nearest")`` do.
+
+    With fs = 2 (SciPy's normalisation), the cut-off is pre-warped to ``ω = 2·fs·tan(π·cutoff/fs)``,
+    the poles scaled to ``s = ω·p`` and the gain to ``gain·ω^n``; the bilinear transform maps ``s`` to
+    ``z = (2fs + s)/(2fs − s)``, puts the n zeros at z = −1 and multiplies the gain by ``1/Π(2fs − s)``
+    (Oppenheim and Schafer, *Discrete-Time Signal Processing*, 3rd ed., §7.2.2). Sections as
+    ``zpk2sos`` (``pairing="nearest"``) pairs them: filled from the last, each section takes the pole
+    left nearest the unit circle and its conjugate (``a = [1, −2·Re z, |z|²]``), or an odd order's real
+    pole and the origin (``a = [1, −z, 0]``), with the two zeros left nearest that pole: two at −1
+    (``b = [1, 2, 1]``), or −1 and the origin's zero (``b = [1, 1, 0]``), which goes to the first pole
+    nearer to the origin than to −1 (one of the two sections is then first-order in effect). The gain is
+    put in the first section, the one farthest from the unit circle.
+    """
+    n = len(poles)
+    fs2 = 4.0
+    warped = fs2 * math.tan(math.pi * cutoff / 2.0)
+    s = poles * warped
+    z = (fs2 + s) / (fs2 - s)
+    gain = gain * warped**n * (1.0 / np.prod(fs2 - s)).real
+    # the prototype lists its poles with m = −n+1 … n−1: the first half (m < 0) holds one of each pair and
+    # an odd order's real pole is the middle one; that pole gets a pole and a zero at the origin (which
+    # cancel) to fill a section, as zpk2sos adds them
+    poles = list(z[: n // 2]) + ([z[n // 2].real] if n % 2 else [])
+    zeros = [-1.0] * n + [0.0] * (n % 2)
+    sos = np.empty(((n + 1) // 2, 6))
+    for section in range(len(sos) - 1, -1, -1):
+        p = poles.pop(int(np.argmin([abs(1.0 - abs(q)) for q in poles])))
+        pair = [p, p.conjugate()] if np.iscomplex(p) else [p, 0.0]
+        nearest = [zeros.pop(int(np.argmin([abs(q - p) for q in zeros]))) for _ in range(2)]
+        sos[section] = np.concatenate((np.poly(nearest).real, np.poly(pair).real))
+    sos[0, :3] *= gain
+    return sos
+
+
+BLOCK = 48
+"""Samples per block of :func:`_filtfilt`'s block state-space filter: the Toeplitz product costs
+``BLOCK`` multiply-adds per sample and column, the sequential loop runs over ``samples/BLOCK`` blocks."""
+
+COLUMNS = 512
+"""Columns filtered at once (bounds the working memory to a few tens of MB per call)."""
+
+
+@dataclass(frozen=True)
+class _Blocks:
+    """The sections ``sos`` as a block state-space system over ``BLOCK`` samples.
+
+    The state ``s`` is the cascade's, the two transposed-direct-form-II delays of each section (those of
+    ``scipy.signal.sosfilt``). Over one block of inputs ``u`` (``BLOCK`` samples), starting from ``s``:
+    outputs ``y = T·u + O·s`` and next state ``s' = A·s + C·u``, with ``T`` the lower-triangular Toeplitz
+    matrix of the impulse response, ``O`` the free responses to each state, ``A`` the transition over a
+    block (A^BLOCK) and ``C`` the states an impulse at each sample leaves at the block's end.
+    """
+
+    forward: np.ndarray
+    """``[T | O]``, BLOCK × (BLOCK + n): the outputs of a block from its inputs stacked over its start state."""
+    backward: np.ndarray
+    """The same for the time-reversed block, ``[J·T·J | J·O]`` (J reverses the samples)."""
+    transition: np.ndarray
+    """``A``, n × n."""
+    inputs: np.ndarray
+    """``C``, n × BLOCK."""
+    inputs_reversed: np.ndarray
+    """``C·J``, n × BLOCK."""
+    rest: np.ndarray
+    """State of the sections at rest under a constant unit input (``scipy.signal.sosfilt_zi``), n."""
 
 
 @functools.lru_cache(maxsize=32)
-def _rest(sos: bytes, shape: tuple[int, ...]) -> np.ndarray:
-    """``scipy.signal.sosfilt_zi`` of the sections ``sos`` (their bytes and shape: a hashable key)."""
-    return _signal().sosfilt_zi(np.frombuffer(sos).reshape(shape))
+def _blocks(sos: bytes, sections: int) -> _Blocks:
+    """:class:`_Blocks` of the sections whose float64 bytes are ``sos`` (a hashable key), n = 2·sections.
+
+    ``T``, ``O``, ``A`` and ``C`` are measured by running the sections sample by sample (the recursion
+    ``sosfilt`` runs) on ``BLOCK`` impulses from rest and on zero inputs from each unit state: they are
+    as accurate as the recursion itself, without powers of a state matrix.
+    """
+    coefficients = np.frombuffer(sos).reshape(sections, 6)
+    n = 2 * sections
+    impulses = np.zeros((BLOCK, BLOCK + n))
+    impulses[:, :BLOCK] = np.eye(BLOCK)
+    states = np.zeros((n, BLOCK + n))
+    states[:, BLOCK:] = np.eye(n)
+    y, end = _recursion(coefficients, impulses, states)
+    toeplitz, free = y[:, :BLOCK], y[:, BLOCK:]
+    return _Blocks(np.hstack((toeplitz, free)), np.hstack((toeplitz[::-1, ::-1], free[::-1])),
+                   np.ascontiguousarray(end[:, BLOCK:]), np.ascontiguousarray(end[:, :BLOCK]),
+                   np.ascontiguousarray(end[:, BLOCK - 1 :: -1]), _rest(coefficients))
 
 
-def _signal():
-    """:mod:`scipy.signal`, imported on first use: importing it takes about a second (it imports
-    :mod:`scipy.stats`), which a command would otherwise pay before its work starts."""
-    import scipy.signal
+def _recursion(sos: np.ndarray, u: np.ndarray, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The sections run sample by sample on the columns of ``u`` (samples × columns) from ``state``
+    (2·sections × columns), transposed direct form II: ``y = b0·v + s1``, ``s1 ← b1·v − a1·y + s2``,
+    ``s2 ← b2·v − a2·y``, each section's ``y`` the next one's ``v``. Returns the outputs and the end state.
+    A Python loop over samples: for the short blocks of :func:`_blocks` only."""
+    state = state.copy()
+    y = np.empty_like(u)
+    for t in range(u.shape[0]):
+        v = u[t]
+        for j, (b0, b1, b2, _, a1, a2) in enumerate(sos):
+            out = b0 * v + state[2 * j]
+            state[2 * j] = b1 * v - a1 * out + state[2 * j + 1]
+            state[2 * j + 1] = b2 * v - a2 * out
+            v = out
+        y[t] = v
+    return y, state
 
-    return scipy.signal
+
+def _rest(sos: np.ndarray) -> np.ndarray:
+    """The sections' state at rest under a unit constant input (``scipy.signal.sosfilt_zi``).
+
+    Section j sees the constant ``c_j`` (``c_0 = 1``, ``c_{j+1} = G_j·c_j``, ``G_j = Σb/Σa`` its DC gain);
+    its output is ``G_j·c_j`` and the recursion of :func:`_recursion` held still gives
+    ``s2 = (b2 − a2·G_j)·c_j`` and ``s1 = (b1 + b2 − (a1 + a2)·G_j)·c_j``.
+    """
+    rest = np.empty(2 * len(sos))
+    level = 1.0
+    for j, (b0, b1, b2, a0, a1, a2) in enumerate(sos):
+        dc = (b0 + b1 + b2) / (a0 + a1 + a2)
+        rest[2 * j] = (b1 + b2 - (a1 + a2) * dc) * level
+        rest[2 * j + 1] = (b2 - a2 * dc) * level
+        level *= dc
+    return rest
+
+
+def _filtfilt(sos: np.ndarray, x: np.ndarray, padlen: int, axis: int) -> np.ndarray:
+    """``scipy.signal.sosfiltfilt(sos, x, axis=axis, padtype="odd", padlen=padlen)`` in NumPy only.
+
+    The signal is extended at each end by its odd reflection over ``padlen`` samples; the sections run
+    forward from rest on the first sample (the state ``sosfilt_zi·x[0]`` a constant input would hold),
+    then backward over the result from rest on its last sample, and the extension is cut off. Each pass
+    is a block state-space filter (:class:`_Blocks`): the states at the blocks' starts follow from one
+    short loop over the blocks, ``s_{k+1} = A·s_k + C·u_k``; then every output is one matrix product
+    ``[T | O]·[u_k; s_k]`` over all blocks and columns (block state-space realisation, Burrus, "Block
+    realization of digital filters", IEEE Trans. Audio Electroacoust. 20(4), 1972). It is the same
+    linear map as sosfilt's sample-by-sample recursion, so they differ by rounding only: about 1e-15 of
+    the signal for cut-offs above 1e-2 of the Nyquist frequency, up to about 1e-10 at 1e-3, where
+    sosfilt's own rounding error is of that size (tests/test_data_filters.py).
+    """
+    if x.shape[axis] <= padlen:
+        raise ValueError(f"{x.shape[axis]} samples are too few for this filter: it needs more than {padlen}")
+    x = np.moveaxis(x, axis, 0)
+    shape = x.shape
+    x = x.reshape(shape[0], -1)
+    blocks = _blocks(np.ascontiguousarray(sos, dtype=float).tobytes(), len(sos))
+    out = np.empty(x.shape)
+    for first in range(0, x.shape[1], COLUMNS):
+        columns = slice(first, first + COLUMNS)
+        _filtfilt_columns(blocks, x[:, columns], padlen, out[:, columns])
+    return np.moveaxis(out.reshape(shape), 0, axis)
+
+
+def _filtfilt_columns(blocks: _Blocks, x: np.ndarray, padlen: int, out: np.ndarray) -> None:
+    """:func:`_filtfilt` of the columns of ``x`` (samples × columns), written into ``out`` (its shape).
+
+    Layout: sample ``t = k·BLOCK + i`` of column c at ``[i, k, c]`` of a (BLOCK + n) × blocks × columns
+    array whose last n rows hold the state at each block's start, so that a pass is one matrix product.
+    The extended signal is preceded by ``lead`` copies of its first sample so that the data start on a
+    block boundary (at rest on a constant, the sections stay at rest: the output is unchanged), and the
+    forward output is continued after its last sample by copies of it (the backward pass then reaches
+    that sample still at rest on it).
+    """
+    samples, width = x.shape
+    n = len(blocks.rest)
+    lead = -padlen % BLOCK
+    total = lead + samples + 2 * padlen
+    count = -(-total // BLOCK)
+    head = 2 * x[0] - x[padlen:0:-1]
+    tail = 2 * x[-1] - x[-2 : -(padlen + 2) : -1]
+    one = np.empty((BLOCK + n, count, width))
+    data = one[:BLOCK].transpose(1, 0, 2)  # count × BLOCK × width view, sample order
+    _put(data, 0, np.broadcast_to(head[:1], (lead, width)))
+    _put(data, lead, head)
+    _put(data, lead + padlen, x)
+    _put(data, lead + padlen + samples, tail)
+    _put(data, total, np.zeros((count * BLOCK - total, width)))
+    two = np.empty_like(one)
+    _pass(blocks.forward, blocks.transition, blocks.inputs, blocks.rest, one, two, range(count), head[0])
+    data = two[:BLOCK].transpose(1, 0, 2)
+    end = data[(total - 1) // BLOCK, (total - 1) % BLOCK].copy()
+    _put(data, total, np.broadcast_to(end, (count * BLOCK - total, width)))
+    _pass(blocks.backward, blocks.transition, blocks.inputs_reversed, blocks.rest, two, one,
+          range(count - 1, -1, -1), end)
+    _get(one[:BLOCK].transpose(1, 0, 2), lead + padlen, out)
+
+
+def _pass(matrix: np.ndarray, transition: np.ndarray, inputs: np.ndarray, rest: np.ndarray,
+          source: np.ndarray, target: np.ndarray, order: range, first: np.ndarray) -> None:
+    """One pass of the block filter: the inputs in ``source[:BLOCK]`` (BLOCK × blocks × columns), the
+    blocks taken in ``order``, starting at rest on ``first``; the states go to ``source[BLOCK:]`` and the
+    outputs to ``target[:BLOCK]``."""
+    _, count, width = source.shape
+    flat = source.reshape(source.shape[0], count * width)
+    driven = (inputs @ flat[:BLOCK]).reshape(-1, count, width)
+    states = source[BLOCK:]
+    state = rest[:, None] * first
+    for k in order:
+        states[:, k] = state
+        state = transition @ state + driven[:, k]
+    np.matmul(matrix, flat, out=target[:BLOCK].reshape(BLOCK, count * width))
+
+
+def _put(blocks: np.ndarray, start: int, data: np.ndarray) -> None:
+    """Write ``data`` (samples × columns) from sample ``start`` into ``blocks`` (blocks × BLOCK × columns)."""
+    done = 0
+    while done < len(data):
+        k, i = divmod(start + done, BLOCK)
+        whole = (len(data) - done) // BLOCK if i == 0 else 0
+        if whole:
+            blocks[k : k + whole] = data[done : done + whole * BLOCK].reshape(whole, BLOCK, -1)
+            done += whole * BLOCK
+        else:
+            step = min(BLOCK - i, len(data) - done)
+            blocks[k, i : i + step] = data[done : done + step]
+            done += step
+
+
+def _get(blocks: np.ndarray, start: int, out: np.ndarray) -> None:
+    """Copy ``len(out)`` samples from sample ``start`` of ``blocks`` (blocks × BLOCK × columns) to ``out``."""
+    done, samples = 0, len(out)
+    while done < samples:
+        k, i = divmod(start + done, BLOCK)
+        whole = (samples - done) // BLOCK if i == 0 else 0
+        if whole:
+            out[done : done + whole * BLOCK].reshape(whole, BLOCK, -1)[...] = blocks[k : k + whole]
+            done += whole * BLOCK
+        else:
+            step = min(BLOCK - i, samples - done)
+            out[done : done + step] = blocks[k, i : i + step]
+            done += step
