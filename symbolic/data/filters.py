@@ -201,6 +201,8 @@ class _Blocks:
     """``C·J``, n × BLOCK."""
     rest: np.ndarray
     """State of the sections at rest under a constant unit input (``scipy.signal.sosfilt_zi``), n."""
+    gain: float
+    """Gain at DC, ``Π Σb/Σa`` over the sections."""
 
 
 @functools.lru_cache(maxsize=32)
@@ -221,7 +223,7 @@ def _blocks(sos: bytes, sections: int) -> _Blocks:
     toeplitz, free = y[:, :BLOCK], y[:, BLOCK:]
     return _Blocks(np.hstack((toeplitz, free)), np.hstack((toeplitz[::-1, ::-1], free[::-1])),
                    np.ascontiguousarray(end[:, BLOCK:]), np.ascontiguousarray(end[:, :BLOCK]),
-                   np.ascontiguousarray(end[:, BLOCK - 1 :: -1]), _rest(coefficients))
+                   np.ascontiguousarray(end[:, BLOCK - 1 :: -1]), *_rest(coefficients))
 
 
 def _recursion(sos: np.ndarray, u: np.ndarray, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -242,8 +244,9 @@ def _recursion(sos: np.ndarray, u: np.ndarray, state: np.ndarray) -> tuple[np.nd
     return y, state
 
 
-def _rest(sos: np.ndarray) -> np.ndarray:
-    """The sections' state at rest under a unit constant input (``scipy.signal.sosfilt_zi``).
+def _rest(sos: np.ndarray) -> tuple[np.ndarray, float]:
+    """The sections' state at rest under a unit constant input (``scipy.signal.sosfilt_zi``), and their
+    gain at DC.
 
     Section j sees the constant ``c_j`` (``c_0 = 1``, ``c_{j+1} = G_j·c_j``, ``G_j = Σb/Σa`` its DC gain);
     its output is ``G_j·c_j`` and the recursion of :func:`_recursion` held still gives
@@ -256,7 +259,7 @@ def _rest(sos: np.ndarray) -> np.ndarray:
         rest[2 * j] = (b1 + b2 - (a1 + a2) * dc) * level
         rest[2 * j + 1] = (b2 - a2 * dc) * level
         level *= dc
-    return rest
+    return rest, level
 
 
 def _filtfilt(sos: np.ndarray, x: np.ndarray, padlen: int, axis: int) -> np.ndarray:
@@ -303,21 +306,21 @@ def _filtfilt_columns(blocks: _Blocks, x: np.ndarray, padlen: int, out: np.ndarr
     count = -(-total // BLOCK)
     head = 2 * x[0] - x[padlen:0:-1]
     tail = 2 * x[-1] - x[-2 : -(padlen + 2) : -1]
+    start = head[0].copy()
     one = np.empty((BLOCK + n, count, width))
     data = one[:BLOCK].transpose(1, 0, 2)  # count × BLOCK × width view, sample order
-    _put(data, 0, np.broadcast_to(head[:1], (lead, width)))
-    _put(data, lead, head)
-    _put(data, lead + padlen, x)
-    _put(data, lead + padlen + samples, tail)
-    _put(data, total, np.zeros((count * BLOCK - total, width)))
+    data[0], data[-1] = 0.0, 0.0  # the lead (the first sample less itself), and any value after the end
+    _put(data, lead, head, start)
+    _put(data, lead + padlen, x, start)
+    _put(data, lead + padlen + samples, tail, start)
     two = np.empty_like(one)
-    _pass(blocks.forward, blocks.transition, blocks.inputs, blocks.rest, one, two, range(count), head[0])
+    _pass(blocks.forward, blocks.transition, blocks.inputs, blocks.rest, one, two, range(count), 0.0 * start)
     data = two[:BLOCK].transpose(1, 0, 2)
     end = data[(total - 1) // BLOCK, (total - 1) % BLOCK].copy()
     _put(data, total, np.broadcast_to(end, (count * BLOCK - total, width)))
     _pass(blocks.backward, blocks.transition, blocks.inputs_reversed, blocks.rest, two, one,
           range(count - 1, -1, -1), end)
-    _get(one[:BLOCK].transpose(1, 0, 2), lead + padlen, out)
+    _get(one[:BLOCK].transpose(1, 0, 2), lead + padlen, out, -blocks.gain**2 * start)
 
 
 def _pass(matrix: np.ndarray, transition: np.ndarray, inputs: np.ndarray, rest: np.ndarray,
@@ -336,31 +339,33 @@ def _pass(matrix: np.ndarray, transition: np.ndarray, inputs: np.ndarray, rest: 
     np.matmul(matrix, flat, out=target[:BLOCK].reshape(BLOCK, count * width))
 
 
-def _put(blocks: np.ndarray, start: int, data: np.ndarray) -> None:
-    """Write ``data`` (samples × columns) from sample ``start`` into ``blocks`` (blocks × BLOCK × columns)."""
+def _put(blocks: np.ndarray, start: int, data: np.ndarray, offset: np.ndarray | float = 0.0) -> None:
+    """Write ``data − offset`` (samples × columns) from sample ``start`` into ``blocks`` (blocks × BLOCK ×
+    columns)."""
     done = 0
     while done < len(data):
         k, i = divmod(start + done, BLOCK)
         whole = (len(data) - done) // BLOCK if i == 0 else 0
         if whole:
-            blocks[k : k + whole] = data[done : done + whole * BLOCK].reshape(whole, BLOCK, -1)
+            np.subtract(data[done : done + whole * BLOCK].reshape(whole, BLOCK, -1), offset, out=blocks[k : k + whole])
             done += whole * BLOCK
         else:
             step = min(BLOCK - i, len(data) - done)
-            blocks[k, i : i + step] = data[done : done + step]
+            np.subtract(data[done : done + step], offset, out=blocks[k, i : i + step])
             done += step
 
 
-def _get(blocks: np.ndarray, start: int, out: np.ndarray) -> None:
-    """Copy ``len(out)`` samples from sample ``start`` of ``blocks`` (blocks × BLOCK × columns) to ``out``."""
+def _get(blocks: np.ndarray, start: int, out: np.ndarray, offset: np.ndarray) -> None:
+    """Write ``len(out)`` samples from sample ``start`` of ``blocks`` (blocks × BLOCK × columns), minus
+    ``offset``, to ``out``."""
     done, samples = 0, len(out)
     while done < samples:
         k, i = divmod(start + done, BLOCK)
         whole = (samples - done) // BLOCK if i == 0 else 0
         if whole:
-            out[done : done + whole * BLOCK].reshape(whole, BLOCK, -1)[...] = blocks[k : k + whole]
+            np.subtract(blocks[k : k + whole], offset, out=out[done : done + whole * BLOCK].reshape(whole, BLOCK, -1))
             done += whole * BLOCK
         else:
             step = min(BLOCK - i, samples - done)
-            out[done : done + step] = blocks[k, i : i + step]
+            np.subtract(blocks[k, i : i + step], offset, out=out[done : done + step])
             done += step
