@@ -12,7 +12,7 @@ NumPy only, on purpose: importing :mod:`scipy.signal` costs about 0.8 s of wall 
 designed here as SciPy's ``butter`` and ``cheby1`` design them (the same second-order sections, to
 rounding) and run as ``sosfiltfilt`` runs them, by a block state-space form of the sections that is
 as fast as ``sosfilt`` on thousands of columns (bench/filters.py). SciPy is the reference of the
-tests (tests/test_data_filters.py), not a dependency of this module.
+tests (tests/test_filters_numpy.py), not a dependency of this module.
 """
 
 from __future__ import annotations
@@ -274,7 +274,7 @@ def _filtfilt(sos: np.ndarray, x: np.ndarray, padlen: int, axis: int) -> np.ndar
     realization of digital filters", IEEE Trans. Audio Electroacoust. 20(4), 1972). It is the same
     linear map as sosfilt's sample-by-sample recursion, so they differ by rounding only: about 1e-15 of
     the signal for cut-offs above 1e-2 of the Nyquist frequency, up to about 1e-10 at 1e-3, where
-    sosfilt's own rounding error is of that size (tests/test_data_filters.py).
+    sosfilt's own rounding error is of that size (tests/test_filters_numpy.py).
     """
     if x.shape[axis] <= padlen:
         raise ValueError(f"{x.shape[axis]} samples are too few for this filter: it needs more than {padlen}")
