@@ -10,9 +10,9 @@ function works along ``axis`` (default 0, the sample axis) of arrays of any shap
 NumPy only, on purpose: importing :mod:`scipy.signal` costs about 0.8 s of wall time (it imports
 :mod:`scipy.stats`), the largest part of a warm ``symbolic simulate`` (issue 23 §3). The filters are
 designed here as SciPy's ``butter`` and ``cheby1`` design them (the same second-order sections, to
-rounding) and run as ``sosfiltfilt`` runs them, by a block state-space form of the sections that is
-as fast as ``sosfilt`` on thousands of columns (bench/filters.py). SciPy is the reference of the
-tests (tests/test_filters_numpy.py), not a dependency of this module.
+rounding) and run as ``sosfiltfilt`` runs them, by a block state-space form of the sections, faster
+than ``sosfilt`` on thousands of columns (bench/filters.py) and closer to the exact recursion
+(tests/test_filters_numpy.py). SciPy is the reference of the tests, not a dependency of this module.
 """
 
 from __future__ import annotations
@@ -174,6 +174,10 @@ BLOCK = 48
 """Samples per block of :func:`_filtfilt`'s block state-space filter: the Toeplitz product costs
 ``BLOCK`` multiply-adds per sample and column, the sequential loop runs over ``samples/BLOCK`` blocks."""
 
+GROUP = 16
+"""Blocks per group: the states at the groups' starts are carried from group to group in extended precision
+(``np.longdouble``), those inside a group in double precision from its start (see :func:`_states`)."""
+
 COLUMNS = 512
 """Columns filtered at once (bounds the working memory to a few tens of MB per call)."""
 
@@ -193,12 +197,16 @@ class _Blocks:
     """``[T | O]``, BLOCK × (BLOCK + n): the outputs of a block from its inputs stacked over its start state."""
     backward: np.ndarray
     """The same for the time-reversed block, ``[J·T·J | J·O]`` (J reverses the samples)."""
-    transition: np.ndarray
-    """``A``, n × n."""
     inputs: np.ndarray
     """``C``, n × BLOCK."""
     inputs_reversed: np.ndarray
     """``C·J``, n × BLOCK."""
+    transition: np.ndarray
+    """``A``, n × n."""
+    weights: np.ndarray
+    """``A^(GROUP−1−i)`` for i = 0 … GROUP−1, GROUP × n × n: a group's end state from its blocks' ``C·u``."""
+    leap: np.ndarray
+    """``A^GROUP`` in extended precision (``np.longdouble``), n × n."""
     rest: np.ndarray
     """State of the sections at rest under a constant unit input (``scipy.signal.sosfilt_zi``), n."""
     gain: float
@@ -210,8 +218,10 @@ def _blocks(sos: bytes, sections: int) -> _Blocks:
     """:class:`_Blocks` of the sections whose float64 bytes are ``sos`` (a hashable key), n = 2·sections.
 
     ``T``, ``O``, ``A`` and ``C`` are measured by running the sections sample by sample (the recursion
-    ``sosfilt`` runs) on ``BLOCK`` impulses from rest and on zero inputs from each unit state: they are
-    as accurate as the recursion itself, without powers of a state matrix.
+    ``sosfilt`` runs) on ``BLOCK`` impulses from rest and on zero inputs from each unit state, in
+    extended precision and rounded once: for poles near the unit circle, ``A`` rounded after many steps
+    of double-precision arithmetic would move the slow modes (with ``np.longdouble`` the same as
+    ``float``, as on some platforms, that error of about 1e-10 at 1e-3 of the Nyquist frequency stays).
     """
     coefficients = np.frombuffer(sos).reshape(sections, 6)
     n = 2 * sections
@@ -219,11 +229,15 @@ def _blocks(sos: bytes, sections: int) -> _Blocks:
     impulses[:, :BLOCK] = np.eye(BLOCK)
     states = np.zeros((n, BLOCK + n))
     states[:, BLOCK:] = np.eye(n)
-    y, end = _recursion(coefficients, impulses, states)
-    toeplitz, free = y[:, :BLOCK], y[:, BLOCK:]
+    y, end = _recursion(*(m.astype(np.longdouble) for m in (coefficients, impulses, states)))
+    toeplitz, free, transition = y[:, :BLOCK].astype(float), y[:, BLOCK:].astype(float), end[:, BLOCK:]
+    powers = [np.eye(n, dtype=np.longdouble)]
+    for _ in range(GROUP):
+        powers.append(transition @ powers[-1])
     return _Blocks(np.hstack((toeplitz, free)), np.hstack((toeplitz[::-1, ::-1], free[::-1])),
-                   np.ascontiguousarray(end[:, BLOCK:]), np.ascontiguousarray(end[:, :BLOCK]),
-                   np.ascontiguousarray(end[:, BLOCK - 1 :: -1]), *_rest(coefficients))
+                   np.ascontiguousarray(end[:, :BLOCK], dtype=float),
+                   np.ascontiguousarray(end[:, BLOCK - 1 :: -1], dtype=float), transition.astype(float),
+                   np.array(powers[GROUP - 1 :: -1], dtype=float), powers[GROUP], *_rest(coefficients))
 
 
 def _recursion(sos: np.ndarray, u: np.ndarray, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -271,10 +285,11 @@ def _filtfilt(sos: np.ndarray, x: np.ndarray, padlen: int, axis: int) -> np.ndar
     is a block state-space filter (:class:`_Blocks`): the states at the blocks' starts follow from one
     short loop over the blocks, ``s_{k+1} = A·s_k + C·u_k``; then every output is one matrix product
     ``[T | O]·[u_k; s_k]`` over all blocks and columns (block state-space realisation, Burrus, "Block
-    realization of digital filters", IEEE Trans. Audio Electroacoust. 20(4), 1972). It is the same
-    linear map as sosfilt's sample-by-sample recursion, so they differ by rounding only: about 1e-15 of
-    the signal for cut-offs above 1e-2 of the Nyquist frequency, up to about 1e-10 at 1e-3, where
-    sosfilt's own rounding error is of that size (tests/test_filters_numpy.py).
+    realization of digital filters", IEEE Trans. Audio Electroacoust. 20(4), 1972), the states carried
+    from group to group of blocks in extended precision (:func:`_states`). It is the same linear map as
+    sosfilt's recursion and the two differ by rounding only: 3e-14 of the signal for cut-offs from 0.1 of
+    the Nyquist frequency, 1e-12 at 1e-2, 3e-11 at 1e-3, where this one is 1.3e-11 from the exact recursion
+    of the same sections and sosfilt's 3.5e-11 (tests/test_filters_numpy.py).
     """
     if x.shape[axis] <= padlen:
         raise ValueError(f"{x.shape[axis]} samples are too few for this filter: it needs more than {padlen}")
@@ -294,49 +309,74 @@ def _filtfilt_columns(blocks: _Blocks, x: np.ndarray, padlen: int, out: np.ndarr
 
     Layout: sample ``t = k·BLOCK + i`` of column c at ``[i, k, c]`` of a (BLOCK + n) × blocks × columns
     array whose last n rows hold the state at each block's start, so that a pass is one matrix product.
-    The extended signal is preceded by ``lead`` copies of its first sample so that the data start on a
-    block boundary (at rest on a constant, the sections stay at rest: the output is unchanged), and the
-    forward output is continued after its last sample by copies of it (the backward pass then reaches
-    that sample still at rest on it).
+    The filters run on the deviation from the extended signal's first sample ``x₀`` (a constant passes
+    both passes scaled by the DC gain G, added back as ``G²·x₀``: an offset costs no precision). That
+    deviation is preceded by ``lead`` zeros so that the data start on a block boundary (at rest on a
+    constant, the sections stay at rest: the output is unchanged), and the blocks run to a whole number
+    of groups; the forward output is continued after its last sample by copies of it (the backward pass
+    then reaches that sample still at rest on it).
     """
     samples, width = x.shape
     n = len(blocks.rest)
     lead = -padlen % BLOCK
     total = lead + samples + 2 * padlen
-    count = -(-total // BLOCK)
+    count = -(-total // (BLOCK * GROUP)) * GROUP
     head = 2 * x[0] - x[padlen:0:-1]
     tail = 2 * x[-1] - x[-2 : -(padlen + 2) : -1]
     start = head[0].copy()
     one = np.empty((BLOCK + n, count, width))
     data = one[:BLOCK].transpose(1, 0, 2)  # count × BLOCK × width view, sample order
-    data[0], data[-1] = 0.0, 0.0  # the lead (the first sample less itself), and any value after the end
+    data[0] = 0.0  # the lead: the first sample less itself
+    data[total // BLOCK :] = 0.0  # after the end: any value (the forward outputs there are replaced)
     _put(data, lead, head, start)
     _put(data, lead + padlen, x, start)
     _put(data, lead + padlen + samples, tail, start)
     two = np.empty_like(one)
-    _pass(blocks.forward, blocks.transition, blocks.inputs, blocks.rest, one, two, range(count), 0.0 * start)
+    _pass(blocks, blocks.forward, blocks.inputs, one, two, False, 0.0 * start)
     data = two[:BLOCK].transpose(1, 0, 2)
     end = data[(total - 1) // BLOCK, (total - 1) % BLOCK].copy()
     _put(data, total, np.broadcast_to(end, (count * BLOCK - total, width)))
-    _pass(blocks.backward, blocks.transition, blocks.inputs_reversed, blocks.rest, two, one,
-          range(count - 1, -1, -1), end)
+    _pass(blocks, blocks.backward, blocks.inputs_reversed, two, one, True, end)
     _get(one[:BLOCK].transpose(1, 0, 2), lead + padlen, out, -blocks.gain**2 * start)
 
 
-def _pass(matrix: np.ndarray, transition: np.ndarray, inputs: np.ndarray, rest: np.ndarray,
-          source: np.ndarray, target: np.ndarray, order: range, first: np.ndarray) -> None:
-    """One pass of the block filter: the inputs in ``source[:BLOCK]`` (BLOCK × blocks × columns), the
-    blocks taken in ``order``, starting at rest on ``first``; the states go to ``source[BLOCK:]`` and the
-    outputs to ``target[:BLOCK]``."""
+def _pass(blocks: _Blocks, matrix: np.ndarray, inputs: np.ndarray, source: np.ndarray, target: np.ndarray,
+          reverse: bool, first: np.ndarray) -> None:
+    """One pass of the block filter, ``matrix`` and ``inputs`` its ``[T | O]`` and ``C``: the inputs in
+    ``source[:BLOCK]`` (BLOCK × blocks × columns), the blocks taken from the last if ``reverse``, starting
+    at rest on ``first``; the states go to ``source[BLOCK:]`` and the outputs to ``target[:BLOCK]``."""
     _, count, width = source.shape
     flat = source.reshape(source.shape[0], count * width)
     driven = (inputs @ flat[:BLOCK]).reshape(-1, count, width)
-    states = source[BLOCK:]
-    state = rest[:, None] * first
-    for k in order:
-        states[:, k] = state
-        state = transition @ state + driven[:, k]
+    order = slice(None, None, -1 if reverse else 1)
+    source[BLOCK:, order] = _states(blocks, driven[:, order], first)
     np.matmul(matrix, flat, out=target[:BLOCK].reshape(BLOCK, count * width))
+
+
+def _states(blocks: _Blocks, driven: np.ndarray, first: np.ndarray) -> np.ndarray:
+    """The states at the blocks' starts, ``s_{k+1} = A·s_k + d_k`` from ``s_0`` at rest on ``first``
+    (``driven`` holds ``d_k = C·u_k``, n × blocks × columns, blocks a multiple of GROUP).
+
+    From group to group, ``s_{K+1} = A^GROUP·s_K + Σ_i A^(GROUP−1−i)·d_{K·GROUP+i}``, in extended precision:
+    with poles near the unit circle the carried state's rounding errors decay only over many blocks, and
+    in double precision they reach 1e-10 of the signal at 1e-3 of the Nyquist frequency. Inside each
+    group, the GROUP − 1 steps from its start are double precision, all groups at once.
+    """
+    n, count, width = driven.shape
+    groups = count // GROUP
+    d = driven.reshape(n, groups, GROUP, width)
+    grouped = sum(blocks.weights[i] @ d[:, :, i].reshape(n, -1) for i in range(GROUP)).reshape(n, groups, width)
+    starts = np.empty((n, groups, width))
+    state = (blocks.rest[:, None] * first).astype(blocks.leap.dtype)
+    for k in range(groups):
+        starts[:, k] = state
+        state = blocks.leap @ state + grouped[:, k]
+    states = np.empty((n, groups, GROUP, width))
+    state = starts.reshape(n, -1)
+    for i in range(GROUP):
+        states[:, :, i] = state.reshape(n, groups, width)
+        state = blocks.transition @ state + d[:, :, i].reshape(n, -1)
+    return states.reshape(n, count, width)
 
 
 def _put(blocks: np.ndarray, start: int, data: np.ndarray, offset: np.ndarray | float = 0.0) -> None:
