@@ -91,8 +91,7 @@ def decimate(x: np.ndarray, factor: int, axis: int = 0) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     if factor == 1:
         return x.copy()
-    filtered = _filtfilt(_chebyshev(factor), x, 3 * DECIMATION_ORDER, axis)
-    return np.take(filtered, kept_indices(x.shape[axis], factor), axis=axis)
+    return _filtfilt(_chebyshev(factor), x, 3 * DECIMATION_ORDER, axis, kept_indices(x.shape[axis], factor))
 
 
 def kept_indices(samples: int, factor: int) -> np.ndarray:
@@ -276,8 +275,9 @@ def _rest(sos: np.ndarray) -> tuple[np.ndarray, float]:
     return rest, level
 
 
-def _filtfilt(sos: np.ndarray, x: np.ndarray, padlen: int, axis: int) -> np.ndarray:
-    """``scipy.signal.sosfiltfilt(sos, x, axis=axis, padtype="odd", padlen=padlen)`` in NumPy only.
+def _filtfilt(sos: np.ndarray, x: np.ndarray, padlen: int, axis: int, keep: np.ndarray | None = None) -> np.ndarray:
+    """``scipy.signal.sosfiltfilt(sos, x, axis=axis, padtype="odd", padlen=padlen)`` in NumPy only, or only
+    its samples ``keep`` (increasing indices along ``axis``): :func:`decimate` writes no more than it keeps.
 
     The signal is extended at each end by its odd reflection over ``padlen`` samples; the sections run
     forward from rest on the first sample (the state ``sosfilt_zi·x[0]`` a constant input would hold),
@@ -297,15 +297,21 @@ def _filtfilt(sos: np.ndarray, x: np.ndarray, padlen: int, axis: int) -> np.ndar
     shape = x.shape
     x = x.reshape(shape[0], -1)
     blocks = _blocks(np.ascontiguousarray(sos, dtype=float).tobytes(), len(sos))
-    out = np.empty(x.shape)
+    keep = np.arange(shape[0]) if keep is None else keep
+    out = np.empty((len(keep), x.shape[1]))
+    # one working memory for every lot of columns: fresh pages cost as much as the filtering
+    count = _layout(shape[0], padlen)[2]
+    work = np.empty(2 * (BLOCK + len(blocks.rest)) * count * min(COLUMNS, x.shape[1]))
     for first in range(0, x.shape[1], COLUMNS):
         columns = slice(first, first + COLUMNS)
-        _filtfilt_columns(blocks, x[:, columns], padlen, out[:, columns])
-    return np.moveaxis(out.reshape(shape), 0, axis)
+        _filtfilt_columns(blocks, x[:, columns], padlen, keep, out[:, columns], work)
+    return np.moveaxis(out.reshape((len(keep),) + shape[1:]), 0, axis)
 
 
-def _filtfilt_columns(blocks: _Blocks, x: np.ndarray, padlen: int, out: np.ndarray) -> None:
-    """:func:`_filtfilt` of the columns of ``x`` (samples × columns), written into ``out`` (its shape).
+def _filtfilt_columns(blocks: _Blocks, x: np.ndarray, padlen: int, keep: np.ndarray, out: np.ndarray,
+                      work: np.ndarray) -> None:
+    """:func:`_filtfilt` of the columns of ``x`` (samples × columns), its samples ``keep`` written into
+    ``out`` (kept samples × columns); ``work`` is room for two arrays of the layout below.
 
     Layout: sample ``t = k·BLOCK + i`` of column c at ``[i, k, c]`` of a (BLOCK + n) × blocks × columns
     array whose last n rows hold the state at each block's start, so that a pass is one matrix product.
@@ -318,26 +324,37 @@ def _filtfilt_columns(blocks: _Blocks, x: np.ndarray, padlen: int, out: np.ndarr
     """
     samples, width = x.shape
     n = len(blocks.rest)
-    lead = -padlen % BLOCK
-    total = lead + samples + 2 * padlen
-    count = -(-total // (BLOCK * GROUP)) * GROUP
+    lead, total, count = _layout(samples, padlen)
     head = 2 * x[0] - x[padlen:0:-1]
     tail = 2 * x[-1] - x[-2 : -(padlen + 2) : -1]
     start = head[0].copy()
-    one = np.empty((BLOCK + n, count, width))
+    size = (BLOCK + n) * count * width
+    one, two = work[:size].reshape(BLOCK + n, count, width), work[size : 2 * size].reshape(BLOCK + n, count, width)
     data = one[:BLOCK].transpose(1, 0, 2)  # count × BLOCK × width view, sample order
     data[0] = 0.0  # the lead: the first sample less itself
     data[total // BLOCK :] = 0.0  # after the end: any value (the forward outputs there are replaced)
     _put(data, lead, head, start)
     _put(data, lead + padlen, x, start)
     _put(data, lead + padlen + samples, tail, start)
-    two = np.empty_like(one)
     _pass(blocks, blocks.forward, blocks.inputs, one, two, False, 0.0 * start)
     data = two[:BLOCK].transpose(1, 0, 2)
     end = data[(total - 1) // BLOCK, (total - 1) % BLOCK].copy()
     _put(data, total, np.broadcast_to(end, (count * BLOCK - total, width)))
     _pass(blocks, blocks.backward, blocks.inputs_reversed, two, one, True, end)
-    _get(one[:BLOCK].transpose(1, 0, 2), lead + padlen, out, -blocks.gain**2 * start)
+    data, offset = one[:BLOCK].transpose(1, 0, 2), -blocks.gain**2 * start
+    if len(keep) == samples:
+        _get(data, lead + padlen, out, offset)
+    else:
+        index = lead + padlen + keep
+        np.subtract(data[index // BLOCK, index % BLOCK], offset, out=out)
+
+
+def _layout(samples: int, padlen: int) -> tuple[int, int, int]:
+    """The lead (zeros before the extended signal, to start it on a block boundary), the samples to the
+    extended signal's end, and the blocks (a whole number of groups) of :func:`_filtfilt_columns`."""
+    lead = -padlen % BLOCK
+    total = lead + samples + 2 * padlen
+    return lead, total, -(-total // (BLOCK * GROUP)) * GROUP
 
 
 def _pass(blocks: _Blocks, matrix: np.ndarray, inputs: np.ndarray, source: np.ndarray, target: np.ndarray,
