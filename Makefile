@@ -31,6 +31,7 @@ bench:
 	$(PYTHON) bench/identification.py --out bench/results/identification.md
 	$(PYTHON) bench/simulate.py --out bench/results/simulate.md
 	$(PYTHON) bench/simulate_command.py --out bench/results/simulate_command.md
+	$(PYTHON) bench/startup.py --out bench/results/startup.md
 	$(PYTHON) bench/diagnose.py --out bench/results/diagnose.md
 	$(PYTHON) bench/emps_resonance.py --out bench/results/emps_resonance.md
 	$(PYTHON) bench/cache.py --out bench/results/cache.md

@@ -4,7 +4,9 @@ and 1 000 short logs with the workers' memory.
 Synthetic fleets of the two-link arm (tests/fleet_cases.py: the logs are written into a temporary folder):
 
 1. **Speed-up.** 24 logs of 120 s at 200 Hz (4 robots × 6), task ``diagnose`` (a few seconds per log).
-   *One at a time*: :func:`symbolic.fleet.tasks.run_log` on each log in turn in this process (no Dask).
+   *One at a time*: the whole campaign with ``workers=0`` (``symbolic campaign --workers 0``: each log in turn
+   in this process, no Dask, then the same analysis, report and figures: the same files); its tasks alone
+   (:func:`symbolic.fleet.tasks.run_log` on each log in turn) are reported too.
    *Campaign*: ``symbolic.fleet.run`` on a local cluster of 2 worker processes (started before, its start
    reported apart; warm: each worker has run one log before, as on a cluster that outlives a campaign; the
    cold campaign is reported too), the whole campaign: planning, the tasks, the analysis, report and
@@ -46,7 +48,9 @@ ROOT = Path(__file__).resolve().parents[1]
 ROUNDS = 2
 """Rounds of (one at a time, campaign), interleaved; the medians are reported."""
 SECONDS = 120.0
-"""Length of each log of the speed-up's campaign: a diagnosis of a few seconds."""
+"""Length of each log of the speed-up's first campaign (about 1 s of diagnosis per log) and of the trim test."""
+LONGER = (360.0,)
+"""Lengths of the logs of further speed-up campaigns: diagnoses of a few seconds, the task size the issue names."""
 SHORT = 1000
 """Short logs of the memory part (10 robots)."""
 sys.path.insert(0, str(ROOT))
@@ -116,24 +120,32 @@ def warm(job) -> None:
     run_log(job)
 
 
-def speed_up(folder: Path) -> dict:
+def speed_up(folder: Path, seconds: float) -> dict:
     import fleet_cases
     from symbolic import fleet
     from symbolic.fleet.execution import execute, plan
     from symbolic.fleet.store import Store
     from symbolic.fleet.tasks import run_log
 
-    path = fleet_cases.fleet(folder / "long", logs=6, robots=4, seconds=SECONDS, kind="diagnose")
+    folder = folder / f"speed_{seconds:g}"
+    path = fleet_cases.fleet(folder / "long", logs=6, robots=4, seconds=seconds, kind="diagnose")
     campaign = fleet.load(path)
     _, jobs = plan(campaign, Store(folder / "serial"))
     run_log(jobs[0])  # derivation, regressor and base parameters into the derivation cache (as a worker reads them)
+    from symbolic.plotting import figure_class
+
+    figure_class()  # the report's imports (Matplotlib), before either side is timed: both run in this process
     serial_times, campaign_times, starts, serial_cpu, worker_cpu, client_cpu, cold_times = [], [], [], [], [], [], []
-    workers_cpu = []
+    workers_cpu, whole_times, whole_cpu = [], [], []
     for round_ in range(ROUNDS):  # interleaved: the machine is shared, its load moves between the phases
         started, used = time.perf_counter(), time.process_time()
         serial = [run_log(job) for job in jobs]
         serial_times.append(time.perf_counter() - started)
         serial_cpu.append(time.process_time() - used)
+        started, used = time.perf_counter(), time.process_time()
+        fleet.run(campaign, folder / f"serial_{round_}", workers=0)  # the whole campaign, one log at a time, no Dask
+        whole_times.append(time.perf_counter() - started)
+        whole_cpu.append(time.process_time() - used)
         local, client, start_2 = cluster(2)
         starts.append(start_2)
         try:
@@ -163,7 +175,8 @@ def speed_up(folder: Path) -> dict:
         client.close()
         local.close()
     own = sum(r["seconds"] for r in results.values())
-    return {"logs": len(jobs), "errors": sum(r["status"] != "ok" for r in serial), "one_at_a_time": one_at_a_time,
+    return {"seconds": seconds, "logs": len(jobs), "errors": sum(r["status"] != "ok" for r in serial),
+            "one_at_a_time": one_at_a_time,
             "task_mean": sum(r["seconds"] for r in serial) / len(serial), "campaign_2": campaign_2, "start_2": start_2,
             "speed_up": one_at_a_time / campaign_2, "speed_up_with_start": one_at_a_time / (campaign_2 + start_2),
             "wall_1": wall_1, "own_1": own, "overhead": (wall_1 - own) / own, "start_1": start_1,
@@ -171,6 +184,8 @@ def speed_up(folder: Path) -> dict:
             "serial_cpu": float(np.median(serial_cpu)), "worker_cpu": float(np.median(worker_cpu)),
             "client_cpu": float(np.median(client_cpu)), "cold": cold_times[0],
             "workers_cpu": float(np.median(workers_cpu)),
+            "whole": float(np.median(whole_times)), "whole_cpu": float(np.median(whole_cpu)),
+            "whole_rounds": whole_times,
             "computed": outcome.computed, "campaign_errors": len(outcome.errors),
             "overhead_errors": sum(r["status"] != "ok" for r in results.values())}
 
@@ -199,7 +214,41 @@ def short_logs(folder: Path) -> dict:
             "errors": sum(r["status"] != "ok" for r in results.values())}
 
 
-def markdown(a: dict, b: dict, c: dict) -> str:
+def speed_section(a: dict) -> list[str]:
+    """The Markdown of one speed-up campaign."""
+    return [
+        f"## Speed-up: {a['logs']} logs of {a['seconds']:g} s, task diagnose",
+        "",
+        "| | seconds |",
+        "|---|---|",
+        f"| the whole campaign one log at a time (`--workers 0`: the tasks in turn in this process, no Dask, then "
+        f"the same analysis, report and figures; median of {len(a['rounds'])} rounds) | {a['whole']:.1f} |",
+        f"| its tasks alone (run_log in turn; median of {len(a['rounds'])} rounds) | {a['one_at_a_time']:.1f} "
+        f"(mean task {a['task_mean']:.2f} s) |",
+        f"| campaign on 2 warm local workers (plan, tasks, analysis, report, figures) | {a['campaign_2']:.1f} |",
+        f"| the same on 2 cold workers (each imports and reads the model during the campaign) | {a['cold']:.1f} |",
+        f"| starting the 2-worker local cluster | {a['start_2']:.1f} |",
+        f"| **speed-up of the campaign, wall time** (the same files written) | **{a['whole'] / a['campaign_2']:.2f}×** "
+        f"(cold workers: {a['whole'] / a['cold']:.2f}×) |",
+        f"| speed-up against the tasks alone (the report and figures counted on the campaign's side only) | "
+        f"{a['speed_up']:.2f}× (cold workers: {a['one_at_a_time'] / a['cold']:.2f}×) |",
+        "",
+        "Rounds (tasks alone, whole campaign one at a time, campaign on 2 workers), s: "
+        + ", ".join(f"({x:.1f}, {w:.1f}, {y:.1f})" for (x, y), w in zip(a["rounds"], a["whole_rounds"])) + ".",
+        "",
+        f"CPU time, which the machine's other load does not change: the whole campaign one at a time "
+        f"{a['whole_cpu']:.1f} s, its tasks alone {a['serial_cpu']:.1f} s; in the "
+        f"campaign the two workers {a['workers_cpu']:.1f} s together, the busier {a['worker_cpu']:.1f} s, and the client (planning, analysis, report, figures) "
+        f"{a['client_cpu']:.1f} s. On two idle cores the campaign would take about the busier worker's time plus the "
+        f"client's: **{a['whole_cpu'] / (a['worker_cpu'] + a['client_cpu']):.2f}×** faster than the whole campaign "
+        f"one at a time ({a['serial_cpu'] / (a['worker_cpu'] + a['client_cpu']):.2f}× its tasks alone).",
+        "",
+        f"Error rows: {a['errors']} one at a time, {a['campaign_errors']} in the campaign, {a['overhead_errors']} on 1 worker.",
+        "",
+    ]
+
+
+def markdown(speeds: list[dict], b: dict, c: dict) -> str:
     load = os.getloadavg()
     return "\n".join([
         "# Fleet benchmark (bench/fleet.py)",
@@ -209,30 +258,15 @@ def markdown(a: dict, b: dict, c: dict) -> str:
         f"Python {platform.python_version()}. "
         "Regenerate: `python bench/fleet.py --out bench/results/fleet.md`.",
         "",
-        f"## Speed-up: {a['logs']} logs of {SECONDS:g} s, task diagnose",
-        "",
-        "| | seconds |",
-        "|---|---|",
-        f"| one at a time (run_log in turn, no Dask; median of {len(a['rounds'])} rounds) | {a['one_at_a_time']:.1f} "
-        f"(mean task {a['task_mean']:.2f} s) |",
-        f"| campaign on 2 warm local workers (plan, tasks, analysis, report, figures) | {a['campaign_2']:.1f} |",
-        f"| the same on 2 cold workers (each imports and reads the model during the campaign) | {a['cold']:.1f} |",
-        f"| starting the 2-worker local cluster | {a['start_2']:.1f} |",
-        f"| **speed-up, wall time** | **{a['speed_up']:.2f}×** (cold workers: {a['one_at_a_time'] / a['cold']:.2f}×) |",
-        "",
-        "Rounds (one at a time, campaign), s: " + ", ".join(f"({x:.1f}, {y:.1f})" for x, y in a["rounds"]) + ".",
-        "",
-        f"CPU time, which the machine's other load does not change: one at a time {a['serial_cpu']:.1f} s; in the "
-        f"campaign the two workers {a['workers_cpu']:.1f} s together, the busier {a['worker_cpu']:.1f} s, and the client (planning, analysis, report, figures) "
-        f"{a['client_cpu']:.1f} s. On two idle cores the campaign would take about the busier worker's time plus the "
-        f"client's: **{a['serial_cpu'] / (a['worker_cpu'] + a['client_cpu']):.2f}×** faster than one at a time.",
-        "",
-        f"Error rows: {a['errors']} one at a time, {a['campaign_errors']} in the campaign, {a['overhead_errors']} on 1 worker.",
-        "",
+        *[line for a in speeds for line in speed_section(a)],
         "## Scheduler overhead: the same tasks on 1 worker",
         "",
-        f"Wall time of the tasks through Dask {a['wall_1']:.2f} s, their own run times {a['own_1']:.2f} s: "
-        f"**overhead {100 * a['overhead']:.1f} %** (cluster start {a['start_1']:.1f} s, apart).",
+        "(wall time through Dask − Σ the tasks' own run times) / Σ their run times; the cluster's start apart.",
+        "",
+        "| logs | mean task (s) | wall through Dask (s) | Σ own run times (s) | **overhead** | cluster start (s) |",
+        "|---|---|---|---|---|---|",
+        *[f"| {x['logs']} of {x['seconds']:g} s | {x['own_1'] / x['logs']:.2f} | {x['wall_1']:.2f} | {x['own_1']:.2f} | "
+          f"**{100 * x['overhead']:.1f} %** | {x['start_1']:.1f} |" for x in speeds],
         "",
         "## Dask's MALLOC_TRIM_THRESHOLD_ (why symbolic's local cluster leaves it out)",
         "",
@@ -255,24 +289,25 @@ START_LOAD = os.getloadavg()
 
 
 def main() -> None:
-    global SECONDS, SHORT
+    global SECONDS, LONGER, SHORT
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", help="write the results as Markdown here")
     parser.add_argument("--skip-short", action="store_true", help="leave out the 1 000 short logs")
-    parser.add_argument("--seconds", type=float, default=120.0, help="length of the speed-up's logs (smoke runs)")
+    parser.add_argument("--seconds", type=float, nargs="+", default=[SECONDS, *LONGER],
+                        help="lengths of the speed-up campaigns' logs (the first also for the trim test)")
     parser.add_argument("--short", type=int, default=1000, help="number of short logs, a multiple of 10 (smoke runs)")
     args = parser.parse_args()
-    SECONDS, SHORT = args.seconds, args.short
+    (SECONDS, *LONGER), SHORT = args.seconds, args.short
     with tempfile.TemporaryDirectory(prefix="symbolic-bench-fleet-") as tmp:
         os.environ["SYMBOLIC_CACHE_DIR"] = str(Path(tmp) / "derivations")
-        a = speed_up(Path(tmp))
-        print(a, flush=True)
+        speeds = [speed_up(Path(tmp), seconds) for seconds in (SECONDS, *LONGER)]
+        print(speeds, flush=True)
         c = trim_cost(Path(tmp))
         print(c, flush=True)
         b = short_logs(Path(tmp)) if not args.skip_short else {"logs": 0, "wall": 0, "rate": 0, "after_100": [],
                                                                "after_all": [], "errors": 0}
         print(b, flush=True)
-    text = markdown(a, b, c)
+    text = markdown(speeds, b, c)
     print(text)
     if args.out:
         Path(args.out).write_text(text, encoding="utf-8")

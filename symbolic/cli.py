@@ -425,11 +425,14 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     from symbolic import export
     from symbolic.fleet import INSTALL, available
 
-    if not available():  # before reading anything: the one line that says how to get it
-        print(f"error: {INSTALL}", file=sys.stderr)
+    in_process = args.workers == 0 and not args.scheduler
+    if not available() and not in_process:  # before reading anything: the one line that says how to get it
+        print(f"error: {INSTALL} (or run it without Dask, one log at a time: --workers 0)", file=sys.stderr)
         return 2
-    if args.workers is not None and args.workers < 1:
-        print(f"error: --workers {args.workers}: expected a positive number of worker processes", file=sys.stderr)
+    if args.workers is not None and (args.workers < 0 or (args.workers == 0 and args.scheduler)):
+        allowed = "a positive number of workers to wait for" if args.scheduler else \
+            "0 (one log at a time in this process) or a positive number of worker processes"
+        print(f"error: --workers {args.workers}: expected {allowed}", file=sys.stderr)
         return 2
     try:
         export.check_output_directory(args.out)  # before the campaign: a mistyped --out is reported at once
@@ -572,7 +575,8 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask cluster (tcp://host:8786); default: a "
                    "local cluster of worker processes on this machine")
     c.add_argument("--workers", type=int, metavar="N", help="worker processes of the local cluster (default: the "
-                   "processors); with --scheduler, the workers to wait for")
+                   "processors; 0: one log at a time in this process, without Dask); with --scheduler, the workers "
+                   "to wait for")
     c.add_argument("--json", action="store_true", help="machine-readable summary (errors, drift, outliers, events)")
     c.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS, help="no progress on stderr")
     c.set_defaults(func=cmd_campaign)

@@ -225,7 +225,17 @@ def test_the_command_without_dask_says_how_to_install_it(monkeypatch, capsys) ->
     monkeypatch.setattr(fleet, "available", lambda: False)
     assert cli.main(["campaign", "plant.toml", "--out", "out"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and "pip install 'symbolic[fleet]'" in err
+    assert err.count("\n") == 0 and "pip install 'symbolic[fleet]'" in err and "--workers 0" in err
+
+
+@pytest.mark.parametrize("arguments, allowed", [(["--workers", "-1"], "0 (one log at a time in this process)"),
+                                                (["--workers", "0", "--scheduler", "tcp://h:1"], "a positive number")])
+def test_a_bad_worker_count_is_one_line_naming_what_is_allowed(arguments, allowed, capsys) -> None:
+    from symbolic import cli
+
+    assert cli.main(["campaign", "plant.toml", "--out", "out", *arguments]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--workers" in err and allowed in err
 
 
 # --- the synthetic fleet on Dask ------------------------------------------------------------------------------------
@@ -316,6 +326,26 @@ def test_a_real_scheduler_and_worker_give_the_same_results(synthetic: Path, loca
         for process in reversed(started):
             os.killpg(process.pid, signal.SIGTERM)
             process.wait(timeout=30)
+    assert without_run_times((out / "results.csv").read_text()) == \
+        without_run_times((local_out / "results.csv").read_text())
+    assert (out / "report.md").read_text() == (local_out / "report.md").read_text()
+
+
+@needs_dask
+def test_one_at_a_time_without_dask_gives_the_clusters_results(synthetic: Path, local, tmp_path: Path,
+                                                                monkeypatch, capsys) -> None:
+    """``--workers 0`` runs every log in this process, Dask neither needed nor used: the same table and report."""
+    from symbolic import cli
+    from symbolic.fleet import execution
+
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("--workers 0 went to Dask")
+
+    local_out, _ = local
+    monkeypatch.setattr(fleet, "available", lambda: False)
+    monkeypatch.setattr(execution, "_on_cluster", no_cluster)
+    out = tmp_path / "serial"
+    assert cli.main(["-q", "campaign", str(synthetic), "--out", str(out), "--workers", "0"]) == 0, capsys.readouterr().err
     assert without_run_times((out / "results.csv").read_text()) == \
         without_run_times((local_out / "results.csv").read_text())
     assert (out / "report.md").read_text() == (local_out / "report.md").read_text()

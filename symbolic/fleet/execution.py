@@ -169,13 +169,34 @@ def assemble(rows: Sequence[dict[str, Any]], results: dict[str, dict[str, Any]])
 
 def execute(jobs: Sequence[Job], store: Store, *, scheduler: str | None = None,
             workers: int | None = None) -> dict[str, dict[str, Any]]:
-    """Run ``jobs`` on Dask (module docstring); every result is kept in ``store`` as it arrives."""
+    """Run ``jobs`` on Dask (module docstring), or one at a time in this process when ``workers`` is 0 (no
+    Dask needed: for debugging, and the baseline of bench/fleet.py); every result is kept in ``store`` as it
+    arrives. The largest logs go first, so that no long task starts last and leaves the other workers idle."""
+    jobs = sorted(jobs, key=_size, reverse=True)
+    results: dict[str, dict[str, Any]] = {}
+    progress = _Progress(len(jobs))
+
+    def keep(job: Job, result: dict[str, Any]) -> None:
+        if result.get("cacheable") and result.get("stamp") == stamp():
+            store.put(job.key, result)
+        results[job.key] = result
+        progress.step(result["status"] != "ok")
+
+    if workers == 0 and not scheduler:
+        for job in jobs:
+            keep(job, run_log(job))
+    else:
+        _on_cluster(jobs, keep, scheduler, workers)
+    progress.done()
+    return results
+
+
+def _on_cluster(jobs: Sequence[Job], keep, scheduler: str | None, workers: int | None) -> None:
+    """Each job one Dask task; ``keep(job, result)`` as each result arrives."""
     try:
         from dask.distributed import as_completed
     except ImportError:
         raise ClusterError(INSTALL) from None
-    results: dict[str, dict[str, Any]] = {}
-    progress = _Progress(len(jobs))
     with _client(scheduler, workers, len(jobs)) as client:
         futures = client.map(run_log, jobs, key=[f"symbolic-log-{job.key}" for job in jobs], pure=False)
         by_key = {future.key: job for future, job in zip(futures, jobs)}
@@ -185,12 +206,15 @@ def execute(jobs: Sequence[Job], store: Store, *, scheduler: str | None = None,
             job = by_key[future.key]
             result = _result(future, job)
             future.release()
-            if result.get("cacheable") and result.get("stamp") == stamp():
-                store.put(job.key, result)
-            results[job.key] = result
-            progress.step(result["status"] != "ok")
-    progress.done()
-    return results
+            keep(job, result)
+
+
+def _size(job: Job) -> int:
+    """Bytes of the job's log (0 when it cannot be read: its task reports why)."""
+    try:
+        return os.stat(job.path).st_size
+    except (OSError, ValueError):
+        return 0
 
 
 def _result(future, job: Job) -> dict[str, Any]:
@@ -250,7 +274,9 @@ def local_cluster(workers: int):
     system at once); that also turns off glibc's adaptive mmap threshold, so every array above 128 KB is a
     fresh mapping whose pages are faulted in again: on a diagnosis of a 120 s log it cost 70 % more CPU time
     (24 times the page faults; bench/results/fleet.md). The workers here keep the other settings (one BLAS
-    thread each) and glibc's default; memory stays bounded (1 000 logs, bench/results/fleet.md)."""
+    thread each) and glibc's default; memory stays bounded (1 000 logs, bench/results/fleet.md). Dask's
+    statistical profiler (a thread sampling every worker's stack each 10 ms, for the dashboard, which this
+    cluster does not serve) is off: it cost about 3 % of a worker's CPU time on diagnoses."""
     import dask
     from dask.distributed import LocalCluster
 
@@ -258,7 +284,8 @@ def local_cluster(workers: int):
         logging.getLogger(name).setLevel(logging.ERROR)
     environment = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
                    if k != "MALLOC_TRIM_THRESHOLD_"}
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": environment}), warnings.catch_warnings():
+    settings = {"distributed.nanny.pre-spawn-environ": environment, "distributed.worker.profile.enabled": False}
+    with dask.config.set(settings), warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # "port 8787 is in use": the scheduler's HTTP port, unused here
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
                             dashboard_address=None, worker_dashboard_address=None)

@@ -89,7 +89,7 @@ def outliers(series: Sequence[Series], drifts: Sequence[Drift], models: Mapping[
     """The tests of every (robot, parameter) whose model has at least four robots with that parameter.
 
     ``models``: robot id → its model's digest (siblings share it)."""
-    from scipy.stats import t as student
+    from scipy.special import stdtr  # Student's t CDF (as in drift)
 
     tested = {(d.series.robot, d.series.parameter): d for d in drifts}
     groups: dict[tuple[str, str], dict[str, Level]] = {}
@@ -105,7 +105,7 @@ def outliers(series: Sequence[Series], drifts: Sequence[Drift], models: Mapping[
             m = len(others)
             mean, spread = float(others.mean()), float(others.std(ddof=1))
             scale = math.sqrt(spread**2 * (1 + 1 / m) + own.sigma**2)
-            p = float(2 * student.sf(abs(own.value - mean) / scale, m - 1)) if scale > 0 else (
+            p = float(2 * stdtr(m - 1, -abs(own.value - mean) / scale)) if scale > 0 else (
                 0.0 if own.value != mean else 1.0)
             big = abs(own.value - mean) >= analysis.min_change * abs(mean)
             out.append(Outlier(robot, model, parameter, own.value, own.sigma, mean, spread, p, threshold,
