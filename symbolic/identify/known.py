@@ -32,6 +32,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import weakref
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -210,7 +211,7 @@ def _beta_bounds(model: DynamicModel, reg: Regressor, base: BaseParameters, name
         unknown = sorted(beta.free_symbols, key=str)
         if not unknown or not any(u in bounds for u in unknown):
             continue
-        slopes = [sp.diff(beta, u) for u in unknown]
+        slopes = _slopes(beta, tuple(unknown))
         if any(not s.is_number for s in slopes):
             continue  # not linear in the unknown parameters
         low = high = float(beta.xreplace({u: 0 for u in unknown}))
@@ -221,6 +222,13 @@ def _beta_bounds(model: DynamicModel, reg: Regressor, base: BaseParameters, name
         if np.isfinite(low) or np.isfinite(high):
             out[name] = (low, high)
     return out
+
+
+@functools.lru_cache(maxsize=4096)
+def _slopes(beta: sp.Expr, unknown: tuple[sp.Symbol, ...]) -> tuple[sp.Expr, ...]:
+    """∂β/∂u for each unknown u: kept across models, since a patched model (a diagnosis adds friction, a
+    payload, corrected values) shares most of its base parameters, and their derivatives, with the original."""
+    return tuple(sp.diff(beta, u) for u in unknown)
 
 
 def polynomial_lower_bound(beta: sp.Expr, bounds: Mapping[sp.Symbol, tuple[float, float]]) -> float:
