@@ -225,3 +225,23 @@ def test_payload_parts() -> None:
     assert chain_ends(arm) == {"q2": "2"}
     tool = symbolic.loads(cases.arm(extra='[end_effector]\nframe = "1"\npoint = ["0", "0", "0"]\n'), "<arm>")
     assert chain_ends(tool) == {"q1": "1", "q2": "2"}
+
+
+def test_modes_of_unphysical_patched_values_are_a_note_not_a_crash() -> None:
+    """A fit on data that do not determine the inertias (the data fuzz: τ = 2·q under --simulate) can leave
+    D(Q) indefinite at the patched values; the modes are then left out with a note (it was a LinAlgError)."""
+    from types import SimpleNamespace
+
+    from symbolic.workflow.corrections import modes
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", symbolic.ModelWarning)
+        model = symbolic.derive(symbolic.loads(cases.flexible_rig(), "flexible_rig.toml"))
+    data = SimpleNamespace(states=SimpleNamespace(q=np.zeros((8, 2))), coordinates=model.robot.generalized_coordinates)
+    notes: list[str] = []
+    good = modes(model, model, dict(RIG), data, None, 1e-3, notes)
+    assert notes == [] and np.array([(m["frequency_hz"], m["damping_ratio"]) for m in good["after"]]) == \
+        pytest.approx(np.array(rig_modes(**RIG)), rel=1e-9)
+    assert modes(model, model, {**RIG, "Jl": -0.05}, data, None, 1e-3, notes) is None  # M = [[Jh+Jl, Jl], [Jl, Jl]]
+    assert notes == ["modes not computed: D(Q) is not positive definite at the data's mean position with the "
+                     "patched values"]

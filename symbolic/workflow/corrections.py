@@ -491,17 +491,21 @@ def modes(before: DynamicModel, after: DynamicModel, after_values: Mapping[str, 
         return np.array([mean.get(c, 0.0) for c in model.robot.generalized_coordinates])
 
     nominal = {s.name: float(v) for s, v in before.parameters.items()}
-    out: dict[str, Any] = {
-        "before": [_mode(m) for m in plant_modes(before, nominal, rest(before))],
-        "after": [_mode(m) for m in plant_modes(after, after_values, rest(after))],
-        "position": mean, "closed_loop": None,
-    }
+    out: dict[str, Any] = {"before": None, "after": None, "position": mean, "closed_loop": None}
+    for role, model, values in (("before", before, nominal), ("after", after, after_values)):
+        try:
+            out[role] = [_mode(m) for m in plant_modes(model, values, rest(model))]
+        except np.linalg.LinAlgError:  # unphysical values (a fit on data that do not determine them)
+            which = "the model file's" if role == "before" else "the patched"
+            notes.append(f"modes not computed: D(Q) is not positive definite at the data's mean position with "
+                         f"{which} values")
+            return None
     if controller is not None:
         try:
             out["closed_loop"] = {
                 "before": [_mode(m) for m in closed_loop_modes(before, nominal, controller, period, rest(before))],
                 "after": [_mode(m) for m in closed_loop_modes(after, after_values, controller, period, rest(after))]}
-        except (ModelError, ValueError, KeyError) as error:
+        except (ModelError, ValueError, KeyError) as error:  # np.linalg.LinAlgError is a ValueError
             notes.append(f"closed-loop modes not computed: the [controller] cannot be linearised ({error})")
     return out
 
