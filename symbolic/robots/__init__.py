@@ -11,7 +11,10 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from symbolic.description.robot import Robot
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the listing (names, paths) does not import SymPy: the command line's first line comes sooner
+    from symbolic.description.robot import Robot
 
 
 EXPERIMENT_SUFFIX = ".experiment.toml"
