@@ -180,17 +180,19 @@ def free_of(model):
     return reg, [s for s in model.parameter_symbols if s not in fixed and any(s in e.free_symbols for e in reg.theta_expressions)]
 
 
+def builtin(name: str):
+    """A built-in robot, derived (its model-file warnings are not what these tests look at)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", symbolic.ModelWarning)
+        return symbolic.derive(symbolic.robots.load(name))
+
+
 @pytest.mark.parametrize("linear", [False, True])
 @pytest.mark.parametrize("name", ["arm3d", "puma560"])
 def test_jacobians_match_finite_differences(name: str, linear: bool, arm) -> None:
     """∂p/∂φ (both coordinate systems, full bodies and the PUMA's diagonal inertias and partial centres of
     mass) and ∂θ/∂p against central differences (step 1e-6, agreement 1e-7 of the largest entry)."""
-    if name == "arm3d":
-        model = arm
-    else:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", symbolic.ModelWarning)
-            model = symbolic.derive(symbolic.robots.load(name))
+    model = arm if name == "arm3d" else builtin(name)
     reg, free = free_of(model)
     prob = consistent.problem(model, reg, free, parameter_bounds(model))
     p0 = np.array([model.parameters[s] for s in free])
@@ -216,12 +218,7 @@ def test_jacobians_match_finite_differences(name: str, linear: bool, arm) -> Non
 def test_hessian_matches_finite_differences(name: str, linear: bool, arm) -> None:
     """The second-order terms of Newton's pass, (∂p/∂φ)ᵀ·(Σ w_k·∇²θ_k)·(∂p/∂φ) + Σ q_j·∇²p_j, against central
     differences of the gradient of wᵀθ(p(φ)) for a random w (agreement 1e-7 of the largest entry)."""
-    if name == "arm3d":
-        model = arm
-    else:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", symbolic.ModelWarning)
-            model = symbolic.derive(symbolic.robots.load(name))
+    model = arm if name == "arm3d" else builtin(name)
     reg, free = free_of(model)
     prob = consistent.problem(model, reg, free, parameter_bounds(model))
     rng = np.random.default_rng(1)

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -180,7 +179,7 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
                      data: Path | None = None) -> Experiment:
     """Read an experiment file and the data file it names (or ``data`` instead); see the module docstring."""
     source = str(path)
-    spec = _read_toml(path)
+    spec = files.read_toml(path, "experiment")
     check_keys(spec, TOP_KEYS, source)
     if data is not None:
         if not data.is_file():
@@ -344,19 +343,6 @@ def resolve_data(name: str, experiment: Path) -> Path:
         f"data file {name!r} not found (looked at {first} and, by name, in the folders of {where}); give a path "
         f"relative to the experiment file or set {DATA_PATH_VARIABLE} to the folder that holds {given.name}",
     )
-
-
-def _read_toml(path: Path) -> dict[str, Any]:
-    try:
-        text = path.read_bytes().decode("utf-8")
-    except OSError as exc:
-        raise DataError(str(path), "file", f"cannot read experiment file: {exc.strerror}") from None
-    except UnicodeDecodeError:
-        raise DataError(str(path), "file", "experiment file is not UTF-8 text") from None
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise DataError(str(path), "TOML syntax", str(exc)) from None
 
 
 def _string(spec: Mapping[str, Any], key: str, source: str, required: bool = False) -> str | None:

@@ -14,12 +14,14 @@ import itertools
 import math
 import os
 import struct
+import tomllib
 import warnings
 import zipfile
 import zlib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -486,3 +488,18 @@ def _number(value: float) -> str:
     if math.isfinite(value) and value == int(value) and abs(value) < 2**53:
         return str(int(value))
     return "%.17g" % value
+
+
+def read_toml(path: Path, kind: str) -> dict[str, Any]:
+    """The tables of the TOML file ``path`` (an experiment or a campaign file: ``kind`` names it in the
+    errors); an unreadable file, text that is not UTF-8, or a TOML syntax error is one :class:`DataError`."""
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except OSError as error:
+        raise DataError(str(path), "file", f"cannot read {kind} file: {error.strerror}") from None
+    except UnicodeDecodeError:
+        raise DataError(str(path), "file", f"{kind} file is not UTF-8 text") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise DataError(str(path), "TOML syntax", str(error)) from None

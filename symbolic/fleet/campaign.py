@@ -15,7 +15,6 @@ import glob
 import json
 import math
 import re
-import tomllib
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -24,6 +23,7 @@ from typing import Any
 
 from symbolic import robots
 from symbolic.data.errors import DataError
+from symbolic.data.files import read_toml
 from symbolic.data.keys import check_keys
 from symbolic.data.settings import Settings
 from symbolic.description.modelfile import loads
@@ -156,7 +156,7 @@ def load(path: str | Path) -> Campaign:
     """Read and check a campaign file; :class:`DataError` (one line: file, key, problem, what is allowed)."""
     path = Path(path)
     source = str(path)
-    spec = _read(path)
+    spec = read_toml(path, "campaign")
     check_keys(spec, TOP_KEYS, source)
     name = _text(spec, "name", source, path.stem)
     description = _text(spec, "description", source, "")
@@ -173,19 +173,6 @@ def load(path: str | Path) -> Campaign:
     if seen:
         raise DataError(source, f"[[robot]] '{seen[0]}' id", "used twice (each robot needs its own id)")
     return Campaign(path, name, description, tuple(robots_), analysis)
-
-
-def _read(path: Path) -> dict[str, Any]:
-    try:
-        text = path.read_bytes().decode("utf-8")
-    except OSError as error:
-        raise DataError(str(path), "file", f"cannot read campaign file: {error.strerror}") from None
-    except UnicodeDecodeError:
-        raise DataError(str(path), "file", "campaign file is not UTF-8 text") from None
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise DataError(str(path), "TOML syntax", str(error)) from None
 
 
 def _text(spec: Mapping[str, Any], key: str, source: str, default: str) -> str:
@@ -305,13 +292,8 @@ def _robot(entry: Mapping[str, Any], k: int, campaign: Path, task: Task, models:
         task = _task(entry["task"], source, f"{where} task")
     experiment = None
     if "experiment" in entry:
-        name = entry["experiment"]
-        if not isinstance(name, str) or not name.strip():
-            raise DataError(source, f"{where} experiment", f"expected an experiment file name, got {shown(name)}")
-        experiment = _relative(name, campaign)
-        if not experiment.is_file():
-            raise DataError(source, f"{where} experiment", f"experiment file {str(experiment)!r} not found (a path "
-                                                           "relative to the campaign file)")
+        experiment = _existing(entry["experiment"], campaign, f"{where} experiment", "an experiment file",
+                               "experiment file")
     reader, column = _time_reader(entry.get("time"), source, f"{where} time")
     logs = _listed_logs(entry.get("log", []), campaign, f"{where} log")
     if "logs" in entry:
@@ -336,6 +318,17 @@ def _link(value: Any, source: str, where: str) -> str | None:
     if value is not None and (not isinstance(value, str) or not value.strip()):
         raise DataError(source, where, f"expected the name of a link of the URDF model, got {shown(value)}")
     return value
+
+
+def _existing(name: Any, campaign: Path, where: str, expected: str, found: str) -> Path:
+    """The file ``name`` names (relative to the campaign file), refused unless a name of an existing file:
+    "expected {expected} name" or "{found} '...' not found"."""
+    if not isinstance(name, str) or not name.strip():
+        raise DataError(str(campaign), where, f"expected {expected} name, got {shown(name)}")
+    path = _relative(name, campaign)
+    if not path.is_file():
+        raise DataError(str(campaign), where, f"{found} {str(path)!r} not found (a path relative to the campaign file)")
+    return path
 
 
 def _relative(name: str, campaign: Path) -> Path:
@@ -468,13 +461,8 @@ def _listed_logs(value: Any, campaign: Path, where: str) -> list[Log]:
     out = []
     for k, entry in enumerate(value):
         check_keys(entry, LOG_KEYS, source, f"{where} #{k + 1}")
-        name, moment = entry.get("file"), entry.get("time")
-        if not isinstance(name, str) or not name.strip():
-            raise DataError(source, f"{where} #{k + 1} file", f"expected a log file name, got {shown(name)}")
-        path = _relative(name, campaign)
-        if not path.is_file():
-            raise DataError(source, f"{where} #{k + 1} file", f"log {str(path)!r} not found (a path relative to "
-                                                              "the campaign file)")
+        moment = entry.get("time")
+        path = _existing(entry.get("file"), campaign, f"{where} #{k + 1} file", "a log file", "log")
         if isinstance(moment, dt.datetime):
             moment = _utc(moment)
         elif isinstance(moment, dt.date):

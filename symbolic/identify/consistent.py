@@ -253,8 +253,7 @@ class BodyPlan:
             return
         rows, cols, slots, at, diagonal = self._indices
         n = len(rows)
-        A = np.zeros((3, 3))
-        A[rows, cols] = np.concatenate([phi[k:k + 3] if linear else np.exp(phi[k:k + 3]), phi[k + 3:k + n]])
+        A = self._factor(phi, k, linear)
         S = A @ A.T
         unit = np.eye(3)[rows]  # n × 3: e_r of each entry
         column = A[:, cols].T  # n × 3: A[:, c] of each entry
@@ -263,6 +262,14 @@ class BodyPlan:
             dS[:3] *= np.diag(A)[:, None, None]
         p[slots] = np.trace(S) * diagonal - S[at]
         jac[np.ix_(slots, range(k, k + n))] = np.outer(diagonal, np.trace(dS, axis1=1, axis2=2)) - dS[:, at[0], at[1]].T
+
+    def _factor(self, phi: np.ndarray, k: int, linear: bool) -> np.ndarray:
+        """The lower-triangular factor L of this body's inertia coordinates starting at ``phi[k]``: its diagonal
+        from the logarithms d (or the values themselves in the linear coordinates), then the entries below."""
+        rows, cols = self._indices[:2]
+        L = np.zeros((3, 3))
+        L[rows, cols] = np.concatenate([phi[k:k + 3] if linear else np.exp(phi[k:k + 3]), phi[k + 3:k + len(rows)]])
+        return L
 
     def curvature(self, phi: np.ndarray, q: np.ndarray, out: np.ndarray, linear: bool = False) -> None:
         """Add Σ_j q_j·∇²_φ p_j (this body's p_j, coordinates of (7)) to ``out``: ∂²m/∂α² = 4m, and with
@@ -278,8 +285,7 @@ class BodyPlan:
             return
         rows, cols, slots, at, diagonal = self._indices
         n = len(rows)
-        L = np.zeros((3, 3))
-        L[rows, cols] = np.concatenate([phi[k:k + 3] if linear else np.exp(phi[k:k + 3]), phi[k + 3:k + n]])
+        L = self._factor(phi, k, linear)
         G = float(q[slots] @ diagonal) * np.eye(3)
         np.add.at(G, at, -q[slots])
         G = 0.5 * (G + G.T)
