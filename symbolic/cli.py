@@ -612,6 +612,16 @@ def _located(error: SymbolicError, args: argparse.Namespace) -> str:
     return str(error)
 
 
+def _say_started(args: argparse.Namespace) -> None:
+    """The first progress line of a command that reads a model or a campaign, written before SymPy, NumPy or Dask
+    are imported (0.5 s or more of CPU): the user sees at once that the command has started."""
+    log = logging.getLogger(__name__)
+    if getattr(args, "model", None):
+        log.info("%s: reading the model", args.model)
+    elif getattr(args, "campaign", None):
+        log.info("%s: reading the campaign", args.campaign)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     if not args.quiet:
@@ -619,6 +629,7 @@ def main(argv: list[str] | None = None) -> int:
     warnings.simplefilter("default", ModelWarning)
     warnings.formatwarning = lambda message, category, *rest: f"warning: {message}\n"
     try:
+        _say_started(args)
         return args.func(args)
     except SymbolicError as error:  # the user's input or environment: one line, exit 2
         print(f"error: {one_line(_located(error, args))}", file=sys.stderr)
