@@ -174,13 +174,15 @@ def _parameters(result) -> list[dict[str, Any]]:
 
 def _diagnose(model: DynamicModel, experiment: Experiment, task: Task) -> dict[str, Any]:
     """:func:`_identify`, then the discrepancy workflow: the effects the model misses and the gap before and after."""
-    from symbolic.workflow import diagnose
+    from symbolic.workflow import SearchSettings, diagnose
     from symbolic.workflow.effects import select
 
     out = _identify(model, experiment, task)
     names = task.option("effects")
+    # one process per log: a campaign spreads its logs over the cores, also one at a time (--workers 0)
     result = diagnose(model, experiment, settings=task.identification, effects=select(names) if names else None,
-                      simulate=task.option("simulate", False) or None, fix=task.option("fix", ()), figures=False)
+                      simulate=task.option("simulate", False) or None, fix=task.option("fix", ()), figures=False,
+                      search=SearchSettings(processes=1))
     out.update(gap_before=result.before.gap["validation"], gap_after=result.after.gap["validation"],
                effects=[{"effect": f.label(), "coordinate": f.coordinate,
                          "parameters": {k: v for k, v in f.parameters.items()}} for f in result.found])

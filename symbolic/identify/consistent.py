@@ -96,6 +96,8 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from symbolic.numeric.blas import one_blas_thread
+
 log = logging.getLogger(__name__)
 
 INERTIA_KEYS = ("xx", "xy", "xz", "yy", "yz", "zz")
@@ -691,7 +693,7 @@ def fit(prob: Problem, K: np.ndarray, W: np.ndarray, y: np.ndarray, weights: np.
     """
     started = time.perf_counter()
     summary = Summary.of(W, y, weights)
-    with _one_blas_thread():
+    with one_blas_thread():
         solution, evaluations = _solve(prob, summary.R @ K, summary, p0, name, started)
     p, _ = prob.parameters(solution.x, linear=True)
     beta = K @ prob.theta(p)
@@ -711,19 +713,6 @@ def fit(prob: Problem, K: np.ndarray, W: np.ndarray, y: np.ndarray, weights: np.
         boundary=tuple(_on_boundary(prob, p)), evaluations=evaluations, seconds=seconds, converged=solution.converged,
         message=solution.message)
     return result, p, covariance
-
-
-def _one_blas_thread():
-    """A context in which BLAS runs on one thread (threadpoolctl, where installed): the solver factors
-    matrices of about 100 × 70 hundreds of times, for which a pool of threads costs more than it gives —
-    on a busy two-core machine an SVD of 113 × 70 took 35 ms with OpenBLAS's threads, 2.4 ms with one."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # without it the fit is the same, only slower where BLAS threads contend
-        import contextlib
-
-        return contextlib.nullcontext()
-    return threadpool_limits(1, user_api="blas")
 
 
 def _solve(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, name: str, started: float):

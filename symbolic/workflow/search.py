@@ -57,6 +57,7 @@ import scipy.optimize
 
 from symbolic.errors import ModelError
 from symbolic.identify.least_squares import Identification
+from symbolic.workflow import forked
 from symbolic.workflow.dataset import DataSet
 from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals
 from symbolic.workflow.statistics import autocorrelation_time, combined_f_test, pooled_autocorrelation_time, score_inflation
@@ -81,6 +82,9 @@ COLLINEAR = 1e-6
 """A column whose part outside the current model's span is below this fraction of its norm is in the model."""
 REFERENCE = 1e-9
 """A model column equal to an effect's reference column up to this relative difference holds its coefficient."""
+FORK_ROWS = 5_000
+"""Stacked estimation rows (samples × coordinates) from which a round is split between two processes: below,
+a round takes well under a second and forking the search would cost a noticeable part of it."""
 TOGETHER: tuple[tuple[str, ...], ...] = (("viscous", "coulomb"),)
 """Effects also offered together as one grouped hypothesis ("viscous and Coulomb friction on every joint")."""
 
@@ -90,7 +94,12 @@ class SearchSettings:
     """The search's thresholds (module docstring).
 
     ``groups``: named groups of coordinates (``{"wrist": ("q5", "q6", "q7")}``) on which the grouped
-    hypotheses are offered besides every coordinate; ``grouped = False`` offers none."""
+    hypotheses are offered besides every coordinate; ``grouped = False`` offers none.
+
+    ``processes``: how many processes evaluate a round's candidates, 1 or 2. ``None`` chooses: two (this one
+    and a forked copy, :mod:`symbolic.workflow.forked`) where the platform allows it and the search is large
+    enough (:data:`FORK_ROWS`), else one; 1 keeps everything in this process (a campaign's tasks: its workers
+    use the cores already); 2 forks wherever the platform allows it. The results are the same either way."""
 
     alpha: float = ALPHA
     min_gain: float = MIN_HELD_OUT_GAIN
@@ -99,6 +108,11 @@ class SearchSettings:
     max_effects: int = 12
     groups: Mapping[str, Sequence[str]] = field(default_factory=dict)
     grouped: bool = True
+    processes: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.processes is not None and (isinstance(self.processes, bool) or self.processes not in (1, 2)):
+            raise ValueError(f"SearchSettings.processes: expected None (chosen), 1 or 2, got {self.processes!r}")
 
 
 @dataclass(frozen=True)
@@ -436,7 +450,7 @@ class Search:
         """One round (module docstring): the accepted effects, several when a group is chosen."""
         number = len(self.rounds) + 1
         state = _RoundState(self, design)
-        candidates = [state.evaluate(effect, j) for effect in self.effects for j in range(len(self.context.coordinates))]
+        candidates = self.evaluate_all(state, [(e, j) for e in self.effects for j in range(len(self.context.coordinates))])
         tested = [c for c in candidates if c.status == "tested"]
         effective = state.effective(tested)
         groups, seen = [], set()
@@ -469,6 +483,35 @@ class Search:
                                   chosen if isinstance(chosen, Grouped) else None) for m in members)
         self.rounds.append(Round(number, candidates, accepted, threshold, groups, chosen))
         return accepted
+
+    def evaluate_all(self, state: _RoundState, pairs: Sequence[tuple[Effect, int]]) -> list[Candidate]:
+        """The candidates of ``pairs`` (effect, coordinate index), in order; split between this process and a
+        forked one (:attr:`SearchSettings.processes`), whose treated columns then join this search's store."""
+        processes = self.settings.processes
+        large = self.sets["estimation"].samples * len(self.context.coordinates) >= FORK_ROWS
+        if processes is None and not large:
+            processes = 1
+        if processes != 1:
+            processes = forked.usable_processes()
+        if processes < 2 or len(pairs) < 2:
+            return [state.evaluate(e, j) for e, j in pairs]
+
+        def work(part: Sequence[tuple[Effect, int]]) -> tuple[list[Candidate], dict[tuple, Any]]:
+            known = set(self._reduced)
+            done = [state.evaluate(e, j) for e, j in part]
+            for c in done:  # the effect objects stay here (a user's effect class need not be picklable)
+                c.effect = None  # type: ignore[assignment]
+            return done, {k: v for k, v in self._reduced.items() if k not in known}
+
+        # interleaved: each effect's coordinates alternate between the processes (the costly effects are split)
+        (mine, _), (theirs, treated) = forked.in_two(work, pairs[0::2], pairs[1::2])
+        for key, value in treated.items():
+            self._reduced.setdefault(key, value)
+        out: list[Candidate] = [None] * len(pairs)  # type: ignore[list-item]
+        out[0::2], out[1::2] = mine, theirs
+        for c, (effect, _) in zip(out, pairs):
+            c.effect = effect
+        return out
 
     def units(self) -> list[list[int]]:
         """The accepted effects by what was accepted together: a group's members form one unit."""

@@ -1,0 +1,87 @@
+"""Half of a loop in a forked copy of this process: the search's round on two cores (issue 23 §2).
+
+A round of the catalogue search evaluates some hundred independent candidates, most of whose time is NumPy
+code that holds the GIL between array operations: threads gain little, a second process nearly halves it.
+A *forked* child starts with the whole search in memory (the data, the current model's factors, the columns
+already treated), so nothing is sent to it; it evaluates its share and sends back only the results.
+
+Forking is used only where it is safe and useful: Linux (``fork`` is the platform's own start method; macOS
+and Windows spawn, which would have to send the search), at least two CPUs available to this process, and not
+inside a daemonic process (a Dask worker: its campaign already uses the cores, and daemons may not have
+children). Both processes then use one BLAS thread each. Anywhere else, and when the child fails for any reason, the work is done here: the results are the
+same either way, only the time differs.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import sys
+import traceback
+from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
+
+from symbolic.numeric.blas import one_blas_thread
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+def usable_processes() -> int:
+    """Processes a forked split may use here: 2 on Linux with two CPUs or more outside daemonic processes, else 1."""
+    if sys.platform != "linux" or multiprocessing.current_process().daemon:
+        return 1
+    return 2 if len(os.sched_getaffinity(0)) >= 2 else 1
+
+
+def in_two(work: Callable[[Sequence[T]], R], here: Sequence[T], there: Sequence[T]) -> tuple[R, R]:
+    """``(work(here), work(there))``, the second computed in a forked child at the same time.
+
+    ``work`` must return something picklable. Should the child fail (it cannot be started, it raises, it dies,
+    its result cannot be pickled), ``work(there)`` is computed here afterwards: an error of ``work`` itself is
+    then raised from this process, as without the child. A KeyboardInterrupt stops the child too.
+    """
+    if not there:
+        return work(here), work(there)
+    with one_blas_thread():  # two processes on two cores: BLAS threads of both would contend and spin
+        return _split(work, here, there)
+
+
+def _split(work: Callable[[Sequence[T]], R], here: Sequence[T], there: Sequence[T]) -> tuple[R, R]:
+    context = multiprocessing.get_context("fork")
+    reader, writer = context.Pipe(duplex=False)
+    try:
+        child = context.Process(target=_child, args=(work, there, writer), daemon=True)
+        child.start()
+    except OSError:  # no more processes or memory for one: the same work, one after the other
+        reader.close()
+        writer.close()
+        return work(here), work(there)
+    writer.close()
+    try:
+        mine = work(here)
+        try:
+            status, theirs = reader.recv()
+        except (EOFError, OSError):  # the child died (killed, out of memory) before sending
+            status, theirs = "failed", None
+        if status != "done":
+            theirs = work(there)
+        return mine, theirs
+    finally:
+        reader.close()
+        if child.is_alive():
+            child.kill()
+        child.join()
+
+
+def _child(work: Callable[[Sequence[Any]], Any], items: Sequence[Any], writer: Any) -> None:
+    try:
+        result = ("done", work(items))
+    except BaseException:  # noqa: BLE001 - reported to the parent, which redoes the work and raises it there
+        result = ("failed", traceback.format_exc())
+    try:
+        writer.send(result)
+    except Exception:  # noqa: BLE001 - e.g. an unpicklable result: the parent redoes the work
+        writer.send(("failed", traceback.format_exc()))
+    finally:
+        writer.close()
