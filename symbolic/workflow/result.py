@@ -104,7 +104,8 @@ class Diagnosis:
     """Notes the terminal shows too: how the diagnosis departed from what was asked (nothing to re-identify, a
     simulated path that diverged and was replaced by the inverse model); also among :attr:`notes`."""
     cpu_seconds: dict[str, float] = field(default_factory=dict)
-    """CPU time of each step (``seconds`` is the wall time; on a shared machine only the CPU time repeats)."""
+    """CPU time of each step, this process's and its finished children's (the search's forked half, a compiler):
+    ``seconds`` is the wall time; on a shared machine only the CPU time repeats."""
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON contract: model, found, gap_before, gap_after, gap_detail, patched_model (and more)."""
