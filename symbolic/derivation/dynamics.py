@@ -29,15 +29,12 @@ import sympy as sp
 
 from symbolic import cache
 from symbolic.derivation import christoffel as ch
-from symbolic.derivation.drives import rotor_inertia
 from symbolic.derivation.forces import applied_vector
 from symbolic.derivation.friction import friction_vector
-from symbolic.derivation.gravity import gravity_forces, potential_energy
-from symbolic.derivation.inertia import composite_inertias, inertia_matrix
 from symbolic.derivation.kinematics import Kinematics
-from symbolic.derivation.newton_euler import inverse_dynamics
 from symbolic.derivation.products import Product, Products, sympy_reducer
 from symbolic.derivation.regressor import Regressor, regressor
+from symbolic.derivation.rigid_stage import Steps, rigid_stage
 from symbolic.description.validation import validate
 from symbolic.description.parameters import ParameterVector
 from symbolic.description.robot import TIME, Robot, digest, acceleration_symbol, coordinate_symbol, velocity_symbol
@@ -315,67 +312,16 @@ REGRESSOR: Product[Regressor] = Product("regressor", lambda model: regressor(mod
 
 
 def _derive(robot: Robot) -> DynamicModel:
-    """:func:`derive` of a validated robot, computed."""
-    from symbolic.derivation.flexible import beam_energy
-
-    timings: dict[str, float] = {}
-    names = robot.generalized_coordinates
-    q = tuple(coordinate_symbol(c) for c in names)
-    qd = tuple(velocity_symbol(c) for c in names)
-    qdd = tuple(acceleration_symbol(c) for c in names)
-    rigid = robot.coordinate_symbols
-    n, m = len(q), len(rigid)
-    sub = Subexpressions(q + qd + qdd)
-    log.info("%s: deriving (%d coordinates, %d bodies)", robot.name, n, len(robot.bodies))
+    """:func:`derive` of a validated robot, computed: the rigid stage (:mod:`symbolic.derivation.rigid_stage`,
+    reused when an earlier derivation had the same skeleton), then friction and applied forces."""
+    log.info("%s: deriving (%d coordinates, %d bodies)", robot.name, len(robot.generalized_coordinates), len(robot.bodies))
     started = time.perf_counter()
-
-    def step(name: str, func):
-        start = time.perf_counter()
-        result = func()
-        timings[name] = time.perf_counter() - start
-        level = logging.INFO if timings[name] > 0.5 else logging.DEBUG  # progress only where it is felt
-        log.log(level, "%s: %s done in %.2f s (%d intermediates)", robot.name, name, timings[name], len(sub))
-        return result
-
-    kin = step("kinematics", lambda: Kinematics(robot, sub))
-    composite = step("composite inertias", lambda: composite_inertias(kin))
-    D_rigid = step("inertia matrix", lambda: inertia_matrix(kin, composite))
-    beams = step("flexible beams", lambda: [beam_energy(kin, beam, q) for beam in robot.beams])
-    D = sp.zeros(n, n)
-    D[:m, :m] = D_rigid
-    for energy in beams:
-        D += energy.inertia
-    D = D.applyfunc(sub.add) if beams else D
-    rotors = rotor_inertia(robot)
-    for i in range(n):
-        if rotors[i, i] != 0:
-            D[i, i] = sub.add(D[i, i] + rotors[i, i])
-    dD = step("dD/dQ", lambda: ch.inertia_derivatives(D, q, sub))
-    C = step("christoffel", lambda: ch.christoffel_symbols(dD, sub))
-    coriolis = step("coriolis", lambda: ch.coriolis_vector(C, qd))
-    cmat = step("coriolis matrix", lambda: ch.coriolis_matrix(C, qd))
-    zero = {x: sp.Integer(0) for x in rigid}
-    g_rigid = step("gravity", lambda: gravity_forces(kin))
-    potential = step("potential", lambda: potential_energy(kin))
-    gravity = sp.zeros(n, 1)
-    gravity[:m, 0] = g_rigid
-    strain = sp.Integer(0)
-    for energy in beams:
-        potential = potential + energy.gravity_potential
-        strain = strain + energy.strain
-        gravity += sp.Matrix([sub.add(sub.diff(energy.gravity_potential, x)) for x in q])
-    potential = sub.add(potential)
-    strain = sub.add(strain)
-    stiffness = sp.Matrix([sub.add(sub.diff(strain, x)) for x in q])
-    if beams:
-        coriolis_ne = coriolis
-        tau_body = D * sp.Matrix(qdd) + coriolis + gravity + stiffness
-    else:
-        tau_body = step(
-            "newton-euler",
-            lambda: inverse_dynamics(kin, dict(zip(rigid, qd)), dict(zip(rigid, qdd)), gravity=True),
-        ) + rotors * sp.Matrix(qdd)
-        coriolis_ne = step("newton-euler coriolis", lambda: inverse_dynamics(kin, dict(zip(rigid, qd)), zero, gravity=False))
+    step = Steps(robot.name)
+    stage = rigid_stage(robot, step)
+    sub, kin = stage.sub, stage.kin
+    D, dD, C, coriolis, cmat = stage.D, stage.dD, stage.christoffel, stage.coriolis, stage.coriolis_matrix
+    gravity, potential, stiffness, strain = stage.gravity, stage.potential, stage.stiffness, stage.strain
+    tau_body, coriolis_ne = stage.tau_body, stage.coriolis_ne
     friction = step("friction", lambda: friction_vector(robot).applyfunc(sub.add))
     applied = step("applied forces", lambda: applied_vector(robot).applyfunc(sub.add))
     # The one composition of the equations of motion (docs/architecture.md, "Equations of motion").
@@ -383,7 +329,7 @@ def _derive(robot: Robot) -> DynamicModel:
     bias = (coriolis_ne + gravity + stiffness + friction - applied).applyfunc(sub.add)
     reduced = ReducedForms(D, dD, C, coriolis, cmat, gravity, potential, tau, coriolis_ne, stiffness, strain,
                            friction, applied, bias)
-    model = DynamicModel(robot, sub, kin, reduced, timings)
+    model = DynamicModel(robot, sub, kin, reduced, step.timings)
     step("value check", lambda: check_values(model))
     log.info("%s: derived in %.1f s (%d intermediates)", robot.name, time.perf_counter() - started, len(sub))
     return model

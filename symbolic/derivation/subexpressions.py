@@ -50,6 +50,18 @@ class Subexpressions:
     def __len__(self) -> int:
         return len(self.symbols)
 
+    def copy(self) -> Subexpressions:
+        """An independent registry with the same intermediates, numbering and memos (expressions are shared:
+        SymPy's are immutable), which the copy may extend without changing this one."""
+        other = Subexpressions(self.variables, self.prefix)
+        other.symbols = list(self.symbols)
+        other.definition = dict(self.definition)
+        other.depends = dict(self.depends)
+        other._index = dict(self._index)
+        other._derivatives = dict(self._derivatives)
+        other._expanded = dict(self._expanded)
+        return other
+
     def __contains__(self, symbol: object) -> bool:
         return symbol in self.definition
 

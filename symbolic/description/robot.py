@@ -358,6 +358,18 @@ def digest(robot: Robot) -> str:
     return hashlib.sha256(_canonical(robot).encode()).hexdigest()
 
 
+SKELETON = ("coordinates", "frames", "bodies", "constraints", "beams", "gravity", "convention", "end_effector", "drives")
+"""The fields of a :class:`Robot` that its rigid part (kinematics, D(Q), Christoffel symbols, gravity, the
+Newton–Euler τ) depends on: neither its name, parameters and their values, friction nor applied forces."""
+
+
+def skeleton_digest(robot: Robot) -> str:
+    """SHA-256 of the :data:`SKELETON` fields of ``robot`` (as :func:`digest` describes them): equal for a
+    model and its patched copy that adds friction, forces or parameters, or changes values."""
+    text = ",".join(f"{name}={_canonical(getattr(robot, name))}" for name in SKELETON)
+    return hashlib.sha256(f"skeleton({text})".encode()).hexdigest()
+
+
 def _canonical(value: object) -> str:
     """A text that determines ``value`` (a dataclass of the description, an expression, a container, a number)."""
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
