@@ -14,6 +14,7 @@ import sympy as sp
 
 import symbolic
 from symbolic import robots
+from symbolic.derivation import regressor as regressor_module
 from symbolic.derivation import rigid_stage
 from symbolic.description import loads
 from symbolic.description.robot import skeleton_digest
@@ -55,7 +56,9 @@ def derive_fresh_in_a_new_process(text: str, tmp_path: Path) -> list[str]:
     path.write_text(text)
     code = ("import sys, symbolic; from symbolic.description import load; m = symbolic.derive(load(sys.argv[1]));"
             "print(repr([(str(s), str(m.sub.definition[s])) for s in m.sub.symbols]));"
-            "print(repr([str(x) for x in list(m.reduced.tau) + list(m.reduced.bias) + list(m.reduced.D)]))")
+            "print(repr([str(x) for x in list(m.reduced.tau) + list(m.reduced.bias) + list(m.reduced.D)]));"
+            "r = m.regressor(); print(repr((r.names, r.kinds, [str(e) for e in r.theta_expressions], [str(y) for y in r.Y],"
+            "[(str(s), str(r.sub.definition[s])) for s in r.sub.symbols])))")
     result = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, timeout=300,
                             env={**__import__("os").environ, "SYMBOLIC_NO_CACHE": "1"})
     assert result.returncode == 0, result.stderr
@@ -65,23 +68,29 @@ def derive_fresh_in_a_new_process(text: str, tmp_path: Path) -> list[str]:
 def test_a_patched_model_continues_from_the_rigid_stage_with_the_same_result(tmp_path: Path, monkeypatch) -> None:
     monkeypatch.setenv("SYMBOLIC_NO_CACHE", "1")
     rigid_stage._KEPT.clear()
-    symbolic.derive(robots.load("panda"))
-    assert len(rigid_stage._KEPT) == 1
+    symbolic.derive(robots.load("panda")).regressor()
+    assert [kind for kind, _ in rigid_stage._KEPT] == ["rigid stage", "rigid regressor"]
     computed = []
     monkeypatch.setattr(rigid_stage, "_compute", lambda *a: computed.append(a) or pytest.fail("rigid stage recomputed"))
+    monkeypatch.setattr(regressor_module, "_rigid_block", lambda *a: computed.append(a) or pytest.fail("rigid block recomputed"))
     model = symbolic.derive(loads(patched_text(), "patched.toml"))
     assert not computed and model.name == "panda_patched"
+    r = model.regressor()
+    assert [kind for kind, _ in rigid_stage._KEPT] == ["rigid stage", "rigid regressor"]
     staged = [repr([(str(s), str(model.sub.definition[s])) for s in model.sub.symbols]),
-              repr([str(x) for x in list(model.reduced.tau) + list(model.reduced.bias) + list(model.reduced.D)])]
+              repr([str(x) for x in list(model.reduced.tau) + list(model.reduced.bias) + list(model.reduced.D)]),
+              repr((r.names, r.kinds, [str(e) for e in r.theta_expressions], [str(y) for y in r.Y],
+                    [(str(s), str(r.sub.definition[s])) for s in r.sub.symbols]))]
     assert staged == derive_fresh_in_a_new_process(patched_text(), tmp_path)
     # the stage itself was not extended by the patched derivation, and the model's kinematics are its own
-    stage = next(iter(rigid_stage._KEPT.values()))
+    stage = rigid_stage._KEPT[("rigid stage", skeleton_digest(model.robot))]
     assert len(stage.sub) < len(model.sub) and model.kinematics.sub is model.sub
     assert model.kinematics.robot is model.robot
 
 
 def test_the_patched_model_is_right_numerically(monkeypatch) -> None:
-    """τ of the staged patched model = τ of the original + the added friction and spring, at a random state."""
+    """τ of the staged patched model = τ of the original + the added friction and spring, at a random state;
+    its regressor times its θ is that τ (Khalil & Dombre 14.2)."""
     import numpy as np
 
     monkeypatch.setenv("SYMBOLIC_NO_CACHE", "1")
@@ -102,3 +111,9 @@ def test_the_patched_model_is_right_numerically(monkeypatch) -> None:
     expected[1] += 0.5 * state["q2_dot"] + 0.3 * np.sign(state["q2_dot"])
     expected[0] += 2.0 * state["q1"]
     assert np.allclose(tau(patched), expected, rtol=1e-12, atol=1e-12)
+    r = patched.regressor()
+    values = {s: patched.robot.parameter_values[s] for s in patched.robot.parameter_symbols}
+    theta = np.array([float(e.xreplace(values)) for e in r.theta_expressions])
+    values |= {s: state[s.name] for s in r.expand().free_symbols if s.name in state}
+    Y = np.array(r.expand().xreplace(values).evalf(), dtype=float)
+    assert np.allclose(Y @ theta, expected, rtol=1e-12, atol=1e-10)

@@ -102,14 +102,44 @@ def frame_label(name: str) -> str:
 
 
 def regressor(robot: Robot) -> Regressor:
-    """Derive Y and θ for ``robot`` (see the module docstring)."""
+    """Derive Y and θ for ``robot`` (see the module docstring).
+
+    Y is built in two blocks: the inertial and beam columns (the rigid part, the same for every description
+    with this skeleton: reused, :func:`symbolic.derivation.rigid_stage.reused`), then the drive, friction and
+    force columns, on a private copy of the rigid part's intermediates."""
+    from symbolic.derivation.rigid_stage import reused
+
     robot = validate(robot)
-    inertial = _inertial_parameters(robot)
-    beams = _beam_parameters(robot)
+    rigid = reused("rigid regressor", robot, lambda: _rigid_block(robot))
     drives, frictions, forces = _drive_parameters(robot), _friction_parameters(robot), _force_parameters(robot)
     extra = drives + frictions + forces
-    theta = (tuple(t for frame in inertial.values() for t, _ in frame) + tuple(t for _, pairs in beams for t, _ in pairs)
-             + tuple(t for t, _, _ in extra))
+    sub = rigid.sub.copy()
+    sub.variables = sub.variables | {t for t, _, _ in extra}
+    # ∂(column·θ)/∂θ: the column itself (it holds no θ), registered as the other entries of Y are
+    Y_extra = sp.Matrix(rigid.Y.rows, len(extra), lambda i, k: sub.add(sub.diff(extra[k][1][i] * extra[k][0], extra[k][0])))
+    theta = rigid.theta + tuple(t for t, _, _ in extra)
+    expressions = rigid.expressions + tuple(e for _, _, e in extra)
+    kinds = rigid.kinds + tuple(kind for kind, part in (("drive", drives), ("friction", frictions), ("force", forces))
+                                for _ in part)
+    return Regressor(robot, theta, expressions, sp.Matrix(rigid.Y).row_join(Y_extra), sub, kinds)
+
+
+@dataclass(frozen=True)
+class _RigidBlock:
+    """The inertial and beam columns of Y (the rigid part of τ differentiated by its θ) and their registry."""
+
+    theta: tuple[sp.Symbol, ...]
+    expressions: tuple[sp.Expr, ...]
+    kinds: tuple[str, ...]
+    Y: sp.ImmutableMatrix
+    sub: Subexpressions
+
+
+def _rigid_block(robot: Robot) -> _RigidBlock:
+    """Newton–Euler in the frames' standard parameters plus each beam's part, differentiated by θ (Khalil)."""
+    inertial = _inertial_parameters(robot)
+    beams = _beam_parameters(robot)
+    theta = tuple(t for frame in inertial.values() for t, _ in frame) + tuple(t for _, pairs in beams for t, _ in pairs)
     names = robot.generalized_coordinates
     q = tuple(coordinate_symbol(c) for c in names)
     qd = tuple(velocity_symbol(c) for c in names)
@@ -123,13 +153,10 @@ def regressor(robot: Robot) -> Regressor:
     tau[: len(rigid), 0] = rigid  # the rigid coordinates come first; modal rows get the beams' terms only
     for beam, _ in beams:
         tau += _beam_forces(kin, beam, q, qd, qdd)
-    tau = tau + sum((column * t for t, column, _ in extra), sp.zeros(len(names), 1))
-    Y = sp.Matrix(len(names), len(theta), lambda i, k: sub.add(sub.diff(tau[i], theta[k])))
-    expressions = (tuple(e for frame in inertial.values() for _, e in frame) + tuple(e for _, pairs in beams for _, e in pairs)
-                   + tuple(e for _, _, e in extra))
-    kinds = (("inertial",) * sum(len(f) for f in inertial.values()) + ("beam",) * sum(len(pairs) for _, pairs in beams)
-             + tuple(kind for kind, part in (("drive", drives), ("friction", frictions), ("force", forces)) for _ in part))
-    return Regressor(robot, theta, expressions, Y, sub, kinds)
+    Y = sp.ImmutableMatrix(len(names), len(theta), lambda i, k: sub.add(sub.diff(tau[i], theta[k])))
+    expressions = tuple(e for frame in inertial.values() for _, e in frame) + tuple(e for _, pairs in beams for _, e in pairs)
+    kinds = ("inertial",) * sum(len(f) for f in inertial.values()) + ("beam",) * sum(len(pairs) for _, pairs in beams)
+    return _RigidBlock(theta, expressions, kinds, Y, sub)
 
 
 def _inertial_parameters(robot: Robot) -> dict[str, list[tuple[sp.Symbol, sp.Expr]]]:

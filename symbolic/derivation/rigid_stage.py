@@ -23,7 +23,7 @@ import time
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import sympy as sp
 
@@ -40,11 +40,13 @@ from symbolic.description.robot import Robot, acceleration_symbol, coordinate_sy
 
 log = logging.getLogger("symbolic.derivation.dynamics")  # one logger for the derivation's progress
 T = TypeVar("T")
+S = TypeVar("S")
 
-KEPT = 4
-"""Rigid stages kept in this process (a diagnosis needs its model's and, rarely, a second skeleton's)."""
+KEPT = 8
+"""Stages kept in this process (a diagnosis needs its model's rigid stage and rigid regressor, rarely a second
+skeleton's)."""
 
-_KEPT: OrderedDict[str, RigidStage] = OrderedDict()
+_KEPT: OrderedDict[tuple[str, str], Any] = OrderedDict()
 
 
 @dataclass
@@ -99,26 +101,33 @@ class Steps:
 def rigid_stage(robot: Robot, step: Steps) -> RigidStage:
     """The rigid stage of validated ``robot``: reused (this process, then the cache folder) or computed with
     ``step`` (which times and logs each step); a private copy in every case, whose registry ``step.sub`` is."""
-    key = skeleton_digest(robot)
+    mine = reused("rigid stage", robot, lambda: _compute(robot, step)).private(robot)
+    step.sub = mine.sub
+    return mine
+
+
+def reused(kind: str, robot: Robot, compute: Callable[[], S]) -> S:
+    """The stage ``kind`` of ``robot``'s skeleton (:func:`~symbolic.description.robot.skeleton_digest`): kept
+    in this process (the last :data:`KEPT`), else read from the cache folder, else ``compute()`` (and saved).
+    The caller extends a private copy of it, never the stage itself."""
+    key = (kind, skeleton_digest(robot))
     stage = _KEPT.get(key)
     if stage is None:
         start = time.perf_counter()
-        found = cache.load("rigid stage", key, {"robot": robot}.__getitem__)
-        if found is not None and isinstance(found[0], RigidStage):
+        found = cache.load(kind, key[1], {"robot": robot}.__getitem__)
+        if found is not None:
             stage = found[0]
-            log.debug("%s: rigid part read from the cache in %.2f s", robot.name, time.perf_counter() - start)
+            log.debug("%s: %s read from the cache in %.2f s", robot.name, kind, time.perf_counter() - start)
     else:
-        log.debug("%s: rigid part reused (same frames, bodies and drives as an earlier derivation)", robot.name)
+        log.debug("%s: %s reused (same frames, bodies and drives as an earlier derivation)", robot.name, kind)
     if stage is None:
-        stage = _compute(robot, step)
-        cache.save("rigid stage", key, stage, lambda obj: "robot" if obj is robot else None, sympy_reducer)
+        stage = compute()
+        cache.save(kind, key[1], stage, lambda obj: "robot" if obj is robot else None, sympy_reducer)
     _KEPT[key] = stage
     _KEPT.move_to_end(key)
     while len(_KEPT) > KEPT:
         _KEPT.popitem(last=False)
-    mine = stage.private(robot)
-    step.sub = mine.sub
-    return mine
+    return stage
 
 
 def _compute(robot: Robot, step: Steps) -> RigidStage:
