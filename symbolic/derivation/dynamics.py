@@ -318,18 +318,15 @@ def _derive(robot: Robot) -> DynamicModel:
     started = time.perf_counter()
     step = Steps(robot.name)
     stage = rigid_stage(robot, step)
-    sub, kin = stage.sub, stage.kin
-    D, dD, C, coriolis, cmat = stage.D, stage.dD, stage.christoffel, stage.coriolis, stage.coriolis_matrix
-    gravity, potential, stiffness, strain = stage.gravity, stage.potential, stage.stiffness, stage.strain
-    tau_body, coriolis_ne = stage.tau_body, stage.coriolis_ne
+    sub = stage.sub
     friction = step("friction", lambda: friction_vector(robot).applyfunc(sub.add))
     applied = step("applied forces", lambda: applied_vector(robot).applyfunc(sub.add))
     # The one composition of the equations of motion (docs/architecture.md, "Equations of motion").
-    tau = (tau_body + friction - applied).applyfunc(sub.add)
-    bias = (coriolis_ne + gravity + stiffness + friction - applied).applyfunc(sub.add)
-    reduced = ReducedForms(D, dD, C, coriolis, cmat, gravity, potential, tau, coriolis_ne, stiffness, strain,
-                           friction, applied, bias)
-    model = DynamicModel(robot, sub, kin, reduced, step.timings)
+    tau = (stage.tau_body + friction - applied).applyfunc(sub.add)
+    bias = (stage.coriolis_ne + stage.gravity + stage.stiffness + friction - applied).applyfunc(sub.add)
+    rigid = {f.name: getattr(stage, f.name) for f in fields(ReducedForms) if hasattr(stage, f.name)}
+    reduced = ReducedForms(**rigid, tau=tau, friction=friction, applied=applied, bias=bias)
+    model = DynamicModel(robot, sub, stage.kin, reduced, step.timings)
     step("value check", lambda: check_values(model))
     log.info("%s: derived in %.1f s (%d intermediates)", robot.name, time.perf_counter() - started, len(sub))
     return model

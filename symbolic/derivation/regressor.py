@@ -115,8 +115,8 @@ def regressor(robot: Robot) -> Regressor:
     extra = drives + frictions + forces
     sub = rigid.sub.copy()
     sub.variables = sub.variables | {t for t, _, _ in extra}
-    # ∂(column·θ)/∂θ: the column itself (it holds no θ), registered as the other entries of Y are
-    Y_extra = sp.Matrix(rigid.Y.rows, len(extra), lambda i, k: sub.add(sub.diff(extra[k][1][i] * extra[k][0], extra[k][0])))
+    # ∂(column·θ)/∂θ is the column itself (it holds no θ)
+    Y_extra = sp.Matrix(rigid.Y.rows, len(extra), lambda i, k: sub.add(extra[k][1][i]))
     theta = rigid.theta + tuple(t for t, _, _ in extra)
     expressions = rigid.expressions + tuple(e for _, _, e in extra)
     kinds = rigid.kinds + tuple(kind for kind, part in (("drive", drives), ("friction", frictions), ("force", forces))

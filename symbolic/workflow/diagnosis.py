@@ -53,6 +53,7 @@ from symbolic.workflow.where import localise
 
 log = logging.getLogger("symbolic")
 
+
 def _cpu_time() -> float:
     """CPU seconds of this process and of its children that have ended (the search's forked half, a compiler)."""
     times = os.times()

@@ -8,8 +8,8 @@ already treated), so nothing is sent to it; it evaluates its share and sends bac
 Forking is used only where it is safe and useful: Linux (``fork`` is the platform's own start method; macOS
 and Windows spawn, which would have to send the search), at least two CPUs available to this process, and not
 inside a daemonic process (a Dask worker: its campaign already uses the cores, and daemons may not have
-children). Both processes then use one BLAS thread each. Anywhere else, and when the child fails for any reason, the work is done here: the results are the
-same either way, only the time differs.
+children). Both processes then use one BLAS thread each. Anywhere else, and when the child fails for any
+reason, the work is done here: the results are the same either way, only the time differs.
 """
 
 from __future__ import annotations

@@ -487,13 +487,10 @@ class Search:
     def evaluate_all(self, state: _RoundState, pairs: Sequence[tuple[Effect, int]]) -> list[Candidate]:
         """The candidates of ``pairs`` (effect, coordinate index), in order; split between this process and a
         forked one (:attr:`SearchSettings.processes`), whose treated columns then join this search's store."""
-        processes = self.settings.processes
-        large = self.sets["estimation"].samples * len(self.context.coordinates) >= FORK_ROWS
-        if processes is None and not large:
-            processes = 1
-        if processes != 1:
-            processes = forked.usable_processes()
-        if processes < 2 or len(pairs) < 2:
+        wanted = self.settings.processes
+        if wanted is None:
+            wanted = 2 if self.sets["estimation"].samples * len(self.context.coordinates) >= FORK_ROWS else 1
+        if min(wanted, forked.usable_processes()) < 2 or len(pairs) < 2:
             return [state.evaluate(e, j) for e, j in pairs]
 
         def work(part: Sequence[tuple[Effect, int]]) -> tuple[list[Candidate], dict[tuple, Any]]:
