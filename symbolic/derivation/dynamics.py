@@ -34,7 +34,7 @@ from symbolic.derivation.friction import friction_vector
 from symbolic.derivation.kinematics import Kinematics
 from symbolic.derivation.products import Product, Products, sympy_reducer
 from symbolic.derivation.regressor import Regressor, regressor
-from symbolic.derivation.rigid_stage import Steps, rigid_stage
+from symbolic.derivation.rigid_stage import RigidForms, Steps, rigid_stage
 from symbolic.description.validation import validate
 from symbolic.description.parameters import ParameterVector
 from symbolic.description.robot import TIME, Robot, digest, acceleration_symbol, coordinate_symbol, velocity_symbol
@@ -45,8 +45,9 @@ log = logging.getLogger(__name__)
 
 
 @dataclass
-class ReducedForms:
-    """Derived quantities as short expressions in the intermediates of :attr:`DynamicModel.sub`.
+class ReducedForms(RigidForms):
+    """Derived quantities as short expressions in the intermediates of :attr:`DynamicModel.sub` (the rigid
+    forms, :class:`~symbolic.derivation.rigid_stage.RigidForms`, then τ, friction, applied forces and the bias).
 
     Attributes
     ----------
@@ -79,17 +80,7 @@ class ReducedForms:
         τ at Q̈ = 0: (I⊗Q̇ᵀ)CQ̇ + g + k + f − Q, so that D Q̈ = τ − bias (forward dynamics).
     """
 
-    D: sp.Matrix
-    dD: list[sp.Matrix]
-    christoffel: sp.Matrix
-    coriolis: sp.Matrix
-    coriolis_matrix: sp.Matrix
-    gravity: sp.Matrix
-    potential: sp.Expr
     tau: sp.Matrix
-    coriolis_ne: sp.Matrix
-    stiffness: sp.Matrix
-    strain: sp.Expr
     friction: sp.Matrix
     applied: sp.Matrix
     bias: sp.Matrix
@@ -324,7 +315,7 @@ def _derive(robot: Robot) -> DynamicModel:
     # The one composition of the equations of motion (docs/architecture.md, "Equations of motion").
     tau = (stage.tau_body + friction - applied).applyfunc(sub.add)
     bias = (stage.coriolis_ne + stage.gravity + stage.stiffness + friction - applied).applyfunc(sub.add)
-    rigid = {f.name: getattr(stage, f.name) for f in fields(ReducedForms) if hasattr(stage, f.name)}
+    rigid = {f.name: getattr(stage, f.name) for f in fields(RigidForms)}
     reduced = ReducedForms(**rigid, tau=tau, friction=friction, applied=applied, bias=bias)
     model = DynamicModel(robot, sub, stage.kin, reduced, step.timings)
     step("value check", lambda: check_values(model))

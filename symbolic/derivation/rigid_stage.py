@@ -50,13 +50,10 @@ _KEPT: OrderedDict[tuple[str, str], Any] = OrderedDict()
 
 
 @dataclass
-class RigidStage:
-    """The rigid part of the equations of motion, in intermediates of :attr:`sub` (fields as in
-    :class:`symbolic.derivation.dynamics.ReducedForms`; ``tau_body`` is D·Q̈ + Coriolis + g + k without
-    friction and applied forces)."""
+class RigidForms:
+    """The parts of :class:`symbolic.derivation.dynamics.ReducedForms` that the rigid stage computes (described
+    there), in intermediates of a derivation's registry."""
 
-    sub: Subexpressions
-    kin: Kinematics
     D: sp.Matrix
     dD: list[sp.Matrix]
     christoffel: sp.Matrix
@@ -64,10 +61,19 @@ class RigidStage:
     coriolis_matrix: sp.Matrix
     gravity: sp.Matrix
     potential: sp.Expr
+    coriolis_ne: sp.Matrix
     stiffness: sp.Matrix
     strain: sp.Expr
+
+
+@dataclass
+class RigidStage(RigidForms):
+    """The rigid forms with their intermediates registry :attr:`sub`, the kinematics, and ``tau_body`` =
+    D·Q̈ + Coriolis + g + k, τ without friction and applied forces."""
+
+    sub: Subexpressions
+    kin: Kinematics
     tau_body: sp.Matrix
-    coriolis_ne: sp.Matrix
 
     def private(self, robot: Robot) -> RigidStage:
         """A copy for ``robot`` to extend: its own intermediates registry and kinematics bound to it."""
@@ -179,4 +185,6 @@ def _compute(robot: Robot, step: Steps) -> RigidStage:
             lambda: inverse_dynamics(kin, dict(zip(rigid, qd)), dict(zip(rigid, qdd)), gravity=True),
         ) + rotors * sp.Matrix(qdd)
         coriolis_ne = step("newton-euler coriolis", lambda: inverse_dynamics(kin, dict(zip(rigid, qd)), zero, gravity=False))
-    return RigidStage(sub, kin, D, dD, C, coriolis, cmat, gravity, potential, stiffness, strain, tau_body, coriolis_ne)
+    return RigidStage(D=D, dD=dD, christoffel=C, coriolis=coriolis, coriolis_matrix=cmat, gravity=gravity,
+                      potential=potential, coriolis_ne=coriolis_ne, stiffness=stiffness, strain=strain, sub=sub, kin=kin,
+                      tau_body=tau_body)
