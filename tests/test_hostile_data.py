@@ -9,6 +9,7 @@ Fv = 200 N·s/m, Fc = 20 N, offset −3 N) that the code under test never sees.
 from __future__ import annotations
 
 import math
+import re
 import struct
 import warnings
 import zipfile
@@ -464,3 +465,49 @@ def test_a_headerless_csv_says_so_through_the_command(tmp_path: Path, run, comma
     out = ["--out", str(tmp_path / "out")] if command == "diagnose" else []
     line = refused(run(command, "emps", str(data), *out), f"{data}: header: the first line", "columns = [")
     assert "appears twice" not in line
+
+
+# -- issue 39: a variable of the data named like a constant or function of expressions ---------------------------------
+
+
+def test_a_headerless_column_named_pi_is_refused_not_read_as_the_constant(tmp_path: Path, run) -> None:
+    """columns = ["t", "x", "pi"] with tau_q = "pi": identify read τ = 3.14159 and "succeeded" at 86 % error."""
+    rows = np.column_stack(list(axis_log(seconds=2.0).values()))
+    (tmp_path / "raw.csv").write_text("".join(",".join(f"{v:.17g}" for v in row) + "\n" for row in rows))
+    path = experiment(tmp_path, "raw.csv", 'columns = ["t", "x", "pi"]', signals='t = "t"\nq_q = "x"\ntau_q = "pi"\n')
+    line = refused(run("identify", "emps", str(path)), f"{path}: columns[2]: 'pi' is the constant pi", "rename the column")
+    assert "pi_" in line
+
+
+@pytest.mark.parametrize("use", ["pi", "2*pi*x", "sin(x)", "sin"])
+def test_a_variable_of_the_file_named_like_a_constant_or_function_is_refused_where_used(tmp_path: Path, run,
+                                                                                         use: str) -> None:
+    """A header line naming columns pi and sin: an expression using either name is ambiguous, and refused."""
+    log = axis_log(seconds=2.0)
+    write_csv(tmp_path / "log.csv", {"t": log["t"], "x": log["q_q"], "pi": log["tau_q"], "sin": log["tau_q"]})
+    path = experiment(tmp_path, "log.csv", signals=f't = "t"\nq_q = "x"\ntau_q = "{use}"\n')
+    name = "pi" if "pi" in use else "sin"
+    line = refused(run("identify", "emps", str(path)), f"{path}: [signals] tau_q: '{name}' in '{use}' is ambiguous",
+                   "log.csv has a variable", "rename the variable")
+    assert "the constant pi" in line if name == "pi" else "the function sin()" in line
+
+
+def test_a_signal_named_like_a_constant_is_refused(tmp_path: Path, run) -> None:
+    """An extra signal named pi would be read as 3.14159 by a [controller] expression."""
+    write_csv(tmp_path / "log.csv", axis_log(seconds=2.0))
+    path = experiment(tmp_path, "log.csv", signals='t = "t"\nq_q = "q_q"\ntau_q = "tau_q"\npi = "q_q"\n')
+    refused(run("identify", "emps", str(path)), f"{path}: [signals] pi: a signal name must be", "other than abs")
+
+
+def test_the_parser_refuses_a_declared_name_that_is_reserved() -> None:
+    """Declared symbols used to win over pi and the functions without a word; now neither reading is chosen."""
+    import sympy as sp
+
+    from symbolic.description.expressions import parse_expression
+    from symbolic.errors import ModelError
+
+    symbols = {n: sp.Symbol(n) for n in ("pi", "exp", "x")}
+    for text, meaning in (("2*pi", "the constant pi"), ("exp(x)", "the function exp()"), ("exp", "the function exp()")):
+        with pytest.raises(ModelError, match=f"is ambiguous: it is declared here and is also {re.escape(meaning)}"):
+            parse_expression(text, symbols, "f.toml", "k")
+    assert parse_expression("2*x", symbols, "f.toml", "k") == 2 * symbols["x"]

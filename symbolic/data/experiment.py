@@ -38,7 +38,8 @@ from symbolic.data.measurements import (MAX_MAGNITUDE, MAX_RATE, DriveGains, Mea
 from symbolic.data.settings import Settings
 from symbolic.data.units import check_units
 from symbolic.description import modelfile
-from symbolic.description.expressions import RESERVED_NAMES, parse_expression, variable_names
+from symbolic.description.expressions import (RESERVED_NAMES, parse_expression, reserved_meaning, reserved_uses,
+                                              variable_names)
 from symbolic.description.robot import Robot
 from symbolic.errors import ModelError, shorten
 
@@ -313,6 +314,10 @@ def _columns(spec: Mapping[str, Any], source: str) -> list[str] | None:
         if not name.isidentifier():
             raise DataError(source, f"columns[{k}]", f"{name!r} is not a usable name (a name of letters, digits "
                                                      "and _, not starting with a digit: expressions use it)")
+        if name in RESERVED_NAMES:  # "pi" would read as 3.14159 in [signals], not as the column
+            raise DataError(source, f"columns[{k}]", f"{name!r} is {reserved_meaning(name)} in expressions: rename "
+                                                     f"the column (e.g. {name + '_'!r}; reserved: "
+                                                     f"{', '.join(sorted(RESERVED_NAMES))})")
     seen = [n for k, n in enumerate(value) if n in value[:k]]
     if seen:
         raise DataError(source, "columns", f"{seen[0]!r} is named twice (each column needs its own name)")
@@ -418,8 +423,9 @@ def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, 
     """The values of signal ``name`` = expression ``text`` of the file's variables and the constants; a
     number for a ``tau_<c>`` written as a number (broadcast to every sample by :func:`_signals`)."""
     key = f"[signals] {name}"
-    if not name.isidentifier():
-        raise DataError(source, key, "a signal name must be an identifier (t, q_<c>, tau_<c>, ... or an extra name)")
+    if not name.isidentifier() or name in RESERVED_NAMES:
+        raise DataError(source, key, "a signal name must be an identifier (t, q_<c>, tau_<c>, ... or an extra name) "
+                                     f"other than {', '.join(sorted(RESERVED_NAMES))} (expressions reserve them)")
     if isinstance(text, str):
         _check_names(text, table, constants, source, key)
     usable = [*table.vectors, *table.scalars, *constants]
@@ -454,7 +460,14 @@ def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, 
 
 
 def _check_names(text: str, table: files.Table, constants: Mapping[str, float], source: str, key: str) -> None:
-    """Refuse names that are neither variables of the file nor constants, listing what there is."""
+    """Refuse names that are neither variables of the file nor constants, listing what there is, and
+    a reserved name (``pi``, ``sin``) that is also a variable of the file: neither reading is chosen."""
+    for name in reserved_uses(text):
+        if name in table.vectors or name in table.scalars or name in table.unusable:
+            raise DataError(source, key, f"{name!r} in {text!r} is ambiguous: {Path(table.source).name} has a variable "
+                                         f"{name!r} and expressions read {name!r} as {reserved_meaning(name)}; rename "
+                                         "the variable (in columns = [...] for a CSV file without a header line, "
+                                         "else in the file)")
     for name in variable_names(text):
         if name in table.unusable:
             raise DataError(source, key, f"variable {name!r} of {Path(table.source).name} is {table.unusable[name]}")

@@ -95,6 +95,26 @@ def variable_names(text: str) -> list[str]:
             if isinstance(n, ast.Name) and id(n) not in called and n.id not in CONSTANTS and n.id not in FUNCTIONS]
 
 
+def reserved_uses(text: str) -> list[str]:
+    """The reserved names (:data:`RESERVED_NAMES`: ``pi`` and the functions) ``text`` uses, called or
+    not, once each in order of appearance; text that does not parse gives [] (the parser reports it).
+
+    For callers whose names come from elsewhere (a data file's columns): a name that is both theirs and
+    reserved is ambiguous, and refused rather than read one way or the other.
+    """
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except (SyntaxError, RecursionError, MemoryError, ValueError):
+        return []
+    names = [n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and n.id in RESERVED_NAMES]
+    return list(dict.fromkeys(names))
+
+
+def reserved_meaning(name: str) -> str:
+    """What a reserved name means in an expression, for messages ("the constant pi (3.14159…)")."""
+    return "the constant pi (3.14159…)" if name in CONSTANTS else f"the function {name}()"
+
+
 def number(value: float | int, source: str, key: str) -> sp.Expr:
     """Convert a TOML/Python number to an exact SymPy number (0.0825 -> 33/400).
 
@@ -357,8 +377,16 @@ class _Translator:
             raise self.refuse_part(node, "divides by zero")
         return sp.Pow(base, exponent)
 
+    def ambiguous(self, name: str) -> ModelError:
+        """A declared name that is also reserved: neither reading is chosen silently."""
+        return ModelError(self.source, self.key, f"{name!r} in expression {shorten(self.text)} is ambiguous: it is "
+                                                 f"declared here and is also {reserved_meaning(name)} of expressions; "
+                                                 f"rename the declared {name!r}")
+
     def name(self, name: str) -> sp.Expr:
         if name in self.symbols:
+            if name in RESERVED_NAMES:
+                raise self.ambiguous(name)
             return self.symbols[name]
         if name in CONSTANTS:
             return CONSTANTS[name]
@@ -376,6 +404,8 @@ class _Translator:
         if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
             what = self.segment(node.func)
             raise self.fail(f"call of '{what}' is not allowed" if len(what) <= 40 else f"call of {shorten(what, 40)} is not allowed")
+        if node.func.id in self.symbols:
+            raise self.ambiguous(node.func.id)
         if node.keywords:
             raise self.fail("keyword arguments are not allowed")
         function, arity = FUNCTIONS[node.func.id]
