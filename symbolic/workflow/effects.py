@@ -71,6 +71,9 @@ class Context:
     depend on the model's own span (a payload)."""
     unactuated: frozenset[str] = frozenset()
     """Coordinates whose force is zero throughout the data (no actuator: a homogeneous equation)."""
+    terms: Any = None
+    """The model's terms as the search fits them (:class:`symbolic.workflow.terms.ModelTerms`): which base
+    columns are free (a parameter kept at its value, ``fixed = true`` or ``--fix``, is not); ``None``: all."""
 
     def kind(self, coordinate: str) -> str:
         """``"revolute"`` (the coordinate is in a DH θ), ``"prismatic"`` (in a d) or ``"modal"``
@@ -922,11 +925,11 @@ class Payload(Effect):
         if coordinate not in ends:
             return ("a payload acts at the end of a chain: tested once per chain, on "
                     + (", ".join(ends) if ends else "no coordinate (no frame moves)"))
-        return structure(context.model, ends[coordinate], coordinate).reason
+        return structure(context.model, ends[coordinate], coordinate, context.terms).reason
 
     def setting(self, context, j):
         coordinate = context.coordinates[j]
-        return structure(context.model, chain_ends(context.robot)[coordinate], coordinate)
+        return structure(context.model, chain_ends(context.robot)[coordinate], coordinate, context.terms)
 
     def columns_at(self, signals, j, value):
         return value.columns(signals.q, signals.qd, signals.qdd)

@@ -7,7 +7,8 @@ axes (Khalil & Dombre 14.2): π = (XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M) with
     M = m,   (MX, MY, MZ) = m·c,   J_O = I_c + m·(cᵀc·E − c·cᵀ)          (parallel-axis theorem)
 
 (m the mass, c the centre of mass, I_c the inertia tensor about it). Only the part of these columns that
-the model's own free parameters do not already span can be told apart from a change of those parameters:
+the model's own free parameters do not already span can be told apart from a change of those parameters (a
+parameter kept at its value, ``fixed = true`` or ``--fix``, is not free: its columns are known):
 the payload's columns Y_π (at random states, as :mod:`symbolic.numeric.base_parameters` finds base
 parameters, each scaled to unit norm: D) are projected off the span of the model's free base columns,
 and the right singular vectors V of what is left, singular values above :data:`RANK`, give the
@@ -200,19 +201,26 @@ def moving_coordinates(robot: Robot, frame: str) -> list[str]:
     return sorted(found, key=list(robot.generalized_coordinates).index)
 
 
-def structure(model: Any, frame: str, coordinate: str) -> PayloadStructure:
-    """The :class:`PayloadStructure` of a payload on ``frame`` of ``model`` (once per model and frame)."""
+def structure(model: Any, frame: str, coordinate: str, terms: Any = None) -> PayloadStructure:
+    """The :class:`PayloadStructure` of a payload on ``frame`` of ``model`` against the free columns of
+    ``terms`` (:class:`symbolic.workflow.terms.ModelTerms`, the model's terms as the search fits them;
+    ``None``: every parameter free). A parameter kept at its value (``fixed = true``, ``--fix``) is not free:
+    its columns are known and span nothing a payload could hide in. Once per model, frame and free set."""
+    if terms is None:
+        from symbolic.workflow.terms import model_terms
+
+        terms = model_terms(model)
     cache = _STRUCTURES.setdefault(model, {})
-    if frame not in cache:
-        cache[frame] = _structure(model, frame, coordinate)
-    return cache[frame]
+    key = (frame, terms.fixed, np.asarray(terms.free, bool).tobytes())
+    if key not in cache:
+        cache[key] = _structure(model, frame, coordinate, terms)
+    return cache[key]
 
 
-def _structure(model: Any, frame: str, coordinate: str) -> PayloadStructure:
+def _structure(model: Any, frame: str, coordinate: str, terms: Any) -> PayloadStructure:
     from symbolic.codegen.functions import compile_vectorized
     from symbolic.derivation.regressor import regressor
     from symbolic.description.validation import validate
-    from symbolic.workflow.terms import model_terms
 
     robot = model.robot
     lone = validate(dataclasses.replace(robot, name=f"{robot.name}_payload", bodies=(Body("payload", frame, 1),),
@@ -234,7 +242,6 @@ def _structure(model: Any, frame: str, coordinate: str) -> PayloadStructure:
     rng = np.random.default_rng(0)
     q, qd, qdd = rng.uniform(-np.pi, np.pi, (STATES, n)), rng.uniform(-3, 3, (STATES, n)), rng.uniform(-10, 10, (STATES, n))
     W = evaluate(q, qd, qdd).reshape(STATES * n, -1)
-    terms = model_terms(model)
     t = rng.uniform(0.0, 10.0, STATES) if getattr(terms.regressor, "time_varying", False) else None
     F = terms.regressor(q, qd, qdd, t=t)[:, :, terms.free].reshape(STATES * n, -1)
     norms = np.linalg.norm(W, axis=0)

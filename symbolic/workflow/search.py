@@ -404,7 +404,7 @@ class Search:
         self.context = Context(terms.model.robot, estimation.coordinates, s.q[inner], s.qd[inner], s.qdd[inner], passband,
                                p.decimation / p.rate, float(estimation.t[-1] - estimation.t[0]), float(p.rate), terms.model,
                                frozenset(c for c, column in zip(estimation.coordinates, np.asarray(estimation.tau).T)
-                                         if not np.any(column)))
+                                         if not np.any(column)), terms=terms)
         self.hypotheses = self._hypotheses()
         self.rounds: list[Round] = []
         self.accepted: list[Accepted] = []
