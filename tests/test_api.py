@@ -7,7 +7,6 @@ import importlib
 import inspect
 import pkgutil
 import re
-import warnings
 from pathlib import Path
 
 import pytest
@@ -59,23 +58,17 @@ def test_no_submodule_shadows_a_function_of_its_package() -> None:
     """A name the package binds to a function must not also be one of its submodules: importing that submodule
     later would replace the function (``symbolic.export.c(...)`` raised "'module' object is not callable")."""
     clashes = []
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)
-        for name in packages():
-            module = importlib.import_module(name)
-            submodules = {m.name for m in pkgutil.iter_modules(module.__path__)}
-            for attribute in sorted(submodules & set(vars(module))):
-                if not inspect.ismodule(getattr(module, attribute)):
-                    clashes.append(f"{name}.{attribute}")
+    for name in packages():
+        module = importlib.import_module(name)
+        submodules = {m.name for m in pkgutil.iter_modules(module.__path__)}
+        for attribute in sorted(submodules & set(vars(module))):
+            if not inspect.ismodule(getattr(module, attribute)):
+                clashes.append(f"{name}.{attribute}")
     assert set(clashes) <= KNOWN_CLASHES, f"functions named like a submodule of their package: {clashes}"
 
 
-def test_deprecated_aliases_still_work_and_warn() -> None:
-    with pytest.warns(DeprecationWarning, match="symbolic.description"):
-        spec = importlib.reload(importlib.import_module("symbolic.spec"))
-    from symbolic.spec.robot import Robot
-
-    assert Robot is symbolic.Robot and spec.load is symbolic.load
-    with pytest.warns(DeprecationWarning, match="symbolic.export"):
-        emit = importlib.reload(importlib.import_module("symbolic.emit"))
-    assert emit.generate is symbolic.export.generate
+def test_no_aliases_of_old_layer_names() -> None:
+    """``symbolic.spec`` and ``symbolic.emit`` bridged a release that never shipped; they are gone, not half-there."""
+    for name in ("symbolic.spec", "symbolic.emit"):
+        with pytest.raises(ModuleNotFoundError):
+            importlib.import_module(name)

@@ -4,13 +4,11 @@ from __future__ import annotations
 
 import doctest
 import importlib
-import warnings
 from pathlib import Path
 
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "symbolic"
-ALIASES = {"symbolic.spec", "symbolic.emit"}  # deprecated aliases: importing them warns
 
 
 def modules_with_examples() -> list[str]:
@@ -20,8 +18,7 @@ def modules_with_examples() -> list[str]:
             continue
         parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
         name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
-        if name not in ALIASES:
-            names.append(name)
+        names.append(name)
     return names
 
 
@@ -32,9 +29,7 @@ def test_there_are_examples() -> None:
 @pytest.mark.parametrize("name", modules_with_examples())
 def test_examples_of(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(tmp_path)  # examples that write files write them here
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)
-        module = importlib.import_module(name)
+    module = importlib.import_module(name)
     finder = doctest.DocTestFinder(exclude_empty=True)
     runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     tests = [t for t in finder.find(module, name) if t.examples]

@@ -18,13 +18,13 @@ PACKAGE = Path(__file__).resolve().parents[1] / "symbolic"
 # Lowest first. A module may import its own layer and the layers before it.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("symbolic.errors", "symbolic.version", "symbolic.writing", "symbolic.plotting", "symbolic.cache"),
-    ("symbolic.description", "symbolic.robots", "symbolic.spec"),  # symbolic.spec: the deprecated alias
+    ("symbolic.description", "symbolic.robots"),
     ("symbolic.data",),
     ("symbolic.derivation",),
     ("symbolic.codegen",),
     ("symbolic.numeric",),
     ("symbolic.simulation",),
-    ("symbolic.export", "symbolic.emit"),  # symbolic.emit: the deprecated alias
+    ("symbolic.export",),
     ("symbolic.identify",),
     ("symbolic.workflow",),
     ("symbolic.fleet",),  # campaigns over many logs on Dask: identify, diagnose, simulate per log
@@ -57,7 +57,7 @@ def imported_modules(source: str, module: str, is_package: bool) -> list[tuple[i
             if node.level:
                 parts = package.split(".")
                 base = ".".join(parts[: len(parts) - node.level + 1] + ([base] if base else []))
-            # "from symbolic import emit" imports the module symbolic.export
+            # "from symbolic import export" imports the module symbolic.export
             found += [(node.lineno, f"{base}.{a.name}" if base == "symbolic" else base) for a in node.names]
     return [(line, name) for line, name in found if name == "symbolic" or name.startswith("symbolic.")]
 

@@ -1,7 +1,7 @@
 """Straight-line programs for code generation.
 
 A generated function evaluates a list of output expressions written in intermediate symbols
-(:class:`symbolic.subexpressions.Subexpressions`). This module gathers the definitions they need,
+(:class:`symbolic.derivation.subexpressions.Subexpressions`). This module gathers the definitions they need,
 runs SymPy's common-subexpression elimination once over all of them (catching sharing the
 derivation did not see), and orders the statements so that each comes after what it uses.
 Local names are renumbered ``v0, v1, …`` in emission order, so the text is deterministic.

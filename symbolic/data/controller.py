@@ -136,7 +136,7 @@ class Controller:
         return 1 + ns + ns * (len(self.velocity_filter) - 1) + nc + (nc * self.delay if line else 0)
 
     def structure(self) -> tuple[Any, ...]:
-        """What the controller's compiled function depends on besides its numbers (:func:`constants`)."""
+        """What the controller's compiled function depends on besides its numbers (:func:`symbolic.simulation.controller.constants`)."""
         return (self.kind, self.coordinates, tuple(self.states), self.delay, len(self.velocity_filter))
 
     def describe(self) -> str:

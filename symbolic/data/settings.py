@@ -221,7 +221,7 @@ class Processing:
     def reduce(self, x: np.ndarray) -> np.ndarray:
         """Steps 4–5 on any signal sampled like the data (``samples × …``): border dropped, decimated.
 
-        Applied to τ and to every regressor column alike, as :func:`observe` does.
+        Applied to τ and to every regressor column alike, as :func:`symbolic.identify.processing.observe` does.
         """
         x = np.asarray(x, dtype=float)
         return decimate(x[self.border[0] : x.shape[0] - self.border[1]], self.decimation)

@@ -1,7 +1,7 @@
 """The derived dynamic model: D(Q), Christoffel C, g, τ and the state-space form (Madill 3.9).
 
 :func:`derive` runs the derivation once, in intermediate symbols (see
-:mod:`symbolic.subexpressions`), and returns a :class:`DynamicModel`. The contract attributes of
+:mod:`symbolic.derivation.subexpressions`), and returns a :class:`DynamicModel`. The contract attributes of
 docs/contracts.md (``.D``, ``.christoffel``, ``.coriolis_vector``, ``.gravity``, ``.stiffness``) are the fully
 expanded SymPy forms in coordinate and parameter symbols, computed on first access; the compact
 forms used for code generation stay in :attr:`DynamicModel.reduced`.

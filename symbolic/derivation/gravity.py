@@ -34,7 +34,7 @@ def gravity_forces(kin: Kinematics) -> sp.Matrix:
     once per frame), M_j the carried mass and μ_j = Σ m_b (c_b − o_j) its first moment about the origin
     o_j (accumulated inwards: μ_parent += R (μ_j + M_j p_child), or R μ_j + M_j p_parent where the
     offset is constant in the parent). Each coordinate takes the projection of (n_j, f_j) on its joint
-    twist, as in :func:`symbolic.newton_euler.inverse_dynamics`. Carrying three first-moment components
+    twist, as in :func:`symbolic.derivation.newton_euler.inverse_dynamics`. Carrying three first-moment components
     instead of a six-component wrench makes the generated gravity about a third cheaper.
     """
     add = kin.sub.add

@@ -1,7 +1,7 @@
 """Read TOML model files (docs/model-format.md) into :class:`~symbolic.description.Robot`.
 
 Parsing uses the standard library's :mod:`tomllib`; expressions are parsed by
-:mod:`symbolic.expressions`. Unknown keys are refused so that a typo does not silently drop a body.
+:mod:`symbolic.description.expressions`. Unknown keys are refused so that a typo does not silently drop a body.
 """
 
 from __future__ import annotations

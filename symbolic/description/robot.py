@@ -2,10 +2,10 @@
 
 A :class:`Robot` holds coordinates, parameters with nominal values, a tree of frames given by
 Denavit–Hartenberg parameters, rigid bodies and point masses, closed-loop constraints and the
-gravity vector. It is built either from a TOML model file (:mod:`symbolic.modelfile`) or directly
+gravity vector. It is built either from a TOML model file (:mod:`symbolic.description.modelfile`) or directly
 in Python; both routes validate on construction, so a ``Robot`` that exists is a usable one.
 
-Expressions may be given as strings (parsed by :func:`symbolic.expressions.parse_expression`,
+Expressions may be given as strings (parsed by :func:`symbolic.description.expressions.parse_expression`,
 never evaluated), numbers, or SymPy expressions built by the caller.
 """
 

@@ -1,6 +1,6 @@
 """The reviewer's report ``NAME.md`` (docs/contracts.md, "Generated report"): Markdown with LaTeX that GitHub renders.
 
-Entries are shown in the compact form of :mod:`symbolic.simplify` (Madill (4.10) style) when they
+Entries are shown in the compact form of :mod:`symbolic.derivation.simplify` (Madill (4.10) style) when they
 are short enough to read; longer ones are summarised by their operation count in the generated C.
 """
 

@@ -471,7 +471,7 @@ class ConsistentFit:
 class Problem:
     """(2) for a model: the free parameters, how φ gives them, and θ(p) with its Jacobian.
 
-    Built by :func:`problem`; :meth:`residual` evaluates (2)–(3) for a given R, K, z.
+    Built by :func:`problem`.
     """
 
     free: tuple[sp.Symbol, ...]

@@ -27,7 +27,7 @@ def numeric_model(model: DynamicModel) -> NumericModel:
 
 
 class NumericModel:
-    """Numerical functions of a :class:`~symbolic.dynamics.DynamicModel`.
+    """Numerical functions of a :class:`~symbolic.derivation.dynamics.DynamicModel`.
 
     All functions take the parameter vector ``p`` last, in ``model.robot.parameters`` order;
     :attr:`p0` holds the nominal values. Those that hold the applied forces (``applied``, ``bias``,

@@ -173,8 +173,8 @@ def line_outside(controller: Controller) -> bool:
 class DelayLine:
     """u_k applied at sample k + delay, as a ring buffer: ``delay`` rows of nc, u_k in row k mod delay.
 
-    The output applied at sample k is u_{k−delay}, in the row where u_k goes: :meth:`exchange` reads the
-    rows of a run of samples, then writes the run's outputs there — O(1) per sample. Rows start at 0: no
+    The output applied at sample k is u_{k−delay}, in the row where u_k goes: :meth:`applied` reads the
+    rows of a run of samples, then :meth:`computed` writes the run's outputs there — O(1) per sample. Rows start at 0: no
     output before the first computed one arrives (module docstring).
     """
 

@@ -135,7 +135,7 @@ class Value:
     """For a combination: the base parameter in the model's parameters."""
     lower: float = -math.inf
     upper: float = math.inf
-    """What the model's other parameters allow (:func:`value_bounds`)."""
+    """What the model's other parameters allow (:func:`symbolic.identify.known.beta_bounds`)."""
     at_bound: bool = False
     """The bounded fit holds the value at ``lower`` or ``upper``: the data alone want it beyond."""
 

@@ -93,7 +93,7 @@ class Diagnosis:
     notes: tuple[str, ...] = ()
     figures: tuple[Path, ...] = ()
     data_findings: tuple[dict[str, Any], ...] = ()
-    """What the data's treatment, not the model, explains (:func:`held_force_finding`)."""
+    """What the data's treatment, not the model, explains (:func:`symbolic.workflow.diagnosis.held_force_finding`)."""
     corrections: tuple[dict[str, Any], ...] = ()
     """Model-file values the data move beyond 3σ and 10 % (:mod:`symbolic.workflow.corrections`)."""
     changes: tuple[dict[str, Any], ...] = ()

@@ -316,7 +316,7 @@ def _rossi() -> list[Item]:
                 how=f"0.043 kg / 0.163 kg/m ({Mp / rho_exact:.4f} m with the unrounded ρ); the thesis prints the unit "
                     "m³, but Mp/ρ is a length (m)."),
         compare(SOURCE, "(5.11) first natural frequency", "223", with_printed_omegas, "rad/s", correcting=misprint,
-                how=f"First root of (5.11) (`symbolic.reproduction.madill.rossi`) with β⁴ = ρω²/EI and the printed, "
+                how=f"First root of (5.11) (`symbolic.reproduction.madill.items.rossi`) with β⁴ = ρω²/EI and the printed, "
                     f"rounded Ω0 = 4.16 m³, Ωp = 0.26 m (ρ = 0.163 kg/m, EI = 69 GPa × 1.28×10⁻⁹ m⁴, L = 0.449 m). As "
                     f"printed (β = ρω²/EI, so βL is not dimensionless) the first root is {as_printed:.4g} rad/s. The "
                     f"frequency is governed by Ωp: with Ωp = Mp/ρ = 0.2638 m unrounded it is {unrounded_op:.2f} rad/s."),
