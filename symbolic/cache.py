@@ -24,8 +24,9 @@ or none.
 
 Pickle runs code named in the file it loads: it is used here only because every entry is read from this
 folder, which the package creates for its own use (mode 0o700), and an entry that is not owned by the
-user or that others may write is ignored. Pickles are never read from anywhere else (data files refuse
-them: docs/data.md).
+user or that others may write is ignored (:func:`untrusted`, checked on the open file by
+:func:`read_trusted`; compiled libraries and their folders pass the same check). Pickles are never read
+from anywhere else (data files refuse them: docs/data.md).
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ import os
 import pickle
 import platform
 import shutil
+import stat
 import sys
 import tempfile
 from collections.abc import Callable
@@ -105,12 +107,36 @@ def _header(kind: str, key: str) -> bytes:
     return json.dumps({"kind": kind, "key": key, "stamp": stamp()}, sort_keys=True).encode() + b"\n"
 
 
-def _trusted(path: Path) -> bool:
-    """The file is the user's and only the user may write it (POSIX; elsewhere the folder's ACLs decide)."""
+def untrusted(status: os.stat_result) -> str:
+    """What lets someone other than the user change the file or folder of ``status`` ("" when nothing).
+
+    The one check of everything the package runs from disk (pickles here, compiled libraries and their
+    folders in :mod:`symbolic.codegen.compiled`): it must belong to the user and neither group nor others
+    may write it. POSIX only; elsewhere the folder's ACLs decide.
+    """
     if not hasattr(os, "getuid"):
-        return True
-    status = path.stat()
-    return status.st_uid == os.getuid() and not status.st_mode & 0o022
+        return ""
+    if status.st_uid != os.getuid():
+        return f"it belongs to user {status.st_uid}, not to you (user {os.getuid()})"
+    if status.st_mode & 0o022:
+        return f"group or others may write to it (mode {stat.S_IMODE(status.st_mode):#o})"
+    return ""
+
+
+def read_trusted(path: Path) -> tuple[str, bytes]:
+    """``("", content)`` of the regular file ``path`` when :func:`untrusted` finds nothing, else ``(problem, b"")``.
+
+    The check is made on the open file (``fstat``), never on the name, and a symbolic link is not followed,
+    so the bytes returned are those of the file checked, whatever is renamed meanwhile. Raises
+    :class:`OSError` (e.g. :class:`FileNotFoundError`) when the file cannot be opened.
+    """
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_NONBLOCK", 0)
+    with open(os.open(path, flags), "rb") as file:  # O_NONBLOCK: a FIFO under the name does not hang the read
+        status = os.fstat(file.fileno())
+        if not stat.S_ISREG(status.st_mode):
+            return "it is not a regular file", b""
+        problem = untrusted(status)
+        return (problem, b"") if problem else ("", file.read())
 
 
 def load(kind: str, key: str, persistent_load: Callable[[str], Any] | None = None) -> tuple[Any] | None:
@@ -123,11 +149,14 @@ def load(kind: str, key: str, persistent_load: Callable[[str], Any] | None = Non
         return None
     path = entry_path(kind, key)
     try:
-        if not path.is_file() or not _trusted(path):
-            return None
-        raw = path.read_bytes()
+        untrusted_entry, raw = read_trusted(path)
+    except FileNotFoundError:
+        return None
     except OSError as error:
         LOG.info("cache: cannot read %s (%s)", path, error)
+        return None
+    if untrusted_entry:
+        LOG.info("cache: %s is ignored: %s", path, untrusted_entry)
         return None
     problem, payload = _payload(raw, kind, key)
     if problem:
@@ -244,7 +273,8 @@ class _deep_recursion:
 
 
 @functools.lru_cache(maxsize=1)
-def _private_folder() -> Path:
+def private_folder() -> Path:
+    """A folder of this process's own (``tempfile.mkdtemp``: a new name, mode 0o700), removed at exit."""
     path = Path(tempfile.mkdtemp(prefix="symbolic-"))
     import atexit
 
@@ -254,8 +284,11 @@ def _private_folder() -> Path:
 
 def library_folders() -> list[Path]:
     """Where compiled libraries are kept, in order of preference: the cache's ``libraries/`` and a per-user
-    temporary folder (when the cache is not writable); turned off, a per-process folder removed at exit."""
+    temporary folder (when the cache is not writable); turned off, a per-process folder removed at exit.
+
+    A folder is used only after the check of :func:`untrusted` (:mod:`symbolic.codegen.compiled`).
+    """
     if disabled():
-        return [_private_folder()]
+        return [private_folder()]
     uid = getattr(os, "getuid", lambda: 0)()
     return [folder() / "libraries", Path(tempfile.gettempdir()) / f"symbolic-{uid}"]

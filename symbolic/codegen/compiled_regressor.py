@@ -3,9 +3,9 @@
 IDIM-LS evaluates the regressor at every sample of a log: 20 000 samples of the Panda are 140 000 rows
 of 43 columns. NumPy evaluates the straight-line program statement by statement over whole arrays
 (about 0.14 s for the Panda, 500 statements); the same program printed as one C loop
-(:func:`symbolic.codegen.c_batch.batch_source`), compiled once per machine (cached, see
-:mod:`symbolic.codegen.compiled`), takes about a tenth of that. Without a C compiler the NumPy
-evaluator is used; results agree to rounding (tests/test_compiled_regressor.py).
+(:func:`symbolic.codegen.c_batch.batch_source`), compiled once per machine (cached, and checked
+before it is loaded: :mod:`symbolic.codegen.compiled`), takes about a tenth of that. Without a C
+compiler the NumPy evaluator is used; results agree to rounding (tests/test_compiled_regressor.py).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import sympy as sp
 
 from symbolic.derivation.subexpressions import Subexpressions
 from symbolic.codegen.c_batch import batch_source
-from symbolic.codegen.compiled import shared_library
+from symbolic.codegen.compiled import load_library
 
 FUNCTION = "symbolic_batch"
 
@@ -35,10 +35,10 @@ def compiled_batch(
     """
     shape = outputs.shape
     flat = list(outputs)
-    library = shared_library(batch_source(FUNCTION, sub, varying, fixed, flat), "batch")
+    library = load_library(batch_source(FUNCTION, sub, varying, fixed, flat), "batch", ctypes.CDLL)
     if library is None:
         return None
-    function = getattr(ctypes.CDLL(str(library)), FUNCTION)
+    function = getattr(library, FUNCTION)
     function.restype = None
     function.argtypes = [ctypes.c_long] + [ctypes.c_void_p] * (len(varying) + 2)
     widths = [len(group) for group in varying]
