@@ -20,12 +20,13 @@ import os
 import stat
 import tempfile
 import time
+import warnings
 from collections.abc import Iterable
 from pathlib import Path
 
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.export.output import replace_files
-from symbolic.errors import ExportError, ModelError
+from symbolic.errors import ExportError, ModelError, ModelWarning
 
 TARGETS = ("c", "casadi", "report")
 
@@ -96,10 +97,13 @@ def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str |
             analysis = decoupling(model, kinds=["decoupling", "constant_inertia", "balancing"])
         figure = None
         if figures and model.robot.end_effector is not None:
-            from symbolic.export.apparent_mass_figure import file_name, png
+            from symbolic.export.apparent_mass_figure import NoFigure, file_name, png
 
-            figure = file_name(model)
-            files[figure] = png(model)
+            try:
+                files[file_name(model)] = png(model)
+                figure = file_name(model)
+            except NoFigure as why:  # nothing to draw: no figure, no link, and the reason
+                warnings.warn(f"no apparent-mass figure: {why}", ModelWarning, stacklevel=2)
         files[f"{model.name}.md"] = report_markdown(model, head, ops, __version__, analysis, figure).encode()
         logging.getLogger(__name__).info("%s: report in %.1f s", model.name, time.perf_counter() - start)
     return files

@@ -275,6 +275,19 @@ def workspace_points(model: DynamicModel, count: int) -> tuple[np.ndarray, np.nd
     return points, extremes
 
 
+def workspace_axes(model: DynamicModel, count: int) -> np.ndarray:
+    """m_u for u = x, y, z of the base frame at :func:`workspace_samples` (count × 3; ``inf`` where the point
+    cannot move along u: uᵀΦu not above :data:`SINGULAR_RATIO` × trace Φ). Defined wherever the point moves
+    along u, also where Λ is singular: a planar arm's m_x and m_y, whose Λ (J of rank 2) exists nowhere."""
+    out = np.full((count, 3), np.inf)
+    for k, q in enumerate(workspace_samples(model, count)):
+        mobility_u = np.sum(_weights(model, q) ** 2, axis=0)  # uᵀΦu = |W u|² for u = e_x, e_y, e_z (apparent_mass)
+        # as the singular test of Λ: a mobility at rounding level (a cos(π/2) in the geometry) is no motion
+        moving = mobility_u > SINGULAR_RATIO * mobility_u.sum()
+        out[k, moving] = 1.0 / mobility_u[moving]
+    return out
+
+
 def workspace_table(model: DynamicModel, count: int = 9) -> list[WorkspaceRow]:
     """The apparent mass along the base axes and the extreme eigenvalues of Λ at :func:`workspace_samples`."""
     rows = []
@@ -290,6 +303,6 @@ def workspace_table(model: DynamicModel, count: int = 9) -> list[WorkspaceRow]:
 
 
 __all__ = ["HandleCharacteristics", "JointFriction", "NoEndEffector", "SINGULAR_RATIO", "SingularConfiguration",
-           "WORKSPACE_SEED", "WorkspaceRow", "workspace_points", "workspace_samples", "workspace_table",
+           "WORKSPACE_SEED", "WorkspaceRow", "workspace_axes", "workspace_points", "workspace_samples", "workspace_table",
            "apparent_mass", "dynamically_consistent_inverse", "handle_characteristics", "joint_friction",
            "least_energy_velocity", "mobility", "operational_inertia", "series_stiffness"]
