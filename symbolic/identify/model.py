@@ -82,6 +82,9 @@ class ModelIdentification:
     """Model-file parameters kept at their values (``fixed = true``, ``fix=``)."""
     consistent: ConsistentFit | None = None
     """With ``consistent=True``: the physically consistent fit (its own relative error, bodies, time)."""
+    undetermined: tuple[str, ...] = ()
+    """Model-file parameters the data do not determine alone (:func:`undetermined_parameters`): left out of
+    ``parameters``, or, with ``consistent=True``, given with σ = ∞."""
 
     def figures(self, folder: str | Path) -> tuple[Path, ...]:
         """PNG figures of measured vs predicted τ and the residual per coordinate (and of the cross-test).
@@ -118,7 +121,21 @@ class ModelIdentification:
             "relative_error": ident.relative_error,
             "validation_relative_error": None if self.validation is None else self.validation.relative_error,
             "consistent": None if self.consistent is None else self.consistent.to_dict(),
+            "undetermined": list(self.undetermined),
         }
+
+    def undetermined_note(self) -> str | None:
+        """One line naming the parameters the data do not determine alone and what to do, or ``None``."""
+        if not self.undetermined:
+            return None
+        names = ", ".join(self.undetermined)
+        if self.consistent is not None:
+            return (f"not determined alone by these data: {names} (they enter only combinations of base parameters: "
+                    "their values are one of many that fit equally, σ = ∞); keep those you know at their values "
+                    "with --fix NAME,... (a weighed mass, a CAD inertia) and the others follow")
+        return (f"not identified: {names} enter only combinations of base parameters (listed above), so the data do "
+                "not determine them alone; --consistent gives every one (the physically consistent values closest to "
+                "the fit), or keep those you know at their values with --fix NAME,... and the others follow")
 
     def table(self) -> str:
         """Base parameters with σ, then the model-file parameters they determine."""
@@ -137,6 +154,9 @@ class ModelIdentification:
             lines.append(self.consistent.summary())
         if self.fixed:
             lines.append("kept at their values (fixed): " + ", ".join(f"{n} = {v:.6g}" for n, v in self.fixed.items()))
+        note = self.undetermined_note()
+        if note:
+            lines.append(note)
         if self.validation is not None:
             lines.append(f"validation: relative error {self.validation.relative_error:.4g} %")
         return "\n".join(lines)
@@ -247,7 +267,18 @@ def identify_model(
         parameters = direct_parameters(model, reg, base, ident, fixed)
     return ModelIdentification(model, base, ident, parameters, checked, observation,
                                {s.name: float(model.parameters[s]) for s in model.parameter_symbols if s in fixed},
-                               fitted)
+                               fitted, undetermined_parameters(model, reg, fixed, parameters))
+
+
+def undetermined_parameters(model: DynamicModel, reg: Regressor, fixed: frozenset[sp.Symbol],
+                            parameters: dict[str, ModelParameter]) -> tuple[str, ...]:
+    """The model-file parameters that enter θ, are neither geometry nor ``fixed``, and that ``parameters``
+    does not determine: absent (no base parameter is that parameter alone: m1, I1 of a planar arm, which
+    enter only combinations), or with σ = ∞ (the consistent fit's, not determined alone). In the model's order."""
+    known = geometric_parameters(model, reg) | set(fixed)
+    entering = set().union(*(e.free_symbols for e in reg.theta_expressions)) if reg.theta_expressions else set()
+    return tuple(s.name for s in model.parameter_symbols if s in entering and s not in known
+                 and (s.name not in parameters or not np.isfinite(parameters[s.name].sigma)))
 
 
 def _solve(model: DynamicModel, reg: Regressor, base: BaseParameters, observation: Observation, method: str,
