@@ -26,6 +26,7 @@ Loading a library runs its code, so nothing is loaded that another user could ha
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import logging
@@ -40,6 +41,7 @@ from typing import TypeVar
 import casadi as ca
 
 from symbolic import cache
+from symbolic.errors import one_line
 
 LOG = logging.getLogger(__name__)
 
@@ -67,9 +69,7 @@ def cache_folder() -> Path:
 
 def compile_casadi(function: ca.Function) -> ca.Function | None:
     """``function`` as compiled code (same inputs and outputs), or ``None`` without a working compiler."""
-    generator = ca.CodeGenerator(f"{function.name()}.c", {"with_header": False})
-    generator.add(function)
-    source = generator.dump()
+    source = casadi_source(function)
     cc = compiler()
     if cc is None:
         return None
@@ -80,6 +80,13 @@ def compile_casadi(function: ca.Function) -> ca.Function | None:
             return None
         _LOADED[name] = loaded
     return _LOADED[name]
+
+
+def casadi_source(function: ca.Function) -> str:
+    """The C source of ``function`` that :func:`compile_casadi` compiles."""
+    generator = ca.CodeGenerator(f"{function.name()}.c", {"with_header": False})
+    generator.add(function)
+    return generator.dump()
 
 
 def library_name(source: str, prefix: str, cc: str) -> str:
@@ -136,7 +143,12 @@ def _folders() -> Iterator[Path]:
             _refuse(str(folder), problem)
             break
         yield folder
-    yield cache.private_folder()
+    try:
+        private = cache.private_folder()
+    except OSError as error:
+        LOG.info("cannot make a private folder for compiled code (%s)", error)
+        return
+    yield private
 
 
 @functools.lru_cache(maxsize=None)
@@ -200,14 +212,18 @@ def _open_verified(content: bytes, name: str, opener: Callable[[str], T]) -> T |
     for the same library, so a name must never stand for other bytes), and removed once loaded.
     """
     digest = hashlib.sha256(content).hexdigest()[:32]
-    descriptor, path = tempfile.mkstemp(prefix=f"{name}-{digest}-", suffix=".so", dir=cache.private_folder())
+    path = ""
     try:
+        descriptor, path = tempfile.mkstemp(prefix=f"{name}-{digest}-", suffix=".so", dir=cache.private_folder())
         with os.fdopen(descriptor, "wb") as file:
             file.write(content)
         return opener(path)
     except (OSError, RuntimeError) as error:  # ctypes raises OSError, casadi RuntimeError
-        LOG.warning("compiled code %s cannot be loaded from %s (%s; a temporary folder mounted noexec? set "
-                    "TMPDIR); it is evaluated without compiled code", name, path, error)
+        LOG.warning("compiled code %s cannot be loaded from %s (%s; a temporary folder mounted noexec? set TMPDIR); "
+                    "it is evaluated without compiled code", name, path or "the temporary folder",
+                    one_line(str(error), 200))
         return None
     finally:
-        os.unlink(path)
+        if path:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
