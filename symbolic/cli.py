@@ -17,7 +17,8 @@ from pathlib import Path
 
 from typing import TYPE_CHECKING
 
-from symbolic.errors import IdentificationError, ModelError, ModelWarning, SimulationError, SymbolicError, one_line
+from symbolic.errors import (IdentificationError, ModelError, ModelWarning, SimulationError, SymbolicError, one_line,
+                             suggestion)
 from symbolic.reproduction.item import SOURCES as REPRODUCTION_SOURCES
 from symbolic.version import __version__
 
@@ -93,11 +94,8 @@ def resolve(model: str, args: argparse.Namespace | None = None) -> Robot:
         return robots.load(model)
     if path.exists():
         return load(path, root, tip)
-    import difflib
-
-    close = difflib.get_close_matches(model.lower(), robots.names(), n=1, cutoff=0.6)
-    hint = f"did you mean {close[0]!r}? " if close else ""
-    raise ModelError(model, "file", f"no such model file or built-in robot ({hint}built-in: {', '.join(robots.names())})")
+    raise ModelError(model, "file", f"no such model file or built-in robot (built-in: {', '.join(robots.names())})"
+                                    f"{suggestion(model.lower(), robots.names())}")
 
 
 def cmd_list(args: argparse.Namespace) -> int:
@@ -350,7 +348,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 def cmd_diagnose(args: argparse.Namespace) -> int:
     import json
 
-    from symbolic.workflow import EFFECTS, SearchSettings, diagnose
+    from symbolic.workflow import SearchSettings, diagnose
     from symbolic.workflow.effects import select
 
     effects = None
@@ -363,8 +361,10 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         else:
             unknown = []
         if unknown or not names:
-            print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join(EFFECTS)}; "
-                  "periodic means both periodic in position and periodic_time)", file=sys.stderr)
+            known = effect_catalogue()
+            hint = suggestion(unknown[0], [*known, *(identifier for identifier, _ in known.values())]) if unknown else ""
+            print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join(known)}; "
+                  f"periodic means both periodic in position and periodic_time){hint}", file=sys.stderr)
             return 2
     groups = {}
     for text in args.group or []:
@@ -419,6 +419,32 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                   f"instead of {g['as_logged']:.4g} % before any effect (report.md)")
     print(f"wrote {args.out}/report.md" + (f" and {result.patched_path}" if result.patched_path else ""))
     return 0
+
+
+def effect_catalogue() -> dict[str, tuple[str, str]]:
+    """The effects ``diagnose`` searches, by registry name: (contract identifier, one-line summary).
+
+    The one place the command line reads the catalogue (``--effects`` and ``diagnose --help``); it imports
+    the workflow (SymPy, NumPy), so it is called only when one of those needs it."""
+    from symbolic.workflow.effects import EFFECTS
+
+    return {name: (effect.identifier, effect.summary) for name, effect in EFFECTS.items()}
+
+
+class _DiagnoseHelp(argparse.Action):
+    """``diagnose --help``: the usage, then the effects of the catalogue, read only when asked for (the
+    catalogue's import takes a second or more; ``symbolic --help`` and every other help stay immediate)."""
+
+    def __init__(self, option_strings: list[str], dest: str = argparse.SUPPRESS, **kwargs) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace, values, option_string=None) -> None:
+        effects = effect_catalogue()
+        width = max(map(len, effects))
+        parser.epilog = "effects (--effects NAMES; default: all):\n" + "\n".join(
+            f"  {name:{width}s}  {summary}" for name, (_, summary) in effects.items())
+        parser.print_help()
+        parser.exit()
 
 
 def cmd_campaign(args: argparse.Namespace) -> int:
@@ -504,6 +530,7 @@ def cmd_first_peak(args: argparse.Namespace) -> int:
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="symbolic", description=__doc__.splitlines()[0])
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
+    p.add_argument("--version", action="version", version=f"symbolic {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     d = sub.add_parser("derive", help="derive D(Q), Christoffel C, g and τ and print a summary")
     d.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
@@ -548,10 +575,14 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="model, settings and relative errors (%%) as JSON")
     s.add_argument("--method", default="rk4", help="rk4 (fixed step, default) or a solve_ivp method: Radau, BDF, LSODA")
     s.add_argument("--substeps", type=int, help="RK4 sub-steps per sample (default: from the spectral radius)")
-    s.add_argument("--friction-velocity", type=float, default=1e-4, help="ε of the smoothed sign tanh(v/ε) (default 1e-4)")
+    s.add_argument("--friction-velocity", type=float, default=1e-4,
+                   help="ε of the smoothed sign tanh(v/ε), in each coordinate's velocity unit: m/s for a prismatic "
+                   "coordinate, rad/s for a revolute one (default 1e-4)")
     s.add_argument("--window", type=float, default=1.0, help="length of the worst window, seconds (default 1)")
     s.set_defaults(func=cmd_simulate)
-    w = sub.add_parser("diagnose", help="find the effects the model misses in measured data and patch the model file")
+    w = sub.add_parser("diagnose", help="find the effects the model misses in measured data and patch the model file",
+                       add_help=False, formatter_class=argparse.RawDescriptionHelpFormatter)
+    w.add_argument("-h", "--help", action=_DiagnoseHelp, help="show this help message, with the effects, and exit")
     w.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
     w.add_argument("data", help="data file (CSV, .npz, .mat with canonical columns) or experiment file (.toml)")
     w.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")

@@ -6,6 +6,7 @@ what is allowed, so that a user can fix a model file without reading our source.
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Iterable
 
 SHOWN = 60
@@ -51,6 +52,17 @@ def one_line(text: str, limit: int | None = None) -> str:
     if limit is not None and len(text) > limit:
         return f"{text[:SHOWN]}… ({len(text)} characters)"
     return text
+
+
+CLOSE_MATCH = 0.6
+"""Similarity (difflib's ratio) above which a known name is suggested for a misspelt one."""
+
+
+def suggestion(name: str, allowed: Iterable[str]) -> str:
+    """``"; did you mean 'kp'?"`` for the allowed name nearest ``name``, or ``""`` when none is near: the one
+    "did you mean" of every message about a misspelt key or name (model and experiment files, options)."""
+    close = difflib.get_close_matches(str(name), list(allowed), n=1, cutoff=CLOSE_MATCH)
+    return f"; did you mean {close[0]!r}?" if close else ""
 
 
 class SymbolicError(Exception):

@@ -15,6 +15,8 @@ in the tests only; the code that searches the fleet sees the model file and the 
 
 Three ways of reading a log's time are used: from the file name (r01–r04), a column of UNIX seconds
 (r05), a ``[[robot.log]]`` list (r06).
+
+Run as a script, ``python3 tests/fleet_cases.py DIR`` writes the fleet into DIR (the README's campaign example).
 """
 
 from __future__ import annotations
@@ -172,3 +174,13 @@ def campaign_file(folder: Path, listed, names, kind: str) -> Path:
     path = folder / "fleet.toml"
     path.write_text("\n".join(text), encoding="utf-8")
     return path
+
+
+if __name__ == "__main__":
+    # `python3 tests/fleet_cases.py DIR`: the README's campaign example, the fleet written into DIR
+    if len(sys.argv) != 2:
+        sys.exit("usage: python3 tests/fleet_cases.py DIR   (writes DIR/fleet.toml, DIR/arm.toml and DIR/logs/)")
+    target = Path(sys.argv[1])
+    campaign = fleet(target)
+    written = len(list((target / "logs").glob("*.csv")))
+    print(f"wrote {campaign}, {target / 'arm.toml'} and {written} logs in {target / 'logs'}")

@@ -294,3 +294,64 @@ def test_identify_checks_figures_and_out_before_the_work(tmp_path: Path) -> None
     _one_line_exit_2(run("-q", "identify", "emps", str(tmp_path / "no_data.csv"), "--out", str(tmp_path)),
                      "--out", "name the model file")
     assert existing.read_text() == "mine"
+
+
+# -- issue 39: --version, the effects in diagnose --help, "did you mean", units in the help ---------------
+
+def _imports_after(argv: list[str]) -> tuple[str, list[str]]:
+    """What ``symbolic ARGV`` prints on stdout, and which of SymPy, NumPy it imported (in a fresh process)."""
+    code = ("import contextlib, io, sys\nfrom symbolic import cli\nout = io.StringIO()\n"
+            "with contextlib.redirect_stdout(out):\n    try:\n        cli.main(sys.argv[1:])\n    except SystemExit:\n        pass\n"
+            "print(out.getvalue(), end='')\nprint([m for m in ('sympy', 'numpy') if m in sys.modules])")
+    result = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    *printed, imported = result.stdout.splitlines()
+    return "\n".join(printed), json.loads(imported.replace("'", '"'))
+
+
+def test_version_and_help_answer_without_importing_sympy() -> None:
+    from symbolic.version import __version__
+
+    assert _imports_after(["--version"]) == (f"symbolic {__version__}", [])
+    printed, imported = _imports_after(["--help"])
+    assert "--version" in printed and imported == []
+    printed, imported = _imports_after(["simulate", "--help"])
+    assert imported == []
+    # the unit of ε: the velocity's, per coordinate (help text wrapped by argparse)
+    assert "m/s for a prismatic coordinate, rad/s for a revolute one" in " ".join(printed.split())
+
+
+def test_diagnose_help_lists_every_effect_of_the_catalogue() -> None:
+    from symbolic.workflow.effects import EFFECTS
+
+    result = run("diagnose", "--help")
+    assert result.returncode == 0, result.stderr
+    listed = result.stdout.split("effects (--effects NAMES; default: all):\n")[1].splitlines()
+    assert [line.split()[0] for line in listed] == list(EFFECTS)
+    assert all(EFFECTS[line.split()[0]].summary in line for line in listed)
+
+
+def test_a_misspelt_effect_gets_a_suggestion(tmp_path: Path) -> None:
+    result = run("-q", "diagnose", "emps", str(tmp_path / "log.csv"), "--out", str(tmp_path / "out"),
+                 "--effects", "viscous,coulmb")
+    _one_line_exit_2(result, "--effects: unknown effect(s) ['coulmb']", "; did you mean 'coulomb'?")
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("change", "words", "wanted"),
+    [
+        (('mass = "m1"', 'mas = "m1"'), "unknown key(s) ['mas'] (allowed: ", "mass"),
+        (('gravity = ["0", "0", "-g"]', 'gravty = ["0", "0", "-g"]'), "top level: unknown key(s) ['gravty']", "gravity"),
+        (("m1 = 1.0", "m1 = { value = 1.0, fixd = true }"), "[parameters] m1: unknown key(s) ['fixd']", "fixed"),
+        (('mass = "m1"', 'mass = "m11"'), "undeclared symbol 'm11'", "m1"),
+        (('inertia = { xx = "0.001"', 'inertia = { xxx = "0.001"'), "unknown key(s) ['xxx']", "xx"),
+    ],
+)
+def test_a_misspelt_model_file_key_gets_a_suggestion(tmp_path: Path, change: tuple[str, str], words: str,
+                                                     wanted: str) -> None:
+    text = models.two_link()
+    assert change[0] in text
+    path = tmp_path / "arm.toml"
+    path.write_text(text.replace(*change, 1))
+    _one_line_exit_2(run("-q", "derive", str(path)), words, f"did you mean {wanted!r}?")

@@ -346,3 +346,29 @@ def test_a_log_of_some_coordinates_is_simulated_and_refused_by_identification(tm
     for call in (lambda: data.load(other, model=model.robot), lambda: identify_model(model, other)):
         assert error(call) == (f"{other}: column 'q_x': signal for coordinate 'x', which the model does not have "
                                "(its coordinates: q1, q2)")
+
+
+# -- issue 39: canonical columns need no [signals] --------------------------------------------------------------
+
+
+def test_an_experiment_of_canonical_columns_needs_no_signals_table(tmp_path: Path) -> None:
+    """A file whose columns are canonical is its own mapping: an experiment that adds only a controller and the
+    data treatment loads the same signals as the data file read directly (it was "[signals]: missing table")."""
+    log = emps_log(tmp_path)
+    path = tmp_path / "run.experiment.toml"
+    path.write_text(f'data = "log.csv"\nmodel = "emps"\n[identification]\nheld_force = true\n[controller]\n{PD}')
+    loaded, direct = data.load(path), data.load(log)
+    assert loaded.coordinates == direct.coordinates == ("q",) and loaded.settings.held_force is True
+    for kind in ("t", "q", "tau", "ref"):
+        np.testing.assert_array_equal(getattr(loaded, kind), getattr(direct, kind))
+    assert loaded.controller is not None and loaded.controller.kind == "pd" and loaded.model == "emps"
+
+
+def test_without_signals_a_file_of_other_names_is_refused_with_its_variables(tmp_path: Path) -> None:
+    t = np.arange(0.0, 0.1, 1.0 / RATE)
+    write_columns({"time": t, "pos": np.sin(t), "volts": np.cos(t)}, tmp_path / "raw.csv")
+    path = tmp_path / "raw.experiment.toml"
+    path.write_text('data = "raw.csv"\n[identification]\nbandwidth = 20.0\n')
+    message = error(data.load, path)
+    assert message.startswith(f"{path}: [signals]: missing table, and raw.csv has no canonical column (t, q_<c>, ")
+    assert "its variables: time, pos, volts): map them" in message

@@ -33,7 +33,7 @@ from symbolic.data import files
 from symbolic.data.controller import Controller, parse
 from symbolic.data.errors import DataError
 from symbolic.data.keys import check_keys
-from symbolic.data.measurements import (MAX_MAGNITUDE, MAX_RATE, DriveGains, Measurements, Source, assemble,
+from symbolic.data.measurements import (KINDS, MAX_MAGNITUDE, MAX_RATE, DriveGains, Measurements, Source, assemble,
                                        isfinite_number, split_name)
 from symbolic.data.settings import Settings
 from symbolic.data.units import check_units
@@ -41,7 +41,7 @@ from symbolic.description import modelfile
 from symbolic.description.expressions import (RESERVED_NAMES, parse_expression, reserved_meaning, reserved_uses,
                                               variable_names)
 from symbolic.description.robot import Robot
-from symbolic.errors import ModelError, shorten
+from symbolic.errors import ModelError, listing, shorten
 
 DATA_PATH_VARIABLE = "SYMBOLIC_DATA_PATH"
 """Environment variable: folders (separated by ``os.pathsep``) searched for a data file by its name
@@ -163,10 +163,7 @@ def load(
 def _read_data_file(path: Path, coordinates: tuple[str, ...] | None, model: Robot | None, resample: bool) -> Experiment:
     """A data file with canonical columns (no experiment: no model, treatment or controller of its own)."""
     table = files.read(path)
-    for name in (*table.unusable, *table.scalars):
-        if name == "t" or split_name(name) is not None:
-            what = table.unusable.get(name, "a single number (a signal needs at least 2 samples)")
-            raise DataError(str(path), f"column '{name}'", f"is {what}")
+    _refuse_unusable(table, path)
     drive = _Model(model, None, str(path))
     measurements = assemble(table.vectors, Source(str(path), lambda name: f"column '{name}'"),
                             coordinates=coordinates, resample=resample, drive=drive.drive(table.vectors),
@@ -190,9 +187,14 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
         data_file = resolve_data(_string(spec, "data", source, required=True), path)
     table = files.read(data_file, _columns(spec, source), source)
     constants = _constants(spec.get("constants", {}), table, source)
-    signals_spec = _table(spec, "signals", source, required=True)
+    signals_spec = _table(spec, "signals", source)
     rate = _rate(spec, signals_spec, source)
-    evaluated = _signals(signals_spec, table, constants, source)
+    if "signals" in spec:
+        evaluated = _signals(signals_spec, table, constants, source)
+        origin = Source(source, lambda name: f"[signals] {name}", noun="signal", container="[signals]")
+    else:  # canonical columns need no mapping: each is its own signal, as in a data file read directly
+        evaluated = _canonical(table, data_file, source)
+        origin = Source(str(data_file), lambda name: f"column '{name}'")
     if "t" not in evaluated and rate is None:
         raise DataError(source, "[signals]", "no time: give t = \"<time variable>\" or rate = <Hz>")
     resample_key = spec.get("resample", False)
@@ -205,7 +207,7 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
     used = _Model(model, named, source)
     measurements = assemble(
         evaluated,
-        Source(source, lambda name: f"[signals] {name}", noun="signal", container="[signals]"),
+        origin,
         coordinates=coordinates,
         rate=rate,
         resample=resample or resample_key,
@@ -291,6 +293,26 @@ def drive_gains(robot: Robot) -> DriveGains:
     return DriveGains(gains, robot.name)
 
 
+def _canonical(table: files.Table, data_file: Path, source: str) -> dict[str, np.ndarray]:
+    """The signals of an experiment without ``[signals]``: the data file's variables as they are, which
+    must include canonical ones (``t``, ``q_<c>``, ``tau_<c>``, ...), as for a data file read directly."""
+    _refuse_unusable(table, data_file)
+    if not any(name == "t" or split_name(name) is not None for name in table.vectors):
+        variables = listing([*table.vectors, *table.scalars]) or "none"
+        canonical = ", ".join(["t", *(f"{kind}_<c>" for kind in KINDS)])
+        raise DataError(source, "[signals]", f"missing table, and {data_file.name} has no canonical column ({canonical}; "
+                                             f"its variables: {variables}): map them, e.g. [signals] q_x = \"<variable>\"")
+    return dict(table.vectors)
+
+
+def _refuse_unusable(table: files.Table, path: Path) -> None:
+    """A canonical column of a data file that is not a signal (text, a single number) is an error, not dropped."""
+    for name in (*table.unusable, *table.scalars):
+        if name == "t" or split_name(name) is not None:
+            what = table.unusable.get(name, "a single number (a signal needs at least 2 samples)")
+            raise DataError(str(path), f"column '{name}'", f"is {what}")
+
+
 def _signals(spec: Mapping[str, Any], table: files.Table, constants: Mapping[str, float],
              source: str) -> dict[str, np.ndarray]:
     """The ``[signals]``, evaluated; a ``tau_<c>`` written as a number is that number at every sample."""
@@ -330,11 +352,14 @@ def resolve_data(name: str, experiment: Path) -> Path:
     Looked for, in order: ``name`` itself if absolute, else relative to the experiment file's folder;
     then a file of the same name (its last path component) in each folder of the environment variable
     ``SYMBOLIC_DATA_PATH``. So an experiment in a repository can point at data kept outside it (the
-    shipped EMPS examples use ``../../../../shared/data/emps/DATA_EMPS.mat``, the data folder beside
-    the checkout), and the same file works elsewhere with ``SYMBOLIC_DATA_PATH=/path/to/emps``.
+    shipped EMPS examples use ``../../../shared/data/emps/DATA_EMPS.mat``, the folder ``shared`` beside
+    the checkout), and the same file works elsewhere (an installed package, another folder) with
+    ``SYMBOLIC_DATA_PATH=/path/to/emps``. The error names both places looked at.
     """
     given = Path(name)
-    first = Path(os.path.normpath(given if given.is_absolute() else experiment.parent / given))
+    # absolute, so that the message says where that is; not resolved: a relative path is read from the
+    # experiment file's folder as the user sees it (a symlinked folder beside the checkout included)
+    first = Path(os.path.normpath(given if given.is_absolute() else Path(os.path.abspath(experiment)).parent / given))
     candidates = [first]
     search = [Path(d) for d in os.environ.get(DATA_PATH_VARIABLE, "").split(os.pathsep) if d]
     candidates += [d / given.name for d in search]

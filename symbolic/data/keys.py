@@ -2,28 +2,20 @@
 [identification], [controller]).
 
 A misspelt key is one line naming the file, the table and key, what the table allows, and the
-nearest allowed key (:func:`difflib.get_close_matches`, cut-off 0.6)::
+nearest allowed key (:func:`symbolic.errors.suggestion`, shared with the model files)::
 
     run.experiment.toml: [controller] kpp: unknown key (allowed for 'pd': kind, coordinates, ...); did you mean 'kp'?
 """
 
 from __future__ import annotations
 
-import difflib
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from symbolic.data.errors import DataError
-from symbolic.errors import one_line
+from symbolic.errors import CLOSE_MATCH, one_line, suggestion
 
-CLOSE_MATCH = 0.6
-"""Similarity (difflib's ratio) above which an allowed key is suggested for a misspelt one."""
-
-
-def suggestion(key: str, allowed: Iterable[str]) -> str:
-    """``"; did you mean 'kp'?"`` for the allowed key nearest ``key``, or ``""`` when none is near."""
-    close = difflib.get_close_matches(str(key), list(allowed), n=1, cutoff=CLOSE_MATCH)
-    return f"; did you mean {close[0]!r}?" if close else ""
+__all__ = ["CLOSE_MATCH", "check_keys", "suggestion", "unknown_key"]
 
 
 def unknown_key(source: str, table: str, key: str, allowed: Sequence[str], what: str = "unknown key",

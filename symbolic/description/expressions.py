@@ -21,7 +21,7 @@ from collections.abc import Callable, Mapping
 
 import sympy as sp
 
-from symbolic.errors import ModelError, shorten, shown
+from symbolic.errors import ModelError, shorten, shown, suggestion
 
 FUNCTIONS: dict[str, tuple[Callable[..., sp.Expr], int]] = {
     "sin": (sp.sin, 1),
@@ -397,7 +397,7 @@ class _Translator:
             self.source,
             self.key,
             f"undeclared symbol {shorten(name, 40)} in expression {shorten(self.text)}; declare it under [parameters] "
-            f"or in coordinates (declared: {declared})",
+            f"or in coordinates (declared: {declared}){suggestion(name, self.symbols)}",
         )
 
     def call(self, node: ast.Call, depth: int) -> sp.Expr:

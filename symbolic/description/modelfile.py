@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from symbolic.errors import ModelError, shown
+from symbolic.errors import ModelError, shown, suggestion
 from symbolic.description.expressions import check_magnitude
 from symbolic.description.validation import validate
 from symbolic.description.robot import (
@@ -84,9 +84,10 @@ class _Reader:
     def table(self, value: Any, key: str, allowed: set[str], required: set[str] = frozenset()) -> Mapping[str, Any]:
         if not isinstance(value, Mapping):
             raise self.fail(key, f"expected a table, got {type(value).__name__}")
-        extra = set(value) - allowed
+        extra = sorted(set(value) - allowed)
         if extra:
-            raise self.fail(key, f"unknown key(s) {sorted(extra)} (allowed: {', '.join(sorted(allowed))})")
+            raise self.fail(key, f"unknown key(s) {extra} (allowed: {', '.join(sorted(allowed))})"
+                                 f"{suggestion(extra[0], allowed)}")
         missing = set(required) - set(value)
         if missing:
             raise self.fail(key, f"missing key(s) {sorted(missing)}")

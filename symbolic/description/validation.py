@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from symbolic.errors import ModelError, ModelWarning, listing, shorten, shown
+from symbolic.errors import ModelError, ModelWarning, listing, shorten, shown, suggestion
 from symbolic.description.expressions import (
     MAX_LENGTH, RESERVED_NAMES, check_magnitude, check_value, parse_expression, variable_names,
 )
@@ -70,7 +70,8 @@ class _Validator:
         r = self.robot
         self.check_name()
         if r.convention not in CONVENTIONS:
-            raise self.fail("convention", f"unknown DH convention {shown(r.convention, 40)} (allowed: {', '.join(CONVENTIONS)})")
+            raise self.fail("convention", f"unknown DH convention {shown(r.convention, 40)} (allowed: {', '.join(CONVENTIONS)})"
+                                         f"{suggestion(r.convention, CONVENTIONS)}")
         self.set("coordinates", tuple(r.coordinates))
         self.set("parameters", tuple(r.parameters))
         self.check_names()
@@ -236,7 +237,8 @@ class _Validator:
         if not isinstance(j, Joint):
             raise self.fail(f"{key} joint", f"expected a Joint, got {type(j).__name__}")
         if j.type not in JOINT_TYPES:
-            raise self.fail(f"{key} joint.type", f"unknown joint type {shown(j.type, 40)} (allowed: {', '.join(JOINT_TYPES)})")
+            raise self.fail(f"{key} joint.type", f"unknown joint type {shown(j.type, 40)} (allowed: {', '.join(JOINT_TYPES)})"
+                                                 f"{suggestion(j.type, JOINT_TYPES)}")
         vectors = {}
         for name in ("xyz", "rpy", "axis"):
             where = f"{key} {'joint.axis' if name == 'axis' else 'origin.' + name}"
@@ -271,7 +273,8 @@ class _Validator:
             raise self.fail(f"{key} limits", f"expected a table of {', '.join(LIMIT_KEYS)}")
         extra = set(limits) - set(LIMIT_KEYS)
         if extra:
-            raise self.fail(f"{key} limits", f"unknown entries {sorted(extra)} (allowed: {', '.join(LIMIT_KEYS)})")
+            raise self.fail(f"{key} limits", f"unknown entries {sorted(extra)} (allowed: {', '.join(LIMIT_KEYS)})"
+                                             f"{suggestion(sorted(extra)[0], LIMIT_KEYS)}")
         out = {}
         for k in LIMIT_KEYS:
             if k in limits:
@@ -320,7 +323,8 @@ class _Validator:
             inertia = dict(b.inertia) if b.inertia is not None else {k: 0 for k in INERTIA_KEYS}
             extra = set(inertia) - set(INERTIA_KEYS)
             if extra:
-                raise self.fail(f"{key} inertia", f"unknown entries {sorted(extra)} (allowed: {', '.join(INERTIA_KEYS)})")
+                raise self.fail(f"{key} inertia", f"unknown entries {sorted(extra)} (allowed: {', '.join(INERTIA_KEYS)})"
+                                                     f"{suggestion(sorted(extra)[0], INERTIA_KEYS)}")
             inertia = {k: self.expr(inertia.get(k, 0), f"{key} inertia.{k}", parameters) for k in INERTIA_KEYS}
             self.check_inertia(inertia, f"{key} inertia")
             out.append(Body(b.name, b.frame, mass, com, inertia))
@@ -431,7 +435,8 @@ class _Validator:
 
     def coordinate_of(self, entry: str, coordinate: Any, allowed: Mapping[str, str]) -> str:
         if not isinstance(coordinate, str) or coordinate not in allowed:
-            raise self.fail(f"{entry} coordinate", f"unknown coordinate {shown(coordinate, 40)} (coordinates: {listing(allowed)})")
+            raise self.fail(f"{entry} coordinate", f"unknown coordinate {shown(coordinate, 40)} (coordinates: {listing(allowed)})"
+                                                      f"{suggestion(coordinate, allowed)}")
         return coordinate
 
     def coefficient(self, value: Any, key: str, minimum: float | None = 0.0, strict: bool = False) -> sp.Expr:
