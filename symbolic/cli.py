@@ -540,7 +540,10 @@ def parser() -> argparse.ArgumentParser:
     g = sub.add_parser("generate", help="write C, CasADi and Markdown for a model")
     g.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
     g.add_argument("--out", required=True, help="output directory (created if missing)")
-    g.add_argument("--targets", default="c,casadi,report", help="comma-separated subset of c,casadi,report (default: all)")
+    from symbolic.export.targets import NAMES as targets  # the folder's listing: no SymPy before --help
+
+    g.add_argument("--targets", default=",".join(targets),
+                   help=f"comma-separated subset of {','.join(targets)} (default: all)")
     g.add_argument("--figures", action="store_true",
                    help="with the report: the apparent mass over the workspace as NAME_apparent_mass.png (needs matplotlib)")
     g.set_defaults(func=cmd_generate)

@@ -16,7 +16,6 @@ from pathlib import Path
 
 import casadi
 import numpy as np
-import pinocchio as pin
 import pytest
 import sympy as sp
 
@@ -25,7 +24,7 @@ from symbolic.errors import ModelWarning
 from symbolic.numeric import operational as op
 from symbolic.codegen.exported import solved_specs
 from c_library import STRICT, compile_shared, gcc
-from reference_pinocchio import _rot_x, _trans, build
+from reference_pinocchio import _rot_x, _trans, build, pin
 
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
 HANDLES = ["panda", "janot_branch", "fivebar", "omni", "puma560", "fivebar_flexible"]

@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from matplotlib.colors import to_rgba
+
+to_rgba = pytest.importorskip("matplotlib.colors", reason="the figures need matplotlib: pip install -e '.[plot]'").to_rgba
 
 import models
 import symbolic

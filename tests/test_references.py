@@ -1,7 +1,8 @@
 """Every cross-reference in the package's docstrings and in docs/ names something that exists.
 
 A docstring's ``:mod:``, ``:func:``, ``:class:``, ``:meth:``, ``:attr:``, ``:data:`` and ``:exc:`` targets, and the
-``symbolic.…`` module paths and ``symbolic/….py`` file paths that docs/*.md and README.md name, are resolved
+``symbolic.…`` module paths and ``symbolic/….py`` file paths that docs/*.md and README.md name (except the path
+an example file gives itself, ``# symbolic/….py`` on a fenced block's first line), are resolved
 against the code: a module moved or renamed leaves no stale name behind (issue 33: docstrings still named the
 modules of the flat layout). Unqualified targets are looked up as Sphinx does, in the module the docstring belongs
 to (its globals, and the attributes of its classes); targets in other libraries are checked when the library
@@ -22,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "symbolic"
 ROLE = re.compile(r":(?:mod|func|class|meth|attr|data|exc|obj):`~?\.?([A-Za-z_][\w.]*)(?:\(\))?`")
 DOTTED = re.compile(r"`(symbolic(?:\.[A-Za-z_]\w*)+)(?:\(\))?`")
-FILE_PATH = re.compile(r"(?<![\w/.])((?:symbolic|tests|bench|templates)/[\w/]+\.(?:py|j2|toml))\b")
+FILE_PATH = re.compile(r"(?<![\w/.])(?<!# )((?:symbolic|tests|bench|templates)/[\w/]+\.(?:py|j2|toml))\b")
 OTHER_LIBRARIES = ("numpy", "scipy", "sympy", "casadi", "jinja2", "dask", "distributed", "matplotlib", "pinocchio",
                    "tomllib", "tomlkit", "defusedxml", "ctypes", "concurrent", "multiprocessing", "os", "pathlib", "subprocess",
                    "warnings", "threading", "hashlib", "dataclasses", "typing", "collections", "functools")
@@ -146,3 +147,4 @@ def test_the_patterns_see_references() -> None:
     assert not resolve_dotted("symbolic.flat.old_module.f")
     assert resolve_dotted("symbolic.derivation.dynamics.derive")
     assert FILE_PATH.findall("in symbolic/workflow/search.py, not ../symbolic/x.py") == ["symbolic/workflow/search.py"]
+    assert FILE_PATH.findall("```python\n# symbolic/export/targets/new.py\n") == []  # an example file's own path

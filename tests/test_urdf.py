@@ -269,7 +269,7 @@ def test_tip_locks_branches_and_drops_what_lies_past_it(tmp_path: Path) -> None:
     """--tip l2: j1, j2 move; the side branch js is locked at 0 and carried; link 'past' is left out.
 
     Reference: Pinocchio's model of the file without link 'past', with js locked by buildReducedModel."""
-    import pinocchio as pin
+    pin = pytest.importorskip("pinocchio", reason="the reference is Pinocchio: pip install pin")
 
     path = tmp_path / "branch.urdf"
     path.write_text(CHAIN_URDF)

@@ -15,20 +15,20 @@ and the targets: docs/contracts.md, "generated/ and make generate" and "Output f
 from __future__ import annotations
 
 import hashlib
-import logging
 import os
 import stat
-import tempfile
-import time
-import warnings
 from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from symbolic.derivation.dynamics import DynamicModel
 from symbolic.export.output import replace_files
-from symbolic.errors import ExportError, ModelError, ModelWarning
+from symbolic.export.targets import NAMES as TARGETS
+from symbolic.export.targets import target
+from symbolic.errors import ExportError, ModelError
 
-TARGETS = ("c", "casadi", "report")
+if TYPE_CHECKING:
+    from symbolic.derivation.dynamics import DynamicModel
+
 
 
 
@@ -66,7 +66,7 @@ def banner(model: DynamicModel, command: str | None) -> str:
 
 def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str | None = None,
            figures: bool = False) -> dict[str, bytes]:
-    """{file name: content} for the requested targets, nothing written.
+    """{file name: content} for the requested targets (:mod:`symbolic.export.targets`), nothing written.
 
     ``figures``: the report also gets ``NAME_apparent_mass.png`` for a model with an end effector
     (:mod:`symbolic.export.apparent_mass_figure`; needs matplotlib), linked from the report.
@@ -77,59 +77,10 @@ def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str |
         raise ValueError(f"unknown target(s) {sorted(unknown)} (allowed: {', '.join(TARGETS)})")
     head = banner(model, command)
     files: dict[str, bytes] = {}
-    if "c" in targets:
-        from symbolic.codegen.c_source import c_sources
-
-        files.update({k: v.encode() for k, v in c_sources(model, head).items()})
-    if "casadi" in targets:
-        files.update(_casadi_files(model, head))
-    if "report" in targets:
-        from symbolic.derivation.analysis import decoupling
-        from symbolic.export.markdown import SMALL_MODEL, report_markdown
-        from symbolic.codegen.exported import batched_programs, programs
-        from symbolic.version import __version__
-
-        start = time.perf_counter()
-        batched = batched_programs(model)
-        ops = {name: (p.operations, len(batched[name].angles)) for name, p in programs(model).items()}
-        analysis = None
-        if model.n <= SMALL_MODEL:  # larger models: `symbolic analyze` (minutes of simplification)
-            analysis = decoupling(model, kinds=["decoupling", "constant_inertia", "balancing"])
-        figure = None
-        if figures and model.robot.end_effector is not None:
-            from symbolic.export.apparent_mass_figure import NoFigure, file_name, png
-
-            try:
-                files[file_name(model)] = png(model)
-                figure = file_name(model)
-            except NoFigure as why:  # nothing to draw: no figure, no link, and the reason
-                warnings.warn(f"no apparent-mass figure: {why}", ModelWarning, stacklevel=2)
-        files[f"{model.name}.md"] = report_markdown(model, head, ops, __version__, analysis, figure).encode()
-        logging.getLogger(__name__).info("%s: report in %.1f s", model.name, time.perf_counter() - start)
+    for name in TARGETS:
+        if name in targets:
+            files.update(target(name).render(model, head, figures))
     return files
-
-
-def _casadi_files(model: DynamicModel, head: str) -> dict[str, bytes]:
-    from symbolic.codegen.casadi import casadi_functions
-    from symbolic.codegen.templates import render as render_template
-
-    functions = casadi_functions(model)
-    out = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        for name, function in functions.items():
-            path = Path(tmp) / f"{model.name}_{name}.casadi"
-            function.save(str(path))
-            out[path.name] = path.read_bytes()
-    loader = render_template(
-        "loader.py.j2",
-        banner=head,
-        name=model.name,
-        functions=list(functions),
-        coordinates=list(model.robot.generalized_coordinates),
-        parameters=[{"name": p.name, "value": repr(p.value)} for p in model.robot.parameters],
-    )
-    out[f"{model.name}_casadi.py"] = loader.encode()
-    return out
 
 
 def check_output_directory(path: str | os.PathLike) -> None:
