@@ -313,6 +313,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     from symbolic import data, export
     from symbolic.simulation import simulate
+    from symbolic.simulation.simulator import EXPERIMENT_NAME
     from symbolic.description.units import coordinate_units
     from symbolic.simulation.figures import MatplotlibMissing, draw
 
@@ -330,6 +331,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     files, notes = [], [n for n in (comparison.treatment.note,) if n]
     if args.out:
         files.append(simulation.write(args.out))
+        files.append(files[-1].with_name(EXPERIMENT_NAME))  # how to read it: the force held over each sample
         try:
             files += draw(comparison, Path(args.out), title=f"{model.robot.name}, {Path(args.experiment).name}",
                           units=coordinate_units(model.robot))
@@ -412,7 +414,12 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         modes = lambda ms: ", ".join(f"{m['frequency_hz']:.4g} Hz (ζ {m['damping_ratio']:.3g})" for m in ms) or "none"  # noqa: E731
         print(f"modes (linearised at rest): {modes(result.modes['before'])} -> {modes(result.modes['after'])}")
     for finding in result.data_findings:
-        if finding["finding"] == "held_force":
+        if finding["finding"] == "held_force" and finding.get("treated"):
+            g = finding["patched"]["gap_validation"]
+            print(f"the data: the force is held over each sample (zero-order hold): treated as held_force = true "
+                  f"(with the force as logged the patched model's held-out gap is {g['as_logged']:.4g} %, so treated "
+                  f"{g['held_force']:.4g} %); every number above is for the force so treated (report.md)")
+        elif finding["finding"] == "held_force":
             g = finding["gap_validation"]
             print(f"the data: the logged force behaves as a command held over each sample; declared "
                   f"(held_force = true in [identification]) the held-out gap would be {g['held_force']:.4g} % "

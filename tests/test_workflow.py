@@ -502,8 +502,13 @@ def emps_model(tmp_path: Path, drop: tuple[str, ...]) -> Path:
 
 
 def emps_diagnose(model, **options):
+    """The estimation set, the pulse set held out, the force taken as logged (held_force = false) as the
+    publication takes it, so that its stages are reproduced; undeclared, the diagnosis finds the logged
+    drive voltage held over each sample and treats it (test_emps_pulse_set_force_is_found_to_be_a_held_command)."""
+    from symbolic.data.treatment import Settings
+
     return diagnose(model, robots.example_path("emps_estimation"), validation=robots.example_path("emps_pulses"),
-                    figures=False, **options)
+                    figures=False, settings=Settings(held_force=False), **options)
 
 
 @pytest.mark.slow
@@ -750,8 +755,12 @@ def test_emps_pulse_set_resonance_is_not_a_collocated_second_mass(emps: Path) ->
     """The pulse set as the data (its last fifth held out): the residual's 23–33 Hz hump is tested as
     flexible_mode and fitted best near 28 Hz, but only by a negative load (a lead of the logged force
     over the motion, not a second mass ringing behind a coupling), so it is rejected as non-physical and
-    direction-dependent viscous friction is what is named."""
-    d = diagnose(robots.path("emps"), robots.example_path("emps_pulses"), figures=False)
+    direction-dependent viscous friction is what is named. The force is taken as logged (declared): the lead
+    is the subject."""
+    from symbolic.data.treatment import Settings
+
+    d = diagnose(robots.path("emps"), robots.example_path("emps_pulses"), figures=False,
+                 settings=Settings(held_force=False))
     assert [f.effect for f in d.found] == ["asymmetric_viscous"]
     assert d.after.gap["validation"] < d.before.gap["validation"]
     (flexible,) = [c for c in d.search.rounds[0].candidates if c.effect.name == "flexible_mode"]
@@ -789,14 +798,17 @@ def test_a_logged_held_command_looks_like_a_negative_load(tmp_path: Path) -> Non
     flexible_mode's best fit is a significant resonance at the damping cap with a negative load — the
     EMPS pulse set's signature — and the physical check is what keeps it from being named; offered the
     force lead, the workflow names it with a lag of the order of the half sample (seeds 1–5: 0.9–2.1 ms;
-    the jerk of a 4 Hz loop under 0.5 N·m pulses determines it loosely)."""
+    the jerk of a 4 Hz loop under 0.5 N·m pulses determines it loosely). The force is declared as logged
+    (held_force = false): undeclared, the diagnosis would find the held command and treat it (below)."""
+    from symbolic.data.treatment import Settings
+
     data = cases.measurements(cases.axis(), 1, 0.01, measured=("q",), pulses=0.5, held=True)
-    d = run_on(tmp_path, cases.axis(), data)
+    d = run_on(tmp_path, cases.axis(), data, settings=Settings(held_force=False))
     assert d.found == ()
     (flexible,) = [c for c in d.search.rounds[0].candidates if c.effect.name == "flexible_mode"]
     assert flexible.roles["load"] < 0 and flexible.roles["damping_ratio"] == pytest.approx(max(FlexibleMode.DAMPING))
     assert flexible.p_value < 1e-3 / flexible.trials and [r for r in flexible.failed if r.startswith("physical")]
-    d = run_on(tmp_path, cases.axis(), data, effects=[*EFFECTS.values(), ForceLead()])
+    d = run_on(tmp_path, cases.axis(), data, effects=[*EFFECTS.values(), ForceLead()], settings=Settings(held_force=False))
     assert [f.effect for f in d.found] == ["force_lead"]
     fit = d.search.final.identification
     half = 0.5 * data.sample_period
@@ -831,21 +843,27 @@ def test_nothing_held_is_reported_on_a_sampled_force(tmp_path: Path) -> None:
     assert d.to_dict()["data_findings"] == []
 
 
+@pytest.mark.slow
 def test_emps_pulse_set_force_is_found_to_be_a_held_command(emps: Path) -> None:  # noqa: F811
-    """EMPS's vir is the controller's output held over each 1 ms sample: undeclared, diagnose reports the
-    data finding (it removes more than the search's effect size of the held-out residual power) and names
-    no flexibility; declared, the nominal gap is the smaller one the finding predicted and no finding is left."""
+    """EMPS's vir is the controller's output held over each 1 ms sample: undeclared, diagnose finds it on the
+    nominal model (it removes more than the search's effect size of the held-out residual power) and again on
+    the patched model, treats the force as held and says so, and names no flexibility; its result is the
+    declared diagnosis' (no finding left there), whose nominal gap is the smaller one the finding predicted."""
     from symbolic.data.treatment import Settings
     from symbolic.workflow.search import MIN_HELD_OUT_GAIN
 
     d = diagnose(robots.path("emps"), robots.example_path("emps_pulses"), figures=False)
     (finding,) = d.to_dict()["data_findings"]
     assert finding["finding"] == "held_force" and finding["removed_share"] >= MIN_HELD_OUT_GAIN
+    assert finding["treated"] and finding["patched"]["removed_share"] >= MIN_HELD_OUT_GAIN
+    assert "treated as held_force = true" in finding["note"]
     assert "flexible_mode" not in [f.effect for f in d.found]
     declared = diagnose(robots.path("emps"), robots.example_path("emps_pulses"), figures=False,
                         settings=Settings(held_force=True))
     assert declared.to_dict()["data_findings"] == []
     assert declared.before.gap["validation"] == pytest.approx(finding["gap_validation"]["held_force"], rel=1e-12)
+    assert [(f.effect, f.parameters) for f in d.found] == [(f.effect, f.parameters) for f in declared.found]
+    assert d.after.gap == declared.after.gap
 
 
 @pytest.mark.slow
@@ -856,11 +874,13 @@ def test_emps_pulse_set_peak_is_a_lead_of_the_logged_force(emps: Path) -> None: 
     a first-order force lead beside the catalogue, the workflow names it first; its lag is positive and
     shorter than the 1 ms sample period (a held command leads the force it produces by half a sample; a
     current loop adds a fraction of a millisecond); with it the collocated resonance is no longer
-    significant, and the residual has no spectral peak left in the band."""
+    significant, and the residual has no spectral peak left in the band. The force is taken as logged
+    (declared): the lead is the subject."""
+    from symbolic.data.treatment import Settings
     from symbolic.workflow.where import localise
 
     d = diagnose(robots.path("emps"), robots.example_path("emps_pulses"), figures=False,
-                 effects=[*EFFECTS.values(), ForceLead()])
+                 effects=[*EFFECTS.values(), ForceLead()], settings=Settings(held_force=False))
     assert [f.effect for f in d.found][0] == "force_lead" and "flexible_mode" not in [f.effect for f in d.found]
     fit = d.search.final.identification
     mass = dict(zip(fit.names, fit.values))["M_carriage"]

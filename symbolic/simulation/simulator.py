@@ -160,12 +160,51 @@ class Simulation:
         ])
 
     def write(self, folder: str | Path) -> Path:
-        """Write ``folder/simulated.csv`` (canonical columns t, q_c, qd_c, qdd_c, tau_c), atomically."""
+        """Write ``folder/simulated.csv`` (canonical columns t, q_c, qd_c, qdd_c, tau_c) and, beside it,
+        ``folder/simulated.experiment.toml`` (:meth:`experiment_text`: how to read it), each atomically;
+        returns the data file's path.
+
+        The force τ_c at t_k is the controller's output held over [t_k, t_k+1) (zero-order hold); qd_c and
+        qdd_c are the state at t_k and the acceleration just after it, with τ_k acting (docs/simulation.md,
+        "What it writes")."""
         from symbolic.data import write
+        from symbolic.writing import replacing
 
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        return write(self.simulated, folder / "simulated.csv")
+        data = write(self.simulated, folder / DATA_NAME)
+        with replacing(folder / EXPERIMENT_NAME) as temporary:
+            temporary.write_text(self.experiment_text(), encoding="utf-8")
+        return data
+
+    def experiment_text(self) -> str:
+        """The experiment file written beside ``simulated.csv``: its positions and forces, read as a measured
+        log is (velocity and acceleration by central differences of the positions), with ``held_force = true``
+        — the states at t_k then see the force's mean over the sample, (τ_k−1 + τ_k)/2, the force that moved
+        them — and the measured log's other ``[identification]`` settings (the bandwidth of its motion).
+        Read with its own qd_c and qdd_c columns instead (``simulated.csv`` given as data), τ_k is the force
+        of those states as it stands and nothing is declared."""
+        names = self.simulated.coordinates
+        signals = ["t", *(f"q_{c}" for c in names), *(f"tau_{c}" for c in names)]
+        given = self.measured.settings.given() if isinstance(self.measured, Experiment) else {}
+        settings = {**{k: v for k, v in given.items() if k != "held_force"}, "held_force": True}
+        return "\n".join([
+            f"# How to read {DATA_NAME}, written with it by symbolic simulate ({self.model_name}, from "
+            f"{Path(str(self.measured.source)).name}).",
+            "# tau_<c> at t_k is the controller's output held over [t_k, t_k+1) (zero-order hold); qd_<c> and",
+            "# qdd_<c> are the state at t_k and the acceleration just after it, with tau_k acting. Read from the",
+            "# positions (velocity and acceleration by central differences, as a measured log is), the states at",
+            "# t_k see the force's mean over the sample: held_force = true. Read with its qd/qdd columns (the csv",
+            "# given as data), tau_k is the force of those states as it stands: nothing to declare.",
+            f"data = {_toml(DATA_NAME)}",
+            "",
+            "[signals]",
+            *(f"{_toml(name)} = {_toml(name)}" for name in signals),
+            "",
+            "[identification]",
+            *(f"{key} = {_toml(value)}" for key, value in settings.items()),
+            "",
+        ])
 
 
 def simulate(
@@ -250,6 +289,25 @@ def simulate(
     return Simulation(measurements, simulated, ctrl, method, m, radius, friction_velocity,
                       values.by_name(), used_compiled,
                       model.robot.name, timings)
+
+
+DATA_NAME = "simulated.csv"
+"""The data file :meth:`Simulation.write` writes."""
+EXPERIMENT_NAME = "simulated.experiment.toml"
+"""The experiment file written beside it: how to read it (:meth:`Simulation.experiment_text`)."""
+
+
+def _toml(value: Any) -> str:
+    """A TOML value: a bool, a number (repr, exact), a string (JSON's quoting is TOML's basic string) or a list."""
+    import json
+
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (tuple, list)):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    return json.dumps(str(value))
 
 
 def _check_options(method: str, substeps: int | None, friction_velocity: float, source: str) -> None:

@@ -44,7 +44,7 @@ from symbolic.workflow.dataset import DataSet, load_sets, with_held_force
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
 import symbolic.robots as robots
 from symbolic.workflow.patch import Editor
-from symbolic.workflow.search import Search, variant_of
+from symbolic.workflow.search import CurrentModel, Search, variant_of
 from symbolic.workflow.search import SearchSettings
 from symbolic.workflow.terms import NominalFit, coordinate_gaps, final_nominal, fit_nominal, model_terms, relative_gap
 from symbolic.workflow.report import markdown
@@ -105,6 +105,41 @@ def diagnose(
         (:mod:`symbolic.identify.known`).
     """
     clock, cpu = time.perf_counter(), _cpu_time()
+    model = _derived(model)
+    fixed_symbols(model, fix)  # an unknown name is refused before the data are read
+    given = dict(experiment=experiment, validation=validation, out=out, search=search, effects=effects,
+                 simulate=simulate, fix=fix)
+    diagnosis = _diagnose(model, data, settings=settings, started=(clock, cpu), **given)
+    checked = patched_held_force(diagnosis, settings, search, fix)
+    if checked is not None and checked["removed_share"] >= (search or SearchSettings()).min_gain:
+        # the patched model's residual shows a held command: the whole diagnosis again on the force so treated,
+        # since the timing moves the values the patch writes and may move the effects named
+        log.info("diagnose %s: the force is held over each sample (zero-order hold); diagnosing again with "
+                 "held_force = true", model.name)
+        first = diagnosis
+        diagnosis = _diagnose(model, data, settings=dataclasses.replace(settings or Settings(), held_force=True), **given)
+        seconds = {"force as logged (treatment check)": sum(first.seconds.values()), **diagnosis.seconds}
+        cpu_seconds = {"force as logged (treatment check)": sum(first.cpu_seconds.values()), **diagnosis.cpu_seconds}
+        diagnosis = dataclasses.replace(diagnosis, data_findings=(held_force_treated(first, checked),),
+                                        seconds=seconds, cpu_seconds=cpu_seconds)
+    elif checked is not None and diagnosis.data_findings:
+        diagnosis = dataclasses.replace(diagnosis, data_findings=tuple(
+            _with_patched(f, checked) for f in diagnosis.data_findings))
+    if out is not None:
+        clock, cpu = time.perf_counter(), _cpu_time()
+        diagnosis = _write(diagnosis, Path(out), figures)
+        diagnosis = dataclasses.replace(diagnosis, seconds={**diagnosis.seconds, "report": time.perf_counter() - clock},
+                                        cpu_seconds={**diagnosis.cpu_seconds, "report": _cpu_time() - cpu})
+    return diagnosis
+
+
+def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experiment: str | Path | None,
+              validation: str | Path | Measurements | None, out: str | Path | None, settings: Settings | None,
+              search: SearchSettings | None, effects: Sequence[Effect] | None, simulate: Simulator | bool | None,
+              fix: Sequence[str], started: tuple[float, float] | None = None) -> Diagnosis:
+    """Steps 1–5 of :func:`diagnose` with the data treated by ``settings``; nothing written. ``started``: the
+    wall and CPU clocks when the diagnosis began (the derivation counts in the first step's time)."""
+    clock, cpu = started or (time.perf_counter(), _cpu_time())
     seconds: dict[str, float] = {}
     cpu_seconds: dict[str, float] = {}
 
@@ -114,8 +149,6 @@ def diagnose(
         seconds[name], cpu_seconds[name] = now - clock, used - cpu
         clock, cpu = now, used
 
-    model = _derived(model)
-    fixed_symbols(model, fix)  # an unknown name is refused before the data are read
     source = Path(model.robot.source)
     log.info("diagnose %s: loading and treating the data", model.name)
     estimation, held, held_out = load_sets(model.robot, data, experiment, validation, settings)
@@ -221,9 +254,6 @@ def diagnose(
                           patched_path, after, where_after, bool(simulate), seconds, tuple(notes), (), tuple(findings),
                           corrections=tuple(reviewed[0]), changes=tuple(reviewed[1]), modes=reviewed[2],
                           caveats=tuple(caveats), cpu_seconds=cpu_seconds)
-    if out is not None:
-        diagnosis = _write(diagnosis, Path(out), figures)
-    lap("report")
     return diagnosis
 
 
@@ -231,33 +261,113 @@ def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], nominal: F
                        settings: Settings | None, search: SearchSettings | None,
                        fix: Sequence[str] = ()) -> list[dict[str, Any]]:
     """Whether the logged force behaves as a held command (:attr:`symbolic.data.treatment.Settings.held_force`)
-    when the data do not say: the nominal model identified on the data treated both ways (inverse
-    dynamics; ``nominal`` is step 1's fit when it was on the inverse path), and a finding when comparing
-    the states with the force's mean over each sample removes at least the search's effect size
-    (``min_gain``) of the held-out residual power. Not applied: how a
-    log was written is for its experiment file to declare; the finding says so and how much it matters.
+    when the data do not say, on the nominal model: :func:`held_force_gaps` (``nominal`` is step 1's fit when it
+    was on the inverse path), and a finding when comparing the states with the force's mean over each sample
+    removes at least the search's effect size (``min_gain``) of the held-out residual power. Not applied
+    here: a missing effect can hide the lead or mimic it, so the decision is taken on the patched model
+    (:func:`patched_held_force`), which :func:`diagnose` runs before anything is written.
 
     A held command leads the force it produces by half a sample; in the inverse model that lead looks
     like a negative load on a resonance or a jerk term (EMPS's pulse set: bench/emps_resonance.py)."""
     estimation = sets["estimation"]
     if settings_for(estimation.measurements, settings).held_force is not None:
         return []  # declared, by the caller or the experiment
-    plain = nominal or _fit(model, sets, None, fix)  # the inverse-model fit of step 1, or made here
-    centred = _fit(model, {role: with_held_force(data) for role, data in sets.items()}, None, fix)
-    before, after = plain.gap["validation"], centred.gap["validation"]
-    removed = 1.0 - (after / before) ** 2 if before > 0 else 0.0
-    threshold = (search or SearchSettings()).min_gain
-    if removed < threshold:
+    gaps = held_force_gaps(model, sets, nominal, fix)
+    if gaps["removed_share"] < (search or SearchSettings()).min_gain:
         return []
+    (before, after), (e_before, e_after) = _both(gaps["gap_validation"]), _both(gaps["gap_estimation"])
     note = (f"the logged force behaves as a command held over each sample: compared with the motion as its mean "
             f"over the sample (held_force), the nominal model's held-out gap falls from {before:.4g} % to {after:.4g} % "
-            f"({100 * removed:.3g} % of the residual power; estimation {plain.gap['estimation']:.4g} % → "
-            f"{centred.gap['estimation']:.4g} %). A held command leads the force it produces by half a sample, which "
+            f"({100 * gaps['removed_share']:.3g} % of the residual power; estimation {e_before:.4g} % → "
+            f"{e_after:.4g} %). A held command leads the force it produces by half a sample, which "
             "the inverse model reads as a negative load or a lead. If the log holds the controller's held output, "
             "declare held_force = true in the experiment's [identification]; this diagnosis does not assume it")
-    return [{"finding": "held_force", "gap_validation": {"as_logged": before, "held_force": after},
-             "gap_estimation": {"as_logged": plain.gap["estimation"], "held_force": centred.gap["estimation"]},
-             "removed_share": removed, "note": note}]
+    return [{"finding": "held_force", "treated": False, **gaps, "note": note}]
+
+
+def held_force_gaps(model: DynamicModel, sets: dict[str, DataSet], fit: Fit | None,
+                    fix: Sequence[str] = ()) -> dict[str, Any]:
+    """``model`` identified on the data as logged (``fit``, when already made on the inverse path) and with
+    the force treated as held over each sample (:func:`~symbolic.workflow.dataset.with_held_force`): the
+    gaps both ways, ``{"gap_validation": {"as_logged", "held_force"}, "gap_estimation": {...},
+    "removed_share"}``, the share of the held-out residual power the treatment removes."""
+    plain = fit or _fit(model, sets, None, fix)
+    held = _fit(model, {role: with_held_force(data) for role, data in sets.items()}, None, fix)
+    return _held_gaps(plain.gap, held.gap)
+
+
+def patched_held_force(diagnosis: Diagnosis, settings: Settings | None, search: SearchSettings | None,
+                       fix: Sequence[str] = ()) -> dict[str, Any] | None:
+    """:func:`held_force_gaps` of the patched model (``None`` when the timing is declared): the check of the
+    data's timing run again after the effects are in, where no missing effect hides the lead of a held
+    command any more (a 2-link arm logged by ``symbolic simulate`` without joint 2's viscous friction: on the
+    nominal model the lead removes less than the effect size, on the patched one most of what is left).
+
+    The patched model is identified by IDIM-LS like the nominal one; where it cannot be (no model file to
+    patch, or it adds a coordinate the data do not measure) the search's final joint fit is refitted instead,
+    its columns being those of the same states."""
+    sets = diagnosis.sets
+    if settings_for(sets["estimation"].measurements, settings).held_force is not None:
+        return None
+    patched = diagnosis.after.model
+    names = set(patched.robot.generalized_coordinates)
+    added = names - set(sets["estimation"].coordinates) - set(diagnosis.model.robot.generalized_coordinates)
+    if diagnosis.patched_text is not None and not added:
+        kept = [n for n in fix if n in {p.name for p in patched.robot.parameters}]
+        fitted = diagnosis.after if not diagnosis.simulated else None
+        return {**held_force_gaps(patched, sets, fitted, kept), "checked_on": "the patched model"}
+    final = diagnosis.search.final
+    held = CurrentModel(final.terms, {role: with_held_force(data) for role, data in sets.items()}, final.accepted)
+    plain = {role: relative_gap(data.tau, final.predicted(role)) for role, data in sets.items()}
+    treated = {role: relative_gap(data.tau, held.predicted(role)) for role, data in held.sets.items()}
+    return {**_held_gaps(plain, treated), "checked_on": "the search's final joint fit"}
+
+
+def held_force_treated(first: Diagnosis, checked: dict[str, Any]) -> dict[str, Any]:
+    """The data finding of a diagnosis made again with ``held_force = true`` because the patched model of
+    ``first`` (the force as logged) showed a held command (``checked``, :func:`patched_held_force`): the
+    nominal model's gaps both ways, the patched model's, and a note saying what the timing is."""
+    advisory = [f for f in first.data_findings if f["finding"] == "held_force"]
+    fit = first.before if not first.simulated else None
+    nominal = {k: advisory[0][k] for k in ("gap_validation", "gap_estimation", "removed_share")} if advisory else \
+        held_force_gaps(first.model, first.sets, fit, ())
+    (before, after), (p_before, p_after) = _both(nominal["gap_validation"]), _both(checked["gap_validation"])
+    where = "nominal model" if not first.found else "model with " + ", ".join(
+        f"{f.label()} on {f.coordinate}" for f in first.found)
+    note = (f"the force is held over each sample (zero-order hold): treated as held_force = true. With the force as "
+            f"logged, the {where} leaves a residual of which comparing the states with the force's mean over each "
+            f"sample removes {100 * checked['removed_share']:.3g} % (held-out gap {p_before:.4g} % → {p_after:.4g} %; "
+            f"the nominal model's {before:.4g} % → {after:.4g} %, {100 * nominal['removed_share']:.3g} %): the "
+            "logged force leads the motion by half a sample, as a digital controller's output held from one sample "
+            "to the next does (the force `symbolic simulate` writes is one). Every gap, effect and value of this diagnosis, and the patched "
+            "model's values, are for the force so treated. Declare held_force in the experiment's [identification] "
+            "(true, or false to keep the force as logged) and this check is not made")
+    return {"finding": "held_force", "treated": True, "timing": "held over each sample (zero-order hold)", **nominal,
+            "patched": {**checked, "found": [{"effect": f.effect, "coordinate": f.coordinate} for f in first.found]},
+            "note": note}
+
+
+def _with_patched(finding: dict[str, Any], checked: dict[str, Any]) -> dict[str, Any]:
+    """An advisory ``held_force`` finding of the nominal model with the patched model's check, which did not
+    reach the effect size: the force is kept as logged, and the note says why."""
+    if finding["finding"] != "held_force":
+        return finding
+    note = (f"{finding['note']}. With the effects found it removes {100 * checked['removed_share']:.3g} % of the "
+            f"{checked['checked_on'].removeprefix('the ')}'s held-out residual power, less than the effect size: "
+            "the force is kept as logged")
+    return {**finding, "patched": dict(checked), "note": note}
+
+
+def _held_gaps(plain: Mapping[str, float], held: Mapping[str, float]) -> dict[str, Any]:
+    before, after = plain["validation"], held["validation"]
+    removed = 1.0 - (after / before) ** 2 if before > 0 else 0.0
+    return {"gap_validation": {"as_logged": before, "held_force": after},
+            "gap_estimation": {"as_logged": plain["estimation"], "held_force": held["estimation"]},
+            "removed_share": removed}
+
+
+def _both(gaps: Mapping[str, float]) -> tuple[float, float]:
+    return gaps["as_logged"], gaps["held_force"]
 
 
 def simulated_path(controller: Controller | Mapping[str, Any] | None = None) -> Simulator:
