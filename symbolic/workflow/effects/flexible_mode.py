@@ -1,0 +1,178 @@
+"""An unmodelled resonance: a load on a compliant coupling, found by its ringing."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from symbolic.workflow.effects.base import Effect, joint_frame, on_row, register
+
+
+class FlexibleMode(Effect):
+    """An unmodelled resonance: a load elastically coupled to coordinate q (a compliant transmission, a
+    flexible link's first mode). With the coordinate measured (collocated), the load of inertia J_L on
+    a spring k and damper c moves as q_L = L(s)·q with L = (2ζω·s + ω²)/(s² + 2ζω·s + ω²), ω² = k/J_L,
+    2ζω = c/J_L, and the actuator must supply J_L·q̈_L in addition to the rest of the model: the column
+    is the acceleration q̈ filtered by L (linear in J_L for given ω, ζ; the coordinate's own inertia in
+    the model becomes the motor side's). ω and ζ are scanned on a grid and refined.
+
+    Roles: ``frequency_hz`` and ``damping_ratio`` of the ringing as the data show it — the patched
+    model's closed-loop mode under the data's ``[controller]`` (:mod:`symbolic.workflow.modes`), nearest
+    to the load's own frequency; without a controller, the load's mode with the coordinate held
+    (ω, ζ). Written as a second mass: a new coordinate ``<q>_flex`` (the load's deflection), a frame
+    turning (or sliding) with q plus it, a body of inertia (mass) J_L, and a ``[[force]]`` −k·x − c·ẋ on it.
+
+    The column acts on coordinate q's row only: exact when no other coordinate moves the load's axis (a
+    one-axis machine, the first joint of a chain); on a later joint the load's inertia also reacts on the
+    joints before it, which the column leaves out (the patched model holds it in full).
+    """
+
+    own_row = True
+
+    name, roles, axis, nonlinear = "flexible_mode", ("frequency_hz", "damping_ratio"), "time", "frequency and damping"
+    summary = "unmodelled resonance: a load on a compliant coupling (second mass), ringing at frequency_hz"
+    rank, units = 120, {"frequency_hz": "Hz", "damping_ratio": ""}
+    DAMPING = (0.01, 0.03, 0.08, 0.2)
+    """Damping ratios of the grid; the grid's box caps the refinement at 0.2: a resonance that rings (a
+    peak of half-power width ≤ 40 % of its frequency). Wider, the column is a smooth lag of the
+    acceleration, which a drive's bandwidth or a filter explains as well (EMPS)."""
+    TOP = 0.8
+    """Highest load frequency, as a fraction of the treatment's pass band (the decimation filter's edge)."""
+    SPACING = 1.03
+    """Ratio of neighbouring grid frequencies (a mode of ζ = 0.01 is 2 % wide at half power)."""
+    LOWEST_HZ = 1.0
+
+    def applicable(self, context, j):
+        c = context.coordinates[j]
+        kind = context.kind(c)
+        if kind == "modal":
+            return f"{c} is a modal coordinate"
+        return None if joint_frame(context.robot, c) is not None else f"no frame moves with {c} alone"
+
+    def grid(self, context, j):
+        # from LOWEST_HZ (slower is a spring, gravity or the loop itself) to TOP × the treatment's pass band
+        low, high = self.LOWEST_HZ, self.TOP * context.passband
+        if high <= low:
+            return None
+        frequencies = np.exp(np.arange(math.log(low), math.log(high), math.log(self.SPACING)))
+        rows = np.array([(f, z) for f in frequencies for z in self.DAMPING])
+        return rows, float(len(rows))
+
+    def columns(self, q, qd, qdd, j, value):
+        raise TypeError("flexible_mode needs the sampling rate: use columns_at")
+
+    def columns_at(self, signals, j, value):
+        import scipy.signal
+
+        frequency, damping = value
+        if signals.record is not None:  # the load's state at the first sample is what the motion before left
+            whole = self.columns_at(signals.record, j, value)
+            return whole[signals.start:signals.start + len(signals.t)]
+        w = 2.0 * math.pi * frequency
+        # bilinear transform s = K(z − 1)/(z + 1), K prewarped so that the resonance stays at ω
+        K = w / math.tan(w / (2.0 * signals.rate))
+        c1, c0 = 2.0 * damping * w * K, w * w
+        a = np.array([K * K + c1 + c0, 2.0 * (c0 - K * K), K * K - c1 + c0])
+        b = np.array([c1 + c0, 2.0 * c0, c0 - c1]) / a[0]
+        a = a / a[0]
+        x = signals.qdd[:, j]
+        # the filter at rest on x[0] (what scipy.signal.lfilter_zi gives, without its linear solve): L has unit
+        # gain at DC, so in the transposed direct form the states for a constant input 1 are b2 − a2 and
+        # b1 − a1 + (b2 − a2)
+        rest = b[2] - a[2]
+        load, _ = scipy.signal.lfilter(b, a, x, zi=np.array([b[1] - a[1] + rest, rest]) * x[0])
+        return on_row(j, signals.qdd.shape[1], [load])
+
+    def roles_of(self, c, value, reference):
+        return {"frequency_hz": float(value[0]), "damping_ratio": float(value[1]), "load": float(c[0])}
+
+    def reference_column(self, q, qd, qdd, j):
+        return on_row(j, q.shape[1], [qdd[:, j]])[:, :, 0]  # the coordinate's own inertia, when the model has it alone
+
+    EDGE = 0.02
+    """A fit within this relative distance of the searched box's edge is not located (it would go further)."""
+
+    def check(self, roles, reference, context, j):
+        if roles["load"] <= 0:
+            return f"load inertia {roles['load']:.4g} is not positive (no second mass rings so)"
+        f, z, top = roles["frequency_hz"], roles["damping_ratio"], self.TOP * context.passband
+        if f >= (1 - self.EDGE) * top or f <= (1 + self.EDGE) * self.LOWEST_HZ or z >= (1 - self.EDGE) * max(self.DAMPING) \
+                or z <= (1 + self.EDGE) * min(self.DAMPING):
+            return (f"the resonance is not located: {f:.4g} Hz, ζ = {z:.3g} lies at the edge of the range searched "
+                    f"({self.LOWEST_HZ:g}–{top:.4g} Hz, ζ {min(self.DAMPING):g}–{max(self.DAMPING):g})")
+        # on a single coordinate the column q̈ alone is the whole inertia the model gives it
+        if reference is not None and len(context.coordinates) == 1 and reference <= 0:
+            return f"the inertia left on the coordinate's own side, {reference:.4g}, is not positive"
+        return None
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        coordinate = context.coordinates[j]
+        frequency, damping = value
+        w = 2.0 * math.pi * frequency
+        load = roles["load"]
+        revolute = context.kind(coordinate) == "revolute"
+        written = {}
+        name = editor.parameter(f"J_{coordinate}_load" if revolute else f"m_{coordinate}_load", load, comment + "; the load")
+        k = editor.parameter(f"k_{coordinate}_load", load * w * w, comment + "; coupling stiffness")
+        d = editor.parameter(f"d_{coordinate}_load", 2.0 * damping * w * load, comment + "; coupling damping")
+        written = {name: load, k: load * w * w, d: 2.0 * damping * w * load}
+        flex = editor.coordinate(f"{coordinate}_flex", comment + "; the load's deflection")
+        frame = joint_frame(context.robot, coordinate)
+        dh = editor.frame_dh(frame.name)
+        if context.robot.convention != "modified":  # standard DH: the joint turns about the parent's z
+            dh.update(a="0", alpha="0")
+        key = "theta" if revolute else "d"
+        dh[key] = f"{dh[key]} + {flex}"
+        target = editor.add_frame(f"{frame.name}_load", frame.parent, dh, comment)
+        if revolute:
+            # a thin disc about the joint axis (the triangle inequality holds; only zz acts on q)
+            editor.add_body(f"{frame.name}_load", target, "0", {"xx": f"{name}/2", "yy": f"{name}/2", "zz": name}, comment)
+        else:
+            editor.add_body(f"{frame.name}_load", target, name, None, comment)
+        editor.add_force(f"coupling_{coordinate}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
+        return written
+
+    PEAK_BAND = 1.3
+    """A ringing must show as a spectral peak of the residual within this factor of the load's frequency
+    (the closed-loop mode the data show lies near it: the flexible cases ring 1–15 % above it)."""
+    DOMINANT = 0.5
+    """A resonance explaining at least this share of the whole (stacked) residual is its dominant content and
+    needs no peak above a floor that a coarse encoder raises (fits of the loop's reaction to quantisation
+    explained at most 32 % in the null data sets; the search passes the stacked share, docs/workflow.md)."""
+
+    def check_residual(self, roles, frequency, psd, share):
+        from symbolic.workflow.where import PEAK_RATIO, peaks
+
+        f = roles["frequency_hz"]
+        if share >= self.DOMINANT:
+            return None
+        near = [p for p in peaks(frequency, psd, count=len(psd)) if f / self.PEAK_BAND <= p["frequency_hz"] <= f * self.PEAK_BAND]
+        if near:
+            return None
+        return (f"no ringing: the residual's spectrum has no peak {PEAK_RATIO:g}× above its median level within "
+                f"{f / self.PEAK_BAND:.3g}–{f * self.PEAK_BAND:.3g} Hz (a filtered acceleration then fits the "
+                "loop's reaction to measurement errors, not a resonance)")
+
+    def as_measured(self, patched, parameters, context, j, roles, controller, period):
+        from symbolic.workflow.modes import closed_loop_modes
+
+        own = {"load_frequency_hz": roles["frequency_hz"], "load_damping_ratio": roles["damping_ratio"]}
+        if controller is None:
+            w = roles["frequency_hz"]
+            damped = {"frequency_hz": w * math.sqrt(max(1.0 - roles["damping_ratio"] ** 2, 0.0)),
+                      "damping_ratio": roles["damping_ratio"]}
+            return damped, {**own, "ringing": "no [controller] declared: the load's mode with the coordinate held"}
+        rest = np.zeros(patched.n)
+        names = list(patched.robot.generalized_coordinates)
+        for k, c in enumerate(context.coordinates):
+            rest[names.index(c)] = float(np.mean(context.q[:, k]))
+        modes = closed_loop_modes(patched, parameters, controller, period, rest)
+        if not modes:
+            return {"frequency_hz": None, "damping_ratio": None}, {**own, "ringing": "no oscillatory closed-loop mode"}
+        f, z = min(modes, key=lambda m: abs(math.log(max(m[0], 1e-12) / roles["frequency_hz"])))
+        return {"frequency_hz": f, "damping_ratio": z}, {**own, "ringing": "closed-loop mode of the patched model",
+                                                          "closed_loop_modes": [list(m) for m in modes]}
+
+
+register(FlexibleMode())
