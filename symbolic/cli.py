@@ -467,6 +467,13 @@ def cmd_campaign(args: argparse.Namespace) -> int:
             "0 (one log at a time in this process) or a positive number of worker processes"
         print(f"error: --workers {args.workers}: expected {allowed}", file=sys.stderr)
         return 2
+    if not 0 < args.connect_timeout < float("inf"):
+        print(f"error: --connect-timeout {args.connect_timeout:g}: expected a positive number of seconds", file=sys.stderr)
+        return 2
+    if args.scheduler:  # before anything is read or written: an address Dask cannot parse is one line
+        from symbolic.fleet.execution import check_scheduler
+
+        args.scheduler = check_scheduler(args.scheduler)
     try:
         export.check_output_directory(args.out)  # before the campaign: a mistyped --out is reported at once
     except export.ExportError as error:
@@ -476,7 +483,8 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     from symbolic.fleet.report import summary
 
     campaign = fleet.load(args.campaign)
-    outcome = fleet.run(campaign, args.out, scheduler=args.scheduler, workers=args.workers)
+    outcome = fleet.run(campaign, args.out, scheduler=args.scheduler, workers=args.workers,
+                        connect_timeout=args.connect_timeout)
     if args.json:
         print(strict_json(outcome.to_dict()))
         return 0
@@ -613,8 +621,10 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("campaign", help="campaign file (.toml): robots, their models and logs, the task (docs/fleet.md)")
     c.add_argument("--out", metavar="DIR", required=True, help="folder for results.csv, report.md, the figures and "
                    "the cache of per-log results (cache/)")
-    c.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask cluster (tcp://host:8786); default: a "
-                   "local cluster of worker processes on this machine")
+    c.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask cluster (tcp://host:8786; also tls://, "
+                   "ws://, wss://); default: a local cluster of worker processes on this machine")
+    c.add_argument("--connect-timeout", type=float, default=10.0, metavar="S", help="seconds to wait for the "
+                   "scheduler at --scheduler to connect and answer (default 10)")
     c.add_argument("--workers", type=int, metavar="N", help="worker processes of the local cluster (default: the "
                    "processors; 0: one log at a time in this process, without Dask); with --scheduler, the workers "
                    "to wait for")

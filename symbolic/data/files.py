@@ -26,10 +26,12 @@ from typing import Any
 import numpy as np
 
 from symbolic.data.errors import DataError
-from symbolic.errors import one_line, shorten
+from symbolic.errors import SHOWN, listing, one_line, shorten
 from symbolic.writing import replacing
 
 DATA_SUFFIXES = (".csv", ".npz", ".mat")
+EXCERPT = SHOWN
+"""Characters of a data file's content (a line, a column name, a field) an error message quotes at most."""
 MAT_MAGIC = b"MATLAB 5.0 MAT-file"
 ZIP_MAGIC = b"PK\x03\x04"
 
@@ -46,6 +48,14 @@ class Table:
     def names(self) -> list[str]:
         """Every variable name of the file (vectors, scalars, unusable)."""
         return [*self.vectors, *self.scalars, *self.unusable]
+
+
+def excerpt(text: str) -> str:
+    """A piece of a data file's content for an error message: stripped, quoted and escaped (``repr``), and past
+    :data:`EXCERPT` characters its beginning and its length. An error says where and what is wrong; it does
+    not copy the file, which may not be the one the user meant (a link to another file) and whose text would
+    land in logs and reports."""
+    return shorten(text.strip(), EXCERPT)
 
 
 def kind(path: Path) -> str:
@@ -177,13 +187,13 @@ def _header(blocks: Iterator[tuple[int, list[str]]], path: Path, columns: Sequen
         if _numbers(fields):
             raise DataError(
                 source, "header",
-                f"the first line {shorten(line.strip(), 60)} is numbers: the file has no header line; name its "
+                f"the first line {excerpt(line)} is numbers: the file has no header line; name its "
                 f"{len(fields)} columns in an experiment file, columns = [\"t\", \"q1\", ...] ({len(fields)} names, "
                 "in file order; docs/data.md), or add a header line of names (e.g. t,q_q,tau_q)")
         header, start = fields, first + 1
     else:
         if not _numbers(fields):
-            raise DataError(named_by, "columns", f"{path.name} has a header line ({shorten(line.strip(), 60)}); "
+            raise DataError(named_by, "columns", f"{path.name} has a header line ({excerpt(line)}); "
                                                  "columns is for a CSV file without one: leave out columns, or remove "
                                                  "the header line")
         if len(fields) != len(columns):
@@ -238,7 +248,7 @@ def _check_names(header: list[str], source: str) -> None:
         if not name:
             raise DataError(source, "header", f"column {j + 1} has no name")
         if name in seen:
-            raise DataError(source, "header", f"column name {name!r} appears twice")
+            raise DataError(source, "header", f"column name {excerpt(name)} appears twice")
         seen.add(name)
 
 
@@ -264,14 +274,14 @@ def _parse_block(number: int, lines: list[str], header: list[str], source: str) 
             raise DataError(
                 source,
                 f"line {lineno}",
-                f"length mismatch: {len(fields)} fields, the header has {len(header)} ({', '.join(header)})",
+                f"length mismatch: {len(fields)} fields, the header has {len(header)} ({listing(header)})",
             )
         for j, text in enumerate(fields):
             try:
                 values[row, j] = float(text)
             except ValueError:
                 raise DataError(
-                    source, f"line {lineno} column {header[j]!r}", f"cannot read {text.strip()!r} as a number"
+                    source, f"line {lineno} column {excerpt(header[j])}", f"cannot read {excerpt(text)} as a number"
                 ) from None
     return values
 

@@ -14,6 +14,7 @@ import datetime as dt
 import glob
 import json
 import math
+import os
 import re
 import warnings
 from collections.abc import Mapping
@@ -28,7 +29,7 @@ from symbolic.data.keys import check_keys
 from symbolic.data.settings import Settings
 from symbolic.description.modelfile import loads
 from symbolic.description.robot import Robot, digest
-from symbolic.errors import ModelError, ModelWarning, one_line, shown
+from symbolic.errors import ModelError, ModelWarning, listing, one_line, shown, suggestion
 
 KINDS = ("identify", "diagnose", "simulate")
 """What a campaign does with each log: the library functions of ``symbolic identify``, ``diagnose``, ``simulate``."""
@@ -46,6 +47,8 @@ TASK_KEYS = {
 }
 SIMULATION_METHODS = ("rk4", "Radau", "BDF", "LSODA")
 ID_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+NOT_READ = "not read (a campaign reads only logs that are files, not links; name the file itself)"
+"""What is said of a log that is a symbolic link (:func:`linked`)."""
 
 
 @dataclass(frozen=True)
@@ -94,6 +97,8 @@ class Log:
     """From the file name or the ``[[robot.log]]`` list (UTC); ``None``: read from a column, or not readable."""
     time_problem: str | None = None
     """Why the time could not be read from the file name (the log is then a row with this error)."""
+    refused: str | None = None
+    """Why the file is not read at all (a symbolic link: :func:`linked`); the log is then a row with this error."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -290,6 +295,7 @@ def _robot(entry: Mapping[str, Any], k: int, campaign: Path, task: Task, models:
     model_source, text, robot = _model(entry.get("model"), campaign, f"{where} model", models, chain)
     if "task" in entry:
         task = _task(entry["task"], source, f"{where} task")
+    _check_fix(task, robot, source, f"{where} task fix" if "task" in entry else "[task] fix", entry["model"])
     experiment = None
     if "experiment" in entry:
         experiment = _existing(entry["experiment"], campaign, f"{where} experiment", "an experiment file",
@@ -308,10 +314,29 @@ def _robot(entry: Mapping[str, Any], k: int, campaign: Path, task: Task, models:
     if not logs:
         raise DataError(source, f"{where} logs", "missing: give logs = \"<glob>\" (relative to the campaign file) or "
                                                  "[[robot.log]] entries with file and time")
-    twice = [log.name for i, log in enumerate(logs) if log.path in [x.path for x in logs[:i]]]
-    if twice:
-        raise DataError(source, f"{where} logs", f"{twice[0]!r} is listed twice")
+    _check_twice(logs, source, f"{where} logs")
     return RobotEntry(ident, model_source, text, robot, tuple(logs), task, experiment, column, chain)
+
+
+def _check_fix(task: Task, robot: Robot, source: str, where: str, model: str) -> None:
+    """Refuse a name of ``fix`` that is not a parameter of the robot's model, before any work: every log would
+    otherwise be an error row (:func:`symbolic.identify.known.fixed_symbols` says so per log, for ``--fix``)."""
+    names = [p.name for p in robot.parameters]
+    unknown = [n for n in task.option("fix", ()) if n not in names]
+    if unknown:
+        raise DataError(source, where, f"unknown parameter(s) {listing(unknown)} of the model {model!r} (its parameters: "
+                                       f"{listing(names)}){suggestion(unknown[0], names)}")
+
+
+def _check_twice(logs: list[Log], source: str, where: str) -> None:
+    """Refuse a file listed twice for a robot, under whatever names (``logs/x.csv``, ``logs/../logs/./x.csv``, a
+    folder reached through a link): it would count twice in the robot's drift."""
+    seen: dict[str, Log] = {}
+    for log in logs:  # the folder resolved, not the file: a link is a log of its own, refused (linked)
+        same = seen.setdefault(os.path.join(os.path.realpath(log.path.parent), log.path.name), log)
+        if same is not log:
+            named = "" if str(log.path) == str(same.path) else f" (as {str(log.path)!r} and {str(same.path)!r})"
+            raise DataError(source, where, f"{same.name!r} is listed twice{named}: each log counts once")
 
 
 def _link(value: Any, source: str, where: str) -> str | None:
@@ -470,7 +495,7 @@ def _listed_logs(value: Any, campaign: Path, where: str) -> list[Log]:
         else:
             raise DataError(source, f"{where} #{k + 1} time", f"expected a TOML date or date-time, e.g. "
                                                               f"2024-03-01T08:00:00Z, got {shown(moment)}")
-        out.append(Log(path, _display(path, campaign), moment))
+        out.append(Log(path, _display(path, campaign), moment, refused=linked(path, path.parent)))
     return out
 
 
@@ -483,16 +508,39 @@ def _globbed_logs(pattern: Any, campaign: Path, where: str, reader) -> list[Log]
     if not paths:
         raise DataError(source, where, f"{pattern!r} matches no file (a glob relative to the campaign file: "
                                        f"looked for {full})")
+    named = _literal(full)
     out = []
     for path in paths:
         moment, problem = reader(path.name) if reader is not None else (None, None)
-        out.append(Log(path, _display(path, campaign), moment, problem))
+        out.append(Log(path, _display(path, campaign), moment, problem, linked(path, named)))
     return out
 
 
-def _display(path: Path, campaign: Path) -> str:
-    """The log's name in the results: its path relative to the campaign file's folder when inside it."""
+def _literal(pattern: str) -> Path:
+    """The folder a glob names literally: its parts before the first with a wildcard."""
+    parts = Path(pattern).parts
+    first = next((k for k, part in enumerate(parts) if glob.has_magic(part)), len(parts) - 1)
+    return Path(*parts[:first])
+
+
+def linked(path: Path, named: Path) -> str | None:
+    """Why the log ``path`` is refused when it is a symbolic link or is reached through one below the folder
+    ``named``, else None. The folders a campaign file names itself may be links (a log folder mounted
+    elsewhere); what a wildcard finds may not: a link planted among the logs would otherwise have the
+    campaign read, and quote in its errors, any file its user may read (docs/fleet.md, "Campaign files")."""
     try:
-        return path.resolve().relative_to(campaign.parent.resolve()).as_posix()
-    except ValueError:
-        return str(path)
+        below = path.relative_to(named).parts
+    except ValueError:  # not under the folder named: the file itself is checked
+        named, below = path.parent, (path.name,)
+    for k in range(1, len(below) + 1):
+        if os.path.islink(named.joinpath(*below[:k])):
+            what = "is a symbolic link" if k == len(below) else f"is reached through the symbolic link {below[k - 1]!r}"
+            return f"{what}: {NOT_READ}"
+    return None
+
+
+def _display(path: Path, campaign: Path) -> str:
+    """The log's name in the results: its path relative to the campaign file's folder when inside it, as the
+    campaign file names it (``logs/../logs/./x.csv`` is ``logs/x.csv``; a link is named, not followed)."""
+    relative = Path(os.path.relpath(os.path.normpath(path), os.path.normpath(campaign.parent)))
+    return str(path) if relative.parts[:1] == ("..",) else relative.as_posix()

@@ -21,10 +21,14 @@ Only this module imports Dask, and only inside :func:`execute`: the rest of the 
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import datetime as dt
 import logging
 import os
+import re
+import signal
+import threading
 import time
 import warnings
 from collections.abc import Sequence
@@ -33,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from symbolic.cache import stamp
-from symbolic.errors import ClusterError, one_line
+from symbolic.errors import ClusterError, one_line, shorten
 from symbolic.fleet.campaign import Campaign
 from symbolic.fleet.drift import Drift, drifts, series_of
 from symbolic.fleet.outliers import Outlier, outliers
@@ -45,6 +49,14 @@ log = logging.getLogger("symbolic")
 INSTALL = "symbolic campaign needs dask.distributed: pip install 'symbolic[fleet]' (or pip install 'dask[distributed]')"
 WAIT_FOR_WORKERS = 120.0
 """Seconds to wait for the workers of an existing cluster (``--scheduler``) before giving up."""
+CONNECT_TIMEOUT = 10.0
+"""Seconds to wait for the scheduler at ``--scheduler`` to accept the connection and answer Dask's handshake."""
+SCHEMES = ("tcp", "tls", "ws", "wss")
+"""The schemes of a scheduler's address a campaign connects to (Dask's ``inproc`` is within one process only,
+``ucx`` needs a library of its own)."""
+ADDRESS = re.compile(r"(?:(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+)"
+                     r"(?::(?P<port>[0-9]{1,5}))?")
+"""``[scheme://]host[:port]``: a host name, an IPv4 address or an IPv6 address in brackets."""
 PROGRESS_EVERY = 2.0
 """Seconds between two progress lines."""
 
@@ -98,8 +110,9 @@ def plan(campaign: Campaign, store: Store) -> tuple[list[dict[str, Any]], list[J
         for entry in robot.logs:
             row = {"robot": robot.id, "log": entry.name, "time": entry.time.isoformat() if entry.time else None,
                    "task": robot.task.kind, "model": robot.model_digest}
-            if entry.time_problem:
-                rows.append({**row, "key": None, "status": "error", "error": f"{entry.name}: {entry.time_problem}"})
+            problem = entry.refused or entry.time_problem  # a refused log is not even hashed
+            if problem:
+                rows.append({**row, "key": None, "status": "error", "error": f"{entry.name}: {problem}"})
                 continue
             try:
                 key = job_key(store, robot, entry)
@@ -114,11 +127,16 @@ def plan(campaign: Campaign, store: Store) -> tuple[list[dict[str, Any]], list[J
 
 
 def run(campaign: Campaign, out: str | os.PathLike, *, scheduler: str | None = None, workers: int | None = None,
-        figures: bool = True) -> Outcome:
-    """Run ``campaign`` and write its results into ``out`` (module docstring)."""
+        figures: bool = True, connect_timeout: float = CONNECT_TIMEOUT) -> Outcome:
+    """Run ``campaign`` and write its results into ``out`` (module docstring).
+
+    Nothing is written before the cluster is reached: a scheduler address that is refused leaves ``out`` as
+    it was. ``connect_timeout`` bounds the wait for the scheduler at ``scheduler`` (s)."""
     from symbolic.export import write_files
     from symbolic.fleet import report
 
+    if scheduler:
+        scheduler = check_scheduler(scheduler)
     store = Store(out)
     rows, jobs = plan(campaign, store)
     results: dict[str, dict[str, Any]] = {}
@@ -130,9 +148,9 @@ def run(campaign: Campaign, out: str | os.PathLike, *, scheduler: str | None = N
     cached = len(jobs) - sum(1 for job in jobs if job.key not in results)
     log.info("campaign %s: %d logs of %d robots, %d from the cache, %d to compute", campaign.name, len(rows),
              len(campaign.robots), cached, len(jobs) - cached)
-    store.save_digests()
     if todo:
-        results.update(execute(todo, store, scheduler=scheduler, workers=workers))
+        results.update(execute(todo, store, scheduler=scheduler, workers=workers, connect_timeout=connect_timeout))
+    store.save_digests()
     rows = assemble(rows, results)
     found_series = series_of(rows, 0.0)
     tested = drifts(found_series, campaign.analysis)
@@ -167,11 +185,12 @@ def assemble(rows: Sequence[dict[str, Any]], results: dict[str, dict[str, Any]])
     return out
 
 
-def execute(jobs: Sequence[Job], store: Store, *, scheduler: str | None = None,
-            workers: int | None = None) -> dict[str, dict[str, Any]]:
+def execute(jobs: Sequence[Job], store: Store, *, scheduler: str | None = None, workers: int | None = None,
+            connect_timeout: float = CONNECT_TIMEOUT) -> dict[str, dict[str, Any]]:
     """Run ``jobs`` on Dask (module docstring), or one at a time in this process when ``workers`` is 0 (no
     Dask needed: for debugging, and the baseline of bench/fleet.py); every result is kept in ``store`` as it
-    arrives. The largest logs go first, so that no long task starts last and leaves the other workers idle."""
+    arrives, the logs' digests once the cluster is reached. The largest logs go first, so that no long task
+    starts last and leaves the other workers idle."""
     jobs = sorted(jobs, key=_size, reverse=True)
     results: dict[str, dict[str, Any]] = {}
     progress = _Progress(len(jobs))
@@ -183,21 +202,24 @@ def execute(jobs: Sequence[Job], store: Store, *, scheduler: str | None = None,
         progress.step(result["status"] != "ok")
 
     if workers == 0 and not scheduler:
+        store.save_digests()
         for job in jobs:
             keep(job, run_log(job))
     else:
-        _on_cluster(jobs, keep, scheduler, workers)
+        _on_cluster(jobs, keep, scheduler, workers, connect_timeout, reached=store.save_digests)
     progress.done()
     return results
 
 
-def _on_cluster(jobs: Sequence[Job], keep, scheduler: str | None, workers: int | None) -> None:
-    """Each job one Dask task; ``keep(job, result)`` as each result arrives."""
+def _on_cluster(jobs: Sequence[Job], keep, scheduler: str | None, workers: int | None,
+                connect_timeout: float = CONNECT_TIMEOUT, reached=lambda: None) -> None:
+    """Each job one Dask task; ``reached()`` once the cluster is there, ``keep(job, result)`` as each result arrives."""
     try:
         from dask.distributed import as_completed
     except ImportError:
         raise ClusterError(INSTALL) from None
-    with _client(scheduler, workers, len(jobs)) as client:
+    with _client(scheduler, workers, len(jobs), connect_timeout) as client:
+        reached()
         futures = client.map(run_log, jobs, key=[f"symbolic-log-{job.key}" for job in jobs], pure=False)
         by_key = {future.key: job for future, job in zip(futures, jobs)}
         pending = as_completed(futures)
@@ -234,11 +256,13 @@ def _result(future, job: Job) -> dict[str, Any]:
 
 
 @contextlib.contextmanager
-def _client(scheduler: str | None, workers: int | None, tasks: int):
-    """A Dask client of the cluster at ``scheduler``, or of a local cluster of worker processes (closed after)."""
+def _client(scheduler: str | None, workers: int | None, tasks: int, connect_timeout: float = CONNECT_TIMEOUT):
+    """A Dask client of the cluster at ``scheduler``, or of a local cluster of worker processes (closed after).
+    Interrupted (Ctrl-C), it closes the cluster without a word from Dask: the command says "interrupted"."""
     from dask.distributed import Client
 
     if scheduler:
+        _reach(scheduler, connect_timeout)
         try:
             client = Client(scheduler, timeout="30s")
         except (OSError, TimeoutError) as error:
@@ -251,20 +275,105 @@ def _client(scheduler: str | None, workers: int | None, tasks: int):
                                    f"{WAIT_FOR_WORKERS:g} s (start them with: dask worker {scheduler})") from None
             log.info("campaign: on the cluster at %s (%d workers)", scheduler, len(client.scheduler_info()["workers"]))
             yield client
+        except KeyboardInterrupt:
+            _silence_dask()
+            raise
         finally:
             client.close()
         return
     count = workers or max(1, min(os.cpu_count() or 1, tasks))
     log.info("campaign: starting a local cluster of %d worker process(es)", count)
+    cluster = None
     try:
-        cluster = local_cluster(count)
-    except OSError as error:
-        raise ClusterError(f"cannot start a local Dask cluster: {one_line(str(error))}") from None
-    try:
+        try:
+            with _sigint_deferred():
+                cluster = local_cluster(count)
+        except OSError as error:
+            raise ClusterError(f"cannot start a local Dask cluster: {one_line(str(error))}") from None
         with Client(cluster) as client:
             yield client
+    except KeyboardInterrupt:
+        _silence_dask()
+        raise
     finally:
-        cluster.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def check_scheduler(address: str) -> str:
+    """``address`` when a campaign can connect to it, ``[SCHEME://]HOST:PORT`` with a scheme of :data:`SCHEMES`
+    (without one: tcp), else :class:`ClusterError` naming what is allowed (Dask raises a ValueError of its own)."""
+    allowed = "expected tcp://HOST:PORT (or tls://, ws://, wss://; HOST:PORT alone is tcp), e.g. tcp://10.0.0.5:8786"
+    found = ADDRESS.fullmatch(address.strip())
+    if found is None:
+        raise ClusterError(f"--scheduler {shorten(address)}: not an address: {allowed}")
+    if found["scheme"] is not None and found["scheme"] not in SCHEMES:
+        raise ClusterError(f"--scheduler {address}: unknown scheme {found['scheme']!r}: {allowed}")
+    if found["port"] is None or not 0 < int(found["port"]) < 65536:
+        what = "no port" if found["port"] is None else f"port {found['port']} out of range (1-65535)"
+        raise ClusterError(f"--scheduler {address}: {what}: {allowed}")
+    return address.strip()
+
+
+def _reach(address: str, seconds: float) -> None:
+    """Connect to the scheduler at ``address`` and complete Dask's handshake within ``seconds``, else
+    :class:`ClusterError`. Dask bounds the connection but not the handshake after it: a port that accepts
+    connections and never answers would hold the client for ever."""
+    from distributed.comm import connect
+    from distributed.security import Security
+
+    async def handshake() -> None:
+        arguments = Security().get_connection_args("client")
+        comm = await asyncio.wait_for(connect(address, timeout=seconds, **arguments), seconds)
+        await comm.close()
+
+    failed: list[BaseException] = []
+
+    def attempt() -> None:  # a thread and an event loop of its own: the caller may be inside one (a notebook)
+        try:
+            asyncio.run(handshake())
+        except BaseException as error:  # noqa: BLE001 - reported below, in the caller's thread
+            failed.append(error)
+
+    thread = threading.Thread(target=attempt, name="symbolic: reach the scheduler", daemon=True)
+    thread.start()
+    thread.join(seconds + 5.0)
+    error = failed[0] if failed else None
+    if thread.is_alive() or isinstance(error, TimeoutError):
+        raise ClusterError(f"--scheduler {address}: no Dask scheduler answered within {seconds:g} s (is `dask "
+                           "scheduler` running there, on that port?)")
+    if isinstance(error, TypeError) and address.startswith(("tls://", "wss://")):  # Dask's words: no ssl_context
+        raise ClusterError(f"--scheduler {address}: a TLS address needs Dask's TLS settings (distributed.comm.tls: "
+                           "ca-file, client.cert, client.key in the Dask configuration)")
+    if isinstance(error, OSError):
+        raise ClusterError(f"--scheduler {address}: cannot connect: {one_line(str(error))}")
+    if error is not None:
+        raise error
+
+
+@contextlib.contextmanager
+def _sigint_deferred():
+    """SIGINT blocked in this thread while the local cluster starts: the threads and the worker processes
+    started meanwhile inherit the mask (across exec too), so that a Ctrl-C, which the terminal sends to every
+    process of the group, reaches this process alone, which closes the cluster, instead of every worker
+    printing its own traceback. A Ctrl-C meanwhile is delivered when the cluster has started."""
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    from multiprocessing import resource_tracker
+
+    resource_tracker.ensure_running()  # started later, it would unblock SIGINT in the thread that starts it
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+def _silence_dask() -> None:
+    """Nothing more from Dask in this process after a Ctrl-C: its loggers off while the cluster closes."""
+    for name in ("distributed", "tornado", "asyncio"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 def local_cluster(workers: int):
@@ -280,7 +389,9 @@ def local_cluster(workers: int):
     scheduler's work stealing (its workers are equal and the scheduler hands out a task as a worker's thread
     frees: there is nothing to steal), and the event loops' 20 ms tick and 0.5 s system monitor run every 1 s
     and 5 s (they measure for the dashboard and for warnings about a blocked loop, which a campaign does not
-    read): the client, which hosts the scheduler, spent 0.18 s of CPU instead of 0.75 s beside 24 diagnoses."""
+    read): the client, which hosts the scheduler, spent 0.18 s of CPU instead of 0.75 s beside 24 diagnoses.
+    The workers log nothing below CRITICAL: a task's failure comes back as its row's error, and what they would
+    say as the cluster closes after a Ctrl-C (a heartbeat to a scheduler gone) is noise."""
     import dask
     from dask.distributed import LocalCluster
 
@@ -293,7 +404,7 @@ def local_cluster(workers: int):
                 "distributed.admin.tick.limit": "10s", "distributed.admin.system-monitor.interval": "5s"}
     with dask.config.set(settings), warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # "port 8787 is in use": the scheduler's HTTP port, unused here
-        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, silence_logs=logging.CRITICAL,
                             dashboard_address=None, worker_dashboard_address=None)
 
 

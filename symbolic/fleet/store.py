@@ -30,6 +30,7 @@ from typing import Any
 from symbolic.cache import stamp
 from symbolic.data.experiment import resolve_data
 from symbolic.data.errors import DataError
+from symbolic.errors import ExportError
 from symbolic.fleet.campaign import RobotEntry, Log
 from symbolic.writing import replacing
 
@@ -48,6 +49,9 @@ class Store:
 
     def __init__(self, out: str | os.PathLike) -> None:
         self.folder = Path(out) / CACHE
+        if os.path.lexists(self.folder) and not self.folder.is_dir():  # before any work, not at the first result
+            raise ExportError(f"{self.folder} is not a folder: a campaign keeps its results between runs in the "
+                              f"folder {CACHE}/ of its output folder (move the file away, or choose another --out)")
         self._digests: dict[str, list] = {}
         self._changed = False
         try:

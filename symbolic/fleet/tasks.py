@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as dt
+import os
 import time
 import traceback
 import warnings
@@ -30,8 +31,8 @@ from symbolic.data import DataError, Experiment, load
 from symbolic.data.treatment import settings_for, states
 from symbolic.derivation.dynamics import DynamicModel, derive
 from symbolic.description.robot import digest
-from symbolic.errors import ModelWarning, SymbolicError, one_line
-from symbolic.fleet.campaign import Task, read_model
+from symbolic.errors import ModelWarning, SymbolicError, listing, one_line
+from symbolic.fleet.campaign import NOT_READ, Task, read_model
 from symbolic.fleet.events import bursts
 
 MODELS_KEPT = 8
@@ -83,6 +84,9 @@ def run_log(job: Job) -> dict[str, Any]:
     """
     started = time.perf_counter()
     out: dict[str, Any] = {"key": job.key, "stamp": stamp(), "status": "ok", "error": None, "cacheable": True}
+    if os.path.islink(job.path):  # made a link since the campaign file was read: not read (fleet.campaign.linked)
+        out.update(status="error", cacheable=False, error=f"{job.log}: is a symbolic link: {NOT_READ}")
+        return {**out, "seconds": time.perf_counter() - started}
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ModelWarning)
@@ -118,7 +122,7 @@ def _column_time(experiment: Experiment, job: Job) -> str:
     column = experiment.extras.get(job.time_column)
     if column is None:
         raise DataError(job.path, f"column '{job.time_column}'", "missing: the campaign reads the log's time from it "
-                                                                 f"(UNIX seconds; columns: {', '.join(experiment.columns())})")
+                                                                 f"(UNIX seconds; columns: {listing(experiment.columns())})")
     seconds = float(np.asarray(column, float)[0])
     try:
         return dt.datetime.fromtimestamp(seconds, dt.timezone.utc).isoformat()
