@@ -41,11 +41,11 @@ from symbolic.description.modelfile import loads, with_parameter_values
 from symbolic.description.robot import Directional, Robot, coordinate_symbol, velocity_symbol
 from symbolic.errors import ModelError
 from symbolic.identify.known import beta_bounds, parameter_bounds, polynomial_lower_bound
-from symbolic.identify.least_squares import Identification
+from symbolic.identify.least_squares import Identification, RankDeficient
 from symbolic.identify.model import geometric_parameters
 from symbolic.workflow.dataset import DataSet, treat
 from symbolic.workflow.statistics import pooled_autocorrelation_time
-from symbolic.workflow.terms import ModelTerms, fit_nominal, relative_gap, wls
+from symbolic.workflow.terms import ModelTerms, fit_nominal, inseparable, relative_gap, wls
 
 SIGMAS = 3.0
 """A value is a correction when it moves by more than this many standard deviations ..."""
@@ -282,7 +282,12 @@ def lowered_values(fit: FinalFit, names: Sequence[str], notes: list[str]) -> lis
     except (DataError, ValueError) as error:  # too few samples for the longer border, a filter that cannot run
         notes.append(f"corrections are not checked at a lowered bandwidth ({error})")
         return None
-    refit = fit_nominal(fit.terms, low)
+    try:
+        refit = fit_nominal(fit.terms, low)
+    except RankDeficient as error:  # fewer, smoother samples: what the full band separates may not be separable there
+        notes.append("corrections are not checked at a lowered bandwidth: "
+                     + inseparable(fit.terms, low, error.parameters, f"the data treated at {LOWERED:g}× the bandwidth"))
+        return None
     if list(refit.terms.free_names) != list(fit.terms.free_names):
         notes.append("corrections are not checked at a lowered bandwidth: another scale is held there")
         return None

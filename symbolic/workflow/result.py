@@ -134,6 +134,8 @@ class Diagnosis:
             "rejected": [] if last is None else [c.summary(self.search.context.coordinates) for c in last.candidates
                                                  if c.status == "tested"],
             "rejected_groups": [] if last is None else [g.summary(self.search.context.coordinates) for g in last.groups],
+            "not_identifiable": [] if last is None else [c.summary(self.search.context.coordinates) for c in last.candidates
+                                                         if c.status == "not identifiable"],
             "removed": [{"effect": a.candidate.effect.identifier, **variant_of(a.candidate.effect),
                          "coordinate": a.candidate.coordinate, "round": a.round,
                          "parameters": dict(a.candidate.roles), "final_p_value": p, "explained_by": others}

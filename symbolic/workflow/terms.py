@@ -36,6 +36,7 @@ from symbolic.identify.least_squares import Identification, ParameterEstimate, n
 from symbolic.identify.known import FIX_HINT, beta_bounds, homogeneous_groups, model_parameters_of, scale_holds, split_base
 from symbolic.identify.model import ModelParameter, base_regressor, direct_parameters, geometric_parameters, model_base
 from symbolic.identify.processing import Observation
+from symbolic.identify.separation import Motion, parameter_label, relation, separating_motion
 from symbolic.numeric.base_parameters import BaseParameters
 from symbolic.workflow.dataset import DataSet
 
@@ -237,3 +238,21 @@ def coordinate_gaps(data: DataSet, predicted: np.ndarray) -> dict[str, float | N
     coordinate), whose gap relative to its force is not defined (its residual counts in the stacked gap)."""
     return {c: relative_gap(data.tau[:, j], predicted[:, j]) if np.any(data.tau[:, j]) else None
             for j, c in enumerate(data.coordinates)}
+
+
+def inseparable(terms: ModelTerms, data: DataSet, names: Sequence[str], what: str = "these data") -> str:
+    """The sentence for the base parameters ``names`` of ``terms`` that ``data`` cannot separate (a
+    :class:`~symbolic.identify.least_squares.RankDeficient`'s): the model's parameters they hold and a motion
+    that would separate them (:mod:`symbolic.identify.separation`), ``what`` naming the data."""
+    index = [terms.names.index(n) for n in names]
+    combination = relation(data.stack(terms.columns(data)[:, :, index]))
+    s, p = data.states, data.states.processing
+    inner = slice(p.border[0], len(s.q) - p.border[1])
+    motion = Motion.of(s.q[inner], s.qd[inner], s.qdd[inner], p.rate, float(data.t[0]))
+    phrase = separating_motion(lambda m: terms.regressor(m.q, m.qd, m.qdd, t=m.t)[:, :, index], combination, motion,
+                               data.coordinates)
+    known = geometric_parameters(terms.model, terms.reg) | set(terms.fixed)
+    labels = [parameter_label(terms.model, terms.reg, terms.base, n, known) for n in names]
+    listed = ", ".join(labels[:-1]) + f" and {labels[-1]}" if len(labels) > 1 else labels[0]
+    return (f"not identifiable from {what}: {listed} cannot be separated; a motion that would separate them: "
+            + (phrase or "none (they are the same function of the states)"))
