@@ -207,27 +207,6 @@ def test_a_resonance_must_ring_in_the_residual() -> None:
     assert flex.check_residual({"frequency_hz": 9.0}, *spectrum(noise, rate), FlexibleMode.DOMINANT) is None
 
 
-def test_effects_said_to_act_on_their_own_row_do_so() -> None:
-    """``Effect.own_row`` lets the search skip looking for the rows a column acts on (issue 23 §2): each effect
-    that declares it gives columns that are zero on every other coordinate, at any value of its grid."""
-    from symbolic.workflow.effects import EFFECTS, Signals
-
-    rng = np.random.default_rng(5)
-    rate, samples, n = 200.0, 1200, 3
-    t = np.arange(samples) / rate
-    q = np.cumsum(rng.normal(0, 0.01, (samples, n)), axis=0)
-    qd, qdd = np.gradient(q, 1 / rate, axis=0), np.gradient(np.gradient(q, 1 / rate, axis=0), 1 / rate, axis=0)
-    signals = Signals(q, qd, qdd, t, rate)
-    declared = [e for e in EFFECTS.values() if e.own_row]
-    assert {e.name for e in declared} >= {"stribeck", "periodic", "flexible_mode"}
-    values = {"stribeck": [0.01, 0.2], "periodic": [0.05, 1.3], "flexible_mode": [(2.0, 0.01), (30.0, 0.2)]}
-    for effect in declared:
-        for j in range(n):
-            for value in values[effect.name]:
-                columns = effect.columns_at(signals, j, value)
-                assert np.any(columns[:, j, :]) and not np.any(np.delete(columns, j, axis=1)), (effect.name, j, value)
-
-
 def test_periodic_time_scan_columns_match_sines_and_cosines() -> None:
     """The periodic-in-time grid's phasors by angle addition (issue 23 §2) are its sines and cosines, over an
     evenly spaced chunk of 64 frequencies near 20 Hz on 30 s of jittered time stamps: to 3e-12 of the values in

@@ -25,33 +25,7 @@ from symbolic.workflow.effects import Effect
 from symbolic.workflow.result import Diagnosis
 from symbolic.workflow.where import spectrum
 
-__all__ = ["MatplotlibMissing", "ROLE_SYMBOLS", "ROLE_UNITS", "draw", "figures"]
-
-ROLE_UNITS: dict[str, dict[str, str]] = {
-    "coulomb": {"coulomb": "{force}"},
-    "viscous": {"viscous": "{force}·s/{position}"},
-    "offset": {"offset": "{force}"},
-    "asymmetric_viscous": {"positive": "{force}·s/{position}", "negative": "{force}·s/{position}"},
-    "asymmetric_coulomb": {"positive": "{force}", "negative": "{force}"},
-    "stribeck": {"static": "{force}", "velocity": "{position}/s"},
-    "spring": {"stiffness": "{force}/{position}", "rest_position": "{position}"},
-    "gravity": {"moment": "{force}", "phase": "rad"},
-    "inertia": {"inertia": "{force}·s²/{position}"},
-    "periodic": {"amplitude": "{force}", "period": "{position}"},
-    "periodic_time": {"amplitude": "{force}", "frequency_hz": "Hz"},
-    "flexible_mode": {"frequency_hz": "Hz", "damping_ratio": ""},
-    "payload": {"mass": "kg", "com_x": "m", "com_y": "m", "com_z": "m",
-                **{f"i{axes}": "kg·m²" for axes in ("xx", "yy", "zz", "xy", "xz", "yz")}},
-}
-"""The unit of each role of the catalogue's effects (by registry key), written from the coordinate's units
-(:meth:`~symbolic.description.units.CoordinateUnits.compose`): a viscous coefficient is force per velocity,
-N·m·s/rad on a revolute coordinate. An effect registered without an entry here shows its numbers alone."""
-
-ROLE_SYMBOLS: dict[tuple[str, str], str] = {
-    ("asymmetric_viscous", "positive"): "Fv⁺", ("asymmetric_viscous", "negative"): "Fv⁻",
-    ("asymmetric_coulomb", "positive"): "Fc⁺", ("asymmetric_coulomb", "negative"): "Fc⁻",
-}
-"""Roles written as the effects' summaries write them; the others by their role name."""
+__all__ = ["MatplotlibMissing", "draw", "figures"]
 
 AXIS_SIGNAL = {"position": "position", "velocity": "velocity", "acceleration": "acceleration", "time": "time"}
 
@@ -158,9 +132,9 @@ def _effect(fig: Any, d: Diagnosis, a: Any, found: Any, points: np.ndarray, curv
     ax = fig.add_subplot(1, 1, 1)
     what = f"the model's {a.effect.refines} term and " if refined else ""
     ax.plot(x, points, ".", ms=1.5, color="0.5", label=f"data: final residual + {what}the fitted effect")
-    ax.plot(x[order], curve[order], lw=1.2, color="C3", label=f"fitted {found.label()}: {_parameters(a.effect.name, found, u)}")
-    if refined and a.effect.name in ("asymmetric_viscous", "asymmetric_coulomb"):
-        _guides(ax, a.effect.name, x, found, u)
+    ax.plot(x[order], curve[order], lw=1.2, color="C3", label=f"fitted {found.label()}: {_parameters(a.effect, found, u)}")
+    if refined and a.effect.guide:
+        _guides(ax, a.effect, x, found, u)
     ax.set_xlabel("t (s)" if axis == "time" else u.label(AXIS_SIGNAL[axis], f"{axis} of {c}"))
     force = f"{a.effect.refines} friction" if refined else "generalized force of the effect"
     ax.set_ylabel(u.label("force", f"{force} on {c}"))
@@ -170,18 +144,18 @@ def _effect(fig: Any, d: Diagnosis, a: Any, found: Any, points: np.ndarray, curv
     return fig
 
 
-def _guides(ax: Any, effect: str, x: np.ndarray, found: Any, u: CoordinateUnits) -> None:
+def _guides(ax: Any, effect: Effect, x: np.ndarray, found: Any, u: CoordinateUnits) -> None:
     """The printed direction-dependent coefficients drawn as what they are, across every velocity seen (the
     data follow each on its own side): lines of slope Fv⁺ and Fv⁻ through 0, or the levels Fc⁺ and −Fc⁻."""
-    unit = u.compose(ROLE_UNITS[effect]["positive"])
+    unit = u.compose(effect.units["positive"])
     span = np.array([min(float(x.min()), 0.0), max(float(x.max()), 0.0)])
     for role, colour in (("positive", "C0"), ("negative", "C2")):
         value = found.parameters.get(role)
         if value is None:
             continue
-        symbol = ROLE_SYMBOLS[(effect, role)]
+        symbol = effect.symbols.get(role, role)
         where = " (q̇ > 0)" if role == "positive" else " (q̇ < 0)"
-        if effect == "asymmetric_viscous":
+        if effect.guide == "slope":
             ax.plot(span, value * span, ls=":", lw=1.2, color=colour,
                     label=f"slope {symbol} = {value:.4g}" + (f" {unit}" if unit else "") + where)
         else:
@@ -190,12 +164,12 @@ def _guides(ax: Any, effect: str, x: np.ndarray, found: Any, u: CoordinateUnits)
                     label=f"level {'' if role == 'positive' else '−'}{symbol} = {level:.4g}" + (f" {unit}" if unit else "") + where)
 
 
-def _parameters(effect: str, found: Any, u: CoordinateUnits) -> str:
+def _parameters(effect: Effect, found: Any, u: CoordinateUnits) -> str:
     """The effect's parameters as the report prints them (final fit), with their units."""
     parts = []
     for role, value in found.parameters.items():
         if value is None:
             continue
-        unit = u.compose(ROLE_UNITS.get(effect, {}).get(role, ""))
-        parts.append(f"{ROLE_SYMBOLS.get((effect, role), role)} = {value:.4g}" + (f" {unit}" if unit else ""))
+        unit = u.compose(effect.units.get(role, ""))
+        parts.append(f"{effect.symbols.get(role, role)} = {value:.4g}" + (f" {unit}" if unit else ""))
     return ", ".join(parts)

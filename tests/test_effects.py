@@ -1,0 +1,145 @@
+"""Every registered effect passes the same conformance checks (in the manner of scikit-learn's
+``parametrize_with_checks``): what holds for one effect of the catalogue holds for all, and for one a user drops
+into symbolic/workflow/effects/ (docs/workflow.md, "Adding an effect"), with no table keyed by effect names.
+
+On the two-link arm of tests/models.py (viscous and Coulomb friction on both joints, so that refinements have
+their reference term) moved along smooth random trajectories, for every coordinate the effect applies to and at
+the ends and the middle of its grid: declarations complete (:func:`check_effect`), columns of the documented shape
+and finite, zero off their own row when it says so, roles by name from coefficients, a verdict that is ``None`` or
+a reason, and a patch that leaves a model file that loads.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import models
+import symbolic
+from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals, check_effect, excluded, groups, register
+from symbolic.workflow.effects.base import Effect as BaseEffect
+from symbolic.workflow.patch import Editor
+
+RATE, SAMPLES = 200.0, 4000
+
+
+def arm_context() -> tuple[str, Context, Signals]:
+    text = models.arm()
+    robot = symbolic.loads(text, "arm.toml")
+    rng = np.random.default_rng(7)
+    t = np.arange(SAMPLES) / RATE
+    n = len(robot.generalized_coordinates)
+    q = np.stack([sum(rng.uniform(0.1, 0.6) * np.sin(2 * np.pi * f * t + rng.uniform(0, 6)) for f in (0.2, 0.45, 1.1))
+                  for _ in range(n)], axis=1)
+    qd = np.gradient(q, 1 / RATE, axis=0)
+    qdd = np.gradient(qd, 1 / RATE, axis=0)
+    context = Context(robot, tuple(robot.generalized_coordinates), q, qd, qdd, passband=40.0, kept_period=1 / RATE,
+                      duration=float(t[-1]), rate=RATE)
+    return text, context, Signals(q, qd, qdd, t, RATE, robot)
+
+
+TEXT, CONTEXT, SIGNALS = arm_context()
+
+
+def values_to_try(effect: Effect, j: int) -> list:
+    """The grid's ends and two values in its middle for a nonlinear effect (a grid of several parameters varies
+    the last fastest: the second middle row differs in it), else its setting."""
+    if effect.nonlinear is None:
+        return [effect.setting(CONTEXT, j)]
+    grid = effect.grid(CONTEXT, j)
+    if grid is None:
+        return []
+    values = grid[0]
+    rows = [values[0], values[len(values) // 2], values[len(values) // 2 + 1], values[-1]]
+    return [tuple(float(x) for x in row) if np.ndim(row) else float(row) for row in rows]
+
+
+def conformance_failures(effect: Effect) -> list[str]:
+    """What the effect does that the search, the report or the patch cannot take (empty: nothing)."""
+    failures = list(check_effect(effect))
+    tried = 0
+    for j, coordinate in enumerate(CONTEXT.coordinates):
+        reason = effect.applicable(CONTEXT, j)
+        if reason is not None:
+            if not isinstance(reason, str) or not reason:
+                failures.append(f"applicable on {coordinate}: None or a reason, not {reason!r}")
+            continue
+        for value in values_to_try(effect, j):
+            tried += 1
+            where = f"{coordinate} at {value!r}"
+            columns = effect.columns_at(SIGNALS, j, value)
+            if columns.ndim != 3 or columns.shape[:2] != (SAMPLES, len(CONTEXT.coordinates)) or columns.shape[2] < 1:
+                failures.append(f"{where}: columns of shape {columns.shape}, not samples × N × k")
+                continue
+            if not np.all(np.isfinite(columns)):
+                failures.append(f"{where}: columns not finite")
+            if effect.own_row and np.any(np.delete(columns, j, axis=1)):
+                failures.append(f"{where}: own_row, yet its columns act on other coordinates")
+            reference = 0.3 if effect.refines else None
+            c = np.full(columns.shape[2], 0.1)  # below the reference: physical refinements
+            roles = effect.roles_of(c, value, reference)
+            if not set(effect.roles) <= set(roles):
+                failures.append(f"{where}: roles_of gives {sorted(roles)}, not every role of {effect.roles}")
+                continue
+            verdict = effect.check(roles, reference, CONTEXT, j)
+            if verdict is not None:
+                if not (isinstance(verdict, str) and verdict):
+                    failures.append(f"{where}: check gives {verdict!r}, not None or a reason")
+                continue  # only accepted (physical) effects are written
+            failures += patch_failures(effect, j, roles, c, value, where)
+    if tried == 0 and effect.name not in {"payload"}:  # the payload needs the search's terms (tests/test_payload*.py)
+        failures.append("applies to no coordinate of the two-link arm at any value: nothing was checked")
+    return failures
+
+
+def patch_failures(effect: Effect, j: int, roles: dict, c: np.ndarray, value, where: str) -> list[str]:
+    editor = Editor(TEXT, CONTEXT.robot, "arm.toml")
+    written = effect.patch(editor, CONTEXT, j, roles, c, value, "conformance")
+    if not written or not all(isinstance(k, str) and np.isfinite(v) for k, v in written.items()):
+        return [f"{where}: patch returns {written!r}, not the parameters it wrote"]
+    try:
+        patched = symbolic.loads(editor.text(), "arm.toml")
+    except symbolic.SymbolicError as error:
+        return [f"{where}: the patched model file does not load: {error}"]
+    missing = set(written) - {p.name for p in patched.parameters}
+    return [f"{where}: patch names {sorted(missing)}, which the patched file does not hold"] if missing else []
+
+
+@pytest.mark.parametrize("name", list(EFFECTS))
+def test_every_registered_effect_conforms(name: str) -> None:
+    assert conformance_failures(EFFECTS[name]) == []
+
+
+def test_the_checks_catch_what_they_look_for() -> None:
+    """An effect without units, with a misdeclared row or unloadable patch is reported, not passed."""
+
+    class Careless(BaseEffect):
+        name, roles, summary, own_row = "careless", ("drag",), "q̇|q̇| drag", True
+
+        def columns(self, q, qd, qdd, j, value):
+            return np.repeat((qd[:, j] * np.abs(qd[:, j]))[:, None, None], q.shape[1], axis=1)
+
+        def roles_of(self, c, value, reference):
+            return {"drag": float(c[0])}
+
+        def patch(self, editor, context, j, roles, c, value, comment):
+            return {"Fd_q1": roles["drag"]}  # says it wrote a parameter it never wrote
+
+    failures = conformance_failures(Careless())
+    assert any("units has no entry for role(s) ['drag']" in f for f in failures)
+    assert any("own_row, yet its columns act on other coordinates" in f for f in failures)
+    assert any("patch names ['Fd_q1']" in f for f in failures)
+    with pytest.raises(TypeError, match="units has no entry"):
+        register(Careless())
+    assert "careless" not in EFFECTS
+
+
+def test_catalogue_order_exclusions_and_groups_come_from_the_effects() -> None:
+    ranks = [e.rank for e in EFFECTS.values()]
+    assert ranks == sorted(ranks)
+    for name in EFFECTS:
+        for other in excluded(name):
+            assert name in excluded(other)  # symmetric, whichever side declares it
+    assert excluded("stribeck") == {"asymmetric_coulomb"}
+    assert groups(list(EFFECTS)) == [("viscous", "coulomb")]
+    assert groups(["viscous"]) == []
