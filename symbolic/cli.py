@@ -454,6 +454,20 @@ class _DiagnoseHelp(argparse.Action):
         parser.exit()
 
 
+class _ListEffects(argparse.Action):
+    """``diagnose --list-effects``: the catalogue from the registry, one line per effect (key, term, parameters
+    with units, what it refines and excludes), without a model or data."""
+
+    def __init__(self, option_strings: list[str], dest: str = argparse.SUPPRESS, **kwargs) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace, values, option_string=None) -> None:
+        from symbolic.workflow.effects import listing
+
+        print("\n".join(listing()))
+        parser.exit()
+
+
 def cmd_campaign(args: argparse.Namespace) -> int:
     from symbolic import export
     from symbolic.fleet import INSTALL, available
@@ -601,6 +615,8 @@ def parser() -> argparse.ArgumentParser:
     w = sub.add_parser("diagnose", help="find the effects the model misses in measured data and patch the model file",
                        add_help=False, formatter_class=argparse.RawDescriptionHelpFormatter)
     w.add_argument("-h", "--help", action=_DiagnoseHelp, help="show this help message, with the effects, and exit")
+    w.add_argument("--list-effects", action=_ListEffects, help="list the effect catalogue (key, term, parameters with "
+                   "their units, what each refines and excludes) and exit")
     w.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
     w.add_argument("data", help="data file (CSV, .npz, .mat with canonical columns) or experiment file (.toml)")
     w.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")

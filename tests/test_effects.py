@@ -11,15 +11,27 @@ a reason, and a patch that leaves a model file that loads.
 
 from __future__ import annotations
 
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import models
 import symbolic
-from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals, check_effect, excluded, groups, register
+import symbolic.data
+import workflow_cases as cases
+from symbolic.workflow.effects import (EFFECTS, Context, Effect, Signals, check_effect, excluded, groups,
+                                       markdown_table, register)
 from symbolic.workflow.effects.base import Effect as BaseEffect
 from symbolic.workflow.patch import Editor
 
+ROOT = Path(__file__).resolve().parents[1]
 RATE, SAMPLES = 200.0, 4000
 
 
@@ -143,3 +155,47 @@ def test_catalogue_order_exclusions_and_groups_come_from_the_effects() -> None:
     assert excluded("stribeck") == {"asymmetric_coulomb"}
     assert groups(list(EFFECTS)) == [("viscous", "coulomb")]
     assert groups(["viscous"]) == []
+
+
+def test_the_docs_table_is_the_registry() -> None:
+    text = (ROOT / "docs/workflow.md").read_text()
+    table = re.search(r"<!-- the catalogue, generated from the registry.*?-->\n(.*?)<!-- end of the catalogue -->", text, re.S)
+    assert table, "docs/workflow.md lost its generated catalogue table"
+    assert table.group(1) == markdown_table(), "docs/workflow.md's table differs from the registry: paste markdown_table()"
+
+
+def example_effect() -> tuple[str, str]:
+    """(path, source) of the example effect of docs/workflow.md, "Adding an effect"."""
+    text = (ROOT / "docs/workflow.md").read_text()
+    block = re.search(r"```python\n# (symbolic/workflow/effects/\w+\.py)\n(.*?)```", text, re.S)
+    assert block, "docs/workflow.md has no example effect (a fenced python block opening with its path)"
+    return block.group(1), block.group(2)
+
+
+@pytest.mark.slow
+def test_the_documented_example_effect_is_all_it_takes(tmp_path: Path) -> None:
+    """The example file, dropped alone into a copy of the package, is listed by --list-effects and found by
+    ``diagnose --effects quadratic_drag`` on an axis whose drag the model lacks (truth Fq = 0.4)."""
+    path, source = example_effect()
+    shutil.copytree(ROOT / "symbolic", tmp_path / "symbolic", ignore=shutil.ignore_patterns("__pycache__"))
+    (tmp_path / path).write_text(source)
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "SYMBOLIC_CACHE")} | {
+        "PYTHONPATH": str(tmp_path)}
+
+    def run(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "symbolic", *args], cwd=tmp_path, env=env, capture_output=True,
+                              text=True, timeout=900)
+
+    listed = run("diagnose", "--list-effects")
+    assert listed.returncode == 0, listed.stderr
+    assert re.search(r"^quadratic_drag +Fq·q̇·abs\(q̇\) +\[drag \(force·s²/position²\)\]$", listed.stdout, re.M)
+    drag = '[[force]]\nname = "drag"\ncoordinate = "q"\nexpression = "-Fq*qd_q*abs(qd_q)"\n'
+    truth = models.axis(parameters="Fv = 0.3\nFc = 0.4\nFq = 0.4\n", extra=drag)
+    symbolic.data.write(cases.measurements(truth, 2, 0.01), tmp_path / "log.csv")  # the canonical columns
+    cases.model_file(tmp_path, models.axis())
+    done = run("-q", "diagnose", "model.toml", "log.csv", "--effects", "quadratic_drag", "--out", "out", "--json")
+    assert done.returncode == 0, done.stderr
+    found = json.loads(done.stdout)["found"]
+    assert [(f["effect"], f["coordinate"]) for f in found] == [("quadratic_drag", "q")]
+    assert found[0]["parameters"]["drag"] == pytest.approx(0.4, rel=0.05)
+    assert "-Fq_q*qd_q*abs(qd_q)" in (tmp_path / json.loads(done.stdout)["patched_model"]).read_text()

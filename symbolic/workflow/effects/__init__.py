@@ -17,7 +17,8 @@ import importlib
 import pkgutil
 
 from symbolic.workflow.effects.base import (EFFECTS, NOT_SUPPORTED, Context, Effect, Roles, Signals, catalogue,
-                                            check_effect, excluded, groups, on_row, register, select)
+                                            check_effect, excluded, groups, listing, markdown_table, on_row,
+                                            register, select)
 
 for _module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
     if _module.name != "base" and not _module.name.startswith("_"):
@@ -34,5 +35,5 @@ from symbolic.workflow.effects.spring import Spring  # noqa: E402
 
 __all__ = ["EFFECTS", "NOT_SUPPORTED", "AsymmetricCoulomb", "AsymmetricViscous", "Context", "Coulomb", "Effect",
            "FlexibleMode", "Gravity", "Inertia", "Offset", "Payload", "Periodic", "PeriodicTime", "Roles", "Signals",
-           "Spring", "Stribeck", "Viscous", "catalogue", "check_effect", "excluded", "groups", "on_row", "register",
+           "Spring", "Stribeck", "Viscous", "catalogue", "check_effect", "excluded", "groups", "listing", "markdown_table", "on_row", "register",
            "select"]

@@ -128,6 +128,14 @@ class Effect:
     docs/workflow.md, "Grouped hypotheses")."""
     repeatable: ClassVar[bool] = False
     """Whether the effect may be accepted twice on one coordinate (each time with its own nonlinear value)."""
+    formula: ClassVar[str] = ""
+    """The τ-side term, as docs/workflow.md's table and ``--list-effects`` write it (default: the summary)."""
+    regressors: ClassVar[str] = ""
+    """Its columns in words (the table's "columns")."""
+    written_as: ClassVar[str] = ""
+    """How the patch writes it into the model file (the table's "model file")."""
+    roles_note: ClassVar[str] = ""
+    """What the table says of the roles beyond their names and units."""
     guide: ClassVar[str | None] = None
     """How the report's figure draws a direction-dependent pair of coefficients: ``"slope"`` (two lines
     through 0) or ``"level"`` (two levels); ``None``: no guides."""
@@ -306,6 +314,41 @@ def catalogue(names: Mapping[str, Effect] | None = None) -> list[dict[str, objec
     return [{"effect": e.identifier, **({"key": e.name, "variant": e.variant} if e.variant else {}),
              "roles": list(e.roles), "summary": e.summary, "refines": e.refines}
             for e in effects.values()]
+
+
+def _unit_text(unit: str) -> str:
+    """A role's unit for the listing, in words where it follows the coordinate (force, position)."""
+    return unit.replace("{force}", "force").replace("{position}", "position")
+
+
+def _roles_text(effect: Effect) -> str:
+    return ", ".join(f"{r} ({_unit_text(effect.units[r])})" if effect.units.get(r) else r for r in effect.roles)
+
+
+def listing(effects: Mapping[str, Effect] | None = None) -> list[str]:
+    """One line per effect: registry key, term, parameters with their units, what it refines and excludes
+    (``symbolic diagnose --list-effects``)."""
+    effects = EFFECTS if effects is None else effects
+    width = max(map(len, effects), default=0)
+    lines = []
+    for key, e in effects.items():
+        extra = [f"refines {e.refines}"] if e.refines else []
+        extra += [f"excludes {', '.join(sorted(excluded(key)))}"] if excluded(key) else []
+        extra += [f"also with {', '.join(e.together)}"] if e.together else []
+        lines.append(f"{key:{width}s}  {e.formula or e.summary}  [{_roles_text(e)}]" + (f"  ({'; '.join(extra)})" if extra else ""))
+    return lines
+
+
+def markdown_table(effects: Mapping[str, Effect] | None = None) -> str:
+    """docs/workflow.md's catalogue table, from the registry (a test checks the page holds exactly this)."""
+    effects = EFFECTS if effects is None else effects
+    rows = ["| effect | τ-side term | columns | roles | model file |", "|---|---|---|---|---|"]
+    for key, e in effects.items():
+        name = f"`{e.identifier}` (in {e.variant}; key `{key}`)" if e.variant else f"`{key}`"
+        roles = ", ".join(f"`{r}`" + (f" ({_unit_text(e.units[r])})" if e.units.get(r) else "") for r in e.roles)
+        roles += f" ({e.roles_note})" if e.roles_note else ""
+        rows.append(f"| {name} | {e.formula or e.summary} | {e.regressors} | {roles} | {e.written_as} |")
+    return "\n".join(rows) + "\n"
 
 
 AXES = ("position", "velocity", "acceleration", "time")

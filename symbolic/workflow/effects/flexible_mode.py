@@ -32,6 +32,8 @@ class FlexibleMode(Effect):
 
     name, roles, axis, nonlinear = "flexible_mode", ("frequency_hz", "damping_ratio"), "time", "frequency and damping"
     summary = "unmodelled resonance: a load on a compliant coupling (second mass), ringing at frequency_hz"
+    formula, regressors, written_as = 'J_L·q̈_L, q_L = L(s)·q, L = (2ζω·s + ω²)/(s² + 2ζω·s + ω²)', 'q̈ filtered by L; (ω, ζ) on a grid', 'a second mass: coordinate `<q>_flex`, `[[frame]]`, `[[body]]` J_L, `[[force]]` −k·x − c·ẋ'
+    roles_note = 'the ringing, closed loop'
     rank, units = 120, {"frequency_hz": "Hz", "damping_ratio": ""}
     DAMPING = (0.01, 0.03, 0.08, 0.2)
     """Damping ratios of the grid; the grid's box caps the refinement at 0.2: a resonance that rings (a

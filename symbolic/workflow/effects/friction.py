@@ -51,6 +51,7 @@ class _FrictionTerm(Effect):
 class Coulomb(_FrictionTerm):
     name, roles, key, stem = "coulomb", ("coulomb",), "coulomb", "Fc"
     summary = "Coulomb friction Fc·sign(q̇)"
+    formula, regressors, written_as = 'Fc·sign(q̇)', 'sign(q̇)', '`[[friction]] coulomb`'
     rank, units = 10, {"coulomb": "{force}"}
 
     def columns(self, q, qd, qdd, j, value):
@@ -60,6 +61,7 @@ class Coulomb(_FrictionTerm):
 class Viscous(_FrictionTerm):
     name, roles, key, stem = "viscous", ("viscous",), "viscous", "Fv"
     summary = "viscous friction Fv·q̇"
+    formula, regressors, written_as = 'Fv·q̇', 'q̇', '`[[friction]] viscous`'
     rank, units = 20, {"viscous": "{force}·s/{position}"}
     together = ("coulomb",)  # the friction a model without any lacks: both at once, as one hypothesis
 
@@ -70,6 +72,7 @@ class Viscous(_FrictionTerm):
 class Offset(_FrictionTerm):
     name, roles, key, stem = "offset", ("offset",), "offset", "offset"
     summary = "constant generalized force (drive offset, unmodelled constant load)"
+    formula, regressors, written_as = 'constant', '1', '`[[friction]] offset`'
     rank, units = 30, {"offset": "{force}"}
 
     def columns(self, q, qd, qdd, j, value):
@@ -118,6 +121,8 @@ class _Asymmetric(Effect):
 class AsymmetricViscous(_Asymmetric):
     name, refines, key, stems = "asymmetric_viscous", "viscous", "viscous", ("Fvp", "Fvn")
     summary = "direction-dependent viscous friction Fv⁺·q̇ (q̇ > 0), Fv⁻·q̇ (q̇ < 0)"
+    formula, regressors, written_as = 'Fv⁺·q̇ (q̇>0), Fv⁻·q̇ (q̇<0)', "\\|q̇\\| beside the model's q̇", '`viscous = { positive, negative }`'
+    roles_note = 'totals'
     rank, guide = 90, "slope"
     units = {"positive": "{force}·s/{position}", "negative": "{force}·s/{position}"}
     symbols = {"positive": "Fv⁺", "negative": "Fv⁻"}
@@ -129,6 +134,8 @@ class AsymmetricViscous(_Asymmetric):
 class AsymmetricCoulomb(_Asymmetric):
     name, refines, key, stems = "asymmetric_coulomb", "coulomb", "coulomb", ("Fcp", "Fcn")
     summary = "direction-dependent Coulomb friction Fc⁺ (q̇ > 0), −Fc⁻ (q̇ < 0)"
+    formula, regressors, written_as = 'Fc⁺ (q̇>0), −Fc⁻ (q̇<0)', "1 beside the model's sign(q̇)", '`coulomb = { positive, negative }`'
+    roles_note = 'totals'
     rank, guide = 100, "level"
     units = {"positive": "{force}", "negative": "{force}"}
     symbols = {"positive": "Fc⁺", "negative": "Fc⁻"}
@@ -145,6 +152,7 @@ class Stribeck(Effect):
 
     name, roles, refines, nonlinear = "stribeck", ("static", "velocity"), "coulomb", "velocity"
     summary = "Stribeck rise of the Coulomb level at low speed: static level Fs, velocity scale vs"
+    formula, regressors, written_as = '(Fc + (Fs−Fc)·e^{−(q̇/vs)²})·sign(q̇)', 'e^{−(q̇/vs)²}·sign(q̇); vs on a grid', '`stribeck = { static, velocity }`'
     rank, units = 110, {"static": "{force}", "velocity": "{position}/s"}
     GRID = 32
 

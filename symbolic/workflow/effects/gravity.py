@@ -13,6 +13,7 @@ class Gravity(Sinusoid):
 
     name, roles, axis = "gravity", ("moment", "phase"), "position"
     summary = "unbalanced or missing mass moment m·g·l about a revolute coordinate: moment·sin(q + phase)"
+    formula, regressors, written_as = 'moment·sin(q + phase)', 'sin q, cos q', '`[[force]] -(Gs*sin(q) + Gc*cos(q))`'
     rank, units = 50, {"moment": "{force}", "phase": "rad"}
 
     def applicable(self, context, j):

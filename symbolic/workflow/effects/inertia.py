@@ -10,6 +10,7 @@ class Inertia(Effect):
 
     name, roles, axis = "inertia", ("inertia",), "acceleration"
     summary = "inertia error on one coordinate (a rotor, a coupling): ΔI·q̈, as a [[drive]] rotor inertia"
+    formula, regressors, written_as = 'ΔI·q̈', 'q̈', '`[[drive]] rotor_inertia` (ΔI/ratio²)'
     rank, units = 60, {"inertia": "{force}·s²/{position}"}
 
     def applicable(self, context, j):

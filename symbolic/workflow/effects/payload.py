@@ -15,6 +15,8 @@ class Payload(Effect):
 
     name, roles, axis = "payload", PHYSICAL, "acceleration"
     summary = "a rigid payload on the last body of a chain (a tool, a load): mass, centre of mass, inertia"
+    formula, regressors, written_as = "Y_π(q, q̇, q̈)·π on every coordinate, π the ten standard parameters of a rigid body on the chain's last frame", "the combinations of Y_π's columns that the model's free parameters do not span", '`[[body]] payload` on that frame (a point mass unless the inertia is determined)'
+    roles_note = 'centre of mass in the frame; inertia about it, `null` unless determined'
     rank = 130
     units = {"mass": "kg", "com_x": "m", "com_y": "m", "com_z": "m",
              **{f"i{axes}": "kg·m²" for axes in ("xx", "yy", "zz", "xy", "xz", "yz")}}

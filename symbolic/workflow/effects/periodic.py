@@ -17,6 +17,7 @@ class Periodic(Sinusoid):
 
     name, roles, axis, nonlinear, variant = "periodic", ("amplitude", "period"), "position", "period", "position"
     summary = "disturbance periodic in position (cogging, screw or gear period): amplitude·sin(2π·q/period + φ)"
+    formula, regressors, written_as = 'A·sin(2π·q/P + φ)', 'sin, cos of 2π·q/P; P on a grid', '`[[force]]` with P written as a number'
     rank, units = 70, {"amplitude": "{force}", "period": "{position}"}
     OVERSAMPLING = 4
     MAX_GRID = 4000
@@ -77,6 +78,7 @@ class PeriodicTime(Sinusoid):
     name, contract, variant = "periodic_time", "periodic", "time"
     roles, axis, nonlinear = ("amplitude", "frequency_hz"), "time", "frequency_hz"
     summary = "disturbance periodic in time (mains interference): amplitude·sin(2π·frequency_hz·t + φ)"
+    formula, regressors, written_as = 'A·sin(2π·f·t + φ)', "sin, cos of 2π·f·t at the data's time stamps; f on a grid", '`[[force]] -(Ms*sin(2*pi*f*t) + Mc*cos(2*pi*f*t))`, f written as a number'
     rank, units = 80, {"amplitude": "{force}", "frequency_hz": "Hz"}
     CYCLES = 2.0
     TOP = 0.8

@@ -12,6 +12,7 @@ class Spring(Effect):
 
     name, roles, axis, optional = "spring", ("stiffness", "rest_position"), "position", (1,)
     summary = "elastic return to a rest position (a cable, a gas spring): −k·(q − q0)"
+    formula, regressors, written_as = 'k·(q − q0)', 'q, 1', '`[[force]] -k*(q - q0)`'
     rank, units = 40, {"stiffness": "{force}/{position}", "rest_position": "{position}"}
 
     def columns(self, q, qd, qdd, j, value):
