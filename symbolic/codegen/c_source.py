@@ -37,6 +37,8 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
         for e in program.outputs:
             used |= e.free_symbols
         unused = [a for a in spec.inputs if not used & set(symbols[a])]
+        if not program.outputs:  # nothing to write (a massless model's regressor and theta): no unused parameter
+            unused.append(spec.output)
         functions.append(
             {
                 "name": spec.name,

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import sympy as sp
 
+from symbolic.derivation.inertia import entrywise_sum
 from symbolic.derivation.kinematics import ZERO3, Kinematics, cross
 from symbolic.description.robot import BASE
 
@@ -44,12 +45,15 @@ def gravity_forces(kin: Kinematics) -> sp.Matrix:
         outer = g0 if fk.parent == BASE else gravity_in[fk.parent]
         gravity_in[name] = fk.to_child(outer).applyfunc(add)
 
-    mass: dict[str, sp.Expr] = {name: sp.Integer(0) for name in kin.frames}
-    moment: dict[str, sp.Matrix] = {name: ZERO3 for name in kin.frames}
+    masses: dict[str, list[sp.Expr]] = {name: [] for name in kin.frames}
+    moments: dict[str, list[sp.Matrix]] = {name: [ZERO3] for name in kin.frames}
     for body in kin.robot.bodies:
         if body.frame != BASE:
-            mass[body.frame] += body.mass
-            moment[body.frame] = moment[body.frame] + body.mass * sp.Matrix(body.com)
+            masses[body.frame].append(body.mass)
+            moments[body.frame].append(body.mass * sp.Matrix(body.com))
+    # each frame's sums formed once: a running sum re-sorts its terms at every step (quadratic in the bodies)
+    mass = {name: sp.Add(*terms) for name, terms in masses.items()}
+    moment = {name: entrywise_sum(terms) for name, terms in moments.items()}
 
     tau: dict[sp.Symbol, list[sp.Expr]] = {q: [] for q in kin.coordinates}
     for name in reversed(list(kin.frames)):

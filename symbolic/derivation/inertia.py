@@ -41,6 +41,17 @@ class SpatialInertia:
         m = body.mass
         return SpatialInertia(m, m * c, body.inertia_tensor + m * ((c.T * c)[0] * sp.eye(3) - c * c.T))
 
+    @staticmethod
+    def total(items: list[SpatialInertia]) -> SpatialInertia:
+        """The sum of ``items``, each entry one sum of its terms (adding one at a time re-sorts the growing
+        sum at every step: quadratic in the bodies of a frame, links merged through fixed joints)."""
+        if not items:
+            return SpatialInertia.zero()
+        if len(items) == 1:
+            return items[0]
+        return SpatialInertia(sp.Add(*(i.mass for i in items)), entrywise_sum([i.moment for i in items]),
+                              entrywise_sum([i.rotational for i in items]))
+
     def __add__(self, other: SpatialInertia) -> SpatialInertia:
         return SpatialInertia(self.mass + other.mass, self.moment + other.moment, self.rotational + other.rotational)
 
@@ -80,17 +91,23 @@ class SpatialInertia:
 def composite_inertias(kin: Kinematics) -> dict[str, SpatialInertia]:
     """I^c_f: inertia of every body in the subtree of frame f, at f's origin in f's axes."""
     sub = kin.sub
-    own: dict[str, SpatialInertia] = {name: SpatialInertia.zero() for name in kin.frames}
-    own[BASE] = SpatialInertia.zero()
+    parts: dict[str, list[SpatialInertia]] = {name: [] for name in kin.frames}
+    parts[BASE] = []
     for body in kin.robot.bodies:
-        own[body.frame] = own[body.frame] + SpatialInertia.of_body(body)
-    composite = {name: own[name] for name in kin.frames}
+        parts[body.frame].append(SpatialInertia.of_body(body))
+    composite: dict[str, SpatialInertia] = {}
     for name in reversed(list(kin.frames)):
         fk = kin.frames[name]
-        composite[name] = composite[name].registered(sub)
+        composite[name] = SpatialInertia.total(parts[name]).registered(sub)
         if fk.parent != BASE and not composite[name].is_zero():
-            composite[fk.parent] = composite[fk.parent] + composite[name].to_parent(fk, sub.add)
-    return composite
+            parts[fk.parent].append(composite[name].to_parent(fk, sub.add))
+    return {name: composite[name] for name in kin.frames}
+
+
+def entrywise_sum(matrices: list[sp.Matrix]) -> sp.Matrix:
+    """Σ ``matrices`` (not empty), each entry one :class:`sympy.Add` of its terms."""
+    rows, cols = matrices[0].shape
+    return sp.Matrix(rows, cols, lambda i, j: sp.Add(*(m[i, j] for m in matrices)))
 
 
 def inertia_matrix(kin: Kinematics, composite: dict[str, SpatialInertia] | None = None) -> sp.Matrix:

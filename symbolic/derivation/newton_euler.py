@@ -14,6 +14,7 @@ from collections.abc import Callable
 
 import sympy as sp
 
+from symbolic.derivation.inertia import entrywise_sum
 from symbolic.derivation.kinematics import ZERO3, Kinematics, cross
 from symbolic.description.robot import BASE
 
@@ -131,7 +132,7 @@ def _bodies_wrench(bodies, w, dw, a, tangent, add) -> tuple[sp.Matrix, sp.Matrix
     n = I_c ω̇ + ω × I_c ω + c × f (Euler's equation about the centre of mass, moved to the origin).
     Working at the centre of mass avoids the parallel-axis conversion of the inertia.
     """
-    n_total, f_total = sp.Matrix(ZERO3), sp.Matrix(ZERO3)
+    n_terms, f_terms = [ZERO3], [ZERO3]  # summed once at the end: a running sum is quadratic in the bodies
     for body in bodies:
         c = sp.Matrix(body.com)
         inertia = body.inertia_tensor
@@ -139,6 +140,6 @@ def _bodies_wrench(bodies, w, dw, a, tangent, add) -> tuple[sp.Matrix, sp.Matrix
         f = (body.mass * a_c).applyfunc(add)
         i_w = (inertia * w).applyfunc(add)
         n = inertia * dw + cross(w, i_w) + cross(c, f)
-        n_total += n
-        f_total += f
-    return n_total, f_total
+        n_terms.append(n)
+        f_terms.append(f)
+    return entrywise_sum(n_terms), entrywise_sum(f_terms)

@@ -166,9 +166,7 @@ def _inertial_parameters(robot: Robot) -> dict[str, list[tuple[sp.Symbol, sp.Exp
         bodies = [b for b in robot.bodies if b.frame == frame.name]
         if not bodies:
             continue
-        total = SpatialInertia.zero()
-        for body in bodies:
-            total = total + SpatialInertia.of_body(body)
+        total = SpatialInertia.total([SpatialInertia.of_body(body) for body in bodies])
         J, h = total.rotational, total.moment
         values = (J[0, 0], J[0, 1], J[0, 2], J[1, 1], J[1, 2], J[2, 2], h[0], h[1], h[2], total.mass)
         label = frame_label(frame.name)

@@ -30,6 +30,7 @@ so a hostile file costs nothing but a one-line :class:`~symbolic.errors.ModelErr
 
 from __future__ import annotations
 
+import keyword
 import math
 import re
 from dataclasses import dataclass, field
@@ -47,6 +48,13 @@ from symbolic.errors import ModelError, shown
 MAX_BYTES = 20_000_000
 """Largest URDF read (real ones, meshes referenced by name, are below 1 MB; talos_full_v2 is 0.1 MB)."""
 
+MAX_MERGED = 256
+"""Most links whose ``<inertial>`` a fixed joint merges onto one frame. Each keeps its ten parameters, and
+the equations of motion sum them symbolically: 300 such links took 26 s to derive, 1,000 failed (Python
+cannot compile a sum of a few thousand terms). Real robots merge at most 12 (PR2; example-robot-data's
+69 URDFs); the dynamics depend only on the links' total, so a file over the limit is refused with the
+advice to combine them in one ``<inertial>``."""
+
 RIGHT_ANGLE_TOLERANCE = 1e-15
 """An angle this close (rad) to a multiple of π/2 is that multiple, exactly: the double nearest π/2
 (1.5707963267948966, as xacro writes ${pi/2}) is π/2 to within 1e-16, and a rotation by an exact right
@@ -56,6 +64,17 @@ keeps it: snapping it would move the dynamics by 1e-10 of their size."""
 TINY = 1e-20
 """Magnitudes below this are read as 0 (exporters write 2.35e-33 for zero; the model format's numbers
 stop at 1e-30)."""
+
+NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+"""A URDF number: XML Schema's double in decimal form (sign, digits, fraction, exponent), ASCII digits
+only. Python's ``float`` also takes ``1_000``, ``infinity`` and other scripts' digits (``١``): a URDF
+parser (urdfdom, Pinocchio) reads none of them as that number."""
+
+NOT_FINITE = re.compile(r"[+-]?(?:inf|infinity|nan)", re.IGNORECASE)
+"""Spellings of infinity and NaN (XML Schema's ``INF``, ``NaN``, and C's): refused as not finite."""
+
+XML_SPACE = re.compile(r"[ \t\r\n]+")
+"""Whitespace between the numbers of an attribute, as XML defines it (not U+00A0 and the like)."""
 
 MOVING = ("revolute", "continuous", "prismatic")
 REFUSED = {"floating": "6 degrees of freedom", "planar": "3 degrees of freedom"}
@@ -199,17 +218,20 @@ class _Importer:
         if element is None or element.get(attribute) is None:
             return default
         text = element.get(attribute)
-        parts = text.split()
-        if len(parts) != count:
+        parts = XML_SPACE.split(text.strip(" \t\r\n"))
+        if len(parts) != count or not parts[0]:
             raise self.fail(f"{key} {attribute}", f"expected {count} number(s), got {shown(text, 60)}")
         out = []
         for part in parts:
-            try:
-                value = float(part)
-            except ValueError:
-                raise self.fail(f"{key} {attribute}", f"{shown(part, 40)} is not a number") from None
-            if not math.isfinite(value):
+            if NOT_FINITE.fullmatch(part):
                 raise self.fail(f"{key} {attribute}", f"{shown(part, 40)} is not finite (NaN and infinity are refused)")
+            if not NUMBER.fullmatch(part):
+                raise self.fail(f"{key} {attribute}", f"{shown(part, 40)} is not a number (a URDF number is an optional "
+                                                      "sign, digits, an optional fraction and exponent: 1000, -0.5, "
+                                                      "1.2e-3; no _ or other characters)")
+            value = float(part)
+            if not math.isfinite(value):  # 1e999: the form of a number, beyond a double
+                raise self.fail(f"{key} {attribute}", f"{shown(part, 40)} is not finite (beyond the largest double)")
             if abs(value) > 1e30:
                 raise self.fail(f"{key} {attribute}", f"{shown(part, 40)} is out of range (magnitudes up to 1e30)")
             out.append(0.0 if abs(value) < TINY else value)
@@ -299,6 +321,8 @@ class _Importer:
             if root not in self.links:
                 raise self.fail("--root", f"link {shown(root, 40)} does not exist (links: {_listing(self.links)})")
             return root
+        if not self.links:
+            raise self.fail("<robot>", "no <link>: a URDF robot needs at least one link and one moving joint")
         roots = [name for name in self.links if name not in self.parent_joint]
         if not roots:
             raise self.fail("<joint>", f"the joints form a cycle: {self.cycle(next(iter(self.links)))}")
@@ -362,12 +386,13 @@ class _Importer:
 
     # -- names ---------------------------------------------------------------------------------
     def identifier(self, text: str, prefix: str, what: str) -> str:
-        """A free identifier for ``text``: [A-Za-z][A-Za-z0-9_]*, no reserved name or suffix, unique."""
+        """A free identifier for ``text``: [A-Za-z][A-Za-z0-9_]*, no reserved name or suffix, no Python
+        keyword (``_`` appended: joint ``lambda`` is coordinate ``lambda_``), unique."""
         name = prefix + re.sub(r"[^A-Za-z0-9_]", "_", text)
         if not IDENTIFIER.match(name):
             name = "q_" + name.lstrip("_")
-        if name in RESERVED_NAMES or name == "t" or name.endswith(("_dot", "_ddot")):
-            name += "_"
+        if name in RESERVED_NAMES or name == "t" or name.endswith(("_dot", "_ddot")) or keyword.iskeyword(name):
+            name += "_"  # a Python keyword (lambda, class, if) cannot be parsed as a name in expressions
         if name.startswith(("qd_", "qdd_")):
             name = "j_" + name
         base, k = name, 2
@@ -524,6 +549,8 @@ class _Importer:
     def bodies(self, root: str, placement: dict[str, Placement]) -> tuple[list[Parameter], list[Body]]:
         parameters: list[Parameter] = []
         bodies: list[Body] = []
+        body_names: set[str] = set()
+        merged: dict[str, int] = {}  # frame -> links with an inertial on it
         for link, where in placement.items():
             if where.frame == BASE:
                 continue  # carried by the fixed base: no effect on the dynamics
@@ -550,6 +577,12 @@ class _Importer:
                                                     f"{eigenvalues.round(12).tolist()})")
             if mass == 0 and not tensor.any():
                 continue
+            merged[where.frame] = merged.get(where.frame, 0) + 1
+            if merged[where.frame] > MAX_MERGED:
+                raise self.fail(key, f"more than {MAX_MERGED} links with an <inertial> are merged through fixed joints "
+                                     f"onto frame {where.frame!r}: each keeps its ten parameters and the derivation "
+                                     "sums them symbolically, which past that number takes minutes or fails; the "
+                                     "dynamics depend only on their total, so combine them in one <inertial>")
             R = where.R @ rpy_matrix(rpy)
             com = where.p + where.R @ xyz
             inertia = R @ tensor @ R.T
@@ -567,8 +600,9 @@ class _Importer:
                     k, f"inertia {k} about the centre of mass")
                 parameters.append(Parameter(name, value, units.get(k, "kg*m^2"), f"{link}: {what} ({where_text})"))
             body = re.sub(r"[^A-Za-z0-9_]", "_", link)
-            while body in {b.name for b in bodies}:
+            while body in body_names:
                 body += "_"
+            body_names.add(body)
             bodies.append(Body(
                 name=body,
                 frame=where.frame,

@@ -105,12 +105,12 @@ class _Validator:
                                      "(coordinates, parameters, numbers and functions of them)")
             expr = parse_expression(value, self.symbols, self.source, self.robot.keys.get(key, key))
         if allowed is not None:
-            bad = {s.name for s in expr.free_symbols} - set(allowed)
+            bad = {s.name for s in expr.free_symbols if s.name not in allowed}
             if bad:
                 raise self.fail(key, f"may not depend on {listing(sorted(bad))} (only on {listing(sorted(allowed)) or 'numbers'})")
-        if expr.free_symbols <= set(self.values):
+        if expr.free_symbols <= self.values.keys():  # no set(...) copy per call: quadratic
             self.nominal(expr, key)  # constant at given parameters: finite and real, or refused here
-        kinks = sorted((a for a in expr.atoms(sp.Abs, sp.sign) if a.free_symbols - set(self.values)), key=str)
+        kinks = sorted((a for a in expr.atoms(sp.Abs, sp.sign) if not a.free_symbols <= self.values.keys()), key=str)
         if kinks:
             raise self.fail(key, f"{shorten(str(kinks[0]), 40)} depends on a coordinate; abs and sign are not differentiable at 0 "
                                  "and the equations of motion differentiate coordinate expressions twice (use them on parameters only)")
