@@ -215,3 +215,12 @@ def test_joints_named_after_python_keywords_load_and_export(tmp_path: Path) -> N
     result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     assert float(result.stdout) == pytest.approx(num.inertia(q)[0, 0], rel=1e-12)
+
+
+def test_a_model_file_naming_a_coordinate_after_a_python_keyword_is_told_so(tmp_path: Path) -> None:
+    """In a model file the name is the user's to change: one line saying why, not "invalid syntax"."""
+    text = (Path(symbolic.robots.__file__).parent / "emps.toml").read_text().replace('"q"', '"lambda"')
+    path = tmp_path / "kw.toml"
+    path.write_text(text)
+    with pytest.raises(ModelError, match="coordinates: 'lambda' is a Python keyword.*'lambda_'"):
+        symbolic.load(path)

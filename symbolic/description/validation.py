@@ -9,6 +9,7 @@ problem. The input is never modified.
 from __future__ import annotations
 
 import dataclasses
+import keyword
 import re
 import warnings
 from collections.abc import Iterable, Mapping
@@ -149,6 +150,9 @@ class _Validator:
                 raise self.fail(key, f"{shown(name, 40)} is not an identifier ([A-Za-z][A-Za-z0-9_]*)")
             if name in RESERVED_NAMES:
                 raise self.fail(key, f"{shown(name, 40)} is reserved (a function or constant name)")
+            if keyword.iskeyword(name):
+                raise self.fail(key, f"{name!r} is a Python keyword, which expressions cannot use as a name; choose "
+                                     f"another (e.g. {name + '_'!r})")
             if name == TIME_NAME:
                 raise self.fail(key, f"{TIME_NAME!r} is reserved for time in [[force]] expressions; choose another name")
             if name.endswith("_dot") or name.endswith("_ddot"):
