@@ -149,12 +149,12 @@ def test_the_checks_catch_what_they_look_for() -> None:
 def test_catalogue_order_exclusions_and_groups_come_from_the_effects() -> None:
     ranks = [e.rank for e in EFFECTS.values()]
     assert ranks == sorted(ranks)
-    for name in EFFECTS:
-        for other in excluded(name):
-            assert name in excluded(other)  # symmetric, whichever side declares it
-    assert excluded("stribeck") == {"asymmetric_coulomb"}
-    assert groups(list(EFFECTS)) == [("viscous", "coulomb")]
-    assert groups(["viscous"]) == []
+    for name, effect in EFFECTS.items():
+        for other in excluded(effect):
+            assert name in excluded(EFFECTS[other])  # symmetric, whichever side declares it
+    assert excluded(EFFECTS["stribeck"]) == {"asymmetric_coulomb"}
+    assert groups(list(EFFECTS.values())) == [("viscous", "coulomb")]
+    assert groups([EFFECTS["viscous"]]) == []
 
 
 def test_the_docs_table_is_the_registry() -> None:

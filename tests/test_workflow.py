@@ -357,6 +357,7 @@ class Cubic(Effect):
     """A user's effect: drag growing with the cube of the speed, c·q̇³ (as a [[force]])."""
 
     name, roles, summary = "cubic_damping", ("coefficient",), "drag c·q̇³"
+    units = {"coefficient": "{force}·s³/{position}³"}  # every role says its unit (register checks it)
 
     def columns(self, q, qd, qdd, j, value):
         return on_row(j, q.shape[1], [qd[:, j] ** 3])

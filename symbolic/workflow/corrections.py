@@ -6,7 +6,7 @@ or the search's final joint fit when the patch adds a coordinate the data lack).
 * **corrections**: the model-file parameters the data move far from the file's value — beyond
   :data:`SIGMAS` standard deviations *and* beyond :data:`RELATIVE` of the value — each with its evidence
   (how many σ, and the held-out gap if the value were kept at the file's while everything else is
-  re-identified, which must be worse by the search's effect size, :data:`MIN_GAIN`), a physical value
+  re-identified, which must be worse by the search's effect size, :data:`MIN_HELD_OUT_GAIN`), a physical value
   (within what the model's other values allow, :attr:`Value.physical`) and one that holds when the data
   are treated at half the bandwidth (:meth:`Value.holds_with`: not an artefact of differentiating
   quantised positions); a value failing one of these is noted with the reason. Only what the data identify can be named: a base parameter that is one model parameter
@@ -44,20 +44,18 @@ from symbolic.identify.known import beta_bounds, parameter_bounds, polynomial_lo
 from symbolic.identify.least_squares import Identification, RankDeficient
 from symbolic.identify.model import geometric_parameters
 from symbolic.workflow.dataset import DataSet, treat
-from symbolic.workflow.statistics import pooled_autocorrelation_time
+from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN, pooled_autocorrelation_time
 from symbolic.workflow.terms import ModelTerms, fit_nominal, inseparable, relative_gap, wls
 
 SIGMAS = 3.0
 """A value is a correction when it moves by more than this many standard deviations ..."""
 RELATIVE = 0.10
-"""... and by more than this fraction of the model file's value ..."""
-MIN_GAIN = 0.10
-"""... and keeping the file's value (the others re-identified) leaves at least this much more held-out
-residual power, 1 − (gap/gap at the file's value)² ≥ MIN_GAIN: the search's effect size
-(:data:`symbolic.workflow.search.MIN_HELD_OUT_GAIN`). Without it, the arm with nothing wrong behind a
-14-bit encoder "corrected" ZZR2 by 10.04 % at 14σ (the quantisation left in q̈ biases the inertias beyond
-their σ, docs/workflow.md), while keeping the file's value cost 2.9 % of the held-out power; the rig's
-stiffness costs 99 %, EMPS's offset 16 %."""
+"""... and by more than this fraction of the model file's value, and keeping the file's value (the others
+re-identified) leaves at least :data:`~symbolic.workflow.statistics.MIN_HELD_OUT_GAIN` more held-out residual
+power, 1 − (gap/gap at the file's value)², the search's effect size. Without that, the arm with nothing wrong
+behind a 14-bit encoder "corrected" ZZR2 by 10.04 % at 14σ (the quantisation left in q̈ biases the inertias
+beyond their σ, docs/workflow.md), while keeping the file's value cost 2.9 % of the held-out power; the rig's
+stiffness costs 99 %, EMPS's offset 16 % ..."""
 LOWERED = 0.5
 """... and it holds when the data are treated again with the bandwidth, the cut-off and the decimation's
 pass band all multiplied by this factor (:func:`lowered_settings`, :meth:`Value.holds_with`) ..."""
@@ -216,7 +214,7 @@ def identified_values(fit: FinalFit, names: Sequence[str]) -> list[Value]:
     return out
 
 
-def corrections(fit: FinalFit, values: Sequence[Value], robot: Robot, min_gain: float = MIN_GAIN,
+def corrections(fit: FinalFit, values: Sequence[Value], robot: Robot, min_gain: float = MIN_HELD_OUT_GAIN,
                 lowered: Sequence[Value] | None = None) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """The corrections (module docstring) with their evidence, largest first (in σ), and the values that
     move beyond :data:`SIGMAS` σ and :data:`RELATIVE` but are not named, each with ``"why"``:
@@ -294,7 +292,7 @@ def lowered_values(fit: FinalFit, names: Sequence[str], notes: list[str]) -> lis
     return identified_values(FinalFit.of_nominal(refit, {"estimation": low}), names)
 
 
-def moved_note(m: Mapping[str, Any], min_gain: float = MIN_GAIN) -> str:
+def moved_note(m: Mapping[str, Any], min_gain: float = MIN_HELD_OUT_GAIN) -> str:
     """The note for a value that moves but is not named a correction (:func:`corrections`' ``"why"``)."""
     e = m["evidence"]
     head = f"{m['summary']} — beyond {SIGMAS:g}σ and {100 * RELATIVE:g} %, but "
@@ -374,7 +372,7 @@ def parameter_kind(robot: Robot, name: str) -> str:
 
 def review(model: DynamicModel, patched: DynamicModel, patched_values: Mapping[str, float], fit: FinalFit,
            written: Mapping[str, float], removed: Sequence[str], kept: Sequence[Mapping[str, Any]], data: DataSet,
-           notes: list[str], min_gain: float = MIN_GAIN) -> tuple[list[dict[str, Any]], list[dict[str, Any]], dict[str, Any] | None]:
+           notes: list[str], min_gain: float = MIN_HELD_OUT_GAIN) -> tuple[list[dict[str, Any]], list[dict[str, Any]], dict[str, Any] | None]:
     """Corrections, changes and modes (module docstring) of a diagnosis: ``model`` the file's, ``patched``
     the patched one at ``patched_values``; ``written``, ``removed`` and ``kept`` what the patch did to the
     file's own parameters; ``data`` the estimation data (their mean position, their ``[controller]``)."""

@@ -573,8 +573,7 @@ def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Searc
     evidence.update(final.get("measured", {}))
     roles = {k: v for k, v in final["roles"].items() if k in c.effect.roles}
     evidence.update({k: v for k, v in final.get("fitted", final["roles"]).items() if k not in c.effect.roles})
-    if c.effect.identifier in ("gravity", "periodic"):
-        evidence["phase_rad"] = float(np.arctan2(final["coefficients_full"][1], final["coefficients_full"][0]))
+    evidence.update(c.effect.evidence(np.asarray(final["coefficients_full"])))
     sigmas = {k: (None if final.get("measured") else v) for k, v in final["sigmas"].items() if k in roles}
     return Found(c.effect.identifier, c.coordinate, roles, sigmas, dict(parameters), evidence, c.effect.variant)
 

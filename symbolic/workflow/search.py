@@ -64,20 +64,11 @@ from symbolic.identify.model import geometric_parameters
 from symbolic.identify.separation import Motion
 from symbolic.workflow import forked
 from symbolic.workflow.dataset import DataSet
-from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals
-from symbolic.workflow.statistics import autocorrelation_time, combined_f_test, pooled_autocorrelation_time, score_inflation
+from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals, excluded, groups
+from symbolic.workflow.statistics import (ALPHA, MIN_HELD_OUT_GAIN, autocorrelation_time, combined_f_test,
+                                         pooled_autocorrelation_time, score_inflation)
 from symbolic.workflow.terms import ModelTerms, wls
 
-ALPHA = 1e-3
-"""Family-wise significance level of one round (Bonferroni over its trials)."""
-MIN_HELD_OUT_GAIN = 0.10
-"""An effect must remove at least this fraction of its own coordinates' held-out residual power that is
-left: an effect size, not a significance level. On long closed-loop records the measurement chain's own
-systematic errors are significant — the encoder's quantisation fed back through the controller makes the
-logged force partly a filter of the position error, which a resonance or a narrow Stribeck rise fits — but
-with 16 to 20 bits per turn they removed at most 7.4 % of the held-out residual power over the null
-data sets of ``bench/diagnose.py`` (most below 3 %), while a missing effect that the workflow must name
-removes most of what is left (a gap that halves is 75 % of its power)."""
 TIE_TOLERANCE = 2.0
 """Two candidates tie when twice their log-likelihood difference is at most this: a difference of 2 on the
 BIC scale is "not worth more than a bare mention" (Kass and Raftery 1995)."""
@@ -90,10 +81,6 @@ REFERENCE = 1e-9
 FORK_ROWS = 5_000
 """Stacked estimation rows (samples × coordinates) from which a round is split between two processes: below,
 a round takes well under a second and forking the search would cost a noticeable part of it."""
-TOGETHER: tuple[tuple[str, ...], ...] = (("viscous", "coulomb"),)
-"""Effects also offered together as one grouped hypothesis ("viscous and Coulomb friction on every joint")."""
-
-
 @dataclass(frozen=True)
 class SearchSettings:
     """The search's thresholds (module docstring).
@@ -422,7 +409,8 @@ class Search:
         self._probe_columns: dict[int, np.ndarray] = {}
 
     def _hypotheses(self) -> list[Group]:
-        """The grouped hypotheses offered every round: each groupable effect, and :data:`TOGETHER`, on every
+        """The grouped hypotheses offered every round: each groupable effect, and those declared together
+        (:attr:`~symbolic.workflow.effects.base.Effect.together`), on every
         coordinate and on each named group (at least two coordinates each)."""
         coordinates = tuple(self.context.coordinates)
         sets: list[tuple[str | None, tuple[str, ...]]] = [(None, coordinates)]
@@ -434,8 +422,8 @@ class Search:
             sets.append((name, tuple(dict.fromkeys(members))))
         if not self.settings.grouped:
             return []
-        names = [e.name for e in self.effects if e.groupable and e.nonlinear is None]
-        effect_sets = [(n,) for n in names] + [t for t in TOGETHER if all(n in names for n in t)]
+        groupable = [e for e in self.effects if e.groupable and e.nonlinear is None]
+        effect_sets = [(e.name,) for e in groupable] + groups(groupable)
         return [Group(effects, members, name) for name, members in sets if len(members) >= 2 for effects in effect_sets]
 
     # -- the loop -----------------------------------------------------------------------------
@@ -1112,12 +1100,12 @@ class _RoundState:
         coordinate = search.context.coordinates[j]
         c = Candidate(effect=effect, j=j, coordinate=coordinate)
         taken = [a for a in search.accepted if a.candidate.j == j]
-        if any(a.effect.name == effect.name for a in taken) and not getattr(effect, "repeatable", False):
+        if any(a.effect.name == effect.name for a in taken) and not effect.repeatable:
             c.status, c.reason = "in the model", "accepted in an earlier round"
             return c
-        exclusive = {"stribeck": "asymmetric_coulomb", "asymmetric_coulomb": "stribeck"}
-        if any(a.effect.name == exclusive.get(effect.name) for a in taken):
-            c.status, c.reason = "not applicable", f"{exclusive[effect.name]} was accepted on {coordinate}"
+        clash = [a.effect.name for a in taken if a.effect.name in excluded(effect, search.effects)]
+        if clash:
+            c.status, c.reason = "not applicable", f"{clash[0]} was accepted on {coordinate}"
             return c
         reason = effect.applicable(search.context, j)
         if reason:

@@ -18,13 +18,12 @@ import scipy.signal
 import scipy.stats
 
 from symbolic.workflow.dataset import DataSet
-from symbolic.workflow.statistics import autocorrelation_time, ljung_box
+from symbolic.workflow.statistics import ALPHA, autocorrelation_time, ljung_box
 
 BINS = 10
 WINDOWS = 10
 REVERSAL = 0.05
 PEAK_RATIO = 10.0
-ALPHA = 1e-3
 
 
 def _binned(state: np.ndarray, r: np.ndarray, tau: float) -> dict[str, Any]:

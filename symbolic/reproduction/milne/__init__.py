@@ -6,3 +6,6 @@ Sinusoidal steady-state identification (:mod:`.sine`, Milne (14)–(22)), the in
 :mod:`.alpha_simulation` (43)–(47)), its fits (:mod:`.alpha_fit`) and Tables 8/11 statistics
 (:mod:`.alpha_comparison`). :mod:`.items` and :mod:`.sine_items` recompute the paper's numbers with them.
 """
+
+SOURCE = "<arrays>"
+"""What errors name as the source of the arrays these functions are given (no file)."""

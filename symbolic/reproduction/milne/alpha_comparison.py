@@ -20,8 +20,8 @@ from numpy.typing import ArrayLike
 
 from symbolic.data import DataError
 from symbolic.reproduction.milne.sine import steady_state_response
+from symbolic.reproduction.milne import SOURCE
 
-SOURCE = "<arrays>"
 
 PERCENTILE = 90.0
 """Milne Tables 8 and 11: the 90th percentile."""

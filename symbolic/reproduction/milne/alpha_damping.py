@@ -23,8 +23,8 @@ from numpy.typing import ArrayLike
 from symbolic.data import DataError
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.numeric.statespace import numeric_model
+from symbolic.reproduction.milne import SOURCE
 
-SOURCE = "<arrays>"
 
 
 @dataclass(frozen=True)

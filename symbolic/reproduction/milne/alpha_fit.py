@@ -26,8 +26,8 @@ from symbolic.data import DataError
 from symbolic.reproduction.milne.sine import JointIdentification, SteadyStateResponse, response_parameters
 from symbolic.reproduction.milne.alpha_damping import AlphaCoefficients, AlphaInertiaModel
 from symbolic.reproduction.milne.alpha_invariant import sine_alpha
+from symbolic.reproduction.milne import SOURCE
 
-SOURCE = "<arrays>"
 
 
 @dataclass(frozen=True)

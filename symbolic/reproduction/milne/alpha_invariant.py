@@ -18,8 +18,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from symbolic.data import DataError
+from symbolic.reproduction.milne import SOURCE
 
-SOURCE = "<arrays>"
 
 
 def alpha_invariant(v: ArrayLike, vd: ArrayLike, vdd: ArrayLike) -> np.ndarray:

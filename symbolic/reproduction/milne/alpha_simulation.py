@@ -23,8 +23,8 @@ from numpy.typing import ArrayLike
 from symbolic.data import DataError
 from symbolic.errors import SimulationError
 from symbolic.reproduction.milne.alpha_damping import AlphaCoefficients
+from symbolic.reproduction.milne import SOURCE
 
-SOURCE = "<arrays>"
 
 ABSOLUTE_TOLERANCE = 1e-6
 """Milne (46): absolute stopping tolerance on α of the iteration."""

@@ -24,12 +24,11 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import DataError, Experiment, Measurements
+from symbolic.data.measurements import UNIFORM_TOLERANCE  # time steps uniform as the data layer's
 
 MINIMUM_PERIODS = 2
 """Whole periods the steady-state window must hold (fewer cannot tell a sinusoid from a drift)."""
 
-UNIFORM_TOLERANCE = 1e-3
-"""Largest relative deviation of a time step from the mean for plain arrays (as :mod:`symbolic.data`)."""
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ conformance check every registered effect passes (:func:`check_effect`). docs/wo
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -292,20 +292,18 @@ def select(names: Sequence[str], effects: Mapping[str, Effect] | None = None) ->
     return [e for key, e in effects.items() if key in wanted or e.identifier in wanted]
 
 
-def excluded(name: str) -> set[str]:
-    """Registry keys of the effects that exclude ``name`` or that it excludes (the relation is symmetric)."""
-    own = set(EFFECTS[name].excludes) if name in EFFECTS else set()
-    return own | {key for key, e in EFFECTS.items() if name in e.excludes}
+def excluded(effect: Effect, effects: Iterable[Effect] | None = None) -> set[str]:
+    """Names of the effects among ``effects`` (default: the catalogue) that exclude ``effect`` or that it
+    excludes (:attr:`Effect.excludes`; the relation is symmetric, whichever side declares it)."""
+    effects = EFFECTS.values() if effects is None else effects
+    return set(effect.excludes) | {e.name for e in effects if effect.name in e.excludes}
 
 
-def groups(names: Sequence[str]) -> list[tuple[str, ...]]:
-    """The multi-effect grouped hypotheses among ``names`` (:attr:`Effect.together`), in catalogue order."""
-    present = set(names)
-    out = []
-    for key, effect in EFFECTS.items():
-        if key in present and effect.together and all(n in present for n in effect.together):
-            out.append((key, *effect.together))
-    return out
+def groups(effects: Sequence[Effect]) -> list[tuple[str, ...]]:
+    """The multi-effect grouped hypotheses among ``effects`` (:attr:`Effect.together`, all members present),
+    in their order."""
+    present = {e.name for e in effects}
+    return [(e.name, *e.together) for e in effects if e.together and all(n in present for n in e.together)]
 
 
 def catalogue(names: Mapping[str, Effect] | None = None) -> list[dict[str, object]]:
@@ -333,7 +331,8 @@ def listing(effects: Mapping[str, Effect] | None = None) -> list[str]:
     lines = []
     for key, e in effects.items():
         extra = [f"refines {e.refines}"] if e.refines else []
-        extra += [f"excludes {', '.join(sorted(excluded(key)))}"] if excluded(key) else []
+        clash = sorted(excluded(e, effects.values()))
+        extra += [f"excludes {', '.join(clash)}"] if clash else []
         extra += [f"also with {', '.join(e.together)}"] if e.together else []
         lines.append(f"{key:{width}s}  {e.formula or e.summary}  [{_roles_text(e)}]" + (f"  ({'; '.join(extra)})" if extra else ""))
     return lines
