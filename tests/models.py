@@ -5,7 +5,8 @@ tests need (parameters, friction, an end effector, extra entries); a test loads 
 ``symbolic.loads(text, name)`` or writes it to a file. The built-in robots (:mod:`symbolic.robots`) and
 the golden double pendulum (tests/golden/double_pendulum.toml, pinned by tests/test_golden.py) are read
 from their own files. Texts that are malformed on purpose stay in the tests that refuse them
-(tests/test_model_errors.py, tests/test_fuzz_model_files.py).
+(tests/test_model_errors.py, tests/test_fuzz_model_files.py, tests/test_flexible.py), as do the degenerate
+or hostile ones a single test is about (tests/test_hostile_data.py, tests/test_apparent_mass_figure.py).
 
 * :func:`axis`: a rotary axis (one revolute joint about a vertical axis): inertia J, friction;
 * :func:`slider`: a prismatic axis (a mass M sliding vertically), gravity along it;
@@ -14,7 +15,13 @@ from their own files. Texts that are malformed on purpose stay in the tests that
 * :func:`two_link`: a two-link arm with a point mass at the tip, three of its fields given as expressions;
 * :func:`flexible_link`, :func:`rigid_link`: the built-in flexible single link made to ring, and its
   rigid counterpart;
-* :func:`with_load`: any of them with a load on a compliant coupling.
+* :func:`with_load`: any of them with a load on a compliant coupling;
+* :func:`cart_pendulum`: a cart (prismatic) carrying a pendulum (revolute);
+* :func:`planar_arm`: a planar two-link arm with distributed links (the cache's tests);
+* :func:`hub_spring`: a hub turning a link through a torsional spring (the known-values tests);
+* :func:`carriage`: a prismatic carriage without gravity (the bounds tests);
+* :func:`flexible_link_rig`: a hub with a link on a torsional spring at its rim (the state-feedback tests);
+* :func:`general_frames`, :func:`general_frames_urdf`: a robot in general joint frames, and as URDF.
 """
 
 from __future__ import annotations
@@ -308,3 +315,382 @@ def rigid_link(inertia: float) -> str:
     """The rigid counterpart of :func:`flexible_link`: one body of the whole ``inertia`` about the hub axis
     and the same friction, nothing but the flexibility missing."""
     return RIGID_LINK.format(J=inertia)
+
+
+CART_PENDULUM = """
+name = "cart_pendulum"
+{description}coordinates = ["x", "th"]
+gravity = {gravity}
+
+[parameters]
+M = {M!r}
+m = {m!r}
+l = {l!r}
+{Fx} = {fx!r}
+{Ft} = {ft!r}
+
+[[frame]]
+name = "cart"
+parent = "base"
+dh = {{ theta = "0", d = "x", a = "0", alpha = "pi/2" }}
+
+[[frame]]
+name = "{pole}"
+parent = "cart"
+dh = {{ theta = "th", d = "0", a = "l", alpha = "0" }}
+
+[[body]]
+name = "cart"
+frame = "cart"
+mass = "M"
+
+[[body]]
+name = "bob"
+frame = "{pole}"
+mass = "m"
+
+[[friction]]
+coordinate = "x"
+viscous = "{Fx}"
+
+[[friction]]
+coordinate = "th"
+viscous = "{Ft}"
+"""
+
+
+def cart_pendulum(M: float = 1.5, m: float = 0.3, l: float = 0.4,  # noqa: E741, N803
+                  viscous: tuple[tuple[str, float], tuple[str, float]] = (("Fvx", 2.0), ("Fvt", 0.02)),
+                  gravity: tuple[str, str, str] = ("0", "-9.81", "0"), pole: str = "pole", description: str = "") -> str:
+    """Text of a cart pendulum: a cart of mass M on a prismatic joint x (DH d = x along the base z, turned
+    by α = π/2 so that the pendulum swings in a plane holding the motion) and a point mass m on a massless
+    pole of length l turning about th, with viscous friction on both; ``viscous`` gives the name and value
+    of x's coefficient, then th's; ``gravity`` is the vector (the default −y is along th's axis: no
+    gravity torque; −x makes the pendulum hang), ``pole`` the pendulum's frame, ``description`` is written
+    when given.
+
+    The small model with one prismatic and one revolute coordinate: the figures label each in its own
+    units (tests/test_figures.py); hanging, with no actuator on th, it is the unactuated coordinate of
+    tests/test_experiment.py."""
+    (Fx, fx), (Ft, ft) = viscous  # noqa: N806
+    return CART_PENDULUM.format(description=f"description = {json.dumps(description)}\n" if description else "",
+                                gravity=json.dumps(list(gravity)), M=M, m=m, l=l, Fx=Fx, fx=fx, Ft=Ft, ft=ft, pole=pole)
+
+
+PLANAR_ARM = """# a planar arm with friction: its regressor has regrouped base parameters
+name = "arm"
+coordinates = ["q1", "q2"]
+gravity = ["0", "-g", "0"]
+[parameters]
+g = 9.81
+l1 = 0.5
+l2 = 0.4
+m1 = 1.5
+m2 = 0.8
+I1 = 0.02
+I2 = 0.01
+fv1 = 0.3
+[[frame]]
+name = "1"
+parent = "base"
+dh = { theta = "q1", d = "0", a = "l1", alpha = "0" }
+[[frame]]
+name = "2"
+parent = "1"
+dh = { theta = "q2", d = "0", a = "l2", alpha = "0" }
+[[body]]
+name = "link1"
+frame = "1"
+mass = "m1"
+com = ["-l1/2", "0", "0"]
+inertia = { xx = "0.001", yy = "I1", zz = "I1" }
+[[body]]
+name = "link2"
+frame = "2"
+mass = "m2"
+com = ["-l2/2", "0", "0"]
+inertia = { xx = "0.001", yy = "I2", zz = "I2" }
+[[friction]]
+coordinate = "q1"
+viscous = "fv1"
+"""
+
+
+def planar_arm() -> str:
+    """Text of a planar two-link arm in a vertical plane (gravity along −y): both links distributed
+    bodies, their lengths l1, l2 parameters, inertias I1, I2 about y and z alike, viscous friction on
+    joint 1 only.
+
+    The model of the cache's tests (tests/test_cache.py): its regressor has regrouped base parameters,
+    and an edit of a link's ``yy`` changes the description but not D (the joint axes are z), which the
+    cache must still tell apart."""
+    return PLANAR_ARM
+
+
+HUB = '''
+name = "hub_spring"
+description = "a hub turning a link through a torsional spring, in the horizontal plane"
+coordinates = ["q1", "a1"]
+gravity = ["0", "0", "-9.81"]
+
+[parameters]
+J_h = {{ value = 0.02, unit = "kg*m^2"{fix_h} }}
+J_l = {{ value = 0.004, unit = "kg*m^2"{fix_l} }}
+Ks = {{ value = 1.2, unit = "N*m/rad" }}
+Ds = {{ value = 0.002, unit = "N*m*s/rad" }}
+Fv1 = 0.01
+Fc1 = 0.02
+
+[[frame]]
+name = "hub"
+parent = "base"
+dh = {{ theta = "q1", d = "0", a = "0", alpha = "0" }}
+
+[[frame]]
+name = "link"
+parent = "hub"
+dh = {{ theta = "a1", d = "0", a = "0", alpha = "0" }}
+
+[[body]]
+name = "hub"
+frame = "hub"
+mass = "0"
+inertia = {{ xx = "{J_h}/2", yy = "{J_h}/2", zz = "{J_h}" }}
+
+[[body]]
+name = "link"
+frame = "link"
+mass = "0"
+inertia = {{ xx = "{J_l}/2", yy = "{J_l}/2", zz = "{J_l}" }}
+
+[[friction]]
+coordinate = "q1"
+viscous = "Fv1"
+coulomb = "Fc1"
+
+[[force]]
+name = "spring"
+coordinate = "a1"
+expression = "-Ks*a1 - Ds*qd_a1"
+'''
+
+
+def hub_spring(fixed: bool = False, inline: bool = False) -> str:
+    """Text of a hub turning a link through a torsional spring (Ks, Ds) in the horizontal plane: two
+    massless bodies of inertias J_h and J_l about the vertical axis, the link's deflection a1 without an
+    actuator, viscous and Coulomb friction on the hub.
+
+    The model of the known-values tests (tests/test_known.py): the equation of a1 is homogeneous, so
+    the inertias must be known; ``fixed`` declares them ``fixed = true``, ``inline`` writes them into the
+    bodies as numbers, otherwise they are free (the three must give the same fit)."""
+    flag = ", fixed = true" if fixed else ""
+    return HUB.format(fix_h=flag, fix_l=flag, J_h="0.02" if inline else "J_h", J_l="0.004" if inline else "J_l")
+
+
+CARRIAGE = '''
+name = "axis"
+coordinates = ["q"]
+gravity = ["0", "0", "0"]
+
+[parameters]
+M = {{ value = 2.0, unit = "kg"{mass} }}
+Fv = {{ value = 1.0{viscous} }}
+Fc = 0.5
+{extra}
+[[frame]]
+name = "carriage"
+parent = "base"
+dh = {{ theta = "0", d = "q", a = "0", alpha = "0" }}
+
+[[body]]
+name = "carriage"
+frame = "carriage"
+mass = "{body_mass}"
+
+[[friction]]
+coordinate = "q"
+viscous = "Fv"
+coulomb = "Fc"
+'''
+
+
+def carriage(mass: str = "", viscous: str = "", body_mass: str = "M", extra: str = "") -> str:
+    """Text of a carriage of mass M on a prismatic joint q, without gravity, with viscous (Fv) and
+    Coulomb (Fc) friction: the model of the bounds tests (tests/test_known.py).
+
+    ``mass`` and ``viscous`` are written inside the entries of M and Fv after their value (a bound such
+    as ``, max = 1.5``, or ``, fixed = true``), ``body_mass`` is the carriage's mass expression, ``extra``
+    more [parameters] lines after Fc."""
+    return CARRIAGE.format(mass=mass, viscous=viscous, body_mass=body_mass, extra=extra)
+
+
+FLEXIBLE_LINK_RIG = '''# A flexible-link rig: a hub turning about a vertical axis (no gravity torque), a link clamped at the hub's
+# rim (radius r) through a torsional spring Ks (its deflection alpha), a motor on the hub only.
+name = "flexible_link_rig"
+description = "rotary hub and a link on a torsional spring"
+coordinates = ["theta", "alpha"]
+gravity = ["0", "0", "-9.81"]
+
+[parameters]
+Jh = 2.0e-3
+mh = 0.5
+r = 0.02
+m = 0.065
+c = 0.15
+Izz = 4.9e-4
+Ks = 0.26
+Ds = 1.0e-3
+Bh = 4.0e-3
+
+[[frame]]
+name = "hub"
+parent = "base"
+dh = { theta = "theta", d = "0", a = "r", alpha = "0" }
+
+[[frame]]
+name = "link"
+parent = "hub"
+dh = { theta = "alpha", d = "0", a = "0", alpha = "0" }
+
+[[body]]
+name = "hub"
+frame = "hub"
+mass = "mh"
+com = ["-r", "0", "0"]
+inertia = { xx = "Jh/2", yy = "Jh/2", zz = "Jh" }
+
+[[body]]
+name = "link"
+frame = "link"
+mass = "m"
+com = ["c", "0", "0"]
+inertia = { xx = "1e-6", yy = "Izz", zz = "Izz" }
+
+[[friction]]
+coordinate = "theta"
+viscous = "Bh"
+
+[[force]]
+name = "torsional spring"
+coordinate = "alpha"
+expression = "-Ks*alpha - Ds*qd_alpha"
+'''
+
+
+def flexible_link_rig() -> str:
+    """Text of a rotary flexible-link rig: a hub (θ) and a link clamped at its rim (radius r) through a
+    torsional spring (deflection α, without an actuator), the link a distributed body (mass m, centre of
+    mass c, Izz), viscous friction on the hub.
+
+    The plant of the state-feedback tests (tests/test_state_feedback.py), whose equations are written
+    out there by hand from these values; not tests/models/flexible_rig.toml (no rim, a massless link)."""
+    return FLEXIBLE_LINK_RIG
+
+
+GENERAL_FRAMES = '''
+name = "general"
+coordinates = ["q1", "q2", "q3", "q4"]
+[parameters]
+m1 = 1.3
+m2 = 0.8
+l = 0.25
+[[frame]]
+name = "a"
+parent = "base"
+origin = { xyz = [0.1, 0.0, 0.3] }
+joint = { type = "revolute", axis = [0, 0, 1], limit = { lower = -3, upper = 3 } }
+coordinate = "q1"
+[[frame]]
+name = "b"
+parent = "a"
+origin = { xyz = [0.0, "l", 0.05], rpy = ["pi/2", 0, 0] }
+joint = { type = "continuous", axis = [0, -1, 0] }
+coordinate = "q2"
+[[frame]]
+name = "c"
+parent = "b"
+origin = { xyz = [0.2, 0.01, -0.03], rpy = [0.3, -0.2, 0.7] }
+joint = { type = "prismatic", axis = [1, 0, 0] }
+coordinate = "q3"
+[[frame]]
+name = "f"
+parent = "c"
+origin = { xyz = [0.05, 0.02, 0.0], rpy = [0, "pi/2", 0] }
+[[frame]]
+name = "d"
+parent = "f"
+origin = { xyz = [0.1, 0.0, 0.02], rpy = [0.1, 0, 0] }
+joint = { type = "revolute", axis = [0, 0.6, 0.8] }
+coordinate = "q4"
+[[body]]
+name = "A"
+frame = "a"
+mass = "m1"
+com = [0.02, 0.01, 0.1]
+inertia = { xx = 0.02, yy = 0.03, zz = 0.015, xy = 0.001, xz = -0.002, yz = 0.0015 }
+[[body]]
+name = "B"
+frame = "b"
+mass = "m2"
+com = [0.1, -0.02, 0.01]
+inertia = { xx = 0.01, yy = 0.012, zz = 0.008, xy = 0.0005 }
+[[body]]
+name = "C"
+frame = "c"
+mass = 0.6
+com = [0.03, 0.0, 0.02]
+inertia = { xx = 0.004, yy = 0.005, zz = 0.006, yz = 0.0003 }
+[[body]]
+name = "F"
+frame = "f"
+mass = 0.2
+com = [0.01, 0.02, 0.03]
+inertia = { xx = 0.001, yy = 0.002, zz = 0.0015 }
+[[body]]
+name = "D"
+frame = "d"
+mass = 0.4
+com = [0.0, 0.05, 0.01]
+inertia = { xx = 0.003, yy = 0.002, zz = 0.0025, xz = 0.0002 }
+'''
+
+GENERAL_FRAMES_URDF = '''<?xml version="1.0"?>
+<robot name="general">
+ <link name="root"/>
+ <link name="a"><inertial><origin xyz="0.02 0.01 0.1"/><mass value="1.3"/>
+   <inertia ixx="0.02" iyy="0.03" izz="0.015" ixy="0.001" ixz="-0.002" iyz="0.0015"/></inertial></link>
+ <link name="b"><inertial><origin xyz="0.1 -0.02 0.01"/><mass value="0.8"/>
+   <inertia ixx="0.01" iyy="0.012" izz="0.008" ixy="0.0005" ixz="0" iyz="0"/></inertial></link>
+ <link name="c"><inertial><origin xyz="0.03 0 0.02"/><mass value="0.6"/>
+   <inertia ixx="0.004" iyy="0.005" izz="0.006" ixy="0" ixz="0" iyz="0.0003"/></inertial></link>
+ <link name="f"><inertial><origin xyz="0.01 0.02 0.03"/><mass value="0.2"/>
+   <inertia ixx="0.001" iyy="0.002" izz="0.0015" ixy="0" ixz="0" iyz="0"/></inertial></link>
+ <link name="d"><inertial><origin xyz="0 0.05 0.01"/><mass value="0.4"/>
+   <inertia ixx="0.003" iyy="0.002" izz="0.0025" ixy="0" ixz="0.0002" iyz="0"/></inertial></link>
+ <joint name="q1" type="revolute"><parent link="root"/><child link="a"/><origin xyz="0.1 0 0.3" rpy="0 0 0"/>
+   <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="2"/></joint>
+ <joint name="q2" type="continuous"><parent link="a"/><child link="b"/><origin xyz="0 0.25 0.05" rpy="1.5707963267948966 0 0"/>
+   <axis xyz="0 -1 0"/><dynamics damping="0.2" friction="0.1"/></joint>
+ <joint name="q3" type="prismatic"><parent link="b"/><child link="c"/><origin xyz="0.2 0.01 -0.03" rpy="0.3 -0.2 0.7"/>
+   <axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="10" velocity="2"/></joint>
+ <joint name="jf" type="fixed"><parent link="c"/><child link="f"/><origin xyz="0.05 0.02 0" rpy="0 1.5707963267948966 0"/></joint>
+ <joint name="q4" type="revolute"><parent link="f"/><child link="d"/><origin xyz="0.1 0 0.02" rpy="0.1 0 0"/>
+   <axis xyz="0 0.6 0.8"/><limit lower="-3" upper="3" effort="10" velocity="2"/></joint>
+</robot>
+'''
+
+
+def general_frames() -> str:
+    """Text of a four-coordinate robot written with general joint frames (``origin`` and ``joint``, not
+    DH): axes along ±x, ±y, z and (0, 0.6, 0.8), revolute, continuous and prismatic joints, a fixed
+    frame, rotations of every kind, full inertias, numbers as well as expressions.
+
+    The same robot as :func:`general_frames_urdf`: the URDF tests (tests/test_urdf.py) check these
+    frames written by hand and the import of the URDF against Pinocchio, and export this text as URDF."""
+    return GENERAL_FRAMES
+
+
+def general_frames_urdf() -> str:
+    """The robot of :func:`general_frames` as URDF (a fixed joint, friction and limits on the joints), for
+    the URDF import's tests (tests/test_urdf.py)."""
+    return GENERAL_FRAMES_URDF

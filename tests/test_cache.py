@@ -29,43 +29,9 @@ from symbolic.description.robot import digest
 from symbolic.errors import ModelError
 from symbolic.numeric import base_parameters as base_module
 
-ARM = """# a planar arm with friction: its regressor has regrouped base parameters
-name = "arm"
-coordinates = ["q1", "q2"]
-gravity = ["0", "-g", "0"]
-[parameters]
-g = 9.81
-l1 = 0.5
-l2 = 0.4
-m1 = 1.5
-m2 = 0.8
-I1 = 0.02
-I2 = 0.01
-fv1 = 0.3
-[[frame]]
-name = "1"
-parent = "base"
-dh = { theta = "q1", d = "0", a = "l1", alpha = "0" }
-[[frame]]
-name = "2"
-parent = "1"
-dh = { theta = "q2", d = "0", a = "l2", alpha = "0" }
-[[body]]
-name = "link1"
-frame = "1"
-mass = "m1"
-com = ["-l1/2", "0", "0"]
-inertia = { xx = "0.001", yy = "I1", zz = "I1" }
-[[body]]
-name = "link2"
-frame = "2"
-mass = "m2"
-com = ["-l2/2", "0", "0"]
-inertia = { xx = "0.001", yy = "I2", zz = "I2" }
-[[friction]]
-coordinate = "q1"
-viscous = "fv1"
-"""
+from models import planar_arm
+
+ARM = planar_arm()
 
 
 @pytest.fixture

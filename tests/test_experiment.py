@@ -33,6 +33,7 @@ from symbolic.workflow import diagnose
 from symbolic.workflow.effects import select
 
 import workflow_cases as cases
+from models import cart_pendulum
 
 RATE = 1000.0
 
@@ -177,39 +178,8 @@ def test_an_experiment_names_the_columns_of_a_csv_without_a_header_line(tmp_path
 
 # -- a coordinate without an actuator: tau_<c> = "0" --------------------------------------------------------------
 
-CART = '''name = "cart_pendulum"
-description = "a driven cart with a passive pendulum (no actuator on th)"
-coordinates = ["x", "th"]
-gravity = ["-9.81", "0", "0"]
-[parameters]
-M = 2.0
-m = 0.5
-l = 0.3
-Fx = 1.5
-Ft = 0.02
-[[frame]]
-name = "cart"
-parent = "base"
-dh = { theta = "0", d = "x", a = "0", alpha = "pi/2" }
-[[frame]]
-name = "arm"
-parent = "cart"
-dh = { theta = "th", d = "0", a = "l", alpha = "0" }
-[[body]]
-name = "cart"
-frame = "cart"
-mass = "M"
-[[body]]
-name = "bob"
-frame = "arm"
-mass = "m"
-[[friction]]
-coordinate = "x"
-viscous = "Fx"
-[[friction]]
-coordinate = "th"
-viscous = "Ft"
-'''
+CART = cart_pendulum(M=2.0, m=0.5, l=0.3, viscous=(("Fx", 1.5), ("Ft", 0.02)), gravity=("-9.81", "0", "0"),
+                     pole="arm", description="a driven cart with a passive pendulum (no actuator on th)")
 
 
 def cart_log(folder: Path, model: symbolic.DynamicModel) -> Path:

@@ -29,53 +29,12 @@ from symbolic.workflow import diagnose
 from symbolic.workflow import figures as workflow_figures
 from conftest import derived
 
-CART_PENDULUM = """
-name = "cart_pendulum"
-coordinates = ["x", "th"]
-gravity = ["0", "-9.81", "0"]
-
-[parameters]
-M = 1.5
-m = 0.3
-l = 0.4
-Fvx = 2.0
-Fvt = 0.02
-
-[[frame]]
-name = "cart"
-parent = "base"
-dh = { theta = "0", d = "x", a = "0", alpha = "pi/2" }
-
-[[frame]]
-name = "pole"
-parent = "cart"
-dh = { theta = "th", d = "0", a = "l", alpha = "0" }
-
-[[body]]
-name = "cart"
-frame = "cart"
-mass = "M"
-
-[[body]]
-name = "bob"
-frame = "pole"
-mass = "m"
-
-[[friction]]
-coordinate = "x"
-viscous = "Fvx"
-
-[[friction]]
-coordinate = "th"
-viscous = "Fvt"
-"""
-
 EXPECTED = {"x": ("prismatic", "m", "m/s", "m/s²", "N"), "th": ("revolute", "rad", "rad/s", "rad/s²", "N·m")}
 
 
 @pytest.fixture(scope="module")
 def cart() -> symbolic.DynamicModel:
-    return symbolic.derive(symbolic.loads(CART_PENDULUM, "cart_pendulum"))
+    return symbolic.derive(symbolic.loads(models.cart_pendulum(), "cart_pendulum"))
 
 
 @pytest.fixture(scope="module")

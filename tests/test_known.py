@@ -36,65 +36,15 @@ from symbolic.workflow import diagnose
 from symbolic.workflow.dataset import load_sets
 from symbolic.workflow.terms import fit_nominal, model_terms
 
-HUB = '''
-name = "hub_spring"
-description = "a hub turning a link through a torsional spring, in the horizontal plane"
-coordinates = ["q1", "a1"]
-gravity = ["0", "0", "-9.81"]
-
-[parameters]
-J_h = {{ value = 0.02, unit = "kg*m^2"{fix_h} }}
-J_l = {{ value = 0.004, unit = "kg*m^2"{fix_l} }}
-Ks = {{ value = 1.2, unit = "N*m/rad" }}
-Ds = {{ value = 0.002, unit = "N*m*s/rad" }}
-Fv1 = 0.01
-Fc1 = 0.02
-
-[[frame]]
-name = "hub"
-parent = "base"
-dh = {{ theta = "q1", d = "0", a = "0", alpha = "0" }}
-
-[[frame]]
-name = "link"
-parent = "hub"
-dh = {{ theta = "a1", d = "0", a = "0", alpha = "0" }}
-
-[[body]]
-name = "hub"
-frame = "hub"
-mass = "0"
-inertia = {{ xx = "{J_h}/2", yy = "{J_h}/2", zz = "{J_h}" }}
-
-[[body]]
-name = "link"
-frame = "link"
-mass = "0"
-inertia = {{ xx = "{J_l}/2", yy = "{J_l}/2", zz = "{J_l}" }}
-
-[[friction]]
-coordinate = "q1"
-viscous = "Fv1"
-coulomb = "Fc1"
-
-[[force]]
-name = "spring"
-coordinate = "a1"
-expression = "-Ks*a1 - Ds*qd_a1"
-'''
+from models import carriage, hub_spring
 
 TRUTH = {"J_h": 0.02, "J_l": 0.004, "Ks": 0.7, "Ds": 0.003, "Fv1": 0.01, "Fc1": 0.02}
 COUNTS = 2**17  # encoder counts per revolution
 
 
-def hub_text(fixed: bool = False, inline: bool = False) -> str:
-    flag = ", fixed = true" if fixed else ""
-    return HUB.format(fix_h=flag, fix_l=flag, J_h="0.02" if inline else "J_h", J_l="0.004" if inline else "J_l")
-
-
 def hub_model(tmp_path: Path, **kind: bool) -> symbolic.DynamicModel:
     path = tmp_path / f"hub_{'_'.join(k for k, v in kind.items() if v) or 'plain'}.toml"
-    path.write_text(hub_text(**kind), encoding="utf-8")
+    path.write_text(hub_spring(**kind), encoding="utf-8")
     return symbolic.derive(symbolic.load(path))
 
 
@@ -206,37 +156,10 @@ def test_the_workflow_holds_the_link_inertia_and_says_so(tmp_path: Path, hub_dat
 
 # -- bounds -----------------------------------------------------------------------------------------
 
-AXIS = '''
-name = "axis"
-coordinates = ["q"]
-gravity = ["0", "0", "0"]
-
-[parameters]
-M = {{ value = 2.0, unit = "kg"{mass} }}
-Fv = {{ value = 1.0{viscous} }}
-Fc = 0.5
-
-[[frame]]
-name = "carriage"
-parent = "base"
-dh = {{ theta = "0", d = "q", a = "0", alpha = "0" }}
-
-[[body]]
-name = "carriage"
-frame = "carriage"
-mass = "{body_mass}"
-
-[[friction]]
-coordinate = "q"
-viscous = "Fv"
-coulomb = "Fc"
-'''
-
 
 def axis(tmp_path: Path, mass: str = "", viscous: str = "", body_mass: str = "M", extra: str = "") -> Path:
     path = tmp_path / "axis.toml"
-    text = AXIS.format(mass=mass, viscous=viscous, body_mass=body_mass)
-    path.write_text(text.replace("Fc = 0.5\n", "Fc = 0.5\n" + extra), encoding="utf-8")
+    path.write_text(carriage(mass, viscous, body_mass, extra), encoding="utf-8")
     return path
 
 

@@ -31,65 +31,16 @@ from symbolic.simulation import controller as control
 from symbolic.simulation import simulate
 from symbolic.workflow.modes import closed_loop_modes
 
-RIG = '''# A flexible-link rig: a hub turning about a vertical axis (no gravity torque), a link clamped at the hub's
-# rim (radius r) through a torsional spring Ks (its deflection alpha), a motor on the hub only.
-name = "flexible_link_rig"
-description = "rotary hub and a link on a torsional spring"
-coordinates = ["theta", "alpha"]
-gravity = ["0", "0", "-9.81"]
+from models import flexible_link_rig
 
-[parameters]
-Jh = 2.0e-3
-mh = 0.5
-r = 0.02
-m = 0.065
-c = 0.15
-Izz = 4.9e-4
-Ks = 0.26
-Ds = 1.0e-3
-Bh = 4.0e-3
-
-[[frame]]
-name = "hub"
-parent = "base"
-dh = { theta = "theta", d = "0", a = "r", alpha = "0" }
-
-[[frame]]
-name = "link"
-parent = "hub"
-dh = { theta = "alpha", d = "0", a = "0", alpha = "0" }
-
-[[body]]
-name = "hub"
-frame = "hub"
-mass = "mh"
-com = ["-r", "0", "0"]
-inertia = { xx = "Jh/2", yy = "Jh/2", zz = "Jh" }
-
-[[body]]
-name = "link"
-frame = "link"
-mass = "m"
-com = ["c", "0", "0"]
-inertia = { xx = "1e-6", yy = "Izz", zz = "Izz" }
-
-[[friction]]
-coordinate = "theta"
-viscous = "Bh"
-
-[[force]]
-name = "torsional spring"
-coordinate = "alpha"
-expression = "-Ks*alpha - Ds*qd_alpha"
-'''
-
+# the values of models.flexible_link_rig, for the equations written out by hand below
 P = {"Jh": 2.0e-3, "r": 0.02, "m": 0.065, "c": 0.15, "Izz": 4.9e-4, "Ks": 0.26, "Ds": 1.0e-3, "Bh": 4.0e-3}
 STATES = ["q_theta", "q_alpha", "qd_theta", "qd_alpha"]
 
 
 @pytest.fixture(scope="module")
 def rig() -> symbolic.DynamicModel:
-    return symbolic.derive(symbolic.loads(RIG, "<rig>"))
+    return symbolic.derive(symbolic.loads(flexible_link_rig(), "<rig>"))
 
 
 # -- the rig by hand ---------------------------------------------------------------------------------------------
@@ -314,7 +265,7 @@ def write_rig_experiment(folder: Path, controller: str | None = None, samples: i
     """The rig under its LQR, simulated here (truth = the model), logged as a rig logs it: hub and
     deflection encoders (20 bits per turn), the motor current (0.05 N·m/A, small noise), the hub's
     reference (a 0.4 rad square wave of period 4 s) and a feedforward current; the experiment maps it."""
-    rig = symbolic.derive(symbolic.loads(RIG, "<rig>"))
+    rig = symbolic.derive(symbolic.loads(flexible_link_rig(), "<rig>"))
     gain, resolution = 0.05, 2 * np.pi / 2 ** 20
     K = lqr() / gain
     t = np.arange(samples) * 1e-3
@@ -331,7 +282,7 @@ def write_rig_experiment(folder: Path, controller: str | None = None, samples: i
     rows += [f"{t[k]:.6f},{q[k, 0]:.12g},{q[k, 1]:.12g},{current[k]:.12g},{ref[k]:.6g},{feedforward[k]:.12g},0"
              for k in range(samples)]
     (folder / "log.csv").write_text("\n".join(rows) + "\n")
-    (folder / "rig.toml").write_text(RIG)
+    (folder / "rig.toml").write_text(flexible_link_rig())
     if controller is None:
         controller = (f'kind = "state_feedback"\ninputs = ["theta"]\nstates = {json.dumps(STATES)}\n'
                       f'K = [{json.dumps([float(k) for k in K[0]])}]   # A per rad and per rad/s\n'

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import symbolic
+from models import general_frames, general_frames_urdf
 from reference_pinocchio import UrdfReference
 from symbolic.derivation.regressor import frame_label, regressor
 from symbolic.errors import ModelError
@@ -109,110 +110,19 @@ def test_real_arm_agrees_with_pinocchio(arm: str) -> None:
     compare_regressor(robot, path)
 
 
-# -- general frames written by hand, and the import of the same robot ------------------------------------
-GENERAL_TOML = '''
-name = "general"
-coordinates = ["q1", "q2", "q3", "q4"]
-[parameters]
-m1 = 1.3
-m2 = 0.8
-l = 0.25
-[[frame]]
-name = "a"
-parent = "base"
-origin = { xyz = [0.1, 0.0, 0.3] }
-joint = { type = "revolute", axis = [0, 0, 1], limit = { lower = -3, upper = 3 } }
-coordinate = "q1"
-[[frame]]
-name = "b"
-parent = "a"
-origin = { xyz = [0.0, "l", 0.05], rpy = ["pi/2", 0, 0] }
-joint = { type = "continuous", axis = [0, -1, 0] }
-coordinate = "q2"
-[[frame]]
-name = "c"
-parent = "b"
-origin = { xyz = [0.2, 0.01, -0.03], rpy = [0.3, -0.2, 0.7] }
-joint = { type = "prismatic", axis = [1, 0, 0] }
-coordinate = "q3"
-[[frame]]
-name = "f"
-parent = "c"
-origin = { xyz = [0.05, 0.02, 0.0], rpy = [0, "pi/2", 0] }
-[[frame]]
-name = "d"
-parent = "f"
-origin = { xyz = [0.1, 0.0, 0.02], rpy = [0.1, 0, 0] }
-joint = { type = "revolute", axis = [0, 0.6, 0.8] }
-coordinate = "q4"
-[[body]]
-name = "A"
-frame = "a"
-mass = "m1"
-com = [0.02, 0.01, 0.1]
-inertia = { xx = 0.02, yy = 0.03, zz = 0.015, xy = 0.001, xz = -0.002, yz = 0.0015 }
-[[body]]
-name = "B"
-frame = "b"
-mass = "m2"
-com = [0.1, -0.02, 0.01]
-inertia = { xx = 0.01, yy = 0.012, zz = 0.008, xy = 0.0005 }
-[[body]]
-name = "C"
-frame = "c"
-mass = 0.6
-com = [0.03, 0.0, 0.02]
-inertia = { xx = 0.004, yy = 0.005, zz = 0.006, yz = 0.0003 }
-[[body]]
-name = "F"
-frame = "f"
-mass = 0.2
-com = [0.01, 0.02, 0.03]
-inertia = { xx = 0.001, yy = 0.002, zz = 0.0015 }
-[[body]]
-name = "D"
-frame = "d"
-mass = 0.4
-com = [0.0, 0.05, 0.01]
-inertia = { xx = 0.003, yy = 0.002, zz = 0.0025, xz = 0.0002 }
-'''
-
-GENERAL_URDF = '''<?xml version="1.0"?>
-<robot name="general">
- <link name="root"/>
- <link name="a"><inertial><origin xyz="0.02 0.01 0.1"/><mass value="1.3"/>
-   <inertia ixx="0.02" iyy="0.03" izz="0.015" ixy="0.001" ixz="-0.002" iyz="0.0015"/></inertial></link>
- <link name="b"><inertial><origin xyz="0.1 -0.02 0.01"/><mass value="0.8"/>
-   <inertia ixx="0.01" iyy="0.012" izz="0.008" ixy="0.0005" ixz="0" iyz="0"/></inertial></link>
- <link name="c"><inertial><origin xyz="0.03 0 0.02"/><mass value="0.6"/>
-   <inertia ixx="0.004" iyy="0.005" izz="0.006" ixy="0" ixz="0" iyz="0.0003"/></inertial></link>
- <link name="f"><inertial><origin xyz="0.01 0.02 0.03"/><mass value="0.2"/>
-   <inertia ixx="0.001" iyy="0.002" izz="0.0015" ixy="0" ixz="0" iyz="0"/></inertial></link>
- <link name="d"><inertial><origin xyz="0 0.05 0.01"/><mass value="0.4"/>
-   <inertia ixx="0.003" iyy="0.002" izz="0.0025" ixy="0" ixz="0.0002" iyz="0"/></inertial></link>
- <joint name="q1" type="revolute"><parent link="root"/><child link="a"/><origin xyz="0.1 0 0.3" rpy="0 0 0"/>
-   <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="2"/></joint>
- <joint name="q2" type="continuous"><parent link="a"/><child link="b"/><origin xyz="0 0.25 0.05" rpy="1.5707963267948966 0 0"/>
-   <axis xyz="0 -1 0"/><dynamics damping="0.2" friction="0.1"/></joint>
- <joint name="q3" type="prismatic"><parent link="b"/><child link="c"/><origin xyz="0.2 0.01 -0.03" rpy="0.3 -0.2 0.7"/>
-   <axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="10" velocity="2"/></joint>
- <joint name="jf" type="fixed"><parent link="c"/><child link="f"/><origin xyz="0.05 0.02 0" rpy="0 1.5707963267948966 0"/></joint>
- <joint name="q4" type="revolute"><parent link="f"/><child link="d"/><origin xyz="0.1 0 0.02" rpy="0.1 0 0"/>
-   <axis xyz="0 0.6 0.8"/><limit lower="-3" upper="3" effort="10" velocity="2"/></joint>
-</robot>
-'''
+# -- general frames written by hand (models.general_frames), and the import of the same robot ------------
 
 
 def test_general_frames_agree_with_pinocchio() -> None:
     """Any axis (±x, ±y, z, and (0, 0.6, 0.8)), prismatic, continuous, a fixed frame, rpy of all kinds."""
-    robot = symbolic.loads(GENERAL_TOML, "general.toml")
-    compare(robot, UrdfReference(None, robot.coordinates, xml=GENERAL_URDF))
+    robot = symbolic.loads(general_frames(), "general.toml")
+    compare(robot, UrdfReference(None, robot.coordinates, xml=general_frames_urdf()))
 
 
 @pytest.mark.parametrize("merge", [True, False])
 def test_urdf_import_merged_or_kept_fixed_joints_agree_with_pinocchio(tmp_path: Path, merge: bool) -> None:
     path = tmp_path / "general.urdf"
-    path.write_text(GENERAL_URDF)
+    path.write_text(general_frames_urdf())
     from symbolic.description.urdf import load
 
     robot = load(path, merge_fixed=merge)
@@ -224,7 +134,7 @@ def test_urdf_import_merged_or_kept_fixed_joints_agree_with_pinocchio(tmp_path: 
 
 def test_urdf_parameters_friction_and_limits(tmp_path: Path) -> None:
     path = tmp_path / "general.urdf"
-    path.write_text(GENERAL_URDF)
+    path.write_text(general_frames_urdf())
     robot = symbolic.load(path)
     values = {p.name: p.value for p in robot.parameters}
     assert values["m_a"] == 1.3 and values["cz_a"] == 0.1 and values["xz_a"] == -0.002 and values["yz_a"] == 0.0015
@@ -396,7 +306,7 @@ def test_export_writes_given_values_and_refuses_what_urdf_cannot_hold(tmp_path: 
     from symbolic.errors import ExportError
     from symbolic.export.urdf import urdf
 
-    robot = symbolic.loads(GENERAL_TOML, "general.toml")
+    robot = symbolic.loads(general_frames(), "general.toml")
     text = urdf(robot, {"m1": 2.5})
     assert '<mass value="2.5"/>' in text and '<mass value="1.3"/>' not in text
     with pytest.raises(ExportError, match="several coordinates"):
@@ -477,7 +387,7 @@ def test_identification_on_a_urdf_model_and_its_values_written_back(tmp_path: Pa
     from symbolic.identify.model import identify_model
 
     path = tmp_path / "general.urdf"
-    path.write_text(GENERAL_URDF)
+    path.write_text(general_frames_urdf())
     model = symbolic.derive(symbolic.load(path))
     reg, base = model_base(model)
     p = hidden_truth(model, seed=3)
