@@ -87,5 +87,6 @@ def test_c_casadi_and_sympy_agree_with_friction_drives_and_forces(name: str, tmp
         scale = np.linalg.norm(qdd) + np.linalg.norm(np.linalg.solve(num.inertia(q, p), tau))
         qdd_c, status = c.forward_dynamics(q, qd, tau, p)
         assert status == 0
-        for ours in (qdd_c, np.ravel(fns["forward_dynamics"](q, qd, tau, p)), num.forward_dynamics(q, qd, tau, p)):
+        # np.array(...).ravel(), not np.ravel(...): a NumPy function on a CasADi DM warns (casadi 3.7, #2959)
+        for ours in (qdd_c, np.array(fns["forward_dynamics"](q, qd, tau, p)).ravel(), num.forward_dynamics(q, qd, tau, p)):
             assert np.linalg.norm(np.asarray(ours) - qdd) <= 1e-10 * scale

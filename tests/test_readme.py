@@ -188,3 +188,19 @@ def test_the_readme_commands_print_what_the_readme_shows(tmp_path: Path) -> None
         assert result.returncode == 0, f"{where}\nexit {result.returncode}\n{result.stderr[-2000:]}"
         differs = shown_in(command.expected, result.stdout)
         assert differs is None, f"{where}\nthe README shows\n  {differs}\nthe command printed\n{result.stdout}"
+
+
+def test_a_warning_of_the_package_fails_the_suite_and_a_models_warning_is_shown() -> None:
+    """`python3 -m pytest` (the README's second command) shows real warnings only: pyproject.toml turns a
+    warning attributed to the package's code into an error, the tests' own known ones are filtered where they
+    arise, and the ModelWarning the package gives users on purpose stays a warning."""
+    import warnings
+
+    from symbolic.errors import ModelWarning
+
+    with pytest.raises(RuntimeWarning):  # as NumPy's "overflow encountered" in a symbolic.* module would be
+        warnings.warn_explicit("overflow", RuntimeWarning, "where.py", 1, module="symbolic.workflow.where")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.warn_explicit("units", ModelWarning, "units.py", 1, module="symbolic.data.units")
+        warnings.warn_explicit("elsewhere", RuntimeWarning, "other.py", 1, module="numpy.lib")
+    assert [str(w.message) for w in caught] == ["units", "elsewhere"]
