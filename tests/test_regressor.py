@@ -83,8 +83,7 @@ def test_force_that_is_not_polynomial_in_its_parameters_is_refused() -> None:
 
 
 def test_force_monomials_become_parameters() -> None:
-    """A cable spring −k(q − q0) = −k·q + k·q0: θ = (k, k·q0), columns −q and 1 on τ's side (τ = … − Q); θ = k
-    keeps the parameter's name, the product is named after the force."""
+    """A cable spring −k(q − q0) = −k·q + k·q0: θ = (k, k·q0), columns −q and 1 on τ's side (τ = … − Q)."""
     robot = load("emps")
     robot = symbolic.validate(dataclasses.replace(
         robot, validated=False, parameters=robot.parameters + (symbolic.Parameter("k", 50.0), symbolic.Parameter("q0", 0.2)),
@@ -150,8 +149,8 @@ def janot_name(ours: str) -> str:
     m = re.match(r"^(XX|XY|XZ|YY|YZ|ZZ|MX|MY|MZ|M)(R?)(\d+)$", ours)
     if m:
         return f"{m.group(1)}{m.group(3)}{m.group(2)}"
-    m = re.match(r"^(fv|fc|off)(\d+)$", ours)
-    kind = {"fv": "FV", "fc": "FS", "off": "OFFSET"}[m.group(1)]
+    m = re.match(r"^(Fv|Fc|off)q(\d+)$", ours)
+    kind = {"Fv": "FV", "Fc": "FS", "off": "OFFSET"}[m.group(1)]
     return f"{kind}{m.group(2)}{'R' if m.group(2) == '5' and kind != 'OFFSET' else ''}"  # FV5R = FV5 + FV4 in the model
 
 
