@@ -201,7 +201,7 @@ def test_coarser_encoders_name_nothing(tmp_path: Path, bits: int, seed: int) -> 
     through the PD loop, makes the logged force partly a filter of the position error, which a resonance
     fits to a significant part of the residual. The 16- and 18-bit seeds each named a flexible_mode that
     removed 1-3 % of the held-out residual power before the effect-size threshold of
-    search.MIN_HELD_OUT_GAIN; the 14-bit seed named five effects, the first a 2.7 Hz "resonance"
+    statistics.MIN_HELD_OUT_GAIN; the 14-bit seed named five effects, the first a 2.7 Hz "resonance"
     removing 28 %, before a resonance had to ring (FlexibleMode.check_residual). Nothing is named."""
     data = cases.measurements(cases.arm(), seed, 0.01, resolution=2 * np.pi / 2**bits)
     d = run_on(tmp_path, cases.arm(), data)
@@ -851,7 +851,7 @@ def test_emps_pulse_set_force_is_found_to_be_a_held_command(emps: Path) -> None:
     the patched model, treats the force as held and says so, and names no flexibility; its result is the
     declared diagnosis' (no finding left there), whose nominal gap is the smaller one the finding predicted."""
     from symbolic.data.treatment import Settings
-    from symbolic.workflow.search import MIN_HELD_OUT_GAIN
+    from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN
 
     d = diagnose(robots.path("emps"), robots.example_path("emps_pulses"), figures=False)
     (finding,) = d.to_dict()["data_findings"]

@@ -22,7 +22,9 @@ from shared_data import panda_folder, panda_measurements
 from symbolic.errors import ModelError
 from symbolic.workflow import diagnose
 from symbolic.workflow.report import markdown
-from symbolic.workflow.search import MIN_HELD_OUT_GAIN, Search, SearchSettings
+from symbolic.workflow.records import SearchSettings
+from symbolic.workflow.search import Search
+from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN
 from symbolic.workflow.statistics import combined_f_test, f_test
 
 JOINTS = ("q1", "q2", "q3", "q4", "q5", "q6")

@@ -18,7 +18,7 @@ from __future__ import annotations
 from symbolic.workflow.diagnosis import diagnose, simulated_path
 from symbolic.workflow.result import Diagnosis, Found, SimulatedSignals, Simulator
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Context, Effect, Signals, register
-from symbolic.workflow.search import SearchSettings
+from symbolic.workflow.records import SearchSettings
 
 __all__ = ["EFFECTS", "NOT_SUPPORTED", "Context", "Diagnosis", "Effect", "Found", "SearchSettings", "Signals", "SimulatedSignals", "Simulator",
            "diagnose", "register", "simulated_path"]

@@ -44,8 +44,8 @@ from symbolic.workflow.dataset import DataSet, load_sets, with_held_force
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
 import symbolic.robots as robots
 from symbolic.workflow.patch import Editor
-from symbolic.workflow.search import CurrentModel, Search, variant_of
-from symbolic.workflow.search import SearchSettings
+from symbolic.workflow.records import SearchSettings, variant_of
+from symbolic.workflow.search import CurrentModel, Search
 from symbolic.workflow.terms import NominalFit, coordinate_gaps, final_nominal, fit_nominal, model_terms, relative_gap
 from symbolic.workflow.report import markdown
 from symbolic.workflow.result import Diagnosis, Fit, Found, SimulatedSignals, Simulator, _plain
@@ -91,7 +91,7 @@ def diagnose(
     settings
         The IDIM-LS treatment (bandwidth, cut-off, ...); default from the experiment or the rules.
     search
-        Thresholds of the search (:class:`symbolic.workflow.search.SearchSettings`).
+        Thresholds of the search (:class:`symbolic.workflow.records.SearchSettings`).
     effects
         The catalogue to search (default: every registered effect, :data:`EFFECTS`).
     simulate

@@ -7,7 +7,7 @@ from typing import Any
 from symbolic.data.times import time_windows
 from symbolic.workflow.effects import NOT_SUPPORTED
 from symbolic.workflow.result import Diagnosis
-from symbolic.workflow.search import Candidate, Grouped, Judged
+from symbolic.workflow.records import Candidate, Grouped, Judged
 
 
 def _g(x: Any, digits: int = 4) -> str:

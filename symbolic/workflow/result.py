@@ -17,7 +17,8 @@ from symbolic.data import Measurements
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.workflow.dataset import DataSet
 from symbolic.workflow.effects import NOT_SUPPORTED
-from symbolic.workflow.search import Search, variant_of
+from symbolic.workflow.records import variant_of
+from symbolic.workflow.search import Search
 from symbolic.workflow.terms import NominalFit
 
 
