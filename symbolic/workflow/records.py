@@ -267,3 +267,13 @@ class Round:
     threshold: float
     groups: list[Grouped] = field(default_factory=list)
     chosen: Judged | None = None
+
+
+def value_key(value: Any) -> Any:
+    """A candidate's value as a cache key: itself when hashable (a number, a tuple), else its identity (a
+    payload's structure, kept for the whole search)."""
+    try:
+        hash(value)
+    except TypeError:
+        return id(value)
+    return value

@@ -27,7 +27,7 @@ explain the data equally — twice their log-likelihood difference at most ``TIE
 with fewer parameters (roles) is named and the others are reported. Columns already in the span of the
 current model are not candidates (an optional column, a spring's constant beside an offset, is dropped
 instead); a column in that span on these data only — another motion would separate it — is reported "not
-identifiable", with the terms and that motion (:meth:`Search.inseparable`), and the search goes on.
+identifiable", with the terms and that motion (:mod:`symbolic.workflow.separability`), and the search goes on.
 
 Grouped hypotheses (:class:`Group`): the same effect on every coordinate, or on a named group of them
 (``SearchSettings.groups``), and viscous with Coulomb friction together, each one candidate. Its members
@@ -48,7 +48,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -58,17 +57,15 @@ import scipy.linalg
 import scipy.optimize
 
 from symbolic.errors import ModelError
-from symbolic.identify import separation
 from symbolic.identify.least_squares import Identification
-from symbolic.identify.model import geometric_parameters
-from symbolic.identify.separation import Motion
 from symbolic.workflow import forked
 from symbolic.workflow.dataset import DataSet
 from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals, excluded, groups
+from symbolic.workflow.separability import Separability
 from symbolic.workflow.records import Accepted, Candidate, Group, Grouped, Judged, Round, SearchSettings
 from symbolic.workflow.statistics import (autocorrelation_time, combined_f_test, pooled_autocorrelation_time,
                                          score_inflation)
-from symbolic.workflow.terms import ModelTerms, wls
+from symbolic.workflow.terms import ModelTerms, solve_normal, wls
 
 COLLINEAR = 1e-6
 """A column whose part outside the current model's span is below this fraction of its norm is in the model."""
@@ -150,9 +147,7 @@ class Search:
         self._reduced: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self._final: _Partial | None = None
         self._signals: dict[str, Signals] = {}
-        self._separable: dict[tuple, str | None] = {}
-        self._probes: list[tuple[str, int, Motion]] | None = None
-        self._probe_columns: dict[int, np.ndarray] = {}
+        self.separability = Separability(self)
 
     def _hypotheses(self) -> list[Group]:
         """The grouped hypotheses offered every round: each groupable effect, and those declared together
@@ -280,83 +275,6 @@ class Search:
         start = len(self.terms.free_names) + sum(a.columns["estimation"].shape[2] for a in self.accepted[:k])
         return list(range(start, start + self.accepted[k].columns["estimation"].shape[2]))
 
-    # -- what these data cannot separate -------------------------------------------------------
-    def inseparable(self, state: _RoundState, c: Candidate, Z: np.ndarray, i: int, kept: tuple[int, ...]) -> str | None:
-        """Why column ``i`` of candidate ``c`` (``Z``: its weighted estimation columns; ``kept``: its columns
-        before ``i``), in the span of the round's model on these data, is not identifiable from them — the
-        terms it is collinear with and a motion that would separate them (:mod:`symbolic.identify.separation`)
-        — or ``None`` when no motion would: the model holds it (its relation to the model's terms is the
-        model's own). Once per search for each effect, coordinate, value and set of terms."""
-        X = state.X
-        rows = np.flatnonzero(np.any(Z != 0, axis=1))
-        inside = Z[rows][:, list(kept)]
-        cross = X[rows].T @ inside
-        gram = np.block([[state.gram, cross], [cross.T, inside.T @ inside]])
-        right = np.concatenate([X[rows].T @ Z[rows, i], inside.T @ Z[rows, i]])
-        coefficients = _solve(gram, right)
-        taking = separation.involved(coefficients, np.sqrt(np.clip(np.diag(gram), 0.0, None)))
-        design, p = state.design, X.shape[1]
-        key = (c.effect.name, c.j, _hashable(c.value), i, tuple(int(k) for k in taking), len(design.accepted))
-        if key not in self._separable:
-            combination = np.append(-coefficients[taking], 1.0)
-            motion, cases = self._probe_motions()
-            phrase = separation.separating_motion(lambda m: self._raw(m, design, c, taking, kept, i), combination,
-                                                  motion, self.context.coordinates, cases)
-            self._separable[key] = None if phrase is None else (
-                f"not identifiable from these data: {c.label()} and {self._terms_named(design, taking, p)} cannot be "
-                f"separated; a motion that would separate them: {phrase}")
-        return self._separable[key]
-
-    def _probe_motions(self) -> tuple[Motion, list[tuple[str, int, Motion]]]:
-        """The estimation data's states (at most :data:`~symbolic.identify.separation.PROBE_SAMPLES`) and the
-        probes made from them, once per search (the model's columns on them are kept by :meth:`_raw`)."""
-        if self._probes is None:
-            x = self.context
-            motion = Motion.of(x.q, x.qd, x.qdd, x.rate, float(self.sets["estimation"].t[0]))
-            self._probes = [("data", -2, motion)] + separation.probes(motion)
-        return self._probes[0][2], self._probes[1:]
-
-    def _raw(self, motion: Motion, design: CurrentModel, c: Candidate, taking: np.ndarray, kept: tuple[int, ...],
-             i: int) -> np.ndarray:
-        """Columns ``taking`` of the round's design and the candidate's column ``i``, untreated, on ``motion``
-        (``samples × N × k``): the model's free base columns, an accepted effect's kept columns, the
-        candidate's columns ``kept`` before ``i``."""
-        if id(motion) not in self._probe_columns:  # the probes live as long as the search
-            self._probe_columns[id(motion)] = self.terms.regressor(motion.q, motion.qd, motion.qdd, t=motion.t)[:, :, self.terms.free]
-        model = self._probe_columns[id(motion)]
-        signals = Signals(motion.q, motion.qd, motion.qdd, motion.t, motion.rate, self.context.robot)
-        own = c.effect.columns_at(signals, c.j, c.value)
-        blocks, start = [], model.shape[2]
-        for a in design.accepted:
-            blocks.append((start, a))
-            start += len(a.candidate.kept)
-        out = []
-        for k in taking:
-            if k < model.shape[2]:
-                out.append(model[:, :, k])
-            elif k < start:
-                first, a = max((b for b in blocks if b[0] <= k), key=lambda b: b[0])
-                out.append(a.effect.columns_at(signals, a.candidate.j, a.candidate.value)[:, :, a.candidate.kept[k - first]])
-            else:
-                out.append(own[:, :, kept[k - start]])
-        out.append(own[:, :, i])
-        return np.stack(out, axis=2)
-
-    def _terms_named(self, design: CurrentModel, taking: np.ndarray, p: int) -> str:
-        """The design's columns ``taking`` in words: the model's parameters (``the model's Fc``), the accepted
-        effects (``coulomb on q (accepted in round 1)``); the candidate's own columns are not named."""
-        terms = self.terms
-        known = geometric_parameters(terms.model, terms.reg) | set(terms.fixed)
-        free = terms.free_names
-        accepted, start = [], len(free)
-        for a in design.accepted:
-            if any(start <= k < start + len(a.candidate.kept) for k in taking):
-                accepted.append(f"{a.candidate.label()} (accepted in round {a.round})")
-            start += len(a.candidate.kept)
-        named = [separation.parameter_label(terms.model, terms.reg, terms.base, free[k], known) for k in taking if k < len(free)]
-        words = ([f"the model's {', '.join(named)}"] if named else []) + accepted
-        return " and ".join(words) if words else "its own other columns"
-
     # -- the final model ----------------------------------------------------------------------
     def final_effects(self) -> list[dict[str, Any]]:
         """For each accepted effect: roles and σ from the final joint fit, its partial test there on its own
@@ -411,16 +329,6 @@ class Search:
         return [store[k] for k in keys]
 
 
-def _hashable(value: Any) -> Any:
-    """A candidate's value as a cache key: itself when hashable (a number, a tuple), else its identity (a
-    payload's structure, kept for the whole search)."""
-    try:
-        hash(value)
-    except TypeError:
-        return id(value)
-    return value
-
-
 def _acting(raw: Sequence[np.ndarray]) -> np.ndarray:
     """The coordinates (axis 1) on which any of the ``samples × N × k`` arrays ``raw`` is non-zero. A
     coordinate found acting is not looked at again (``ndarray.any`` stops at the first non-zero); only
@@ -454,23 +362,6 @@ def _roles_with_sigma(c: Candidate, values: np.ndarray, covariance: np.ndarray, 
     for name, value in centre.items():
         sigmas[name] = None if value is None else float(np.sqrt(max(jac[name] @ covariance @ jac[name], 0.0)))
     return centre, sigmas
-
-
-def _solve(gram: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """Least-squares coefficients from the normal equations, columns scaled to unit norm (the candidate
-    systems are small and well conditioned once scaled; the SVD is kept for the identification itself).
-    A system the data do not determine — a candidate collinear with the model's terms on a cross-validation
-    fold's training blocks (an axis that moves one way there) — gets the least-norm solution, silently: the
-    candidate's held-out error says what it is worth."""
-    scale = np.sqrt(np.clip(np.diag(gram), 1e-300, None))
-    scaled = gram / np.outer(scale, scale)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
-            x = scipy.linalg.solve(scaled, right / scale, assume_a="pos", check_finite=False)
-    except (np.linalg.LinAlgError, scipy.linalg.LinAlgError, scipy.linalg.LinAlgWarning):
-        x = np.linalg.lstsq(scaled, right / scale, rcond=None)[0]
-    return x / scale
 
 
 def _expand(c: Candidate, kept_values: np.ndarray) -> np.ndarray:
@@ -579,7 +470,7 @@ class _Partial:
         search = self.search
         columns = {i for k in unit for i in search.block(k)}
         rest = [i for i in range(self.X.shape[1]) if i not in columns]
-        coef = _solve(self.gram[np.ix_(rest, rest)], self.right[rest])
+        coef = solve_normal(self.gram[np.ix_(rest, rest)], self.right[rest])
         without = self.y - self.X[:, rest] @ coef
         power0 = (without**2).reshape(self.n, -1).sum(axis=1)
         pieces = []
@@ -649,7 +540,7 @@ class _Joint:
         residual = st.r0 + st.Q @ (self.a[:, s] @ step)
         residual[self.rows] -= self.Zr[:, s] @ step
         cross = self.cross[:, s]
-        coef = _solve(np.block([[st.gram, cross], [cross.T, self.zz[np.ix_(s, s)]]]), np.concatenate([st.right, self.zy[s]]))
+        coef = solve_normal(np.block([[st.gram, cross], [cross.T, self.zz[np.ix_(s, s)]]]), np.concatenate([st.right, self.zy[s]]))
         if not held:
             return _Fit(st.by(residual * residual), None, coef, residual)
         if st.search.cross_validate:
@@ -745,7 +636,7 @@ class _RoundState:
         for f, fold in enumerate(self.folds):
             g, b = self.fold_gram[f]
             if extra is None:
-                coef = _solve(self.gram - g, self.right - b)
+                coef = solve_normal(self.gram - g, self.right - b)
                 e = self.y[fold] - self.X[fold] @ coef
             else:
                 inside = rows[self.fold_of[rows] == f]
@@ -753,7 +644,7 @@ class _RoundState:
                 cf = self.X[inside].T @ Zf
                 gf = np.block([[g, cf], [cf.T, Zf.T @ Zf]])
                 bf = np.concatenate([b, Zf.T @ self.y[inside]])
-                coef = _solve(gram - gf, right - bf)
+                coef = solve_normal(gram - gf, right - bf)
                 p = self.X.shape[1]
                 e = self.y[fold] - self.X[fold] @ coef[:p]
                 position = np.searchsorted(fold, inside)
@@ -876,7 +767,7 @@ class _RoundState:
         parts, why, failed = self.project(Z, effect.optional)
         if parts is None:
             c.status, c.reason = "in the model", why
-            limited = None if failed is None else search.inseparable(self, c, Z, *failed)
+            limited = None if failed is None else search.separability.why(self, c, Z, *failed)
             if limited is not None:  # in the model's span on these data only: another motion would separate it
                 c.status, c.reason = "not identifiable", limited
             return c

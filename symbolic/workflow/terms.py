@@ -23,10 +23,12 @@ from __future__ import annotations
 
 import dataclasses
 import types
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 import sympy as sp
 
 from symbolic.derivation.dynamics import DynamicModel
@@ -256,3 +258,20 @@ def inseparable(terms: ModelTerms, data: DataSet, names: Sequence[str], what: st
     listed = ", ".join(labels[:-1]) + f" and {labels[-1]}" if len(labels) > 1 else labels[0]
     return (f"not identifiable from {what}: {listed} cannot be separated; a motion that would separate them: "
             + (phrase or "none (they are the same function of the states)"))
+
+
+def solve_normal(gram: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """Least-squares coefficients from the normal equations, columns scaled to unit norm (the candidate
+    systems are small and well conditioned once scaled; the SVD is kept for the identification itself).
+    A system the data do not determine — a candidate collinear with the model's terms on a cross-validation
+    fold's training blocks (an axis that moves one way there) — gets the least-norm solution, silently: the
+    candidate's held-out error says what it is worth."""
+    scale = np.sqrt(np.clip(np.diag(gram), 1e-300, None))
+    scaled = gram / np.outer(scale, scale)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
+            x = scipy.linalg.solve(scaled, right / scale, assume_a="pos", check_finite=False)
+    except (np.linalg.LinAlgError, scipy.linalg.LinAlgError, scipy.linalg.LinAlgWarning):
+        x = np.linalg.lstsq(scaled, right / scale, rcond=None)[0]
+    return x / scale
