@@ -467,15 +467,15 @@ class _ListEffects(argparse.Action):
         print("\n".join(listing()))
         parser.exit()
 
+    in_process = args.workers == 0 and not args.scheduler
+    if not available() and not in_process:  # before reading anything: the one line that says how to get it
+        print(f"error: {INSTALL} (or run it without Dask, one log at a time: --workers 0)", file=sys.stderr)
+        return 2
 
 def cmd_campaign(args: argparse.Namespace) -> int:
     from symbolic import export
     from symbolic.fleet import INSTALL, available
 
-    in_process = args.workers == 0 and not args.scheduler
-    if not available() and not in_process:  # before reading anything: the one line that says how to get it
-        print(f"error: {INSTALL} (or run it without Dask, one log at a time: --workers 0)", file=sys.stderr)
-        return 2
     if args.workers is not None and (args.workers < 0 or (args.workers == 0 and args.scheduler)):
         allowed = "a positive number of workers to wait for" if args.scheduler else \
             "0 (one log at a time in this process) or a positive number of worker processes"
