@@ -13,14 +13,16 @@ test:
 test-fast:
 	$(PYTHON) -m pytest -q -m "not slow"
 
-# Regenerate generated/ from the built-in robots (byte-identical from run to run).
+# Regenerate generated/ from the built-in robots (byte-identical from run to run), docs/reproduction.md, and
+# the bench/results/ sections that README.md and docs/*.md quote (bench/quotes.py).
 generate:
 	$(PYTHON) -m symbolic.builtin_outputs generated
 	$(PYTHON) -m symbolic -q reproduce --markdown docs/reproduction.md
+	$(PYTHON) bench/quotes.py
 
-# Fails when the committed generated/ differs from a fresh generation.
+# Fails when the committed generated/ (or a generated part of docs/, README.md) differs from a fresh generation.
 check-generated: generate
-	@git diff --exit-code --stat -- generated/ docs/reproduction.md || (echo "generated/ or docs/reproduction.md is stale: run 'make generate' and commit" >&2; exit 1)
+	@git diff --exit-code --stat -- generated/ docs/ README.md || (echo "generated/, docs/ or README.md is stale: run 'make generate' and commit" >&2; exit 1)
 	@test -z "$$(git status --porcelain --untracked-files=all -- generated/)" || (git status --short -- generated/; echo "generated/ has untracked files: run 'make generate' and commit" >&2; exit 1)
 
 bench:
@@ -38,6 +40,7 @@ bench:
 	$(PYTHON) bench/beams.py --out bench/results/beams.md
 	$(PYTHON) bench/consistent.py --out bench/results/consistent.md
 	$(PYTHON) bench/fleet.py --out bench/results/fleet.md
+	$(PYTHON) bench/quotes.py
 
 clean:
 	rm -rf build dist *.egg-info .pytest_cache .hypothesis
