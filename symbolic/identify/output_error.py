@@ -1,0 +1,485 @@
+"""Output-error identification of a model file's parameters in the machine's own closed loop (DIDIM).
+
+Gautier, Janot, Vandanjon, "A new closed-loop output error method for parameter identification of robot
+dynamics" (IEEE TCST 2013): starting from the IDIM-LS solution, the parameters θ minimise the error
+between the measured signals and those of the *simulated closed loop* — the model driven by the
+experiment's ``[controller]`` (torque replay, PD, PID, cascade, state feedback) along the log's reference,
+exactly as :func:`symbolic.simulation.simulate` runs it. The signals compared (``signals``):
+
+* ``"force"`` (DIDIM proper): the simulated controller output τ_sim(θ) against the logged force τ;
+* ``"position"``: q_sim(θ) against the measured q (the only choice under torque replay, where τ_sim = τ);
+* ``"both"``: both, each weighted by ``weights`` (force, position).
+
+Each coordinate's residual is divided by the standard deviation of its measured signal, so that the cost
+is unit-free and coordinates and signals count alike, then multiplied by the signal's weight.
+
+The minimisation is Levenberg–Marquardt (Marquardt's scaling diag(JᵀJ)) on θ/|θ₀|, bounded by the model
+file's ``min``/``max`` and the signs of the parameters' roles (:func:`symbolic.identify.known.parameter_bounds`,
+a step is projected onto them). Its Jacobian is *exact*: the discrete variational equations of the very
+simulation run — one sample of the closed loop z_{k+1} = F(z_k, w_k, θ), y_k = G(z_k, w_k, θ) is
+differentiated by CasADi's forward mode, S_{k+1} = ∂F/∂z·S_k + ∂F/∂θ, ∂y_k/∂θ = ∂G/∂z·S_k + ∂G/∂θ, and
+that augmented sample is mapped over the log and compiled as the simulation itself is. Where the loop is
+not smooth the derivative is the one of what is simulated: friction's sign is tanh(v/ε) (its derivative
+is large but finite within ε of zero velocity); a quantiser's round() and a saturation's clip have
+derivative 0 where they hold (a saturated sample carries no information about the gains behind it).
+
+Parameters fitted: the model-file parameters IDIM-LS determines (those ``identify --out`` writes), minus
+``fixed = true`` and ``fix``; the others keep their model-file values. σ per parameter from the Jacobian at
+the optimum, σ² = RSS/(m − p)·diag((JᵀJ)⁻¹), m residuals and p parameters. Output-error residuals are
+strongly coloured (a model error or a slowly drifting position shows over many samples), so these σ are a
+lower bound of the real spread; read them as IDIM-LS's, for comparison (docs/data.md, "Output error").
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from symbolic.data import DataError, Measurements, load
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.errors import IdentificationError
+from symbolic.identify.known import fixed_symbols, parameter_bounds
+from symbolic.identify.least_squares import defined, percent
+from symbolic.simulation import controller as control
+from symbolic.simulation import simulator as sim
+
+SIGNALS = ("force", "position", "both")
+MAX_ITERATIONS = 30
+STEP_TOLERANCE = 1e-7
+"""Converged when the largest accepted step, relative to each parameter's scale, is below this."""
+COST_TOLERANCE = 1e-10
+"""... or when the cost falls (or the linearised model predicts it would fall) by less than this, relatively."""
+MAX_DAMPING = 1e10
+"""Marquardt's λ beyond which the search stops: no step lowers the cost (a step too small to matter)."""
+
+
+@dataclass(frozen=True)
+class FittedParameter:
+    """One parameter of the output-error fit: value, σ, relative σ (%), the start (IDIM-LS), a bound held."""
+
+    name: str
+    value: float
+    sigma: float
+    relative_sigma: float
+    start: float
+    bound: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"value": self.value, "sigma": self.sigma, "relative_sigma": defined(self.relative_sigma),
+                               "start": self.start}
+        if self.bound is not None:
+            out["at_bound"] = self.bound
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class OutputErrorFit:
+    """What :func:`output_error` found.
+
+    Attributes
+    ----------
+    parameters
+        The fitted parameters by name.
+    converged
+        Whether a convergence test held; else ``message`` says why it stopped.
+    errors_start, errors
+        Relative errors (%) per signal and coordinate, 100·‖measured − simulated‖/‖measured − mean‖, at
+        the start and at the end.
+    """
+
+    model_name: str
+    signals: str
+    weights: tuple[float, float]
+    parameters: dict[str, FittedParameter]
+    converged: bool
+    message: str
+    iterations: int
+    cost_start: float
+    cost: float
+    errors_start: dict[str, dict[str, float]]
+    errors: dict[str, dict[str, float]]
+    fixed: dict[str, float] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
+    start_method: str = "IDIM-LS solution"
+
+    def values(self) -> dict[str, float]:
+        """{model parameter: fitted value}, for writing back into the model file."""
+        return {name: p.value for name, p in self.parameters.items()}
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON of ``symbolic identify --method didim --json``."""
+        return {
+            "model": self.model_name, "method": "didim", "start": self.start_method, "signals": self.signals,
+            "weights": {"force": self.weights[0], "position": self.weights[1]},
+            "parameters": {n: p.to_dict() for n, p in self.parameters.items()}, "fixed": dict(self.fixed),
+            "converged": self.converged, "message": self.message, "iterations": self.iterations,
+            "cost_start": self.cost_start, "cost": self.cost,
+            "relative_error_start": self.errors_start, "relative_error": self.errors, "timings": dict(self.timings),
+        }
+
+    def table(self) -> str:
+        """The parameters beside their start, the errors before and after, and how it stopped."""
+        lines = [f"output error (DIDIM) on {self.signals}"
+                 + (f" (weights force {self.weights[0]:g}, position {self.weights[1]:g})" if self.signals == "both" else "")
+                 + f", from the {self.start_method}: {self.iterations} iteration(s), "
+                 + ("converged" if self.converged else "NOT converged") + f": {self.message}",
+                 f"{'parameter':<16}  {'identified':>14}  {'sigma':>12}  {'sigma %':>8}  {'start':>14}"]
+        for p in self.parameters.values():
+            bound = f"  (at its {p.bound})" if p.bound else ""
+            lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {percent(p.relative_sigma):>8s}  "
+                         f"{p.start:>14.6g}{bound}")
+        for signal, per in self.errors.items():
+            for c, value in per.items():
+                lines.append(f"relative error of {signal} {c}: {self.errors_start[signal][c]:.4g} % at the start, "
+                             f"{value:.4g} % fitted")
+        if self.fixed:
+            lines.append("kept at their values (fixed): " + ", ".join(f"{n} = {v:.6g}" for n, v in self.fixed.items()))
+        lines.append("σ from the Jacobian, RSS/(m−p)·(JᵀJ)⁻¹: the residuals of an output error are coloured, so σ is "
+                     "a lower bound of the spread")
+        return "\n".join(lines)
+
+
+# -- the simulation and its sensitivities --------------------------------------------------------------------
+
+
+def sensitivity_function(ctrl: control.Controller, plant: sim.Plant, names: tuple[str, ...], period: float,
+                         substeps: int, free: Sequence[int]) -> ca.Function:
+    """One sample of the closed loop with its forward sensitivities to the parameters ``free`` (indices of p).
+
+    ``(za, w, p, c, eps) -> (za_next, ya)`` with za = [z; vec(S)], S = ∂z/∂θ (column-major), and
+    ya = [y; vec(∂y/∂θ)], z and y those of :func:`symbolic.simulation.simulator.sample_function`: the
+    discrete variational equation of the simulated sample, by CasADi's forward mode (``jtimes``)."""
+    F = sim.sample_function(ctrl, plant, names, period, substeps)
+    nz, ny, npar, k = F.size1_in(0), F.size1_out(1), F.size1_in(2), len(free)
+    Z, S = ca.MX.sym("z", nz), ca.MX.sym("s", nz * k)
+    W, P, C, E = ca.MX.sym("w", F.size1_in(1)), ca.MX.sym("p", npar), ca.MX.sym("c", F.size1_in(3)), ca.MX.sym("eps")
+    theta = ca.MX.sym("theta", k)
+    select = ca.DM.zeros(npar, k)
+    for j, i in enumerate(free):
+        select[i, j] = 1.0
+    z_next, y = F(Z, W, P + ca.mtimes(select, theta), C, E)
+    out = ca.vertcat(z_next, y)
+    seeds = ca.vertcat(ca.reshape(S, nz, k), ca.DM.eye(k))
+    derivative = ca.jtimes(out, ca.vertcat(Z, theta), seeds)  # (nz + ny) × k, k forward directions
+    derivative = ca.substitute(derivative, theta, ca.DM.zeros(k))
+    z_next, y = ca.substitute([z_next, y], [theta], [ca.DM.zeros(k)])
+    return ca.Function("closed_loop_sensitivity", [ca.vertcat(Z, S), W, P, C, E],
+                       [ca.vertcat(z_next, ca.reshape(derivative[:nz, :], nz * k, 1)),
+                        ca.vertcat(y, ca.reshape(derivative[nz:, :], ny * k, 1))],
+                       ["za", "w", "p", "c", "eps"], ["za_next", "ya"])
+
+
+@dataclass(eq=False)
+class ClosedLoop:
+    """The experiment's closed loop ready to run at any θ: the simulation's settings fixed once (sub-steps,
+    initial state, controller constants), with or without sensitivities."""
+
+    model: DynamicModel
+    measurements: Measurements
+    ctrl: control.Controller
+    plant: sim.Plant
+    names: tuple[str, ...]
+    free: tuple[int, ...]
+    p0: np.ndarray
+    x0: np.ndarray
+    c: np.ndarray
+    w: np.ndarray
+    substeps: int
+    eps: float
+    compiled: bool | None
+    _functions: dict = field(default_factory=dict)
+
+    def function(self, sensitivities: bool) -> ca.Function:
+        if sensitivities not in self._functions:
+            if sensitivities:
+                from symbolic.codegen.compiled import compile_casadi
+
+                f = sensitivity_function(self.ctrl, self.plant, self.names, self.measurements.sample_period,
+                                         self.substeps, self.free)
+                fast = compile_casadi(f) if self.compiled is not False else None
+                self._functions[True] = fast or f
+            else:
+                self._functions[False] = sim._closed_loop(self.ctrl, self.plant, self.names,
+                                                          self.measurements.sample_period, self.substeps,
+                                                          self.compiled)[0]
+        return self._functions[sensitivities]
+
+    def parameters(self, theta: np.ndarray) -> np.ndarray:
+        p = self.p0.copy()
+        p[list(self.free)] = theta
+        return p
+
+    def run(self, theta: np.ndarray, sensitivities: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """y (samples × 4n: q, q̇, q̈, τ over the model's coordinates) and, with ``sensitivities``, ∂y/∂θ
+        (samples × 4n × k); NaN rows where the simulation diverged."""
+        function = self.function(sensitivities)
+        n, k, nz = self.plant.n, len(self.free), function.size1_in(0)
+        memory = self.ctrl.memory_size()
+        z = np.concatenate([self.x0, np.zeros(memory)])
+        if sensitivities:
+            z = np.concatenate([z, np.zeros((2 * n + memory) * k)])
+        p = self.parameters(theta)
+        loops: dict[int, ca.Function] = {}
+        outputs = []
+        samples = self.measurements.samples
+        for start in range(0, samples, sim.CHUNK):
+            size = min(sim.CHUNK, samples - start)
+            if size not in loops:
+                loops[size] = function.mapaccum("closed_loop", size)
+            states, y = loops[size](z, self.w[:, start:start + size], p, self.c, self.eps)
+            z = np.asarray(states)[:, -1]
+            outputs.append(np.asarray(y))
+            if not np.isfinite(z).all():
+                outputs.append(np.full((outputs[-1].shape[0], samples - start - size), np.nan))
+                break
+        y = np.hstack(outputs).T
+        ny = 4 * n
+        if not sensitivities:
+            return y[:, :ny], None
+        return y[:, :ny], y[:, ny:].reshape(samples, k, ny).transpose(0, 2, 1)
+
+
+def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[str], *,
+                parameters: Mapping[str, float] | None = None, friction_velocity: float = sim.FRICTION_VELOCITY,
+                substeps: int | None = None, compiled: bool | None = None) -> ClosedLoop:
+    """The closed loop of ``measurements``' experiment (its ``[controller]``, else torque replay) for
+    :func:`output_error`: sub-steps chosen as :func:`~symbolic.simulation.simulate` chooses them at
+    ``parameters`` and kept for every θ, so that the simulation differentiated is one function of θ."""
+    source = str(measurements.source)
+    names = tuple(model.robot.generalized_coordinates)
+    sim._check_options("rk4", substeps, friction_velocity, source)
+    sim._check_data(measurements, names, model.robot.name)
+    p = sim._parameters(model, parameters, source)
+    ctrl = control.check_delay(sim._controller(None, measurements, model, names), measurements.samples)
+    if control.line_outside(ctrl):
+        raise DataError(source, "controller", f"a delay of {ctrl.delay} samples (more than {control.LINE_IN_MEMORY}) "
+                                              "is not supported by the output-error identification yet "
+                                              f"(allowed: up to {control.LINE_IN_MEMORY})")
+    signals = control.inputs(ctrl, measurements, names)
+    plant = sim._plant(model)
+    x0 = sim._initial_state(model, measurements, p, None)
+    radius = sim._spectral_radius(plant, x0, p, friction_velocity, float(measurements.t[0]), names, source)
+    m = substeps or max(1, math.ceil(min(measurements.sample_period * radius / sim.STEP_BOUND, 2.0**62)))
+    if m > sim.MAX_SUBSTEPS:
+        raise IdentificationError(f"the model needs {m:.3g} RK4 sub-steps per sample (spectral radius {radius:.4g} "
+                                  f"1/s): too stiff for the output-error identification's fixed-step simulation")
+    c = control.constants(ctrl, model.parameter_vector.with_array(p).by_symbol())
+    w = np.hstack([signals.reference, signals.disturbance, signals.torque, measurements.t[:, None]]).T
+    index = [model.parameter_vector.names.index(name) for name in free]
+    return ClosedLoop(model, measurements, ctrl, plant, names, tuple(index), p, x0, c, np.ascontiguousarray(w), m,
+                      friction_velocity, compiled)
+
+
+# -- the fit ----------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Residuals:
+    """Which columns of y are compared with which measured signal, and their weights."""
+
+    columns: list[int]
+    measured: np.ndarray  # samples × len(columns)
+    scale: np.ndarray  # weight / std of each measured column
+    labels: list[tuple[str, str]]  # (signal, coordinate)
+
+    def of(self, y: np.ndarray) -> np.ndarray:
+        return ((self.measured - y[:, self.columns]) * self.scale).ravel()
+
+    def jacobian(self, dy: np.ndarray) -> np.ndarray:
+        return -(dy[:, self.columns, :] * self.scale[None, :, None]).reshape(-1, dy.shape[2])
+
+    def errors(self, y: np.ndarray) -> dict[str, dict[str, float]]:
+        out: dict[str, dict[str, float]] = {}
+        for j, (signal, c) in enumerate(self.labels):
+            centred = self.measured[:, j] - self.measured[:, j].mean()
+            size = float(np.linalg.norm(centred))
+            e = float(np.linalg.norm(self.measured[:, j] - y[:, self.columns[j]]))
+            out.setdefault(signal, {})[c] = 100.0 * e / size if size > 0 else float("nan")
+        return out
+
+
+def _residuals(measurements: Measurements, names: tuple[str, ...], signals: str, weights: tuple[float, float],
+               ctrl: control.Controller) -> _Residuals:
+    n = len(names)
+    source = str(measurements.source)
+    chosen = {"force": ("force",), "position": ("position",), "both": ("force", "position")}[signals]
+    if "force" in chosen and ctrl.kind == "torque":
+        raise DataError(source, "controller", "the forces are replayed (kind = \"torque\", or no [controller]): the "
+                                              "simulated force is the logged one, so an output error on the force "
+                                              "measures nothing; compare positions (--signals position) or declare "
+                                              "the machine's [controller]")
+    columns, measured, scale, labels = [], [], [], []
+    for signal in chosen:
+        weight = weights[0] if signal == "force" else weights[1]
+        data = measurements.tau if signal == "force" else measurements.q
+        for j, c in enumerate(measurements.coordinates):
+            if signal == "force" and c not in ctrl.coordinates:
+                continue
+            spread = float(np.std(data[:, j]))
+            if spread == 0:
+                continue  # a constant signal (a coordinate without actuator: τ = 0) carries no comparison
+            columns.append(names.index(c) + (3 * n if signal == "force" else 0))
+            measured.append(np.asarray(data[:, j], float))
+            scale.append(weight / spread)
+            labels.append((signal, c))
+    if not columns:
+        raise DataError(source, "signals", f"no measured {signals} signal varies: nothing to compare")
+    return _Residuals(columns, np.column_stack(measured), np.array(scale), labels)
+
+
+def output_error(
+    model: DynamicModel,
+    data: str | Path | Measurements,
+    *,
+    experiment: str | Path | None = None,
+    start: Mapping[str, float] | None = None,
+    signals: str = "force",
+    weights: tuple[float, float] = (1.0, 1.0),
+    fix: Sequence[str] = (),
+    consistent: bool = False,
+    max_iterations: int = MAX_ITERATIONS,
+    friction_velocity: float = sim.FRICTION_VELOCITY,
+    substeps: int | None = None,
+    compiled: bool | None = None,
+) -> OutputErrorFit:
+    """Fit ``model``'s parameters by the output error of its closed loop on ``data`` (module docstring).
+
+    Parameters
+    ----------
+    model
+        The derived model.
+    data
+        An experiment file with its ``[controller]`` (or measurements / a data file: torque replay).
+    experiment
+        Experiment file for a data file.
+    start
+        Start values by name (the parameters fitted); default: the IDIM-LS solution of ``data``
+        (:func:`symbolic.identify.model.identify_model`, with ``fix`` and ``consistent``).
+    signals
+        ``"force"`` (DIDIM), ``"position"`` or ``"both"``.
+    weights
+        (force, position) weights of ``"both"``.
+    fix
+        Parameters kept at their values besides ``fixed = true`` ones.
+    max_iterations
+        Levenberg–Marquardt iterations before stopping unconverged.
+    friction_velocity, substeps, compiled
+        As :func:`symbolic.simulation.simulate`'s.
+    """
+    if signals not in SIGNALS:
+        raise DataError(str(getattr(data, "source", data)), "signals",
+                        f"unknown signals {signals!r} (allowed: {', '.join(SIGNALS)})")
+    if not all(isinstance(w, (int, float)) and math.isfinite(w) and w >= 0 for w in weights) or not any(weights):
+        raise DataError(str(getattr(data, "source", data)), "weights",
+                        f"expected two finite weights ≥ 0, not both 0 (force, position), got {weights!r}")
+    started = time.perf_counter()
+    measurements = load(data, model.robot.generalized_coordinates, model=model.robot, experiment=experiment)
+    fixed = fixed_symbols(model, fix)
+    start_method = "given values"
+    if start is None:
+        from symbolic.identify.model import identify_model
+
+        idim = identify_model(model, measurements, fix=fix, consistent=consistent)
+        start = {n: p.value for n, p in idim.parameters.items() if math.isfinite(p.sigma)}
+        start_method = "IDIM-LS solution" + (" (consistent)" if consistent else "")
+    fixed_names = {s.name for s in fixed}
+    start = {n: float(v) for n, v in start.items() if n not in fixed_names}
+    if not start:
+        raise IdentificationError(f"model {model.name}: no parameter to fit by output error (IDIM-LS determines none "
+                                  "directly and alone; try --consistent, or free parameters kept fixed)")
+    names = list(start)
+    loop = closed_loop(model, measurements, names, parameters=start, friction_velocity=friction_velocity,
+                       substeps=substeps, compiled=compiled)
+    residuals = _residuals(measurements, loop.names, signals, weights, loop.ctrl)
+    bounds = parameter_bounds(model)
+    symbols = {s.name: s for s in model.parameter_symbols}
+    lower = np.array([bounds.get(symbols[n], (-np.inf, np.inf))[0] for n in names])
+    upper = np.array([bounds.get(symbols[n], (-np.inf, np.inf))[1] for n in names])
+    theta0 = np.clip(np.array([start[n] for n in names]), lower, upper)
+    timings = {"setup": time.perf_counter() - started}
+    result = levenberg_marquardt(loop, residuals, theta0, lower, upper, max_iterations, timings)
+    theta, J, r, y0, y, iterations, converged, message, cost0 = result
+    m, k = r.size, len(names)
+    sigma = np.full(k, np.inf)
+    if m > k:
+        try:
+            covariance = float(r @ r) / (m - k) * np.linalg.inv(J.T @ J)
+            sigma = np.sqrt(np.maximum(np.diag(covariance), 0.0))
+        except np.linalg.LinAlgError:
+            pass
+    fitted = {}
+    for j, name in enumerate(names):
+        bound = "min" if theta[j] == lower[j] and np.isfinite(lower[j]) else (
+            "max" if theta[j] == upper[j] and np.isfinite(upper[j]) else None)
+        relative = 100.0 * sigma[j] / abs(theta[j]) if theta[j] != 0 else float("inf")
+        fitted[name] = FittedParameter(name, float(theta[j]), float(sigma[j]), relative, float(theta0[j]), bound)
+    timings["total"] = time.perf_counter() - started
+    return OutputErrorFit(model.name, signals, (float(weights[0]), float(weights[1])), fitted, converged, message,
+                          iterations, cost0, float(r @ r), residuals.errors(y0), residuals.errors(y),
+                          {s.name: float(model.parameters[s]) for s in model.parameter_symbols if s in fixed},
+                          timings, start_method)
+
+
+def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndarray, lower: np.ndarray,
+                        upper: np.ndarray, max_iterations: int, timings: dict[str, float]):
+    """Marquardt's damped Gauss–Newton on θ/scale with steps projected onto the bounds.
+
+    Returns (θ, J, r, y at θ₀, y at θ, iterations, converged, message, cost at θ₀); J and r at θ."""
+    scale = np.where(theta0 != 0, np.abs(theta0), 1.0)
+
+    def evaluate(theta: np.ndarray):
+        begun = time.perf_counter()
+        y, dy = loop.run(theta)
+        timings.setdefault("evaluations", 0.0)
+        timings["evaluations"] += time.perf_counter() - begun
+        timings["evaluation"] = time.perf_counter() - begun
+        if not np.isfinite(y).all() or not np.isfinite(dy).all():
+            return None
+        return y, residuals.of(y), residuals.jacobian(dy) * scale
+
+    first = evaluate(theta0)
+    if first is None:
+        raise IdentificationError("the closed loop diverges at the start values: an output-error fit needs a start "
+                                  "whose simulation stays finite")
+    y0, r, J = first
+    theta, y, cost0 = theta0.copy(), y0, float(r @ r)
+    cost, damping = cost0, 1e-3
+    for iteration in range(1, max_iterations + 1):
+        g, H = J.T @ r, J.T @ J
+        diagonal = np.maximum(np.diag(H), 1e-12 * max(np.diag(H).max(), 1e-300))
+        # the undamped Gauss-Newton step, projected: if even it predicts no decrease, θ is a minimum
+        newton = np.clip(theta + np.linalg.lstsq(J, -r, rcond=None)[0] * scale, lower, upper)
+        newton_step = (newton - theta) / scale
+        if (cost - float(np.sum((r + J @ newton_step) ** 2)) <= COST_TOLERANCE * cost
+                or np.max(np.abs(newton_step)) < STEP_TOLERANCE):
+            return (theta, J / scale, r, y0, y, iteration - 1, True,
+                    "the Gauss-Newton step predicts no decrease of the cost (a minimum)", cost0)
+        while True:
+            try:
+                delta = -np.linalg.solve(H + damping * np.diag(diagonal), g)
+            except np.linalg.LinAlgError:
+                delta = np.zeros_like(g)
+            trial = np.clip(theta + delta * scale, lower, upper)
+            step = (trial - theta) / scale
+            evaluated = evaluate(trial)
+            new_cost = float(evaluated[1] @ evaluated[1]) if evaluated is not None else math.inf
+            if new_cost < cost:
+                break
+            damping *= 4.0
+            if damping > MAX_DAMPING:
+                return (theta, J / scale, r, y0, y, iteration, False,
+                        f"stopped: the step became too small to lower the cost (λ > {MAX_DAMPING:g})", cost0)
+        y, r, J = evaluated
+        decrease = (cost - new_cost) / cost if cost > 0 else 0.0
+        theta, cost, damping = trial, new_cost, max(damping / 3.0, 1e-9)
+        if decrease < COST_TOLERANCE or np.max(np.abs(step)) < STEP_TOLERANCE:
+            return theta, J / scale, r, y0, y, iteration, True, "the cost and the step stopped changing", cost0
+    return (theta, J / scale, r, y0, y, max_iterations, False,
+            f"stopped after {max_iterations} iterations (the maximum) before convergence", cost0)
