@@ -263,6 +263,40 @@ def _check_targets(args: argparse.Namespace) -> None:
             raise ExportError(f"--out {args.out!r}: name the model file to write (e.g. --out identified.toml)")
 
 
+def _identify_output_error(args: argparse.Namespace, model) -> int:
+    """``identify --method didim``: the output error of the experiment's closed loop from the IDIM-LS start
+    (:mod:`symbolic.identify.output_error`); --out writes the model file as IDIM-LS's does."""
+    from symbolic.description.modelfile import with_loadable_values
+    from symbolic.identify.output_error import output_error
+
+    if args.figures or args.validate or args.out and Path(args.out).suffix.lower() == ".urdf":
+        raise ModelError(args.model, "--method didim", "--figures, --validate and a URDF --out are not available "
+                                                       "with the output error yet (allowed: --out FILE.toml, --json)")
+    fit = output_error(model, args.data, experiment=args.experiment, signals=args.signals,
+                       weights=(args.force_weight, args.position_weight), fix=fix_names(args.fix),
+                       consistent=args.consistent, max_iterations=args.max_iterations)
+    kept: dict[str, str] = {}
+    if args.out:
+        source = Path(model.robot.source)
+        if not source.is_file() or source.suffix.lower() == ".urdf":
+            raise ModelError(args.model, "--out", "the model has no TOML file to update")
+        text, kept = with_loadable_values(source.read_text(encoding="utf-8"), fit.values(), str(source),
+                                          provenance=f"identified by symbolic identify --method didim from "
+                                                     f"{Path(args.data).name}")
+        write_model_atomically(Path(args.out), text)
+    if args.json:
+        print(strict_json({**fit.to_dict(), "patched_model": args.out, "kept": kept}))
+    else:
+        print(fit.table())
+        for name, reason in kept.items():
+            print(f"not written: {name} keeps its value in the model file: {reason}")
+        if args.out:
+            print(f"wrote {args.out}")
+    if not fit.converged:
+        print(f"warning: the output-error fit did not converge: {fit.message}", file=sys.stderr)
+    return 0
+
+
 def cmd_identify(args: argparse.Namespace) -> int:
     import json
 
@@ -271,6 +305,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
     _check_targets(args)  # before the work: a mistyped --out or --figures is reported at once
     model = derive(resolve(args.model, args))
+    if args.method == "didim":
+        return _identify_output_error(args, model)
     result = identify_model(model, args.data, experiment=args.experiment, validation=args.validate,
                             method=args.method, consistent=args.consistent, fix=fix_names(args.fix))
     kept: dict[str, str] = {}
@@ -588,7 +624,14 @@ def parser() -> argparse.ArgumentParser:
     i.add_argument("data", help="data file (CSV, .npz, .mat with canonical columns) or experiment file (.toml)")
     i.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")
     i.add_argument("--validate", metavar="DATA2", help="cross-test data or experiment file")
-    i.add_argument("--method", choices=["wls", "ols"], default="wls", help="weighted (default) or ordinary least squares")
+    i.add_argument("--method", choices=["wls", "ols", "didim"], default="wls",
+                   help="weighted (default) or ordinary least squares, or didim: the output error of the experiment's "
+                   "closed loop from the IDIM-LS solution (docs/data.md, \"Output error\")")
+    i.add_argument("--signals", choices=["force", "position", "both"], default="force",
+                   help="didim: the signals compared, simulated against measured (default force)")
+    i.add_argument("--force-weight", type=float, default=1.0, help="didim --signals both: weight of the force")
+    i.add_argument("--position-weight", type=float, default=1.0, help="didim --signals both: weight of the position")
+    i.add_argument("--max-iterations", type=int, default=30, help="didim: Levenberg-Marquardt iterations at most")
     i.add_argument("--consistent", action="store_true",
                    help="all the model file's parameters, physically consistent (log-Cholesky bodies) and closest to the "
                    "least-squares fit in its metric")
