@@ -379,6 +379,9 @@ def output_error(
     if not all(isinstance(w, (int, float)) and math.isfinite(w) and w >= 0 for w in weights) or not any(weights):
         raise DataError(str(getattr(data, "source", data)), "weights",
                         f"expected two finite weights ≥ 0, not both 0 (force, position), got {weights!r}")
+    if isinstance(max_iterations, bool) or not isinstance(max_iterations, int) or max_iterations < 1:
+        raise DataError(str(getattr(data, "source", data)), "max_iterations",
+                        f"expected a whole number ≥ 1, got {max_iterations!r}")
     started = time.perf_counter()
     measurements = load(data, model.robot.generalized_coordinates, model=model.robot, experiment=experiment)
     fixed = fixed_symbols(model, fix)
