@@ -146,6 +146,13 @@ def test_cli_identify_writes_the_model_back_and_prints_the_contract(tmp_path: Pa
     written = out.read_text()
     assert "# EMPS: the electro-mechanical positioning system" in written
     assert symbolic.load(out).parameters[0].value == pytest.approx(truth[0], rel=1e-8)
+    # θ and β keep the model file's names (docs/model-format.md), and each value goes back to its parameter
+    base = {b["name"]: b for b in result["base_parameters"]}
+    assert list(base) == ["M_carriage", "Fv", "Fc", "offset"] and base["Fc"]["expression"] == "Fc"
+    values = {p.name: p.value for p in symbolic.load(out).parameters}
+    for k, name in enumerate(["M", "Fv", "Fc", "offset"]):
+        assert values[name] == pytest.approx(truth[k], rel=1e-8)
+        assert values[name] == pytest.approx(base[name if k else "M_carriage"]["value"], rel=1e-12)
 
 
 def test_parameter_values_are_patched_in_place() -> None:

@@ -85,7 +85,7 @@ def test_homogeneous_equation_is_refused_with_what_to_fix(tmp_path: Path, hub_da
     message = str(caught.value)
     assert "\n" not in message
     assert "coordinate a1 has no actuator" in message
-    for name in ("ZZ_link", "spring:Ds", "spring:Ks", "J_l", "Ks"):
+    for name in ("ZZ_link", "Ds", "Ks", "J_l"):  # θ = Ds, Ks exactly: the parameters' names
         assert name in message
     assert "--fix J_l" in message
 
@@ -99,7 +99,7 @@ def test_the_refusal_is_warranted(tmp_path: Path, hub_data: Measurements) -> Non
     model = hub_model(tmp_path)
     _, base = model_base(model)
     plain = solve(observe(hub_data, base_regressor(model), len(base.names)), base.names)
-    ks = plain["spring:Ks"]
+    ks = plain["Ks"]
     assert abs(ks.value - TRUTH["Ks"]) > 10 * ks.sigma
     assert abs(ks.value - TRUTH["Ks"]) > 0.3 * TRUTH["Ks"]
 
@@ -179,13 +179,13 @@ def test_a_max_that_becomes_active(tmp_path: Path) -> None:
     data = axis_data(3.0, 2.0, 0.4)
     result = identify_model(model, data)
     ident = result.identification
-    assert ident.at_bound == {"Fvq": "max"}
-    assert ident["Fvq"].value == 1.5
-    assert abs(ident.unconstrained["Fvq"] - 2.0) <= 3 * ident["Fvq"].sigma  # what the data alone say
+    assert ident.at_bound == {"Fv": "max"}  # θ = Fv exactly: the model parameter's name
+    assert ident["Fv"].value == 1.5
+    assert abs(ident.unconstrained["Fv"] - 2.0) <= 3 * ident["Fv"].sigma  # what the data alone say
     assert result.parameters["Fv"].bound == "max" and result.parameters["Fv"].value == 1.5
     # the others: least squares with Fv held at 1.5, computed independently
     observation = result.observation
-    k = list(ident.names).index("Fvq")
+    k = list(ident.names).index("Fv")
     rest = [j for j in range(len(ident.names)) if j != k]
     reference = np.linalg.lstsq(observation.W[:, rest], observation.y - 1.5 * observation.W[:, k], rcond=None)[0]
     np.testing.assert_allclose(ident.values[rest], reference, rtol=1e-10)

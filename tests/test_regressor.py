@@ -69,7 +69,7 @@ def test_emps_theta_and_base_parameters_are_the_published_model() -> None:
     model = derived("emps")
     reg = regressor(model.robot)
     base = base_parameters(model, reg)
-    assert [str(e) for e in base.expressions] == ["M_carriage", "Fvq", "Fcq", "offq"]
+    assert [str(e) for e in base.expressions] == ["M_carriage", "Fv", "Fc", "offset"]  # the model file's names
     assert np.allclose(base.values, [95.1089, 203.5034, 20.3935, -3.1648], rtol=1e-15)
 
 
@@ -83,7 +83,8 @@ def test_force_that_is_not_polynomial_in_its_parameters_is_refused() -> None:
 
 
 def test_force_monomials_become_parameters() -> None:
-    """A cable spring −k(q − q0) = −k·q + k·q0: θ = (k, k·q0), columns −q and 1 on τ's side (τ = … − Q)."""
+    """A cable spring −k(q − q0) = −k·q + k·q0: θ = (k, k·q0), columns −q and 1 on τ's side (τ = … − Q); θ = k
+    keeps the parameter's name, the product is named after the force."""
     robot = load("emps")
     robot = symbolic.validate(dataclasses.replace(
         robot, validated=False, parameters=robot.parameters + (symbolic.Parameter("k", 50.0), symbolic.Parameter("q0", 0.2)),
@@ -91,7 +92,7 @@ def test_force_monomials_become_parameters() -> None:
     reg = regressor(robot)
     columns = dict(zip(reg.names, reg.expand().row(0)))
     q = sp.Symbol("q", real=True)
-    assert columns["cable:k"] == q and columns["cable:k*q0"] == -1
+    assert columns["k"] == q and columns["cable:k*q0"] == -1
 
 
 def pinocchio_rank(name: str) -> int:
@@ -143,14 +144,14 @@ JANOT_BASE = ("ZZ1R MX1 MY1R FV1 FS1 OFFSET1 XX2R XY2R XZ2R YZ2R ZZ2R MX2R MY2 F
 
 
 def janot_name(ours: str) -> str:
-    """Our names in the paper's spelling: ZZR1 -> ZZ1R, Fcq5 -> FS5(R), offq2 -> OFFSET2."""
+    """Our names in the paper's spelling: ZZR1 -> ZZ1R, fc5 -> FS5(R), off2 -> OFFSET2 (the model file's names)."""
     import re
 
     m = re.match(r"^(XX|XY|XZ|YY|YZ|ZZ|MX|MY|MZ|M)(R?)(\d+)$", ours)
     if m:
         return f"{m.group(1)}{m.group(3)}{m.group(2)}"
-    m = re.match(r"^(Fv|Fc|off)q(\d+)$", ours)
-    kind = {"Fv": "FV", "Fc": "FS", "off": "OFFSET"}[m.group(1)]
+    m = re.match(r"^(fv|fc|off)(\d+)$", ours)
+    kind = {"fv": "FV", "fc": "FS", "off": "OFFSET"}[m.group(1)]
     return f"{kind}{m.group(2)}{'R' if m.group(2) == '5' and kind != 'OFFSET' else ''}"  # FV5R = FV5 + FV4 in the model
 
 

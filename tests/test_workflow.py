@@ -421,6 +421,8 @@ def test_patched_file_keeps_the_original_and_says_what_was_found(tmp_path: Path)
     assert "# symbolic diagnose found coulomb on q" in text and "F-test p" in text and "held-out" in text
     assert not re.search(r"\b(19|20)\d\d-\d\d-\d\d\b", text)  # no dates
     assert symbolic.load(d.patched_path).parameters[-1].name == "Fc_q"
+    # the patched model's identification names the coefficient as the file does (docs/model-format.md)
+    assert "Fc_q" in symbolic.derive(symbolic.load(d.patched_path)).regressor().names
 
 
 def test_cli_diagnose_prints_the_contract(tmp_path: Path, capsys) -> None:

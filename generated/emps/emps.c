@@ -6,7 +6,7 @@
 const char *const emps_coordinate_names[emps_NQ] = { "q" };
 const char *const emps_parameter_names[emps_NP] = { "M", "Fv", "Fc", "offset", "gtau" };
 const double emps_parameter_defaults[emps_NP] = { 95.1089, 203.5034, 20.3935, -3.1648, 35.15 };
-const char *const emps_theta_names[emps_NTHETA] = { "XX_carriage", "XY_carriage", "XZ_carriage", "YY_carriage", "YZ_carriage", "ZZ_carriage", "MX_carriage", "MY_carriage", "MZ_carriage", "M_carriage", "Fvq", "Fcq", "offq" };
+const char *const emps_theta_names[emps_NTHETA] = { "XX_carriage", "XY_carriage", "XZ_carriage", "YY_carriage", "YZ_carriage", "ZZ_carriage", "MX_carriage", "MY_carriage", "MZ_carriage", "M_carriage", "Fv", "Fc", "offset" };
 
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * Inputs: q[1] (q), p[5] (see emps_parameter_names); output D[1]

@@ -32,9 +32,9 @@ extern "C" {
  *   [7] MY_carriage
  *   [8] MZ_carriage
  *   [9] M_carriage
- *   [10] Fvq
- *   [11] Fcq
- *   [12] offq
+ *   [10] Fv
+ *   [11] Fc
+ *   [12] offset
  */
 
 #define emps_NQ 1

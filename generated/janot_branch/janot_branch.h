@@ -127,20 +127,20 @@ extern "C" {
  *   [57] MY6
  *   [58] MZ6
  *   [59] M6
- *   [60] Iaq1
- *   [61] Iaq2
- *   [62] Iaq5
- *   [63] Fvq1
- *   [64] Fcq1
- *   [65] offq1
- *   [66] Fvq2
- *   [67] Fcq2
- *   [68] offq2
- *   [69] Fvq5
- *   [70] Fcq5
- *   [71] offq5
- *   [72] Fvq3
- *   [73] Fcq3
+ *   [60] ia1
+ *   [61] ia2
+ *   [62] ia5
+ *   [63] fv1
+ *   [64] fc1
+ *   [65] off1
+ *   [66] fv2
+ *   [67] fc2
+ *   [68] off2
+ *   [69] fv5
+ *   [70] fc5
+ *   [71] off5
+ *   [72] fv3r
+ *   [73] fc3r
  */
 
 #define janot_branch_NQ 3

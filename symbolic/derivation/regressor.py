@@ -14,13 +14,18 @@
   and the length, so all three are linear in these four numbers, and so is the beam's part of τ,
   D_f Q̈ + (I⊗Q̇ᵀ)C_f Q̇ + ∂(V_g + V_s)/∂Qᵀ (3.82)–(3.83), which is derived from them with θ in
   their place. The length stays a fixed parameter of Y, like the DH lengths;
-* per [[drive]] with a rotor inertia: Iaj = Ia·ratio², the rotor's inertia at its coordinate;
-* per [[friction]] (coordinate j): Fvj, Fcj, offj, or Fvpj/Fvnj, Fcpj/Fcnj for direction-dependent
-  coefficients, and Fsj for a Stribeck level (its velocity scale vs stays a fixed parameter of Y,
+* per [[drive]] with a rotor inertia: Ia·ratio², the rotor's inertia at its coordinate;
+* per [[friction]]: its viscous, Coulomb and offset coefficients (each direction's for direction-dependent
+  ones) and the static level of a Stribeck rise (its velocity scale vs stays a fixed parameter of Y,
   the law being linear in Fc and Fs for a given vs);
 * per [[force]]: one parameter per monomial of the model's parameters in its expression (e.g.
   ``-k1*(q1 - q10)`` gives k1 and k1·q10); a force that is not polynomial in its parameters cannot be
   written this way and is refused.
+
+The drive, friction and force parameters are named by :func:`symbolic.description.names.coefficient_names`
+(docs/model-format.md, "Names of identified coefficients"): one that is exactly one model parameter keeps
+its name (EMPS's ``Fc``), the others are ``<stem>_<coordinate>`` (``Fc_q``, ``Fvp_q``, ``Fs_q``, ``Ia_q``)
+or, for a force's monomial, ``<force>:<monomial>``.
 
 Y is derived by a Newton–Euler pass in which each frame's wrench is written in these parameters,
 
@@ -50,6 +55,8 @@ from symbolic.derivation.newton_euler import inverse_dynamics
 from symbolic.derivation.subexpressions import Subexpressions
 from symbolic.derivation.transmission import map_to_generalized
 from symbolic.errors import ModelError
+from symbolic.description.names import (ROTOR_STEM, STRIBECK_STEM, Coefficient, coefficient_name, coefficient_names,
+                                        friction_stem)
 from symbolic.description.robot import Beam, Directional, Friction, Robot, Stribeck, acceleration_symbol, coordinate_symbol, velocity_symbol
 from symbolic.description.validation import validate
 
@@ -113,14 +120,17 @@ def regressor(robot: Robot) -> Regressor:
     rigid = reused("rigid regressor", robot, lambda: _rigid_block(robot))
     drives, frictions, forces = _drive_parameters(robot), _friction_parameters(robot), _force_parameters(robot)
     extra = drives + frictions + forces
-    sub = rigid.sub.copy()
-    sub.variables = sub.variables | {t for t, _, _ in extra}
-    # ∂(column·θ)/∂θ is the column itself (it holds no θ)
-    Y_extra = sp.Matrix(rigid.Y.rows, len(extra), lambda i, k: sub.add(extra[k][1][i]))
-    theta = rigid.theta + tuple(t for t, _, _ in extra)
     expressions = rigid.expressions + tuple(e for _, _, e in extra)
     kinds = rigid.kinds + tuple(kind for kind, part in (("drive", drives), ("friction", frictions), ("force", forces))
                                 for _ in part)
+    # the columns hold no θ (∂(column·θ)/∂θ is the column itself): θ are named once all are known
+    proposed = rigid.theta + tuple(t for t, _, _ in extra)
+    names = coefficient_names([Coefficient(t.name, e, kind not in ("inertial", "beam"))
+                               for t, e, kind in zip(proposed, expressions, kinds)], robot.parameter_symbols)
+    theta = tuple(t if t.name == name else StandardParameter(name, real=True) for t, name in zip(proposed, names))
+    sub = rigid.sub.copy()
+    sub.variables = sub.variables | set(theta[len(rigid.theta):])
+    Y_extra = sp.Matrix(rigid.Y.rows, len(extra), lambda i, k: sub.add(extra[k][1][i]))
     return Regressor(robot, theta, expressions, sp.Matrix(rigid.Y).row_join(Y_extra), sub, kinds)
 
 
@@ -219,7 +229,7 @@ def _drive_parameters(robot: Robot) -> list[tuple[sp.Symbol, sp.Matrix, sp.Expr]
     for drive in robot.drives:
         if drive.rotor_inertia == 0:
             continue  # no rotor declared: nothing to identify
-        theta = StandardParameter(f"Ia{drive.coordinate}", real=True)
+        theta = StandardParameter(coefficient_name(ROTOR_STEM, drive.coordinate), real=True)
         column = sp.zeros(len(names), 1)
         column[names.index(drive.coordinate), 0] = acceleration_symbol(drive.coordinate)
         out.append((theta, column, drive.rotor_inertia * drive.ratio**2))
@@ -233,25 +243,26 @@ def _friction_parameters(robot: Robot) -> list[tuple[sp.Symbol, sp.Matrix, sp.Ex
         c = entry.coordinate
         pairs: list[tuple[str, sp.Expr]] = []
 
-        def coefficient(value, name):
+        def coefficient(value, key):
             if value is None:
                 return None
             if isinstance(value, Directional):
-                pos, neg = StandardParameter(f"{name}p{c}", real=True), StandardParameter(f"{name}n{c}", real=True)
+                pos, neg = (StandardParameter(coefficient_name(friction_stem(key, d), c), real=True)
+                            for d in ("positive", "negative"))
                 pairs.extend([(pos, value.positive), (neg, value.negative)])
                 return Directional(pos, neg)
-            symbol = StandardParameter(f"{name}{c}", real=True)
+            symbol = StandardParameter(coefficient_name(friction_stem(key), c), real=True)
             pairs.append((symbol, value))
             return symbol
 
-        viscous = coefficient(entry.viscous, "Fv")
-        coulomb = coefficient(entry.coulomb, "Fc")
+        viscous = coefficient(entry.viscous, "viscous")
+        coulomb = coefficient(entry.coulomb, "coulomb")
         if entry.stribeck is not None and coulomb is None:
             coulomb = sp.Integer(0)
-        offset = coefficient(entry.offset, "off")
+        offset = coefficient(entry.offset, "offset")
         stribeck = None
         if entry.stribeck is not None:
-            fs = StandardParameter(f"Fs{c}", real=True)
+            fs = StandardParameter(coefficient_name(STRIBECK_STEM, c), real=True)
             pairs.append((fs, entry.stribeck.static))
             stribeck = Stribeck(fs, entry.stribeck.velocity)
         law = friction_force(Friction(c, viscous, coulomb, offset, stribeck), velocity_symbol(c))

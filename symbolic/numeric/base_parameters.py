@@ -38,7 +38,8 @@ from symbolic.codegen.functions import compile_function
 TOLERANCE = 1e-8
 """A column whose residual after its predecessors is below this fraction of its norm is dependent."""
 
-KINDS = re.compile(r"^(XX|XY|XZ|YY|YZ|ZZ|MX|MY|MZ|M|rho|EIv|EIw|mp|Ia|Fvp|Fvn|Fv|Fcp|Fcn|Fc|Fs|off)(.*)$")
+KINDS = re.compile(r"^(XX|XY|XZ|YY|YZ|ZZ|MX|MY|MZ|M|rho|EIv|EIw|mp)(.*)$")
+"""The kinds of the inertial and beam parameters, after which a regrouped one takes Khalil's R (ZZ1 → ZZR1)."""
 
 
 @dataclass(frozen=True)
@@ -135,7 +136,7 @@ def base_parameters(model: DynamicModel, reg: Regressor, tolerance: float = TOLE
     for i, k in enumerate(b):
         terms = [theta[k]] + [sp.Float(float(_round(K[i, j])), 12) * theta[d[j]] for j in range(len(d)) if K[i, j] != 0]
         expressions.append(sp.Add(*terms))
-        names.append(_name(theta[k].name, regrouped=len(terms) > 1))
+        names.append(_name(theta[k].name, reg.kinds[k], regrouped=len(terms) > 1))
     values = BaseParameters(tuple(names), tuple(b), tuple(d), K, tuple(expressions), np.zeros(r), gap)
     return BaseParameters(tuple(names), tuple(b), tuple(d), K, tuple(expressions),
                           values.from_theta(theta_values(model, reg)), gap)
@@ -161,8 +162,10 @@ def _round(x: float) -> float:
     return float(f"{x:.12g}")
 
 
-def _name(theta: str, regrouped: bool) -> str:
+def _name(theta: str, kind: str, regrouped: bool) -> str:
+    """A base parameter's name: its column's θ name, with Khalil's R after an inertial or beam parameter's
+    kind (ZZ1 → ZZR1) or at the end of the others' (Fv_q → Fv_qR, Fc → FcR) when others are regrouped into it."""
     if not regrouped:
         return theta
-    m = KINDS.match(theta)
+    m = KINDS.match(theta) if kind in ("inertial", "beam") else None
     return f"{m.group(1)}R{m.group(2)}" if m else f"{theta}R"

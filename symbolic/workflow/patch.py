@@ -16,6 +16,7 @@ from typing import Any
 import tomlkit
 
 from symbolic.errors import ModelError
+from symbolic.description.names import unique
 from symbolic.description.robot import Robot
 
 _RESERVED = {"pi", "E", "I", "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "sqrt",
@@ -65,8 +66,11 @@ class Editor:
         return gone
 
     def parameter(self, stem: str, value: float, comment: str) -> str:
-        """Add a parameter named ``stem`` (or ``stem_2``, ... if taken) with ``value``; return its name."""
-        name = _unique(re.sub(r"[^A-Za-z0-9_]", "_", stem), self.taken)
+        """Add a parameter named ``stem`` (or ``stem_2``, ... if taken) with ``value``; return its name.
+
+        An effect's coefficient on a coordinate is named by :func:`symbolic.description.names.coefficient_name`
+        (``Fc_q``), the name the regressor gives the coefficient it becomes (docs/model-format.md)."""
+        name = unique(re.sub(r"[^A-Za-z0-9_]", "_", stem), self.taken)
         self.taken.add(name)
         item = tomlkit.item(float(value))
         item.comment(comment)
@@ -131,7 +135,7 @@ class Editor:
 
     def coordinate(self, stem: str, comment: str) -> str:
         """Append a generalized coordinate named ``stem`` (or ``stem_2``, ...) to ``coordinates``; return its name."""
-        name = _unique(re.sub(r"[^A-Za-z0-9_]", "_", stem), self.taken)
+        name = unique(re.sub(r"[^A-Za-z0-9_]", "_", stem), self.taken)
         self.taken.add(name)
         self.document["coordinates"].append(name)
         self.document["coordinates"].comment(comment)
@@ -165,7 +169,7 @@ class Editor:
     def add_frame(self, stem: str, parent: str, dh: Mapping[str, str], comment: str) -> str:
         """Append a ``[[frame]]``; return its (unique) name."""
         taken = {str(t.get("name")) for t in self.document.get("frame", [])}
-        name = _unique(stem, taken)
+        name = unique(stem, taken)
         self._append("frame", {"name": name, "parent": parent, "dh": dict(dh)}, comment)
         return name
 
@@ -173,7 +177,7 @@ class Editor:
                  com: list[str] | None = None) -> str:
         """Append a ``[[body]]`` on ``frame`` (a point mass without ``inertia``); return its (unique) name."""
         taken = {str(t.get("name")) for t in self.document.get("body", [])}
-        name = _unique(stem, taken)
+        name = unique(stem, taken)
         entries: dict[str, Any] = {"name": name, "frame": frame, "mass": mass}
         if com is not None:
             entries["com"] = list(com)
@@ -184,7 +188,7 @@ class Editor:
 
     def add_force(self, stem: str, coordinate: str, expression: str, comment: str) -> str:
         """Append a [[force]] table; return its (unique) name."""
-        name = _unique(stem, self.forces)
+        name = unique(stem, self.forces)
         self.forces.add(name)
         table = tomlkit.table()
         for line in _lines(comment):
@@ -220,15 +224,6 @@ def _referenced(document: Any) -> set[str]:
 
 def _text(value: Any) -> str:
     return str(value) if isinstance(value, str) else repr(float(value)) if isinstance(value, float) else str(value)
-
-
-def _unique(stem: str, taken: set[str]) -> str:
-    if stem not in taken:
-        return stem
-    k = 2
-    while f"{stem}_{k}" in taken:
-        k += 1
-    return f"{stem}_{k}"
 
 
 def _lines(comment: str, width: int = 100) -> list[str]:

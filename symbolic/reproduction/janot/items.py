@@ -141,14 +141,15 @@ def _common_name(name: str) -> str:
     """One spelling for Janot's and the package's parameter names: regrouping marks dropped, friction by joint.
 
     Janot: ZZ1R, MX5R, FV5R, FS1, OFFSET2; the package (symbolic.numeric.base_parameters): ZZR1, MXR5,
-    Fvq5, Fcq1, offq2 (Janot's FS is the Coulomb level of (15)).
+    and the friction coefficients by the ``janot_branch`` file's parameters fv5, fc1, off2 (Janot's FS is the
+    Coulomb level of (15)).
     """
     m = re.fullmatch(r"(XX|XY|XZ|YY|YZ|ZZ|MX|MY|MZ)R?(\d)R?", name)
     if m:
         return f"{m.group(1)}{m.group(2)}"
-    m = re.fullmatch(r"(FV|FS|OFFSET)(\d)R?|(Fv|Fc|off)q(\d)", name)
+    m = re.fullmatch(r"(FV|FS|OFFSET)(\d)R?|(fv|fc|off)(\d)", name)
     if m:
-        kind = {"FV": "Fv", "FS": "Fc", "OFFSET": "off"}.get(m.group(1) or "", m.group(3))
+        kind = {"FV": "Fv", "FS": "Fc", "OFFSET": "off", "fv": "Fv", "fc": "Fc", "off": "off"}[m.group(1) or m.group(3)]
         return f"{kind}{m.group(2) or m.group(4)}"
     return name
 

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from symbolic.description.names import coefficient_name
 from symbolic.workflow.effects.base import Effect
 
 if TYPE_CHECKING:
@@ -28,9 +29,10 @@ class Sinusoid(Effect):
     def write(editor: Editor, force: str, coordinate: str, stems: tuple[str, str], x: str, c: np.ndarray,
               comment: str, role: str | None = None) -> dict[str, float]:
         """The term as a ``[[force]]`` −(a·sin(x) + b·cos(x)) on ``coordinate`` with new parameters
-        ``<stem>_<coordinate>`` (a, b = c; with ``role``, each commented as role·cos/sin(phase))."""
+        ``<stem>_<coordinate>`` (:func:`~symbolic.description.names.coefficient_name`; a, b = c; with ``role``,
+        each commented as role·cos/sin(phase))."""
         notes = (f"; {role}·cos(phase)", f"; {role}·sin(phase)") if role else ("", "")
-        a = editor.parameter(f"{stems[0]}_{coordinate}", float(c[0]), comment + notes[0])
-        b = editor.parameter(f"{stems[1]}_{coordinate}", float(c[1]), comment + notes[1])
+        a = editor.parameter(coefficient_name(stems[0], coordinate), float(c[0]), comment + notes[0])
+        b = editor.parameter(coefficient_name(stems[1], coordinate), float(c[1]), comment + notes[1])
         editor.add_force(f"{force}_{coordinate}", coordinate, f"-({a}*sin({x}) + {b}*cos({x}))", comment)
         return {a: float(c[0]), b: float(c[1])}

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from symbolic.description.names import coefficient_name
 from symbolic.workflow.effects.base import Effect, joint_frame, on_row, register
 
 
@@ -115,9 +116,10 @@ class FlexibleMode(Effect):
         load = roles["load"]
         revolute = context.kind(coordinate) == "revolute"
         written = {}
-        name = editor.parameter(f"J_{coordinate}_load" if revolute else f"m_{coordinate}_load", load, comment + "; the load")
-        k = editor.parameter(f"k_{coordinate}_load", load * w * w, comment + "; coupling stiffness")
-        d = editor.parameter(f"d_{coordinate}_load", 2.0 * damping * w * load, comment + "; coupling damping")
+        loaded = f"{coordinate}_load"
+        name = editor.parameter(coefficient_name("J" if revolute else "m", loaded), load, comment + "; the load")
+        k = editor.parameter(coefficient_name("k", loaded), load * w * w, comment + "; coupling stiffness")
+        d = editor.parameter(coefficient_name("d", loaded), 2.0 * damping * w * load, comment + "; coupling damping")
         written = {name: load, k: load * w * w, d: 2.0 * damping * w * load}
         flex = editor.coordinate(f"{coordinate}_flex", comment + "; the load's deflection")
         frame = joint_frame(context.robot, coordinate)

@@ -7,6 +7,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from symbolic.description.names import STRIBECK_STEM, coefficient_name, friction_stem
 from symbolic.description.robot import Directional
 from symbolic.workflow.effects.base import Context, Effect, Roles, on_row, register
 
@@ -20,7 +21,6 @@ class _FrictionTerm(Effect):
     """A friction coefficient missing from the model: ``key`` of the coordinate's [[friction]] table."""
 
     key: ClassVar[str]
-    stem: ClassVar[str]
 
     def applicable(self, context: Context, j: int) -> str | None:
         c = context.coordinates[j]
@@ -42,14 +42,14 @@ class _FrictionTerm(Effect):
 
     def patch(self, editor, context, j, roles, c, value, comment):
         coordinate = context.coordinates[j]
-        name = editor.parameter(f"{self.stem}_{coordinate}", roles[self.roles[0]], comment)
+        name = editor.parameter(coefficient_name(friction_stem(self.key), coordinate), roles[self.roles[0]], comment)
         old = editor.friction_value(coordinate, self.key)
         editor.set_friction(coordinate, self.key, name if old is None else f"{old} + {name}", comment)
         return {name: roles[self.roles[0]]}
 
 
 class Coulomb(_FrictionTerm):
-    name, roles, key, stem = "coulomb", ("coulomb",), "coulomb", "Fc"
+    name, roles, key = "coulomb", ("coulomb",), "coulomb"
     summary = "Coulomb friction Fc·sign(q̇)"
     formula, regressors, written_as = 'Fc·sign(q̇)', 'sign(q̇)', '`[[friction]] coulomb`'
     rank, units = 10, {"coulomb": "{force}"}
@@ -59,7 +59,7 @@ class Coulomb(_FrictionTerm):
 
 
 class Viscous(_FrictionTerm):
-    name, roles, key, stem = "viscous", ("viscous",), "viscous", "Fv"
+    name, roles, key = "viscous", ("viscous",), "viscous"
     summary = "viscous friction Fv·q̇"
     formula, regressors, written_as = 'Fv·q̇', 'q̇', '`[[friction]] viscous`'
     rank, units = 20, {"viscous": "{force}·s/{position}"}
@@ -70,7 +70,7 @@ class Viscous(_FrictionTerm):
 
 
 class Offset(_FrictionTerm):
-    name, roles, key, stem = "offset", ("offset",), "offset", "offset"
+    name, roles, key = "offset", ("offset",), "offset"
     summary = "constant generalized force (drive offset, unmodelled constant load)"
     formula, regressors, written_as = 'constant', '1', '`[[friction]] offset`'
     rank, units = 30, {"offset": "{force}"}
@@ -91,7 +91,6 @@ class _Asymmetric(Effect):
 
     roles = ("positive", "negative")
     key: ClassVar[str]
-    stems: ClassVar[tuple[str, str]]
 
     def applicable(self, context, j):
         c = context.coordinates[j]
@@ -112,14 +111,14 @@ class _Asymmetric(Effect):
 
     def patch(self, editor, context, j, roles, c, value, comment):
         coordinate = context.coordinates[j]
-        positive = editor.parameter(f"{self.stems[0]}_{coordinate}", roles["positive"], comment)
-        negative = editor.parameter(f"{self.stems[1]}_{coordinate}", roles["negative"], comment)
+        positive, negative = (editor.parameter(coefficient_name(friction_stem(self.key, d), coordinate), roles[d], comment)
+                              for d in ("positive", "negative"))
         editor.set_friction(coordinate, self.key, {"positive": positive, "negative": negative}, comment)
         return {positive: roles["positive"], negative: roles["negative"]}
 
 
 class AsymmetricViscous(_Asymmetric):
-    name, refines, key, stems = "asymmetric_viscous", "viscous", "viscous", ("Fvp", "Fvn")
+    name, refines, key = "asymmetric_viscous", "viscous", "viscous"
     summary = "direction-dependent viscous friction Fv⁺·q̇ (q̇ > 0), Fv⁻·q̇ (q̇ < 0)"
     formula, regressors, written_as = 'Fv⁺·q̇ (q̇>0), Fv⁻·q̇ (q̇<0)', "\\|q̇\\| beside the model's q̇", '`viscous = { positive, negative }`'
     roles_note = 'totals'
@@ -132,7 +131,7 @@ class AsymmetricViscous(_Asymmetric):
 
 
 class AsymmetricCoulomb(_Asymmetric):
-    name, refines, key, stems = "asymmetric_coulomb", "coulomb", "coulomb", ("Fcp", "Fcn")
+    name, refines, key = "asymmetric_coulomb", "coulomb", "coulomb"
     summary = "direction-dependent Coulomb friction Fc⁺ (q̇ > 0), −Fc⁻ (q̇ < 0)"
     formula, regressors, written_as = 'Fc⁺ (q̇>0), −Fc⁻ (q̇<0)', "1 beside the model's sign(q̇)", '`coulomb = { positive, negative }`'
     roles_note = 'totals'
@@ -197,8 +196,8 @@ class Stribeck(Effect):
 
     def patch(self, editor, context, j, roles, c, value, comment):
         coordinate = context.coordinates[j]
-        static = editor.parameter(f"Fs_{coordinate}", roles["static"], comment)
-        velocity = editor.parameter(f"vs_{coordinate}", roles["velocity"], comment)
+        static = editor.parameter(coefficient_name(STRIBECK_STEM, coordinate), roles["static"], comment)
+        velocity = editor.parameter(coefficient_name("vs", coordinate), roles["velocity"], comment)
         editor.set_friction(coordinate, "stribeck", {"static": static, "velocity": velocity}, comment)
         return {static: roles["static"], velocity: roles["velocity"]}
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from symbolic.description.names import ROTOR_STEM, coefficient_name
 from symbolic.workflow.effects.base import Effect, drive_of, on_row, register
 
 
@@ -37,7 +38,7 @@ class Inertia(Effect):
     def patch(self, editor, context, j, roles, c, value, comment):
         coordinate = context.coordinates[j]
         _, ratio = drive_of(context, j)
-        name = editor.parameter(f"Ia_{coordinate}", roles["inertia"] / ratio**2, comment)
+        name = editor.parameter(coefficient_name(ROTOR_STEM, coordinate), roles["inertia"] / ratio**2, comment)
         old = editor.drive_value(coordinate, "rotor_inertia")
         editor.set_drive(coordinate, "rotor_inertia", name if old is None else f"{old} + {name}", comment)
         return {name: roles["inertia"] / ratio**2}

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from symbolic.description.names import coefficient_name
 from symbolic.workflow.effects.base import Effect, on_row, register
 
 
@@ -28,12 +29,12 @@ class Spring(Effect):
 
     def patch(self, editor, context, j, roles, c, value, comment):
         coordinate = context.coordinates[j]
-        k = editor.parameter(f"k_{coordinate}", roles["stiffness"], comment)
+        k = editor.parameter(coefficient_name("k", coordinate), roles["stiffness"], comment)
         if roles["rest_position"] is None:
             editor.add_force(f"spring_{coordinate}", coordinate, f"-{k}*{coordinate}",
                              comment + "; its rest position is not separable from the offset on this coordinate")
             return {k: roles["stiffness"]}
-        q0 = editor.parameter(f"q0_{coordinate}", roles["rest_position"], comment)
+        q0 = editor.parameter(coefficient_name("q0", coordinate), roles["rest_position"], comment)
         editor.add_force(f"spring_{coordinate}", coordinate, f"-{k}*({coordinate} - {q0})", comment)
         return {k: roles["stiffness"], q0: roles["rest_position"]}
 
