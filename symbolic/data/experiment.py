@@ -29,13 +29,14 @@ import numpy as np
 import sympy as sp
 
 from symbolic import robots
-from symbolic.data import files
+from symbolic.data import files, signal_layer
 from symbolic.data.controller import Controller, parse
 from symbolic.data.errors import DataError
 from symbolic.data.keys import check_keys
 from symbolic.data.measurements import (KINDS, MAX_MAGNITUDE, MAX_RATE, DriveGains, Measurements, Source, assemble,
                                        isfinite_number, split_name)
 from symbolic.data.settings import Settings
+from symbolic.data.signal_layer import SignalLayer
 from symbolic.data.units import check_units
 from symbolic.description import modelfile
 from symbolic.description.expressions import (RESERVED_NAMES, parse_expression, reserved_meaning, reserved_uses,
@@ -48,7 +49,7 @@ DATA_PATH_VARIABLE = "SYMBOLIC_DATA_PATH"
 when it is not found at the path the experiment file gives."""
 
 TOP_KEYS = ("data", "model", "description", "rate", "resample", "columns", "signals", "constants", "window",
-            "controller", "identification")
+            "controller", "identification", "sensors", "drive")
 
 WINDOW_KEYS = ("start", "stop")
 
@@ -75,6 +76,9 @@ class Experiment(Measurements):
         The ``[window]`` applied, ``(start, stop)`` in seconds, or ``None``.
     drive_gains
         The ``[[drive]] gain`` that turned each drive signal ``u_<c>`` into ``tau_<c>``, by coordinate.
+    signal_layer
+        The ``[sensors]`` and ``[drive]`` tables (:mod:`symbolic.data.signal_layer`), already applied to the
+        numbers; their free values and the signals as logged.
     """
 
     model: str | None = None
@@ -83,6 +87,7 @@ class Experiment(Measurements):
     validation: Experiment | None = field(default=None, repr=False)
     window: tuple[float | None, float | None] | None = None
     drive_gains: Mapping[str, float] = field(default_factory=dict)
+    signal_layer: SignalLayer = field(default_factory=SignalLayer)
 
     @classmethod
     def of(cls, measurements: Measurements, *, settings: Settings | None = None,
@@ -203,6 +208,7 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
     settings = Settings.from_table(_table(spec, "identification", source) if "identification" in spec else None,
                                    source)
     named = _model(spec, path)
+    layer = signal_layer.parse(spec, source)
     window = _window(spec.get("window"), source)
     used = _Model(model, named, source)
     measurements = assemble(
@@ -220,13 +226,14 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
     )
     if model is not None:
         check_units(measurements, model)
+    measurements, layer = signal_layer.apply(measurements, layer, source)
     controller = None
     if "controller" in spec:
         controller_table = _table(spec, "controller", source)
         controller = parse(controller_table, measurements.coordinates, used.parameters(controller_table), source,
                            coordinates or _coordinates_of(model), measurements.columns(), measurements.samples)
     return Experiment.of(measurements, model=named, settings=settings, controller=controller, window=window,
-                         drive_gains=used.used())
+                         drive_gains=used.used(), signal_layer=layer)
 
 
 def _coordinates_of(model: Robot | None) -> tuple[str, ...] | None:

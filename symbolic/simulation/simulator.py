@@ -16,6 +16,7 @@ docs/simulation.md ("Integration").
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -263,6 +264,7 @@ def simulate(
     p = _parameters(model, parameters, source)
     ctrl = control.check_delay(_controller(controller, measurements, model, names), measurements.samples)
     signals = control.inputs(ctrl, measurements, names)
+    ctrl, signals = _drive_layer(ctrl, signals, measurements, model.parameter_vector.with_array(p).by_symbol())
     started = time.perf_counter()
     plant = _plant(model)
     x0 = _initial_state(model, measurements, p, initial)
@@ -426,6 +428,48 @@ def _spectral_radius(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0
                                                "singular or not positive definite there with these parameter values "
                                                "(a mass or inertia of zero?)")
     return float(np.max(np.abs(np.linalg.eigvals(A))))
+
+
+# -- the experiment's [drive] in a feedback loop -----------------------------------------------------------
+
+
+def _drive_layer(ctrl: control.Controller, signals: control.Inputs, measurements: Measurements,
+                 parameters: Mapping[sp.Symbol, float]) -> tuple[control.Controller, control.Inputs]:
+    """``ctrl`` and its inputs with the experiment's ``[drive]`` (docs/data.md, "The signal layer"): the force
+    applied is g·(τ_ctrl(t − d) + b) for the controller's output τ_ctrl = gain·(u + disturbance), so the loop's
+    gain becomes g·gain, its delay delay + d (whole samples: the loop's delay is one shift for every coordinate)
+    and b/gain joins the disturbance, itself delayed by d. A replayed force (``torque``) is the logged command,
+    which :func:`symbolic.data.load` already turned into the applied force."""
+    layer = measurements.signal_layer if isinstance(measurements, Experiment) else None
+    if layer is None or not layer.drive or ctrl.kind == "torque":
+        return ctrl, signals
+    source = str(measurements.source)
+    channels = [layer.drive_of(c) for c in ctrl.coordinates]
+    for channel in layer.drive.values():
+        if channel.coordinate not in ctrl.coordinates:
+            raise DataError(source, f"[drive] {channel.signal}", f"coordinate {channel.coordinate!r} is not driven by "
+                                                                 f"the [controller] (its coordinates: "
+                                                                 f"{', '.join(ctrl.coordinates)})")
+    delays = {0.0 if ch is None else ch.delay for ch in channels}
+    if len(delays) > 1 or any(d != int(d) for d in delays):
+        raise DataError(source, "[drive] delay", f"delays of {', '.join(f'{d:g}' for d in sorted(delays))} samples on "
+                                                 "the coordinates of a feedback [controller] (allowed there: one whole "
+                                                 "number of samples for every controlled coordinate, the loop's "
+                                                 "delay; fractional and per-coordinate delays apply to a replayed force)")
+    shift = int(delays.pop())
+    before = control.drive_gains(ctrl, parameters)
+    disturbance = signals.disturbance.copy()
+    for k, ch in enumerate(channels):
+        if ch is not None and ch.bias != 0:
+            if before[k] == 0:
+                raise DataError(source, f"[drive] {ch.signal} bias", "the [controller] gain of the coordinate is 0: a "
+                                                                     "drive bias needs a non-zero loop gain")
+            disturbance[:, k] += ch.bias / before[k]
+    if shift:
+        disturbance = np.vstack([np.repeat(disturbance[:1], shift, axis=0), disturbance[:-shift]])
+    gain = tuple(g if ch is None else sp.Float(ch.gain) * g for g, ch in zip(ctrl.gain, channels))
+    ctrl = control.check_delay(dataclasses.replace(ctrl, gain=gain, delay=ctrl.delay + shift), measurements.samples)
+    return ctrl, dataclasses.replace(signals, disturbance=np.ascontiguousarray(disturbance))
 
 
 # -- initial state -----------------------------------------------------------------------------------------
