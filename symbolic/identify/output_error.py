@@ -19,9 +19,12 @@ a step is projected onto them). Its Jacobian is *exact*: the discrete variationa
 simulation run — one sample of the closed loop z_{k+1} = F(z_k, w_k, θ), y_k = G(z_k, w_k, θ) is
 differentiated by CasADi's forward mode, S_{k+1} = ∂F/∂z·S_k + ∂F/∂θ, ∂y_k/∂θ = ∂G/∂z·S_k + ∂G/∂θ, and
 that augmented sample is mapped over the log and compiled as the simulation itself is. Where the loop is
-not smooth the derivative is the one of what is simulated: friction's sign is tanh(v/ε) (its derivative
-is large but finite within ε of zero velocity); a quantiser's round() and a saturation's clip have
-derivative 0 where they hold (a saturated sample carries no information about the gains behind it).
+not smooth: friction's sign is simulated as tanh(v/ε), and the sensitivity is that of the smoothed
+simulation (large but finite within ε of zero velocity); a saturation's clip has derivative 0 where it
+holds (a saturated sample's force does not depend on θ); a sensor's quantiser, a staircase whose derivative
+is 0 between its steps (the simulated force would not depend on θ at all), counts as the identity in the
+sensitivities — the sample is differentiated with the quantisation left out, at the quantised simulation's
+state — its mean slope over a step.
 
 Parameters fitted: the model-file parameters IDIM-LS determines (those ``identify --out`` writes), minus
 ``fixed = true`` and ``fix``; the others keep their model-file values. σ per parameter from the Jacobian at
@@ -32,6 +35,7 @@ lower bound of the real spread; read them as IDIM-LS's, for comparison (docs/dat
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -56,6 +60,11 @@ STEP_TOLERANCE = 1e-7
 """Converged when the largest accepted step, relative to each parameter's scale, is below this."""
 COST_TOLERANCE = 1e-10
 """... or when the cost falls (or the linearised model predicts it would fall) by less than this, relatively."""
+SIGMA_TOLERANCE = 1e-3
+"""... or when the Gauss–Newton step is below this many standard deviations of every estimate."""
+FLAT_SIGMA = 0.1
+"""When no step lowers the cost (a cost with steps: a quantised sensor) but the Gauss–Newton step is below this
+many σ, the fit has converged within its precision."""
 MAX_DAMPING = 1e10
 """Marquardt's λ beyond which the search stops: no step lowers the cost (a step too small to matter)."""
 
@@ -150,12 +159,17 @@ class OutputErrorFit:
 
 
 def sensitivity_function(ctrl: control.Controller, plant: sim.Plant, names: tuple[str, ...], period: float,
-                         substeps: int, free: Sequence[int]) -> ca.Function:
+                         substeps: int, free: Sequence[int], quantised: bool = False) -> ca.Function:
     """One sample of the closed loop with its forward sensitivities to the parameters ``free`` (indices of p).
 
     ``(za, w, p, c, eps) -> (za_next, ya)`` with za = [z; vec(S)], S = ∂z/∂θ (column-major), and
     ya = [y; vec(∂y/∂θ)], z and y those of :func:`symbolic.simulation.simulator.sample_function`: the
-    discrete variational equation of the simulated sample, by CasADi's forward mode (``jtimes``)."""
+    discrete variational equation of the simulated sample, by CasADi's forward mode (``jtimes``).
+
+    ``quantised``: the function takes one more input, ``c_smooth``, the controller's constants without its
+    sensors' quantisation, and differentiates the sample there, at the simulated (quantised) state: the
+    staircase's derivative is 0 between its steps (the force would not depend on θ at all) and its mean slope
+    is 1, so the sensor counts as the identity in the sensitivities (module docstring)."""
     F = sim.sample_function(ctrl, plant, names, period, substeps)
     nz, ny, npar, k = F.size1_in(0), F.size1_out(1), F.size1_in(2), len(free)
     Z, S = ca.MX.sym("z", nz), ca.MX.sym("s", nz * k)
@@ -164,16 +178,19 @@ def sensitivity_function(ctrl: control.Controller, plant: sim.Plant, names: tupl
     select = ca.DM.zeros(npar, k)
     for j, i in enumerate(free):
         select[i, j] = 1.0
-    z_next, y = F(Z, W, P + ca.mtimes(select, theta), C, E)
-    out = ca.vertcat(z_next, y)
+    smooth = ca.MX.sym("c_smooth", F.size1_in(3)) if quantised else C
+    z_next, y = F(Z, W, P + ca.mtimes(select, theta), smooth, E)
     seeds = ca.vertcat(ca.reshape(S, nz, k), ca.DM.eye(k))
-    derivative = ca.jtimes(out, ca.vertcat(Z, theta), seeds)  # (nz + ny) × k, k forward directions
+    derivative = ca.jtimes(ca.vertcat(z_next, y), ca.vertcat(Z, theta), seeds)  # (nz + ny) × k: k forward directions
     derivative = ca.substitute(derivative, theta, ca.DM.zeros(k))
-    z_next, y = ca.substitute([z_next, y], [theta], [ca.DM.zeros(k)])
-    return ca.Function("closed_loop_sensitivity", [ca.vertcat(Z, S), W, P, C, E],
+    if quantised:
+        z_next, y = F(Z, W, P, C, E)  # the values: the loop as simulated, its sensor quantised
+    else:
+        z_next, y = ca.substitute([z_next, y], [theta], [ca.DM.zeros(k)])
+    return ca.Function("closed_loop_sensitivity", [ca.vertcat(Z, S), W, P, C, E, *([smooth] if quantised else [])],
                        [ca.vertcat(z_next, ca.reshape(derivative[:nz, :], nz * k, 1)),
                         ca.vertcat(y, ca.reshape(derivative[nz:, :], ny * k, 1))],
-                       ["za", "w", "p", "c", "eps"], ["za_next", "ya"])
+                       ["za", "w", "p", "c", "eps", *(["c_smooth"] if quantised else [])], ["za_next", "ya"])
 
 
 @dataclass(eq=False)
@@ -190,6 +207,7 @@ class ClosedLoop:
     p0: np.ndarray
     x0: np.ndarray
     c: np.ndarray
+    c_smooth: np.ndarray | None
     w: np.ndarray
     substeps: int
     eps: float
@@ -202,7 +220,7 @@ class ClosedLoop:
                 from symbolic.codegen.compiled import compile_casadi
 
                 f = sensitivity_function(self.ctrl, self.plant, self.names, self.measurements.sample_period,
-                                         self.substeps, self.free)
+                                         self.substeps, self.free, self.c_smooth is not None)
                 fast = compile_casadi(f) if self.compiled is not False else None
                 self._functions[True] = fast or f
             else:
@@ -233,7 +251,8 @@ class ClosedLoop:
             size = min(sim.CHUNK, samples - start)
             if size not in loops:
                 loops[size] = function.mapaccum("closed_loop", size)
-            states, y = loops[size](z, self.w[:, start:start + size], p, self.c, self.eps)
+            extra = [self.c_smooth] if sensitivities and self.c_smooth is not None else []
+            states, y = loops[size](z, self.w[:, start:start + size], p, self.c, self.eps, *extra)
             z = np.asarray(states)[:, -1]
             outputs.append(np.asarray(y))
             if not np.isfinite(z).all():
@@ -270,10 +289,14 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
     if m > sim.MAX_SUBSTEPS:
         raise IdentificationError(f"the model needs {m:.3g} RK4 sub-steps per sample (spectral radius {radius:.4g} "
                                   f"1/s): too stiff for the output-error identification's fixed-step simulation")
-    c = control.constants(ctrl, model.parameter_vector.with_array(p).by_symbol())
+    values = model.parameter_vector.with_array(p).by_symbol()
+    c = control.constants(ctrl, values)
+    smooth = None
+    if np.any(ctrl.quantisation > 0):
+        smooth = control.constants(dataclasses.replace(ctrl, quantisation=np.zeros_like(ctrl.quantisation)), values)
     w = np.hstack([signals.reference, signals.disturbance, signals.torque, measurements.t[:, None]]).T
     index = [model.parameter_vector.names.index(name) for name in free]
-    return ClosedLoop(model, measurements, ctrl, plant, names, tuple(index), p, x0, c, np.ascontiguousarray(w), m,
+    return ClosedLoop(model, measurements, ctrl, plant, names, tuple(index), p, x0, c, smooth, np.ascontiguousarray(w), m,
                       friction_velocity, compiled)
 
 
@@ -430,6 +453,19 @@ def output_error(
                           timings, start_method)
 
 
+def _in_sigmas(step: np.ndarray, J: np.ndarray, cost: float) -> float:
+    """max_i |step_i|/σ_i, σ² = cost/(m − p)·diag((JᵀJ)⁻¹): how far a step goes in units of the estimates'
+    standard deviations (inf when they are not defined)."""
+    m, k = J.shape
+    try:
+        sigma = np.sqrt(cost / max(m - k, 1) * np.diag(np.linalg.inv(J.T @ J)))
+    except np.linalg.LinAlgError:
+        return math.inf
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.abs(step) / sigma
+    return float(np.nanmax(ratio)) if np.isfinite(ratio).any() else math.inf
+
+
 def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndarray, lower: np.ndarray,
                         upper: np.ndarray, max_iterations: int, timings: dict[str, float]):
     """Marquardt's damped Gauss–Newton on θ/scale with steps projected onto the bounds.
@@ -460,10 +496,11 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
         # the undamped Gauss-Newton step, projected: if even it predicts no decrease, θ is a minimum
         newton = np.clip(theta + np.linalg.lstsq(J, -r, rcond=None)[0] * scale, lower, upper)
         newton_step = (newton - theta) / scale
+        within = _in_sigmas(newton_step, J, cost)
         if (cost - float(np.sum((r + J @ newton_step) ** 2)) <= COST_TOLERANCE * cost
-                or np.max(np.abs(newton_step)) < STEP_TOLERANCE):
+                or np.max(np.abs(newton_step)) < STEP_TOLERANCE or within < SIGMA_TOLERANCE):
             return (theta, J / scale, r, y0, y, iteration - 1, True,
-                    "the Gauss-Newton step predicts no decrease of the cost (a minimum)", cost0)
+                    f"the Gauss-Newton step is {within:.2g} σ at most: a minimum", cost0)
         while True:
             try:
                 delta = -np.linalg.solve(H + damping * np.diag(diagonal), g)
@@ -476,6 +513,10 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
             if new_cost < cost:
                 break
             damping *= 4.0
+            if within < FLAT_SIGMA:
+                return (theta, J / scale, r, y0, y, iteration, True,
+                        f"no step lowers the cost and the Gauss-Newton step is {within:.2g} σ at most: a minimum "
+                        "within the steps of the simulated cost (a quantised sensor)", cost0)
             if damping > MAX_DAMPING:
                 return (theta, J / scale, r, y0, y, iteration, False,
                         f"stopped: the step became too small to lower the cost (λ > {MAX_DAMPING:g})", cost0)
