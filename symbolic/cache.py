@@ -1,32 +1,12 @@
 """The user's cache folder: derivations and compiled libraries kept between commands (for all layers).
 
-Where (docs/architecture.md, "Derived products"):
-
-* ``$SYMBOLIC_CACHE_DIR``, else ``$XDG_CACHE_HOME/symbolic``, else ``~/.cache/symbolic``;
-* ``SYMBOLIC_NO_CACHE`` set to anything but ``""`` or ``"0"`` turns it off: nothing is read from it or
-  written to it (compiled libraries then go to a temporary folder removed when the process ends).
-
-Two kinds of entries live there. Compiled libraries (``libraries/``, :mod:`symbolic.codegen.compiled`) are
-named by the hash of their C source and compiler command: the name is the content. Derived SymPy products
-(``derived/``: a derivation, a regressor, base parameters, straight-line programs) are pickles named by
-
-    SHA-256(kind, key, stamp)
-
-where ``key`` is the caller's digest of what the product is a function of (the robot description,
-:func:`symbolic.description.robot.digest`) and :func:`stamp` names the package version, a digest of the
-package's own source files (a development checkout never reuses a product of other code), and the Python,
-SymPy and NumPy versions: an entry is never shared between versions. Each entry file holds a header line
-(the kind, the key and the stamp, as JSON) and the SHA-256 of its payload; an entry whose header differs
-(a foreign entry), whose payload does not match its digest (a truncated or corrupt file) or that fails to
-unpickle is ignored, and the caller builds the product again and overwrites it. Files are written under a
-temporary name and renamed (:func:`write_private`), so a concurrent reader sees a whole entry
-or none.
-
-Pickle runs code named in the file it loads: it is used here only because every entry is read from this
-folder, which the package creates for its own use (mode 0o700), and an entry that is not owned by the
-user or that others may write is ignored (:func:`untrusted`, checked on the open file by
-:func:`read_trusted`; compiled libraries and their folders pass the same check). Pickles are never read
-from anywhere else (data files refuse them: docs/data.md).
+Where it is, what is kept there and why pickles may be read from it: docs/architecture.md, "Derived products
+and the cache". Derived SymPy products (``derived/``: a derivation, a regressor, base parameters,
+straight-line programs) are named by :func:`entry_path`, written by :func:`save` and read by :func:`load`;
+compiled libraries (:func:`library_folders`, :mod:`symbolic.codegen.compiled`) are named by the hash of their
+C source and compiler command. Everything the package runs from disk passes :func:`untrusted`, checked on the
+open file (:func:`read_trusted`); pickles are never read from anywhere else (data files refuse them:
+docs/data.md).
 """
 
 from __future__ import annotations
@@ -64,7 +44,9 @@ def disabled() -> bool:
 
 
 def folder() -> Path:
-    """The cache folder (module docstring), whether or not it exists or is turned off."""
+    """The cache folder: ``$SYMBOLIC_CACHE_DIR``, else ``$XDG_CACHE_HOME/symbolic``, else ``~/.cache/symbolic``,
+    whether or not it exists or is turned off (:func:`disabled`: nothing is then read from it or written to
+    it, and compiled libraries go to :func:`private_folder`)."""
     given = os.environ.get("SYMBOLIC_CACHE_DIR")
     if given:
         return Path(given)
@@ -98,7 +80,14 @@ def stamp() -> dict[str, str]:
 
 
 def entry_path(kind: str, key: str) -> Path:
-    """The file of the derived entry (``kind``, ``key``) under the current :func:`stamp`."""
+    """The file of the derived entry (``kind``, ``key``) under the current :func:`stamp`: named by
+    SHA-256(kind, key, stamp).
+
+    ``key`` is the caller's digest of what the product is a function of (the robot description,
+    :func:`symbolic.description.robot.digest`); the stamp names the package version, a digest of the
+    package's own source files (a development checkout never reuses a product of other code), and the Python,
+    SymPy and NumPy versions: an entry is never shared between versions.
+    """
     name = hashlib.sha256(json.dumps([kind, key, stamp()]).encode()).hexdigest()[:32]
     return folder() / "derived" / f"{safe_stem(kind)}-{name}.pickle"
 
@@ -141,6 +130,12 @@ def read_trusted(path: Path) -> tuple[str, bytes]:
 
 def load(kind: str, key: str, persistent_load: Callable[[str], Any] | None = None) -> tuple[Any] | None:
     """``(value,)`` of the entry (``kind``, ``key``), or ``None`` when it is absent, foreign or corrupt.
+
+    Ignored, so that the caller builds the product again and overwrites it: an entry whose header differs (a
+    foreign entry), whose payload does not match its digest (a truncated or corrupt file), that fails to
+    unpickle, or that is not the user's own or that others may write (:func:`read_trusted`). Pickle runs code
+    named in the file it loads: it is used here only because every entry is read from this folder, which the
+    package creates for its own use (mode 0o700).
 
     ``persistent_load`` gives back the objects that :func:`save`'s ``persistent_id`` left out of the file
     (the caller's live objects, e.g. the robot description); an unknown name makes the entry corrupt.
@@ -187,6 +182,10 @@ def _payload(raw: bytes, kind: str, key: str) -> tuple[str, bytes]:
 def save(kind: str, key: str, value: Any, persistent_id: Callable[[Any], str | None] | None = None,
          reducer: Callable[[Any], Any] | None = None) -> Path | None:
     """Write ``value`` as the entry (``kind``, ``key``); the path, or ``None`` when turned off or not writable.
+
+    The file holds :data:`MAGIC`, a header line (the kind, the key and the stamp, as JSON) and the SHA-256 of
+    its payload, then the payload; it is written under a temporary name and renamed (:func:`write_private`),
+    so a concurrent reader sees a whole entry or none.
 
     ``persistent_id(obj)`` names objects to leave out of the file (given back by :func:`load`'s
     ``persistent_load``); ``reducer(obj)`` may give a faster way to rebuild ``obj`` (``reducer_override``

@@ -1,31 +1,11 @@
 """Read URDF files (ROS's Unified Robot Description Format) into a :class:`~symbolic.description.Robot`.
 
-What becomes what (docs/model-format.md, "URDF import"):
-
-* each moving joint (revolute, continuous, prismatic) becomes a general frame named after its child link
-  (:class:`~symbolic.description.robot.Joint`: origin xyz/rpy, axis, limits) with a coordinate named after
-  the joint; ``<mimic>`` makes that coordinate a ``[[constraint]]`` (multiplier·q + offset);
-* fixed joints are merged as Pinocchio merges them: the child link's inertial goes, moved by the joint's
-  constant transform, onto the frame that carries its parent link, and the joints below are re-based
-  (``merge_fixed=False`` keeps them as frames with a fixed joint instead: the dynamics are the same);
-* each link's ``<inertial>`` becomes a body whose mass, centre of mass and inertia are parameters
-  ``m_<link>``, ``cx_<link>`` … ``cz_<link>``, ``xx_<link>`` … ``yz_<link>`` with the file's values as
-  nominal, expressed in the axes of the frame carrying the body (URDF gives the inertia about the centre of
-  mass in the inertial frame, rotated by the inertial ``rpy``: here I = R I_urdf Rᵀ, exactly as the model
-  format expects, docs/model-format.md); kinematic lengths and angles stay numbers;
-* ``<dynamics damping friction>`` becomes ``[[friction]]`` with parameters ``fv_<joint>`` (viscous) and
-  ``fc_<joint>`` (Coulomb).
-
-``root``/``tip`` choose a chain of a tree: the joints on the path from ``root`` to ``tip`` move, every other
-joint below ``root`` is locked at 0 (its links carried rigidly, as Pinocchio's ``buildReducedModel`` at
-the neutral configuration), links past ``tip`` are left out, and whatever is not below ``root`` is the
-fixed world (bodies on the root link do not move and are dropped). Floating and planar
-joints are refused (fixed-base robots only); visuals, collisions, meshes, sensors, transmissions and
-Gazebo tags are ignored.
-
-XML is parsed by :mod:`defusedxml` (on top of the standard library's ElementTree): a DTD, entity
-declarations (the "billion laughs" expansion) and external entities are refused before any expansion,
-so a hostile file costs nothing but a one-line :class:`~symbolic.errors.ModelError`.
+What becomes what — moving joints become general frames with coordinates, fixed joints are merged as
+Pinocchio merges them, each ``<inertial>`` a body with parameters, ``<dynamics>`` friction — how the inertial
+values are converted, how a chain is chosen from a tree and what is refused: docs/model-format.md, "URDF
+import". XML is parsed by :mod:`defusedxml` with DTDs, entity declarations and external references refused
+before any expansion (:func:`parse_xml`), so a hostile file costs nothing but a one-line
+:class:`~symbolic.errors.ModelError`.
 """
 
 from __future__ import annotations
@@ -81,7 +61,13 @@ REFUSED = {"floating": "6 degrees of freedom", "planar": "3 degrees of freedom"}
 
 
 def load(path: str | Path, root: str | None = None, tip: str | None = None, merge_fixed: bool = True) -> Robot:
-    """Load and validate a URDF file (module docstring).
+    """Load and validate a URDF file (docs/model-format.md, "URDF import").
+
+    ``root``/``tip`` choose a chain of a tree: the joints on the path from ``root`` to ``tip`` move, every other
+    joint below ``root`` is locked at 0 (its links carried rigidly, as Pinocchio's ``buildReducedModel`` at the
+    neutral configuration), links past ``tip`` are left out, and whatever is not below ``root`` is the fixed
+    world. ``merge_fixed=False`` keeps fixed joints as frames with a fixed joint instead of merging their links
+    (the dynamics are the same).
 
     Raises
     ------

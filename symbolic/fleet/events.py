@@ -1,34 +1,9 @@
 """Time-localised residual events within one log: windows where the residual of the robot's own model bursts
 (a collision, a contact, a lost payload), with the time, the coordinates and the size (docs/fleet.md, "Events").
 
-Input: the sample times, the residual τ_meas − τ_model (samples × N) of the model identified on the log
-itself (so that a slow drift of the robot does not enter), the coordinates and the
-:class:`~symbolic.fleet.campaign.Events` settings. Output: a list of events (plain dicts, JSON-ready).
-
-The rule, per coordinate j with residual r_j (robust to isolated spikes — a Coulomb step at a velocity
-reversal, one bad sample — and to the burst itself):
-
-* the log's typical squared residual is the median of r_j² (s_j² = median(r_j²)/0.45494 is then the
-  residual's σ for a Gaussian residual, the median of a χ²₁ variable being 0.45494);
-* the windowed level E_j(k) = median of r_j² over the ``window`` seconds centred on sample k, divided by
-  median(r_j²): the residual's typical size there against its typical size over the log, squared;
-* a sample is in a burst when E_j(k) ≥ ratio² on some coordinate: more than half of the window's samples
-  are ``ratio`` times the log's typical residual, so a burst must last half a window. For a white Gaussian
-  residual each sample exceeds with probability p₀ = P(χ²₁ ≥ 0.45494·ratio²) (0.007 at ratio 4), a window
-  with probability P(Binomial(m, p₀) ≥ m/2); a window too short to make that below :data:`WINDOW_P` divided
-  by the log's windows and coordinates (Bonferroni) — a few samples — is lengthened until it does;
-* runs of such samples closer than one window are one event; its interval is that of the samples inside
-  the run (widened by half a window) whose own residual exceeds ``ratio`` times the typical one on a
-  triggering coordinate, so that the reported interval is the burst's, not the window's.
-
-A burst that recurs is not an event: when ``states`` (positions and velocities at the same samples) are
-given, two bursts on a coordinate whose states at their peaks are within :data:`RECUR` standard deviations
-of each other in every position and velocity are the model's misfit of that state (a coarse encoder's
-quantisation near a velocity reversal, a friction law the model lacks: docs/workflow.md names those), which
-a periodic excitation repeats every period, while a collision happens once; both are dropped.
-
-The size of an event, per coordinate that triggered: the peak r_j (force units) and its time, the RMS of
-r_j over the event, and ``ratio`` = that RMS / s_j.
+:func:`bursts` finds them in the residual τ_meas − τ_model of the model identified on the log itself (so that
+a slow drift of the robot does not enter) and returns plain dicts, JSON-ready; :func:`describe` puts one in a
+line.
 """
 
 from __future__ import annotations
@@ -50,14 +25,15 @@ log's windows and coordinates."""
 
 RECUR = 0.25
 """Distance, in standard deviations over the log of each position and velocity, within which two bursts' states
-are the same state (module docstring)."""
+are the same state (:func:`bursts`)."""
 
 MOST = 20
 """Events kept per log (the largest): a log that bursts everywhere is a bad log, not a list of collisions."""
 
 
 def robust_level(r: np.ndarray) -> np.ndarray:
-    """Per column, s = sqrt(median(r²) / median of χ²₁) (module docstring)."""
+    """Per column, s = sqrt(median(r²) / median of χ²₁): the residual's σ for a Gaussian residual (the median
+    of a χ²₁ variable is 0.45494), robust to isolated spikes and to a burst itself."""
     return np.sqrt(np.median(np.asarray(r, float) ** 2, axis=0) / MEDIAN_CHI2_1)
 
 
@@ -70,7 +46,32 @@ def windowed(r2: np.ndarray, m: int) -> np.ndarray:
 
 def bursts(t: np.ndarray, residual: np.ndarray, coordinates: Sequence[str], settings: Events,
            states: np.ndarray | None = None) -> list[dict[str, Any]]:
-    """The events of one log (module docstring), in time order; bursts that recur at one state are left out.
+    """The events of one log, in time order; bursts that recur at one state are left out.
+
+    The rule, per coordinate j with residual r_j (robust to isolated spikes — a Coulomb step at a velocity
+    reversal, one bad sample — and to the burst itself):
+
+    * the log's typical squared residual is the median of r_j² (:func:`robust_level`);
+    * the windowed level E_j(k) = median of r_j² over the ``window`` seconds centred on sample k, divided by
+      median(r_j²): the residual's typical size there against its typical size over the log, squared;
+    * a sample is in a burst when E_j(k) ≥ ratio² on some coordinate: more than half of the window's samples
+      are ``ratio`` times the log's typical residual, so a burst must last half a window. For a white
+      Gaussian residual each sample exceeds with probability p₀ = P(χ²₁ ≥ 0.45494·ratio²) (0.007 at ratio
+      4), a window with probability P(Binomial(m, p₀) ≥ m/2); a window too short to make that below
+      :data:`WINDOW_P` divided by the log's windows and coordinates (Bonferroni) — a few samples — is
+      lengthened until it does;
+    * runs of such samples closer than one window are one event; its interval is that of the samples inside
+      the run (widened by half a window) whose own residual exceeds ``ratio`` times the typical one on a
+      triggering coordinate, so that the reported interval is the burst's, not the window's.
+
+    A burst that recurs is not an event: when ``states`` are given, two bursts on a coordinate whose states
+    at their peaks are within :data:`RECUR` standard deviations of each other in every position and velocity
+    are the model's misfit of that state (a coarse encoder's quantisation near a velocity reversal, a
+    friction law the model lacks: docs/workflow.md names those), which a periodic excitation repeats every
+    period, while a collision happens once; both are dropped (:func:`_mark_recurring`).
+
+    The size of an event, per coordinate that triggered: the peak r_j (force units) and its time, the RMS of
+    r_j over the event, and ``ratio`` = that RMS / s_j.
 
     Parameters
     ----------

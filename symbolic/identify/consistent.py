@@ -1,84 +1,14 @@
 """Physically consistent identification as a small problem: the closest feasible parameters in the metric
-of the least-squares fit (issue 23 §1).
+of the least-squares fit (issue 23 §1; what it returns and when to use it: docs/data.md, "Physically consistent
+parameters (`identify --consistent`)").
 
-**The fit summarised.** With the weighted rows of the fit, [W y] = Q·[[R, z], [0, ρ]] (Householder QR;
-Golub & Van Loan 5.3.3), so that for every β
-
-    ‖y − W·β‖² = ‖z − R·β‖² + ρ²                                                              (1)
-
-and the physically consistent estimate
-
-    min_φ ‖R·K·θ(p(φ)) − z‖²                                                                   (2)
-
-has b residuals (b base parameters) whatever the number of samples. K maps the standard parameters θ
-to the base ones (β = K·θ, :class:`symbolic.numeric.base_parameters.BaseParameters`), θ(p) are the
-regressor's expressions of the model file's parameters p (:mod:`symbolic.derivation.regressor`), and p(φ)
-parameterizes the feasible set exactly (below), so (2) is unconstrained but for box bounds. Its Jacobian
-is analytic,
-
-    ∂r/∂φ = R·K·(∂θ/∂p)·(∂p/∂φ)                                                                (3)
-
-(∂θ/∂p from SymPy, ∂p/∂φ in closed form). The answer's β is unique where the feasible β form a convex
-set (the objective is strictly convex in β); the p that give it need not be.
-
-**Feasibility of a rigid body** (Wensing, Kim & Slotine, IEEE RA-L 3(1), 2018, (9)–(12)): its
-pseudo-inertia about the frame origin
-
-    J = [[Σ, h], [hᵀ, m]],  Σ = ½·tr(I_O)·1 − I_O,  h = m·c                                    (4)
-
-must be positive definite. With I_O = I_c + m·(cᵀc·1 − c·cᵀ) (parallel axes) the Schur complement of m
-is Σ − h·hᵀ/m = Σ_c = ½·tr(I_c)·1 − I_c, so J ≻ 0 ⇔ m > 0 and Σ_c ≻ 0: the principal moments of
-the inertia about the centre of mass are positive and each is smaller than the sum of the other two
-(the triangle inequalities). The centre of mass is free.
-
-**Log-Cholesky** (Rucker & Wensing, "Smooth parameterization of rigid-body inertia", IEEE RA-L 7(2),
-2022, Sec. III): J = U·Uᵀ with
-
-    U = e^α·[[e^{d1}, s12, s13, t1], [0, e^{d2}, s23, t2], [0, 0, e^{d3}, t3], [0, 0, 0, 1]]    (5)
-
-a smooth bijection from ℝ¹⁰ onto the bodies with J ≻ 0. Multiplying out,
-
-    m = e^{2α},  c = t,  Σ_c = e^{2α}·A·Aᵀ  (A the upper 3×3 block of (5) without e^α)          (6)
-
-which is how the model file's own parameters (mass, centre of mass, inertia about the centre of mass,
-docs/model-format.md) are produced: I_c = tr(Σ_c)·1 − Σ_c. Here L = e^α·A takes the place of A,
-
-    m = e^{2α},  c = t,  Σ_c = L·Lᵀ,  L upper triangular, L_rr = e^{d_r}                          (7)
-
-the same parameterization in coordinates where mass and inertia about the centre of mass are independent
-(d_r ← d_r + α, s ← e^α·s: a smooth bijection). A body whose file writes some of these as numbers keeps
-them: a constant mass or centre of mass drops those coordinates; an inertia whose products are written as
-0 (a diagonal tensor, say) takes the same zero pattern in L, ordered so that the upper Cholesky factor of
-the pattern has no fill (any pattern of a 3×3 matrix has such an order), so that (7) is still a bijection
-onto the feasible bodies of that form. Parameters written as expressions or kept fixed stay as they are.
-A body that fits none of these forms (an inertia entry shared with another, an inertia written as an
-expression of free parameters, an inertia with its own ``min``/``max``) keeps its parameters as they are
-in p and gets penalty residuals w·max(0, −λ_i(Σ_c)) and w·max(0, −m) instead (approximate: its
-eigenvalues may end slightly negative); :attr:`ConsistentFit.penalized` names such bodies.
-
-**Two passes.** Where the answer lies on the boundary (a body with a singular Σ_c, a mass at 0) some
-coordinates of (7) must go to −∞, and a solver creeps there. The fit therefore runs
-
-1. Gauss–Newton (:func:`scipy.optimize.least_squares`, ``trf``, Jacobian (3)) in the log-Cholesky
-   coordinates (7) with a weak pull to the start, until a step gains less than :data:`FIRST_PASS_FTOL`
-   of the cost: it brings every body near the answer while staying strictly feasible;
-2. Newton's method with a trust region and the exact Hessian (9) (:func:`_newton`) in the Cholesky
-   coordinates
-
-       m,  t,  L_rr ≥ 0,  L_rs (r < s)                                                         (8)
-
-   — the same factor with its diagonal and the mass as they are, bounded below by 0, so that the
-   boundary is at a finite point — until the gradient is below :data:`GRADIENT_TOLERANCE`·σ² (converged),
-   or χ² stalls (:data:`STALL_CHI2`), or :data:`MAX_ITERATIONS`.
-
-Where the data leave combinations of parameters undetermined, the infimum of (2) may be approached only
-as some of them run off (a mass to 0 or ∞ with its centre of mass following): the second pass then stops
-with the cost still falling slowly, and :attr:`ConsistentFit.converged` says so.
-
-Friction coefficients, rotor inertias, stiffnesses and dampings keep the signs of their roles and their
-``min``/``max`` as box bounds (:func:`symbolic.identify.known.parameter_bounds`), kept exactly (by ``trf``
-in the first pass, by a change of variable in the second); a mass's ``min``/``max`` bound α, then m, and a
-centre of mass's bound t.
+The weighted rows of the fit are summarised by their QR factor (:class:`Summary`, (1)), so the estimate
+(2) of :func:`fit` has b residuals (b base parameters) whatever the number of samples. Each body's feasible
+set — its pseudo-inertia positive definite (:func:`pseudo_inertia`, (4); Wensing, Kim & Slotine 2018) — is
+parameterized exactly by log-Cholesky coordinates (:func:`log_cholesky`, (5)–(6); Rucker & Wensing 2022) in
+the form of the model file (:class:`BodyPlan`, (7); :func:`plan_bodies`); :func:`fit` solves (2) in two passes,
+the second Newton's method with the exact Hessian (:func:`_newton`, (8)–(9)). Each numbered equation is stated
+in the docstring of the function that implements it.
 
 SciPy is imported inside :func:`fit` only (identification without ``--consistent`` never needs it).
 """
@@ -135,7 +65,18 @@ START_MARGIN = 1e-3
 # -- a body's ten parameters ----------------------------------------------------------------------------
 
 def pseudo_inertia(mass: float, com: Sequence[float], inertia: np.ndarray) -> np.ndarray:
-    """J of (4) from the model file's form: mass, centre of mass, 3×3 inertia about the centre of mass."""
+    """The pseudo-inertia J of a rigid body about its frame origin, from the model file's form: mass, centre
+    of mass, 3×3 inertia about the centre of mass.
+
+    The body is physically consistent exactly when (Wensing, Kim & Slotine, IEEE RA-L 3(1), 2018, (9)–(12))
+
+        J = [[Σ, h], [hᵀ, m]],  Σ = ½·tr(I_O)·1 − I_O,  h = m·c                                    (4)
+
+    is positive definite. With I_O = I_c + m·(cᵀc·1 − c·cᵀ) (parallel axes) the Schur complement of m is
+    Σ − h·hᵀ/m = Σ_c = ½·tr(I_c)·1 − I_c, so J ≻ 0 ⇔ m > 0 and Σ_c ≻ 0: the principal moments of the inertia
+    about the centre of mass are positive and each is smaller than the sum of the other two (the triangle
+    inequalities). The centre of mass is free.
+    """
     m, c, Ic = float(mass), np.asarray(com, float), np.asarray(inertia, float)
     standard = standard_parameters(m, c, Ic)
     return pseudo_of_standard(standard)
@@ -172,7 +113,20 @@ def body_of_standard(theta: Sequence[float]) -> tuple[float, np.ndarray, np.ndar
 
 def log_cholesky(mass: float, com: Sequence[float], inertia: np.ndarray) -> np.ndarray:
     """φ = [α, d1, d2, d3, s12, s23, s13, t1, t2, t3] of (5) for a body with J ≻ 0 (the inverse of
-    :func:`from_log_cholesky`; the order of Pinocchio's ``LogCholeskyParameters``)."""
+    :func:`from_log_cholesky`; the order of Pinocchio's ``LogCholeskyParameters``).
+
+    Log-Cholesky coordinates (Rucker & Wensing, "Smooth parameterization of rigid-body inertia", IEEE RA-L
+    7(2), 2022, Sec. III): J = U·Uᵀ with
+
+        U = e^α·[[e^{d1}, s12, s13, t1], [0, e^{d2}, s23, t2], [0, 0, e^{d3}, t3], [0, 0, 0, 1]]    (5)
+
+    a smooth bijection from ℝ¹⁰ onto the bodies with J ≻ 0. Multiplying out,
+
+        m = e^{2α},  c = t,  Σ_c = e^{2α}·A·Aᵀ  (A the upper 3×3 block of (5) without e^α)          (6)
+
+    which gives the model file's own parameters (mass, centre of mass, inertia about the centre of mass,
+    docs/model-format.md): I_c = tr(Σ_c)·1 − Σ_c.
+    """
     Ic = np.asarray(inertia, float)
     sigma = 0.5 * np.trace(Ic) * np.eye(3) - Ic
     alpha = 0.5 * np.log(mass)
@@ -205,6 +159,16 @@ alone), a float is a constant (numbers, fixed parameters, geometry), None an exp
 @dataclass(frozen=True)
 class BodyPlan:
     """How (5) produces one body's free parameters: its slots and the coordinates φ it uses.
+
+    The fit takes L = e^α·A in place of A of (6),
+
+        m = e^{2α},  c = t,  Σ_c = L·Lᵀ,  L upper triangular, L_rr = e^{d_r}                          (7)
+
+    the same parameterization in coordinates where mass and inertia about the centre of mass are
+    independent (d_r ← d_r + α, s ← e^α·s: a smooth bijection). What the model file writes as numbers
+    stays: a constant mass or centre of mass drops those coordinates, and products of inertia written as 0
+    give L the same zero pattern (:func:`plan_bodies`), so (7) is still a bijection onto the feasible
+    bodies of that form.
 
     ``order`` lists the axes in the order of A's rows (so that A keeps the zero pattern of the inertia's
     products), ``edges`` the free upper entries (k, l) of A in that order, ``offset`` where its
@@ -363,6 +327,15 @@ def plan_bodies(bodies, free: Sequence[sp.Symbol], values: Mapping[sp.Symbol, fl
                 explicit_bounds: Mapping[sp.Symbol, tuple[float | None, float | None]]):
     """Split the bodies into those (7) parameterizes exactly (:class:`BodyPlan`, offsets 0 until placed) and
     the others (the bodies themselves, for penalties), from the slots of their model-file entries.
+
+    Exact: a mass and centre of mass that are each one free parameter or a number, and an inertia that is
+    constant, or whose diagonal entries are free parameters and products free parameters or 0. The axes are
+    ordered so that the upper Cholesky factor of the zero pattern has no fill (:func:`_pattern_order`; any
+    pattern of a 3×3 matrix has such an order). Parameters written as expressions or kept fixed stay as they
+    are. A body that fits none of these forms (an inertia entry shared with another, an inertia written as
+    an expression of free parameters, an inertia with its own ``min``/``max``) keeps its parameters as they
+    are in p and gets penalty residuals w·max(0, −λ_i(Σ_c)) and w·max(0, −m) instead (approximate: its
+    eigenvalues may end slightly negative); :attr:`ConsistentFit.penalized` names such bodies.
 
     ``elsewhere`` holds the free parameters used outside the bodies (drives, friction, forces);
     ``explicit_bounds`` the ``min``/``max`` written in the model file.
@@ -667,7 +640,13 @@ def row_weights(method: str, coordinate_sigmas: Sequence[float], samples: int) -
 
 @dataclass(frozen=True, eq=False)
 class Summary:
-    """The weighted fit ``y ≈ W·β`` summarised by (1): R (b × b), z, ρ, and ‖y_w‖."""
+    """The weighted fit ``y ≈ W·β`` summarised: R (b × b), z, ρ, and ‖y_w‖.
+
+    With the weighted rows, [W y] = Q·[[R, z], [0, ρ]] (Householder QR; Golub & Van Loan 5.3.3), so that for
+    every β
+
+        ‖y − W·β‖² = ‖z − R·β‖² + ρ²                                                              (1)
+    """
 
     R: np.ndarray
     z: np.ndarray
@@ -687,9 +666,53 @@ class Summary:
 
 def fit(prob: Problem, K: np.ndarray, W: np.ndarray, y: np.ndarray, weights: np.ndarray, p0: np.ndarray,
         least_squares_beta: np.ndarray, name: str = "model") -> tuple[ConsistentFit, np.ndarray, np.ndarray]:
-    """Solve (2) for the fit ``y ≈ W·β`` (rows weighted by ``weights``), β = K·θ, from the parameters ``p0``
-    (the two passes of the module docstring). Returns the :class:`ConsistentFit`, the free parameters p* and
-    their covariance (∞ on the rows of those not determined alone).
+    """The physically consistent estimate for the fit ``y ≈ W·β`` (rows weighted by ``weights``), from the
+    parameters ``p0``.
+
+    By (1) (:class:`Summary`) the estimate
+
+        min_φ ‖R·K·θ(p(φ)) − z‖²                                                                   (2)
+
+    has b residuals. K maps the standard parameters θ to the base ones (β = K·θ,
+    :class:`symbolic.numeric.base_parameters.BaseParameters`), θ(p) are the regressor's expressions of the
+    model file's parameters p (:mod:`symbolic.derivation.regressor`), and p(φ) parameterizes the feasible
+    set exactly ((7), :class:`BodyPlan`), so (2) is unconstrained but for box bounds. Its Jacobian is
+    analytic,
+
+        ∂r/∂φ = R·K·(∂θ/∂p)·(∂p/∂φ)                                                                (3)
+
+    (∂θ/∂p from SymPy, ∂p/∂φ in closed form). The answer's β is unique where the feasible β form a convex
+    set (the objective is strictly convex in β); the p that give it need not be.
+
+    Where the answer lies on the boundary (a body with a singular Σ_c, a mass at 0) some coordinates of (7)
+    must go to −∞, and a solver creeps there. The fit therefore runs two passes (:func:`_solve`):
+
+    1. Gauss–Newton (:func:`scipy.optimize.least_squares`, ``trf``, Jacobian (3)) in the log-Cholesky
+       coordinates (7) with a weak pull to the start, until a step gains less than :data:`FIRST_PASS_FTOL`
+       of the cost: it brings every body near the answer while staying strictly feasible;
+    2. Newton's method with a trust region and the exact Hessian (9) (:func:`_newton`) in the Cholesky
+       coordinates
+
+           m,  t,  L_rr ≥ 0,  L_rs (r < s)                                                         (8)
+
+       — the same factor with its diagonal and the mass as they are, bounded below by 0, so that the
+       boundary is at a finite point — until the gradient is below :data:`GRADIENT_TOLERANCE`·σ²
+       (converged), or χ² stalls (:data:`STALL_CHI2`), or :data:`MAX_ITERATIONS`.
+
+    Where the data leave combinations of parameters undetermined, the infimum of (2) may be approached only
+    as some of them run off (a mass to 0 or ∞ with its centre of mass following): the second pass then stops
+    with the cost still falling slowly, and :attr:`ConsistentFit.converged` says so.
+
+    Friction coefficients, rotor inertias, stiffnesses and dampings keep the signs of their roles and their
+    ``min``/``max`` as box bounds (:func:`symbolic.identify.known.parameter_bounds`), kept exactly (by ``trf``
+    in the first pass, by a change of variable in the second, :class:`_Unbounded`); a mass's ``min``/``max``
+    bound α, then m, and a centre of mass's bound t.
+
+    Returns
+    -------
+    tuple
+        The :class:`ConsistentFit`, the free parameters p* and their covariance (∞ on the rows of those not
+        determined alone).
     """
     started = time.perf_counter()
     summary = Summary.of(W, y, weights)

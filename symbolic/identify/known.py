@@ -1,32 +1,7 @@
-"""Known values stay known, results stay physical: fixed parameters, bounds, and what the data cannot separate.
+"""Known values stay known, results stay physical: fixed parameters (:func:`split_base`), bounds
+(:func:`parameter_bounds`, :func:`beta_bounds`), and what the data cannot separate (:func:`homogeneous_groups`).
 
-* **Fixed parameters** (``fixed = true`` in a ``[parameters]`` entry, ``--fix NAME``): a standard parameter
-  θ_k that such parameters determine completely (with geometry and numbers; e.g. ZZ_link = J_l with J_l
-  fixed) is a known term: its column moves to the side of τ,
-
-      τ − Y_k·θ_k = Y_u·θ_u,
-
-  and the base parameters are computed over the other columns (:func:`split_base`). A column that was
-  regrouped into a known one becomes a base column of its own (knowing YY2 separates ZZ1 from ZZR1).
-  A θ that holds a fixed parameter and a free one (Izz + m·c² with m fixed) stays unknown; the fixed
-  value enters when the model-file parameters are computed from β (β = a·p + b).
-* **Bounds**: each parameter's ``min``/``max`` and the sign its role implies (:func:`parameter_bounds`):
-  a mass, a diagonal inertia entry, a friction coefficient, a rotor inertia is ≥ 0, and so is a
-  ``[[force]]`` coefficient that acts as a stiffness or a damping (the force's derivative with respect to
-  its own coordinate or velocity is −c·p with c > 0) when its nominal value is. They become bounds on
-  the base parameters that are linear in the free parameters (:func:`beta_bounds`: a sum of masses with
-  positive coefficients is ≥ its known part) and are enforced by the bounded least squares of
-  :func:`symbolic.identify.least_squares.solve`.
-* **Homogeneous equations**: a coordinate without an actuator has τ = 0, and its equation
-  0 = Σ_k Y_jk·β_k holds for any common multiple of the parameters in it. Their scale then rests on the
-  coupling with the actuated coordinates, and least squares sets it from the noise: in the regressor of
-  the homogeneous rows (twice-differentiated positions), noise pulls the scale towards zero, and the
-  per-coordinate weights of WLS, computed from the residual of those rows, pull harder. On a hub with a
-  torsional spring (tests/test_known.py) the stiffness came out 0.153 ± 5.4 % against a true 0.7.
-  :func:`homogeneous_groups` finds such coordinates and their parameters; identification refuses them
-  with the parameters to fix (:func:`not_separable`), the workflow holds one of them at its model value
-  and says so (:func:`scale_holds`). A fixed value in the equation (a known inertia) gives it a
-  right-hand side and ends the ambiguity.
+What a model file may say and what identification does with it: docs/model-format.md, "Known values and bounds".
 """
 
 from __future__ import annotations
@@ -103,6 +78,17 @@ def split_base(model: DynamicModel, reg: Regressor, full: BaseParameters, fixed:
                geometric: set[sp.Symbol]) -> Split:
     """The :class:`Split` of ``model`` for the ``fixed`` parameters (computed once per model and set).
 
+    A standard parameter θ_k that fixed parameters (``fixed = true``, ``--fix NAME``) determine completely
+    (with geometry and numbers; e.g. ZZ_link = J_l with J_l fixed) is a known term: its column moves to the
+    side of τ,
+
+        τ − Y_k·θ_k = Y_u·θ_u,
+
+    and the base parameters are computed over the other columns. A column that was regrouped into a known
+    one becomes a base column of its own (knowing YY2 separates ZZ1 from ZZR1). A θ that holds a fixed
+    parameter and a free one (Izz + m·c² with m fixed) stays unknown; the fixed value enters when the
+    model-file parameters are computed from β (β = a·p + b).
+
     ``full`` is the base of all columns (returned unchanged when no acting θ is known), ``geometric`` the
     parameters Y depends on (known anyway, but they alone do not make a θ known: a θ that is a number
     or holds geometry only is identified as before).
@@ -130,7 +116,11 @@ def split_base(model: DynamicModel, reg: Regressor, full: BaseParameters, fixed:
 # -- bounds ------------------------------------------------------------------------------------------
 
 def role_signs(model: DynamicModel) -> dict[sp.Symbol, str]:
-    """{parameter: its role} for parameters that must be ≥ 0 by what they are (module docstring)."""
+    """{parameter: its role} for parameters that must be ≥ 0 by what they are: a mass, a diagonal inertia
+    entry, a friction coefficient, a rotor inertia, a beam's density, bending stiffness or tip mass, and a
+    ``[[force]]`` coefficient that acts as a stiffness or a damping (the force's derivative with respect to its
+    own coordinate or velocity is −c·p with c > 0) — each when it enters as c·p with a number c > 0 and its
+    nominal value is ≥ 0."""
     robot = model.robot
     values = model.parameters
     roles: dict[sp.Symbol, str] = {}
@@ -188,7 +178,9 @@ def beta_bounds(model: DynamicModel, reg: Regressor, base: BaseParameters, names
 
     β in the model's parameters (``known`` ones, geometry and fixed, at their values) is
     Σ_u a_u·p_u + c; when it is linear in the unknown p_u, lower = c + Σ a_u·(lower_u if a_u > 0 else
-    upper_u) and likewise the upper bound. Bases with a product of unknowns get none. Computed once per
+    upper_u) and likewise the upper bound (a sum of masses with positive coefficients is ≥ its known part);
+    the bounded least squares of :func:`symbolic.identify.least_squares.solve` enforces them. Bases with a
+    product of unknowns get none. Computed once per
     model, base and sets (0.4 s of SymPy for the Panda's 43 base parameters; the workflow fits several times).
     """
     key = (base.names, tuple(names), frozenset(known))
@@ -303,6 +295,16 @@ class Homogeneous:
 def homogeneous_groups(coordinates: Sequence[str], tau: np.ndarray, regressor: np.ndarray, names: Sequence[str],
                        held: Mapping[str, float]) -> list[Homogeneous]:
     """Groups of coordinates with τ − Y_k·β_k ≡ 0 and the unknown parameters acting on their rows.
+
+    A coordinate without an actuator has τ = 0, and its equation 0 = Σ_k Y_jk·β_k holds for any common
+    multiple of the parameters in it. Their scale then rests on the coupling with the actuated coordinates,
+    and least squares sets it from the noise: in the regressor of the homogeneous rows (twice-differentiated
+    positions), noise pulls the scale towards zero, and the per-coordinate weights of WLS, computed from the
+    residual of those rows, pull harder. On a hub with a torsional spring (tests/test_known.py) the stiffness
+    came out 0.153 ± 5.4 % against a true 0.7. Identification refuses such groups with the parameters to fix
+    (:func:`not_separable`), the workflow holds one of them at its model value and says so
+    (:func:`scale_holds`). A fixed value in the equation (a known inertia) gives it a right-hand side and ends
+    the ambiguity.
 
     ``tau`` is ``samples × N``, ``regressor`` ``samples × N × len(names)``, ``held`` the known columns'
     values. A parameter acts on a coordinate when its column there exceeds 1e-9 of the largest column

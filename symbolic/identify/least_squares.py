@@ -1,28 +1,8 @@
-"""Ordinary and weighted least squares of IDIM-LS, with the statistics Gautier reports.
+"""Ordinary and weighted least squares of IDIM-LS, with the statistics Gautier reports (Janot et al. 2007
+(3)–(7); the formulas at :func:`solve`, the procedure around them in docs/data.md, "IDIM-LS").
 
-For the stacked system ``y = W·β + ρ`` (``r`` rows, ``b`` parameters; Janot et al. 2007 (3)–(7)):
-
-* ``β̂`` minimises ``‖y − W·β‖`` (solved through the SVD of W, never through WᵀW);
-* ``σ_ρ² = ‖y − W·β̂‖² / (r − b)`` — Janot's (5) as printed lacks the square; the unbiased estimate
-  of a variance needs it;
-* covariance ``C = σ_ρ² (WᵀW)⁻¹``, ``σ_i = √C_ii``, relative ``%σ_i = 100·σ_i/|β̂_i|`` (the
-  absolute value, as in the EMPS script; (7) as printed has none);
-* ``cond(W)``, the 2-norm condition number ``s_max/s_min`` of the matrix solved;
-* relative error ``100·‖y − W·β̂‖/‖y‖`` in %, always of the unweighted system.
-
-Weighted LS (Gautier): a first OLS gives per coordinate j ``σ_j² = ‖y_j − W_j·β̂‖²/(r_j − b_j)``
-with ``b_j`` the rank of ``W_j``; rows of coordinate j are divided by ``σ_j`` and the formulas above
-are applied to the weighted system. With one coordinate WLS is OLS.
-
-(6) assumes white residuals. After parallel decimation white force noise is not white any more: the
-anti-aliasing filter passes 0.8 of the new Nyquist band, so σ_ρ² underestimates the low-frequency
-noise density that the estimates feel by κ = n·mean(|H|⁴)/|H(0)|⁴ ≈ 0.85, and σ is about 8 % too
-small (tests/test_identify.py measures it). The publication's σ carry the same bias; it is not
-corrected here (real residuals are dominated by model error, whose spectrum is unknown anyway).
-
-A parameter is flagged as poorly determined when its relative σ exceeds
-:data:`RELATIVE_SIGMA_THRESHOLD` percent (Janot et al. read 10–22 % on viscous friction (Table 3)
-as "no significant viscous friction").
+A parameter is flagged as poorly determined when its relative σ exceeds :data:`RELATIVE_SIGMA_THRESHOLD`
+percent (Janot et al. read 10–22 % on viscous friction (Table 3) as "no significant viscous friction").
 """
 
 from __future__ import annotations
@@ -235,7 +215,28 @@ def solve(
     fixed: Mapping[str, float] | None = None,
     bounds: Mapping[str, tuple[float, float]] | None = None,
 ) -> Identification:
-    """Least-squares estimate of the parameters of ``observation`` (module docstring).
+    """Least-squares estimate of the parameters of ``observation``.
+
+    For the stacked system ``y = W·β + ρ`` (``r`` rows, ``b`` parameters; Janot et al. 2007 (3)–(7)):
+
+    * ``β̂`` minimises ``‖y − W·β‖`` (through the QR of [W y] and the SVD of its small R, :func:`_ols`;
+      never through WᵀW);
+    * ``σ_ρ² = ‖y − W·β̂‖² / (r − b)`` — Janot's (5) as printed lacks the square; the unbiased estimate
+      of a variance needs it;
+    * covariance ``C = σ_ρ² (WᵀW)⁻¹``, ``σ_i = √C_ii``, relative ``%σ_i = 100·σ_i/|β̂_i|`` (the
+      absolute value, as in the EMPS script; (7) as printed has none);
+    * ``cond(W)``, the 2-norm condition number ``s_max/s_min`` of the matrix solved;
+    * relative error ``100·‖y − W·β̂‖/‖y‖`` in %, always of the unweighted system.
+
+    Weighted LS (Gautier, ``method="wls"``): a first OLS gives per coordinate j
+    ``σ_j² = ‖y_j − W_j·β̂‖²/(r_j − b_j)`` with ``b_j`` the rank of ``W_j``; rows of coordinate j are divided by
+    ``σ_j`` and the formulas above are applied to the weighted system. With one coordinate WLS is OLS.
+
+    (6) assumes white residuals. After parallel decimation white force noise is not white any more: the
+    anti-aliasing filter passes 0.8 of the new Nyquist band, so σ_ρ² underestimates the low-frequency
+    noise density that the estimates feel by κ = n·mean(|H|⁴)/|H(0)|⁴ ≈ 0.85, and σ is about 8 % too
+    small (tests/test_identify.py measures it). The publication's σ carry the same bias; it is not
+    corrected here (real residuals are dominated by model error, whose spectrum is unknown anyway).
 
     ``fixed``: {name: value} of columns kept at known values: their terms move to the side of τ,
     y − W_k·β_k = W_u·β_u, and only the others are estimated (σ = 0 for the fixed ones).

@@ -1,28 +1,6 @@
-"""A rigid payload on the last body of a chain: its columns, and its physical parameters from their coefficients.
-
-A payload fixed to frame F (the end of a chain, or the model's ``[end_effector]`` frame) adds to τ the
-generalized force of a rigid body on F, linear in its ten standard parameters about F's origin in F's
-axes (Khalil & Dombre 14.2): π = (XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M) with
-
-    M = m,   (MX, MY, MZ) = m·c,   J_O = I_c + m·(cᵀc·E − c·cᵀ)          (parallel-axis theorem)
-
-(m the mass, c the centre of mass, I_c the inertia tensor about it). Only the part of these columns that
-the model's own free parameters do not already span can be told apart from a change of those parameters (a
-parameter kept at its value, ``fixed = true`` or ``--fix``, is not free: its columns are known):
-the payload's columns Y_π (at random states, as :mod:`symbolic.numeric.base_parameters` finds base
-parameters, each scaled to unit norm: D) are projected off the span of the model's free base columns,
-and the right singular vectors V of what is left, singular values above :data:`RANK`, give the
-effect's columns Z = Y_π·D⁻¹·V and their coefficients γ = A·π, A = Vᵀ·D. The rest of π moves the
-model's own parameters (a payload on a link whose inertial parameters are free only changes them: no
-column is left and the payload is "in the model").
-
-The physical parameters follow from γ by least squares, ‖A·π(m, c, I_c) − γ‖ (γ's components are torques
-at the random states, one scale for all), with a weak pull towards c = 0 and I_c = 0 for what γ leaves
-free: as a **rigid body** (m, c, I_c) when that determines the mass and more than a point mass would,
-else as a **point mass** (I_c = 0): on a planar arm whose first link is free the three combinations left
-determine m and the centre of mass in the plane only if the payload's own inertia is taken as zero.
-A parameter is determined when it lies outside the null space of the fit's Jacobian (as the consistent fit of
-:mod:`symbolic.identify.consistent` decides it); the others are reported as ``None``.
+"""A rigid payload on the last body of a chain: its columns (:func:`structure`), and its physical parameters
+from their coefficients (:meth:`PayloadStructure.parameters`, :func:`fit`). The method, and what it finds on the
+tests' arms: docs/workflow.md, "3. Name: the catalogue" (`payload`).
 """
 
 from __future__ import annotations
@@ -95,13 +73,16 @@ class PayloadStructure:
         return self.evaluate(q, qd, qdd) @ self.transform
 
     def parameters(self, gamma: np.ndarray, start: np.ndarray | None = None) -> dict[str, float | None]:
-        """The payload's roles from the coefficients ``gamma`` (module docstring); ``None`` where not determined."""
+        """The payload's roles from the coefficients ``gamma`` (:func:`fit`, as a rigid body or a point mass as
+        :attr:`rigid` says); ``None`` where not determined."""
         x = fit(self.A, np.asarray(gamma, float), self.rigid, start)
         return {name: (float(v) if ok else None) for name, v, ok in zip(PHYSICAL, x, self.determined)}
 
 
 def standard(x: np.ndarray) -> np.ndarray:
-    """π from (m, c, I_c entries xx, yy, zz, xy, xz, yz) by the parallel-axis theorem (module docstring)."""
+    """π = (XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M), the ten standard parameters about the frame's origin in its
+    axes (Khalil & Dombre 14.2), from (m, c, I_c entries xx, yy, zz, xy, xz, yz): M = m, (MX, MY, MZ) = m·c,
+    J_O = I_c + m·(cᵀc·E − c·cᵀ) (the parallel-axis theorem)."""
     m, c = x[0], x[1:4]
     xx, yy, zz, xy, xz, yz = x[4:10]
     inertia = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
@@ -130,7 +111,8 @@ def _determined(J: np.ndarray) -> np.ndarray:
 
 
 def fit(A: np.ndarray, gamma: np.ndarray, rigid: bool, start: np.ndarray | None = None) -> np.ndarray:
-    """(m, c, I_c) minimising ‖A·π − γ‖ with a weak pull of c and I_c towards 0 (I_c = 0 unless ``rigid``)."""
+    """(m, c, I_c) minimising ‖A·π(m, c, I_c) − γ‖ with a weak pull of c and I_c towards 0 for what γ leaves free
+    (I_c = 0 unless ``rigid``). γ's components are torques at random states, one scale for all."""
     active = np.ones(10, bool) if rigid else np.arange(10) < 4
     scale = max(float(np.linalg.norm(gamma)), 1e-300)
     x0 = np.zeros(10)
@@ -205,7 +187,19 @@ def structure(model: Any, frame: str, coordinate: str, terms: Any = None) -> Pay
     """The :class:`PayloadStructure` of a payload on ``frame`` of ``model`` against the free columns of
     ``terms`` (:class:`symbolic.workflow.terms.ModelTerms`, the model's terms as the search fits them;
     ``None``: every parameter free). A parameter kept at its value (``fixed = true``, ``--fix``) is not free:
-    its columns are known and span nothing a payload could hide in. Once per model, frame and free set."""
+    its columns are known and span nothing a payload could hide in. Once per model, frame and free set.
+
+    A payload fixed to the frame adds to τ the generalized force of a rigid body, linear in π (:func:`standard`).
+    Only the part of its columns Y_π that the model's free parameters do not span can be told apart from a
+    change of those parameters: at :data:`STATES` random states (as :mod:`symbolic.numeric.base_parameters`
+    finds base parameters) Y_π's columns, each scaled to unit norm (D), are projected off the span of the
+    model's free base columns, and the right singular vectors V of what is left, singular values above
+    :data:`RANK`, give the effect's columns Z = Y_π·D⁻¹·V and their coefficients γ = A·π, A = Vᵀ·D. The rest
+    of π moves the model's own parameters (a payload on a link whose inertial parameters are free only
+    changes them: no column is left and the payload is "in the model"). The payload is a rigid body when
+    (m, c, I_c) then determine the mass and more than a point mass would, else a point mass (I_c = 0); a
+    parameter is determined when it lies outside the null space of the fit's Jacobian (:func:`_determined`,
+    as :mod:`symbolic.identify.consistent` decides it)."""
     if terms is None:
         from symbolic.workflow.terms import model_terms
 

@@ -1,47 +1,13 @@
-"""Forward selection of catalogue effects, each judged on its own coordinate's rows (docs/workflow.md, "Name").
+"""Forward selection of catalogue effects, each judged on its own coordinate's rows (docs/workflow.md,
+"3. Name: the search and its statistics" and "Grouped hypotheses": the rounds, the tests and their thresholds,
+ties, grouped hypotheses, backward elimination).
 
-Each round starts from the current model — the nominal model's free base parameters and the effects
-accepted so far — fitted by IDIM-LS weighted least squares on the estimation data; the weights
-1/σ_j of that fit are used for every candidate of the round. A candidate is one effect on one
-coordinate. It is fitted jointly with everything in the current model (re-identification: the
-residual alone would be wrong when the effect is partly collinear with the model's own terms), and
-judged on the rows of the coordinates its columns act on (its *own* coordinates: one, or every one
-for a payload) — never on the stacked residual, where the large forces of a robot's first joints
-would hide a wrist joint's effect however large it is there:
-
-* its share of its own coordinates' residual power;
-* the F-test of the added parameters (a nonlinear parameter counts as one) on its own rows: the
-  sample count divided by the integrated autocorrelation time of *that coordinate's* residual, the
-  model's parameters counted by their leverage on those rows (:func:`symbolic.workflow.statistics.combined_f_test`);
-  the p-value must be below ``alpha / m``, Bonferroni over the m trials of the round (a nonlinear
-  effect's grid counts as many trials as it has independent values; a grouped hypothesis as one);
-* the held-out error on its own coordinates: residual power on the validation data (``--validate``) or
-  by cross-validation over ``FOLDS`` contiguous time blocks of the estimation data; it must fall by at
-  least ``min_gain`` (a fraction of what is left there);
-* ΔBIC on its own rows, Σ_c n_eff,c·ln(RSS₁,c/RSS₀,c) + k·ln(n_eff), which must be negative;
-* its parameters must be physical (friction opposing motion, a positive stiffness, ...).
-
-Among the eligible candidates the lowest ΔBIC over every coordinate wins (the per-coordinate Gaussian
-likelihood, each coordinate with its own noise level and n_eff,c = n/τ_c for the round). Candidates that
-explain the data equally — twice their log-likelihood difference at most ``TIE_TOLERANCE`` — tie: the one
-with fewer parameters (roles) is named and the others are reported. Columns already in the span of the
-current model are not candidates (an optional column, a spring's constant beside an offset, is dropped
-instead); a column in that span on these data only — another motion would separate it — is reported "not
-identifiable", with the terms and that motion (:mod:`symbolic.workflow.separability`), and the search goes on.
-
-Grouped hypotheses (:class:`Group`): the same effect on every coordinate, or on a named group of them
-(``SearchSettings.groups``), and viscous with Coulomb friction together, each one candidate. Its members
-are the round's single candidates of those effects on those coordinates, fitted together; a member that
-does not earn its place *on its own coordinate* — physical, removing at least ``min_gain`` of that
-coordinate's held-out residual power left without it, ΔBIC < 0 on its rows — is dropped (the worst per
-coordinate, then the rest refitted), and the group is judged like a candidate on the union of its
-members' rows, its significance the combined test over them. Accepted, it adds its members, each an
-ordinary effect on its coordinate.
-
-The rounds repeat on the new residual until no candidate is eligible. Then backward elimination: an
-accepted effect (or group) that later ones made insignificant (partial F-test in the joint fit on its own
-rows, p not below ``alpha`` over the number accepted) is removed, the least significant first, and
-reported as such.
+:class:`Search` runs the rounds. Every candidate — one effect on one coordinate, or a :class:`Group` — is fitted
+jointly with the current model (:class:`CurrentModel`) and judged on the rows of the coordinates its columns act
+on: its share of their residual power, the F-test of its added parameters (a nonlinear parameter counts as one;
+:func:`symbolic.workflow.statistics.combined_f_test`), the held-out error, ΔBIC and its physical checks; among
+the eligible, the lowest ΔBIC over every coordinate wins. A column in the model's span on these data only is
+reported "not identifiable" (:mod:`symbolic.workflow.separability`).
 """
 
 from __future__ import annotations
