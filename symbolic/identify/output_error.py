@@ -10,8 +10,11 @@ exactly as :func:`symbolic.simulation.simulate` runs it. The signals compared (`
 * ``"position"``: q_sim(θ) against the measured q (the only choice under torque replay, where τ_sim = τ);
 * ``"both"``: both, each weighted by ``weights`` (force, position).
 
-Each coordinate's residual is divided by the standard deviation of its measured signal, so that the cost
-is unit-free and coordinates and signals count alike, then multiplied by the signal's weight.
+Each coordinate's residual is divided by its RMS at the start (the IDIM-LS solution's simulation), so that
+the cost is unit-free and each signal and coordinate counts as its own error level allows — IDIM-LS's
+weighted least squares weighs coordinates so — then multiplied by the signal's weight. (Divided by the
+measured signal's spread instead, EMPS's force error of 4.5 % would outweigh its position error of 0.002 %
+2000-fold, and "both" would be "force".)
 
 The minimisation is Levenberg–Marquardt (Marquardt's scaling diag(JᵀJ)) on θ/|θ₀|, bounded by the model
 file's ``min``/``max`` and the signs of the parameters' roles (:func:`symbolic.identify.known.parameter_bounds`,
@@ -309,8 +312,17 @@ class _Residuals:
 
     columns: list[int]
     measured: np.ndarray  # samples × len(columns)
-    scale: np.ndarray  # weight / std of each measured column
+    scale: np.ndarray  # weight / (std of each measured column, or its residual's RMS at the start)
     labels: list[tuple[str, str]]  # (signal, coordinate)
+    weights: np.ndarray  # the signal's weight of each column
+
+    def weighted_at(self, y: np.ndarray) -> _Residuals:
+        """The same comparison with each column's weight divided by its residual's RMS at ``y`` (the start),
+        instead of the measured signal's spread: each signal and coordinate then counts as its own noise
+        level allows, as IDIM-LS's weighted least squares weighs coordinates."""
+        spread = self.weights / self.scale  # the measured signals' standard deviations
+        rms = np.sqrt(np.mean((self.measured - y[:, self.columns]) ** 2, axis=0))
+        return dataclasses.replace(self, scale=self.weights / np.maximum(rms, 1e-9 * spread))
 
     def of(self, y: np.ndarray) -> np.ndarray:
         return ((self.measured - y[:, self.columns]) * self.scale).ravel()
@@ -354,7 +366,8 @@ def _residuals(measurements: Measurements, names: tuple[str, ...], signals: str,
             labels.append((signal, c))
     if not columns:
         raise DataError(source, "signals", f"no measured {signals} signal varies: nothing to compare")
-    return _Residuals(columns, np.column_stack(measured), np.array(scale), labels)
+    weight_of = np.array([weights[0] if signal == "force" else weights[1] for signal, _ in labels])
+    return _Residuals(columns, np.column_stack(measured), np.array(scale), labels, weight_of)
 
 
 def output_error(
@@ -429,6 +442,11 @@ def output_error(
     lower = np.array([bounds.get(symbols[n], (-np.inf, np.inf))[0] for n in names])
     upper = np.array([bounds.get(symbols[n], (-np.inf, np.inf))[1] for n in names])
     theta0 = np.clip(np.array([start[n] for n in names]), lower, upper)
+    first, _ = loop.run(theta0, sensitivities=False)
+    if not np.isfinite(first).all():
+        raise IdentificationError("the closed loop diverges at the start values: an output-error fit needs a start "
+                                  "whose simulation stays finite")
+    residuals = residuals.weighted_at(first)
     timings = {"setup": time.perf_counter() - started}
     result = levenberg_marquardt(loop, residuals, theta0, lower, upper, max_iterations, timings)
     theta, J, r, y0, y, iterations, converged, message, cost0 = result
