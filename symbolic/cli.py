@@ -83,19 +83,9 @@ def strict_json(value: object) -> str:
 
 
 def resolve(model: str, args: argparse.Namespace | None = None) -> Robot:
-    """A model file path (TOML or URDF, with ``args.root``/``args.tip`` for a URDF chain), or a built-in robot name."""
-    path = Path(model)
-    root, tip = getattr(args, "root", None), getattr(args, "tip", None)
-    if path.suffix.lower() in (".toml", ".urdf") or path.is_file():
-        return load(path, root, tip)
-    if model in robots.names():
-        if root is not None or tip is not None:
-            raise ModelError(model, "--root/--tip", "choose a chain only in a URDF file (a .urdf model)")
-        return robots.load(model)
-    if path.exists():
-        return load(path, root, tip)
-    raise ModelError(model, "file", f"no such model file or built-in robot (built-in: {', '.join(robots.names())})"
-                                    f"{suggestion(model.lower(), robots.names())}")
+    """MODEL of a command: a model file (TOML or URDF, with ``args.root``/``args.tip`` for a URDF chain) or a
+    built-in robot name, by the one precedence of :func:`symbolic.robots.resolve`."""
+    return robots.resolve(model, getattr(args, "root", None), getattr(args, "tip", None))
 
 
 def cmd_list(args: argparse.Namespace) -> int:
@@ -503,10 +493,6 @@ class _ListEffects(argparse.Action):
         print("\n".join(listing()))
         parser.exit()
 
-    in_process = args.workers == 0 and not args.scheduler
-    if not available() and not in_process:  # before reading anything: the one line that says how to get it
-        print(f"error: {INSTALL} (or run it without Dask, one log at a time: --workers 0)", file=sys.stderr)
-        return 2
 
 def cmd_campaign(args: argparse.Namespace) -> int:
     from symbolic import export
@@ -516,6 +502,10 @@ def cmd_campaign(args: argparse.Namespace) -> int:
         allowed = "a positive number of workers to wait for" if args.scheduler else \
             "0 (one log at a time in this process) or a positive number of worker processes"
         print(f"error: --workers {args.workers}: expected {allowed}", file=sys.stderr)
+        return 2
+    in_process = args.workers == 0 and not args.scheduler
+    if not available() and not in_process:  # before reading anything: the one line that says how to get it
+        print(f"error: {INSTALL} (or run it without Dask, one log at a time: --workers 0)", file=sys.stderr)
         return 2
     if not 0 < args.connect_timeout < float("inf"):
         print(f"error: --connect-timeout {args.connect_timeout:g}: expected a positive number of seconds", file=sys.stderr)

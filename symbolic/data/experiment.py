@@ -38,7 +38,6 @@ from symbolic.data.measurements import (KINDS, MAX_MAGNITUDE, MAX_RATE, DriveGai
 from symbolic.data.settings import Settings
 from symbolic.data.signal_layer import SignalLayer
 from symbolic.data.units import check_units
-from symbolic.description import modelfile
 from symbolic.description.expressions import (RESERVED_NAMES, parse_expression, reserved_meaning, reserved_uses,
                                               variable_names)
 from symbolic.description.robot import Robot
@@ -251,7 +250,7 @@ class _Model:
 
     def robot(self) -> Robot | None:
         if self._robot is None and self.named is not None:
-            self._robot = robots.load(self.named) if self.named in robots.names() else modelfile.load(self.named)
+            self._robot = robots.resolve(self.named, folder=Path(self.source).parent)  # as _model located it
         return self._robot
 
     def drive(self, signals: Mapping[str, Any]) -> DriveGains:
@@ -405,11 +404,18 @@ def _table(spec: Mapping[str, Any], key: str, source: str, required: bool = Fals
 
 
 def _model(spec: Mapping[str, Any], path: Path) -> str | None:
-    """A built-in name as written; a model file (``.toml`` or containing a path separator) resolved."""
+    """The experiment's ``model`` by the precedence of :func:`symbolic.robots.locate`, a relative path from the
+    experiment file's folder: a model file, as its absolute path, or a built-in robot's name as written."""
     model = _string(spec, "model", str(path))
-    if model is None or not (model.endswith(".toml") or "/" in model or os.sep in model):
+    if model is None:
+        return None
+    try:
+        found = robots.locate(model, path.parent)
+    except ModelError as error:
+        raise DataError(str(path), "model", error.problem) from None
+    if model in robots.names() and found == robots.path(model):
         return model
-    resolved = (path.parent / model).resolve()
+    resolved = found.resolve()
     if not resolved.is_file():
         raise DataError(str(path), "model", f"model file {model!r} not found (looked at {resolved})")
     return str(resolved)

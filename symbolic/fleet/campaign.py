@@ -364,18 +364,17 @@ def _relative(name: str, campaign: Path) -> Path:
 def _model(value: Any, campaign: Path, where: str, models: dict,
            chain: tuple[str | None, str | None] = (None, None)) -> tuple[str, str, Robot]:
     """(file, text, validated robot) of a robot's model: a file (TOML, or URDF with the chain ``root``, ``tip``)
-    relative to the campaign file, or a built-in name."""
+    relative to the campaign file, or a built-in name (the precedence of :func:`symbolic.robots.locate`)."""
     source = str(campaign)
     if not isinstance(value, str) or not value.strip():
         raise DataError(source, where, f"expected a model file (relative to the campaign file) or a built-in robot "
                                        f"name ({', '.join(robots.names())}), got {shown(value)}")
-    path = _relative(value, campaign)
+    try:
+        path = robots.locate(os.path.expanduser(value), campaign.parent)
+    except ModelError as error:
+        raise DataError(source, where, error.problem) from None
     if not path.is_file():
-        if value in robots.names():
-            path = robots.path(value)
-        else:
-            raise DataError(source, where, f"no model file {str(path)!r} and no built-in robot {value!r} (built-in: "
-                                           f"{', '.join(robots.names())})")
+        raise DataError(source, where, f"no model file {str(path)!r} (a path relative to the campaign file)")
     key = (str(path.resolve()), chain)
     if chain != (None, None) and path.suffix.lower() != ".urdf":
         raise DataError(source, where, "root and tip choose a chain of a URDF model (a .urdf file) only")

@@ -36,7 +36,6 @@ from symbolic.errors import ModelError, ModelWarning, SimulationError
 from symbolic.identify.known import fixed_symbols
 from symbolic.identify.least_squares import IdentificationError
 from symbolic.data.treatment import Settings, settings_for
-from symbolic.description.modelfile import load as load_model
 from symbolic.description.modelfile import loads
 from symbolic.description.robot import Robot
 from symbolic.workflow.corrections import FinalFit, physical_values, review
@@ -79,7 +78,8 @@ def diagnose(
     Parameters
     ----------
     model
-        A derived model, a validated robot, or a model file (its file is what gets patched).
+        A derived model, a validated robot, or a model file or built-in robot's name (read by
+        :func:`symbolic.robots.resolve`; the model's file is what gets patched).
     data
         A data or experiment file, or measurements (the estimation data).
     experiment
@@ -430,10 +430,7 @@ def _derived(model: DynamicModel | Robot | str | Path) -> DynamicModel:
         return model
     if isinstance(model, Robot):
         return derive(model)
-    path = Path(model)
-    if isinstance(model, str) and path.suffix != ".toml" and not path.exists() and model in robots.names():
-        return derive(robots.load(model))  # a built-in name, as the CLI accepts it
-    return derive(load_model(model))
+    return derive(robots.resolve(model))  # a model file or a built-in name, as the command line reads MODEL
 
 
 def _gaps(sets: dict[str, DataSet], predicted: dict[str, np.ndarray]) -> tuple[dict[str, float], dict[str, dict[str, float]]]:

@@ -25,7 +25,6 @@ from scipy import optimize
 from symbolic.data import DataError, Measurements, load
 from symbolic.simulation import controller as control
 import symbolic.robots as robots
-from symbolic.description import modelfile
 
 REST_SAMPLES = 20
 """Samples before a step whose median is the starting position (fewer when the previous step is shorter)."""
@@ -379,7 +378,7 @@ def _model_parameters(model: str | None, source: str) -> dict[Any, float]:
     """The nominal parameter values of the experiment's model (none without a model)."""
     if model is None:
         return {}
-    robot = robots.load(model) if model in robots.names() else modelfile.load(model)
+    robot = robots.resolve(model, folder=Path(source).parent)  # as the experiment located it
     return dict(robot.parameter_values)
 
 
