@@ -29,7 +29,6 @@ from symbolic.data.errors import DataError
 from symbolic.errors import SHOWN, listing, one_line, shorten
 from symbolic.writing import replacing
 
-DATA_SUFFIXES = (".csv", ".npz", ".mat")
 EXCERPT = SHOWN
 """Characters of a data file's content (a line, a column name, a field) an error message quotes at most."""
 MAT_MAGIC = b"MATLAB 5.0 MAT-file"
@@ -59,7 +58,8 @@ def excerpt(text: str) -> str:
 
 
 def kind(path: Path) -> str:
-    """``"csv"``, ``"npz"``, ``"mat"`` or ``"experiment"``: by suffix, else by the file's first bytes.
+    """The reader of ``path`` (a key of :data:`READERS`) or ``"experiment"``: by suffix, else by the file's first
+    bytes (:attr:`Reader.magic`).
 
     Raises
     ------
@@ -67,21 +67,18 @@ def kind(path: Path) -> str:
         If neither the suffix nor the content tells.
     """
     suffix = path.suffix.lower()
-    if suffix in DATA_SUFFIXES:
-        return suffix[1:]
+    for name, reader in READERS.items():
+        if suffix in reader.suffixes:
+            return name
     if suffix == ".toml":
         return "experiment"
     head = _head(path)
-    if head.startswith(MAT_MAGIC):
-        return "mat"
-    if head.startswith(ZIP_MAGIC):
-        return "npz"
-    raise DataError(
-        str(path),
-        "file",
-        f"unknown file type {suffix or '(no suffix)'!r} (allowed: data files .csv with a header line, .npz, "
-        ".mat v5, or an experiment file .toml)",
-    )
+    for name, reader in READERS.items():
+        if reader.magic and head.startswith(reader.magic):
+            return name
+    allowed = ", ".join(r.described for r in READERS.values())
+    raise DataError(str(path), "file", f"unknown file type {suffix or '(no suffix)'!r} (allowed: data files {allowed}, "
+                                       "or an experiment file .toml)")
 
 
 def _head(path: Path) -> bytes:
@@ -98,10 +95,10 @@ def read(path: Path, columns: Sequence[str] | None = None, named_by: str = "<pyt
     ``columns`` names the columns of a CSV file without a header line (an experiment's ``columns``
     key; ``named_by`` is that experiment file, for messages); other files name their variables themselves.
     """
-    readers = {"csv": read_csv, "npz": read_npz, "mat": read_mat}
     which = kind(path)
-    if which not in readers:
-        raise DataError(str(path), "file", "expected a data file (.csv, .npz, .mat), got an experiment file")
+    if which not in READERS:
+        suffixes = ", ".join(x for r in READERS.values() for x in r.suffixes)
+        raise DataError(str(path), "file", f"expected a data file ({suffixes}), got an experiment file")
     if not path.is_file():
         raise DataError(str(path), "file", "no such data file")
     if columns is not None:
@@ -110,7 +107,7 @@ def read(path: Path, columns: Sequence[str] | None = None, named_by: str = "<pyt
                                                  f"{path.name} is a .{which} file, whose variables have names "
                                                  "(leave out columns)")
         return read_csv(path, columns, named_by)
-    return readers[which](path)
+    return READERS[which].read(path)
 
 
 BLOCK_CHARACTERS = 1 << 22
@@ -460,6 +457,26 @@ def _classify(table: Table, name: str, value: object) -> None:
         table.vectors[name] = array.astype(float).reshape(-1)
     else:
         table.unusable[name] = f"of shape {array.shape} (a signal is a vector, a constant a 1×1 scalar)"
+
+
+@dataclass(frozen=True)
+class Reader:
+    """A data-file format: the suffixes that name it, the first bytes that identify a file without one, the
+    function that reads it into a :class:`Table`, and how error messages describe it. A new format is one reader
+    function and one entry of :data:`READERS`."""
+
+    suffixes: tuple[str, ...]
+    magic: bytes | None
+    read: Any
+    described: str
+
+
+READERS: dict[str, Reader] = {
+    "csv": Reader((".csv",), None, read_csv, ".csv with a header line"),
+    "npz": Reader((".npz",), ZIP_MAGIC, read_npz, ".npz"),
+    "mat": Reader((".mat",), MAT_MAGIC, read_mat, ".mat v5"),
+}
+"""Every data-file format the package reads, by name (:func:`kind`, :func:`read`)."""
 
 
 def write(columns: Mapping[str, np.ndarray], path: str | Path) -> Path:
