@@ -19,7 +19,7 @@ import pytest
 import symbolic
 from symbolic import robots
 from symbolic.data import DataError, load
-from symbolic.data.signal_layer import ERROR_CONSTANT, MAX_DELAY, FreeValue, shift
+from symbolic.data.signal_layer import ERROR_CONSTANT, MAX_DELAY, FreeValue, reapply, shift
 from symbolic.identify.model import identify_model
 from symbolic.simulation import simulate
 
@@ -234,3 +234,22 @@ def test_a_fractional_drive_delay_in_a_feedback_loop_is_refused(tmp_path: Path, 
                       "[drive]\ntau_q = { delay = 0.5 }\n")
     with pytest.raises(DataError, match=r"\[drive\] delay: delays of 0.5 samples on the coordinates of a feedback"):
         simulate(emps, load(path, model=emps.robot))
+
+
+def test_new_values_are_applied_again_from_the_logs(tmp_path: Path) -> None:
+    """What a fit of a free value evaluates: the layer with another value, applied to the kept logs, equals
+    the experiment loaded with that value written in the file; a slice keeps the logs aligned."""
+    path = plain(tmp_path, "[sensors]\ntau_q = { gain = { value = 1.0, free = true }, bias = 0.1 }\n")
+    loaded = load(path)
+    moved = reapply(loaded, loaded.signal_layer.with_values({("sensors", "tau_q", "gain"): 1.25}), str(path))
+    (tmp_path / "b").mkdir()
+    written = load(plain(tmp_path / "b", "[sensors]\ntau_q = { gain = 1.25, bias = 0.1 }\n"))
+    np.testing.assert_array_equal(moved.tau, written.tau)
+    assert moved.signal_layer.sensors["tau_q"].gain == 1.25 and loaded.signal_layer.sensors["tau_q"].gain == 1.0
+    with pytest.raises(DataError, match=r"\[sensors\] tau_q gain: 0 \(allowed: a finite non-zero number"):
+        loaded.signal_layer.with_values({("sensors", "tau_q", "gain"): 0.0})
+    with pytest.raises(DataError, match=r"\[drive\] tau_q gain: not a value of the layer \(declared: \(sensors, tau_q"):
+        loaded.signal_layer.with_values({("drive", "tau_q", "gain"): 2.0})
+    part = loaded.slice(10, 50)
+    assert part.signal_layer.logged["tau_q"].shape == (40,)
+    np.testing.assert_array_equal(reapply(part, part.signal_layer, str(path)).tau, part.tau)

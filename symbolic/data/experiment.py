@@ -88,6 +88,11 @@ class Experiment(Measurements):
     drive_gains: Mapping[str, float] = field(default_factory=dict)
     signal_layer: SignalLayer = field(default_factory=SignalLayer)
 
+    def slice(self, start: int, stop: int) -> Experiment:
+        """Samples ``start:stop``, the signal layer's logs cut alike."""
+        cut = super().slice(start, stop)
+        return dataclasses.replace(cut, signal_layer=self.signal_layer.slice(start, stop))
+
     @classmethod
     def of(cls, measurements: Measurements, *, settings: Settings | None = None,
            controller: Controller | Mapping[str, Any] | None = None, **context: Any) -> Experiment:

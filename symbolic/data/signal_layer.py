@@ -129,6 +129,25 @@ class SignalLayer:
         """The ``[drive]`` entry of ``coordinate``, or ``None``."""
         return self.drive.get(f"tau_{coordinate}")
 
+    def slice(self, start: int, stop: int) -> SignalLayer:
+        """The layer of samples ``start:stop`` (:meth:`Measurements.slice`): the logs cut alike."""
+        logged = {k: _readonly(v[start:stop].copy()) for k, v in self.logged.items()}
+        return SignalLayer(self.sensors, self.drive, MappingProxyType(logged))
+
+    def with_values(self, values: Mapping[tuple[str, str, str], float], source: str = "<signal layer>") -> SignalLayer:
+        """This layer with ``values`` by ``(table, signal, field)`` (e.g. an estimate of a free value), each
+        checked as in a file; the logs kept."""
+        tables = {"sensors": dict(self.sensors), "drive": dict(self.drive)}
+        for (table, signal, name), value in values.items():
+            where = f"[{table}] {signal} {name}"
+            if table not in tables or signal not in tables[table] or name not in FIELDS:
+                declared = [f"({c.table}, {c.signal}, {f})" for c in self.channels for f in FIELDS]
+                raise DataError(source, where, f"not a value of the layer (declared: {', '.join(declared) or 'none'})")
+            number = _number(value, where, source)
+            _check(name, number, where, source)
+            tables[table][signal] = dataclasses.replace(tables[table][signal], **{name: number})
+        return SignalLayer(MappingProxyType(tables["sensors"]), MappingProxyType(tables["drive"]), self.logged)
+
 
 # -- the tables ------------------------------------------------------------------------------------------------
 
@@ -242,6 +261,27 @@ def apply(measurements: Measurements, layer: SignalLayer, source: str) -> tuple[
             values.setflags(write=False)
     corrected = dataclasses.replace(measurements, **{k: v for k, v in arrays.items() if v is not None})
     return corrected, SignalLayer(layer.sensors, layer.drive, MappingProxyType(logged))
+
+
+def reapply(measurements: Measurements, layer: SignalLayer, source: str) -> Measurements:
+    """``measurements`` (whose declared signals :func:`apply` made from ``layer.logged``) made again from the
+    logs with ``layer``'s values (:meth:`SignalLayer.with_values`): what a fit of the free values evaluates."""
+    arrays = {kind: None if getattr(measurements, kind) is None else np.array(getattr(measurements, kind))
+              for kind in SENSED}
+    for channel in layer.channels:
+        if channel.signal not in layer.logged:
+            raise DataError(source, f"[{channel.table}] {channel.signal}", "no log kept for it (not loaded with the layer)")
+        kind, coordinate = split_name(channel.signal) or ("", "")
+        j = measurements.coordinates.index(coordinate)
+        values = layer.logged[channel.signal]
+        arrays[kind][:, j] = correct(channel, values) if channel.table == "sensors" else drive(channel, values)
+    for values in arrays.values():
+        if values is not None:
+            values.setflags(write=False)
+    changed = {k: v for k, v in arrays.items() if v is not None}
+    if hasattr(measurements, "signal_layer"):
+        changed["signal_layer"] = layer
+    return dataclasses.replace(measurements, **changed)
 
 
 def _readonly(values: np.ndarray) -> np.ndarray:
