@@ -65,9 +65,10 @@ COST_TOLERANCE = 1e-10
 """... or when the cost falls (or the linearised model predicts it would fall) by less than this, relatively."""
 SIGMA_TOLERANCE = 1e-3
 """... or when the Gauss–Newton step is below this many standard deviations of every estimate."""
-FLAT_SIGMA = 0.1
-"""When no step lowers the cost (a cost with steps: a quantised sensor) but the Gauss–Newton step is below this
-many σ, the fit has converged within its precision."""
+FLAT_SIGMA = 1.0
+"""When no step lowers the cost (a cost with steps: a quantised sensor, whose readings jump a count at other
+samples when θ moves) but the Gauss–Newton step is below this many σ, the fit has converged within its
+precision: a step smaller than the estimates' standard deviations is not significant."""
 MAX_DAMPING = 1e10
 """Marquardt's λ beyond which the search stops: no step lowers the cost (a step too small to matter)."""
 
