@@ -53,8 +53,9 @@ def pendulum() -> symbolic.DynamicModel:
 # -- the controller ---------------------------------------------------------------------------------------------
 
 
-LOOP_KINDS = [k for k in control.KINDS if k != control.STATE_FEEDBACK]
-"""The kinds with per-coordinate loops; state feedback has its own contract test (tests/test_state_feedback.py)."""
+LOOP_KINDS = [k for k in control.KINDS if k not in (control.STATE_FEEDBACK, control.CASCADE_PI)]
+"""The kinds with per-coordinate loops; state feedback and the PI cascade have their own contract tests
+(tests/test_state_feedback.py, tests/test_cascade.py)."""
 
 
 def reference_loop(kind: str, q: np.ndarray, r: np.ndarray, d: np.ndarray, tau_log: np.ndarray, period: float,

@@ -147,7 +147,7 @@ def test_cli_simulates_a_small_experiment(tmp_path: Path) -> None:
         (CASCADE.replace('"ref"', '["qg"]'), {}, "[controller] reference[0]: unknown name 'qg' in 'qg' (allowed: t and the data's columns"),
         (CASCADE.replace('"cascade"', '"pd"'), {}, "[controller] kv: not used by kind 'pd'"),
         (CASCADE.replace('"cascade"', '"lqr"'), {},
-         "[controller] kind: expected one of torque, pd, pid, cascade, state_feedback, got 'lqr'"),
+         "[controller] kind: expected one of torque, pd, pid, cascade, cascade_pi, state_feedback, got 'lqr'"),
         (CASCADE + "saturation = [0.0]\n", {}, "[controller] saturation[0]: 0.0 is not allowed (allowed: numbers > 0)"),
         (CASCADE + "delay = -1\n", {}, "[controller] delay: expected a whole number of samples ≥ 0, got -1"),
         (CASCADE + "velocity_filter = []\n", {}, "[controller] velocity_filter: expected a list of 1 to 64 finite numbers"),

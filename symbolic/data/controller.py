@@ -32,18 +32,27 @@ from symbolic.description.robot import parameter_symbol
 from symbolic.errors import ModelError, shown
 
 STATE_FEEDBACK = "state_feedback"
+CASCADE_PI = "cascade_pi"
+"""The industrial cascade: P position loop → PI velocity loop, plus a logged feedforward (docs/simulation.md)."""
 
-KINDS = ("torque", "pd", "pid", "cascade", STATE_FEEDBACK)
+KINDS = ("torque", "pd", "pid", "cascade", CASCADE_PI, STATE_FEEDBACK)
 
-GAINS = {"torque": (), "pd": ("kp", "kd"), "pid": ("kp", "kd", "ki"), "cascade": ("kp", "kv"), STATE_FEEDBACK: ()}
-"""The loop gains each kind needs (all per coordinate, ≥ 0); state feedback has its matrix ``K`` instead."""
+GAINS = {"torque": (), "pd": ("kp", "kd"), "pid": ("kp", "kd", "ki"), "cascade": ("kp", "kv"),
+         CASCADE_PI: ("kp_position", "kp_velocity", "ki_velocity"), STATE_FEEDBACK: ()}
+"""The loop gains each kind needs (all per coordinate, ≥ 0; ``kp_velocity`` > 0); state feedback has its
+matrix ``K`` instead."""
+
+CASCADE_PI_KEYS = ("velocity_feedforward", "feedforward", "reference_velocity")
+"""The optional keys of ``cascade_pi`` besides the loop's: ff_vel (the reference velocity's weight in the
+velocity reference), the logged feedforward added to the command, and ṙ (default: r's backward difference)."""
 
 COMMON_KEYS = ("kind", "coordinates", "gain", "saturation", "quantisation", "disturbance", "delay")
 LOOP_KEYS = ("reference", "velocity_filter")
 STATE_FEEDBACK_KEYS = ("kind", "inputs", "states", "K", "gain", "saturation", "quantisation", "disturbance", "delay",
                        "velocity_filter")
 
-KEYS = (*COMMON_KEYS, "kp", "kd", "ki", "kv", *LOOP_KEYS, "inputs", "states", "K")
+KEYS = (*COMMON_KEYS, "kp", "kd", "ki", "kv", *GAINS[CASCADE_PI], *LOOP_KEYS, *CASCADE_PI_KEYS, "inputs", "states",
+        "K")
 
 STATE_SIGNALS = ("q", "qd")
 """The signals a state of ``states`` may name: ``q_<c>`` (position) and ``qd_<c>`` (velocity)."""
@@ -53,7 +62,8 @@ def allowed_keys(kind: str) -> tuple[str, ...]:
     """The keys a ``[controller]`` table of ``kind`` may have."""
     if kind == STATE_FEEDBACK:
         return STATE_FEEDBACK_KEYS
-    return COMMON_KEYS + (GAINS[kind] + LOOP_KEYS if kind != "torque" else ())
+    extra = CASCADE_PI_KEYS if kind == CASCADE_PI else ()
+    return COMMON_KEYS + (GAINS[kind] + LOOP_KEYS + extra if kind != "torque" else ())
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,7 +77,8 @@ class Controller:
     coordinates
         The controlled (driven) coordinates: ``coordinates``, or ``inputs`` for state feedback.
     kp, kd, ki, kv
-        Loop gains (zero where the kind has none).
+        Loop gains (zero where the kind has none). ``cascade_pi`` keeps kp_position in ``kp``,
+        kp_velocity in ``kv`` and ki_velocity in ``ki`` (``kd`` zero).
     gain
         Output-to-force gains, as expressions of the model's parameters (numbers are constants).
     reference
@@ -88,6 +99,12 @@ class Controller:
         State feedback: the state vector, ``(signal, coordinate)`` with signal ``"q"`` or ``"qd"``; else empty.
     K
         State feedback: the gain matrix, inputs × states (signed); else 0 × 0.
+    velocity_feedforward
+        ``cascade_pi``: ff_vel per coordinate (the weight of ṙ in the velocity reference); else empty.
+    feedforward
+        ``cascade_pi``: expressions of the data's columns added to the command before saturation, or ``None``.
+    reference_velocity
+        ``cascade_pi``: expressions of the data's columns giving ṙ, or ``None`` (r's backward difference).
     """
 
     kind: str
@@ -106,6 +123,9 @@ class Controller:
     source: str = "<controller>"
     states: tuple[tuple[str, str], ...] = ()
     K: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    velocity_feedforward: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    feedforward: tuple[str, ...] | None = None
+    reference_velocity: tuple[str, ...] | None = None
 
     @property
     def size(self) -> int:
@@ -122,7 +142,10 @@ class Controller:
 
     @property
     def reference_size(self) -> int:
-        """Length of the reference input per sample: one per coordinate, or x_ref (one per state)."""
+        """Length of the reference input per sample: one per coordinate, x_ref (one per state), or for
+        ``cascade_pi`` r, ṙ and the feedforward (three per coordinate, in that order)."""
+        if self.kind == CASCADE_PI:
+            return 3 * self.size
         return len(self.states) if self.kind == STATE_FEEDBACK else self.size
 
     def state_names(self) -> list[str]:
@@ -148,6 +171,10 @@ class Controller:
             parts.append(f"saturation ±{', '.join(f'{s:g}' for s in self.saturation)}")
         if self.quantisation.any():
             parts.append(f"quantisation {', '.join(f'{r:g}' for r in self.quantisation)}")
+        if self.velocity_feedforward.any():
+            parts.append(f"velocity feedforward {', '.join(f'{w:g}' for w in self.velocity_feedforward)}")
+        if self.feedforward:
+            parts.append(f"feedforward {', '.join(self.feedforward)}")
         if self.disturbance:
             parts.append(f"disturbance {', '.join(self.disturbance)}")
         if self.delay:
@@ -220,11 +247,16 @@ def parse(
     coordinates = _coordinates(table, "coordinates", data_coordinates, model, source)
     nc = len(coordinates)
     per = _PerCoordinate(table, coordinates, source)
-    gains = {name: per.numbers(name, required=True, minimum=0.0) for name in GAINS[kind]}
+    gains = {name: per.numbers(name, required=True, minimum=0.0, strict=name == "kp_velocity", finite=True)
+             for name in GAINS[kind]}
+    if kind == CASCADE_PI:  # stored where the P/P cascade keeps its gains (Controller)
+        gains = {"kp": gains["kp_position"], "kv": gains["kp_velocity"], "ki": gains["ki_velocity"]}
     zeros = np.zeros(nc)
     reference = _reference(table, nc, source) if kind != "torque" else None
+    cascade = _cascade_pi(table, per) if kind == CASCADE_PI else {}
     if columns is not None:
-        _check_signals(reference, per.strings("disturbance"), coordinates, columns, source)
+        _check_signals(reference, per.strings("disturbance"), coordinates, columns, source,
+                       {k: cascade[k] for k in ("feedforward", "reference_velocity") if k in cascade})
     return check_delay(Controller(
         kind=kind,
         coordinates=coordinates,
@@ -240,7 +272,15 @@ def parse(
         delay=_delay(table, source),
         velocity_filter=_taps(table, source),
         source=source,
+        **cascade,
     ), samples)
+
+
+def _cascade_pi(table: Mapping[str, Any], per: _PerCoordinate) -> dict[str, Any]:
+    """The optional keys of ``cascade_pi`` (:data:`CASCADE_PI_KEYS`), as :class:`Controller` fields."""
+    return {"velocity_feedforward": per.numbers("velocity_feedforward", minimum=0.0, finite=True),
+            "feedforward": per.strings("feedforward"),
+            "reference_velocity": per.strings("reference_velocity")}
 
 
 _STATE_FEEDBACK_HELP = 'inputs = ["<c>", ...], states = ["q_<c>", "qd_<c>", ...], K = [[...], ...] one row per input'
@@ -356,7 +396,9 @@ class _PerCoordinate:
         return value
 
     def numbers(self, name: str, *, required: bool = False, default: float = 0.0, minimum: float = 0.0,
-                strict: bool = False) -> np.ndarray:
+                strict: bool = False, finite: bool = False) -> np.ndarray:
+        """The list ``name`` as numbers ≥ ``minimum`` (> with ``strict``, which also admits +inf unless
+        ``finite``)."""
         if name not in self.table:
             if required:
                 raise DataError(self.source, f"[controller] {name}", "missing (a list with one number per coordinate)")
@@ -365,7 +407,7 @@ class _PerCoordinate:
         for k, v in enumerate(self._list(name)):
             key = f"[controller] {name}[{k}]"
             if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v) or (
-                    math.isinf(v) and not (strict and v > 0)):
+                    math.isinf(v) and not (strict and not finite and v > 0)):
                 raise DataError(self.source, key, f"expected a finite number, got {v!r}")
             if v < minimum or (strict and v <= minimum):
                 bound = f"> {minimum:g}" if strict else f"≥ {minimum:g}"
@@ -374,7 +416,7 @@ class _PerCoordinate:
             if math.isfinite(v) and abs(v) > MAX_MAGNITUDE:
                 raise DataError(self.source, key, f"{v:g} is beyond the magnitude {MAX_MAGNITUDE:g} of the numbers a "
                                                   "simulation can hold (allowed: numbers of magnitude at most "
-                                                  f"{MAX_MAGNITUDE:g}{', or inf' if strict else ''})")
+                                                  f"{MAX_MAGNITUDE:g}{', or inf' if strict and not finite else ''})")
             out.append(float(v))
         return np.array(out)
 
@@ -472,8 +514,10 @@ def check_names(text: str, symbols: Mapping[str, Any], source: str, key: str, wh
 
 
 def _check_signals(reference: str | tuple[str, ...] | None, disturbance: tuple[str, ...] | None,
-                   coordinates: tuple[str, ...], columns: Collection[str], source: str) -> None:
-    """The data's signals the controller reads exist: ``ref_<c>`` for ``"ref"``, the names of expressions."""
+                   coordinates: tuple[str, ...], columns: Collection[str], source: str,
+                   more: Mapping[str, tuple[str, ...] | None] | None = None) -> None:
+    """The data's signals the controller reads exist: ``ref_<c>`` for ``"ref"``, the names of expressions
+    (``more``: further keys of expressions, e.g. a cascade's ``feedforward``)."""
     if reference == "ref":
         for c in coordinates:
             if f"ref_{c}" not in columns:
@@ -481,6 +525,8 @@ def _check_signals(reference: str | tuple[str, ...] | None, disturbance: tuple[s
                                 f"\"ref\" needs the columns ref_<c>, but the data have no column 'ref_{c}' "
                                 f"(columns: {', '.join(columns)})")
     readable = {name: None for name in columns}
-    for name, texts in (("reference", reference if isinstance(reference, tuple) else None), ("disturbance", disturbance)):
+    lists = [("reference", reference if isinstance(reference, tuple) else None), ("disturbance", disturbance),
+             *(more or {}).items()]
+    for name, texts in lists:
         for k, text in enumerate(texts or ()):
             check_names(text, readable, source, f"[controller] {name}[{k}]", "t and the data's columns")

@@ -4,7 +4,7 @@
 Discrete at the log's sample period T with zero-order hold: at sample k the controller reads the position
 q_m,k rounded to the sensor's resolution, filters the backward-difference velocity with the FIR
 ``velocity_filter``, computes u_k by its ``kind`` (``torque``: the logged force replayed; ``pd``, ``pid``,
-``cascade``; ``state_feedback``: u_k = −K·(x_k − x_ref,k)), saturates it, delays it by ``delay`` samples, adds
+``cascade``, ``cascade_pi``; ``state_feedback``: u_k = −K·(x_k − x_ref,k)), saturates it, delays it by ``delay`` samples, adds
 the ``disturbance`` and applies τ_k = gain·(u + d_k) over [t_k, t_k+1).
 
 :func:`controller_function` builds this step as a CasADi function, so that the closed loop runs in compiled
@@ -25,12 +25,12 @@ import numpy as np
 import sympy as sp
 
 from symbolic.data import DataError, Measurements
-from symbolic.data.controller import (GAINS, KEYS, KINDS, STATE_FEEDBACK, Controller, allowed_keys, check_delay,
-                                      check_names, parse, replay)
+from symbolic.data.controller import (CASCADE_PI, GAINS, KEYS, KINDS, STATE_FEEDBACK, Controller, allowed_keys,
+                                      check_delay, check_names, parse, replay)
 from symbolic.errors import ModelError
 from symbolic.description.expressions import RESERVED_NAMES, parse_expression
 
-__all__ = ["GAINS", "KEYS", "KINDS", "LINE_IN_MEMORY", "STATE_FEEDBACK", "Controller", "DelayLine", "Inputs",
+__all__ = ["CASCADE_PI", "GAINS", "KEYS", "KINDS", "LINE_IN_MEMORY", "STATE_FEEDBACK", "Controller", "DelayLine", "Inputs",
            "allowed_keys", "check_delay", "constants", "controller_function", "drive_gains", "evaluate", "inputs",
            "line_outside", "parse", "replay", "state_reference"]
 
@@ -48,8 +48,9 @@ the same on a one-coordinate loop (bench/delay.py, bench/results/delay.md: withi
 
 @dataclass(frozen=True, eq=False)
 class Inputs:
-    """Per-sample inputs of the controller: references (samples × :attr:`Controller.reference_size`),
-    disturbances (samples × nc), measured forces (samples × n)."""
+    """Per-sample inputs of the controller: references (samples × :attr:`Controller.reference_size`:
+    for ``cascade_pi`` r, ṙ and the feedforward side by side), disturbances (samples × nc), measured
+    forces (samples × n)."""
 
     reference: np.ndarray
     disturbance: np.ndarray
@@ -79,6 +80,10 @@ def inputs(controller: Controller, measurements: Measurements, model_coordinates
         reference = _evaluate_all(controller.reference, measurements, "reference")
     elif controller.kind == STATE_FEEDBACK:
         reference = state_reference(controller, measurements)
+    if controller.kind == CASCADE_PI:
+        reference = np.hstack([reference, _reference_velocity(controller, measurements, reference),
+                               _evaluate_all(controller.feedforward, measurements, "feedforward")
+                               if controller.feedforward is not None else np.zeros((samples, nc))])
     disturbance = np.zeros((samples, nc))
     if controller.disturbance is not None:
         disturbance = _evaluate_all(controller.disturbance, measurements, "disturbance")
@@ -86,6 +91,16 @@ def inputs(controller: Controller, measurements: Measurements, model_coordinates
     for j, c in enumerate(data):
         torque[:, list(model_coordinates).index(c)] = measurements.tau[:, j]
     return Inputs(np.ascontiguousarray(reference), np.ascontiguousarray(disturbance), torque)
+
+
+def _reference_velocity(controller: Controller, measurements: Measurements, reference: np.ndarray) -> np.ndarray:
+    """ṙ of a ``cascade_pi``: its ``reference_velocity`` expressions, else the backward difference of the
+    reference, (r_k − r_k−1)/T, 0 at the first sample (causal, as a drive would form it)."""
+    if controller.reference_velocity is not None:
+        return _evaluate_all(controller.reference_velocity, measurements, "reference_velocity")
+    velocity = np.zeros_like(reference)
+    velocity[1:] = np.diff(reference, axis=0) / measurements.sample_period
+    return velocity
 
 
 def state_reference(controller: Controller, measurements: Measurements) -> np.ndarray:
@@ -156,10 +171,11 @@ def drive_gains(controller: Controller, parameters: Mapping[sp.Symbol, float]) -
 def constants(controller: Controller, parameters: Mapping[sp.Symbol, float]) -> np.ndarray:
     """The numbers :func:`controller_function` takes as its ``c`` input (gains evaluated at ``parameters``):
     kp, kd, ki, kv, gain, saturation (one per controlled coordinate each), quantisation (one per sensed
-    coordinate), the velocity filter's taps, then K row by row (state feedback; empty otherwise)."""
+    coordinate), the velocity filter's taps, then K row by row (state feedback; empty otherwise), then
+    the velocity feedforward weights (``cascade_pi``, one per coordinate; empty otherwise)."""
     return np.concatenate([controller.kp, controller.kd, controller.ki, controller.kv,
                            drive_gains(controller, parameters), controller.saturation, controller.quantisation,
-                           controller.velocity_filter, controller.K.ravel()])
+                           controller.velocity_filter, controller.K.ravel(), controller.velocity_feedforward])
 
 
 # -- the delay line -------------------------------------------------------------------------------------------
@@ -195,6 +211,20 @@ class DelayLine:
         self.rows[(start + np.arange(len(outputs))) % self.delay] = outputs
 
 
+def _cascade_pi(r: ca.SX, measured: ca.SX, velocity: ca.SX, integral: ca.SX, kp: ca.SX, kv: ca.SX, ki: ca.SX,
+                weight: ca.SX, saturation: ca.SX, period: float) -> tuple[ca.SX, ca.SX]:
+    """The unsaturated command and the next integral of ``cascade_pi`` (docs/simulation.md):
+    v_ref = kp_pos·(r − q_m) + ff_vel·ṙ, e = v_ref − v, w = kp_vel·e + ki·I_k + ff; I_k+1 = I_k + T·e
+    (forward Euler: the integral acts from the next sample), held while the command is clamped and e
+    would drive it further (clamping anti-windup)."""
+    nc = measured.numel()
+    position, rate, feedforward = r[:nc], r[nc:2 * nc], r[2 * nc:]
+    error = kp * (position - measured) + weight * rate - velocity
+    w = kv * error + ki * integral + feedforward
+    winding = ca.logic_and(ca.fabs(w) > saturation, error * w > 0)
+    return w, ca.if_else(winding, integral, integral + period * error)
+
+
 # -- the step ---------------------------------------------------------------------------------------------------
 
 
@@ -221,12 +251,15 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
     memory = ca.SX.sym("m", controller.memory_size(line=not external))
     q, r, d = ca.SX.sym("q", n), ca.SX.sym("r", nx), ca.SX.sym("d", nc)
     tau_log = ca.SX.sym("tau_log", n)
-    c = ca.SX.sym("c", 6 * nc + ns + taps + controller.K.size)
+    nf = len(controller.velocity_feedforward)
+    c = ca.SX.sym("c", 6 * nc + ns + taps + controller.K.size + nf)
     kp, kd, ki, kv, gain, saturation = (c[i * nc:(i + 1) * nc] for i in range(6))
     resolution = c[6 * nc:6 * nc + ns]
     weights = c[6 * nc + ns:6 * nc + ns + taps]
     # K row by row: CasADi reshapes column-major, so the transpose of the (states × inputs) reshape
-    K = ca.reshape(c[6 * nc + ns + taps:], nx, nc).T if controller.kind == STATE_FEEDBACK else None
+    K = ca.reshape(c[6 * nc + ns + taps:6 * nc + ns + taps + controller.K.size], nx, nc).T \
+        if controller.kind == STATE_FEEDBACK else None
+    feedforward_weight = c[c.numel() - nf:]
     started, last = memory[0], memory[1:1 + ns]
     at = 1 + ns
     past = [memory[at + i * ns: at + (i + 1) * ns] for i in range(taps - 1)]  # v_b,k-1, v_b,k-2, ...
@@ -246,6 +279,9 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
         where = {s: k for k, s in enumerate(sensors)}
         x = ca.vertcat(*[(measured if signal == "q" else velocity)[where[c]] for signal, c in controller.states])
         u, integral_next = -ca.mtimes(K, x - r), integral
+    elif controller.kind == CASCADE_PI:
+        u, integral_next = _cascade_pi(r, measured, velocity, integral, kp, kv, ki, feedforward_weight, saturation,
+                                       period)
     else:
         error = r - measured
         integral_next = integral + period * error
