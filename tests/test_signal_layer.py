@@ -253,3 +253,26 @@ def test_new_values_are_applied_again_from_the_logs(tmp_path: Path) -> None:
     part = loaded.slice(10, 50)
     assert part.signal_layer.logged["tau_q"].shape == (40,)
     np.testing.assert_array_equal(reapply(part, part.signal_layer, str(path)).tau, part.tau)
+
+
+def test_a_feedback_loop_reads_the_position_through_the_declared_sensor(tmp_path: Path,
+                                                                           emps: symbolic.DynamicModel) -> None:
+    """PD reading q_m = 1.25·q + 0.01 (declared) against the law written out for the true q by hand:
+    kp·(r − q_m) − kd·q̇_m = 1.25·kp·((r − 0.01)/1.25 − q) − 1.25·kd·q̇, the log's positions the true ones."""
+    t = np.arange(0.0, 0.4, 1 / RATE)
+    q, _, _ = motion(t)
+    ref = q + 0.002
+    loop = '[controller]\nkind = "pd"\nreference = "ref"\n'
+    declared = experiment(tmp_path, {"t": t, "q_q": 1.25 * q + 0.01, "tau_q": np.zeros_like(t), "ref_q": ref},
+                          loop + "kp = [20000.0]\nkd = [800.0]\n[sensors]\nq_q = { gain = 1.25, bias = 0.01 }\n")
+    (tmp_path / "by_hand").mkdir()
+    by_hand = experiment(tmp_path / "by_hand", {"t": t, "q_q": q, "tau_q": np.zeros_like(t), "ref_q": ref,
+                                                "shifted": (ref - 0.01) / 1.25},
+                         '[controller]\nkind = "pd"\nreference = ["shifted"]\nkp = [25000.0]\nkd = [1000.0]\n')
+    for method in ("rk4", "Radau"):
+        a, b = (simulate(emps, load(p, model=emps.robot), method=method) for p in (declared, by_hand))
+        np.testing.assert_allclose(a.simulated.q, b.simulated.q, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(a.simulated.tau, b.simulated.tau, rtol=0, atol=1e-6)
+    unread = simulate(emps, load(experiment(tmp_path, {"t": t, "q_q": q, "tau_q": np.zeros_like(t), "ref_q": ref},
+                                            loop + "kp = [20000.0]\nkd = [800.0]\n", "plain.toml"), model=emps.robot))
+    assert np.max(np.abs(unread.simulated.q - a.simulated.q)) > 1e-3  # the sensor matters

@@ -264,7 +264,8 @@ def simulate(
     p = _parameters(model, parameters, source)
     ctrl = control.check_delay(_controller(controller, measurements, model, names), measurements.samples)
     signals = control.inputs(ctrl, measurements, names)
-    ctrl, signals = _drive_layer(ctrl, signals, measurements, model.parameter_vector.with_array(p).by_symbol())
+    ctrl, signals = drive_layer(ctrl, signals, measurements, model.parameter_vector.with_array(p).by_symbol())
+    sensed = position_sensors(ctrl, measurements, names)
     started = time.perf_counter()
     plant = _plant(model)
     x0 = _initial_state(model, measurements, p, initial)
@@ -283,9 +284,9 @@ def simulate(
     timings = {"build": time.perf_counter() - started}
     args = (ctrl, plant, measurements, signals, x0, p, c, friction_velocity)
     if method == "rk4":
-        outputs, used_compiled = _run_fixed_step(*args, m, names, compiled, timings)
+        outputs, used_compiled = _run_fixed_step(*args, m, names, compiled, timings, sensed)
     else:
-        outputs, used_compiled, m = _run_solve_ivp(*args, names, method, rtol, atol), False, 1
+        outputs, used_compiled, m = _run_solve_ivp(*args, names, method, rtol, atol, sensed), False, 1
         timings["integrate"] = time.perf_counter() - started - timings["build"]
     simulated = _trajectory(measurements, names, outputs)
     return Simulation(measurements, simulated, ctrl, method, m, radius, friction_velocity,
@@ -433,7 +434,7 @@ def _spectral_radius(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0
 # -- the experiment's [drive] in a feedback loop -----------------------------------------------------------
 
 
-def _drive_layer(ctrl: control.Controller, signals: control.Inputs, measurements: Measurements,
+def drive_layer(ctrl: control.Controller, signals: control.Inputs, measurements: Measurements,
                  parameters: Mapping[sp.Symbol, float]) -> tuple[control.Controller, control.Inputs]:
     """``ctrl`` and its inputs with the experiment's ``[drive]`` (docs/data.md, "The signal layer"): the force
     applied is g·(τ_ctrl(t − d) + b) for the controller's output τ_ctrl = gain·(u + disturbance), so the loop's
@@ -470,6 +471,24 @@ def _drive_layer(ctrl: control.Controller, signals: control.Inputs, measurements
     gain = tuple(g if ch is None else sp.Float(ch.gain) * g for g, ch in zip(ctrl.gain, channels))
     ctrl = control.check_delay(dataclasses.replace(ctrl, gain=gain, delay=ctrl.delay + shift), measurements.samples)
     return ctrl, dataclasses.replace(signals, disturbance=np.ascontiguousarray(disturbance))
+
+
+def position_sensors(ctrl: control.Controller, measurements: Measurements,
+                     names: tuple[str, ...]) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+    """The gains and biases of the experiment's ``[sensors] q_<c>``, one per coordinate of the model (1 and 0
+    where none is declared), through which a feedback controller reads the simulated positions (it read the
+    sensor, not the position: q_m = gain·q + bias); ``None`` without any, or for a replayed force. A
+    sensor's delay stays out of the loop (docs/data.md, "The signal layer"): a warning says so."""
+    layer = measurements.signal_layer if isinstance(measurements, Experiment) else None
+    channels = [] if layer is None or ctrl.kind == "torque" else [layer.sensors.get(f"q_{c}") for c in names]
+    if not any(channels):
+        return None
+    late = [ch.signal for ch in channels if ch is not None and ch.delay != 0]
+    if late:
+        LOG.warning("%s: [sensors] %s: the controller of the simulation reads the position without the sensor's "
+                    "delay (the gain and bias are applied)", measurements.source, ", ".join(late))
+    return (tuple(1.0 if ch is None else ch.gain for ch in channels),
+            tuple(0.0 if ch is None else ch.bias for ch in channels))
 
 
 # -- initial state -----------------------------------------------------------------------------------------
@@ -522,7 +541,8 @@ def initial_velocity(measurements: Measurements) -> np.ndarray:
 
 
 def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float,
-                    substeps: int, external: bool = False) -> ca.Function:
+                    substeps: int, external: bool = False,
+                    sensed: tuple[tuple[float, ...], tuple[float, ...]] | None = None) -> ca.Function:
     """One sample of the closed loop: ``(z, w, p, c, eps) -> (z_next, y)``.
 
     z = [x; controller memory], w = [reference (x_ref of a state feedback); disturbance; logged τ; t_k] of
@@ -531,6 +551,9 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
 
     ``external``: the delay line is the caller's (:class:`~symbolic.simulation.controller.DelayLine`): w
     ends with the output applied at the sample and y with the output computed there.
+
+    ``sensed``: per coordinate ``(gains, biases)`` of the position sensors (:func:`position_sensors`): the
+    controller reads gain·q + bias.
     """
     n, memory = plant.n, ctrl.memory_size(line=not external)
     nc, nr = ctrl.size, ctrl.reference_size
@@ -547,7 +570,8 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     Z, W = ca.MX.sym("z", 2 * n + memory), ca.MX.sym("w", nr + nc + n + 1 + (nc if external else 0))
     C = ca.MX.sym("c", step_controller.size1_in(5))
     x, m = Z[: 2 * n], Z[2 * n:]
-    read = (m, x[:n], W[:nr], W[nr:nr + nc], W[nr + nc:nr + nc + n], C)
+    position = x[:n] if sensed is None else x[:n] * ca.DM(sensed[0]) + ca.DM(sensed[1])
+    read = (m, position, W[:nr], W[nr:nr + nc], W[nr + nc:nr + nc + n], C)
     t_k = W[nr + nc + n]
     if external:
         m_next, tau, u = step_controller(*read, W[nr + nc + n + 1:])
@@ -573,13 +597,13 @@ CHUNK = 1000
 with its length (0.03 s for 1000 samples, 0.7 s for 10 000), so long logs are run in chunks."""
 
 def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float, substeps: int,
-                 compiled: bool | None) -> tuple[ca.Function, bool]:
-    """The (compiled) sample function, built once per plant and controller structure."""
+                 compiled: bool | None, sensed: tuple | None = None) -> tuple[ca.Function, bool]:
+    """The (compiled) sample function, built once per plant, controller structure and position sensors."""
     external = control.line_outside(ctrl)
-    key = (ctrl.structure(), external, names, period, substeps, compiled)
+    key = (ctrl.structure(), external, names, period, substeps, compiled, sensed)
     cache = plant.closed_loops
     if key not in cache:
-        function = sample_function(ctrl, plant, names, period, substeps, external)
+        function = sample_function(ctrl, plant, names, period, substeps, external, sensed)
         fast = compile_casadi(function) if compiled is not False else None
         if compiled and fast is None:
             LOG.warning("no working C compiler: the simulation runs in CasADi's virtual machine")
@@ -589,9 +613,9 @@ def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...],
 
 def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measurements, signals: control.Inputs,
                     x0: np.ndarray, p: np.ndarray, c: np.ndarray, eps: float, substeps: int, names: tuple[str, ...],
-                    compiled: bool | None, timings: dict[str, float]) -> tuple[np.ndarray, bool]:
+                    compiled: bool | None, timings: dict[str, float], sensed: tuple | None = None) -> tuple[np.ndarray, bool]:
     started = time.perf_counter()
-    function, is_compiled = _closed_loop(ctrl, plant, names, measurements.sample_period, substeps, compiled)
+    function, is_compiled = _closed_loop(ctrl, plant, names, measurements.sample_period, substeps, compiled, sensed)
     timings["compile"] = time.perf_counter() - started
     started = time.perf_counter()
     line = control.DelayLine(ctrl.delay, ctrl.size) if control.line_outside(ctrl) else None
@@ -623,7 +647,7 @@ def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measur
 
 def _run_solve_ivp(ctrl: control.Controller, plant: Plant, measurements: Measurements, signals: control.Inputs,
                    x0: np.ndarray, p: np.ndarray, c: np.ndarray, eps: float, names: tuple[str, ...], method: str,
-                   rtol: float, atol: float) -> np.ndarray:
+                   rtol: float, atol: float, sensed: tuple | None = None) -> np.ndarray:
     from scipy.integrate import solve_ivp
 
     n = plant.n
@@ -638,7 +662,8 @@ def _run_solve_ivp(ctrl: control.Controller, plant: Plant, measurements: Measure
     state = x0.copy()
     out = np.full((measurements.samples, 4 * n), np.nan)
     for k in range(measurements.samples):
-        read = (memory, state[:n], signals.reference[k], signals.disturbance[k], signals.torque[k], c)
+        position = state[:n] if sensed is None else state[:n] * np.asarray(sensed[0]) + np.asarray(sensed[1])
+        read = (memory, position, signals.reference[k], signals.disturbance[k], signals.torque[k], c)
         if line is None:
             memory_next, tau_k = step_controller(*read)
         else:
