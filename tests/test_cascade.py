@@ -368,3 +368,29 @@ def test_simulate_command_runs_the_cascade(tmp_path: Path, capsys: pytest.Captur
     assert main(["simulate", str(model), str(experiment), "--out", str(out)]) == 0
     written = symbolic.data.load(out / "simulated.experiment.toml")
     assert written.samples == 1001 and "cascade_pi on q" in capsys.readouterr().out
+
+
+def test_closed_loop_modes_close_the_cascade() -> None:
+    """symbolic.workflow.modes linearises the loop at rest with this law: against the eigenvalues of the
+    sampled axis (J q̈ = τ − Fv·q̇, exact zero-order hold) closed by the cascade written out here."""
+    from symbolic.workflow.modes import closed_loop_modes
+
+    kp, kv, ki, J0, fv, T = 20.0, 1.5, 15.0, 0.05, 0.3, 2e-3
+    a = fv / J0
+    decay = math.exp(-a * T)
+
+    def step(z: np.ndarray) -> np.ndarray:  # z = (q, q̇, q_k−1, I_k)
+        q, v, last, integral = z
+        error = -kp * q - (q - last) / T
+        u = kv * error + ki * integral
+        return np.array([q + (1 - decay) / a * v + (T - (1 - decay) / a) / fv * u,
+                         decay * v + (1 - decay) / fv * u, q, integral + T * error])
+
+    z = np.linalg.eigvals(np.column_stack([step(e) for e in np.eye(4)]))
+    s = np.log(z[z.imag > 1e-12].astype(complex)) / T
+    expected = sorted((float(v.imag / (2 * np.pi)), float(-v.real / abs(v))) for v in s)
+    model = symbolic.derive(symbolic.loads(models.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"')))
+    table = {"kind": "cascade_pi", "kp_position": [kp], "kp_velocity": [kv], "ki_velocity": [ki], "reference": ["0"]}
+    got = closed_loop_modes(model, {}, table, T)
+    assert len(expected) >= 1
+    np.testing.assert_allclose(got, expected, rtol=1e-9)

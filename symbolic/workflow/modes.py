@@ -100,6 +100,9 @@ def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], tabl
         v = taps[0] * vb + (taps[1:, None] * history).sum(axis=0) if m > 1 else taps[0] * vb
         if ctrl.kind == control.STATE_FEEDBACK:
             u = -ctrl.K @ np.concatenate([y, v])[pick]
+        elif ctrl.kind == control.CASCADE_PI:  # the velocity error's integral acts from the next sample
+            error = -ctrl.kp * y - v
+            u, integral = ctrl.kv * error + ctrl.ki * integral, integral + period * error
         else:
             integral = integral - period * y
             if ctrl.kind == "cascade":
