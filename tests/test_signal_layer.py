@@ -276,3 +276,40 @@ def test_a_feedback_loop_reads_the_position_through_the_declared_sensor(tmp_path
     unread = simulate(emps, load(experiment(tmp_path, {"t": t, "q_q": q, "tau_q": np.zeros_like(t), "ref_q": ref},
                                             loop + "kp = [20000.0]\nkd = [800.0]\n", "plain.toml"), model=emps.robot))
     assert np.max(np.abs(unread.simulated.q - a.simulated.q)) > 1e-3  # the sensor matters
+
+
+@pytest.mark.slow
+def test_diagnose_simulate_sees_the_machine_through_its_drive(tmp_path: Path, emps: symbolic.DynamicModel,
+                                                              capsys: pytest.CaptureFixture) -> None:
+    """A PD-controlled EMPS whose drive applies 1.3·(command + 1 N) one sample late, simulated here, its
+    command logged: declared, diagnose --simulate names nothing and keeps the mass; undeclared, the mass
+    comes out 1.3 times too low (what the drive's gain does to an inverse dynamics read at the command)."""
+    import json
+
+    from symbolic.cli import main
+
+    t = np.arange(0.0, 12.0, 1 / RATE)
+    ref = 0.05 * np.sign(np.sin(2 * np.pi * 0.4 * t)) + 0.05 * np.sin(2 * np.pi * 1.3 * t)
+    loop = '[controller]\nkind = "pd"\nkp = [20000.0]\nkd = [800.0]\nreference = "ref"\n'
+    layer = "[drive]\ntau_q = { gain = 1.3, bias = 1.0, delay = 1 }\n"
+    (tmp_path / "truth").mkdir()
+    truth = experiment(tmp_path / "truth", {"t": t, "q_q": ref, "tau_q": np.zeros_like(t), "ref_q": ref}, loop + layer)
+    applied = simulate(emps, load(truth, model=emps.robot)).simulated
+    command = np.append(applied.tau[1:, 0], applied.tau[-1, 0]) / 1.3 - 1.0  # applied one sample after
+    rng = np.random.default_rng(1)
+    columns = {"t": t, "q_q": applied.q[:, 0] + rng.normal(0, 1e-6, len(t)),
+               "tau_q": command + rng.normal(0, 0.05, len(t)), "ref_q": ref}
+    masses = {}
+    for name, text in (("declared", loop + layer), ("undeclared", loop)):
+        path = experiment(tmp_path, columns, text, f"{name}.toml")
+        capsys.readouterr()
+        assert main(["diagnose", "emps", str(path), "--simulate", "--effects", "inertia", "--json",
+                     "--out", str(tmp_path / name)]) == 0
+        result = json.loads(capsys.readouterr().out)
+        masses[name] = {c["parameter"]: c["value"] for c in result["parameter_changes"]}["M"]
+        if name == "declared":
+            assert result["found"] == [] and result["corrections"] == []
+    nominal = robots.load("emps").parameter_values
+    mass = next(v for s, v in nominal.items() if s.name == "M")
+    assert masses["declared"] == pytest.approx(float(mass), rel=1e-3)
+    assert masses["undeclared"] == pytest.approx(float(mass) / 1.3, rel=0.03)
