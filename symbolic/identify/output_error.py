@@ -492,15 +492,17 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
     Returns (θ, J, r, y at θ₀, y at θ, iterations, converged, message, cost at θ₀); J and r at θ."""
     scale = np.where(theta0 != 0, np.abs(theta0), 1.0)
 
-    def evaluate(theta: np.ndarray):
+    def evaluate(theta: np.ndarray, sensitivities: bool = True):
+        """(y, r, J·scale) at θ, J only with ``sensitivities`` (a trial step needs its cost alone: about
+        1/(p + 1) of the work); ``None`` when the simulation diverges."""
         begun = time.perf_counter()
-        y, dy = loop.run(theta)
+        y, dy = loop.run(theta, sensitivities)
         timings.setdefault("evaluations", 0.0)
         timings["evaluations"] += time.perf_counter() - begun
-        timings["evaluation"] = time.perf_counter() - begun
-        if not np.isfinite(y).all() or not np.isfinite(dy).all():
+        timings["evaluation" if sensitivities else "simulation"] = time.perf_counter() - begun
+        if not np.isfinite(y).all() or (dy is not None and not np.isfinite(dy).all()):
             return None
-        return y, residuals.of(y), residuals.jacobian(dy) * scale
+        return y, residuals.of(y), None if dy is None else residuals.jacobian(dy) * scale
 
     first = evaluate(theta0)
     if first is None:
@@ -527,10 +529,13 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
                 delta = np.zeros_like(g)
             trial = np.clip(theta + delta * scale, lower, upper)
             step = (trial - theta) / scale
-            evaluated = evaluate(trial)
+            evaluated = evaluate(trial, sensitivities=False)
             new_cost = float(evaluated[1] @ evaluated[1]) if evaluated is not None else math.inf
             if new_cost < cost:
-                break
+                evaluated = evaluate(trial)
+                if evaluated is not None:
+                    break
+                new_cost = math.inf
             damping *= 4.0
             if within < FLAT_SIGMA:
                 return (theta, J / scale, r, y0, y, iteration, True,
