@@ -332,6 +332,35 @@ def test_simulated_path_of_diagnose_runs_the_cascade(tmp_path: Path) -> None:
     assert np.abs(out.q[:, 0] - experiment.q[:, 0]).max() < 0.02
 
 
+@pytest.mark.slow
+def test_diagnose_simulate_on_a_cascade_log_names_nothing_for_the_true_model(tmp_path: Path,
+                                                                            capsys: pytest.CaptureFixture) -> None:
+    """The axis logged under its cascade by the independent loop above (encoder 1e-4 rad, force noise 5e-3
+    N·m), diagnosed with the true model along the simulated path: small gaps, nothing named. Measured 0.79 %
+    (estimation) and 6.1 % (held out: the last fifth, started with the integral at zero where the machine's
+    was not); asserted 2 % and 10 %."""
+    import json
+
+    from symbolic.cli import main
+
+    t, r, ff, _ = axis_log(4.0)
+    truth = axis_closed_loop(t, r, ff, AXIS_GAINS, 1.2)
+    noise = np.random.default_rng(0).normal(0, 5e-3, len(t))
+    symbolic.data.write_columns({"t": t, "q_q": np.round(truth[:, 0] / 1e-4) * 1e-4, "tau_q": truth[:, 2] + noise,
+                                 "ref_q": r, "iff": ff}, tmp_path / "log.csv")
+    experiment = tmp_path / "run.experiment.toml"
+    experiment.write_text('data = "log.csv"\n[signals]\nt = "t"\nq_q = "q_q"\ntau_q = "tau_q"\nref_q = "ref_q"\n'
+                          'iff = "iff"\n[controller]\nkind = "cascade_pi"\nreference = "ref"\nsaturation = [1.2]\n'
+                          'quantisation = [1e-4]\nvelocity_filter = [0.5, 0.5]\nfeedforward = ["iff"]\n'
+                          + "".join(f"{k} = [{v}]\n" for k, v in AXIS_GAINS.items()))
+    (tmp_path / "axis.toml").write_text(models.axis())
+    assert main(["-q", "diagnose", str(tmp_path / "axis.toml"), str(experiment), "--simulate", "--out",
+                 str(tmp_path / "out"), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    gap = report["gap_before"]
+    assert report["found"] == [] and gap["estimation"] < 2.0 and gap["validation"] < 10.0, gap
+
+
 @pytest.mark.parametrize(("line", "key", "problem"), [
     ("kp_position = [20.0]\nkp_velocity = [0.0]\nki_velocity = [1.0]\n", "kp_velocity[0]",
      "0.0 is not allowed (allowed: numbers > 0)"),
