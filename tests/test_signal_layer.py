@@ -313,3 +313,14 @@ def test_diagnose_simulate_sees_the_machine_through_its_drive(tmp_path: Path, em
     mass = next(v for s, v in nominal.items() if s.name == "M")
     assert masses["declared"] == pytest.approx(float(mass), rel=1e-3)
     assert masses["undeclared"] == pytest.approx(float(mass) / 1.3, rel=0.03)
+
+
+def test_measurements_built_in_python_take_the_layer_as_a_table() -> None:
+    t = np.arange(300) / RATE
+    q, qd, _ = motion(t)
+    measurements = symbolic.data.Measurements.from_arrays(t, ["q"], q[:, None], 2.0 * np.cos(t)[:, None] + 0.5)
+    experiment_ = symbolic.data.Experiment.of(measurements, signal_layer={"sensors": {"tau_q": {"gain": 2.0,
+                                                                                                "bias": 0.5}}})
+    np.testing.assert_allclose(experiment_.tau[:, 0], np.cos(t), rtol=0, atol=1e-15)
+    with pytest.raises(DataError, match=r"<arrays>: \[drive\] u_q: not a signal of \[drive\] .*name tau_q"):
+        symbolic.data.Experiment.of(measurements, signal_layer={"drive": {"u_q": {"gain": 2.0}}})

@@ -98,10 +98,14 @@ class Experiment(Measurements):
            controller: Controller | Mapping[str, Any] | None = None, **context: Any) -> Experiment:
         """``measurements`` as an experiment (an Experiment's own context kept unless given): data built
         in Python with a treatment or a controller (a table is checked as a file's would be, its gain
-        names when a model uses it)."""
+        names when a model uses it), or a signal layer: ``signal_layer={"sensors": {...}, "drive": {...}}``
+        is checked and applied to the numbers as a file's ``[sensors]`` and ``[drive]``."""
         if isinstance(controller, Mapping):
             controller = parse(controller, measurements.coordinates, None, str(measurements.source),
                                columns=measurements.columns(), samples=measurements.samples)
+        if isinstance(context.get("signal_layer"), Mapping):  # {"sensors": ..., "drive": ...}: applied as a file's
+            layer = signal_layer.parse(context["signal_layer"], str(measurements.source))
+            measurements, context["signal_layer"] = signal_layer.apply(measurements, layer, str(measurements.source))
         given = {"settings": settings, "controller": controller, **context}
         given = {k: v for k, v in given.items() if v is not None}
         if isinstance(measurements, cls):

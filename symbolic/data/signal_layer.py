@@ -176,6 +176,8 @@ def _channel(table: str, signal: str, entry: Any, source: str) -> Channel:
     if split is None or split[0] not in kinds:
         allowed = ", ".join(f"{k}_<c>" for k in kinds)
         what = "the drive's command is a force" if table == "drive" else "a sensor of a position, velocity or force"
+        if split is not None and split[0] == "u":  # u_<c> became tau_<c> by the model's [[drive]] gain first
+            what += f"; a drive signal {signal} is read as tau_{split[1]} = gain·{signal}: name tau_{split[1]}"
         raise DataError(source, where, f"not a signal of [{table}] (allowed: {allowed}, c a coordinate; {what})")
     if not isinstance(entry, Mapping):
         raise DataError(source, where, f"expected a table such as {{ delay = 0.5, gain = 1.0, bias = 0.0 }}, "
