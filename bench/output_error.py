@@ -1,0 +1,93 @@
+"""Output-error identification's cost: one Levenberg–Marquardt iteration against one simulation.
+
+The 20 s, 1 kHz closed-loop PD run of the 7-DOF Panda of ``bench/simulate.py`` (its gains and reference) is
+simulated once and written as a log with its ``[controller]``; then, on that log, the closed loop of
+:func:`symbolic.identify.output_error.closed_loop` runs without sensitivities (one simulation) and with
+the forward sensitivities to p parameters (what one iteration of the fit costs: the trial steps of an
+iteration are plain simulations, the sensitivities are computed once per accepted step). p = 7 (the links'
+Izz) and 14 (masses and Izz). Wall time, best of ``--repeat``; the build and compilation of the
+sensitivity function (once per model, controller and parameter set) apart.
+
+Run: ``python bench/output_error.py [--repeat 3] [--parameters 7,14]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "bench"))
+
+SETS = {
+    7: [f"Izz{i}" for i in range(1, 8)],
+    14: [f"{a}{i}" for i in range(1, 8) for a in ("m", "Izz")],
+}
+
+
+def panda_log(folder: Path):
+    """The Panda's model and an experiment file of its simulated PD run (bench/simulate.py's loop)."""
+    import symbolic
+    from simulate import log_and_table
+    from symbolic.data import load, write_columns
+    from symbolic.simulation import simulate
+
+    model = symbolic.derive(symbolic.robots.load("panda"))
+    q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+    names = [f"q{i}" for i in range(1, 8)]
+    log, table = log_and_table(model, q0, names)
+    run = simulate(model, log, controller=table, initial=(q0, np.zeros(7)))
+    columns = {"t": log.t}
+    for j, c in enumerate(names):
+        columns.update({f"q_{c}": run.simulated.q[:, j], f"tau_{c}": run.simulated.tau[:, j], f"ref_{c}": log.ref[:, j]})
+    write_columns(columns, folder / "panda.csv")
+    quoted = ", ".join(f'"{c}"' for c in names)
+    lines = ['data = "panda.csv"', "[signals]", *(f'{k} = "{k}"' for k in columns), "[controller]", 'kind = "pd"',
+             f"coordinates = [{quoted}]", f"kp = {table['kp']!r}", f"kd = {table['kd']!r}", 'reference = "ref"']
+    (folder / "panda.experiment.toml").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return model, load(folder / "panda.experiment.toml", model=model.robot)
+
+
+def best(repeat: int, function) -> float:
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--parameters", default="7,14", help="comma-separated sizes among 7, 14")
+    args = parser.parse_args()
+    from symbolic.identify.output_error import closed_loop
+
+    with tempfile.TemporaryDirectory() as folder:
+        model, measurements = panda_log(Path(folder))
+        values = {p.name: p.value for p in model.robot.parameters}
+        print(f"Panda, {measurements.samples} samples at 1 kHz, discrete PD")
+        print("| p | simulation (s) | iteration: simulation with sensitivities (s) | ratio | build + compile (s) |")
+        print("|---|---|---|---|---|")
+        for size in (int(s) for s in args.parameters.split(",")):
+            free = SETS[size]
+            loop = closed_loop(model, measurements, free, parameters={n: values[n] for n in free})
+            theta = np.array([values[n] for n in free])
+            loop.run(theta, sensitivities=False)
+            started = time.perf_counter()
+            loop.function(True)
+            build = time.perf_counter() - started
+            plain = best(args.repeat, lambda: loop.run(theta, sensitivities=False))
+            sensitive = best(args.repeat, lambda: loop.run(theta))
+            print(f"| {size} | {plain:.3f} | {sensitive:.3f} | {sensitive / plain:.1f} | {build:.1f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
