@@ -46,7 +46,8 @@ def cascade_law(q: np.ndarray, r: np.ndarray, rd: np.ndarray | None, ff: np.ndar
     integral = np.zeros(nc)
     for k in range(samples):
         error = gains["kp_position"] * (r[k] - measured[k]) + gains["velocity_feedforward"] * rd[k] - velocity[k]
-        w = gains["kp_velocity"] * error + gains["ki_velocity"] * integral + ff[k]
+        derivative = (velocity[k] - velocity[k - 1]) / period if k else velocity[0] / period  # v_-1 = 0
+        w = gains["kp_velocity"] * error + gains["ki_velocity"] * integral - gains.get("kd_velocity", 0) * derivative + ff[k]
         u[k], used[k] = np.clip(w, -saturation, saturation), integral
         hold = (np.abs(w) > saturation) & (error * w > 0)  # clamping: no integration into the limit
         integral = np.where(hold, integral, integral + period * error)
@@ -73,7 +74,8 @@ def run_step(ctrl: control.Controller, names: tuple[str, ...], q: np.ndarray, si
 
 
 GAINS = {"kp_position": np.array([30.0, 10.0]), "kp_velocity": np.array([2.0, 4.0]),
-         "ki_velocity": np.array([50.0, 20.0]), "velocity_feedforward": np.array([1.0, 0.5])}
+         "ki_velocity": np.array([50.0, 20.0]), "velocity_feedforward": np.array([1.0, 0.5]),
+         "kd_velocity": np.array([2e-3, 0.0])}
 
 
 @pytest.mark.parametrize("delay", [0, 2, control.LINE_IN_MEMORY + 8])
@@ -375,7 +377,7 @@ def test_diagnose_simulate_on_a_cascade_log_names_nothing_for_the_true_model(tmp
      "velocity_feedforward[0]", "expected a finite number, got nan"),
     ("kp_position = [20.0]\nkp_velcity = [1.0]\nki_velocity = [1.0]\n", "kp_velcity",
      "unknown key (allowed for 'cascade_pi': kind, coordinates, gain, saturation, quantisation, disturbance, delay, "
-     "kp_position, kp_velocity, ki_velocity, reference, velocity_filter, velocity_feedforward, feedforward, "
+     "kp_position, kp_velocity, ki_velocity, reference, velocity_filter, kd_velocity, velocity_feedforward, feedforward, "
      "reference_velocity); did you mean 'kp_velocity'?"),
     ("kp = [20.0]\nkp_velocity = [1.0]\nki_velocity = [1.0]\n", "kp", "not used by kind 'cascade_pi'"),
 ])
@@ -404,22 +406,24 @@ def test_closed_loop_modes_close_the_cascade() -> None:
     sampled axis (J q̈ = τ − Fv·q̇, exact zero-order hold) closed by the cascade written out here."""
     from symbolic.workflow.modes import closed_loop_modes
 
-    kp, kv, ki, J0, fv, T = 20.0, 1.5, 15.0, 0.05, 0.3, 2e-3
+    kp, kv, ki, kd, J0, fv, T = 20.0, 1.5, 15.0, 1e-3, 0.05, 0.3, 2e-3
     a = fv / J0
     decay = math.exp(-a * T)
 
-    def step(z: np.ndarray) -> np.ndarray:  # z = (q, q̇, q_k−1, I_k)
-        q, v, last, integral = z
-        error = -kp * q - (q - last) / T
-        u = kv * error + ki * integral
+    def step(z: np.ndarray) -> np.ndarray:  # z = (q, q̇, q_k−1, I_k, v_k−1)
+        q, v, last, integral, last_v = z
+        measured_v = (q - last) / T
+        error = -kp * q - measured_v
+        u = kv * error + ki * integral - kd * (measured_v - last_v) / T
         return np.array([q + (1 - decay) / a * v + (T - (1 - decay) / a) / fv * u,
-                         decay * v + (1 - decay) / fv * u, q, integral + T * error])
+                         decay * v + (1 - decay) / fv * u, q, integral + T * error, measured_v])
 
-    z = np.linalg.eigvals(np.column_stack([step(e) for e in np.eye(4)]))
+    z = np.linalg.eigvals(np.column_stack([step(e) for e in np.eye(5)]))
     s = np.log(z[z.imag > 1e-12].astype(complex)) / T
     expected = sorted((float(v.imag / (2 * np.pi)), float(-v.real / abs(v))) for v in s)
     model = symbolic.derive(symbolic.loads(models.axis(parameters="Fv = 0.3\n", friction='viscous = "Fv"')))
-    table = {"kind": "cascade_pi", "kp_position": [kp], "kp_velocity": [kv], "ki_velocity": [ki], "reference": ["0"]}
+    table = {"kind": "cascade_pi", "kp_position": [kp], "kp_velocity": [kv], "ki_velocity": [ki], "kd_velocity": [kd],
+             "reference": ["0"]}
     got = closed_loop_modes(model, {}, table, T)
     assert len(expected) >= 1
     np.testing.assert_allclose(got, expected, rtol=1e-9)

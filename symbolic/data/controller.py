@@ -42,9 +42,10 @@ GAINS = {"torque": (), "pd": ("kp", "kd"), "pid": ("kp", "kd", "ki"), "cascade":
 """The loop gains each kind needs (all per coordinate, ≥ 0; ``kp_velocity`` > 0); state feedback has its
 matrix ``K`` instead."""
 
-CASCADE_PI_KEYS = ("velocity_feedforward", "feedforward", "reference_velocity")
-"""The optional keys of ``cascade_pi`` besides the loop's: ff_vel (the reference velocity's weight in the
-velocity reference), the logged feedforward added to the command, and ṙ (default: r's backward difference)."""
+CASCADE_PI_KEYS = ("kd_velocity", "velocity_feedforward", "feedforward", "reference_velocity")
+"""The optional keys of ``cascade_pi`` besides the loop's: kd_velocity (a derivative on the measured velocity:
+the PID velocity loop), ff_vel (the reference velocity's weight in the velocity reference), the logged
+feedforward added to the command, and ṙ (default: r's backward difference)."""
 
 COMMON_KEYS = ("kind", "coordinates", "gain", "saturation", "quantisation", "disturbance", "delay")
 LOOP_KEYS = ("reference", "velocity_filter")
@@ -78,7 +79,7 @@ class Controller:
         The controlled (driven) coordinates: ``coordinates``, or ``inputs`` for state feedback.
     kp, kd, ki, kv
         Loop gains (zero where the kind has none). ``cascade_pi`` keeps kp_position in ``kp``,
-        kp_velocity in ``kv`` and ki_velocity in ``ki`` (``kd`` zero).
+        kp_velocity in ``kv``, ki_velocity in ``ki`` and kd_velocity in ``kd``.
     gain
         Output-to-force gains, as expressions of the model's parameters (numbers are constants).
     reference
@@ -153,10 +154,12 @@ class Controller:
         return [f"{signal}_{c}" for signal, c in self.states]
 
     def memory_size(self, line: bool = True) -> int:
-        """Length of the controller's state: started flag, last positions, past velocities, integral, and
-        the delay line (``nc·delay``) unless ``line`` is false (a line kept outside the state)."""
+        """Length of the controller's state: started flag, last positions, past velocities, integral (for
+        ``cascade_pi`` also the last filtered velocity, for its derivative), and the delay line
+        (``nc·delay``) unless ``line`` is false (a line kept outside the state)."""
         nc, ns = self.size, len(self.sensors)
-        return 1 + ns + ns * (len(self.velocity_filter) - 1) + nc + (nc * self.delay if line else 0)
+        loop = 2 * nc if self.kind == CASCADE_PI else nc
+        return 1 + ns + ns * (len(self.velocity_filter) - 1) + loop + (nc * self.delay if line else 0)
 
     def structure(self) -> tuple[Any, ...]:
         """What the controller's compiled function depends on besides its numbers (:func:`symbolic.simulation.controller.constants`)."""
@@ -250,7 +253,8 @@ def parse(
     gains = {name: per.numbers(name, required=True, minimum=0.0, strict=name == "kp_velocity", finite=True)
              for name in GAINS[kind]}
     if kind == CASCADE_PI:  # stored where the P/P cascade keeps its gains (Controller)
-        gains = {"kp": gains["kp_position"], "kv": gains["kp_velocity"], "ki": gains["ki_velocity"]}
+        gains = {"kp": gains["kp_position"], "kv": gains["kp_velocity"], "ki": gains["ki_velocity"],
+                 "kd": per.numbers("kd_velocity", minimum=0.0, finite=True)}
     zeros = np.zeros(nc)
     reference = _reference(table, nc, source) if kind != "torque" else None
     cascade = _cascade_pi(table, per) if kind == CASCADE_PI else {}

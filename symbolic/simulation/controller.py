@@ -211,18 +211,21 @@ class DelayLine:
         self.rows[(start + np.arange(len(outputs))) % self.delay] = outputs
 
 
-def _cascade_pi(r: ca.SX, measured: ca.SX, velocity: ca.SX, integral: ca.SX, kp: ca.SX, kv: ca.SX, ki: ca.SX,
-                weight: ca.SX, saturation: ca.SX, period: float) -> tuple[ca.SX, ca.SX]:
+def _cascade_pi(r: ca.SX, measured: ca.SX, velocity: ca.SX, last_velocity: ca.SX, integral: ca.SX,
+                gains: tuple[ca.SX, ca.SX, ca.SX, ca.SX], weight: ca.SX, saturation: ca.SX,
+                period: float) -> tuple[ca.SX, ca.SX]:
     """The unsaturated command and the next integral of ``cascade_pi`` (docs/simulation.md):
-    v_ref = kp_pos·(r − q_m) + ff_vel·ṙ, e = v_ref − v, w = kp_vel·e + ki·I_k + ff; I_k+1 = I_k + T·e
-    (forward Euler: the integral acts from the next sample), held while the command is clamped and e
-    would drive it further (clamping anti-windup)."""
+    v_ref = kp_pos·(r − q_m) + ff_vel·ṙ, e = v_ref − v, w = kp_vel·e + ki·I_k − kd_vel·(v − v_k−1)/T + ff;
+    I_k+1 = I_k + T·e (forward Euler: the integral acts from the next sample), held while the command is
+    clamped and e would drive it further (clamping anti-windup). The integral returned is followed by v,
+    the filtered velocity the next sample's derivative needs."""
+    kp, kv, ki, kd = gains
     nc = measured.numel()
     position, rate, feedforward = r[:nc], r[nc:2 * nc], r[2 * nc:]
     error = kp * (position - measured) + weight * rate - velocity
-    w = kv * error + ki * integral + feedforward
+    w = kv * error + ki * integral - kd * (velocity - last_velocity) / period + feedforward
     winding = ca.logic_and(ca.fabs(w) > saturation, error * w > 0)
-    return w, ca.if_else(winding, integral, integral + period * error)
+    return w, ca.vertcat(ca.if_else(winding, integral, integral + period * error), velocity)
 
 
 # -- the step ---------------------------------------------------------------------------------------------------
@@ -266,6 +269,8 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
     at += ns * (taps - 1)
     integral = memory[at:at + nc]
     at += nc
+    last_velocity = memory[at:at + nc] if controller.kind == CASCADE_PI else None  # v_k-1, for kd_velocity
+    at += nc if controller.kind == CASCADE_PI else 0
     line = [memory[at + i * nc: at + (i + 1) * nc] for i in range(delay)]  # oldest first
 
     position = ca.vertcat(*[q[names.index(s)] for s in sensors])
@@ -280,8 +285,8 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
         x = ca.vertcat(*[(measured if signal == "q" else velocity)[where[c]] for signal, c in controller.states])
         u, integral_next = -ca.mtimes(K, x - r), integral
     elif controller.kind == CASCADE_PI:
-        u, integral_next = _cascade_pi(r, measured, velocity, integral, kp, kv, ki, feedforward_weight, saturation,
-                                       period)
+        u, integral_next = _cascade_pi(r, measured, velocity, last_velocity, integral, (kp, kv, ki, kd),
+                                       feedforward_weight, saturation, period)
     else:
         error = r - measured
         integral_next = integral + period * error

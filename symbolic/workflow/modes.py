@@ -85,7 +85,8 @@ def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], tabl
     taps = np.asarray(ctrl.velocity_filter, float)
     m, delay = len(taps), ctrl.delay
     # state: x (2n), q_{k-1} (ns), v_b,k-1 … v_b,k-m+1 (ns each), I_{k-1} (nc), u_{k-1} … u_{k-delay} (nc each)
-    sizes = [2 * n, ns, ns * (m - 1), nc, nc * delay]
+    # (cascade_pi: I_k and its last filtered velocity v_{k-1}, 2·nc)
+    sizes = [2 * n, ns, ns * (m - 1), 2 * nc if ctrl.kind == control.CASCADE_PI else nc, nc * delay]
     offsets = np.cumsum([0] + sizes)
     size = int(offsets[-1])
     # a state feedback's x = selection · [y; v] (positions, then velocities, of the sensed coordinates)
@@ -101,8 +102,9 @@ def closed_loop_modes(model: DynamicModel, parameters: Mapping[str, float], tabl
         if ctrl.kind == control.STATE_FEEDBACK:
             u = -ctrl.K @ np.concatenate([y, v])[pick]
         elif ctrl.kind == control.CASCADE_PI:  # the velocity error's integral acts from the next sample
-            error = -ctrl.kp * y - v
-            u, integral = ctrl.kv * error + ctrl.ki * integral, integral + period * error
+            error, (i, last) = -ctrl.kp * y - v, integral.reshape(2, nc)
+            u = ctrl.kv * error + ctrl.ki * i - ctrl.kd * (v - last) / period
+            integral = np.concatenate([i + period * error, v])
         else:
             integral = integral - period * y
             if ctrl.kind == "cascade":
