@@ -324,3 +324,31 @@ def test_measurements_built_in_python_take_the_layer_as_a_table() -> None:
     np.testing.assert_allclose(experiment_.tau[:, 0], np.cos(t), rtol=0, atol=1e-15)
     with pytest.raises(DataError, match=r"<arrays>: \[drive\] u_q: not a signal of \[drive\] .*name tau_q"):
         symbolic.data.Experiment.of(measurements, signal_layer={"drive": {"u_q": {"gain": 2.0}}})
+
+
+@pytest.mark.parametrize("method", ["rk4", "Radau"])
+def test_a_feedback_loop_reads_the_position_late_by_the_sensors_delay(tmp_path: Path, emps: symbolic.DynamicModel,
+                                                                      method: str) -> None:
+    """A PD reading the position 2 samples late, u_k = kp·(r_k − q_k−2) − kd·q̇_m,k−2, is the PD with an output
+    delay of 2 samples and the reference 2 samples ahead, u_k−2 = kp·(r'_k−2 − q_k−2) − ..., r'_j = r_j+2
+    (both apply 0 for the first two samples: the reference starts at rest at the initial position 0). A
+    fractional delay lies between the two whole ones it interpolates (it reads a mix of their positions)."""
+    t = np.arange(0.0, 0.4, 1 / RATE)
+    ramp = np.clip(t - 0.05, 0.0, None)
+    ref = 0.02 * (1 - np.cos(2 * np.pi * 3 * ramp)) * (ramp > 0)
+    q = np.zeros_like(t)
+    loop = '[controller]\nkind = "pd"\nkp = [20000.0]\nkd = [800.0]\n'
+    columns = {"t": t, "q_q": q, "tau_q": np.zeros_like(t), "ref_q": ref, "ahead": np.append(ref[2:], [ref[-1]] * 2)}
+    runs = {}
+    for name, text in (("sensor", 'reference = "ref"\n[sensors]\nq_q = { delay = 2 }\n'),
+                       ("by_hand", 'reference = ["ahead"]\ndelay = 2\n'),
+                       ("fractional", 'reference = "ref"\n[sensors]\nq_q = { delay = 1.5 }\n'),
+                       ("one", 'reference = "ref"\n[sensors]\nq_q = { delay = 1 }\n')):
+        path = experiment(tmp_path, columns, loop + text, f"{name}.toml")
+        runs[name] = simulate(emps, load(path, model=emps.robot), method=method).simulated
+    np.testing.assert_allclose(runs["sensor"].q, runs["by_hand"].q, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(runs["sensor"].tau, runs["by_hand"].tau, rtol=0, atol=1e-7)
+    assert np.max(np.abs(runs["one"].q - runs["sensor"].q)) > 1e-5  # the delay matters
+    low = np.minimum(runs["one"].q, runs["sensor"].q) - 1e-6
+    high = np.maximum(runs["one"].q, runs["sensor"].q) + 1e-6
+    assert np.all((low <= runs["fractional"].q) & (runs["fractional"].q <= high))

@@ -473,22 +473,45 @@ def drive_layer(ctrl: control.Controller, signals: control.Inputs, measurements:
     return ctrl, dataclasses.replace(signals, disturbance=np.ascontiguousarray(disturbance))
 
 
+@dataclass(frozen=True)
+class PositionSensors:
+    """The position sensors a feedback controller reads, one per coordinate of the model (docs/data.md, "The
+    signal layer"): q_m,k = gain·q(t_k − delay) + bias, the delay (samples) by linear interpolation between
+    the positions at the two samples around it — causal, so that the loop can run it, with an error of at
+    most h²/8·max|q̈| — from a history of the last :attr:`depth` positions, held at the initial one before
+    the log."""
+
+    gains: tuple[float, ...]
+    biases: tuple[float, ...]
+    delays: tuple[float, ...]
+
+    @property
+    def depth(self) -> int:
+        """Past positions kept: ⌊delay⌋ + 1 for the longest delay, 0 without one."""
+        return max((math.floor(d) + 1 for d in self.delays if d > 0), default=0)
+
+    def read(self, history: list) -> Any:
+        """q_m from ``history`` = [q_k, q_k−1, …, q_k−depth] (NumPy vectors or CasADi expressions)."""
+        rows = []
+        for j, (g, b, d) in enumerate(zip(self.gains, self.biases, self.delays)):
+            whole, u = math.floor(d), d - math.floor(d)
+            value = history[whole][j] if u == 0 else (1 - u) * history[whole][j] + u * history[whole + 1][j]
+            rows.append(g * value + b)
+        return rows
+
+
 def position_sensors(ctrl: control.Controller, measurements: Measurements,
-                     names: tuple[str, ...]) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
-    """The gains and biases of the experiment's ``[sensors] q_<c>``, one per coordinate of the model (1 and 0
-    where none is declared), through which a feedback controller reads the simulated positions (it read the
-    sensor, not the position: q_m = gain·q + bias); ``None`` without any, or for a replayed force. A
-    sensor's delay stays out of the loop (docs/data.md, "The signal layer"): a warning says so."""
+                     names: tuple[str, ...]) -> PositionSensors | None:
+    """The experiment's ``[sensors] q_<c>`` (gain 1, bias 0, delay 0 where none is declared) through which a
+    feedback controller reads the simulated positions, as the machine's read the sensor; ``None`` without
+    any, or for a replayed force (no controller reads anything)."""
     layer = measurements.signal_layer if isinstance(measurements, Experiment) else None
     channels = [] if layer is None or ctrl.kind == "torque" else [layer.sensors.get(f"q_{c}") for c in names]
     if not any(channels):
         return None
-    late = [ch.signal for ch in channels if ch is not None and ch.delay != 0]
-    if late:
-        LOG.warning("%s: [sensors] %s: the controller of the simulation reads the position without the sensor's "
-                    "delay (the gain and bias are applied)", measurements.source, ", ".join(late))
-    return (tuple(1.0 if ch is None else ch.gain for ch in channels),
-            tuple(0.0 if ch is None else ch.bias for ch in channels))
+    return PositionSensors(tuple(1.0 if ch is None else ch.gain for ch in channels),
+                           tuple(0.0 if ch is None else ch.bias for ch in channels),
+                           tuple(0.0 if ch is None else ch.delay for ch in channels))
 
 
 # -- initial state -----------------------------------------------------------------------------------------
@@ -542,7 +565,7 @@ def initial_velocity(measurements: Measurements) -> np.ndarray:
 
 def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float,
                     substeps: int, external: bool = False,
-                    sensed: tuple[tuple[float, ...], tuple[float, ...]] | None = None) -> ca.Function:
+                    sensed: PositionSensors | None = None) -> ca.Function:
     """One sample of the closed loop: ``(z, w, p, c, eps) -> (z_next, y)``.
 
     z = [x; controller memory], w = [reference (x_ref of a state feedback); disturbance; logged τ; t_k] of
@@ -552,10 +575,11 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     ``external``: the delay line is the caller's (:class:`~symbolic.simulation.controller.DelayLine`): w
     ends with the output applied at the sample and y with the output computed there.
 
-    ``sensed``: per coordinate ``(gains, biases)`` of the position sensors (:func:`position_sensors`): the
-    controller reads gain·q + bias.
+    ``sensed``: the position sensors (:class:`PositionSensors`) through which the controller reads q; z then
+    ends with the last ``sensed.depth`` positions, newest first.
     """
     n, memory = plant.n, ctrl.memory_size(line=not external)
+    depth = 0 if sensed is None else sensed.depth
     nc, nr = ctrl.size, ctrl.reference_size
     step_controller = control.controller_function(ctrl, names, period, external)
     X, T = ca.MX.sym("x", 2 * n), ca.MX.sym("tau", n)
@@ -567,10 +591,11 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     k3 = plant.rhs(X + h / 2 * k2, T, P, E, S + h / 2)
     k4 = plant.rhs(X + h * k3, T, P, E, S + h)
     rk4 = ca.Function("rk4", [X, T, P, E, S], [X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-    Z, W = ca.MX.sym("z", 2 * n + memory), ca.MX.sym("w", nr + nc + n + 1 + (nc if external else 0))
+    Z, W = ca.MX.sym("z", 2 * n + memory + depth * n), ca.MX.sym("w", nr + nc + n + 1 + (nc if external else 0))
     C = ca.MX.sym("c", step_controller.size1_in(5))
-    x, m = Z[: 2 * n], Z[2 * n:]
-    position = x[:n] if sensed is None else x[:n] * ca.DM(sensed[0]) + ca.DM(sensed[1])
+    x, m = Z[: 2 * n], Z[2 * n:2 * n + memory]
+    history = [x[:n], *(Z[2 * n + memory + i * n:2 * n + memory + (i + 1) * n] for i in range(depth))]
+    position = x[:n] if sensed is None else ca.vertcat(*sensed.read(history))
     read = (m, position, W[:nr], W[nr:nr + nc], W[nr + nc:nr + nc + n], C)
     t_k = W[nr + nc + n]
     if external:
@@ -579,7 +604,7 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
         (m_next, tau), u = step_controller(*read), ca.MX(0, 1)
     x_next = _repeat(rk4, substeps, x, tau, P, E, starts=t_k + h * ca.DM(range(substeps)).T)
     xdot = plant.rhs(x, tau, P, E, t_k)
-    return ca.Function("closed_loop_sample", [Z, W, P, C, E], [ca.vertcat(x_next, m_next),
+    return ca.Function("closed_loop_sample", [Z, W, P, C, E], [ca.vertcat(x_next, m_next, *history[:depth]),
                                                                  ca.vertcat(x, xdot[n:], tau, u)],
                        ["z", "w", "p", "c", "eps"], ["z_next", "y"])
 
@@ -597,7 +622,7 @@ CHUNK = 1000
 with its length (0.03 s for 1000 samples, 0.7 s for 10 000), so long logs are run in chunks."""
 
 def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float, substeps: int,
-                 compiled: bool | None, sensed: tuple | None = None) -> tuple[ca.Function, bool]:
+                 compiled: bool | None, sensed: PositionSensors | None = None) -> tuple[ca.Function, bool]:
     """The (compiled) sample function, built once per plant, controller structure and position sensors."""
     external = control.line_outside(ctrl)
     key = (ctrl.structure(), external, names, period, substeps, compiled, sensed)
@@ -613,13 +638,15 @@ def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...],
 
 def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measurements, signals: control.Inputs,
                     x0: np.ndarray, p: np.ndarray, c: np.ndarray, eps: float, substeps: int, names: tuple[str, ...],
-                    compiled: bool | None, timings: dict[str, float], sensed: tuple | None = None) -> tuple[np.ndarray, bool]:
+                    compiled: bool | None, timings: dict[str, float],
+                    sensed: PositionSensors | None = None) -> tuple[np.ndarray, bool]:
     started = time.perf_counter()
     function, is_compiled = _closed_loop(ctrl, plant, names, measurements.sample_period, substeps, compiled, sensed)
     timings["compile"] = time.perf_counter() - started
     started = time.perf_counter()
     line = control.DelayLine(ctrl.delay, ctrl.size) if control.line_outside(ctrl) else None
-    z = np.concatenate([x0, np.zeros(ctrl.memory_size(line=line is None))])
+    depth = 0 if sensed is None else sensed.depth
+    z = np.concatenate([x0, np.zeros(ctrl.memory_size(line=line is None)), np.tile(x0[:plant.n], depth)])
     w = np.hstack([signals.reference, signals.disturbance, signals.torque, measurements.t[:, None]]).T
     loops: dict[int, ca.Function] = {}
     outputs = []
@@ -647,7 +674,7 @@ def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measur
 
 def _run_solve_ivp(ctrl: control.Controller, plant: Plant, measurements: Measurements, signals: control.Inputs,
                    x0: np.ndarray, p: np.ndarray, c: np.ndarray, eps: float, names: tuple[str, ...], method: str,
-                   rtol: float, atol: float, sensed: tuple | None = None) -> np.ndarray:
+                   rtol: float, atol: float, sensed: PositionSensors | None = None) -> np.ndarray:
     from scipy.integrate import solve_ivp
 
     n = plant.n
@@ -661,8 +688,11 @@ def _run_solve_ivp(ctrl: control.Controller, plant: Plant, measurements: Measure
     memory = np.zeros(ctrl.memory_size(line=line is None))
     state = x0.copy()
     out = np.full((measurements.samples, 4 * n), np.nan)
+    history = [x0[:n].copy() for _ in range(0 if sensed is None else sensed.depth + 1)]
     for k in range(measurements.samples):
-        position = state[:n] if sensed is None else state[:n] * np.asarray(sensed[0]) + np.asarray(sensed[1])
+        if sensed is not None:
+            history = [state[:n].copy(), *history[:-1]]
+        position = state[:n] if sensed is None else np.asarray(sensed.read(history), dtype=float)
         read = (memory, position, signals.reference[k], signals.disturbance[k], signals.torque[k], c)
         if line is None:
             memory_next, tau_k = step_controller(*read)
