@@ -324,6 +324,8 @@ def test_measurements_built_in_python_take_the_layer_as_a_table() -> None:
     np.testing.assert_allclose(experiment_.tau[:, 0], np.cos(t), rtol=0, atol=1e-15)
     with pytest.raises(DataError, match=r"<arrays>: \[drive\] u_q: not a signal of \[drive\] .*name tau_q"):
         symbolic.data.Experiment.of(measurements, signal_layer={"drive": {"u_q": {"gain": 2.0}}})
+    with pytest.raises(DataError, match=r"<arrays>: signal_layer: these data already have a signal layer applied"):
+        symbolic.data.Experiment.of(experiment_, signal_layer={"sensors": {"tau_q": {"gain": 2.0}}})
 
 
 @pytest.mark.parametrize("method", ["rk4", "Radau"])

@@ -104,6 +104,10 @@ class Experiment(Measurements):
             controller = parse(controller, measurements.coordinates, None, str(measurements.source),
                                columns=measurements.columns(), samples=measurements.samples)
         if isinstance(context.get("signal_layer"), Mapping):  # {"sensors": ..., "drive": ...}: applied as a file's
+            if isinstance(measurements, Experiment) and measurements.signal_layer:  # it would act twice
+                raise DataError(str(measurements.source), "signal_layer", "these data already have a signal layer "
+                                                                          "applied: give other values by "
+                                                                          "signal_layer.reapply and with_values")
             layer = signal_layer.parse(context["signal_layer"], str(measurements.source))
             measurements, context["signal_layer"] = signal_layer.apply(measurements, layer, str(measurements.source))
         given = {"settings": settings, "controller": controller, **context}
