@@ -99,3 +99,76 @@ def write_axis_experiment(folder: Path, *, J: float = 0.05, Fv: float = 0.3, Fc:
                     f'[controller]\nkind = "pd"\nkp = [{kp!r}]\nkd = [{kd!r}]\nreference = "ref"\n{quantisation}',
                     encoding="utf-8")
     return path
+
+
+SETTLE = 1.5
+"""Seconds the arm of :func:`write_arm_experiment` is held at the reference's start before its log begins."""
+
+ARM = {"l1": 0.4, "l2": 0.3, "m1": 3.0, "m2": 2.0, "c1": 0.2, "c2": 0.15, "I1": 0.04, "I2": 0.02, "Fv1": 0.8,
+       "Fv2": 0.5, "g": 9.81}
+"""The two-link arm of tests/models.py's ``arm`` (vertical plane, I about each link's centre of mass), with
+viscous friction only: its truth here."""
+
+
+def arm_forward(q: np.ndarray, v: np.ndarray, tau: np.ndarray, p: dict) -> np.ndarray:
+    """q̈ of the planar two-link arm written out by hand (angles from the horizontal, gravity down)."""
+    l1, m1, m2, c1, c2, I1, I2, g = (p[k] for k in ("l1", "m1", "m2", "c1", "c2", "I1", "I2", "g"))
+    cos2, sin2 = math.cos(q[1]), math.sin(q[1])
+    m11 = I1 + m1 * c1**2 + I2 + m2 * (l1**2 + c2**2 + 2 * l1 * c2 * cos2)
+    m12 = I2 + m2 * (c2**2 + l1 * c2 * cos2)
+    m22 = I2 + m2 * c2**2
+    h = m2 * l1 * c2 * sin2
+    bias = np.array([-h * (2 * v[0] * v[1] + v[1] ** 2), h * v[0] ** 2])
+    gravity = np.array([(m1 * c1 + m2 * l1) * g * math.cos(q[0]) + m2 * c2 * g * math.cos(q[0] + q[1]),
+                        m2 * c2 * g * math.cos(q[0] + q[1])])
+    friction = np.array([p["Fv1"] * v[0], p["Fv2"] * v[1]])
+    rhs = tau - bias - gravity - friction
+    det = m11 * m22 - m12**2
+    return np.array([m22 * rhs[0] - m12 * rhs[1], m11 * rhs[1] - m12 * rhs[0]]) / det
+
+
+def write_arm_experiment(folder: Path, *, kp: tuple[float, float] = (120.0, 60.0), kd: tuple[float, float] = (8.0, 4.0),
+                         rate: float = 500.0, seconds: float = 3.0, counts: int = 2**16, force_noise: float = 0.0,
+                         seed: int = 0, parameters: dict | None = None) -> Path:
+    """``folder/arm.csv`` and ``folder/arm.experiment.toml``: the arm under a PD loop on both joints (no
+    gravity compensation), integrated by ``solve_ivp`` (DOP853, rtol 1e-11) from
+    sample to sample with the force held; encoders of ``counts`` per revolution, white force noise."""
+    from scipy.integrate import solve_ivp
+
+    from symbolic.data import write_columns
+
+    p = {**ARM, **(parameters or {})}
+    t = np.arange(int(round(seconds * rate))) / rate
+    period = 1.0 / rate
+    base = np.array([-0.6, 0.8])
+    r = base + np.column_stack([reference_motion(t, 0.5), reference_motion(t + 0.37, 0.4)])
+    resolution = 2 * math.pi / counts if counts else 0.0
+    kp_, kd_ = np.array(kp), np.array(kd)
+    # released at rest at the reference's start, the arm sags until the loop (no gravity compensation) holds
+    # it: SETTLE seconds before the log starts, so that the log starts at rest as a machine's does
+    settle = int(SETTLE * rate)
+    r = np.vstack([np.repeat(r[:1], settle, axis=0), r])
+    state = np.concatenate([base, np.zeros(2)])
+    read, logged_tau = np.empty((len(r), 2)), np.empty((len(r), 2))
+    last = None
+    for k in range(len(r)):
+        measured = np.floor(state[:2] / resolution + 0.5) * resolution if resolution else state[:2].copy()
+        velocity = np.zeros(2) if last is None else (measured - last) / period
+        tau = kp_ * (r[k] - measured) - kd_ * velocity
+        read[k], logged_tau[k], last = measured, tau, measured
+        solution = solve_ivp(lambda _, x: np.concatenate([x[2:], arm_forward(x[:2], x[2:], tau, p)]), (0.0, period),
+                             state, method="DOP853", rtol=1e-11, atol=1e-13)
+        state = solution.y[:, -1]
+    r, read, logged_tau = r[settle:], read[settle:], logged_tau[settle:]
+    if force_noise:
+        logged_tau = logged_tau + np.random.default_rng(seed).normal(0.0, force_noise, logged_tau.shape)
+    folder.mkdir(parents=True, exist_ok=True)
+    write_columns({"t": t, "q_q1": read[:, 0], "q_q2": read[:, 1], "tau_q1": logged_tau[:, 0],
+                   "tau_q2": logged_tau[:, 1], "ref_q1": r[:, 0], "ref_q2": r[:, 1]}, folder / "arm.csv")
+    quantisation = f"quantisation = [{resolution!r}, {resolution!r}]\n" if resolution else ""
+    path = folder / "arm.experiment.toml"
+    path.write_text('data = "arm.csv"\n[signals]\nt = "t"\nq_q1 = "q_q1"\nq_q2 = "q_q2"\ntau_q1 = "tau_q1"\n'
+                    'tau_q2 = "tau_q2"\nref_q1 = "ref_q1"\nref_q2 = "ref_q2"\n[controller]\nkind = "pd"\n'
+                    f'coordinates = ["q1", "q2"]\nkp = [{kp[0]!r}, {kp[1]!r}]\nkd = [{kd[0]!r}, {kd[1]!r}]\n'
+                    f'reference = "ref"\n{quantisation}', encoding="utf-8")
+    return path
