@@ -105,9 +105,14 @@ def _residual(fig: Any, est: Any, before: np.ndarray, after: np.ndarray, j: int,
 def _spectrum(fig: Any, before: np.ndarray, after: np.ndarray, rate: float, peaks: list[float], c: str,
               u: CoordinateUnits) -> Any:
     ax = fig.add_subplot(1, 1, 1)
+    ax.set_yscale("log")
     for label, r in (("nominal model (re-identified)", before), ("patched model", after)):
         f, psd = spectrum(r, rate)
-        ax.semilogy(f, psd, lw=0.8, label=label)
+        shown = psd > 0  # a residual that is zero (a coordinate without force, fitted exactly) has no log level
+        if shown.any():
+            ax.plot(f[shown], psd[shown], lw=0.8, label=label)
+        else:
+            ax.plot([], [], lw=0.8, label=f"{label}: zero residual (nothing to draw)")
     for k, peak in enumerate(peaks):
         ax.axvline(peak, color="k", lw=0.5, ls="--",
                    label=("peak of the nominal model's residual: " + ", ".join(f"{p:.3g}" for p in peaks) + " Hz")
