@@ -354,3 +354,25 @@ def test_a_feedback_loop_reads_the_position_late_by_the_sensors_delay(tmp_path: 
     low = np.minimum(runs["one"].q, runs["sensor"].q) - 1e-6
     high = np.maximum(runs["one"].q, runs["sensor"].q) + 1e-6
     assert np.all((low <= runs["fractional"].q) & (runs["fractional"].q <= high))
+
+
+def test_the_sensor_model_of_a_simulation_and_the_delays_derivative() -> None:
+    """SignalLayer.sensed is the forward sensor model (it reproduces the log from the clean signal, the
+    inverse of the correction), and shift_derivative is the derivative of shift in the offset (the taps'
+    derivatives, against a central difference of shift itself)."""
+    t = np.arange(400) / RATE
+    q, qd, _ = motion(t)
+    clean = symbolic.data.Measurements.from_arrays(t, ["q"], q[:, None], np.cos(t)[:, None], qd=qd[:, None])
+    layer = symbolic.data.Experiment.of(clean, signal_layer={"sensors": {"q_q": {"delay": 1.3, "gain": 0.9,
+                                                                                 "bias": 0.02}}}).signal_layer
+    late = motion(t - 1.3 / RATE)[0]
+    sensed = layer.sensed(clean)["q_q"]
+    assert np.max(np.abs(sensed[4:] - (0.9 * late[4:] + 0.02))) <= 0.9 * ERROR_CONSTANT * (
+        0.05 * (2 * np.pi * 1.1) ** 4 + 0.02 * (2 * np.pi * 2.3) ** 4) / RATE**4 + 1e-15
+    from symbolic.data.signal_layer import shift_derivative
+
+    x = np.sin(np.arange(60) * 0.3)
+    for offset in (-2.7, -0.4, 0.25, 1.6):
+        step = 1e-6
+        central = (shift(x, offset + step) - shift(x, offset - step)) / (2 * step)
+        np.testing.assert_allclose(shift_derivative(x, offset)[3:-4], central[3:-4], rtol=0, atol=1e-8)

@@ -134,6 +134,18 @@ class SignalLayer:
         logged = {k: _readonly(v[start:stop].copy()) for k, v in self.logged.items()}
         return SignalLayer(self.sensors, self.drive, MappingProxyType(logged))
 
+    def sensed(self, model: Measurements) -> dict[str, np.ndarray]:
+        """What each declared sensor would log of ``model``'s signals (a simulation: the model's q, qd, tau), by
+        signal: :func:`sense`, to compare with :attr:`logged` (an output-error cost on the signals as logged)."""
+        out = {}
+        for channel in self.sensors.values():
+            values = getattr(model, channel.kind)
+            if values is None or channel.coordinate not in model.coordinates:
+                raise DataError(str(model.source), channel.signal, f"no {channel.kind} of coordinate "
+                                                                   f"{channel.coordinate!r} to sense")
+            out[channel.signal] = sense(channel, values[:, model.coordinates.index(channel.coordinate)])
+        return out
+
     def with_values(self, values: Mapping[tuple[str, str, str], float], source: str = "<signal layer>") -> SignalLayer:
         """This layer with ``values`` by ``(table, signal, field)`` (e.g. an estimate of a free value), each
         checked as in a file; the logs kept."""
@@ -308,6 +320,19 @@ def shift(x: np.ndarray, offset: float) -> np.ndarray:
         return x[np.clip(index, 0, n - 1)]
     taps = (-u * (u - 1) * (u - 2) / 6, (u + 1) * (u - 1) * (u - 2) / 2, -(u + 1) * u * (u - 2) / 2,
             (u + 1) * u * (u - 1) / 6)
+    return sum(w * x[np.clip(index + k, 0, n - 1)] for k, w in zip((-1, 0, 1, 2), taps))
+
+
+def shift_derivative(x: np.ndarray, offset: float) -> np.ndarray:
+    """∂/∂offset of :func:`shift` (x, offset): the derivative of the interpolating cubic, exact, for the
+    sensitivity of a fit to a delay; at a whole ``offset`` the derivative from above (u → 0⁺)."""
+    x = np.asarray(x, dtype=float)
+    n = len(x)
+    whole = math.floor(offset)
+    u = offset - whole
+    index = np.arange(n) + whole
+    taps = (-(3 * u**2 - 6 * u + 2) / 6, (3 * u**2 - 4 * u - 1) / 2, -(3 * u**2 - 2 * u - 2) / 2,
+            (3 * u**2 - 1) / 6)
     return sum(w * x[np.clip(index + k, 0, n - 1)] for k, w in zip((-1, 0, 1, 2), taps))
 
 
