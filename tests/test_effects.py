@@ -12,11 +12,7 @@ a reason, and a patch that leaves a model file that loads.
 from __future__ import annotations
 
 import json
-import os
 import re
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +22,7 @@ import models
 import symbolic
 import symbolic.data
 import workflow_cases as cases
+from doc_examples import example_module, package_with
 from symbolic.workflow.effects import (EFFECTS, Context, Effect, Signals, check_effect, excluded, groups,
                                        markdown_table, register)
 from symbolic.workflow.effects.base import Effect as BaseEffect
@@ -164,27 +161,12 @@ def test_the_docs_table_is_the_registry() -> None:
     assert table.group(1) == markdown_table(), "docs/workflow.md's table differs from the registry: paste markdown_table()"
 
 
-def example_effect() -> tuple[str, str]:
-    """(path, source) of the example effect of docs/workflow.md, "Adding an effect"."""
-    text = (ROOT / "docs/workflow.md").read_text()
-    block = re.search(r"```python\n# (symbolic/workflow/effects/\w+\.py)\n(.*?)```", text, re.S)
-    assert block, "docs/workflow.md has no example effect (a fenced python block opening with its path)"
-    return block.group(1), block.group(2)
-
-
 @pytest.mark.slow
 def test_the_documented_example_effect_is_all_it_takes(tmp_path: Path) -> None:
     """The example file, dropped alone into a copy of the package, is listed by --list-effects and found by
     ``diagnose --effects quadratic_drag`` on an axis whose drag the model lacks (truth Fq = 0.4)."""
-    path, source = example_effect()
-    shutil.copytree(ROOT / "symbolic", tmp_path / "symbolic", ignore=shutil.ignore_patterns("__pycache__"))
-    (tmp_path / path).write_text(source)
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "SYMBOLIC_CACHE")} | {
-        "PYTHONPATH": str(tmp_path)}
-
-    def run(*args: str) -> subprocess.CompletedProcess:
-        return subprocess.run([sys.executable, "-m", "symbolic", *args], cwd=tmp_path, env=env, capture_output=True,
-                              text=True, timeout=900)
+    path, source = example_module("docs/workflow.md", "symbolic/workflow/effects")
+    run = package_with(tmp_path, path, source)
 
     listed = run("diagnose", "--list-effects")
     assert listed.returncode == 0, listed.stderr

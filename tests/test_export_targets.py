@@ -6,16 +6,12 @@ listed by ``generate --help``, accepted by ``--targets`` and written beside the 
 
 from __future__ import annotations
 
-import os
-import re
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 import symbolic
+from doc_examples import example_module, package_with
 from symbolic.export import targets
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -34,25 +30,11 @@ def test_an_unknown_target_is_refused_with_the_allowed_ones() -> None:
         targets.target("matlab")
 
 
-def example_target() -> tuple[str, str]:
-    """(path, source) of the recipe's example module in docs/contracts.md."""
-    text = (ROOT / "docs/contracts.md").read_text()
-    block = re.search(r"```python\n# (symbolic/export/targets/\w+\.py)\n(.*?)```", text, re.S)
-    assert block, "docs/contracts.md has no example target (a fenced python block opening with its path)"
-    return block.group(1), block.group(2)
-
-
 @pytest.mark.slow
 def test_the_documented_example_target_is_all_it_takes(tmp_path: Path) -> None:
-    path, source = example_target()
-    shutil.copytree(ROOT / "symbolic", tmp_path / "symbolic", ignore=shutil.ignore_patterns("__pycache__"))
-    (tmp_path / path).write_text(source)
+    path, source = example_module("docs/contracts.md", "symbolic/export/targets")
+    run = package_with(tmp_path, path, source)
     name = Path(path).stem
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"} | {"PYTHONPATH": str(tmp_path)}
-
-    def run(*args: str) -> subprocess.CompletedProcess:
-        return subprocess.run([sys.executable, "-m", "symbolic", *args], cwd=tmp_path, env=env, capture_output=True,
-                              text=True, timeout=600)
 
     help_text = run("generate", "--help").stdout
     assert f"c,casadi,{name},report" in help_text.replace("\n", "").replace(" ", "")
