@@ -270,6 +270,7 @@ def apply(measurements: Measurements, layer: SignalLayer, source: str) -> tuple[
         values = arrays[kind][:, j]
         logged[channel.signal] = _readonly(values.copy())
         arrays[kind][:, j] = correct(channel, values) if channel.table == "sensors" else drive(channel, values)
+        _check_result(arrays[kind][:, j], channel, measurements, source)
     for kind, values in arrays.items():
         if values is not None:
             values.setflags(write=False)
@@ -296,6 +297,18 @@ def reapply(measurements: Measurements, layer: SignalLayer, source: str) -> Meas
     if hasattr(measurements, "signal_layer"):
         changed["signal_layer"] = layer
     return dataclasses.replace(measurements, **changed)
+
+
+def _check_result(values: np.ndarray, channel: Channel, measurements: Measurements, source: str) -> None:
+    """The model's signal stays a measured value (finite, magnitude at most 1e30): a gain of 1e-30 would not."""
+    with np.errstate(invalid="ignore"):
+        bad = np.flatnonzero(~(np.abs(values) <= MAX_MAGNITUDE))
+    if bad.size:
+        k = int(bad[0])
+        raise DataError(source, f"[{channel.table}] {channel.signal}",
+                        f"gain {channel.gain:g} and bias {channel.bias:g} make the model's signal {values[k]:g} at "
+                        f"sample {k} (t = {measurements.t[k]:g} s) (allowed: finite numbers of magnitude at most "
+                        f"{MAX_MAGNITUDE:g})")
 
 
 def _readonly(values: np.ndarray) -> np.ndarray:
