@@ -116,6 +116,17 @@ def test_two_link_arm_recovers_the_truth(tmp_path: Path) -> None:
     for name, p in fit.parameters.items():
         assert abs(p.value - ARM[name]) <= 4 * p.sigma + 2e-3 * ARM[name], (name, p, ARM[name])
     assert max(fit.errors["force"].values()) < 2.0  # %, from about 30
+    # from IDIM-LS's consistent parameters, all of them: the inertial ones are seen only in combinations
+    combined = output_error(model, experiment, consistent=True)
+    assert combined.converged, combined.message
+    for name in ("m1", "m2", "c1", "c2", "I1", "I2"):
+        assert combined.parameters[name].sigma == math.inf, combined.parameters[name]
+    for name in ("Fv1", "Fv2"):
+        p = combined.parameters[name]
+        assert abs(p.value - ARM[name]) <= 4 * p.sigma + 2e-3 * ARM[name], (name, p)
+    assert "only in combinations" in combined.table()
+    for c, error in combined.errors["force"].items():
+        assert error < combined.errors_start["force"][c], c
 
 
 def test_torque_replay_has_no_force_error_to_fit(axis_model, tmp_path: Path) -> None:

@@ -152,6 +152,10 @@ class OutputErrorFit:
             for c, value in per.items():
                 lines.append(f"relative error of {signal} {c}: {self.errors_start[signal][c]:.4g} % at the start, "
                              f"{value:.4g} % fitted")
+        combined = [p.name for p in self.parameters.values() if not math.isfinite(p.sigma)]
+        if combined:
+            lines.append(f"σ = ∞: {', '.join(combined)} — the response determines them only in combinations (their "
+                         "values are one of many that simulate alike)")
         if self.fixed:
             lines.append("kept at their values (fixed): " + ", ".join(f"{n} = {v:.6g}" for n, v in self.fixed.items()))
         lines.append("σ from the Jacobian, RSS/(m−p)·(JᵀJ)⁻¹: the residuals of an output error are coloured, so σ is "
@@ -427,7 +431,8 @@ def output_error(
         from symbolic.identify.model import identify_model
 
         idim = identify_model(model, measurements, fix=fix, consistent=consistent)
-        start = {n: p.value for n, p in idim.parameters.items() if math.isfinite(p.sigma)}
+        # consistent: every parameter entering θ, also those only combinations determine (σ = ∞ at the end)
+        start = {n: p.value for n, p in idim.parameters.items() if consistent or math.isfinite(p.sigma)}
         start_method = "IDIM-LS solution" + (" (consistent)" if consistent else "")
     fixed_names = {s.name for s in fixed}
     start = {n: float(v) for n, v in start.items() if n not in fixed_names}
@@ -451,14 +456,8 @@ def output_error(
     timings = {"setup": time.perf_counter() - started}
     result = levenberg_marquardt(loop, residuals, theta0, lower, upper, max_iterations, timings)
     theta, J, r, y0, y, iterations, converged, message, cost0 = result
-    m, k = r.size, len(names)
-    sigma = np.full(k, np.inf)
-    if m > k:
-        try:
-            covariance = float(r @ r) / (m - k) * np.linalg.inv(J.T @ J)
-            sigma = np.sqrt(np.maximum(np.diag(covariance), 0.0))
-        except np.linalg.LinAlgError:
-            pass
+    scale = np.where(theta0 != 0, np.abs(theta0), 1.0)
+    sigma = _sigmas(J * scale, float(r @ r)) * scale
     fitted = {}
     for j, name in enumerate(names):
         bound = "min" if theta[j] == lower[j] and np.isfinite(lower[j]) else (
@@ -472,17 +471,37 @@ def output_error(
                           timings, start_method)
 
 
-def _in_sigmas(step: np.ndarray, J: np.ndarray, cost: float) -> float:
-    """max_i |step_i|/σ_i, σ² = cost/(m − p)·diag((JᵀJ)⁻¹): how far a step goes in units of the estimates'
-    standard deviations (inf when they are not defined)."""
+RANK_TOLERANCE = 1e-9
+"""Singular values of the (column-scaled) Jacobian below this fraction of the largest span directions the
+data do not determine: parameters only combinations of which the response sees (a multi-joint arm's
+inertial parameters)."""
+
+
+def _sigmas(J: np.ndarray, cost: float) -> np.ndarray:
+    """σ² = cost/(m − r)·diag((JᵀJ)⁺) (r the rank of J), σ = ∞ for a parameter with a component along a
+    direction J does not see (it is determined only in combination with others)."""
     m, k = J.shape
-    try:
-        sigma = np.sqrt(cost / max(m - k, 1) * np.diag(np.linalg.inv(J.T @ J)))
-    except np.linalg.LinAlgError:
-        return math.inf
+    norms = np.linalg.norm(J, axis=0)
+    seen = norms > 0
+    # columns of unit norm: the rank and the unseen directions do not depend on the parameters' units
+    _, singular, Vt = np.linalg.svd(J[:, seen] / norms[seen], full_matrices=False)
+    kept = singular > RANK_TOLERANCE * max(singular.max(initial=0.0), 1e-300)
+    variance = cost / max(m - int(kept.sum()), 1)
+    sigma = np.full(k, np.inf)
+    sigma[seen] = np.sqrt(variance * np.sum((Vt[kept].T / singular[kept]) ** 2, axis=1)) / norms[seen]
+    undetermined = np.flatnonzero(seen)[np.abs(Vt[~kept]).max(axis=0, initial=0.0) > 1e-6]
+    sigma[undetermined] = np.inf
+    return sigma
+
+
+def _in_sigmas(step: np.ndarray, J: np.ndarray, cost: float) -> float:
+    """max_i |step_i|/σ_i over the parameters the data determine (:func:`_sigmas`): how far a step goes in
+    units of the estimates' standard deviations (inf when none is determined)."""
+    sigma = _sigmas(J, cost)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.abs(step) / sigma
-    return float(np.nanmax(ratio)) if np.isfinite(ratio).any() else math.inf
+    ratio = ratio[np.isfinite(sigma)]
+    return float(ratio.max()) if ratio.size else math.inf
 
 
 def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndarray, lower: np.ndarray,
