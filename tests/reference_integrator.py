@@ -55,8 +55,9 @@ def interval(q: float, v: float, tau: float, h: float, J: float, Fv: float, Fc: 
 
 
 def axis_pd_run(t: np.ndarray, reference: np.ndarray, J: float, Fv: float, Fc: float, kp: float, kd: float,
-                resolution: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(true q, encoder readings, commanded τ) at the samples, from rest at q = 0."""
+                resolution: float, saturation: float = math.inf) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(true q, encoder readings, commanded τ) at the samples, from rest at q = 0; the command clipped to
+    ±``saturation``."""
     q, v = 0.0, 0.0
     period = float(t[1] - t[0])
     true, read, force = (np.empty(len(t)) for _ in range(3))
@@ -64,7 +65,7 @@ def axis_pd_run(t: np.ndarray, reference: np.ndarray, J: float, Fv: float, Fc: f
     for k in range(len(t)):
         measured = math.floor(q / resolution + 0.5) * resolution if resolution > 0 else q
         velocity = 0.0 if last is None else (measured - last) / period
-        tau = kp * (reference[k] - measured) - kd * velocity
+        tau = min(max(kp * (reference[k] - measured) - kd * velocity, -saturation), saturation)
         true[k], read[k], force[k] = q, measured, tau
         last = measured
         q, v = interval(q, v, tau, period, J, Fv, Fc)
@@ -80,20 +81,23 @@ def reference_motion(t: np.ndarray, amplitude: float = 0.6) -> np.ndarray:
 
 def write_axis_experiment(folder: Path, *, J: float = 0.05, Fv: float = 0.3, Fc: float = 0.4, kp: float = 20.0,
                           kd: float = 1.0, rate: float = 1000.0, seconds: float = 4.0, counts: int = 2**16,
-                          force_noise: float = 0.0, seed: int = 0) -> Path:
+                          force_noise: float = 0.0, seed: int = 0, saturation: float = math.inf) -> Path:
     """Write ``folder/axis.csv`` and ``folder/axis.experiment.toml`` (with its PD ``[controller]`` and the
     encoder's quantisation) of the axis under PD; ``counts`` per revolution (0: exact positions),
-    ``force_noise`` the standard deviation (N·m) of white noise added to the logged force."""
+    ``force_noise`` the standard deviation (N·m) of white noise added to the logged force, ``saturation`` the
+    command's limit (declared in the ``[controller]`` when finite)."""
     from symbolic.data import write_columns
 
     t = np.arange(int(round(seconds * rate))) / rate
     r = reference_motion(t)
     resolution = 2 * math.pi / counts if counts else 0.0
-    _, read, force = axis_pd_run(t, r, J, Fv, Fc, kp, kd, resolution)
+    _, read, force = axis_pd_run(t, r, J, Fv, Fc, kp, kd, resolution, saturation)
     logged = force + np.random.default_rng(seed).normal(0.0, force_noise, len(t)) if force_noise else force
     folder.mkdir(parents=True, exist_ok=True)
     write_columns({"t": t, "q_q": read, "tau_q": logged, "ref_q": r}, folder / "axis.csv")
     quantisation = f"quantisation = [{resolution!r}]\n" if resolution else ""
+    if math.isfinite(saturation):
+        quantisation += f"saturation = [{saturation!r}]\n"
     path = folder / "axis.experiment.toml"
     path.write_text('data = "axis.csv"\n[signals]\nt = "t"\nq_q = "q_q"\ntau_q = "tau_q"\nref_q = "ref_q"\n'
                     f'[controller]\nkind = "pd"\nkp = [{kp!r}]\nkd = [{kd!r}]\nreference = "ref"\n{quantisation}',

@@ -289,6 +289,11 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
         raise DataError(source, "controller", f"a delay of {ctrl.delay} samples (more than {control.LINE_IN_MEMORY}) "
                                               "is not supported by the output-error identification yet "
                                               f"(allowed: up to {control.LINE_IN_MEMORY})")
+    in_gains = sorted({s.name for g in ctrl.gain for s in g.free_symbols} & set(free))
+    if in_gains:  # the controller's constants are evaluated once: a gain cannot follow θ
+        raise IdentificationError(f"{source}: [controller] gain: {', '.join(in_gains)} would be fitted but sets the "
+                                  f"controller's drive gain, which the output-error fit keeps at its start value: keep "
+                                  f"it at its value (--fix {','.join(in_gains)})")
     signals = control.inputs(ctrl, measurements, names)
     plant = sim._plant(model)
     x0 = sim._initial_state(model, measurements, p, None)
