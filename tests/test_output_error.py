@@ -74,15 +74,18 @@ def test_noise_free_optimum_is_kept(axis_model, tmp_path: Path) -> None:
     assert at_truth.iterations <= 2
 
 
-@pytest.mark.parametrize(("epsilon", "step", "tolerance"), [(1e-2, 1e-5, 1e-6), (1e-4, 1e-7, 3e-6)])
+@pytest.mark.parametrize(("epsilon", "step", "tolerance", "kind"),
+                         [(1e-2, 1e-5, 1e-6, "pd"), (1e-4, 1e-7, 3e-6, "pd"), (1e-2, 1e-5, 1e-6, "pid")])
 def test_sensitivities_are_the_derivative_of_the_simulation(axis_model, tmp_path: Path, epsilon: float, step: float,
-                                                             tolerance: float) -> None:
+                                                             tolerance: float, kind: str) -> None:
     """(c) ∂y/∂θ by CasADi's forward mode against central differences of the same compiled simulation
     (no quantiser: the staircase has no derivative to compare), force and position. The differences'
     error falls as step² (measured: 1.8e-6, 1.8e-8 at steps 1e-4, 1e-5 for ε = 1e-2); with the default
     ε = 1e-4, tanh(v/ε) bends so sharply at the velocity's zeros that a step of 1e-7 is needed (1.7e-6 at
-    1e-6, 7.6e-7 at 1e-7, where rounding starts to count)."""
+    1e-6, 7.6e-7 at 1e-7, where rounding starts to count). The PID's integral is part of the state."""
     experiment = write_axis_experiment(tmp_path, counts=0, seconds=0.6)
+    if kind == "pid":  # the same log run by a PID (the sensitivities' check needs no truth)
+        experiment.write_text(experiment.read_text().replace('kind = "pd"', 'kind = "pid"\nki = [30.0]'))
     measurements = load(experiment)
     names = list(TRUTH)
     loop = closed_loop(axis_model, measurements, names, parameters=PERTURBED, friction_velocity=epsilon)
