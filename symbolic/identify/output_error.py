@@ -275,7 +275,7 @@ class ClosedLoop:
 
 def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[str], *,
                 parameters: Mapping[str, float] | None = None, friction_velocity: float = sim.FRICTION_VELOCITY,
-                substeps: int | None = None, compiled: bool | None = None) -> ClosedLoop:
+                substeps: int | None = None, compiled: bool | None = None, initial: Any = None) -> ClosedLoop:
     """The closed loop of ``measurements``' experiment (its ``[controller]``, else torque replay) for
     :func:`output_error`: sub-steps chosen as :func:`~symbolic.simulation.simulate` chooses them at
     ``parameters`` and kept for every θ, so that the simulation differentiated is one function of θ."""
@@ -296,7 +296,7 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
                                   f"it at its value (--fix {','.join(in_gains)})")
     signals = control.inputs(ctrl, measurements, names)
     plant = sim._plant(model)
-    x0 = sim._initial_state(model, measurements, p, None)
+    x0 = sim._initial_state(model, measurements, p, initial)
     radius = sim._spectral_radius(plant, x0, p, friction_velocity, float(measurements.t[0]), names, source)
     m = substeps or max(1, math.ceil(min(measurements.sample_period * radius / sim.STEP_BOUND, 2.0**62)))
     if m > sim.MAX_SUBSTEPS:
@@ -394,6 +394,7 @@ def output_error(
     friction_velocity: float = sim.FRICTION_VELOCITY,
     substeps: int | None = None,
     compiled: bool | None = None,
+    initial: tuple[Any, Any] | None = None,
 ) -> OutputErrorFit:
     """Fit ``model``'s parameters by the output error of its closed loop on ``data`` (module docstring).
 
@@ -416,8 +417,10 @@ def output_error(
         Parameters kept at their values besides ``fixed = true`` ones.
     max_iterations
         Levenberg–Marquardt iterations before stopping unconverged.
-    friction_velocity, substeps, compiled
-        As :func:`symbolic.simulation.simulate`'s.
+    friction_velocity, substeps, compiled, initial
+        As :func:`symbolic.simulation.simulate`'s: ``initial`` = (q0, q̇0) over the model's coordinates replaces
+        the initial state estimated from the first samples (whose velocity, from a parabola through the
+        first positions, is what offsets a noise-free fit when the log starts in motion).
     """
     if signals not in SIGNALS:
         raise DataError(str(getattr(data, "source", data)), "signals",
@@ -446,7 +449,7 @@ def output_error(
                                   "directly and alone; try --consistent, or free parameters kept fixed)")
     names = list(start)
     loop = closed_loop(model, measurements, names, parameters=start, friction_velocity=friction_velocity,
-                       substeps=substeps, compiled=compiled)
+                       substeps=substeps, compiled=compiled, initial=initial)
     residuals = _residuals(measurements, loop.names, signals, weights, loop.ctrl)
     bounds = parameter_bounds(model)
     symbols = {s.name: s for s in model.parameter_symbols}
