@@ -246,7 +246,7 @@ class ClosedLoop:
         """y (samples × 4n: q, q̇, q̈, τ over the model's coordinates) and, with ``sensitivities``, ∂y/∂θ
         (samples × 4n × k); NaN rows where the simulation diverged."""
         function = self.function(sensitivities)
-        n, k, nz = self.plant.n, len(self.free), function.size1_in(0)
+        n, k = self.plant.n, len(self.free)
         memory = self.ctrl.memory_size()
         z = np.concatenate([self.x0, np.zeros(memory)])
         if sensitivities:
