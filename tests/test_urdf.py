@@ -313,8 +313,9 @@ def test_export_writes_given_values_and_refuses_what_urdf_cannot_hold(tmp_path: 
         urdf(symbolic.robots.load("fivebar"))
     with pytest.raises(ExportError, match="flexible links"):
         urdf(symbolic.robots.load("single_flexible_link"))
-    with pytest.warns(symbolic.ModelWarning, match="offset"):
+    with pytest.warns(symbolic.ModelWarning) as notes:  # what URDF cannot hold: the offset, EMPS's gravity along −y
         urdf(symbolic.robots.load("emps"))
+    assert sorted(("offset" in str(n.message), "gravity" in str(n.message)) for n in notes) == [(False, True), (True, False)]
 
 
 # -- the command line and generated C --------------------------------------------------------------------------

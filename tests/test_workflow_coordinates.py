@@ -27,6 +27,10 @@ from symbolic.workflow.search import Search
 from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN
 from symbolic.workflow.statistics import combined_f_test, f_test
 
+# the industrial arm of workflow_cases is the PUMA 560 with Corke's inertias, which the loader warns violate the
+# triangle inequality (README, "Model files"): expected each time one is loaded here
+pytestmark = pytest.mark.filterwarnings("ignore:.*violate the triangle inequality:symbolic.errors.ModelWarning")
+
 JOINTS = ("q1", "q2", "q3", "q4", "q5", "q6")
 CURRENT = (0.01, 12)
 """Current-sensor noise as a fraction of each drive's range, and the ADC's bits."""

@@ -106,13 +106,17 @@ def _spectrum(fig: Any, before: np.ndarray, after: np.ndarray, rate: float, peak
               u: CoordinateUnits) -> Any:
     ax = fig.add_subplot(1, 1, 1)
     ax.set_yscale("log")
+    drawn = False
     for label, r in (("nominal model (re-identified)", before), ("patched model", after)):
         f, psd = spectrum(r, rate)
         shown = psd > 0  # a residual that is zero (a coordinate without force, fitted exactly) has no log level
         if shown.any():
             ax.plot(f[shown], psd[shown], lw=0.8, label=label)
+            drawn = True
         else:
             ax.plot([], [], lw=0.8, label=f"{label}: zero residual (nothing to draw)")
+    if not drawn:  # a log axis without a positive value has no range: matplotlib would warn and guess one
+        ax.set_yscale("linear")
     for k, peak in enumerate(peaks):
         ax.axvline(peak, color="k", lw=0.5, ls="--",
                    label=("peak of the nominal model's residual: " + ", ".join(f"{p:.3g}" for p in peaks) + " Hz")
