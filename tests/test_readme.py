@@ -204,3 +204,17 @@ def test_a_warning_of_the_package_fails_the_suite_and_a_models_warning_is_shown(
         warnings.warn_explicit("units", ModelWarning, "units.py", 1, module="symbolic.data.units")
         warnings.warn_explicit("elsewhere", RuntimeWarning, "other.py", 1, module="numpy.lib")
     assert [str(w.message) for w in caught] == ["units", "elsewhere"]
+
+
+def test_the_install_size_and_test_time_are_measurements_with_their_command_and_date() -> None:
+    """The figures of the README's first block (1.1 GB and "8–12 min" were copied, not measured): each is given
+    again in the paragraph below it, next to the command that measures it and the date of the measurement."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    block, after = readme.split("```sh\n", 1)[1].split("```", 1)
+    paragraph = after.split("\n\n", 2)[1]
+    size = re.search(r"install \(([\d.]+ GB)\)", block)
+    minutes = re.search(r"run the tests \(gcc; (\d+) min", block)
+    assert size and minutes, block
+    assert re.search(rf"`du -sh \.venv` after the `\[dev\]` install gave {re.escape(size.group(1))} \([^)]*\d{{4}}-\d\d-\d\d\)",
+                     paragraph), paragraph
+    assert re.search(rf"`time python3 -m pytest[^`]*` took\s+{minutes.group(1)} min", paragraph), paragraph
