@@ -252,3 +252,14 @@ def test_time_windows_resolve_the_narrowest_width() -> None:
     # instants: the step between them
     assert time_windows([(5.0, 5.0), (5.002, 5.002)]) == ["5.00000–5.00000 s", "5.00200–5.00200 s"]
     assert time_windows([(7.0, 7.0)]) == ["7.000–7.000 s"]
+
+
+def test_a_normal_system_that_is_not_finite_explains_nothing() -> None:
+    """Columns overflowing on hostile data give a Gram matrix with inf or NaN: the candidate gets zero coefficients
+    (it explains nothing, so nothing is named) instead of a LinAlgError traceback (issue 39's fuzz found one)."""
+    from symbolic.workflow.terms import solve_normal
+
+    gram = np.array([[np.inf, 1.0], [1.0, 2.0]])
+    assert solve_normal(gram, np.array([1.0, 2.0])).tolist() == [0.0, 0.0]
+    assert solve_normal(np.eye(2), np.array([np.nan, 1.0])).tolist() == [0.0, 0.0]
+    np.testing.assert_allclose(solve_normal(np.array([[4.0, 0.0], [0.0, 1.0]]), np.array([2.0, 3.0])), [0.5, 3.0])

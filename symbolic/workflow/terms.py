@@ -265,13 +265,21 @@ def solve_normal(gram: np.ndarray, right: np.ndarray) -> np.ndarray:
     systems are small and well conditioned once scaled; the SVD is kept for the identification itself).
     A system the data do not determine — a candidate collinear with the model's terms on a cross-validation
     fold's training blocks (an axis that moves one way there) — gets the least-norm solution, silently: the
-    candidate's held-out error says what it is worth."""
-    scale = np.sqrt(np.clip(np.diag(gram), 1e-300, None))
-    scaled = gram / np.outer(scale, scale)
+    candidate's held-out error says what it is worth. A system that is not finite (columns overflowing on
+    hostile data) gets zero coefficients: the candidate explains nothing there, and is not named."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        scale = np.sqrt(np.clip(np.diag(gram), 1e-300, None))
+        scaled = gram / np.outer(scale, scale)
+        rhs = right / scale
+    if not (np.all(np.isfinite(scaled)) and np.all(np.isfinite(rhs))):
+        return np.zeros(len(right))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
-            x = scipy.linalg.solve(scaled, right / scale, assume_a="pos", check_finite=False)
+            x = scipy.linalg.solve(scaled, rhs, assume_a="pos", check_finite=False)
     except (np.linalg.LinAlgError, scipy.linalg.LinAlgError, scipy.linalg.LinAlgWarning):
-        x = np.linalg.lstsq(scaled, right / scale, rcond=None)[0]
+        try:
+            x = np.linalg.lstsq(scaled, rhs, rcond=None)[0]
+        except np.linalg.LinAlgError:  # the SVD did not converge: nothing to take from this system
+            return np.zeros(len(right))
     return x / scale
