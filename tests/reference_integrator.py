@@ -55,9 +55,10 @@ def interval(q: float, v: float, tau: float, h: float, J: float, Fv: float, Fc: 
 
 
 def axis_pd_run(t: np.ndarray, reference: np.ndarray, J: float, Fv: float, Fc: float, kp: float, kd: float,
-                resolution: float, saturation: float = math.inf) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                resolution: float, saturation: float = math.inf, drive_gain: float = 1.0,
+                drive_bias: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(true q, encoder readings, commanded τ) at the samples, from rest at q = 0; the command clipped to
-    ±``saturation``."""
+    ±``saturation``; the drive applies drive_gain·(command + drive_bias) to the axis."""
     q, v = 0.0, 0.0
     period = float(t[1] - t[0])
     true, read, force = (np.empty(len(t)) for _ in range(3))
@@ -68,7 +69,7 @@ def axis_pd_run(t: np.ndarray, reference: np.ndarray, J: float, Fv: float, Fc: f
         tau = min(max(kp * (reference[k] - measured) - kd * velocity, -saturation), saturation)
         true[k], read[k], force[k] = q, measured, tau
         last = measured
-        q, v = interval(q, v, tau, period, J, Fv, Fc)
+        q, v = interval(q, v, drive_gain * (tau + drive_bias), period, J, Fv, Fc)
     return true, read, force
 
 
@@ -81,17 +82,24 @@ def reference_motion(t: np.ndarray, amplitude: float = 0.6) -> np.ndarray:
 
 def write_axis_experiment(folder: Path, *, J: float = 0.05, Fv: float = 0.3, Fc: float = 0.4, kp: float = 20.0,
                           kd: float = 1.0, rate: float = 1000.0, seconds: float = 4.0, counts: int = 2**16,
-                          force_noise: float = 0.0, seed: int = 0, saturation: float = math.inf) -> Path:
+                          force_noise: float = 0.0, seed: int = 0, saturation: float = math.inf,
+                          drive: tuple[float, float] = (1.0, 0.0), force_sensor: float | None = None,
+                          layer: str = "") -> Path:
     """Write ``folder/axis.csv`` and ``folder/axis.experiment.toml`` (with its PD ``[controller]`` and the
     encoder's quantisation) of the axis under PD; ``counts`` per revolution (0: exact positions),
     ``force_noise`` the standard deviation (N·m) of white noise added to the logged force, ``saturation`` the
-    command's limit (declared in the ``[controller]`` when finite)."""
+    command's limit (declared in the ``[controller]`` when finite). ``drive`` = (gain, bias): the force applied
+    is gain·(command + bias) and the log holds the command; ``force_sensor``: the log holds that gain times the
+    applied force instead (a force sensor's reading); ``layer``: TOML appended to the experiment file (its
+    ``[sensors]``/``[drive]``, as the test declares them)."""
     from symbolic.data import write_columns
 
     t = np.arange(int(round(seconds * rate))) / rate
     r = reference_motion(t)
     resolution = 2 * math.pi / counts if counts else 0.0
-    _, read, force = axis_pd_run(t, r, J, Fv, Fc, kp, kd, resolution, saturation)
+    _, read, force = axis_pd_run(t, r, J, Fv, Fc, kp, kd, resolution, saturation, *drive)
+    if force_sensor is not None:
+        force = force_sensor * drive[0] * (force + drive[1])
     logged = force + np.random.default_rng(seed).normal(0.0, force_noise, len(t)) if force_noise else force
     folder.mkdir(parents=True, exist_ok=True)
     write_columns({"t": t, "q_q": read, "tau_q": logged, "ref_q": r}, folder / "axis.csv")
@@ -100,7 +108,8 @@ def write_axis_experiment(folder: Path, *, J: float = 0.05, Fv: float = 0.3, Fc:
         quantisation += f"saturation = [{saturation!r}]\n"
     path = folder / "axis.experiment.toml"
     path.write_text('data = "axis.csv"\n[signals]\nt = "t"\nq_q = "q_q"\ntau_q = "tau_q"\nref_q = "ref_q"\n'
-                    f'[controller]\nkind = "pd"\nkp = [{kp!r}]\nkd = [{kd!r}]\nreference = "ref"\n{quantisation}',
+                    f'[controller]\nkind = "pd"\nkp = [{kp!r}]\nkd = [{kd!r}]\nreference = "ref"\n{quantisation}'
+                    + layer,
                     encoding="utf-8")
     return path
 

@@ -49,7 +49,8 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from symbolic.data import DataError, Measurements, load
+from symbolic.data import DataError, Measurements, load, signal_layer
+from symbolic.data.signal_layer import FreeValue, SignalLayer
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.errors import IdentificationError
 from symbolic.identify.known import fixed_symbols, parameter_bounds
@@ -121,6 +122,7 @@ class OutputErrorFit:
     fixed: dict[str, float] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
     start_method: str = "IDIM-LS solution"
+    signal_values: dict[str, FittedParameter] = field(default_factory=dict)
 
     def values(self) -> dict[str, float]:
         """{model parameter: fitted value}, for writing back into the model file."""
@@ -135,6 +137,7 @@ class OutputErrorFit:
             "converged": self.converged, "message": self.message, "iterations": self.iterations,
             "cost_start": self.cost_start, "cost": self.cost,
             "relative_error_start": self.errors_start, "relative_error": self.errors, "timings": dict(self.timings),
+            "signal_layer": {n: p.to_dict() for n, p in self.signal_values.items()},
         }
 
     def table(self) -> str:
@@ -148,6 +151,13 @@ class OutputErrorFit:
             bound = f"  (at its {p.bound})" if p.bound else ""
             lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {percent(p.relative_sigma):>8s}  "
                          f"{p.start:>14.6g}{bound}")
+        for p in self.signal_values.values():
+            bound = f"  (at its {p.bound})" if p.bound else ""
+            lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {percent(p.relative_sigma):>8s}  "
+                         f"{p.start:>14.6g}{bound}")
+        if self.signal_values:
+            lines.append("the signal layer's free values above are not written anywhere: copy them into the "
+                         "experiment file's [sensors]/[drive] (docs/data.md, \"Output error\")")
         for signal, per in self.errors.items():
             for c, value in per.items():
                 lines.append(f"relative error of {signal} {c}: {self.errors_start[signal][c]:.4g} % at the start, "
@@ -167,44 +177,77 @@ class OutputErrorFit:
 
 
 def sensitivity_function(ctrl: control.Controller, plant: sim.Plant, names: tuple[str, ...], period: float,
-                         substeps: int, free: Sequence[int], quantised: bool = False) -> ca.Function:
+                         substeps: int, free: Sequence[int], quantised: bool = False,
+                         sensed: sim.PositionSensors | None = None, signal_count: int = 0) -> ca.Function:
     """One sample of the closed loop with its forward sensitivities to the parameters ``free`` (indices of p).
 
     ``(za, w, p, c, eps) -> (za_next, ya)`` with za = [z; vec(S)], S = ∂z/∂θ (column-major), and
-    ya = [y; vec(∂y/∂θ)], z and y those of :func:`symbolic.simulation.simulator.sample_function`: the
-    discrete variational equation of the simulated sample, by CasADi's forward mode (``jtimes``).
+    ya = [y; vec(∂y/∂θ)], z and y those of :func:`symbolic.simulation.simulator.sample_function` (with the
+    position sensors ``sensed``): the discrete variational equation of the simulated sample, by CasADi's
+    forward mode (``jtimes``).
 
     ``quantised``: the function takes one more input, ``c_smooth``, the controller's constants without its
     sensors' quantisation, and differentiates the sample there, at the simulated (quantised) state: the
     staircase's derivative is 0 between its steps (the force would not depend on θ at all) and its mean slope
-    is 1, so the sensor counts as the identity in the sensitivities (module docstring)."""
-    F = sim.sample_function(ctrl, plant, names, period, substeps)
-    nz, ny, npar, k = F.size1_in(0), F.size1_out(1), F.size1_in(2), len(free)
+    is 1, so the sensor counts as the identity in the sensitivities (module docstring).
+
+    ``signal_count``: θ ends with that many values of the experiment's signal layer, which act on the loop
+    through its inputs and constants only: w then ends with ∂w/∂θ_s (column-major, nw × signal_count) and the
+    function takes a last input ``dc``, ∂c/∂θ_s (nc × signal_count), the seeds of those directions."""
+    F = sim.sample_function(ctrl, plant, names, period, substeps, sensed=sensed)
+    nz, ny, npar, kp = F.size1_in(0), F.size1_out(1), F.size1_in(2), len(free)
+    ks = signal_count
+    k = kp + ks
+    nw, nc = F.size1_in(1), F.size1_in(3)
     Z, S = ca.MX.sym("z", nz), ca.MX.sym("s", nz * k)
-    W, P, C, E = ca.MX.sym("w", F.size1_in(1)), ca.MX.sym("p", npar), ca.MX.sym("c", F.size1_in(3)), ca.MX.sym("eps")
-    theta = ca.MX.sym("theta", k)
-    select = ca.DM.zeros(npar, k)
+    W, P, C, E = ca.MX.sym("w", nw), ca.MX.sym("p", npar), ca.MX.sym("c", nc), ca.MX.sym("eps")
+    DW, DC = ca.MX.sym("dw", nw * ks), ca.MX.sym("dc", nc * ks)
+    theta = ca.MX.sym("theta", kp)
+    select = ca.DM.zeros(npar, kp)
     for j, i in enumerate(free):
         select[i, j] = 1.0
-    smooth = ca.MX.sym("c_smooth", F.size1_in(3)) if quantised else C
+    smooth = ca.MX.sym("c_smooth", nc) if quantised else C
     z_next, y = F(Z, W, P + ca.mtimes(select, theta), smooth, E)
-    seeds = ca.vertcat(ca.reshape(S, nz, k), ca.DM.eye(k))
-    derivative = ca.jtimes(ca.vertcat(z_next, y), ca.vertcat(Z, theta), seeds)  # (nz + ny) × k: k forward directions
-    derivative = ca.substitute(derivative, theta, ca.DM.zeros(k))
+    seeds = ca.vertcat(ca.reshape(S, nz, k), ca.horzcat(ca.DM.eye(kp), ca.DM.zeros(kp, ks)))
+    arguments = ca.vertcat(Z, theta)
+    if ks:  # the signal values' directions: through w and the constants (the quantisation-free ones)
+        seeds = ca.vertcat(seeds, ca.horzcat(ca.DM.zeros(nw, kp), ca.reshape(DW, nw, ks)),
+                           ca.horzcat(ca.DM.zeros(nc, kp), ca.reshape(DC, nc, ks)))
+        arguments = ca.vertcat(arguments, W, smooth)
+    derivative = ca.jtimes(ca.vertcat(z_next, y), arguments, seeds)  # (nz + ny) × k: k forward directions
+    derivative = ca.substitute(derivative, theta, ca.DM.zeros(kp))
     if quantised:
         z_next, y = F(Z, W, P, C, E)  # the values: the loop as simulated, its sensor quantised
     else:
-        z_next, y = ca.substitute([z_next, y], [theta], [ca.DM.zeros(k)])
-    return ca.Function("closed_loop_sensitivity", [ca.vertcat(Z, S), W, P, C, E, *([smooth] if quantised else [])],
+        z_next, y = ca.substitute([z_next, y], [theta], [ca.DM.zeros(kp)])
+    inputs = [ca.vertcat(Z, S), ca.vertcat(W, DW) if ks else W, P, C, E, *([smooth] if quantised else []),
+              *([DC] if ks else [])]
+    return ca.Function("closed_loop_sensitivity", inputs,
                        [ca.vertcat(z_next, ca.reshape(derivative[:nz, :], nz * k, 1)),
                         ca.vertcat(y, ca.reshape(derivative[nz:, :], ny * k, 1))],
-                       ["za", "w", "p", "c", "eps", *(["c_smooth"] if quantised else [])], ["za_next", "ya"])
+                       ["za", "w", "p", "c", "eps", *(["c_smooth"] if quantised else []), *(["dc"] if ks else [])],
+                       ["za_next", "ya"])
+
+
+@dataclass(frozen=True)
+class SignalValue:
+    """A free value of the experiment's signal layer fitted with the parameters: ``free`` as the experiment
+    records it, ``name`` as reported (``[drive] tau_q gain``), its ``bounds``."""
+
+    free: FreeValue
+    name: str
+    bounds: tuple[float, float]
+
+    @property
+    def key(self) -> tuple[str, str, str]:
+        return (self.free.table, self.free.signal, self.free.field)
 
 
 @dataclass(eq=False)
 class ClosedLoop:
     """The experiment's closed loop ready to run at any θ: the simulation's settings fixed once (sub-steps,
-    initial state, controller constants), with or without sensitivities."""
+    initial state, controller constants, the signal layer's fixed values), with or without sensitivities.
+    θ is the model parameters ``free`` followed by the layer's free values ``signal_values``."""
 
     model: DynamicModel
     measurements: Measurements
@@ -220,6 +263,11 @@ class ClosedLoop:
     substeps: int
     eps: float
     compiled: bool | None
+    sensed: sim.PositionSensors | None = None
+    layer: SignalLayer | None = None
+    signal_values: tuple[SignalValue, ...] = ()
+    before: np.ndarray | None = None  # the controller's own drive gains, before the [drive] gains
+    initial_given: bool = False
     _functions: dict = field(default_factory=dict)
 
     def function(self, sensitivities: bool) -> ca.Function:
@@ -228,29 +276,118 @@ class ClosedLoop:
                 from symbolic.codegen.compiled import compile_casadi
 
                 f = sensitivity_function(self.ctrl, self.plant, self.names, self.measurements.sample_period,
-                                         self.substeps, self.free, self.c_smooth is not None)
+                                         self.substeps, self.free, self.c_smooth is not None, self.sensed,
+                                         len(self.signal_values))
                 fast = compile_casadi(f) if self.compiled is not False else None
                 self._functions[True] = fast or f
             else:
                 self._functions[False] = sim._closed_loop(self.ctrl, self.plant, self.names,
                                                           self.measurements.sample_period, self.substeps,
-                                                          self.compiled)[0]
+                                                          self.compiled, self.sensed)[0]
         return self._functions[sensitivities]
 
     def parameters(self, theta: np.ndarray) -> np.ndarray:
         p = self.p0.copy()
-        p[list(self.free)] = theta
+        p[list(self.free)] = theta[:len(self.free)]
         return p
+
+    def layer_at(self, theta: np.ndarray) -> SignalLayer | None:
+        """The signal layer with the free values of θ."""
+        if not self.signal_values:
+            return self.layer
+        values = theta[len(self.free):]
+        return self.layer.with_values({v.key: float(x) for v, x in zip(self.signal_values, values)},
+                                      str(self.measurements.source))
+
+    def inputs(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray,
+                                                 np.ndarray, np.ndarray]:
+        """(w, c, c_smooth, ∂w/∂θ_s, ∂c/∂θ_s, ∂z₀/∂θ_s) at the signal values of θ: each value acts on the loop
+        through an input row, a drive gain or the initial state, exactly (module docstring)."""
+        ks, n = len(self.signal_values), self.plant.n
+        w, c = self.w.copy(), self.c.copy()
+        smooth = None if self.c_smooth is None else self.c_smooth.copy()
+        dw, dc = np.zeros((ks,) + w.shape), np.zeros((ks, len(c)))
+        dz0 = np.zeros((ks, len(self.x0)))
+        if not ks:
+            return w, c, smooth, dw, dc, dz0
+        layer, start = self.layer_at(theta), self.layer
+        nc, nr = self.ctrl.size, self.ctrl.reference_size
+        for i, value in enumerate(self.signal_values):
+            table, signal, name = value.key
+            channel = (layer.drive if table == "drive" else layer.sensors)[signal]
+            first = (start.drive if table == "drive" else start.sensors)[signal]
+            j = self.names.index(channel.coordinate)
+            logged = np.asarray(layer.logged[signal], float)
+            if table == "drive" and self.ctrl.kind != "torque":
+                k = self.ctrl.coordinates.index(channel.coordinate)
+                slot = 4 * nc + k  # kp, kd, ki, kv, then the drive gains (control.constants)
+                if name == "gain":
+                    for constants in (c, smooth) if smooth is not None else (c,):
+                        constants[slot] = channel.gain * self.before[k]
+                    dc[i, slot] = self.before[k]
+                else:  # bias: b/gain joins the disturbance (simulator.drive_layer)
+                    w[nr + k] += (channel.bias - first.bias) / self.before[k]
+                    dw[i, nr + k] = 1.0 / self.before[k]
+            elif channel.kind == "tau" and self.ctrl.kind == "torque":  # the replayed force is made of the log
+                row = nr + nc + j
+                if table == "drive":
+                    w[row] = signal_layer.drive(channel, logged)
+                    shifted = signal_layer.shift(logged, -channel.delay)
+                    dw[i, row] = {"gain": shifted + channel.bias, "bias": np.full(len(logged), channel.gain),
+                                  "delay": -channel.gain * signal_layer.shift_derivative(logged, -channel.delay)
+                                  }[name]
+                else:
+                    w[row] = signal_layer.correct(channel, logged)
+                    shifted = signal_layer.shift(logged, channel.delay)
+                    dw[i, row] = {"gain": -(shifted - channel.bias) / channel.gain**2,
+                                  "bias": np.full(len(logged), -1.0 / channel.gain),
+                                  "delay": signal_layer.shift_derivative(logged, channel.delay) / channel.gain}[name]
+            elif channel.kind == "q":  # a position sensor's bias: the initial state, and the loop's reading
+                if not self.initial_given:  # x₀ is the first corrected position (:meth:`initial_state`)
+                    dz0[i, j] = -1.0 / channel.gain
+                if self.ctrl.kind != "torque":
+                    row = self._reference_row(channel.coordinate)
+                    # r − (q_m + δ) = (r − δ) − q_m: every kind reads its position through r − q_m
+                    w[row] -= channel.bias - first.bias
+                    dw[i, row] = -1.0
+        return w, c, smooth, dw, dc, dz0
+
+    def _reference_row(self, coordinate: str) -> int:
+        if self.ctrl.kind == control.STATE_FEEDBACK:
+            return list(self.ctrl.states).index(("q", coordinate))
+        return self.ctrl.coordinates.index(coordinate)
+
+    def initial_state(self, theta: np.ndarray) -> np.ndarray:
+        """x₀ with the position sensors' free biases of θ (the first corrected position moves with them)."""
+        x0 = self.x0.copy()
+        if self.initial_given:
+            return x0
+        layer = self.layer_at(theta)
+        for value in self.signal_values:
+            table, signal, name = value.key
+            channel = layer.sensors.get(signal) if table == "sensors" else None
+            if channel is not None and channel.kind == "q":
+                x0[self.names.index(channel.coordinate)] = signal_layer.correct(channel, layer.logged[signal])[0]
+        return x0
 
     def run(self, theta: np.ndarray, sensitivities: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
         """y (samples × 4n: q, q̇, q̈, τ over the model's coordinates) and, with ``sensitivities``, ∂y/∂θ
         (samples × 4n × k); NaN rows where the simulation diverged."""
         function = self.function(sensitivities)
-        n, k = self.plant.n, len(self.free)
+        n, k, ks = self.plant.n, len(theta), len(self.signal_values)
         memory = self.ctrl.memory_size()
-        z = np.concatenate([self.x0, np.zeros(memory)])
+        depth = 0 if self.sensed is None else self.sensed.depth
+        w, c, smooth, dw, dc, dz0 = self.inputs(theta)
+        x0 = self.initial_state(theta)
+        z = np.concatenate([x0, np.zeros(memory), np.tile(x0[:n], depth)])
         if sensitivities:
-            z = np.concatenate([z, np.zeros((2 * n + memory) * k)])
+            s0 = np.zeros((k, len(z)))
+            s0[k - ks:, :2 * n] = dz0
+            for d in range(depth):  # the positions' history starts at the initial position
+                s0[k - ks:, 2 * n + memory + d * n:2 * n + memory + (d + 1) * n] = dz0[:, :n]
+            z = np.concatenate([z, s0.ravel()])  # column-major S: one direction after the other
+            if ks:
+                w = np.vstack([w, dw.reshape(ks * w.shape[0], -1)])
         p = self.parameters(theta)
         loops: dict[int, ca.Function] = {}
         outputs = []
@@ -259,8 +396,10 @@ class ClosedLoop:
             size = min(sim.CHUNK, samples - start)
             if size not in loops:
                 loops[size] = function.mapaccum("closed_loop", size)
-            extra = [self.c_smooth] if sensitivities and self.c_smooth is not None else []
-            states, y = loops[size](z, self.w[:, start:start + size], p, self.c, self.eps, *extra)
+            extra = [smooth] if sensitivities and smooth is not None else []
+            if sensitivities and ks:
+                extra.append(dc.ravel())  # column-major nc × ks
+            states, y = loops[size](z, np.ascontiguousarray(w[:, start:start + size]), p, c, self.eps, *extra)
             z = np.asarray(states)[:, -1]
             outputs.append(np.asarray(y))
             if not np.isfinite(z).all():
@@ -275,26 +414,35 @@ class ClosedLoop:
 
 def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[str], *,
                 parameters: Mapping[str, float] | None = None, friction_velocity: float = sim.FRICTION_VELOCITY,
-                substeps: int | None = None, compiled: bool | None = None, initial: Any = None) -> ClosedLoop:
+                substeps: int | None = None, compiled: bool | None = None, initial: Any = None,
+                signal_values: Sequence[FreeValue] = ()) -> ClosedLoop:
     """The closed loop of ``measurements``' experiment (its ``[controller]``, else torque replay) for
     :func:`output_error`: sub-steps chosen as :func:`~symbolic.simulation.simulate` chooses them at
-    ``parameters`` and kept for every θ, so that the simulation differentiated is one function of θ."""
+    ``parameters`` and kept for every θ, so that the simulation differentiated is one function of θ; the
+    experiment's ``[drive]`` and position ``[sensors]`` in the loop as :func:`~symbolic.simulation.simulate`
+    puts them, and ``signal_values`` (free values of the layer) fitted after the parameters."""
     source = str(measurements.source)
     names = tuple(model.robot.generalized_coordinates)
     sim._check_options("rk4", substeps, friction_velocity, source)
     sim._check_data(measurements, names, model.robot.name)
     p = sim._parameters(model, parameters, source)
     ctrl = control.check_delay(sim._controller(None, measurements, model, names), measurements.samples)
-    if control.line_outside(ctrl):
-        raise DataError(source, "controller", f"a delay of {ctrl.delay} samples (more than {control.LINE_IN_MEMORY}) "
-                                              "is not supported by the output-error identification yet "
-                                              f"(allowed: up to {control.LINE_IN_MEMORY})")
     in_gains = sorted({s.name for g in ctrl.gain for s in g.free_symbols} & set(free))
     if in_gains:  # the controller's constants are evaluated once: a gain cannot follow θ
         raise IdentificationError(f"{source}: [controller] gain: {', '.join(in_gains)} would be fitted but sets the "
                                   f"controller's drive gain, which the output-error fit keeps at its start value: keep "
                                   f"it at its value (--fix {','.join(in_gains)})")
     signals = control.inputs(ctrl, measurements, names)
+    values = model.parameter_vector.with_array(p).by_symbol()
+    before = control.drive_gains(ctrl, values)
+    ctrl, signals = sim.drive_layer(ctrl, signals, measurements, values)
+    sensed = sim.position_sensors(ctrl, measurements, names)
+    if control.line_outside(ctrl):
+        raise DataError(source, "controller", f"a delay of {ctrl.delay} samples (more than {control.LINE_IN_MEMORY}) "
+                                              "is not supported by the output-error identification yet "
+                                              f"(allowed: up to {control.LINE_IN_MEMORY})")
+    layer = getattr(measurements, "signal_layer", None)
+    fitted = tuple(_signal_value(v, ctrl, measurements) for v in signal_values)
     plant = sim._plant(model)
     x0 = sim._initial_state(model, measurements, p, initial)
     radius = sim._spectral_radius(plant, x0, p, friction_velocity, float(measurements.t[0]), names, source)
@@ -302,7 +450,6 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
     if m > sim.MAX_SUBSTEPS:
         raise IdentificationError(f"the model needs {m:.3g} RK4 sub-steps per sample (spectral radius {radius:.4g} "
                                   f"1/s): too stiff for the output-error identification's fixed-step simulation")
-    values = model.parameter_vector.with_array(p).by_symbol()
     c = control.constants(ctrl, values)
     smooth = None
     if np.any(ctrl.quantisation > 0):
@@ -310,7 +457,33 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
     w = np.hstack([signals.reference, signals.disturbance, signals.torque, measurements.t[:, None]]).T
     index = [model.parameter_vector.names.index(name) for name in free]
     return ClosedLoop(model, measurements, ctrl, plant, names, tuple(index), p, x0, c, smooth, np.ascontiguousarray(w), m,
-                      friction_velocity, compiled)
+                      friction_velocity, compiled, sensed, layer, fitted, before, initial is not None)
+
+
+def _signal_value(value: FreeValue, ctrl: control.Controller, measurements: Measurements) -> SignalValue:
+    """``value`` checked for a fit: the ones the loop or the comparison can follow exactly (module docstring)."""
+    source = str(measurements.source)
+    where = f"[{value.table}] {value.signal} {value.field}"
+    kind = value.signal.split("_", 1)[0]
+    feedback = ctrl.kind != "torque"
+    unsupported = None
+    if kind == "qd":
+        unsupported = "a velocity sensor's values (the output error compares forces and positions)"
+    elif value.table == "drive" and feedback and value.field == "delay":
+        unsupported = ("a free drive delay in a feedback loop (the loop's delay is whole samples; declare it fixed, "
+                       "e.g. delay = 1)")
+    elif kind == "q" and value.field != "bias":
+        unsupported = "a position sensor's free gain or delay (its bias may be free)"
+    elif kind == "q" and feedback and np.any(ctrl.quantisation > 0):
+        unsupported = ("a position sensor's free bias under a quantising [controller] (the quantiser reads the "
+                       "biased position)")
+    if unsupported:
+        raise DataError(source, where, f"declared free, but the output-error fit cannot estimate {unsupported} yet "
+                                       "(allowed free: [drive] gain and bias, and delay under torque replay; "
+                                       "[sensors] tau_<c> gain, bias and delay; [sensors] q_<c> bias)")
+    bounds = {"gain": (1e-9, math.inf) if value.start > 0 else (-math.inf, -1e-9), "bias": (-math.inf, math.inf),
+              "delay": (0.0, signal_layer.MAX_DELAY_FRACTION * measurements.samples)}[value.field]
+    return SignalValue(value, where, bounds)
 
 
 # -- the fit ----------------------------------------------------------------------------------------------------
@@ -318,40 +491,81 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
 
 @dataclass(frozen=True)
 class _Residuals:
-    """Which columns of y are compared with which measured signal, and their weights."""
+    """Which columns of y are compared with which measured signal, and their weights. A signal the
+    experiment's layer declares is compared as logged: the sensor model of the simulation (gain·y(t − delay)
+    + bias) against the sensor's log, the drive's command (y/gain − bias) against the logged command — so
+    that a free gain scales the simulation's side, never the cost (the corrected data divided by a gain
+    would shrink the residual with it)."""
 
     columns: list[int]
     measured: np.ndarray  # samples × len(columns)
     scale: np.ndarray  # weight / (std of each measured column, or its residual's RMS at the start)
     labels: list[tuple[str, str]]  # (signal, coordinate)
     weights: np.ndarray  # the signal's weight of each column
+    channels: list[tuple[str, str] | None] = field(default_factory=list)  # (table, signal) of a declared one
+    index: dict[tuple[str, str, str], int] = field(default_factory=dict)  # a free value's place in θ
 
-    def weighted_at(self, y: np.ndarray) -> _Residuals:
+    def model(self, y: np.ndarray, dy: np.ndarray | None, layer: SignalLayer | None
+              ) -> tuple[np.ndarray, np.ndarray | None]:
+        """The simulated side of each column and its derivative w.r.t. θ (the layer's values included)."""
+        out = y[:, self.columns].copy()
+        d = None if dy is None else dy[:, self.columns, :].copy()
+        for j, declared in enumerate(self.channels):
+            if declared is None:
+                continue
+            table, signal = declared
+            ch = (layer.drive if table == "drive" else layer.sensors)[signal]
+            base = y[:, self.columns[j]]
+            place = {f: self.index.get((table, signal, f)) for f in signal_layer.FIELDS}
+            if table == "drive":  # the command that makes the simulated force: y = g·(command + b)
+                out[:, j] = base / ch.gain - ch.bias
+                if d is not None:
+                    d[:, j, :] /= ch.gain
+                    if place["gain"] is not None:
+                        d[:, j, place["gain"]] -= base / ch.gain**2
+                    if place["bias"] is not None:
+                        d[:, j, place["bias"]] -= 1.0
+                continue
+            out[:, j] = signal_layer.sense(ch, base)
+            if d is not None:
+                for i in range(d.shape[2]):
+                    d[:, j, i] = ch.gain * signal_layer.shift(d[:, j, i], -ch.delay)
+                if place["gain"] is not None:
+                    d[:, j, place["gain"]] += signal_layer.shift(base, -ch.delay)
+                if place["bias"] is not None:
+                    d[:, j, place["bias"]] += 1.0
+                if place["delay"] is not None:
+                    d[:, j, place["delay"]] -= ch.gain * signal_layer.shift_derivative(base, -ch.delay)
+        return out, d
+
+    def weighted_at(self, y: np.ndarray, layer: SignalLayer | None = None) -> _Residuals:
         """The same comparison with each column's weight divided by its residual's RMS at ``y`` (the start),
         instead of the measured signal's spread: each signal and coordinate then counts as its own noise
         level allows, as IDIM-LS's weighted least squares weighs coordinates."""
         spread = self.weights / self.scale  # the measured signals' standard deviations
-        rms = np.sqrt(np.mean((self.measured - y[:, self.columns]) ** 2, axis=0))
+        rms = np.sqrt(np.mean((self.measured - self.model(y, None, layer)[0]) ** 2, axis=0))
         return dataclasses.replace(self, scale=self.weights / np.maximum(rms, 1e-9 * spread))
 
-    def of(self, y: np.ndarray) -> np.ndarray:
-        return ((self.measured - y[:, self.columns]) * self.scale).ravel()
+    def of(self, y: np.ndarray, layer: SignalLayer | None = None) -> np.ndarray:
+        return ((self.measured - self.model(y, None, layer)[0]) * self.scale).ravel()
 
-    def jacobian(self, dy: np.ndarray) -> np.ndarray:
-        return -(dy[:, self.columns, :] * self.scale[None, :, None]).reshape(-1, dy.shape[2])
+    def jacobian(self, y: np.ndarray, dy: np.ndarray, layer: SignalLayer | None = None) -> np.ndarray:
+        d = self.model(y, dy, layer)[1]
+        return -(d * self.scale[None, :, None]).reshape(-1, dy.shape[2])
 
-    def errors(self, y: np.ndarray) -> dict[str, dict[str, float]]:
+    def errors(self, y: np.ndarray, layer: SignalLayer | None = None) -> dict[str, dict[str, float]]:
         out: dict[str, dict[str, float]] = {}
+        simulated = self.model(y, None, layer)[0]
         for j, (signal, c) in enumerate(self.labels):
             centred = self.measured[:, j] - self.measured[:, j].mean()
             size = float(np.linalg.norm(centred))
-            e = float(np.linalg.norm(self.measured[:, j] - y[:, self.columns[j]]))
+            e = float(np.linalg.norm(self.measured[:, j] - simulated[:, j]))
             out.setdefault(signal, {})[c] = 100.0 * e / size if size > 0 else float("nan")
         return out
 
 
 def _residuals(measurements: Measurements, names: tuple[str, ...], signals: str, weights: tuple[float, float],
-               ctrl: control.Controller) -> _Residuals:
+               ctrl: control.Controller, loop: ClosedLoop | None = None) -> _Residuals:
     n = len(names)
     source = str(measurements.source)
     chosen = {"force": ("force",), "position": ("position",), "both": ("force", "position")}[signals]
@@ -360,24 +574,34 @@ def _residuals(measurements: Measurements, names: tuple[str, ...], signals: str,
                                               "simulated force is the logged one, so an output error on the force "
                                               "measures nothing; compare positions (--signals position) or declare "
                                               "the machine's [controller]")
-    columns, measured, scale, labels = [], [], [], []
+    layer = None if loop is None else loop.layer
+    columns, measured, scale, labels, channels = [], [], [], [], []
     for signal in chosen:
         weight = weights[0] if signal == "force" else weights[1]
         data = measurements.tau if signal == "force" else measurements.q
         for j, c in enumerate(measurements.coordinates):
             if signal == "force" and c not in ctrl.coordinates:
                 continue
-            spread = float(np.std(data[:, j]))
+            name = f"{'tau' if signal == 'force' else 'q'}_{c}"
+            declared, values = None, np.asarray(data[:, j], float)
+            if layer and name in layer.logged and (name in layer.sensors or ctrl.kind != "torque"):
+                declared = ("sensors" if name in layer.sensors else "drive", name)
+                values = np.asarray(layer.logged[name], float)
+                if declared[0] == "drive":  # the command, at the time it is applied
+                    values = signal_layer.shift(values, -layer.drive[name].delay)
+            spread = float(np.std(values))
             if spread == 0:
                 continue  # a constant signal (a coordinate without actuator: τ = 0) carries no comparison
             columns.append(names.index(c) + (3 * n if signal == "force" else 0))
-            measured.append(np.asarray(data[:, j], float))
+            measured.append(values)
             scale.append(weight / spread)
             labels.append((signal, c))
+            channels.append(declared)
     if not columns:
         raise DataError(source, "signals", f"no measured {signals} signal varies: nothing to compare")
     weight_of = np.array([weights[0] if signal == "force" else weights[1] for signal, _ in labels])
-    return _Residuals(columns, np.column_stack(measured), np.array(scale), labels, weight_of)
+    index = {} if loop is None else {v.key: len(loop.free) + i for i, v in enumerate(loop.signal_values)}
+    return _Residuals(columns, np.column_stack(measured), np.array(scale), labels, weight_of, channels, index)
 
 
 def output_error(
@@ -448,35 +672,41 @@ def output_error(
         raise IdentificationError(f"model {model.name}: no parameter to fit by output error (IDIM-LS determines none "
                                   "directly and alone; try --consistent, or free parameters kept fixed)")
     names = list(start)
+    layer = getattr(measurements, "signal_layer", None)
     loop = closed_loop(model, measurements, names, parameters=start, friction_velocity=friction_velocity,
-                       substeps=substeps, compiled=compiled, initial=initial)
-    residuals = _residuals(measurements, loop.names, signals, weights, loop.ctrl)
+                       substeps=substeps, compiled=compiled, initial=initial,
+                       signal_values=layer.free if layer else ())
+    residuals = _residuals(measurements, loop.names, signals, weights, loop.ctrl, loop)
     bounds = parameter_bounds(model)
     symbols = {s.name: s for s in model.parameter_symbols}
-    lower = np.array([bounds.get(symbols[n], (-np.inf, np.inf))[0] for n in names])
-    upper = np.array([bounds.get(symbols[n], (-np.inf, np.inf))[1] for n in names])
-    theta0 = np.clip(np.array([start[n] for n in names]), lower, upper)
+    lower = np.array([bounds.get(symbols[n], (-np.inf, np.inf))[0] for n in names]
+                     + [v.bounds[0] for v in loop.signal_values])
+    upper = np.array([bounds.get(symbols[n], (-np.inf, np.inf))[1] for n in names]
+                     + [v.bounds[1] for v in loop.signal_values])
+    theta0 = np.clip(np.array([start[n] for n in names] + [v.free.start for v in loop.signal_values]), lower, upper)
     first, _ = loop.run(theta0, sensitivities=False)
     if not np.isfinite(first).all():
         raise IdentificationError("the closed loop diverges at the start values: an output-error fit needs a start "
                                   "whose simulation stays finite")
-    residuals = residuals.weighted_at(first)
+    residuals = residuals.weighted_at(first, loop.layer_at(theta0))
     timings = {"setup": time.perf_counter() - started}
     result = levenberg_marquardt(loop, residuals, theta0, lower, upper, max_iterations, timings)
     theta, J, r, y0, y, iterations, converged, message, cost0 = result
     scale = np.where(theta0 != 0, np.abs(theta0), 1.0)
     sigma = _sigmas(J * scale, float(r @ r)) * scale
-    fitted = {}
-    for j, name in enumerate(names):
+    fitted, values = {}, {}
+    for j, name in enumerate([*names, *(v.name for v in loop.signal_values)]):
         bound = "min" if theta[j] == lower[j] and np.isfinite(lower[j]) else (
             "max" if theta[j] == upper[j] and np.isfinite(upper[j]) else None)
         relative = 100.0 * sigma[j] / abs(theta[j]) if theta[j] != 0 else float("inf")
-        fitted[name] = FittedParameter(name, float(theta[j]), float(sigma[j]), relative, float(theta0[j]), bound)
+        (fitted if j < len(names) else values)[name] = FittedParameter(name, float(theta[j]), float(sigma[j]),
+                                                                        relative, float(theta0[j]), bound)
     timings["total"] = time.perf_counter() - started
     return OutputErrorFit(model.name, signals, (float(weights[0]), float(weights[1])), fitted, converged, message,
-                          iterations, cost0, float(r @ r), residuals.errors(y0), residuals.errors(y),
+                          iterations, cost0, float(r @ r), residuals.errors(y0, loop.layer_at(theta0)),
+                          residuals.errors(y, loop.layer_at(theta)),
                           {s.name: float(model.parameters[s]) for s in model.parameter_symbols if s in fixed},
-                          timings, start_method)
+                          timings, start_method, values)
 
 
 RANK_TOLERANCE = 1e-9
@@ -529,7 +759,8 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
         timings["evaluation" if sensitivities else "simulation"] = time.perf_counter() - begun
         if not np.isfinite(y).all() or (dy is not None and not np.isfinite(dy).all()):
             return None
-        return y, residuals.of(y), None if dy is None else residuals.jacobian(dy) * scale
+        layer = loop.layer_at(theta)
+        return y, residuals.of(y, layer), None if dy is None else residuals.jacobian(y, dy, layer) * scale
 
     first = evaluate(theta0)
     if first is None:
