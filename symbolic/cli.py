@@ -465,17 +465,19 @@ def effect_catalogue() -> dict[str, tuple[str, str]]:
 
 
 class _DiagnoseHelp(argparse.Action):
-    """``diagnose --help``: the usage, then the effects of the catalogue, read only when asked for (the
-    catalogue's import takes a second or more; ``symbolic --help`` and every other help stay immediate)."""
+    """``diagnose --help``: the usage, then the effects of the catalogue, read from the effect files' text
+    (:mod:`symbolic.workflow.effect_summaries`: importing the catalogue takes a second or more)."""
 
     def __init__(self, option_strings: list[str], dest: str = argparse.SUPPRESS, **kwargs) -> None:
         super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
 
     def __call__(self, parser: argparse.ArgumentParser, namespace, values, option_string=None) -> None:
-        effects = effect_catalogue()
+        from symbolic.workflow.effect_summaries import summaries  # the effect files' text: no SymPy, no NumPy
+
+        effects = summaries()
         width = max(map(len, effects))
-        parser.epilog = "effects (--effects NAMES; default: all):\n" + "\n".join(
-            f"  {name:{width}s}  {summary}" for name, (_, summary) in effects.items())
+        parser.epilog = "effects (--effects NAMES; default: all; --list-effects: their parameters and units):\n" + \
+            "\n".join(f"  {name:{width}s}  {summary}" for name, summary in effects.items())
         parser.print_help()
         parser.exit()
 

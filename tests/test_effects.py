@@ -154,6 +154,14 @@ def test_catalogue_order_exclusions_and_groups_come_from_the_effects() -> None:
     assert groups([EFFECTS["viscous"]]) == []
 
 
+def test_the_help_reads_the_registry_s_summaries_from_the_effect_files() -> None:
+    """``diagnose --help`` reads the effect files' text, not the registry (SymPy and NumPy would make it slow):
+    the two readings agree, keys, summaries and order."""
+    from symbolic.workflow.effect_summaries import summaries
+
+    assert list(summaries().items()) == [(k, e.summary) for k, e in EFFECTS.items()]
+
+
 def test_the_docs_table_is_the_registry() -> None:
     text = (ROOT / "docs/workflow.md").read_text()
     table = re.search(r"<!-- the catalogue, generated from the registry.*?-->\n(.*?)<!-- end of the catalogue -->", text, re.S)
@@ -168,6 +176,7 @@ def test_the_documented_example_effect_is_all_it_takes(tmp_path: Path) -> None:
     path, source = example_module("docs/workflow.md", "symbolic/workflow/effects")
     run = package_with(tmp_path, path, source)
 
+    assert re.search(r"^  quadratic_drag +drag growing", run("diagnose", "--help").stdout, re.M)
     listed = run("diagnose", "--list-effects")
     assert listed.returncode == 0, listed.stderr
     assert re.search(r"^quadratic_drag +Fq·q̇·abs\(q̇\) +\[drag \(force·s²/position²\)\]$", listed.stdout, re.M)

@@ -15,10 +15,20 @@ With a model file and a measured log (the EMPS data are not shipped: ``../shared
 
 from __future__ import annotations
 
-from symbolic.workflow.diagnosis import diagnose, simulated_path
-from symbolic.workflow.result import Diagnosis, Found, SimulatedSignals, Simulator
-from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Context, Effect, Signals, register
-from symbolic.workflow.records import SearchSettings
-
 __all__ = ["EFFECTS", "NOT_SUPPORTED", "Context", "Diagnosis", "Effect", "Found", "SearchSettings", "Signals", "SimulatedSignals", "Simulator",
            "diagnose", "register", "simulated_path"]
+
+_HOMES = {"diagnose": "diagnosis", "simulated_path": "diagnosis", "Diagnosis": "result", "Found": "result",
+          "SimulatedSignals": "result", "Simulator": "result", "EFFECTS": "effects", "NOT_SUPPORTED": "effects",
+          "Context": "effects", "Effect": "effects", "Signals": "effects", "register": "effects",
+          "SearchSettings": "records"}
+
+
+def __getattr__(name: str) -> object:
+    """The names of :data:`__all__` on first use (PEP 562): importing one module of the workflow (the effect
+    files' summaries for ``diagnose --help``) does not import the search, SciPy's statistics and SymPy."""
+    if name in _HOMES:
+        import importlib
+
+        return getattr(importlib.import_module(f"{__name__}.{_HOMES[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,46 @@
+"""The effect catalogue's keys and one-line summaries read from the effect files' text, without importing them.
+
+``diagnose --help`` lists the effects and must stay immediate (importing the catalogue brings NumPy and SymPy,
+a second or more): it reads each module of symbolic/workflow/effects/ with :mod:`ast` and takes the classes that
+assign ``name`` and ``summary`` as string literals, as every effect of the package does (a test checks that
+this reading equals the registry's). Anything else — ``--list-effects``, the search — uses the registry.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+FOLDER = Path(__file__).with_name("effects")
+
+
+def summaries(folder: Path = FOLDER) -> dict[str, str]:
+    """{registry key: summary} of the effects declared in ``folder``'s modules, in the catalogue's order (by
+    ``rank`` when written as a literal, else the default 1000, then by key)."""
+    found: dict[str, tuple[int, str]] = {}
+    for path in sorted(folder.glob("*.py")):
+        if path.name.startswith("_") or path.stem == "base":
+            continue
+        for node in ast.parse(path.read_text(encoding="utf-8")).body:
+            if isinstance(node, ast.ClassDef):
+                values = _literals(node)
+                if isinstance(values.get("name"), str) and isinstance(values.get("summary"), str):
+                    rank = values.get("rank")
+                    found[values["name"]] = (rank if isinstance(rank, int) else 1000, values["summary"])
+    return {key: summary for key, (_, summary) in sorted(found.items(), key=lambda item: (item[1][0], item[0]))}
+
+
+def _literals(cls: ast.ClassDef) -> dict[str, object]:
+    """The class's attributes assigned string literals, also by tuple unpacking (``name, roles = "x", (...)``)."""
+    out: dict[str, object] = {}
+    for statement in cls.body:
+        if not isinstance(statement, ast.Assign):
+            continue
+        for target in statement.targets:
+            if isinstance(target, ast.Name) and isinstance(statement.value, ast.Constant):
+                out[target.id] = statement.value.value
+            elif isinstance(target, ast.Tuple) and isinstance(statement.value, ast.Tuple):
+                for t, v in zip(target.elts, statement.value.elts):
+                    if isinstance(t, ast.Name) and isinstance(v, ast.Constant):
+                        out[t.id] = v.value
+    return out
