@@ -29,6 +29,14 @@ is 0 between its steps (the simulated force would not depend on θ at all), coun
 sensitivities — the sample is differentiated with the quantisation left out, at the quantised simulation's
 state — its mean slope over a step.
 
+The experiment's signal layer (:mod:`symbolic.data.signal_layer`) is in the loop as ``simulate`` puts it
+(``[drive]`` on the controller's output, ``[sensors] q_<c>`` read by the controller); a declared signal is
+compared as logged (the sensor model of the simulation, or the command the simulated force implies), and
+its free values are fitted after the parameters (:class:`SignalValue`): a drive gain through the loop's
+constants, a drive bias and a replayed force's values through the loop's inputs, a position sensor's bias
+through the reference and the initial state, a force sensor's values on the comparison only — all with
+exact derivatives (docs/data.md, "Output error").
+
 Parameters fitted: the model-file parameters IDIM-LS determines (those ``identify --out`` writes), minus
 ``fixed = true`` and ``fix``; the others keep their model-file values. σ per parameter from the Jacobian at
 the optimum, σ² = RSS/(m − p)·diag((JᵀJ)⁻¹), m residuals and p parameters. Output-error residuals are
