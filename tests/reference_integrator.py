@@ -142,10 +142,14 @@ def arm_forward(q: np.ndarray, v: np.ndarray, tau: np.ndarray, p: dict) -> np.nd
 
 def write_arm_experiment(folder: Path, *, kp: tuple[float, float] = (120.0, 60.0), kd: tuple[float, float] = (8.0, 4.0),
                          rate: float = 500.0, seconds: float = 3.0, counts: int = 2**16, force_noise: float = 0.0,
-                         seed: int = 0, parameters: dict | None = None) -> Path:
+                         seed: int = 0, parameters: dict | None = None,
+                         drive: tuple[tuple[float, float], tuple[float, float]] = ((1.0, 0.0), (1.0, 0.0)),
+                         layer: str = "") -> Path:
     """``folder/arm.csv`` and ``folder/arm.experiment.toml``: the arm under a PD loop on both joints (no
     gravity compensation), integrated by ``solve_ivp`` (DOP853, rtol 1e-11) from
-    sample to sample with the force held; encoders of ``counts`` per revolution, white force noise."""
+    sample to sample with the force held; encoders of ``counts`` per revolution, white force noise; ``drive``
+    per joint (gain, bias): the force applied is gain·(command + bias), the log holds the command; ``layer``:
+    TOML appended to the experiment file."""
     from scipy.integrate import solve_ivp
 
     from symbolic.data import write_columns
@@ -169,7 +173,9 @@ def write_arm_experiment(folder: Path, *, kp: tuple[float, float] = (120.0, 60.0
         velocity = np.zeros(2) if last is None else (measured - last) / period
         tau = kp_ * (r[k] - measured) - kd_ * velocity
         read[k], logged_tau[k], last = measured, tau, measured
-        solution = solve_ivp(lambda _, x: np.concatenate([x[2:], arm_forward(x[:2], x[2:], tau, p)]), (0.0, period),
+        applied = np.array([g * (u + b) for u, (g, b) in zip(tau, drive)])
+        solution = solve_ivp(lambda _, x: np.concatenate([x[2:], arm_forward(x[:2], x[2:], applied, p)]),
+                             (0.0, period),
                              state, method="DOP853", rtol=1e-11, atol=1e-13)
         state = solution.y[:, -1]
     r, read, logged_tau = r[settle:], read[settle:], logged_tau[settle:]
@@ -183,5 +189,5 @@ def write_arm_experiment(folder: Path, *, kp: tuple[float, float] = (120.0, 60.0
     path.write_text('data = "arm.csv"\n[signals]\nt = "t"\nq_q1 = "q_q1"\nq_q2 = "q_q2"\ntau_q1 = "tau_q1"\n'
                     'tau_q2 = "tau_q2"\nref_q1 = "ref_q1"\nref_q2 = "ref_q2"\n[controller]\nkind = "pd"\n'
                     f'coordinates = ["q1", "q2"]\nkp = [{kp[0]!r}, {kp[1]!r}]\nkd = [{kd[0]!r}, {kd[1]!r}]\n'
-                    f'reference = "ref"\n{quantisation}', encoding="utf-8")
+                    f'reference = "ref"\n{quantisation}' + layer, encoding="utf-8")
     return path
