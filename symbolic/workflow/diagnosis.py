@@ -11,7 +11,8 @@
 4. **Patch.** The model file with the accepted effects and the re-identified values
    (:mod:`symbolic.workflow.patch`), ``<out>/<model name>_patched.toml``.
 5. **Shrink.** The patched file is loaded, derived and identified like the nominal model, and the gap
-   measured again.
+   measured again; the gap before is measured again with the values named corrections held at the model
+   file's, so that before and after differ by everything the patch changes.
 6. **Report.** ``<out>/report.md`` with figures (:mod:`symbolic.workflow.report`) and the JSON contract
    (:meth:`Diagnosis.to_dict`).
 """
@@ -231,6 +232,8 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
             FinalFit.of_nominal(after.nominal, sets)
         reviewed = review(model, patched, {**{s.name: float(v) for s, v in patched.parameters.items()}, **own},
                           final_fit, own, removed, kept, estimation, notes, selection.settings.min_gain)
+        before, where_before, simulate, after = _before_corrections(model, sets, simulate, fix, reviewed[0], before,
+                                                                    where_before, after, caveats)
     else:
         what = "TOML text to patch (a URDF model)" if source.suffix.lower() == ".urdf" else "file"
         notes.append(f"the model has no {what} ({model.robot.source}) to patch: the gap after is that of the search's final fit")
@@ -464,6 +467,34 @@ def _fit(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | No
         return Fit(model, nominal, predicted, gap, detail, motion or None)
     gap, detail = _gaps(sets, predicted)
     return Fit(model, nominal, predicted, gap, detail)
+
+
+def _before_corrections(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | None, fix: Sequence[str],
+                        named: Sequence[Mapping[str, Any]], before: Fit, where_before: dict[str, Any], after: Fit,
+                        caveats: list[str]) -> tuple[Fit, dict[str, Any], Simulator | None, Fit]:
+    """The gap before with the values named corrections held at the model file's (the others identified as
+    before), so that before and after differ by all the patch changes, effects and corrections alike: the
+    nominal fit re-identifies a wrong file value just as the patched one does, and without this a correction
+    alone left every gap — force, position, velocity — the same before and after. A correction of a
+    combination of parameters has no single file value to hold and stays identified. Returns the gap before,
+    its localisation, the simulator still in use and the gap after (on the inverse path too when the file's
+    values do not simulate)."""
+    names = {p.name for p in model.robot.parameters}
+    held = [c["parameter"] for c in named if c["parameter"] in names and c["parameter"] not in fix]
+    if not held:
+        return before, where_before, simulate, after
+    log.info("diagnose %s: the gap before again with %s at the model file's value", model.name, ", ".join(held))
+    try:
+        held_before, still = _fit_or_inverse(model, sets, simulate, [*fix, *held], caveats)
+    except DataError as error:  # the file's values leave the rest unidentifiable: the gap before as identified
+        caveats.append(f"the gap before is the nominal model's with every value identified: holding "
+                       f"{', '.join(held)} at the model file's value, {error.problem}")
+        return before, where_before, simulate, after
+    measured = set(after.model.robot.generalized_coordinates) <= set(sets["estimation"].coordinates)
+    if simulate and not still and measured:  # the file's values do not simulate: both gaps on the inverse path
+        after = _fit(after.model, sets, None, [n for n in fix if n in {p.name for p in after.model.robot.parameters}])
+        simulate = None
+    return held_before, localise(sets["estimation"], held_before.predicted["estimation"]), simulate, after
 
 
 def _check_loads(text: str, target: Path, source: Path) -> None:

@@ -82,6 +82,7 @@ class Diagnosis:
     sets: dict[str, DataSet] = field(repr=False)
     held_out: str
     before: Fit = field(repr=False)
+    """The nominal model identified, the values named corrections held at the model file's (docs/workflow.md §5)."""
     where_before: dict[str, Any] = field(repr=False)
     search: Search = field(repr=False)
     found: tuple[Found, ...]
