@@ -22,6 +22,7 @@ import symbolic
 from reference_integrator import ARM, write_arm_experiment, write_axis_experiment
 from symbolic.data import DataError, load
 from symbolic.identify.output_error import _residuals, closed_loop, output_error
+from symbolic.simulation import simulate
 
 TRUTH = {"J": 0.05, "Fv": 0.3, "Fc": 0.4}
 NOISE = 0.02  # N·m, about 1 % of the force's RMS
@@ -167,6 +168,23 @@ def test_fixed_drive_layer_is_in_the_loop(axis_model, tmp_path: Path) -> None:
     assert fit.errors_start["force"]["q"] < 0.05, fit.errors_start
     for name, truth in TRUTH.items():
         assert fit.parameters[name].value == pytest.approx(truth, rel=1e-3)
+
+
+def test_the_loop_is_the_simulation_of_simulate(axis_model, tmp_path: Path) -> None:
+    """With a fixed layer on every path into the loop — a drive of gain 1.2, bias 0.3 and one sample of
+    delay, the controller reading its position through a sensor of gain 1.01, bias 0.002 rad and 0.6 samples
+    of delay — the output error's loop is the simulation `symbolic simulate` runs: the same q and τ."""
+    layer = ("[drive]\ntau_q = { gain = 1.2, bias = 0.3, delay = 1 }\n"
+             "[sensors]\nq_q = { gain = 1.01, bias = 0.002, delay = 0.6 }\n")
+    experiment = write_axis_experiment(tmp_path, counts=0, seconds=0.5, layer=layer)
+    measurements = load(experiment)
+    loop = closed_loop(axis_model, measurements, list(TRUTH), parameters=TRUTH)
+    y, _ = loop.run(np.array(list(TRUTH.values())), sensitivities=False)
+    simulated = simulate(axis_model, measurements, parameters=TRUTH).simulated
+    assert np.abs(y[:, 0] - simulated.q[:, 0]).max() <= 1e-12
+    assert np.abs(y[:, 3] - simulated.tau[:, 0]).max() <= 1e-9 * np.abs(simulated.tau).max()
+    assert np.abs(simulated.tau[:, 0] - load(write_axis_experiment(tmp_path / "bare", counts=0,
+                                                                    seconds=0.5)).tau[:, 0]).max() > 0.1
 
 
 @pytest.mark.parametrize(("layer", "message"), [
