@@ -24,6 +24,7 @@ from symbolic.data import DataError, Measurements
 from symbolic.simulation import controller as control
 from symbolic.simulation import simulate
 from symbolic.workflow.diagnosis import simulated_path
+import controller_steps
 import models
 
 PERIOD = 1e-3
@@ -56,21 +57,7 @@ def cascade_law(q: np.ndarray, r: np.ndarray, rd: np.ndarray | None, ff: np.ndar
 
 def run_step(ctrl: control.Controller, names: tuple[str, ...], q: np.ndarray, signals: control.Inputs) -> np.ndarray:
     """The product's compiled controller step over a log of positions (samples × model coordinates)."""
-    outside = control.line_outside(ctrl)
-    function = control.controller_function(ctrl, names, PERIOD, external=outside)
-    c = control.constants(ctrl, {})
-    memory = np.zeros(ctrl.memory_size(line=not outside))
-    line = control.DelayLine(ctrl.delay, ctrl.size) if outside else None
-    out = np.empty(q.shape)
-    for k in range(len(q)):
-        read = (memory, q[k], signals.reference[k], signals.disturbance[k], signals.torque[k], c)
-        if line is None:
-            memory, tau = function(*read)
-        else:
-            memory, tau, u = function(*read, line.applied(k, 1)[0])
-            line.computed(k, np.asarray(u).reshape(1, -1))
-        out[k] = np.asarray(tau).ravel()
-    return out
+    return controller_steps.run_step(ctrl, names, PERIOD, q, signals)
 
 
 GAINS = {"kp_position": np.array([30.0, 10.0]), "kp_velocity": np.array([2.0, 4.0]),

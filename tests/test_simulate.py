@@ -28,6 +28,7 @@ from symbolic.numeric import natural_frequencies
 from symbolic.simulation import simulate
 from symbolic.simulation.comparison import SIGNALS, compare
 from symbolic.simulation.simulator import _plant, initial_velocity
+import controller_steps
 import models
 from conftest import derived
 
@@ -103,21 +104,8 @@ def test_controller_function_is_the_contract(kind: str, delay: int) -> None:
                                    ref=rng.normal(0, 1e-2, (samples, 2)), extras={"dist_c": rng.normal(0, 0.1, samples)})
     ctrl = control.parse(table, log.coordinates, (), "<test>", names)
     signals = control.inputs(ctrl, log, names)
-    outside = control.line_outside(ctrl)
-    assert outside == (delay > control.LINE_IN_MEMORY)
-    function = control.controller_function(ctrl, names, period, external=outside)
-    c = control.constants(ctrl, {})
-    memory = np.zeros(ctrl.memory_size(line=not outside))
-    line = control.DelayLine(delay, ctrl.size) if outside else None
-    got = np.empty((samples, 3))
-    for k in range(samples):
-        read = (memory, q[k], signals.reference[k], signals.disturbance[k], signals.torque[k], c)
-        if line is None:
-            memory, tau = function(*read)
-        else:
-            memory, tau, u = function(*read, line.applied(k, 1)[0])
-            line.computed(k, np.asarray(u).reshape(1, -1))
-        got[k] = np.asarray(tau).ravel()
+    assert control.line_outside(ctrl) == (delay > control.LINE_IN_MEMORY) and ctrl.delay == delay
+    got = controller_steps.run_step(ctrl, names, period, q, signals)
     expected_r = np.column_stack([0.01 * np.sin(t), log.ref[:, 0]])
     expected_d = np.column_stack([log.extras["dist_c"], 0.01 * t])
     taps = np.array([0.5, 0.3, 0.2]) if kind != "torque" else np.array([1.0])
