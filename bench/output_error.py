@@ -8,7 +8,8 @@ iteration are plain simulations, the sensitivities are computed once per accepte
 Izz) and 14 (masses and Izz). Wall time, best of ``--repeat``; the build and compilation of the
 sensitivity function (once per model, controller and parameter set) apart.
 
-Run: ``python bench/output_error.py [--repeat 3] [--parameters 7,14]``.
+Run: ``python bench/output_error.py [--repeat 3] [--parameters 7,14] [--out bench/results/output_error.md]``
+(``make bench`` writes the results file). Goal (issue 34): one iteration within 3× one simulation.
 """
 
 from __future__ import annotations
@@ -66,15 +67,18 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--parameters", default="7,14", help="comma-separated sizes among 7, 14")
+    parser.add_argument("--out", type=Path, help="also write the table as Markdown to this file")
     args = parser.parse_args()
     from symbolic.identify.output_error import closed_loop
 
     with tempfile.TemporaryDirectory() as folder:
         model, measurements = panda_log(Path(folder))
         values = {p.name: p.value for p in model.robot.parameters}
-        print(f"Panda, {measurements.samples} samples at 1 kHz, discrete PD")
-        print("| p | simulation (s) | iteration: simulation with sensitivities (s) | ratio | build + compile (s) |")
-        print("|---|---|---|---|---|")
+        lines = ["# Output error: one iteration against one simulation (bench/output_error.py)", "",
+                 f"Panda, {measurements.samples} samples at 1 kHz, discrete PD. Wall time, best of {args.repeat}.", "",
+                 "| p | simulation (s) | iteration: simulation with sensitivities (s) | ratio | build + compile (s) |",
+                 "|---|---|---|---|---|"]
+        print("\n".join(lines))
         for size in (int(s) for s in args.parameters.split(",")):
             free = SETS[size]
             loop = closed_loop(model, measurements, free, parameters={n: values[n] for n in free})
@@ -85,7 +89,11 @@ def main() -> int:
             build = time.perf_counter() - started
             plain = best(args.repeat, lambda: loop.run(theta, sensitivities=False))
             sensitive = best(args.repeat, lambda: loop.run(theta))
-            print(f"| {size} | {plain:.3f} | {sensitive:.3f} | {sensitive / plain:.1f} | {build:.1f} |")
+            lines.append(f"| {size} | {plain:.3f} | {sensitive:.3f} | {sensitive / plain:.1f} | {build:.1f} |")
+            print(lines[-1])
+    lines += ["", "Goal (issue 34): ratio ≤ 3. Forward sensitivities cost about one simulation per parameter."]
+    if args.out:
+        args.out.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return 0
 
 
