@@ -174,8 +174,6 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
-    import json
-
     from symbolic.derivation.analysis import KINDS, counterbalance, decoupling
 
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
@@ -288,8 +286,6 @@ def _identify_output_error(args: argparse.Namespace, model) -> int:
 
 
 def cmd_identify(args: argparse.Namespace) -> int:
-    import json
-
     from symbolic.identify.model import identify_model
     from symbolic.description.modelfile import with_loadable_values
 
@@ -335,8 +331,6 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    import json
-
     from symbolic import data, export
     from symbolic.simulation import simulate
     from symbolic.simulation.simulator import EXPERIMENT_NAME
@@ -374,10 +368,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
-    import json
-
     from symbolic.workflow import SearchSettings, diagnose
-    from symbolic.workflow.effects import select
+    from symbolic.workflow.effects import EFFECTS, select
 
     effects = None
     if args.effects is not None:
@@ -389,9 +381,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         else:
             unknown = []
         if unknown or not names:
-            known = effect_catalogue()
-            hint = suggestion(unknown[0], [*known, *(identifier for identifier, _ in known.values())]) if unknown else ""
-            print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join(known)}; "
+            hint = suggestion(unknown[0], [*EFFECTS, *(e.identifier for e in EFFECTS.values())]) if unknown else ""
+            print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join(EFFECTS)}; "
                   f"periodic means both periodic in position and periodic_time){hint}", file=sys.stderr)
             return 2
     groups = {}
@@ -452,16 +443,6 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                   f"instead of {g['as_logged']:.4g} % before any effect (report.md)")
     print(f"wrote {args.out}/report.md" + (f" and {result.patched_path}" if result.patched_path else ""))
     return 0
-
-
-def effect_catalogue() -> dict[str, tuple[str, str]]:
-    """The effects ``diagnose`` searches, by registry name: (contract identifier, one-line summary).
-
-    The one place the command line reads the catalogue (``--effects`` and ``diagnose --help``); it imports
-    the workflow (SymPy, NumPy), so it is called only when one of those needs it."""
-    from symbolic.workflow.effects import EFFECTS
-
-    return {name: (effect.identifier, effect.summary) for name, effect in EFFECTS.items()}
 
 
 class _DiagnoseHelp(argparse.Action):
@@ -575,8 +556,6 @@ def cmd_export_urdf(args: argparse.Namespace) -> int:
 
 
 def cmd_first_peak(args: argparse.Namespace) -> int:
-    import json
-
     from symbolic.reproduction.madill.first_peak import identify_experiment
 
     result = identify_experiment(args.experiment, args.coordinate)
