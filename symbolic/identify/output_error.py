@@ -155,11 +155,7 @@ class OutputErrorFit:
                  + f", from the {self.start_method}: {self.iterations} iteration(s), "
                  + ("converged" if self.converged else "NOT converged") + f": {self.message}",
                  f"{'parameter':<16}  {'identified':>14}  {'sigma':>12}  {'sigma %':>8}  {'start':>14}"]
-        for p in self.parameters.values():
-            bound = f"  (at its {p.bound})" if p.bound else ""
-            lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {percent(p.relative_sigma):>8s}  "
-                         f"{p.start:>14.6g}{bound}")
-        for p in self.signal_values.values():
+        for p in (*self.parameters.values(), *self.signal_values.values()):
             bound = f"  (at its {p.bound})" if p.bound else ""
             lines.append(f"{p.name:<16}  {p.value:>14.6g}  {p.sigma:>12.4g}  {percent(p.relative_sigma):>8s}  "
                          f"{p.start:>14.6g}{bound}")
@@ -386,8 +382,7 @@ class ClosedLoop:
         memory = self.ctrl.memory_size()
         depth = 0 if self.sensed is None else self.sensed.depth
         w, c, smooth, dw, dc, dz0 = self.inputs(theta)
-        x0 = self.initial_state(theta)
-        z = np.concatenate([x0, np.zeros(memory), np.tile(x0[:n], depth)])
+        z = sim.loop_state(self.initial_state(theta), memory, self.sensed)
         if sensitivities:
             s0 = np.zeros((k, len(z)))
             s0[k - ks:, :2 * n] = dz0
@@ -454,7 +449,7 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
     plant = sim._plant(model)
     x0 = sim._initial_state(model, measurements, p, initial)
     radius = sim._spectral_radius(plant, x0, p, friction_velocity, float(measurements.t[0]), names, source)
-    m = substeps or max(1, math.ceil(min(measurements.sample_period * radius / sim.STEP_BOUND, 2.0**62)))
+    m = substeps or sim.substeps_for(measurements.sample_period, radius)
     if m > sim.MAX_SUBSTEPS:
         raise IdentificationError(f"the model needs {m:.3g} RK4 sub-steps per sample (spectral radius {radius:.4g} "
                                   f"1/s): too stiff for the output-error identification's fixed-step simulation")
@@ -462,7 +457,7 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
     smooth = None
     if np.any(ctrl.quantisation > 0):
         smooth = control.constants(dataclasses.replace(ctrl, quantisation=np.zeros_like(ctrl.quantisation)), values)
-    w = np.hstack([signals.reference, signals.disturbance, signals.torque, measurements.t[:, None]]).T
+    w = sim.loop_inputs(signals, measurements)
     index = [model.parameter_vector.names.index(name) for name in free]
     return ClosedLoop(model, measurements, ctrl, plant, names, tuple(index), p, x0, c, smooth, np.ascontiguousarray(w), m,
                       friction_velocity, compiled, sensed, layer, fitted, before, initial is not None)

@@ -270,7 +270,7 @@ def simulate(
     plant = _plant(model)
     x0 = _initial_state(model, measurements, p, initial)
     radius = _spectral_radius(plant, x0, p, friction_velocity, float(measurements.t[0]), names, source)
-    m = substeps or max(1, math.ceil(min(measurements.sample_period * radius / STEP_BOUND, 2.0**62)))
+    m = substeps or substeps_for(measurements.sample_period, radius)
     if method == "rk4" and m > MAX_SUBSTEPS:
         raise SimulationError(f"the model needs {m:.3g} RK4 sub-steps per sample of "
                               f"{measurements.sample_period:.3g} s (spectral radius {radius:.4g} 1/s; allowed: up to "
@@ -409,6 +409,11 @@ PLANT: Product[Plant] = Product(f"simulation plant (CasADi {ca.__version__})", _
 is most of what a warm ``symbolic simulate`` would otherwise redo (its compiled closed loops are libraries
 on disk, named by their C source). The CasADi version is part of the name, hence of the entry's key: a
 serialised CasADi function is read back only by the version that wrote it."""
+
+
+def substeps_for(period: float, radius: float) -> int:
+    """RK4 sub-steps per sample of ``period`` so that h·ρ ≤ :data:`STEP_BOUND` (``radius`` = ρ)."""
+    return max(1, math.ceil(min(period * radius / STEP_BOUND, 2.0**62)))
 
 
 def _spectral_radius(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0: float,
@@ -636,6 +641,18 @@ def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...],
     return cache[key]
 
 
+def loop_state(x0: np.ndarray, memory: int, sensed: PositionSensors | None) -> np.ndarray:
+    """The first z of :func:`sample_function`: x₀, the controller's ``memory`` zeroed, and the position
+    sensors' history held at the initial position."""
+    depth = 0 if sensed is None else sensed.depth
+    return np.concatenate([x0, np.zeros(memory), np.tile(x0[:len(x0) // 2], depth)])
+
+
+def loop_inputs(signals: control.Inputs, measurements: Measurements) -> np.ndarray:
+    """w of :func:`sample_function` over the log, one column per sample: reference, disturbance, logged τ, t_k."""
+    return np.hstack([signals.reference, signals.disturbance, signals.torque, measurements.t[:, None]]).T
+
+
 def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measurements, signals: control.Inputs,
                     x0: np.ndarray, p: np.ndarray, c: np.ndarray, eps: float, substeps: int, names: tuple[str, ...],
                     compiled: bool | None, timings: dict[str, float],
@@ -645,9 +662,8 @@ def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measur
     timings["compile"] = time.perf_counter() - started
     started = time.perf_counter()
     line = control.DelayLine(ctrl.delay, ctrl.size) if control.line_outside(ctrl) else None
-    depth = 0 if sensed is None else sensed.depth
-    z = np.concatenate([x0, np.zeros(ctrl.memory_size(line=line is None)), np.tile(x0[:plant.n], depth)])
-    w = np.hstack([signals.reference, signals.disturbance, signals.torque, measurements.t[:, None]]).T
+    z = loop_state(x0, ctrl.memory_size(line=line is None), sensed)
+    w = loop_inputs(signals, measurements)
     loops: dict[int, ca.Function] = {}
     outputs = []
     # with a delay line, a chunk's applied outputs were computed at least `delay` samples before it
