@@ -30,6 +30,7 @@ from symbolic.data.settings import Settings
 from symbolic.description.modelfile import loads
 from symbolic.description.robot import Robot, digest
 from symbolic.errors import ModelError, ModelWarning, listing, one_line, shown, suggestion
+from symbolic.identify.known import unknown_parameters
 
 KINDS = ("identify", "diagnose", "simulate")
 """What a campaign does with each log: the library functions of ``symbolic identify``, ``diagnose``, ``simulate``."""
@@ -321,9 +322,9 @@ def _robot(entry: Mapping[str, Any], k: int, campaign: Path, task: Task, models:
 def _check_fix(task: Task, robot: Robot, source: str, where: str, model: str) -> None:
     """Refuse a name of ``fix`` that is not a parameter of the robot's model, before any work: every log would
     otherwise be an error row (:func:`symbolic.identify.known.fixed_symbols` says so per log, for ``--fix``)."""
-    names = [p.name for p in robot.parameters]
-    unknown = [n for n in task.option("fix", ()) if n not in names]
+    unknown = unknown_parameters(robot, task.option("fix", ()))
     if unknown:
+        names = [p.name for p in robot.parameters]
         raise DataError(source, where, f"unknown parameter(s) {listing(unknown)} of the model {model!r} (its parameters: "
                                        f"{listing(names)}){suggestion(unknown[0], names)}")
 

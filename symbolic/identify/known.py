@@ -17,7 +17,7 @@ import sympy as sp
 
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.derivation.regressor import Regressor
-from symbolic.description.robot import Directional, coordinate_symbol, velocity_symbol
+from symbolic.description.robot import Directional, Robot, coordinate_symbol, velocity_symbol
 from symbolic.errors import IdentificationError, ModelError, listing
 from symbolic.numeric.base_parameters import BaseParameters, base_parameters, theta_values
 
@@ -36,12 +36,19 @@ def fixed_symbols(model: DynamicModel, fix: Iterable[str] = ()) -> frozenset[sp.
         For a name in ``fix`` that is not a parameter of the model (one line, with the parameters).
     """
     fix = [n.strip() for n in fix if n.strip()]
-    names = [p.name for p in model.robot.parameters]
-    unknown = [n for n in fix if n not in names]
+    unknown = unknown_parameters(model.robot, fix)
     if unknown:
+        names = [p.name for p in model.robot.parameters]
         raise ModelError(model.robot.source, "--fix", f"unknown parameter(s) {listing(unknown)} "
                                                       f"(the model's parameters: {listing(names)})")
     return frozenset(p.symbol for p in model.robot.parameters if p.fixed or p.name in fix)
+
+
+def unknown_parameters(robot: Robot, names: Iterable[str]) -> list[str]:
+    """The names among ``names`` that are not parameters of ``robot``, in their order: the names to fix that
+    :func:`fixed_symbols` refuses (``--fix``), and that a campaign refuses in its tasks' ``fix`` before any work."""
+    known = {p.name for p in robot.parameters}
+    return [n for n in names if n not in known]
 
 
 @dataclass(frozen=True, eq=False)
