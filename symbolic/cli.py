@@ -38,12 +38,6 @@ def derive(robot: Robot) -> DynamicModel:
     return derived(robot)
 
 
-def load(path: Path, root: str | None = None, tip: str | None = None) -> Robot:
-    from symbolic.description.modelfile import load as loaded
-
-    return loaded(path, root=root, tip=tip)
-
-
 class _Robots:
     """:mod:`symbolic.robots`, imported on first use."""
 

@@ -62,11 +62,6 @@ def compiler() -> str | None:
     return None
 
 
-def cache_folder() -> Path:
-    """Where compiled libraries are kept when the cache is on (module docstring)."""
-    return cache.library_folders()[0]
-
-
 def compile_casadi(function: ca.Function) -> ca.Function | None:
     """``function`` as compiled code (same inputs and outputs), or ``None`` without a working compiler."""
     source = casadi_source(function)
