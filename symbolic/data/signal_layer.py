@@ -269,7 +269,7 @@ def apply(measurements: Measurements, layer: SignalLayer, source: str) -> tuple[
         kind, j = available[channel.signal]
         values = arrays[kind][:, j]
         logged[channel.signal] = _readonly(values.copy())
-        arrays[kind][:, j] = correct(channel, values) if channel.table == "sensors" else drive(channel, values)
+        arrays[kind][:, j] = model_signal(channel, values)
         _check_result(arrays[kind][:, j], channel, measurements, source)
     for kind, values in arrays.items():
         if values is not None:
@@ -288,8 +288,7 @@ def reapply(measurements: Measurements, layer: SignalLayer, source: str) -> Meas
             raise DataError(source, f"[{channel.table}] {channel.signal}", "no log kept for it (not loaded with the layer)")
         kind, coordinate = split_name(channel.signal) or ("", "")
         j = measurements.coordinates.index(coordinate)
-        values = layer.logged[channel.signal]
-        arrays[kind][:, j] = correct(channel, values) if channel.table == "sensors" else drive(channel, values)
+        arrays[kind][:, j] = model_signal(channel, layer.logged[channel.signal])
     for values in arrays.values():
         if values is not None:
             values.setflags(write=False)
@@ -357,6 +356,11 @@ def sense(channel: Channel, true: np.ndarray) -> np.ndarray:
 def correct(channel: Channel, measured: np.ndarray) -> np.ndarray:
     """The true signal from a sensor's log: (measured(t + delay) − bias)/gain, the inverse of :func:`sense`."""
     return (shift(measured, channel.delay) - channel.bias) / channel.gain
+
+
+def model_signal(channel: Channel, logged: np.ndarray) -> np.ndarray:
+    """The model's signal from ``channel``'s log: a sensor's :func:`correct`, a drive's :func:`drive`."""
+    return correct(channel, logged) if channel.table == "sensors" else drive(channel, logged)
 
 
 def drive(channel: Channel, command: np.ndarray) -> np.ndarray:

@@ -324,7 +324,7 @@ class ClosedLoop:
             logged = np.asarray(layer.logged[signal], float)
             if table == "drive" and self.ctrl.kind != "torque":
                 k = self.ctrl.coordinates.index(channel.coordinate)
-                slot = 4 * nc + k  # kp, kd, ki, kv, then the drive gains (control.constants)
+                slot = control.gain_index(self.ctrl, k)
                 if name == "gain":
                     for constants in (c, smooth) if smooth is not None else (c,):
                         constants[slot] = channel.gain * self.before[k]
@@ -334,14 +334,13 @@ class ClosedLoop:
                     dw[i, nr + k] = 1.0 / self.before[k]
             elif channel.kind == "tau" and self.ctrl.kind == "torque":  # the replayed force is made of the log
                 row = nr + nc + j
+                w[row] = signal_layer.model_signal(channel, logged)
                 if table == "drive":
-                    w[row] = signal_layer.drive(channel, logged)
                     shifted = signal_layer.shift(logged, -channel.delay)
                     dw[i, row] = {"gain": shifted + channel.bias, "bias": np.full(len(logged), channel.gain),
                                   "delay": -channel.gain * signal_layer.shift_derivative(logged, -channel.delay)
                                   }[name]
                 else:
-                    w[row] = signal_layer.correct(channel, logged)
                     shifted = signal_layer.shift(logged, channel.delay)
                     dw[i, row] = {"gain": -(shifted - channel.bias) / channel.gain**2,
                                   "bias": np.full(len(logged), -1.0 / channel.gain),

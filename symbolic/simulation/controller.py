@@ -178,6 +178,11 @@ def constants(controller: Controller, parameters: Mapping[sp.Symbol, float]) -> 
                            controller.velocity_filter, controller.K.ravel(), controller.velocity_feedforward])
 
 
+def gain_index(controller: Controller, k: int) -> int:
+    """Where :func:`constants` holds the drive gain of the ``k``-th controlled coordinate (after kp, kd, ki, kv)."""
+    return 4 * controller.size + k
+
+
 # -- the delay line -------------------------------------------------------------------------------------------
 
 
