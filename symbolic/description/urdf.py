@@ -23,6 +23,7 @@ from symbolic.description.robot import (
     BASE, C_KEYWORDS, IDENTIFIER, Body, Constraint, Frame, Friction, Joint, Parameter, Robot,
 )
 from symbolic.description.expressions import RESERVED_NAMES
+from symbolic.description.names import unique
 from symbolic.errors import ModelError, shown
 
 MAX_BYTES = 20_000_000
@@ -381,9 +382,7 @@ class _Importer:
             name += "_"  # a Python keyword (lambda, class, if) cannot be parsed as a name in expressions
         if name.startswith(("qd_", "qdd_")):
             name = "j_" + name
-        base, k = name, 2
-        while name in self.names:
-            name, k = f"{base}_{k}", k + 1
+        name = unique(name, self.names)
         self.names[name] = what
         return name
 
