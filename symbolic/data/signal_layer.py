@@ -253,8 +253,7 @@ def apply(measurements: Measurements, layer: SignalLayer, source: str) -> tuple[
         return measurements, layer
     available = {f"{kind}_{c}": (kind, j) for kind in SENSED if getattr(measurements, kind) is not None
                  for j, c in enumerate(measurements.coordinates)}
-    arrays = {kind: None if getattr(measurements, kind) is None else np.array(getattr(measurements, kind))
-              for kind in SENSED}
+    arrays = _copies(measurements)
     logged = {}
     limit = min(MAX_DELAY, MAX_DELAY_FRACTION * measurements.samples)
     for channel in layer.channels:
@@ -271,31 +270,36 @@ def apply(measurements: Measurements, layer: SignalLayer, source: str) -> tuple[
         logged[channel.signal] = _readonly(values.copy())
         arrays[kind][:, j] = model_signal(channel, values)
         _check_result(arrays[kind][:, j], channel, measurements, source)
-    for kind, values in arrays.items():
-        if values is not None:
-            values.setflags(write=False)
-    corrected = dataclasses.replace(measurements, **{k: v for k, v in arrays.items() if v is not None})
+    corrected = dataclasses.replace(measurements, **_frozen(arrays))
     return corrected, SignalLayer(layer.sensors, layer.drive, MappingProxyType(logged))
 
 
 def reapply(measurements: Measurements, layer: SignalLayer, source: str) -> Measurements:
     """``measurements`` (whose declared signals :func:`apply` made from ``layer.logged``) made again from the
     logs with ``layer``'s values (:meth:`SignalLayer.with_values`): what a fit of the free values evaluates."""
-    arrays = {kind: None if getattr(measurements, kind) is None else np.array(getattr(measurements, kind))
-              for kind in SENSED}
+    arrays = _copies(measurements)
     for channel in layer.channels:
         if channel.signal not in layer.logged:
             raise DataError(source, f"[{channel.table}] {channel.signal}", "no log kept for it (not loaded with the layer)")
         kind, coordinate = split_name(channel.signal) or ("", "")
         j = measurements.coordinates.index(coordinate)
         arrays[kind][:, j] = model_signal(channel, layer.logged[channel.signal])
-    for values in arrays.values():
-        if values is not None:
-            values.setflags(write=False)
-    changed = {k: v for k, v in arrays.items() if v is not None}
+    changed: dict[str, Any] = dict(_frozen(arrays))
     if hasattr(measurements, "signal_layer"):
         changed["signal_layer"] = layer
     return dataclasses.replace(measurements, **changed)
+
+
+def _copies(measurements: Measurements) -> dict[str, np.ndarray]:
+    """Writable copies of the q, qd and tau that ``measurements`` has, by kind."""
+    return {kind: np.array(getattr(measurements, kind)) for kind in SENSED if getattr(measurements, kind) is not None}
+
+
+def _frozen(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``arrays``, each made read-only (a Measurements' arrays are)."""
+    for values in arrays.values():
+        values.setflags(write=False)
+    return arrays
 
 
 def _check_result(values: np.ndarray, channel: Channel, measurements: Measurements, source: str) -> None:
