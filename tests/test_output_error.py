@@ -171,6 +171,17 @@ def test_stops_unconverged_and_says_so(axis_model, tmp_path: Path) -> None:
     assert "stopped after 1 iterations" in fit.message and fit.to_dict()["converged"] is False
 
 
+def test_a_signal_weighted_zero_is_left_out_of_the_cost(axis_model, tmp_path: Path) -> None:
+    """"both" with the position's weight 0 fits as "force" alone (its columns weigh 0, not 0/0 = NaN, which
+    made the least squares fail with 'SVD did not converge')."""
+    experiment = write_axis_experiment(tmp_path, counts=0, seconds=0.5)
+    both = output_error(axis_model, experiment, start=PERTURBED, signals="both", weights=(1.0, 0.0), max_iterations=2)
+    force = output_error(axis_model, experiment, start=PERTURBED, signals="force", max_iterations=2)
+    assert math.isfinite(both.cost) and both.cost == pytest.approx(force.cost, rel=1e-9)
+    for name in TRUTH:
+        assert both.parameters[name].value == pytest.approx(force.parameters[name].value, rel=1e-9)
+
+
 def run(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "symbolic", "-q", *args], capture_output=True, text=True, env=env)
 

@@ -504,6 +504,7 @@ class _Residuals:
     scale: np.ndarray  # weight / (std of each measured column, or its residual's RMS at the start)
     labels: list[tuple[str, str]]  # (signal, coordinate)
     weights: np.ndarray  # the signal's weight of each column
+    spread: np.ndarray  # the standard deviation of each measured column
     channels: list[tuple[str, str] | None] = field(default_factory=list)  # (table, signal) of a declared one
     index: dict[tuple[str, str, str], int] = field(default_factory=dict)  # a free value's place in θ
 
@@ -544,9 +545,8 @@ class _Residuals:
         """The same comparison with each column's weight divided by its residual's RMS at ``y`` (the start),
         instead of the measured signal's spread: each signal and coordinate then counts as its own noise
         level allows, as IDIM-LS's weighted least squares weighs coordinates."""
-        spread = self.weights / self.scale  # the measured signals' standard deviations
         rms = np.sqrt(np.mean((self.measured - self.model(y, None, layer)[0]) ** 2, axis=0))
-        return dataclasses.replace(self, scale=self.weights / np.maximum(rms, 1e-9 * spread))
+        return dataclasses.replace(self, scale=self.weights / np.maximum(rms, 1e-9 * self.spread))
 
     def of(self, y: np.ndarray, layer: SignalLayer | None = None) -> np.ndarray:
         return ((self.measured - self.model(y, None, layer)[0]) * self.scale).ravel()
@@ -577,7 +577,7 @@ def _residuals(measurements: Measurements, names: tuple[str, ...], signals: str,
                                               "measures nothing; compare positions (--signals position) or declare "
                                               "the machine's [controller]")
     layer = None if loop is None else loop.layer
-    columns, measured, scale, labels, channels = [], [], [], [], []
+    columns, measured, spreads, labels, channels, weight_of = [], [], [], [], [], []
     for signal in chosen:
         weight = weights[0] if signal == "force" else weights[1]
         data = measurements.tau if signal == "force" else measurements.q
@@ -596,14 +596,15 @@ def _residuals(measurements: Measurements, names: tuple[str, ...], signals: str,
                 continue  # a constant signal (a coordinate without actuator: τ = 0) carries no comparison
             columns.append(names.index(c) + (3 * n if signal == "force" else 0))
             measured.append(values)
-            scale.append(weight / spread)
+            spreads.append(spread)
+            weight_of.append(weight)
             labels.append((signal, c))
             channels.append(declared)
     if not columns:
         raise DataError(source, "signals", f"no measured {signals} signal varies: nothing to compare")
-    weight_of = np.array([weights[0] if signal == "force" else weights[1] for signal, _ in labels])
     index = {} if loop is None else {v.key: len(loop.free) + i for i, v in enumerate(loop.signal_values)}
-    return _Residuals(columns, np.column_stack(measured), np.array(scale), labels, weight_of, channels, index)
+    return _Residuals(columns, np.column_stack(measured), np.array(weight_of) / np.array(spreads), labels,
+                      np.array(weight_of), np.array(spreads), channels, index)
 
 
 def output_error(
