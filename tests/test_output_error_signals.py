@@ -197,3 +197,17 @@ def test_values_it_cannot_fit_are_refused(axis_model, tmp_path: Path, layer: str
     with pytest.raises(DataError, match="declared free, but the output-error fit cannot estimate") as error:
         output_error(axis_model, experiment, start=TRUTH)
     assert message in str(error.value)
+
+
+def test_a_free_delay_is_bounded_as_a_file_allows(axis_model, tmp_path: Path) -> None:
+    """A free delay's bound is the one a file may declare: a tenth of the log and at most MAX_DELAY (1000
+    samples), not a tenth alone — on a log of 10 200 samples, 1000, not 1020 (a step there was refused)."""
+    from symbolic.data.signal_layer import MAX_DELAY
+
+    experiment = write_axis_experiment(tmp_path, counts=0, seconds=10.2,
+                                       layer="[sensors]\ntau_q = { delay = { free = true } }\n")
+    measurements = load(experiment)
+    assert measurements.samples > 10 * MAX_DELAY
+    loop = closed_loop(axis_model, measurements, list(TRUTH), parameters=TRUTH,
+                       signal_values=measurements.signal_layer.free)
+    assert loop.signal_values[0].bounds == (0.0, MAX_DELAY)

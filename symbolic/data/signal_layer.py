@@ -255,7 +255,7 @@ def apply(measurements: Measurements, layer: SignalLayer, source: str) -> tuple[
                  for j, c in enumerate(measurements.coordinates)}
     arrays = _copies(measurements)
     logged = {}
-    limit = min(MAX_DELAY, MAX_DELAY_FRACTION * measurements.samples)
+    limit = delay_limit(measurements.samples)
     for channel in layer.channels:
         where = f"[{channel.table}] {channel.signal}"
         if channel.signal not in available:
@@ -272,6 +272,11 @@ def apply(measurements: Measurements, layer: SignalLayer, source: str) -> tuple[
         _check_result(arrays[kind][:, j], channel, measurements, source)
     corrected = dataclasses.replace(measurements, **_frozen(arrays))
     return corrected, SignalLayer(layer.sensors, layer.drive, MappingProxyType(logged))
+
+
+def delay_limit(samples: int) -> float:
+    """The longest delay a log of ``samples`` allows: :data:`MAX_DELAY`, and :data:`MAX_DELAY_FRACTION` of it."""
+    return min(MAX_DELAY, MAX_DELAY_FRACTION * samples)
 
 
 def reapply(measurements: Measurements, layer: SignalLayer, source: str) -> Measurements:

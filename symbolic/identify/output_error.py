@@ -484,7 +484,7 @@ def _signal_value(value: FreeValue, ctrl: control.Controller, measurements: Meas
                                        "(allowed free: [drive] gain and bias, and delay under torque replay; "
                                        "[sensors] tau_<c> gain, bias and delay; [sensors] q_<c> bias)")
     bounds = {"gain": (1e-9, math.inf) if value.start > 0 else (-math.inf, -1e-9), "bias": (-math.inf, math.inf),
-              "delay": (0.0, signal_layer.MAX_DELAY_FRACTION * measurements.samples)}[value.field]
+              "delay": (0.0, signal_layer.delay_limit(measurements.samples))}[value.field]
     return SignalValue(value, where, bounds)
 
 
