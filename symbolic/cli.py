@@ -364,19 +364,22 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from symbolic.workflow import SearchSettings, diagnose
     from symbolic.workflow.effects import EFFECTS, select
+    from symbolic.workflow.effects.on_response import RESPONSE_EFFECTS
 
     effects = None
     if args.effects is not None:
         names = [n.strip() for n in args.effects.split(",") if n.strip()]
         try:
-            effects = select(names) if names else None
+            effects = select([n for n in names if n not in RESPONSE_EFFECTS]) if names else None
         except KeyError as error:
             unknown = error.args[0]
         else:
             unknown = []
+            effects = None if effects is None else [*effects, *(RESPONSE_EFFECTS[n] for n in names if n in RESPONSE_EFFECTS)]
         if unknown or not names:
-            hint = suggestion(unknown[0], [*EFFECTS, *(e.identifier for e in EFFECTS.values())]) if unknown else ""
-            print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join(EFFECTS)}; "
+            known = [*EFFECTS, *(e.identifier for e in EFFECTS.values()), *RESPONSE_EFFECTS]
+            hint = suggestion(unknown[0], known) if unknown else ""
+            print(f"error: --effects: unknown effect(s) {unknown} (catalogue: {', '.join([*EFFECTS, *RESPONSE_EFFECTS])}; "
                   f"periodic means both periodic in position and periodic_time){hint}", file=sys.stderr)
             return 2
     groups = {}

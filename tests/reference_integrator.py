@@ -73,6 +73,13 @@ def axis_pd_run(t: np.ndarray, reference: np.ndarray, J: float, Fv: float, Fc: f
     return true, read, force
 
 
+def lagged(x: np.ndarray, samples: int) -> np.ndarray:
+    """``x`` delayed by a whole number of samples along its first axis, its first value held before."""
+    if samples == 0:
+        return x
+    return np.concatenate([np.repeat(x[:1], samples, axis=0), x[:-samples]])
+
+
 def reference_motion(t: np.ndarray, amplitude: float = 0.6) -> np.ndarray:
     """A smooth reference from rest: sines at 0.7, 1.9 and 4.3 Hz under a half-second fade-in."""
     fade = np.clip(t / 0.5, 0.0, 1.0) ** 2 * (3 - 2 * np.clip(t / 0.5, 0.0, 1.0))
@@ -84,14 +91,15 @@ def write_axis_experiment(folder: Path, *, J: float = 0.05, Fv: float = 0.3, Fc:
                           kd: float = 1.0, rate: float = 1000.0, seconds: float = 4.0, counts: int = 2**16,
                           force_noise: float = 0.0, seed: int = 0, saturation: float = math.inf,
                           drive: tuple[float, float] = (1.0, 0.0), force_sensor: float | None = None,
-                          layer: str = "") -> Path:
+                          layer: str = "", log_delay: int = 0) -> Path:
     """Write ``folder/axis.csv`` and ``folder/axis.experiment.toml`` (with its PD ``[controller]`` and the
     encoder's quantisation) of the axis under PD; ``counts`` per revolution (0: exact positions),
     ``force_noise`` the standard deviation (N·m) of white noise added to the logged force, ``saturation`` the
     command's limit (declared in the ``[controller]`` when finite). ``drive`` = (gain, bias): the force applied
     is gain·(command + bias) and the log holds the command; ``force_sensor``: the log holds that gain times the
     applied force instead (a force sensor's reading); ``layer``: TOML appended to the experiment file (its
-    ``[sensors]``/``[drive]``, as the test declares them)."""
+    ``[sensors]``/``[drive]``, as the test declares them); ``log_delay``: the logged force lags the applied
+    one by that many samples (a logging path's delay)."""
     from symbolic.data import write_columns
 
     t = np.arange(int(round(seconds * rate))) / rate
@@ -100,6 +108,7 @@ def write_axis_experiment(folder: Path, *, J: float = 0.05, Fv: float = 0.3, Fc:
     _, read, force = axis_pd_run(t, r, J, Fv, Fc, kp, kd, resolution, saturation, *drive)
     if force_sensor is not None:
         force = force_sensor * drive[0] * (force + drive[1])
+    force = lagged(force, log_delay)
     logged = force + np.random.default_rng(seed).normal(0.0, force_noise, len(t)) if force_noise else force
     folder.mkdir(parents=True, exist_ok=True)
     write_columns({"t": t, "q_q": read, "tau_q": logged, "ref_q": r}, folder / "axis.csv")
@@ -144,12 +153,12 @@ def write_arm_experiment(folder: Path, *, kp: tuple[float, float] = (120.0, 60.0
                          rate: float = 500.0, seconds: float = 3.0, counts: int = 2**16, force_noise: float = 0.0,
                          seed: int = 0, parameters: dict | None = None,
                          drive: tuple[tuple[float, float], tuple[float, float]] = ((1.0, 0.0), (1.0, 0.0)),
-                         layer: str = "") -> Path:
+                         layer: str = "", log_delay: tuple[int, int] = (0, 0)) -> Path:
     """``folder/arm.csv`` and ``folder/arm.experiment.toml``: the arm under a PD loop on both joints (no
     gravity compensation), integrated by ``solve_ivp`` (DOP853, rtol 1e-11) from
     sample to sample with the force held; encoders of ``counts`` per revolution, white force noise; ``drive``
     per joint (gain, bias): the force applied is gain·(command + bias), the log holds the command; ``layer``:
-    TOML appended to the experiment file."""
+    TOML appended to the experiment file; ``log_delay``: per joint, the logged force lags by that many samples."""
     from scipy.integrate import solve_ivp
 
     from symbolic.data import write_columns
@@ -178,6 +187,7 @@ def write_arm_experiment(folder: Path, *, kp: tuple[float, float] = (120.0, 60.0
                              (0.0, period),
                              state, method="DOP853", rtol=1e-11, atol=1e-13)
         state = solution.y[:, -1]
+    logged_tau = np.column_stack([lagged(logged_tau[:, j], d) for j, d in enumerate(log_delay)])
     r, read, logged_tau = r[settle:], read[settle:], logged_tau[settle:]
     if force_noise:
         logged_tau = logged_tau + np.random.default_rng(seed).normal(0.0, force_noise, logged_tau.shape)

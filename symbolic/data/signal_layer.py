@@ -295,6 +295,39 @@ def reapply(measurements: Measurements, layer: SignalLayer, source: str) -> Meas
     return dataclasses.replace(measurements, **changed)
 
 
+def freed(measurements: Measurements, values: Mapping[tuple[str, str, str], float | None], source: str
+          ) -> Measurements:
+    """``measurements`` with the layer's values ``{(table, signal, field): start}`` declared free — a channel
+    the experiment does not declare is added (its log is the signal as loaded, its other values neutral) —
+    each starting at ``start`` (``None``: its value now) and the model's signals made again from the logs
+    (:func:`reapply`). What a search for a missing delay, gain or bias fits (:mod:`symbolic.workflow.response`)."""
+    layer = getattr(measurements, "signal_layer", None)
+    if layer is None:
+        raise DataError(source, "signal layer", "plain measurements have no signal layer; load an experiment")
+    tables = {"sensors": dict(layer.sensors), "drive": dict(layer.drive)}
+    logged = dict(layer.logged)
+    for (table, signal, name), start in values.items():
+        kind, coordinate = split_name(signal) or ("", "")
+        if table not in tables or name not in FIELDS or kind not in SENSED or coordinate not in measurements.coordinates:
+            raise DataError(source, f"[{table}] {signal} {name}", "not a value a signal layer can free")
+        other = tables["drive" if table == "sensors" else "sensors"]
+        if signal in other:
+            raise DataError(source, f"[{table}] {signal}", f"{signal} is already declared in the other table")
+        channel = tables[table].get(signal)
+        if channel is None:
+            channel = Channel(table, signal)
+            j = measurements.coordinates.index(coordinate)
+            logged[signal] = _readonly(np.array(getattr(measurements, kind)[:, j], dtype=float))
+        if start is not None:
+            _check(name, float(start), f"[{table}] {signal} {name}", source)
+        free = tuple(f for f in FIELDS if f in channel.free or f == name)
+        tables[table][signal] = dataclasses.replace(channel, free=free,
+                                                    **({name: float(start)} if start is not None else {}))
+    widened = SignalLayer(MappingProxyType(tables["sensors"]), MappingProxyType(tables["drive"]),
+                          MappingProxyType(logged))
+    return reapply(measurements, widened, source)
+
+
 def _copies(measurements: Measurements) -> dict[str, np.ndarray]:
     """Writable copies of the q, qd and tau that ``measurements`` has, by kind."""
     return {kind: np.array(getattr(measurements, kind)) for kind in SENSED if getattr(measurements, kind) is not None}

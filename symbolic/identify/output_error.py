@@ -376,6 +376,22 @@ class ClosedLoop:
     def run(self, theta: np.ndarray, sensitivities: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
         """y (samples × 4n: q, q̇, q̈, τ over the model's coordinates) and, with ``sensitivities``, ∂y/∂θ
         (samples × 4n × k); NaN rows where the simulation diverged."""
+        k = len(theta)
+        if self.comparison_only:  # θ acts on the comparison alone: one simulation serves every θ
+            if "y" not in self._functions:
+                self._functions["y"] = self._simulate(theta, False)[0]
+            y = self._functions["y"]
+            return y, (np.zeros(y.shape + (k,)) if sensitivities else None)
+        return self._simulate(theta, sensitivities)
+
+    @property
+    def comparison_only(self) -> bool:
+        """Whether θ is only force sensors' values of a feedback loop: they change what the simulated force is
+        compared with (:class:`_Residuals`), never the simulation."""
+        return (not self.free and bool(self.signal_values) and self.ctrl.kind != "torque"
+                and all(v.free.table == "sensors" and v.free.signal.startswith("tau_") for v in self.signal_values))
+
+    def _simulate(self, theta: np.ndarray, sensitivities: bool) -> tuple[np.ndarray, np.ndarray | None]:
         function = self.function(sensitivities)
         n, k, ks = self.plant.n, len(theta), len(self.signal_values)
         memory = self.ctrl.memory_size()
@@ -555,13 +571,15 @@ class _Residuals:
         d = self.model(y, dy, layer)[1]
         return -(d * self.scale[None, :, None]).reshape(-1, dy.shape[2])
 
-    def errors(self, y: np.ndarray, layer: SignalLayer | None = None) -> dict[str, dict[str, float]]:
+    def errors(self, y: np.ndarray, layer: SignalLayer | None = None, start: int = 0) -> dict[str, dict[str, float]]:
+        """100·‖measured − simulated‖/‖measured − mean‖ per signal and coordinate over samples ``start:``."""
         out: dict[str, dict[str, float]] = {}
-        simulated = self.model(y, None, layer)[0]
+        simulated = self.model(y, None, layer)[0][start:]
+        measured = self.measured[start:]
         for j, (signal, c) in enumerate(self.labels):
-            centred = self.measured[:, j] - self.measured[:, j].mean()
+            centred = measured[:, j] - measured[:, j].mean()
             size = float(np.linalg.norm(centred))
-            e = float(np.linalg.norm(self.measured[:, j] - simulated[:, j]))
+            e = float(np.linalg.norm(measured[:, j] - simulated[:, j]))
             out.setdefault(signal, {})[c] = 100.0 * e / size if size > 0 else float("nan")
         return out
 
@@ -671,11 +689,11 @@ def output_error(
         start_method = "IDIM-LS solution" + (" (consistent)" if consistent else "")
     fixed_names = {s.name for s in fixed}
     start = {n: float(v) for n, v in start.items() if n not in fixed_names}
-    if not start:
-        raise IdentificationError(f"model {model.name}: no parameter to fit by output error (IDIM-LS determines none "
-                                  "directly and alone; try --consistent, or free parameters kept fixed)")
     names = list(start)
     layer = getattr(measurements, "signal_layer", None)
+    if not start and not (layer and layer.free):
+        raise IdentificationError(f"model {model.name}: no parameter to fit by output error (IDIM-LS determines none "
+                                  "directly and alone; try --consistent, or free parameters kept fixed)")
     loop = closed_loop(model, measurements, names, parameters=start, friction_velocity=friction_velocity,
                        substeps=substeps, compiled=compiled, initial=initial,
                        signal_values=layer.free if layer else ())
@@ -710,6 +728,38 @@ def output_error(
                           residuals.errors(y, loop.layer_at(theta)),
                           {s.name: float(model.parameters[s]) for s in model.parameter_symbols if s in fixed},
                           timings, start_method, values)
+
+
+def simulation_errors(model: DynamicModel, measurements: Measurements, fit: OutputErrorFit | None = None, *,
+                      signals: str = "both", weights: tuple[float, float] = (1.0, 1.0),
+                      friction_velocity: float = sim.FRICTION_VELOCITY, start: int = 0) -> dict[str, dict[str, float]]:
+    """Relative errors (%) per signal and coordinate, 100·‖measured − simulated‖/‖measured − mean‖, of
+    ``model``'s closed loop on ``measurements`` (other data than the fit's: held out) with ``fit``'s values —
+    its parameters, and its signal values on the same free values of ``measurements``' layer — or, without
+    ``fit``, with the model's own values and the layer as it is; compared from sample ``start`` on (the held-out
+    tail of a record simulated from the record's start: a loop started mid-motion would begin with memory the
+    machine's controller did not have — a last reading, an integral — and a transient the machine did not run)."""
+    y, loop, theta = simulated(model, measurements, fit, friction_velocity=friction_velocity)
+    residuals = _residuals(measurements, loop.names, signals, weights, loop.ctrl, loop)
+    return residuals.errors(y, loop.layer_at(theta), start)
+
+
+def simulated(model: DynamicModel, measurements: Measurements, fit: OutputErrorFit | None = None, *,
+              friction_velocity: float = sim.FRICTION_VELOCITY) -> tuple[np.ndarray, ClosedLoop, np.ndarray]:
+    """(y, the loop, θ): the closed loop of :func:`simulation_errors` run once, y = samples × 4n (q, q̇, q̈, τ
+    over the model's coordinates)."""
+    layer = getattr(measurements, "signal_layer", None)
+    names = list(fit.parameters) if fit is not None else []
+    values = {n: p.value for n, p in fit.parameters.items()} if fit is not None else None
+    free = layer.free if layer and fit is not None else ()
+    loop = closed_loop(model, measurements, names, parameters=values, friction_velocity=friction_velocity,
+                       signal_values=free)
+    theta = np.array([values[n] for n in names] + [fit.signal_values[v.name].value for v in loop.signal_values]
+                     if fit is not None else [], dtype=float)
+    y, _ = loop.run(theta, sensitivities=False)
+    if not np.isfinite(y).all():
+        raise IdentificationError(f"{measurements.source}: the closed loop diverges with the fitted values")
+    return y, loop, theta
 
 
 RANK_TOLERANCE = 1e-9

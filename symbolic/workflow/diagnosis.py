@@ -42,6 +42,7 @@ from symbolic.description.robot import Robot
 from symbolic.workflow.corrections import FinalFit, physical_values, review
 from symbolic.workflow.dataset import DataSet, load_sets, with_held_force
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
+from symbolic.workflow.effects.on_response import RESPONSE_EFFECTS, ResponseEffect
 import symbolic.robots as robots
 from symbolic.workflow.patch import Editor
 from symbolic.workflow.records import SearchSettings, variant_of
@@ -94,7 +95,8 @@ def diagnose(
     search
         Thresholds of the search (:class:`symbolic.workflow.records.SearchSettings`).
     effects
-        The catalogue to search (default: every registered effect, :data:`EFFECTS`).
+        The catalogue to search (default: every registered effect, :data:`EFFECTS`, and on the simulated path
+        every effect judged on the response, :data:`RESPONSE_EFFECTS`; :mod:`symbolic.workflow.response`).
     simulate
         The simulated path (:data:`Simulator`; ``True``: :func:`simulated_path` with the estimation
         experiment's controller); ``None`` measures the gap with the inverse model. The search itself
@@ -166,13 +168,17 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
     lap("gap")
     log.info("diagnose %s: gap %.4g %% (estimation), %.4g %% (held out); searching the catalogue",
              model.name, before.gap["estimation"], before.gap["validation"])
+    response_effects = list(RESPONSE_EFFECTS.values()) if effects is None else \
+        [e for e in effects if isinstance(e, ResponseEffect)]
     selection = Search(before.nominal.terms, estimation, held, cross_validate=validation is None,
-                       effects=list(EFFECTS.values()) if effects is None else effects, settings=search)
+                       effects=list(EFFECTS.values()) if effects is None else
+                       [e for e in effects if not isinstance(e, ResponseEffect)], settings=search)
     accepted = selection.run()
     finals = selection.final_effects()
     lap("search")
     notes: list[str] = [*caveats, *before.nominal.notes]
     found: list[Found] = []
+    response = None
     patched_text = patched_path = None
     if source.is_file() and source.suffix.lower() != ".urdf":  # a URDF has no TOML text to patch (note below)
         editor = Editor(source.read_text(encoding="utf-8"), model.robot, str(source))
@@ -234,6 +240,15 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
                           final_fit, own, removed, kept, estimation, notes, selection.settings.min_gain)
         before, where_before, simulate, after = _before_corrections(model, sets, simulate, fix, reviewed[0], before,
                                                                     where_before, after, caveats)
+        if simulate and _controller(estimation.measurements) is not None and response_effects:
+            lap("patch and shrink")
+            response = _judge_response(derive(loads(patched_text, str(target))), sets, response_effects, fix,
+                                       selection.settings.min_gain, notes)
+            lap("response")
+            corrected = response.parameter_values() if response is not None else {}
+            if corrected:
+                patched_text, after = _with_response_values(patched_text, corrected, target, source, sets, simulate,
+                                                            fix, caveats, model, data_name)
     else:
         what = "TOML text to patch (a URDF model)" if source.suffix.lower() == ".urdf" else "file"
         notes.append(f"the model has no {what} ({model.robot.source}) to patch: the gap after is that of the search's final fit")
@@ -256,8 +271,40 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
     diagnosis = Diagnosis(model, sets, held_out, before, where_before, selection, tuple(found), patched_text,
                           patched_path, after, where_after, bool(simulate), seconds, tuple(notes), (), tuple(findings),
                           corrections=tuple(reviewed[0]), changes=tuple(reviewed[1]), modes=reviewed[2],
-                          caveats=tuple(caveats), cpu_seconds=cpu_seconds)
+                          caveats=tuple(caveats), cpu_seconds=cpu_seconds, response=response)
     return diagnosis
+
+
+def _judge_response(patched: DynamicModel, sets: dict[str, DataSet], effects: Sequence[Any], fix: Sequence[str],
+                    min_gain: float, notes: list[str]) -> Any:
+    """The search judged on the response (:mod:`symbolic.workflow.response`) of the patched model at the values
+    it holds: fitted on the estimation data, judged on the held-out data — the tail of the record simulated
+    from the record's start when the held-out data are the record's last fifth."""
+    from symbolic.workflow.response import search_response
+
+    held = sets["validation"]
+    record, start = (held.record.measurements, held.start) if held.record is not None else (held.measurements, 0)
+    kept = [n for n in fix if n in {p.name for p in patched.robot.parameters}]
+    try:
+        return search_response(patched, sets["estimation"].measurements, record, held_from=start, effects=effects,
+                               fix=kept, min_gain=min_gain)
+    except (DataError, IdentificationError, SimulationError) as error:
+        notes.append(f"the search judged on the response did not run: {getattr(error, 'problem', None) or error}")
+        return None
+
+
+def _with_response_values(text: str, values: Mapping[str, float], target: Path, source: Path,
+                          sets: dict[str, DataSet], simulate: Simulator, fix: Sequence[str], caveats: list[str],
+                          model: DynamicModel, data_name: str) -> tuple[str, Fit]:
+    """The patched text with the model-file values the response corrected, and its gap after with those values
+    held (IDIM-LS re-identifies the others, as for every patched model)."""
+    text, _, _ = physical_values(text, values, str(target), f"corrected by the output error of symbolic diagnose "
+                                                            f"on {data_name}", model.robot)
+    _check_loads(text, target, source)
+    patched = derive(loads(text, str(target)))
+    kept = [n for n in fix if n in {p.name for p in patched.robot.parameters}]
+    after, _ = _fit_or_inverse(patched, sets, simulate, [*kept, *values], caveats)
+    return text, after
 
 
 def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], nominal: Fit | None,

@@ -107,6 +107,41 @@ def _corrections(d: Diagnosis) -> list[str]:
     return lines
 
 
+def _response(d: Diagnosis) -> list[str]:
+    """The search judged on the response: errors per coordinate before and after, what it named, what it tried."""
+    r = d.response
+    if r is None:
+        return []
+    lines = ["## Judged on the response", "",
+             f"The patched model simulated in the experiment's [controller] loop, compared on the {r.signals} "
+             "signal(s); each candidate's values fitted by output error on the estimation data and judged on the "
+             "held-out data (docs/workflow.md, \"Judged on the response\"). Errors are 100·‖measured − simulated‖"
+             "/‖measured − mean‖ (%).", ""]
+    rows = []
+    for signal in r.before["validation"]:
+        for c, before in r.before["validation"][signal].items():
+            rows.append([signal, c, _g(r.before["estimation"][signal][c]), _g(r.after["estimation"][signal][c]),
+                         _g(before), _g(r.after["validation"][signal][c])])
+    lines += _table(["signal", "coordinate", "estimation before", "estimation after", "held out before",
+                     "held out after"], rows)
+    lines.append("")
+    if r.named:
+        lines += ["Named: " + "; ".join(f"`{j.candidate.label()}` ({_roles(j.roles)}; removes "
+                                        f"{100 * j.gain:.3g} % of its held-out simulation error's power)"
+                                        for j in r.named) + ".", ""]
+        if r.experiment_lines():
+            lines += ["To declare in the experiment file:", "", "```toml", *r.experiment_lines(), "```", ""]
+    else:
+        lines += ["Named: nothing.", ""]
+    tried = [j for round_ in r.rounds for j in round_ if j.verdict is not None]
+    if tried:
+        lines += _table(["candidate", "fitted", "held-out gain", "why not named"],
+                        [[f"`{j.candidate.label()}`", _roles(j.roles) if j.roles else "—",
+                          "—" if j.gain == float("-inf") else f"{100 * j.gain:.3g} %", j.verdict] for j in tried])
+        lines.append("")
+    return lines
+
+
 def markdown(d: Diagnosis) -> str:
     """The report (module docstring)."""
     est, val = d.sets["estimation"], d.sets["validation"]
@@ -203,6 +238,7 @@ def markdown(d: Diagnosis) -> str:
                   + "; the model's own parameters that the data determine carry their re-identified values. "
                   "It loads and derives (the shrink below re-derives it).", ""]
     lines += ["## Shrink", "", f"After patching: {d.where_after['verdict']}.", ""]
+    lines += _response(d)
     for note in d.notes:
         lines.append(f"* {note}")
     if d.notes:

@@ -105,6 +105,9 @@ class Diagnosis:
     caveats: tuple[str, ...] = ()
     """Notes the terminal shows too: how the diagnosis departed from what was asked (nothing to re-identify, a
     simulated path that diverged and was replaced by the inverse model); also among :attr:`notes`."""
+    response: Any = None
+    """The search judged on the response (:class:`symbolic.workflow.response.ResponseSearch`) of a diagnosis
+    on the simulated path with the machine's controller; ``None`` otherwise."""
     cpu_seconds: dict[str, float] = field(default_factory=dict)
     """CPU time of each step, this process's and its finished children's (the search's forked half, a compiler):
     ``seconds`` is the wall time; on a shared machine only the CPU time repeats."""
@@ -147,6 +150,7 @@ class Diagnosis:
             "corrections": _plain(list(self.corrections)),
             "parameter_changes": _plain(list(self.changes)),
             "modes": _plain(self.modes),
+            "response": None if self.response is None else _plain(self.response.to_dict()),
             "notes": list(self.notes),
             "figures": [str(p) for p in self.figures],
         }

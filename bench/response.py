@@ -1,0 +1,91 @@
+"""The search judged on the response (issue 34): cases with nothing missing, and the effects it must name.
+
+Truth from tests/reference_integrator.py (an exact stick/slip axis under a discrete PD loop; a 2-link arm
+integrated by DOP853 at rtol 1e-11), never from the product's simulator. Each case is diagnosed on the
+simulated path (``diagnose(..., simulate=True)``) with the whole catalogue:
+
+* null cases — the axis over seeds, encoders of 2^16 and 2^20 counts per revolution and force noise of 0.01
+  and 0.03 N·m; the arm over seeds — count what the response names (goal: 0);
+* one case of each effect: a force logged 3 samples late on the axis and on the arm's joint 2, a drive gain
+  of 1.3 on the arm's joint 2 — the value named.
+
+Results to bench/results/response.md (``python bench/response.py``; ``--quick`` for a handful of null cases).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent / "tests"))
+
+import models  # noqa: E402
+from reference_integrator import write_arm_experiment, write_axis_experiment  # noqa: E402
+
+from symbolic.workflow import diagnose  # noqa: E402
+
+
+def run(kind: str, **options) -> tuple[list[tuple[str, dict]], float]:
+    """(named by the response as (label, parameters), seconds) of one synthetic case."""
+    with tempfile.TemporaryDirectory() as folder:
+        tmp = Path(folder)
+        if kind == "axis":
+            experiment = write_axis_experiment(tmp, **{"seconds": 4.0, **options})
+            text = models.axis()
+        else:
+            experiment = write_arm_experiment(tmp, **{"seconds": 6.0, **options})
+            text = models.arm()
+        model = tmp / f"{kind}.toml"
+        model.write_text(text, encoding="utf-8")
+        started = time.perf_counter()
+        result = diagnose(str(model), str(experiment), simulate=True, figures=False)
+        seconds = time.perf_counter() - started
+    response = result.response
+    named = [] if response is None else [(j.candidate.label(), j.roles) for j in response.named]
+    named += [(f["effect"], f["coordinate"]) for f in result.to_dict()["found"]]
+    return named, seconds
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args()
+    nulls = [("axis", dict(seed=s, counts=c, force_noise=n)) for s in range(10) for c in (2**16, 2**20)
+             for n in (0.01, 0.03)] + [("arm", dict(seed=s, force_noise=0.05)) for s in range(8)]
+    if args.quick:
+        nulls = nulls[:4]
+    lines = ["# The search judged on the response", "", "`python bench/response.py` (issue 34); truth from "
+             "tests/reference_integrator.py.", "", "## Nothing missing", ""]
+    false, total = 0, 0.0
+    for kind, options in nulls:
+        named, seconds = run(kind, **options)
+        false += len(named)
+        total += seconds
+        print(kind, options, named, f"{seconds:.1f} s", file=sys.stderr)
+        if named:
+            lines.append(f"* {kind} {options}: named {named}")
+    lines += [f"{len(nulls)} null cases ({sum(k == 'axis' for k, _ in nulls)} axis, "
+              f"{sum(k == 'arm' for k, _ in nulls)} arm): **{false} effect(s) named**; {total:.0f} s in all.", "",
+              "## Effects to name", "", "| case | truth | named |", "|---|---|---|"]
+    cases = [("axis, force logged 3 samples late", "delay 3", "axis", dict(log_delay=3, force_noise=0.02, seed=1)),
+             ("arm, joint 2's force logged 3 samples late", "delay 3 on q2", "arm",
+              dict(log_delay=(0, 3), force_noise=0.05, seed=1)),
+             ("arm, joint 2's drive gain 1.3", "gain 1.3 on q2", "arm",
+              dict(drive=((1.0, 0.0), (1.3, 0.0)), force_noise=0.05, seed=1))]
+    for title, truth, kind, options in ([] if args.quick else cases):
+        named, _ = run(kind, **options)
+        text = "; ".join(f"{label} {({k: round(v, 4) for k, v in roles.items()} if isinstance(roles, dict) else roles)}"
+                         for label, roles in named) or "nothing"
+        lines.append(f"| {title} | {truth} | {text} |")
+        print(title, named, file=sys.stderr)
+    out = HERE / "results" / "response.md"
+    out.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print(out.read_text())
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,56 @@
+"""``correction``: a model file's stiffness or damping corrected by the output error, judged on the response.
+
+IDIM-LS corrects a model-file value from the inverse dynamics at the measured accelerations; an elastic
+coordinate read by a coarse, noisy sensor (a strain gauge at 12 bits) has accelerations too noisy for that,
+while its resonance sits plainly in the closed loop's response. The candidate frees one ``[parameters]``
+value that is a stiffness or a damping (:func:`symbolic.workflow.corrections.parameter_kind`) and fits it by
+the output error; the workflow writes the fitted value into the patched model file.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from symbolic.workflow.effects.on_response import PARAMETER, Key, ResponseCandidate, ResponseEffect, register_response
+
+KINDS = ("stiffness", "damping")
+
+
+class Correction(ResponseEffect):
+    identifier = "correction"
+    summary = "a model file's stiffness or damping whose value the response corrects (output error)"
+    rank = 140
+    roles = {"value": "the parameter's", "file_value": "the parameter's", "relative_change": "1"}
+    guide = "the patched model file holds the corrected value; compare the modes before and after"
+
+    def candidates(self, model, measurements, fixed: set[str]) -> list[ResponseCandidate]:
+        import sympy as sp
+
+        from symbolic.workflow.corrections import parameter_kind
+
+        robot = model.robot
+        out = []
+        for parameter in robot.parameters:
+            if parameter.name in fixed or getattr(parameter, "fixed", False):
+                continue
+            if parameter_kind(robot, parameter.name) not in KINDS:
+                continue
+            # the coordinate of the [[force]] it is in; a beam's stiffness acts on the beam's modes ("")
+            coordinate = next((f.coordinate for f in robot.forces
+                               if parameter.symbol in sp.sympify(f.expression).free_symbols), "")
+            value = float(model.parameters[parameter.symbol])
+            out.append(ResponseCandidate(self, coordinate, ((PARAMETER, parameter.name, ""),), (value,)))
+        return out
+
+    def roles_of(self, values: Mapping[Key, object], rate: float) -> dict[str, float]:
+        (value,) = values.values()
+        change = (value.value - value.start) / value.start if value.start else float("nan")
+        return {"value": value.value, "file_value": value.start, "relative_change": change}
+
+    def check(self, roles: Mapping[str, float]) -> str | None:
+        if roles["value"] <= 0:
+            return f"the fitted value {roles['value']:.4g} is not positive"
+        return None
+
+
+register_response(Correction())

@@ -1,0 +1,40 @@
+"""``sensor_bias``: a position sensor reads the coordinate plus a constant, judged on the response.
+
+measured q(t) = q(t) + b, the signal layer's ``[sensors] q_<c> bias`` (docs/data.md): an encoder's index
+set off by a homing error. The controller reads the biased position, so the machine holds a shifted pose;
+where gravity or a spring acts at known parameters the response shows it. With every inertial parameter
+of the links beyond free, a bias is a rotation of those links' frames and the data cannot tell it (the
+search names nothing).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from symbolic.workflow.effects.on_response import Key, ResponseEffect, register_response
+
+
+class SensorBias(ResponseEffect):
+    identifier = "sensor_bias"
+    summary = "a position sensor reads the coordinate plus a constant (a homing or index offset)"
+    rank = 130
+    roles = {"bias": "coordinate"}
+    guide = "declare it in the experiment's [sensors] (the lines below), or home the axis again"
+
+    def frees(self, model, measurements, coordinate: str) -> dict[Key, float]:
+        layer = getattr(measurements, "signal_layer", None)
+        controller = getattr(measurements, "controller", None)
+        if layer is None:
+            return {}
+        if controller is not None and controller.kind != "torque" and np.any(np.asarray(controller.quantisation) > 0):
+            return {}  # the quantiser reads the biased position: not yet in the output-error fit
+        return {("sensors", f"q_{coordinate}", "bias"): 0.0}
+
+    def roles_of(self, values: Mapping[Key, object], rate: float) -> dict[str, float]:
+        (value,) = values.values()
+        return {"bias": value.value}
+
+
+register_response(SensorBias())

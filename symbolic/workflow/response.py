@@ -1,0 +1,313 @@
+"""The search judged on the response: name what the simulated closed loop shows and the inverse dynamics cannot.
+
+docs/workflow.md, "Judged on the response". After the equation-error search and the patch, ``diagnose
+--simulate`` simulates the patched model in the machine's own loop (the experiment's ``[controller]``) and
+compares the simulated force and position with the log, per coordinate. Each candidate of the response
+catalogue (:data:`~symbolic.workflow.effects.on_response.RESPONSE_EFFECTS`: a delay, a drive gain, a sensor
+bias, a model file's stiffness or damping) frees its values, which are fitted by the output error on the
+estimation data (:func:`symbolic.identify.output_error.output_error`, Levenberg–Marquardt with exact
+sensitivities, Gautier, Janot, Vandanjon 2013), everything named before kept free with them. It is judged on
+the **held-out** data, never on the data it was fitted on:
+
+* ``gain``: the share of the held-out simulation error's power it removes on its coordinate, the mean over
+  the signals compared (force and position under a feedback loop; position under torque replay) of
+  1 − (e_after/e_before)², each signal's error relative to the measured spread; at least the effect size
+  :data:`~symbolic.workflow.statistics.MIN_HELD_OUT_GAIN` (the equation-error search's);
+* ``stacked_gain`` over every coordinate and signal: positive (no coordinate pays for another's gain);
+* each freed value at least :data:`MIN_SIGMAS` standard deviations from its null value (delay 0, gain 1,
+  bias 0, a parameter's value in the patched file) — the Jacobian's σ, a lower bound of the spread, so a
+  necessary condition, not a sufficient one;
+* the effect's physical check (a drive gain within 0.2–5, a stiffness positive).
+
+Forward selection: the best candidate of a round that passes is named, its values stay free in the next
+rounds, and the search ends when none passes. The truth of a synthetic case never enters here: the
+candidates are the catalogue's, on every coordinate the log drives.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from symbolic.data import DataError, Measurements, signal_layer
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.errors import IdentificationError, SimulationError
+from symbolic.identify.output_error import (FittedParameter, OutputErrorFit, output_error, simulated,
+                                            simulation_errors)
+from symbolic.workflow.effects.on_response import (PARAMETER, RESPONSE_EFFECTS, Key, ResponseCandidate,
+                                                   ResponseEffect)
+from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN
+
+log = logging.getLogger("symbolic")
+
+MIN_SIGMAS = 5.0
+"""A freed value is named only this many of its σ away from its null value (the σ of a coloured output
+error are a lower bound: a necessary condition beside the held-out gain)."""
+
+MAX_ROUNDS = 6
+"""At most this many effects are named by the response (each round refits everything named before)."""
+
+MAX_ITERATIONS = 15
+"""Levenberg–Marquardt iterations of one candidate's fit."""
+
+Errors = dict[str, dict[str, float]]
+
+
+@dataclass(frozen=True)
+class Judged:
+    """A candidate fitted and judged: its values, the errors (%) on the estimation and held-out data with it,
+    its gains and the verdict (``None``: it passes)."""
+
+    candidate: ResponseCandidate
+    values: dict[Key, FittedParameter]
+    estimation: Errors
+    held_out: Errors
+    gain: float
+    stacked_gain: float
+    sigmas: float
+    roles: dict[str, float]
+    converged: bool
+    verdict: str | None
+    fit: OutputErrorFit | None = field(default=None, repr=False, compare=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"effect": self.candidate.effect.identifier, "coordinate": self.candidate.coordinate,
+                               "label": self.candidate.label(), "parameters": dict(self.roles),
+                               "sigmas": {_name(k): v.sigma for k, v in self.values.items()},
+                               "held_out_gain": self.gain, "stacked_held_out_gain": self.stacked_gain,
+                               "distance_in_sigmas": self.sigmas, "converged": self.converged,
+                               "errors": {"estimation": self.estimation, "held_out": self.held_out}}
+        if self.verdict is not None:
+            out["verdict"] = self.verdict
+        else:
+            out["written_as"] = self.candidate.effect.written_as(self.values)
+        return out
+
+
+@dataclass(frozen=True)
+class ResponseSearch:
+    """What the response search found (module docstring): the errors before (the patched model as written)
+    and after (with every named value), each candidate of each round, the named ones."""
+
+    signals: str
+    before: dict[str, Errors]
+    after: dict[str, Errors]
+    rounds: tuple[tuple[Judged, ...], ...]
+    named: tuple[Judged, ...]
+    seconds: float
+    notes: tuple[str, ...] = ()
+    refit: dict[str, Any] | None = None
+    """The model's own parameters fitted by the output error before any candidate (:func:`_refit`)."""
+    values: dict[str, float] = field(default_factory=dict)
+    """The model-file values the response sets (the last named candidate's fit, or the accepted refit's)."""
+
+    def parameter_values(self) -> dict[str, float]:
+        """The model-file values to write into the patched file (empty: IDIM-LS's stay)."""
+        return dict(self.values)
+
+    def layer_values(self) -> dict[Key, float]:
+        """The signal-layer values named (for the experiment file)."""
+        if not self.named:
+            return {}
+        return {k: v.value for k, v in _all_values(self.named[-1]).items() if k[0] != PARAMETER}
+
+    def experiment_lines(self) -> list[str]:
+        """The ``[sensors]``/``[drive]`` lines that declare what was named."""
+        by_signal: dict[tuple[str, str], list[str]] = {}
+        for (table, signal, name), value in self.layer_values().items():
+            by_signal.setdefault((table, signal), []).append(f"{name} = {value:.6g}")
+        return [f"[{t}] {s} = {{ {', '.join(v)} }}" for (t, s), v in sorted(by_signal.items())]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"signals": self.signals, "before": self.before, "after": self.after,
+                "named": [j.to_dict() for j in self.named],
+                "rounds": [[j.to_dict() for j in r] for r in self.rounds],
+                "experiment_lines": self.experiment_lines(), "parameter_values": self.parameter_values(),
+                "refit": None if self.refit is None else {k: v for k, v in self.refit.items()},
+                "seconds": self.seconds, "notes": list(self.notes)}
+
+
+def _all_values(judged: Judged) -> dict[Key, FittedParameter]:
+    """Every value of ``judged``'s fit (the ones named before it included), by key."""
+    return dict(judged.values) if judged.fit is None else _all_values_of(judged.fit)
+
+
+def _name(key: Key) -> str:
+    return key[1] if key[0] == PARAMETER else f"[{key[0]}] {key[1]} {key[2]}"
+
+
+def search_response(model: DynamicModel, estimation: Measurements, held_out: Measurements, *,
+                    held_from: int = 0, effects: Sequence[ResponseEffect] | None = None, fix: Sequence[str] = (),
+                    min_gain: float = MIN_HELD_OUT_GAIN) -> ResponseSearch:
+    """Forward selection over the response catalogue (module docstring) for ``model`` — the patched model, at
+    the values it holds — on ``estimation`` (fits) and ``held_out`` (judgement), both experiments with the
+    machine's ``[controller]``. ``held_from``: the held-out data are ``held_out``'s samples from there on (the
+    whole record given, simulated from its start, and compared on its held-out tail)."""
+    started = time.perf_counter()
+    controller = getattr(estimation, "controller", None)
+    signals = "position" if controller is None or controller.kind == "torque" else "both"
+    source = str(estimation.source)
+    base = {"estimation": simulation_errors(model, estimation, signals=signals),
+            "validation": simulation_errors(model, held_out, signals=signals, start=held_from)}
+    refit, last = _refit(model, estimation, (held_out, held_from), base, signals, fix, min_gain)
+    accepted: dict[Key, float] = {} if last is None else {(PARAMETER, n, ""): p.value for n, p in last.parameters.items()}
+    current = base if last is None else {"estimation": last.errors, "validation": refit["held_out"]}
+    fixed = set(fix) | {p.name for p in model.robot.parameters if p.fixed} | {k[1] for k in accepted}
+    chosen = list(RESPONSE_EFFECTS.values()) if effects is None else list(effects)
+    remaining = [c for e in chosen for c in e.candidates(model, estimation, fixed)]
+    named: list[Judged] = []
+    rounds: list[tuple[Judged, ...]] = []
+    notes: list[str] = []
+    for round_number in range(1, MAX_ROUNDS + 1):
+        if not remaining:
+            break
+        log.info("diagnose %s: response round %d, %d candidate(s)", model.name, round_number, len(remaining))
+        now = _now(model, estimation, accepted, last, source)
+        judged = tuple(_judge(model, c, accepted, estimation, (held_out, held_from), current, signals, min_gain,
+                              source, now)
+                       for c in remaining)
+        rounds.append(judged)
+        passing = [j for j in judged if j.verdict is None]
+        if not passing:
+            break
+        best = max(passing, key=lambda j: j.gain)
+        named.append(best)
+        accepted = {k: v.value for k, v in _all_values(best).items()}
+        last = best.fit
+        current = {"estimation": best.estimation, "validation": best.held_out}
+        remaining = [c for c in remaining if (c.effect, c.coordinate, c.frees) != (best.candidate.effect,
+                                                                                    best.candidate.coordinate,
+                                                                                    best.candidate.frees)]
+    if named:
+        values = {n: p.value for n, p in named[-1].fit.parameters.items()}
+    elif refit is not None and refit["accepted"]:
+        values = {n: p.value for n, p in last.parameters.items()}
+    else:  # nothing the response supports: the patched model as IDIM-LS identified it
+        values, current = {}, base
+    return ResponseSearch(signals, base, current, tuple(rounds), tuple(named), time.perf_counter() - started,
+                          tuple(notes), refit, values)
+
+
+def _refit(model: DynamicModel, estimation: Measurements, held_out: tuple[Measurements, int],
+           base: Mapping[str, Errors], signals: str, fix: Sequence[str], min_gain: float
+           ) -> tuple[dict[str, Any] | None, OutputErrorFit | None]:
+    """The model's parameters that IDIM-LS determines, fitted by the output error from the values the model
+    holds (DIDIM): every candidate is then fitted with them free and compared with this fit, so that what a
+    candidate gains is its own. Accepted as a correction of the model's values when it lowers the held-out
+    simulation error over all coordinates by the effect size; the values it moves beyond 3σ and 10 % are listed."""
+    from symbolic.identify.model import identify_model
+
+    try:
+        idim = identify_model(model, estimation, fix=fix)
+    except IdentificationError:
+        return None, None
+    start = {n: _value(model, n) for n, p in idim.parameters.items() if math.isfinite(p.sigma)}
+    if not start:
+        return None, None
+    try:
+        fit = output_error(model, estimation, start=start, signals=signals, fix=fix, max_iterations=MAX_ITERATIONS)
+        held = simulation_errors(model, held_out[0], fit, signals=signals, start=held_out[1])
+    except (DataError, IdentificationError, SimulationError, np.linalg.LinAlgError):
+        return None, None
+    gain = _gain(base["validation"], held, None)
+    moved = [{"parameter": n, "idim_ls": p.start, "output_error": p.value, "sigma": p.sigma}
+             for n, p in fit.parameters.items()
+             if abs(p.value - p.start) > max(3 * p.sigma, 0.1 * abs(p.start))]
+    return {"gain": gain, "accepted": bool(gain >= min_gain), "moved": moved, "held_out": held,
+            "estimation": fit.errors, "converged": fit.converged}, fit
+
+
+def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[Key, float],
+           estimation: Measurements, held_out: tuple[Measurements, int], current: Mapping[str, Errors], signals: str,
+           min_gain: float, source: str, now: tuple[np.ndarray, list[str]]) -> Judged:
+    """Fit ``candidate``'s values with everything ``accepted`` free too, and judge it on ``held_out``;
+    ``now``: the current model's simulation of the estimation data (where the fit starts)."""
+    frees = {**dict(accepted), **{k: _start(candidate, k, estimation, now) for k in candidate.frees
+                                  if k not in accepted}}
+    layer_keys = {k: v for k, v in frees.items() if k[0] != PARAMETER}
+    start = {k[1]: (v if v is not None else float(_value(model, k[1]))) for k, v in frees.items() if k[0] == PARAMETER}
+    try:
+        est = signal_layer.freed(estimation, layer_keys, source) if layer_keys else estimation
+        held = signal_layer.freed(held_out[0], layer_keys, source) if layer_keys else held_out[0]
+        fit = output_error(model, est, start=start, signals=signals, max_iterations=MAX_ITERATIONS)
+        after_held = simulation_errors(model, _at(held, fit, source), fit, signals=signals, start=held_out[1])
+    except (DataError, IdentificationError, SimulationError, np.linalg.LinAlgError) as error:
+        problem = getattr(error, "problem", None) or str(error)
+        return Judged(candidate, {}, {}, {}, -math.inf, -math.inf, 0.0, {}, False, f"not fitted: {problem}")
+    values = {k: v for k, v in _all_values_of(fit).items() if k in candidate.frees}
+    gain = _gain(current["validation"], after_held, candidate.coordinate or None)
+    stacked = _gain(current["validation"], after_held, None)
+    sigmas = min((abs(v.value - null) / v.sigma if v.sigma > 0 else math.inf)
+                 for (k, v), null in zip(sorted(values.items(), key=lambda kv: candidate.frees.index(kv[0])),
+                                         candidate.null))
+    roles = candidate.effect.roles_of(values, 1.0 / float(estimation.sample_period))
+    verdict = candidate.effect.check(roles)
+    if verdict is None and not gain >= min_gain:
+        verdict = (f"removes {100 * gain:.3g} % of the held-out simulation error's power on its coordinate "
+                   f"(the effect size is {100 * min_gain:.3g} %)")
+    if verdict is None and not stacked > 0:
+        verdict = f"worsens the held-out simulation error over all coordinates ({100 * stacked:.3g} %)"
+    if verdict is None and not sigmas >= MIN_SIGMAS:
+        verdict = f"its value is {sigmas:.3g} σ from nothing missing (at least {MIN_SIGMAS:g} needed)"
+    return Judged(candidate, values, fit.errors, after_held, gain, stacked, sigmas, roles, fit.converged, verdict, fit)
+
+
+def _now(model: DynamicModel, estimation: Measurements, accepted: Mapping[Key, float],
+         last: OutputErrorFit | None, source: str) -> tuple[np.ndarray, list[str]]:
+    """The current model (``last`` fit's values) simulated on the estimation data: (y, the model's coordinates)."""
+    layer_keys = {k: v for k, v in accepted.items() if k[0] != PARAMETER}
+    data = signal_layer.freed(estimation, layer_keys, source) if layer_keys else estimation
+    y, _, _ = simulated(model, data, last)
+    return y, list(model.robot.generalized_coordinates)
+
+
+def _start(candidate: ResponseCandidate, key: Key, estimation: Measurements,
+           now: tuple[np.ndarray, list[str]]) -> float | None:
+    """The effect's start for ``key`` (:meth:`ResponseEffect.start`) from the current simulation and the log."""
+    table, signal, _ = key
+    if table == PARAMETER or not signal.startswith("tau_"):
+        return None
+    y, names = now
+    coordinate = signal[len("tau_"):]
+    n, j = len(names), names.index(coordinate)
+    layer = estimation.signal_layer
+    logged = layer.logged[signal] if signal in layer.logged else estimation.tau[:, estimation.coordinates.index(coordinate)]
+    limit = signal_layer.delay_limit(estimation.samples)
+    return candidate.effect.start(key, y[:, 3 * n + j], np.asarray(logged, float), limit)
+
+
+def _all_values_of(fit: OutputErrorFit) -> dict[Key, FittedParameter]:
+    """The fit's parameters and signal values (named ``[table] signal field``) by key."""
+    out: dict[Key, FittedParameter] = {(PARAMETER, n, ""): p for n, p in fit.parameters.items()}
+    for name, p in fit.signal_values.items():
+        table, rest = name[1:].split("] ", 1)
+        signal, value = rest.split(" ")
+        out[(table, signal, value)] = p
+    return out
+
+
+def _at(held: Measurements, fit: OutputErrorFit, source: str) -> Measurements:
+    """``held`` with its free layer values at the fit's (the loop's start), so the held-out simulation's
+    initial state and inputs are those of the fitted values."""
+    layer = held.signal_layer
+    if not layer.free:
+        return held
+    values = {k: v.value for k, v in _all_values_of(fit).items() if k[0] != PARAMETER}
+    return signal_layer.reapply(held, layer.with_values(values, source), source)
+
+
+def _value(model: DynamicModel, name: str) -> float:
+    return float(next(v for s, v in model.parameters.items() if s.name == name))
+
+
+def _gain(before: Errors, after: Errors, coordinate: str | None) -> float:
+    """1 − the mean of (e_after/e_before)² over the signals of ``coordinate`` (all coordinates: ``None``)."""
+    ratios = [(after[s][c] / before[s][c]) ** 2 for s in before for c in before[s]
+              if (coordinate is None or c == coordinate) and c in after.get(s, {}) and before[s][c] > 0]
+    return 1.0 - float(np.mean(ratios)) if ratios else -math.inf
