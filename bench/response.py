@@ -2,7 +2,7 @@
 
 Truth from tests/reference_integrator.py (an exact stick/slip axis under a discrete PD loop; a 2-link arm
 integrated by DOP853 at rtol 1e-11), never from the product's simulator. Each case is diagnosed on the
-simulated path (``diagnose(..., simulate=True)``) with the whole catalogue:
+simulated path (``diagnose(..., simulate=True, response=True)``) with the whole catalogue:
 
 * null cases — the axis over seeds, encoders of 2^16 and 2^20 counts per revolution and force noise of 0.01
   and 0.03 N·m; the arm over seeds — count what the response names (goal: 0);
@@ -42,7 +42,7 @@ def run(kind: str, **options) -> tuple[list[tuple[str, dict]], float]:
         model = tmp / f"{kind}.toml"
         model.write_text(text, encoding="utf-8")
         started = time.perf_counter()
-        result = diagnose(str(model), str(experiment), simulate=True, figures=False)
+        result = diagnose(str(model), str(experiment), simulate=True, figures=False, response=True)
         seconds = time.perf_counter() - started
     response = result.response
     named = [] if response is None else [(j.candidate.label(), j.roles) for j in response.named]

@@ -35,7 +35,7 @@ def _diagnose(tmp_path: Path, kind: str, **options):
     experiment = write(tmp_path, seconds=4.0 if kind == "axis" else 6.0, **options)
     model = tmp_path / f"{kind}.toml"
     model.write_text(text, encoding="utf-8")
-    return diagnose(str(model), str(experiment), simulate=True, out=tmp_path / "out", figures=False)
+    return diagnose(str(model), str(experiment), simulate=True, out=tmp_path / "out", figures=False, response=True)
 
 
 def _named(result) -> dict[str, dict[str, float]]:
@@ -115,7 +115,7 @@ def test_the_command_line_takes_response_effects(tmp_path: Path) -> None:
     model = tmp_path / "axis.toml"
     model.write_text(models.axis(), encoding="utf-8")
     run = subprocess.run([sys.executable, "-m", "symbolic", "diagnose", str(model), str(tmp_path / "axis.experiment.toml"),
-                          "--simulate", "--effects", "viscous,delay", "--json", "--out", str(tmp_path / "out")],
+                          "--simulate", "--response", "--effects", "viscous,delay", "--json", "--out", str(tmp_path / "out")],
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr
     response = json.loads(run.stdout)["response"]
@@ -132,3 +132,11 @@ def test_every_response_effect_declares_itself() -> None:
     for effect in RESPONSE_EFFECTS.values():
         described = effect.describe()
         assert described["judged_on"] == "response" and effect.summary and effect.guide and effect.roles
+
+
+def test_off_unless_asked(tmp_path: Path) -> None:
+    experiment = write_axis_experiment(tmp_path, counts=2**16, seconds=1.0, force_noise=0.02)
+    model = tmp_path / "axis.toml"
+    model.write_text(models.axis(), encoding="utf-8")
+    result = diagnose(str(model), str(experiment), simulate=True, figures=False)
+    assert result.response is None and result.to_dict()["response"] is None

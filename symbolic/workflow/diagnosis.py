@@ -74,6 +74,7 @@ def diagnose(
     simulate: Simulator | bool | None = None,
     figures: bool = True,
     fix: Sequence[str] = (),
+    response: bool = False,
 ) -> Diagnosis:
     """Find where ``model`` and ``data`` disagree, name the missing effects, patch the model file.
 
@@ -106,12 +107,17 @@ def diagnose(
     fix
         Parameters kept at their values when the model is re-identified, besides those with ``fixed = true``
         (:mod:`symbolic.identify.known`).
+    response
+        On the simulated path with the experiment's ``[controller]``: search the effects judged on the response
+        too (:mod:`symbolic.workflow.response`; ``diagnose --simulate --response``). Off by default while it
+        still names small corrections and a half-sample delay on lightly damped flexible rigs with nothing
+        missing (docs/workflow.md, "Judged on the response").
     """
     clock, cpu = time.perf_counter(), _cpu_time()
     model = _derived(model)
     fixed_symbols(model, fix)  # an unknown name is refused before the data are read
     given = dict(experiment=experiment, validation=validation, out=out, search=search, effects=effects,
-                 simulate=simulate, fix=fix)
+                 simulate=simulate, fix=fix, response=response)
     diagnosis = _diagnose(model, data, settings=settings, started=(clock, cpu), **given)
     checked = patched_held_force(diagnosis, settings, search, fix)
     if checked is not None and checked["removed_share"] >= (search or SearchSettings()).min_gain:
@@ -139,7 +145,7 @@ def diagnose(
 def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experiment: str | Path | None,
               validation: str | Path | Measurements | None, out: str | Path | None, settings: Settings | None,
               search: SearchSettings | None, effects: Sequence[Effect] | None, simulate: Simulator | bool | None,
-              fix: Sequence[str], started: tuple[float, float] | None = None) -> Diagnosis:
+              fix: Sequence[str], started: tuple[float, float] | None = None, response: bool = False) -> Diagnosis:
     """Steps 1–5 of :func:`diagnose` with the data treated by ``settings``; nothing written. ``started``: the
     wall and CPU clocks when the diagnosis began (the derivation counts in the first step's time)."""
     clock, cpu = started or (time.perf_counter(), _cpu_time())
@@ -178,7 +184,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
     lap("search")
     notes: list[str] = [*caveats, *before.nominal.notes]
     found: list[Found] = []
-    response = None
+    wanted, response = response, None
     patched_text = patched_path = None
     if source.is_file() and source.suffix.lower() != ".urdf":  # a URDF has no TOML text to patch (note below)
         editor = Editor(source.read_text(encoding="utf-8"), model.robot, str(source))
@@ -240,13 +246,15 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
                           final_fit, own, removed, kept, estimation, notes, selection.settings.min_gain)
         before, where_before, simulate, after = _before_corrections(model, sets, simulate, fix, reviewed[0], before,
                                                                     where_before, after, caveats)
-        if simulate and _controller(estimation.measurements) is not None and response_effects:
+        if wanted and simulate and _controller(estimation.measurements) is not None and response_effects:
             lap("patch and shrink")
             response = _judge_response(derive(loads(patched_text, str(target))), sets, response_effects, fix,
                                        selection.settings.min_gain, notes)
             lap("response")
             corrected = response.parameter_values() if response is not None else {}
             if corrected:
+                notes.append(f"the patched model holds the output error's values of {', '.join(sorted(corrected))} "
+                             "(judged on the response), not IDIM-LS's; the gap after is measured with them")
                 patched_text, after = _with_response_values(patched_text, corrected, target, source, sets, simulate,
                                                             fix, caveats, model, data_name)
     else:

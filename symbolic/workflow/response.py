@@ -186,7 +186,7 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
                                                                                     best.candidate.frees)]
     if named:
         values = {n: p.value for n, p in named[-1].fit.parameters.items()}
-    elif refit is not None and refit["accepted"]:
+    elif refit is not None and refit["accepted"] and refit["moved"]:
         values = {n: p.value for n, p in last.parameters.items()}
     else:  # nothing the response supports: the patched model as IDIM-LS identified it
         values, current = {}, base
@@ -200,7 +200,8 @@ def _refit(model: DynamicModel, estimation: Measurements, held_out: tuple[Measur
     """The model's parameters that IDIM-LS determines, fitted by the output error from the values the model
     holds (DIDIM): every candidate is then fitted with them free and compared with this fit, so that what a
     candidate gains is its own. Accepted as a correction of the model's values when it lowers the held-out
-    simulation error over all coordinates by the effect size; the values it moves beyond 3σ and 10 % are listed."""
+    simulation error over all coordinates by the effect size; the values it moves beyond 3σ and 10 % are listed,
+    and only when some move so are the refitted values written (a polish within 10 % leaves IDIM-LS's)."""
     from symbolic.identify.model import identify_model
 
     try:

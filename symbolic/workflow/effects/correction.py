@@ -15,6 +15,9 @@ from symbolic.workflow.effects.on_response import PARAMETER, Key, ResponseCandid
 
 KINDS = ("stiffness", "damping")
 
+MIN_CHANGE = 0.10
+"""A correction moves a model-file value by this share at least (symbolic.workflow.corrections' rule)."""
+
 
 class Correction(ResponseEffect):
     identifier = "correction"
@@ -50,6 +53,9 @@ class Correction(ResponseEffect):
     def check(self, roles: Mapping[str, float]) -> str | None:
         if roles["value"] <= 0:
             return f"the fitted value {roles['value']:.4g} is not positive"
+        if not abs(roles["relative_change"]) >= MIN_CHANGE:
+            return (f"moves the value by {100 * roles['relative_change']:.3g} % (a correction moves it by "
+                    f"{100 * MIN_CHANGE:g} % at least, as IDIM-LS's corrections)")
         return None
 
 
