@@ -638,9 +638,9 @@ def parser() -> argparse.ArgumentParser:
                    "(as fixed = true in [parameters] does)")
     w.add_argument("--simulate", action="store_true",
                    help="measure the gap on the simulated controller output (the experiment's [controller]) instead of the inverse model")
-    w.add_argument("--response", action="store_true",
-                   help="with --simulate: also search the effects judged on the response (delay, drive_gain, sensor_bias, "
-                        "correction) by output error on held-out data (docs/workflow.md, \"Judged on the response\")")
+    w.add_argument("--no-response", dest="response", action="store_false", default=None,
+                   help="with --simulate: do not search the effects judged on the response (delay, drive_gain, sensor_bias, "
+                        "correction; by output error on held-out data, docs/workflow.md \"Judged on the response\")")
     w.add_argument("--effects", metavar="NAMES", help="search only these catalogue effects (comma-separated; default: all; periodic means both its "
                         "variants, periodic_time the one in time only)")
     w.add_argument("--group", metavar="NAME=C1,C2", action="append",

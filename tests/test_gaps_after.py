@@ -33,11 +33,14 @@ def rig_data(factor: float):
                               pulses=1.0, logged_feedforward=True)
 
 
-def run_rig(tmp_path: Path, factor: float, simulate: bool):
+def run_rig(tmp_path: Path, factor: float, simulate: bool, **extra):
+    """The rig diagnosed; the search judged on the response is left out unless asked for (``response=True``):
+    these tests are of the gaps IDIM-LS's corrections leave, tests/test_response.py of the response's."""
+    extra.setdefault("response", False)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", symbolic.ModelWarning)
         return diagnose(cases.model_file(tmp_path, cases.flexible_rig()), rig_data(factor), out=tmp_path / "out",
-                        figures=False, simulate=simulate)
+                        figures=False, simulate=simulate, **extra)
 
 
 @pytest.mark.slow

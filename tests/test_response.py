@@ -115,7 +115,7 @@ def test_the_command_line_takes_response_effects(tmp_path: Path) -> None:
     model = tmp_path / "axis.toml"
     model.write_text(models.axis(), encoding="utf-8")
     run = subprocess.run([sys.executable, "-m", "symbolic", "diagnose", str(model), str(tmp_path / "axis.experiment.toml"),
-                          "--simulate", "--response", "--effects", "viscous,delay", "--json", "--out", str(tmp_path / "out")],
+                          "--simulate", "--effects", "viscous,delay", "--json", "--out", str(tmp_path / "out")],
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr
     response = json.loads(run.stdout)["response"]
@@ -134,9 +134,28 @@ def test_every_response_effect_declares_itself() -> None:
         assert described["judged_on"] == "response" and effect.summary and effect.guide and effect.roles
 
 
-def test_off_unless_asked(tmp_path: Path) -> None:
+def test_on_with_the_simulated_path_unless_refused(tmp_path: Path) -> None:
     experiment = write_axis_experiment(tmp_path, counts=2**16, seconds=1.0, force_noise=0.02)
     model = tmp_path / "axis.toml"
     model.write_text(models.axis(), encoding="utf-8")
-    result = diagnose(str(model), str(experiment), simulate=True, figures=False)
-    assert result.response is None and result.to_dict()["response"] is None
+    assert diagnose(str(model), str(experiment), simulate=True, figures=False).response is not None
+    refused = diagnose(str(model), str(experiment), simulate=True, figures=False, response=False)
+    assert refused.response is None and refused.to_dict()["response"] is None
+    assert diagnose(str(model), str(experiment), figures=False).response is None  # the inverse path
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("factor", [1.0, 1.6])
+def test_the_rigs_half_sample_log_is_named_and_its_stiffness_kept(tmp_path: Path, factor: float) -> None:
+    """tests/workflow_cases.py logs the mean of the held command over [t_k − T/2, t_k + T/2] (aligned with
+    the positions for the inverse model): against the loop's command at t_k that is a lag of half a sample,
+    which the response names — and nothing else, with the file's Ks right (1.0) or 1.6× too soft, where
+    IDIM-LS corrects it and the output error keeps the correction (the truth's Ks to 1 %)."""
+    from test_gaps_after import run_rig
+
+    result = run_rig(tmp_path, factor, simulate=True, response=True)
+    named = _named(result)
+    assert list(named) == ["delay(theta)"]
+    assert named["delay(theta)"]["delay"] == pytest.approx(0.5, abs=0.1)
+    patched = {p.name: p.value for p in symbolic.load(result.patched_path).parameters}
+    assert patched["Ks"] == pytest.approx(factor, rel=0.01)

@@ -74,7 +74,7 @@ def diagnose(
     simulate: Simulator | bool | None = None,
     figures: bool = True,
     fix: Sequence[str] = (),
-    response: bool = False,
+    response: bool | None = None,
 ) -> Diagnosis:
     """Find where ``model`` and ``data`` disagree, name the missing effects, patch the model file.
 
@@ -109,11 +109,12 @@ def diagnose(
         (:mod:`symbolic.identify.known`).
     response
         On the simulated path with the experiment's ``[controller]``: search the effects judged on the response
-        too (:mod:`symbolic.workflow.response`; ``diagnose --simulate --response``). Off by default while it
-        still names small corrections and a half-sample delay on lightly damped flexible rigs with nothing
-        missing (docs/workflow.md, "Judged on the response").
+        too (:mod:`symbolic.workflow.response`); ``None`` (default): whenever ``simulate`` is ``True`` (the
+        experiment's own loop, not a caller's simulator); ``False``: never (``diagnose --simulate --no-response``).
     """
     clock, cpu = time.perf_counter(), _cpu_time()
+    if response is None:  # the response is the experiment's own loop's: not a caller's simulator
+        response = simulate is True
     model = _derived(model)
     fixed_symbols(model, fix)  # an unknown name is refused before the data are read
     given = dict(experiment=experiment, validation=validation, out=out, search=search, effects=effects,
@@ -145,7 +146,7 @@ def diagnose(
 def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experiment: str | Path | None,
               validation: str | Path | Measurements | None, out: str | Path | None, settings: Settings | None,
               search: SearchSettings | None, effects: Sequence[Effect] | None, simulate: Simulator | bool | None,
-              fix: Sequence[str], started: tuple[float, float] | None = None, response: bool = False) -> Diagnosis:
+              fix: Sequence[str], started: tuple[float, float] | None = None, response: bool | None = None) -> Diagnosis:
     """Steps 1–5 of :func:`diagnose` with the data treated by ``settings``; nothing written. ``started``: the
     wall and CPU clocks when the diagnosis began (the derivation counts in the first step's time)."""
     clock, cpu = started or (time.perf_counter(), _cpu_time())
@@ -246,10 +247,11 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
                           final_fit, own, removed, kept, estimation, notes, selection.settings.min_gain)
         before, where_before, simulate, after = _before_corrections(model, sets, simulate, fix, reviewed[0], before,
                                                                     where_before, after, caveats)
-        if wanted and simulate and _controller(estimation.measurements) is not None and response_effects:
+        if wanted is not False and simulate and _controller(estimation.measurements) is not None and response_effects:
             lap("patch and shrink")
+            determined = [n for n, v in after.nominal.parameters.items() if np.isfinite(v.sigma)]
             response = _judge_response(derive(loads(patched_text, str(target))), sets, response_effects, fix,
-                                       selection.settings.min_gain, notes)
+                                       selection.settings.min_gain, notes, determined)
             lap("response")
             corrected = response.parameter_values() if response is not None else {}
             if corrected:
@@ -284,7 +286,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
 
 
 def _judge_response(patched: DynamicModel, sets: dict[str, DataSet], effects: Sequence[Any], fix: Sequence[str],
-                    min_gain: float, notes: list[str]) -> Any:
+                    min_gain: float, notes: list[str], determined: Sequence[str]) -> Any:
     """The search judged on the response (:mod:`symbolic.workflow.response`) of the patched model at the values
     it holds: fitted on the estimation data, judged on the held-out data — the tail of the record simulated
     from the record's start when the held-out data are the record's last fifth."""
@@ -295,7 +297,7 @@ def _judge_response(patched: DynamicModel, sets: dict[str, DataSet], effects: Se
     kept = [n for n in fix if n in {p.name for p in patched.robot.parameters}]
     try:
         return search_response(patched, sets["estimation"].measurements, record, held_from=start, effects=effects,
-                               fix=kept, min_gain=min_gain)
+                               fix=kept, min_gain=min_gain, determined=determined)
     except (DataError, IdentificationError, SimulationError) as error:
         notes.append(f"the search judged on the response did not run: {getattr(error, 'problem', None) or error}")
         return None

@@ -144,18 +144,19 @@ def _name(key: Key) -> str:
 
 def search_response(model: DynamicModel, estimation: Measurements, held_out: Measurements, *,
                     held_from: int = 0, effects: Sequence[ResponseEffect] | None = None, fix: Sequence[str] = (),
-                    min_gain: float = MIN_HELD_OUT_GAIN) -> ResponseSearch:
+                    min_gain: float = MIN_HELD_OUT_GAIN, determined: Sequence[str] | None = None) -> ResponseSearch:
     """Forward selection over the response catalogue (module docstring) for ``model`` — the patched model, at
     the values it holds — on ``estimation`` (fits) and ``held_out`` (judgement), both experiments with the
     machine's ``[controller]``. ``held_from``: the held-out data are ``held_out``'s samples from there on (the
-    whole record given, simulated from its start, and compared on its held-out tail)."""
+    whole record given, simulated from its start, and compared on its held-out tail). ``determined``: the
+    parameters the data determine (the diagnosis's own re-identification); default: IDIM-LS's on ``estimation``."""
     started = time.perf_counter()
     controller = getattr(estimation, "controller", None)
     signals = "position" if controller is None or controller.kind == "torque" else "both"
     source = str(estimation.source)
     base = {"estimation": simulation_errors(model, estimation, signals=signals),
             "validation": simulation_errors(model, held_out, signals=signals, start=held_from)}
-    refit, last = _refit(model, estimation, (held_out, held_from), base, signals, fix, min_gain)
+    refit, last = _refit(model, estimation, (held_out, held_from), base, signals, fix, min_gain, determined)
     accepted: dict[Key, float] = {} if last is None else {(PARAMETER, n, ""): p.value for n, p in last.parameters.items()}
     current = base if last is None else {"estimation": last.errors, "validation": refit["held_out"]}
     fixed = set(fix) | {p.name for p in model.robot.parameters if p.fixed} | {k[1] for k in accepted}
@@ -195,8 +196,8 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
 
 
 def _refit(model: DynamicModel, estimation: Measurements, held_out: tuple[Measurements, int],
-           base: Mapping[str, Errors], signals: str, fix: Sequence[str], min_gain: float
-           ) -> tuple[dict[str, Any] | None, OutputErrorFit | None]:
+           base: Mapping[str, Errors], signals: str, fix: Sequence[str], min_gain: float,
+           determined: Sequence[str] | None = None) -> tuple[dict[str, Any] | None, OutputErrorFit | None]:
     """The model's parameters that IDIM-LS determines, fitted by the output error from the values the model
     holds (DIDIM): every candidate is then fitted with them free and compared with this fit, so that what a
     candidate gains is its own. Accepted as a correction of the model's values when it lowers the held-out
@@ -204,11 +205,13 @@ def _refit(model: DynamicModel, estimation: Measurements, held_out: tuple[Measur
     and only when some move so are the refitted values written (a polish within 10 % leaves IDIM-LS's)."""
     from symbolic.identify.model import identify_model
 
-    try:
-        idim = identify_model(model, estimation, fix=fix)
-    except IdentificationError:
-        return None, None
-    start = {n: _value(model, n) for n, p in idim.parameters.items() if math.isfinite(p.sigma)}
+    if determined is None:
+        try:
+            idim = identify_model(model, estimation, fix=fix)
+        except IdentificationError:
+            return None, None
+        determined = [n for n, p in idim.parameters.items() if math.isfinite(p.sigma)]
+    start = {n: _value(model, n) for n in determined if n not in fix}
     if not start:
         return None, None
     try:

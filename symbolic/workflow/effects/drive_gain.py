@@ -16,6 +16,10 @@ from symbolic.workflow.effects.on_response import Key, ResponseEffect, register_
 PLAUSIBLE = (0.2, 5.0)
 """A drive gain outside this range is a unit or a sign error, not a gain: refused as not physical."""
 
+MIN_CHANGE = 0.02
+"""A gain within this share of 1 is not named: a drive's torque constant is known to a few per cent, and a fit
+that moves it by less is absorbing something else (a 2-link arm's joint 2 logged late moved joint 1's by 5e-5)."""
+
 
 class DriveGain(ResponseEffect):
     identifier = "drive_gain"
@@ -39,6 +43,8 @@ class DriveGain(ResponseEffect):
         low, high = PLAUSIBLE
         if not low <= roles["gain"] <= high:
             return f"a gain of {roles['gain']:.4g} is outside {low:g}–{high:g} (a unit or sign, not a gain)"
+        if not abs(roles["gain"] - 1.0) >= MIN_CHANGE:
+            return f"a gain of {roles['gain']:.5g} is within {100 * MIN_CHANGE:g} % of 1 (not named: module docstring)"
         return None
 
 
