@@ -79,6 +79,7 @@ def test_nothing_missing_names_nothing(tmp_path: Path, kind: str, options: dict)
     assert result.response is not None
     assert _named(result) == {}
     assert result.response.refit is None or result.response.refit["moved"] == []
+    assert result.response.corrections == ()
     tried = [j for r in result.response.rounds for j in r]
     assert {j.candidate.effect.identifier for j in tried} >= {"delay", "drive_gain"}
 

@@ -259,6 +259,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
                              "(judged on the response), not IDIM-LS's; the gap after is measured with them")
                 patched_text, after = _with_response_values(patched_text, corrected, target, source, sets, simulate,
                                                             fix, caveats, model, data_name)
+                reviewed = (*reviewed[:2], _modes_with(model, after.model, patched_text, estimation, notes))
     else:
         what = "TOML text to patch (a URDF model)" if source.suffix.lower() == ".urdf" else "file"
         notes.append(f"the model has no {what} ({model.robot.source}) to patch: the gap after is that of the search's final fit")
@@ -315,6 +316,21 @@ def _with_response_values(text: str, values: Mapping[str, float], target: Path, 
     kept = [n for n in fix if n in {p.name for p in patched.robot.parameters}]
     after, _ = _fit_or_inverse(patched, sets, simulate, [*kept, *values], caveats)
     return text, after
+
+
+def _modes_with(model: DynamicModel, patched: DynamicModel, text: str, estimation: DataSet,
+                notes: list[str]) -> dict[str, Any] | None:
+    """The modes before and after (:func:`symbolic.workflow.corrections.modes`) with the values ``text`` holds
+    (the response's), their sentence included."""
+    from symbolic.workflow.corrections import modes, modes_sentence
+
+    values = {p.name: float(p.value) for p in loads(text, str(patched.robot.source)).parameters}
+    measurements = estimation.measurements
+    found = modes(model, patched, values, estimation, measurements.controller, float(measurements.sample_period),
+                  notes)
+    if found is not None:
+        found["summary"] = modes_sentence(found)
+    return found
 
 
 def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], nominal: Fit | None,

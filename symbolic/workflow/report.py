@@ -125,13 +125,17 @@ def _response(d: Diagnosis) -> list[str]:
     lines += _table(["signal", "coordinate", "estimation before", "estimation after", "held out before",
                      "held out after"], rows)
     lines.append("")
+    for c in r.corrections:
+        change = "" if c["relative_change"] is None else f", {100 * c['relative_change']:+.3g} %"
+        lines += [f"Corrected through the response: the {c['kind']} `{c['parameter']}` {_g(c['idim_ls'])} (IDIM-LS) → "
+                  f"{_g(c['value'])} ± {_g(c['sigma'])}{change} (written into the patched model).", ""]
     if r.named:
         lines += ["Named: " + "; ".join(f"`{j.candidate.label()}` ({_roles(j.roles)}; removes "
                                         f"{100 * j.gain:.3g} % of its held-out simulation error's power)"
                                         for j in r.named) + ".", ""]
         if r.experiment_lines():
             lines += ["To declare in the experiment file:", "", "```toml", *r.experiment_lines(), "```", ""]
-    else:
+    elif not r.corrections:
         lines += ["Named: nothing.", ""]
     tried = [j for round_ in r.rounds for j in round_ if j.verdict is not None]
     if tried:

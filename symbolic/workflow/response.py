@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import sympy as sp
 
 from symbolic.data import DataError, Measurements, signal_layer
 from symbolic.derivation.dynamics import DynamicModel
@@ -106,6 +107,9 @@ class ResponseSearch:
     """The model's own parameters fitted by the output error before any candidate (:func:`_refit`)."""
     values: dict[str, float] = field(default_factory=dict)
     """The model-file values the response sets (the last named candidate's fit, or the accepted refit's)."""
+    corrections: tuple[dict[str, Any], ...] = ()
+    """The values among :attr:`values` that the output error moves from IDIM-LS's by 3σ and 10 %, named as
+    corrections (a stiffness the resonance shows and the noisy accelerations did not)."""
 
     def parameter_values(self) -> dict[str, float]:
         """The model-file values to write into the patched file (empty: IDIM-LS's stay)."""
@@ -126,7 +130,7 @@ class ResponseSearch:
 
     def to_dict(self) -> dict[str, Any]:
         return {"signals": self.signals, "before": self.before, "after": self.after,
-                "named": [j.to_dict() for j in self.named],
+                "named": [j.to_dict() for j in self.named], "corrections": [dict(c) for c in self.corrections],
                 "rounds": [[j.to_dict() for j in r] for r in self.rounds],
                 "experiment_lines": self.experiment_lines(), "parameter_values": self.parameter_values(),
                 "refit": None if self.refit is None else {k: v for k, v in self.refit.items()},
@@ -191,8 +195,29 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
         values = {n: p.value for n, p in last.parameters.items()}
     else:  # nothing the response supports: the patched model as IDIM-LS identified it
         values, current = {}, base
+    final = named[-1].fit if named else (last if values else None)
+    corrections = tuple(_corrections(model, final)) if final is not None else ()
     return ResponseSearch(signals, base, current, tuple(rounds), tuple(named), time.perf_counter() - started,
-                          tuple(notes), refit, values)
+                          tuple(notes), refit, values, corrections)
+
+
+def _corrections(model: DynamicModel, fit: OutputErrorFit) -> list[dict[str, Any]]:
+    """The model's values the output error moves from the patched model's (IDIM-LS's) by 3σ and 10 % at
+    least: corrections found through the response, each with what it is (a stiffness, a damping, ...)."""
+    from symbolic.workflow.corrections import parameter_kind
+
+    out = []
+    for name, p in fit.parameters.items():
+        before = _value(model, name)
+        if abs(p.value - before) > max(3 * p.sigma, 0.1 * abs(before)):
+            symbol = next(q.symbol for q in model.robot.parameters if q.name == name)
+            coordinate = next((f.coordinate for f in model.robot.forces
+                               if symbol in sp.sympify(f.expression).free_symbols), "")
+            out.append({"effect": "correction", "parameter": name, "kind": parameter_kind(model.robot, name),
+                        "coordinate": coordinate, "label": f"correction({name})", "value": p.value,
+                        "sigma": p.sigma, "idim_ls": before,
+                        "relative_change": (p.value - before) / before if before else None})
+    return out
 
 
 def _refit(model: DynamicModel, estimation: Measurements, held_out: tuple[Measurements, int],
