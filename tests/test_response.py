@@ -160,3 +160,16 @@ def test_the_rigs_half_sample_log_is_named_and_its_stiffness_kept(tmp_path: Path
     assert named["delay(theta)"]["delay"] == pytest.approx(0.5, abs=0.1)
     patched = {p.name: p.value for p in symbolic.load(result.patched_path).parameters}
     assert patched["Ks"] == pytest.approx(factor, rel=0.01)
+
+
+def test_not_run_where_the_refit_would_free_too_many(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Beyond MAX_REFIT parameters the search is not run, and the JSON and the report say why (here the
+    axis's three parameters against a limit of two)."""
+    import symbolic.workflow.response as response
+
+    monkeypatch.setattr(response, "MAX_REFIT", 2)
+    result = _diagnose(tmp_path, "axis", log_delay=3, force_noise=0.02, counts=2**16, seed=1)
+    assert result.response.named == () and result.response.rounds == ()
+    data = result.to_dict()["response"]
+    assert "more than the 2" in data["refit"]["skipped"] and data["notes"][0].startswith("not run")
+    assert "Not run: the model has 3 parameters" in (tmp_path / "out" / "report.md").read_text(encoding="utf-8")

@@ -125,6 +125,8 @@ def _response(d: Diagnosis) -> list[str]:
     lines += _table(["signal", "coordinate", "estimation before", "estimation after", "held out before",
                      "held out after"], rows)
     lines.append("")
+    if r.refit is not None and "skipped" in r.refit:
+        return lines + [f"Not run: {r.refit['skipped']}.", ""]
     for c in r.corrections:
         change = "" if c["relative_change"] is None else f", {100 * c['relative_change']:+.3g} %"
         lines += [f"Corrected through the response: the {c['kind']} `{c['parameter']}` {_g(c['idim_ls'])} (IDIM-LS) → "
