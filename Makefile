@@ -40,6 +40,7 @@ bench:
 	$(PYTHON) bench/beams.py --out bench/results/beams.md
 	$(PYTHON) bench/consistent.py --out bench/results/consistent.md
 	$(PYTHON) bench/output_error.py --out bench/results/output_error.md
+	$(PYTHON) bench/response.py --out bench/results/response.md
 	$(PYTHON) bench/fleet.py --out bench/results/fleet.md
 	$(PYTHON) bench/quotes.py
 
