@@ -451,12 +451,14 @@ class _DiagnoseHelp(argparse.Action):
         super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
 
     def __call__(self, parser: argparse.ArgumentParser, namespace, values, option_string=None) -> None:
-        from symbolic.workflow.effect_summaries import summaries  # the effect files' text: no SymPy, no NumPy
+        from symbolic.workflow.effect_summaries import response_summaries, summaries  # no SymPy, no NumPy
 
-        effects = summaries()
-        width = max(map(len, effects))
+        effects, response = summaries(), response_summaries()
+        width = max(map(len, [*effects, *response]))
         parser.epilog = "effects (--effects NAMES; default: all; --list-effects: their parameters and units):\n" + \
-            "\n".join(f"  {name:{width}s}  {summary}" for name, summary in effects.items())
+            "\n".join(f"  {name:{width}s}  {summary}" for name, summary in effects.items()) + \
+            "\njudged on the response (with --simulate; --no-response leaves them out):\n" + \
+            "\n".join(f"  {name:{width}s}  {summary}" for name, summary in response.items())
         parser.print_help()
         parser.exit()
 
@@ -470,8 +472,12 @@ class _ListEffects(argparse.Action):
 
     def __call__(self, parser: argparse.ArgumentParser, namespace, values, option_string=None) -> None:
         from symbolic.workflow.effects import listing
+        from symbolic.workflow.effects.on_response import RESPONSE_EFFECTS
 
         print("\n".join(listing()))
+        for key, e in RESPONSE_EFFECTS.items():
+            roles = ", ".join(f"{r} ({unit})" for r, unit in e.roles.items())
+            print(f"{key}  {e.summary}  [{roles}]  (judged on the response: --simulate)")
         parser.exit()
 
 

@@ -173,3 +173,18 @@ def test_not_run_where_the_refit_would_free_too_many(tmp_path: Path, monkeypatch
     data = result.to_dict()["response"]
     assert "more than the 2" in data["refit"]["skipped"] and data["notes"][0].startswith("not run")
     assert "Not run: the model has 3 parameters" in (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
+
+
+def test_help_and_list_name_the_response_effects() -> None:
+    """``diagnose --help`` reads the response effects' summaries from their files' text (no import), equal to the
+    registry's; ``--list-effects`` lists them with their roles."""
+    from symbolic.workflow.effect_summaries import response_summaries
+
+    assert list(response_summaries().items()) == [(k, e.summary) for k, e in RESPONSE_EFFECTS.items()]
+    shown = subprocess.run([sys.executable, "-m", "symbolic", "diagnose", "--help"], capture_output=True, text=True,
+                           timeout=60).stdout
+    listed = subprocess.run([sys.executable, "-m", "symbolic", "diagnose", "--list-effects"], capture_output=True,
+                            text=True, timeout=60).stdout
+    for key, effect in RESPONSE_EFFECTS.items():
+        assert key in shown.split("judged on the response", 1)[1]
+        assert f"{key}  {effect.summary}" in listed

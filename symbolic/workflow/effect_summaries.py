@@ -30,6 +30,23 @@ def summaries(folder: Path = FOLDER) -> dict[str, str]:
     return {key: summary for key, (_, summary) in sorted(found.items(), key=lambda item: (item[1][0], item[0]))}
 
 
+def response_summaries(folder: Path = FOLDER) -> dict[str, str]:
+    """{identifier: summary} of the effects judged on the response (classes deriving from ``ResponseEffect``
+    that assign ``identifier`` and ``summary`` as string literals), in the registry's order (``rank``, then key)."""
+    found: dict[str, tuple[int, str]] = {}
+    for path in sorted(folder.glob("*.py")):
+        if path.name.startswith("_"):
+            continue
+        for node in ast.parse(path.read_text(encoding="utf-8")).body:
+            if isinstance(node, ast.ClassDef) and any(isinstance(b, ast.Name) and b.id == "ResponseEffect"
+                                                      for b in node.bases):
+                values = _literals(node)
+                if isinstance(values.get("identifier"), str) and isinstance(values.get("summary"), str):
+                    rank = values.get("rank")
+                    found[values["identifier"]] = (rank if isinstance(rank, int) else 100, values["summary"])
+    return {key: summary for key, (_, summary) in sorted(found.items(), key=lambda item: (item[1][0], item[0]))}
+
+
 def _literals(cls: ast.ClassDef) -> dict[str, object]:
     """The class's attributes assigned string literals, also by tuple unpacking (``name, roles = "x", (...)``)."""
     out: dict[str, object] = {}
