@@ -153,12 +153,14 @@ def write_arm_experiment(folder: Path, *, kp: tuple[float, float] = (120.0, 60.0
                          rate: float = 500.0, seconds: float = 3.0, counts: int = 2**16, force_noise: float = 0.0,
                          seed: int = 0, parameters: dict | None = None,
                          drive: tuple[tuple[float, float], tuple[float, float]] = ((1.0, 0.0), (1.0, 0.0)),
-                         layer: str = "", log_delay: tuple[int, int] = (0, 0)) -> Path:
+                         layer: str = "", log_delay: tuple[int, int] = (0, 0),
+                         position_bias: tuple[float, float] = (0.0, 0.0)) -> Path:
     """``folder/arm.csv`` and ``folder/arm.experiment.toml``: the arm under a PD loop on both joints (no
     gravity compensation), integrated by ``solve_ivp`` (DOP853, rtol 1e-11) from
     sample to sample with the force held; encoders of ``counts`` per revolution, white force noise; ``drive``
     per joint (gain, bias): the force applied is gain·(command + bias), the log holds the command; ``layer``:
-    TOML appended to the experiment file; ``log_delay``: per joint, the logged force lags by that many samples."""
+    TOML appended to the experiment file; ``log_delay``: per joint, the logged force lags by that many samples;
+    ``position_bias``: per joint, the encoder reads the angle plus that much (the loop and the log see it)."""
     from scipy.integrate import solve_ivp
 
     from symbolic.data import write_columns
@@ -179,6 +181,7 @@ def write_arm_experiment(folder: Path, *, kp: tuple[float, float] = (120.0, 60.0
     last = None
     for k in range(len(r)):
         measured = np.floor(state[:2] / resolution + 0.5) * resolution if resolution else state[:2].copy()
+        measured = measured + np.array(position_bias)
         velocity = np.zeros(2) if last is None else (measured - last) / period
         tau = kp_ * (r[k] - measured) - kd_ * velocity
         read[k], logged_tau[k], last = measured, tau, measured

@@ -29,13 +29,14 @@ AXIS = {"J": 0.05, "Fv": 0.3, "Fc": 0.4}
 """write_axis_experiment's truth."""
 
 
-def _diagnose(tmp_path: Path, kind: str, **options):
-    text = models.axis() if kind == "axis" else models.arm()
+def _diagnose(tmp_path: Path, kind: str, text: str | None = None, effects: list | None = None, **options):
+    text = text or (models.axis() if kind == "axis" else models.arm())
     write = write_axis_experiment if kind == "axis" else write_arm_experiment
     experiment = write(tmp_path, seconds=4.0 if kind == "axis" else 6.0, **options)
     model = tmp_path / f"{kind}.toml"
     model.write_text(text, encoding="utf-8")
-    return diagnose(str(model), str(experiment), simulate=True, out=tmp_path / "out", figures=False, response=True)
+    return diagnose(str(model), str(experiment), simulate=True, out=tmp_path / "out", figures=False, response=True,
+                    effects=effects)
 
 
 def _named(result) -> dict[str, dict[str, float]]:
@@ -68,6 +69,42 @@ def test_one_joints_drive_gain_is_named_on_that_joint(tmp_path: Path) -> None:
     named = _named(result)
     assert list(named) == ["drive_gain(q2)"]
     assert named["drive_gain(q2)"]["gain"] == pytest.approx(1.3, rel=0.02)
+
+
+@pytest.mark.slow
+def test_an_axis_drive_gain_is_named_where_the_inertia_is_known(tmp_path: Path) -> None:
+    """On one axis a drive gain scales every parameter alike (the data cannot tell, module docstring of
+    drive_gain); with J known (fixed = true) it is the drive's gain, and Fv, Fc come out with it."""
+    text = models.axis().replace("J = { value = 0.05,", "J = { value = 0.05, fixed = true,")
+    result = _diagnose(tmp_path, "axis", text, drive=(1.3, 0.0), force_noise=0.02, counts=2**16, seed=1)
+    named = _named(result)
+    assert list(named) == ["drive_gain(q)"] and named["drive_gain(q)"]["gain"] == pytest.approx(1.3, rel=0.01)
+    values = result.response.parameter_values()
+    assert values["Fv"] == pytest.approx(AXIS["Fv"], rel=0.02) and values["Fc"] == pytest.approx(AXIS["Fc"], rel=0.02)
+
+
+@pytest.mark.slow
+def test_a_position_sensors_bias_is_named_where_gravity_is_known(tmp_path: Path) -> None:
+    """Joint 2's encoder reads 0.05 rad more than the angle (the loop holds the arm off by as much); with the
+    links' masses and centres of mass known, gravity shows it: sensor_bias(q2) 0.05 within 10 %, first. Nothing
+    else should be named; a second round still names q1's bias of −0.0015 rad (xfail, issue 34's next work)."""
+    text = models.arm()
+    for name, value in (("m1", "3.0"), ("m2", "2.0"), ("c1", "0.2"), ("c2", "0.15")):
+        text = text.replace(f"{name} = {value}\n", f"{name} = {{ value = {value}, fixed = true }}\n")
+    # the log holds the loop's command over each sample: declared, so that the diagnosis runs once. The
+    # equation-error search reads the bias as a payload on link 2 (a rotated centre of mass) when it may; left
+    # out here, this test is of the response (with it, the response still names the bias, 0.0495, but refits
+    # the payload's values too: minutes of compiling new sensitivities, bench/response.py)
+    from symbolic.workflow.effects import EFFECTS
+
+    effects = [e for k, e in EFFECTS.items() if k != "payload"] + list(RESPONSE_EFFECTS.values())
+    result = _diagnose(tmp_path, "arm", text, effects, counts=0, position_bias=(0.0, 0.05), force_noise=0.05,
+                       seed=1, layer="[identification]\nheld_force = true\n")
+    named = _named(result)
+    assert list(named)[0] == "sensor_bias(q2)" and named["sensor_bias(q2)"]["bias"] == pytest.approx(0.05, rel=0.1)
+    if len(named) > 1:  # a known defect, kept visible: near the floor a 10 % relative gain is cheap
+        pytest.xfail(f"named after the bias: {list(named)[1:]} (measured: sensor_bias(q1) -0.00146 rad, 10.8 % of "
+                     "a held-out error already at its floor)")
 
 
 @pytest.mark.slow

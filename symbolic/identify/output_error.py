@@ -640,6 +640,7 @@ def output_error(
     substeps: int | None = None,
     compiled: bool | None = None,
     initial: tuple[Any, Any] | None = None,
+    tolerance: float = SIGMA_TOLERANCE,
 ) -> OutputErrorFit:
     """Fit ``model``'s parameters by the output error of its closed loop on ``data`` (module docstring).
 
@@ -662,6 +663,9 @@ def output_error(
         Parameters kept at their values besides ``fixed = true`` ones.
     max_iterations
         Levenberg–Marquardt iterations before stopping unconverged.
+    tolerance
+        Converged when the Gauss–Newton step is below this many standard deviations of every estimate
+        (:data:`SIGMA_TOLERANCE`; a search that only compares fits may stop sooner).
     friction_velocity, substeps, compiled, initial
         As :func:`symbolic.simulation.simulate`'s: ``initial`` = (q0, q̇0) over the model's coordinates replaces
         the initial state estimated from the first samples (whose velocity, from a parabola through the
@@ -711,7 +715,7 @@ def output_error(
                                   "whose simulation stays finite")
     residuals = residuals.weighted_at(first, loop.layer_at(theta0))
     timings = {"setup": time.perf_counter() - started}
-    result = levenberg_marquardt(loop, residuals, theta0, lower, upper, max_iterations, timings)
+    result = levenberg_marquardt(loop, residuals, theta0, lower, upper, max_iterations, timings, tolerance)
     theta, J, r, y0, y, iterations, converged, message, cost0 = result
     scale = np.where(theta0 != 0, np.abs(theta0), 1.0)
     sigma = _sigmas(J * scale, float(r @ r)) * scale
@@ -796,8 +800,10 @@ def _in_sigmas(step: np.ndarray, J: np.ndarray, cost: float) -> float:
 
 
 def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndarray, lower: np.ndarray,
-                        upper: np.ndarray, max_iterations: int, timings: dict[str, float]):
-    """Marquardt's damped Gauss–Newton on θ/scale with steps projected onto the bounds.
+                        upper: np.ndarray, max_iterations: int, timings: dict[str, float],
+                        tolerance: float = SIGMA_TOLERANCE):
+    """Marquardt's damped Gauss–Newton on θ/scale with steps projected onto the bounds; converged (among the
+    other tests) when the Gauss–Newton step is below ``tolerance`` σ of every estimate.
 
     Returns (θ, J, r, y at θ₀, y at θ, iterations, converged, message, cost at θ₀); J and r at θ."""
     scale = np.where(theta0 != 0, np.abs(theta0), 1.0)
@@ -830,7 +836,7 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
         newton_step = (newton - theta) / scale
         within = _in_sigmas(newton_step, J, cost)
         if (cost - float(np.sum((r + J @ newton_step) ** 2)) <= COST_TOLERANCE * cost
-                or np.max(np.abs(newton_step)) < STEP_TOLERANCE or within < SIGMA_TOLERANCE):
+                or np.max(np.abs(newton_step)) < STEP_TOLERANCE or within < tolerance):
             return (theta, J / scale, r, y0, y, iteration - 1, True,
                     f"the Gauss-Newton step is {within:.2g} σ at most: a minimum", cost0)
         while True:

@@ -16,6 +16,12 @@ import numpy as np
 from symbolic.workflow.effects.on_response import Key, ResponseEffect, register_response
 
 
+MIN_BIAS = 1e-4
+"""A bias below this (rad or m: 0.006°, a tenth of a millimetre) is not named: no homing error is that small,
+and where the simulation already follows the log to its floor (exact positions) a bias of 4e-5 rad still
+"removed" 29 % of a held-out error of 0.003 %."""
+
+
 class SensorBias(ResponseEffect):
     identifier = "sensor_bias"
     summary = "a position sensor reads the coordinate plus a constant (a homing or index offset)"
@@ -35,6 +41,11 @@ class SensorBias(ResponseEffect):
     def roles_of(self, values: Mapping[Key, object], rate: float) -> dict[str, float]:
         (value,) = values.values()
         return {"bias": value.value}
+
+    def check(self, roles: Mapping[str, float]) -> str | None:
+        if not abs(roles["bias"]) >= MIN_BIAS:
+            return f"a bias of {roles['bias']:.3g} is below {MIN_BIAS:g} (not named: module docstring)"
+        return None
 
 
 register_response(SensorBias())
