@@ -57,9 +57,13 @@ def test_a_force_logged_late_is_named_as_a_delay(tmp_path: Path) -> None:
     patched = (tmp_path / "out" / "axis_patched.toml").read_text(encoding="utf-8")
     assert "corrected by the output error" in patched
     report = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
-    assert "## Judged on the response" in report and "[sensors] tau_q = { delay = " in report
+    assert "## Judged on the response" in report and "[sensors]\ntau_q = { delay = " in report
     data = result.to_dict()["response"]
-    assert data["named"][0]["effect"] == "delay" and data["experiment_lines"][0].startswith("[sensors] tau_q")
+    assert data["named"][0]["effect"] == "delay" and data["experiment_lines"][0] == "[sensors]"
+    import tomllib
+
+    declared = tomllib.loads("\n".join(data["experiment_lines"]))  # lines an experiment file takes as they are
+    assert abs(declared["sensors"]["tau_q"]["delay"] - 3.0) < 1.0
     json.dumps(data)
 
 

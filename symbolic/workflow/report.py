@@ -113,8 +113,8 @@ def _response(d: Diagnosis) -> list[str]:
     if r is None:
         return []
     lines = ["## Judged on the response", "",
-             f"The patched model simulated in the experiment's [controller] loop, compared on the {r.signals} "
-             "signal(s); each candidate's values fitted by output error on the estimation data and judged on the "
+             f"The patched model simulated in the experiment's [controller] loop, compared on "
+             f"{'force and position' if r.signals == 'both' else r.signals}; each candidate's values fitted by output error on the estimation data and judged on the "
              "held-out data (docs/workflow.md, \"Judged on the response\"). Errors are 100·‖measured − simulated‖"
              "/‖measured − mean‖ (%).", ""]
     rows = []

@@ -140,11 +140,16 @@ class ResponseSearch:
         return {k: v.value for k, v in _all_values(self.named[-1]).items() if k[0] != PARAMETER}
 
     def experiment_lines(self) -> list[str]:
-        """The ``[sensors]``/``[drive]`` lines that declare what was named."""
+        """The TOML lines (``[sensors]``/``[drive]`` tables and their entries) that declare what was named."""
         by_signal: dict[tuple[str, str], list[str]] = {}
         for (table, signal, name), value in self.layer_values().items():
             by_signal.setdefault((table, signal), []).append(f"{name} = {value:.6g}")
-        return [f"[{t}] {s} = {{ {', '.join(v)} }}" for (t, s), v in sorted(by_signal.items())]
+        lines: list[str] = []
+        for (table, signal), values in sorted(by_signal.items()):
+            if f"[{table}]" not in lines:
+                lines.append(f"[{table}]")
+            lines.append(f"{signal} = {{ {', '.join(values)} }}")
+        return lines
 
     def to_dict(self) -> dict[str, Any]:
         return {"signals": self.signals, "before": self.before, "after": self.after,

@@ -102,7 +102,7 @@ class ResponseEffect:
         lines = []
         for (table, signal, name), v in values.items():
             if table != PARAMETER:
-                lines.append(f"[{table}] {signal} = {{ {name} = {v.value:.6g} }}")
+                lines += [f"[{table}]", f"{signal} = {{ {name} = {v.value:.6g} }}"]
         return lines
 
     def describe(self) -> dict[str, Any]:
