@@ -52,9 +52,7 @@ def write_rig_experiment(folder: Path, *, Fc: float = 1.5e-3, seconds: float = 8
     ``gauge_noise`` in least significant bits of the gauge's converter."""
     from symbolic.data import write_columns
 
-    p = dict(P)
-    with_p = {**p}
-    assert abs(with_p["Ks"] - 0.26) < 1e-12  # the truth of tests/test_state_feedback.py
+    p = dict(P)  # the truth of tests/test_state_feedback.py (Ks 0.26)
     K = lqr()[0]
     rng = np.random.default_rng(seed)
     period = 1.0 / rate

@@ -34,7 +34,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from symbolic.data import DataError, Measurements, signal_layer
 from symbolic.derivation.dynamics import DynamicModel
@@ -231,16 +230,14 @@ def _corrections(model: DynamicModel, fit: OutputErrorFit) -> list[dict[str, Any
     """The model's values the output error moves from the patched model's (IDIM-LS's) by 3σ and 10 % at
     least: corrections found through the response, each with what it is (a stiffness, a damping, ...)."""
     from symbolic.workflow.corrections import parameter_kind
+    from symbolic.workflow.effects.correction import force_coordinate
 
     out = []
     for name, p in fit.parameters.items():
         before = _value(model, name)
         if abs(p.value - before) > max(3 * p.sigma, 0.1 * abs(before)):
-            symbol = next(q.symbol for q in model.robot.parameters if q.name == name)
-            coordinate = next((f.coordinate for f in model.robot.forces
-                               if symbol in sp.sympify(f.expression).free_symbols), "")
             out.append({"effect": "correction", "parameter": name, "kind": parameter_kind(model.robot, name),
-                        "coordinate": coordinate, "label": f"correction({name})", "value": p.value,
+                        "coordinate": force_coordinate(model.robot, name), "label": f"correction({name})", "value": p.value,
                         "sigma": p.sigma, "idim_ls": before,
                         "relative_change": (p.value - before) / before if before else None})
     return out

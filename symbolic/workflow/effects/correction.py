@@ -27,8 +27,6 @@ class Correction(ResponseEffect):
     guide = "the patched model file holds the corrected value; compare the modes before and after"
 
     def candidates(self, model, measurements, fixed: set[str]) -> list[ResponseCandidate]:
-        import sympy as sp
-
         from symbolic.workflow.corrections import parameter_kind
 
         robot = model.robot
@@ -38,9 +36,7 @@ class Correction(ResponseEffect):
                 continue
             if parameter_kind(robot, parameter.name) not in KINDS:
                 continue
-            # the coordinate of the [[force]] it is in; a beam's stiffness acts on the beam's modes ("")
-            coordinate = next((f.coordinate for f in robot.forces
-                               if parameter.symbol in sp.sympify(f.expression).free_symbols), "")
+            coordinate = force_coordinate(robot, parameter.name)
             value = float(model.parameters[parameter.symbol])
             out.append(ResponseCandidate(self, coordinate, ((PARAMETER, parameter.name, ""),), (value,)))
         return out
@@ -57,6 +53,15 @@ class Correction(ResponseEffect):
             return (f"moves the value by {100 * roles['relative_change']:.3g} % (a correction moves it by "
                     f"{100 * MIN_CHANGE:g} % at least, as IDIM-LS's corrections)")
         return None
+
+
+def force_coordinate(robot, name: str) -> str:
+    """The coordinate of the ``[[force]]`` whose expression holds parameter ``name`` ("" for none: a beam's
+    stiffness acts on the beam's modes)."""
+    import sympy as sp
+
+    symbol = next(p.symbol for p in robot.parameters if p.name == name)
+    return next((f.coordinate for f in robot.forces if symbol in sp.sympify(f.expression).free_symbols), "")
 
 
 register_response(Correction())
