@@ -372,15 +372,30 @@ def parameter_kind(robot: Robot, name: str) -> str:
 
 def review(model: DynamicModel, patched: DynamicModel, patched_values: Mapping[str, float], fit: FinalFit,
            written: Mapping[str, float], removed: Sequence[str], kept: Sequence[Mapping[str, Any]], data: DataSet,
-           notes: list[str], min_gain: float = MIN_HELD_OUT_GAIN) -> tuple[list[dict[str, Any]], list[dict[str, Any]], dict[str, Any] | None]:
+           notes: list[str], min_gain: float = MIN_HELD_OUT_GAIN,
+           elastic_rows: Sequence[int] = ()) -> tuple[list[dict[str, Any]], list[dict[str, Any]], dict[str, Any] | None]:
     """Corrections, changes and modes (module docstring) of a diagnosis: ``model`` the file's, ``patched``
     the patched one at ``patched_values``; ``written``, ``removed`` and ``kept`` what the patch did to the
-    file's own parameters; ``data`` the estimation data (their mean position, their ``[controller]``)."""
+    file's own parameters; ``data`` the estimation data (their mean position, their ``[controller]``).
+    ``elastic_rows``: coordinates (indices) whose rows two encoders showed elastic: a value acting on them is
+    not named a correction (the rigid fit there is not the machine's; the motor side's values are written)."""
     nominal = {p.name: p.value for p in model.robot.parameters}
     values = identified_values(fit, list(nominal))
     candidates = [v for v in values if v.significant and v.physical]
     lowered = lowered_values(fit, list(nominal), notes) if candidates else None
     found, moved = corrections(fit, values, model.robot, min_gain, lowered)
+    if elastic_rows:
+        columns, column_of = np.asarray(fit.columns["estimation"]), {v.parameter: v.column for v in values}
+        rows = list(elastic_rows)
+
+        def on_elastic_row(name: str) -> bool:
+            k = column_of.get(name)
+            return k is not None and bool(np.any(columns[:, rows, k] != 0))
+
+        notes += [f"{c['parameter']} is not named a correction: it acts on the row of an elastic joint, where the rigid "
+                  "fit absorbs the transmission" for c in found if on_elastic_row(c["parameter"])]
+        found = [c for c in found if not on_elastic_row(c["parameter"])]
+        moved = [m for m in moved if not on_elastic_row(m["parameter"])]
     notes += [moved_note(m, min_gain) for m in moved]
     sigma = {v.parameter: v.sigma for v in values if v.expression is None}
     flagged = {c["parameter"] for c in found}

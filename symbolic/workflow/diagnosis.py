@@ -42,6 +42,7 @@ from symbolic.description.robot import Robot
 from symbolic.workflow.corrections import FinalFit, physical_values, review
 from symbolic.workflow.dataset import DataSet, load_sets, with_held_force
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
+from symbolic.workflow.effects import joint_elasticity
 from symbolic.workflow.effects.on_response import RESPONSE_EFFECTS, ResponseEffect
 import symbolic.robots as robots
 from symbolic.workflow.patch import Editor
@@ -172,6 +173,12 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
         caveats.append(NOTHING_TO_REIDENTIFY)
     where_before = localise(estimation, before.predicted["estimation"])
     findings = held_force_finding(model, sets, before if not simulate else None, settings, search, fix)
+    elasticity = joint_elasticity.test_all(model.robot, sets, before.predicted["validation"],
+                                           (search or SearchSettings()).min_gain, settings)
+    elastic = [e for e in elasticity if e.named]
+    if elastic:  # the links' equations see where an elastic joint's link is: its encoder's position
+        sets = joint_elasticity.linked_sets(sets, [e.coordinate for e in elastic], settings)
+        estimation, held = sets["estimation"], sets["validation"]
     lap("gap")
     log.info("diagnose %s: gap %.4g %% (estimation), %.4g %% (held out); searching the catalogue",
              model.name, before.gap["estimation"], before.gap["validation"])
@@ -179,7 +186,8 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
         [e for e in effects if isinstance(e, ResponseEffect)]
     selection = Search(before.nominal.terms, estimation, held, cross_validate=validation is None,
                        effects=list(EFFECTS.values()) if effects is None else
-                       [e for e in effects if not isinstance(e, ResponseEffect)], settings=search)
+                       [e for e in effects if not isinstance(e, ResponseEffect)], settings=search,
+                       elastic=[e.coordinate for e in elastic])
     accepted = selection.run()
     finals = selection.final_effects()
     lap("search")
@@ -189,13 +197,20 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
     patched_text = patched_path = None
     if source.is_file() and source.suffix.lower() != ".urdf":  # a URDF has no TOML text to patch (note below)
         editor = Editor(source.read_text(encoding="utf-8"), model.robot, str(source))
-        written = []
+        written, written_elastic, flexes = [], [], set()
         for a, final in zip(accepted, finals):
             c = a.candidate
             editor.note(_evidence_comment(a, final, selection))
             label = f"symbolic diagnose: {c.label()}"
             written.append(c.effect.patch(editor, selection.context, c.j, final["roles"], final["coefficients_full"],
                                           c.value, label))
+        for e in elastic:
+            editor.note(f"symbolic diagnose: joint_elasticity({e.coordinate}) from the motor-side and link-side "
+                        f"encoders: k = {e.values['stiffness']:.6g} ± {e.sigmas['stiffness']:.2g}, the deflection "
+                        f"removes {100 * e.gain:.3g} % of the motor side's held-out residual power")
+            values, flex = joint_elasticity.patch(editor, model.robot, e, f"symbolic diagnose: joint_elasticity({e.coordinate})")
+            written_elastic.append(values)
+            flexes.add(flex)
         removed = editor.drop_unused()
         name = f"{model.name}_patched.toml"
         target = Path(out) / name if out is not None else Path(name)
@@ -203,16 +218,24 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
             patched = derive(loads(editor.text(), str(target)))
         except ModelError as error:
             raise ModelError(str(source), "patch", f"the patched model does not load ({error}); this is a bug of the workflow") from None
-        unmeasured = [c for c in patched.robot.generalized_coordinates if c not in estimation.coordinates
-                      and c not in model.robot.generalized_coordinates]
-        if unmeasured:
+        added = [c for c in patched.robot.generalized_coordinates if c not in estimation.coordinates
+                 and c not in model.robot.generalized_coordinates]
+        unmeasured = [c for c in added if c not in flexes]
+        if flexes:
+            notes.append(f"the patched model adds {', '.join(sorted(flexes))}, the deflection the link-side encoders "
+                         "measure (ql_<c> − q_<c>, the experiment lines of report.md): IDIM-LS cannot identify its "
+                         "homogeneous link equation (docs/workflow.md, \"Joint elasticity\"), so the gap after on "
+                         f"{', '.join(e.coordinate for e in elastic)} is the patched model's motor side, the rest the "
+                         "search's final fit")
+        if added:
             # an added coordinate the data lack (a second mass's deflection): the patched model cannot be
             # identified by IDIM-LS on these data; its fit is the search's final joint fit, whose columns are
             # the patched model's inverse dynamics along the measured motion (the load starting at rest)
-            notes.append(f"the patched model adds {', '.join(unmeasured)}, which the data do not measure: the gap "
-                         "after and the model's own values are those of the search's final joint fit")
+            if unmeasured:
+                notes.append(f"the patched model adds {', '.join(unmeasured)}, which the data do not measure: the gap "
+                             "after and the model's own values are those of the search's final joint fit")
             design = selection.final
-            predicted = {role: design.predicted(role) for role in sets}
+            predicted = _motor_sides({role: design.predicted(role) for role in sets}, elastic, estimation.coordinates)
             gap, detail = _gaps(sets, predicted)
             own_fit = final_nominal(before.nominal.terms, design.identification.values)
             after = Fit(patched, own_fit, predicted, gap, detail)
@@ -225,6 +248,9 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
         own = {k: v.value for k, v in after.nominal.parameters.items() if k in {p.name for p in model.robot.parameters}}
         own, unphysical = _physical_beams(patched.robot, own)
         notes += unphysical
+        for e in elastic:  # the rigid fit's friction on an elastic joint absorbs the link: the motor side's instead
+            own.update(joint_elasticity.motor_values(model.robot, e))
+        own = {k: v for k, v in own.items() if k in {p.name for p in patched.robot.parameters}}  # a rotor's replaced
         data_name = Path(str(estimation.measurements.source)).name
         patched_text, own, kept = physical_values(editor.text(), own, str(target),
                                                   f"re-identified by symbolic diagnose on {data_name}", model.robot)
@@ -232,7 +258,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
                   f"({k['reason']})" for k in kept]
         _check_loads(patched_text, target, source)
         patched_path = target if out is not None else None
-        measured_model = derive(loads(patched_text, str(target))) if unmeasured else patched
+        measured_model = derive(loads(patched_text, str(target))) if added else patched
         values = measured_model.parameter_vector.by_name()
         controller = _controller(estimation.measurements)
         period = float(estimation.measurements.sample_period)
@@ -241,13 +267,23 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
             roles, extra = c.effect.as_measured(measured_model, values, selection.context, c.j, final["roles"],
                                                 controller, period)
             final["fitted"], final["roles"], final["measured"] = final["roles"], dict(roles), extra
-        final_fit = FinalFit.of_design(before.nominal.terms, selection.final, sets) if unmeasured else \
+        final_fit = FinalFit.of_design(before.nominal.terms, selection.final, sets) if added else \
             FinalFit.of_nominal(after.nominal, sets)
         reviewed = review(model, patched, {**{s.name: float(v) for s, v in patched.parameters.items()}, **own},
-                          final_fit, own, removed, kept, estimation, notes, selection.settings.min_gain)
+                          final_fit, own, removed, kept, estimation, notes, selection.settings.min_gain,
+                          [estimation.coordinates.index(e.coordinate) for e in elastic])
+        if elastic:
+            motor = [c for e in elastic for c in joint_elasticity.motor_corrections(model.robot, e,
+                                                                                  selection.settings.min_gain)]
+            named = {c["parameter"] for c in motor}
+            changes = [{**c, "correction": c["correction"] or c["parameter"] in named} for c in reviewed[1]]
+            reviewed = ([*reviewed[0], *motor], changes, *reviewed[2:])
         before, where_before, simulate, after = _before_corrections(model, sets, simulate, fix, reviewed[0], before,
                                                                     where_before, after, caveats)
-        if wanted is not False and simulate and _controller(estimation.measurements) is not None and response_effects:
+        if wanted is not False and simulate and elastic:
+            notes.append("the search judged on the response did not run: the patched model's elastic joints need their "
+                         "link-side encoders as coordinates, which the simulated loop does not map yet")
+        elif wanted is not False and simulate and _controller(estimation.measurements) is not None and response_effects:
             lap("patch and shrink")
             determined = [n for n, v in after.nominal.parameters.items() if np.isfinite(v.sigma)]
             response = _judge_response(derive(loads(patched_text, str(target))), sets, response_effects, fix,
@@ -274,6 +310,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
     where_after = localise(estimation, after.predicted["estimation"])
     for a, final, parameters in zip(accepted, finals, written):
         found.append(_found(a, final, parameters, selection, validation is None))
+    found += [_found_elastic(e, w) for e, w in zip(elastic, written_elastic or [{} for _ in elastic])]
     for gone, p_value, others in selection.removed:
         c = gone.candidate
         notes.append(f"{c.label()} was accepted at round {gone.round} ({_roles_text(c.roles)}) and removed at the end: "
@@ -282,8 +319,27 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
     diagnosis = Diagnosis(model, sets, held_out, before, where_before, selection, tuple(found), patched_text,
                           patched_path, after, where_after, bool(simulate), seconds, tuple(notes), (), tuple(findings),
                           corrections=tuple(reviewed[0]), changes=tuple(reviewed[1]), modes=reviewed[2],
-                          caveats=tuple(caveats), cpu_seconds=cpu_seconds, response=response)
+                          caveats=tuple(caveats), cpu_seconds=cpu_seconds, response=response,
+                          elasticity=tuple(elasticity))
     return diagnosis
+
+
+def _motor_sides(predicted: dict[str, np.ndarray], elastic: Sequence[Any], coordinates: Sequence[str]) -> dict[str, np.ndarray]:
+    """``predicted`` with the columns of the elastic coordinates replaced by their motor sides' force (the patched
+    model's row minus its link row, :mod:`symbolic.workflow.effects.joint_elasticity`)."""
+    out = {role: np.array(p, dtype=float) for role, p in predicted.items()}
+    for e in elastic:
+        for role in out:
+            out[role][:, list(coordinates).index(e.coordinate)] = e.predicted[role]
+    return out
+
+
+def _found_elastic(e: Any, written: dict[str, float]) -> Found:
+    """A named joint elasticity as the JSON's ``found`` lists it (its test in ``joint_elasticity``)."""
+    roles = ("stiffness", "damping", "motor_inertia")
+    return Found("joint_elasticity", e.coordinate, {k: e.values[k] for k in roles}, {k: e.sigmas[k] for k in roles},
+                 dict(written), {"judged_on": "two encoders: the motor side's held-out force", "held_out_gain": e.gain,
+                                 "held_out_error_percent": dict(e.errors), "deflection_rms": e.deflection_rms})
 
 
 def _judge_response(patched: DynamicModel, sets: dict[str, DataSet], effects: Sequence[Any], fix: Sequence[str],

@@ -149,6 +149,17 @@ class Editor:
                 return {key: _text(dh.get(key, "0")) for key in ("theta", "d", "a", "alpha")}
         raise ModelError(self.source, f"[[frame]] {frame!r}", "not found in the file (this is a bug of the workflow)")
 
+    def set_frame_dh(self, frame: str, key: str, value: str, comment: str) -> None:
+        """Set one DH entry of ``[[frame]] frame`` (a joint that gains a deflection: θ = q + q_flex)."""
+        for table in self.document.get("frame", []):
+            if table.get("name") == frame:
+                if "dh" not in table:
+                    table["dh"] = tomlkit.inline_table()
+                table["dh"][key] = value
+                table["dh"].comment(comment)
+                return
+        raise ModelError(self.source, f"[[frame]] {frame!r}", "not found in the file (this is a bug of the workflow)")
+
     def _append(self, kind: str, entries: Mapping[str, Any], comment: str) -> None:
         table = tomlkit.table()
         for line in _lines(comment):

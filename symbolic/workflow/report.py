@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from symbolic.data.times import time_windows
-from symbolic.workflow.effects import NOT_SUPPORTED
+from symbolic.workflow.effects import NOT_SUPPORTED, joint_elasticity
 from symbolic.workflow.result import Diagnosis
 from symbolic.workflow.records import Candidate, Grouped, Judged
 
@@ -104,6 +104,34 @@ def _corrections(d: Diagnosis) -> list[str]:
         if loop is not None:
             lines += [f"In the data's [controller] loop: {mode(loop['before'])} → {mode(loop['after'])}."]
         lines.append("")
+    return lines
+
+
+def _elasticity(d: Diagnosis) -> list[str]:
+    """The two-encoder test of each joint whose link-side position is logged (docs/workflow.md, "Joint elasticity")."""
+    if not d.elasticity:
+        return []
+    lines = ["### Joint elasticity (two encoders)", "",
+             "Where a joint logs its link-side position (`ql_<c>`) beside the motor side's (`q_<c>`), the motor side's "
+             "equation τ = J_m·q̈ + Fv·q̇ + Fc·sgn(q̇) + b + k·δ + d·δ̇ (δ = q − q_l) is fitted on the estimation data "
+             "and judged on the held-out force: the deflection must remove at least "
+             f"{100 * d.search.settings.min_gain:g} % of the motor side's held-out residual power, k be positive and "
+             f"{joint_elasticity.MIN_SIGMAS:g} σ from zero, J_m positive, and the elastic motor side predict the force "
+             "at least as well as the rigid model's row. Held-out errors are 100·‖τ − τ̂‖/‖τ‖ (%).", ""]
+    rows = [[e.coordinate, _g(e.deflection_rms), _g(e.errors["rigid"]), _g(e.errors["motor_side"]), _g(e.errors["elastic"]),
+             f"{100 * e.gain:.3g} %",
+             ", ".join(f"{k} = {_g(e.values[k])} ± {_g(e.sigmas[k], 2)}" for k in ("stiffness", "damping", "motor_inertia")),
+             "named" if e.named else e.reason] for e in d.elasticity]
+    lines += _table(["coordinate", "deflection rms", "rigid row", "motor side without spring", "with spring",
+                     "held-out gain", "motor side (± σ)", "verdict"], rows)
+    named = [e for e in d.elasticity if e.named]
+    if named:
+        lines += ["", "The patched model holds each named joint as Spong's elastic joint (a coordinate `<c>_flex`, the link "
+                  "minus the motor, in the joint's DH entry; the transmission as a [[force]] on it; J_m as the drive's "
+                  "rotor inertia). To identify or simulate it, map the deflection in the experiment file:", "", "```toml"]
+        lines += [line for e in named for line in joint_elasticity.experiment_lines(e)[1 if e is not named[0] else 0:]]
+        lines += ["```"]
+    lines.append("")
     return lines
 
 
@@ -211,19 +239,22 @@ def markdown(d: Diagnosis) -> str:
               f"earns its place on its own coordinate (physical, the held-out gain, ΔBIC < 0 there) and the group is judged "
               f"on their rows together. The stacked figures (share / held-out gain over all coordinates) are shown, not "
               f"judged. At the end, effects that later ones made insignificant are removed.", ""]
-    if d.found:
+    searched = [f for f in d.found if f.effect != "joint_elasticity"]
+    if searched:
         rows = [[f.label(), f.coordinate, _roles(f.parameters, f.sigmas), _roles(f.model_parameters),
                  f"{100 * f.evidence['explained_share']:.3g} %", _g(f.evidence["p_value"], 3),
                  f"{100 * f.evidence['held_out_gain']:.3g} %", _g(f.evidence["delta_bic"]),
                  ", ".join(f"{x['effect']}{' (in ' + x['variant'] + ')' if 'variant' in x else ''} on {x['coordinate']}"
                            for x in f.evidence["alternatives"]) or "none",
                  f.evidence["group"]["name"] if "group" in f.evidence else "on its own"]
-                for f in d.found]
+                for f in searched]
         lines += _table(["effect", "coordinate", "parameters (final fit, ± σ)", "written as", "explained (own)",
                          "p (own rows)", "held-out gain (own)", "ΔBIC (own rows)", "ties", "accepted"], rows)
     else:
-        lines.append("**No significant missing effect.**")
+        lines.append("**No significant missing effect.**" if not d.found else
+                     "**No significant missing effect** beyond the joint elasticity below.")
     lines.append("")
+    lines += _elasticity(d)
     header = ["effect", "coordinate", "parameters", "explained (own)", "p (own rows)", "held-out gain (own)",
               "stacked: explained / held-out gain", "ΔBIC", "verdict"]
     for r in d.search.rounds:

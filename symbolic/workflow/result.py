@@ -108,6 +108,9 @@ class Diagnosis:
     response: Any = None
     """The search judged on the response (:class:`symbolic.workflow.response.ResponseSearch`) of a diagnosis
     on the simulated path with the machine's controller; ``None`` otherwise."""
+    elasticity: tuple[Any, ...] = ()
+    """The two-encoder tests of joint elasticity (:class:`symbolic.workflow.effects.joint_elasticity.Elasticity`),
+    named or not, one per coordinate whose link-side position is logged."""
     cpu_seconds: dict[str, float] = field(default_factory=dict)
     """CPU time of each step, this process's and its finished children's (the search's forked half, a compiler):
     ``seconds`` is the wall time; on a shared machine only the CPU time repeats."""
@@ -151,6 +154,7 @@ class Diagnosis:
             "parameter_changes": _plain(list(self.changes)),
             "modes": _plain(self.modes),
             "response": None if self.response is None else _plain(self.response.to_dict()),
+            "joint_elasticity": [_plain(e.to_dict()) for e in self.elasticity],
             "notes": list(self.notes),
             "figures": [str(p) for p in self.figures],
         }

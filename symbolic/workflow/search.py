@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,6 +27,7 @@ from symbolic.identify.least_squares import Identification
 from symbolic.workflow import forked
 from symbolic.workflow.dataset import DataSet
 from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals, excluded, groups
+from symbolic.workflow.effects.joint_elasticity import ELASTIC_ROW
 from symbolic.workflow.separability import Separability
 from symbolic.workflow.records import Accepted, Candidate, Group, Grouped, Judged, Round, SearchSettings
 from symbolic.workflow.statistics import (autocorrelation_time, combined_f_test, pooled_autocorrelation_time,
@@ -90,7 +91,8 @@ class Search:
     """Forward selection over ``effects`` (module docstring)."""
 
     def __init__(self, terms: ModelTerms, estimation: DataSet, validation: DataSet, *, cross_validate: bool,
-                 effects: Sequence[Effect] | None = None, settings: SearchSettings | None = None) -> None:
+                 effects: Sequence[Effect] | None = None, settings: SearchSettings | None = None,
+                 elastic: Iterable[str] = ()) -> None:
         self.terms = terms
         self.sets = {"estimation": estimation, "validation": validation}
         self.cross_validate = cross_validate
@@ -105,7 +107,7 @@ class Search:
         self.context = Context(terms.model.robot, estimation.coordinates, s.q[inner], s.qd[inner], s.qdd[inner], passband,
                                p.decimation / p.rate, float(estimation.t[-1] - estimation.t[0]), float(p.rate), terms.model,
                                frozenset(c for c, column in zip(estimation.coordinates, np.asarray(estimation.tau).T)
-                                         if not np.any(column)), terms=terms)
+                                         if not np.any(column)), terms=terms, elastic=frozenset(elastic))
         self.hypotheses = self._hypotheses()
         self.rounds: list[Round] = []
         self.accepted: list[Accepted] = []
@@ -120,13 +122,14 @@ class Search:
         (:attr:`~symbolic.workflow.effects.base.Effect.together`), on every
         coordinate and on each named group (at least two coordinates each)."""
         coordinates = tuple(self.context.coordinates)
-        sets: list[tuple[str | None, tuple[str, ...]]] = [(None, coordinates)]
+        open_rows = tuple(c for c in coordinates if c not in self.context.elastic)
+        sets: list[tuple[str | None, tuple[str, ...]]] = [(None, open_rows)]
         for name, members in self.settings.groups.items():
             unknown = [c for c in members if c not in coordinates]
             if unknown:
                 raise ModelError(str(self.context.robot.source), f"group {name!r}",
                                  f"unknown coordinate(s) {', '.join(unknown)} (allowed: the data's {', '.join(coordinates)})")
-            sets.append((name, tuple(dict.fromkeys(members))))
+            sets.append((name, tuple(c for c in dict.fromkeys(members) if c not in self.context.elastic)))
         if not self.settings.grouped:
             return []
         groupable = [e for e in self.effects if e.groupable and e.nonlinear is None]
@@ -710,7 +713,7 @@ class _RoundState:
         if clash:
             c.status, c.reason = "not applicable", f"{clash[0]} was accepted on {coordinate}"
             return c
-        reason = effect.applicable(search.context, j)
+        reason = ELASTIC_ROW if coordinate in search.context.elastic else effect.applicable(search.context, j)
         if reason:
             c.status, c.reason = "not applicable", reason
             return c

@@ -49,6 +49,10 @@ class Context:
     terms: Any = None
     """The model's terms as the search fits them (:class:`symbolic.workflow.terms.ModelTerms`): which base
     columns are free (a parameter kept at its value, ``fixed = true`` or ``--fix``, is not); ``None``: all."""
+    elastic: frozenset[str] = frozenset()
+    """Coordinates whose transmission two encoders show elastic (``joint_elasticity`` named,
+    :mod:`symbolic.workflow.effects.joint_elasticity`): their rows are the motor side's, which no effect of
+    the catalogue acts on."""
 
     def kind(self, coordinate: str) -> str:
         """``"revolute"`` (the coordinate is in a DH θ), ``"prismatic"`` (in a d) or ``"modal"``

@@ -1,0 +1,339 @@
+"""``joint_elasticity``: a joint's transmission is a spring between the motor and the link, read from two encoders.
+
+Where a joint logs its motor-side position (the loop's encoder, ``q_<c>``, in link units) and a link-side one
+behind the transmission (the extra signal ``ql_<c>``, docs/data.md), the deflection δ = q − q_l is measured.
+Spong's reduced model of an elastic joint splits the joint's equation in two (Spong 1987; a rigid transmission
+is its limit k → ∞):
+
+    τ = J_m·q̈ + Fv·q̇ + Fc·sgn(q̇) + b + k·δ + d·δ̇          (the motor side: rotor and gear)
+    k·δ + d·δ̇ = the link's own dynamics at q_l                  (the link side)
+
+The motor side holds no model of the link at all: the transmitted torque k·δ + d·δ̇ carries it. So on the
+motor side's equation alone, with the deflection measured, k and d are linear and separable from the rotor's
+inertia, friction and a constant b (an offset of the force or a zero of the encoders). The rigid model's row
+is the sum of the two sides, in which k never appears: no column of the inverse dynamics can name it, and the
+equation-error search does not try.
+
+The judge is the held-out data: the motor side with δ and δ̇ must explain the held-out force better than the
+motor side without them by the search's effect size (the same 10 % of the coordinate's residual power), k must be
+positive and 5 σ from zero, J_m positive and at most 95 % of the joint's whole inertia (the motor side's fitted
+without the spring: the link the spring carries has the rest), and the motor side with the spring must predict the held-out force at
+least as well as the whole rigid model's row (else the deflection columns absorb something else: a scale error
+of the link encoder, say). On a rigid joint the two encoders differ by their resolutions: δ is noise, the
+motor side without the link's dynamics stays far worse than the rigid row, and nothing is named.
+
+Without a link-side encoder nothing is tried here (from the response alone the elasticity is a
+``flexible_mode``'s second mass on the coordinate: that effect's case).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from symbolic.data.treatment import Settings, states
+from symbolic.description.names import coefficient_name
+from symbolic.description.units import coordinate_kind
+from symbolic.workflow.effects.base import joint_frame
+
+LINK_PREFIX = "ql_"
+"""The extra signal of a coordinate's link-side position (``ql_<c>``, in the coordinate's units)."""
+
+MIN_SIGMAS = 5.0
+"""The stiffness must lie this many standard errors from zero (the response search's threshold)."""
+
+LINK_SHARE = 0.05
+"""The link's share of the joint's inertia (J − J_m)/J must reach this: a spring that carries the link carries its
+inertia. A link encoder with a scale error on a rigid joint makes δ ∝ q, which a "spring" fits like gravity while
+J_m stays the whole joint's (a 1 % scale error left 1.2 % to the link in the tests); a geared wrist whose rotor
+dominates still leaves its link more than this."""
+
+COLUMNS = ("motor_inertia", "viscous", "coulomb", "offset", "stiffness", "damping")
+"""The motor side's coefficients, in the order of its columns (module docstring)."""
+
+ELASTIC_ROW = ("two encoders show its transmission elastic (joint_elasticity): its row is the motor side's, "
+               "whose deflection carries the link")
+"""Why the equation-error search tries nothing on a coordinate whose elasticity is named (the Context's ``elastic``)."""
+
+UNITS = {"stiffness": "{force}/{position}", "damping": "{force}·s/{position}", "motor_inertia": "{inertia}"}
+
+
+@dataclass(frozen=True)
+class Elasticity:
+    """One coordinate's test (module docstring): the motor side's fit and the held-out errors.
+
+    Attributes
+    ----------
+    coordinate
+        The coordinate (its ``ql_<c>`` logged).
+    values, sigmas
+        The motor side's coefficients by :data:`COLUMNS` and their standard errors (estimation data); ``values``
+        also holds ``joint_inertia``, the motor side's inertia fitted without the spring (the whole joint's).
+    errors
+        Held-out force error (% of the force's power, root): ``rigid`` (the model's row), ``motor_side``
+        (without the spring), ``elastic`` (with it).
+    gain
+        Held-out share of the motor side's residual power the spring removes.
+    deflection_rms
+        RMS of the measured deflection δ = q − q_l over the estimation data.
+    named
+        Whether the elasticity is named; ``reason``: why not.
+    """
+
+    coordinate: str
+    values: Mapping[str, float]
+    sigmas: Mapping[str, float]
+    errors: Mapping[str, float]
+    gain: float
+    deflection_rms: float
+    named: bool
+    reason: str | None
+    predicted: Mapping[str, np.ndarray] = dataclasses.field(default_factory=dict, repr=False)
+    """The motor side's force with the spring, per data set (``estimation``, ``validation``; reduced samples)."""
+    design: tuple[np.ndarray, ...] = dataclasses.field(default=(), repr=False)
+    """The motor side's columns and force, estimation then held out (for :meth:`held_out_error_with`)."""
+
+    def held_out_error_with(self, role: str, value: float) -> float:
+        """The held-out error (%) of the motor side with ``role``'s coefficient held at ``value`` and the others
+        fitted again on the estimation data."""
+        x, y, xh, yh = self.design
+        k = COLUMNS.index(role)
+        others = [i for i in range(len(COLUMNS)) if i != k]
+        c, _ = _fit(x[:, others], y - value * x[:, k])
+        return _error(yh, xh[:, others] @ c + value * xh[:, k])
+
+    def frequency_hz(self, joint_inertia: float) -> float | None:
+        """The link's mode with the motor held, √(k/J_l)/2π, J_l = ``joint_inertia`` − J_m (None if J_l ≤ 0)."""
+        link = joint_inertia - self.values["motor_inertia"]
+        return math.sqrt(self.values["stiffness"] / link) / (2 * math.pi) if link > 0 and self.values["stiffness"] > 0 \
+            else None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"effect": "joint_elasticity", "coordinate": self.coordinate, "named": self.named,
+                "reason": self.reason, "values": dict(self.values), "sigmas": dict(self.sigmas),
+                "held_out_error_percent": dict(self.errors), "gain": self.gain,
+                "deflection_rms": self.deflection_rms}
+
+
+def logged_links(measurements: Any) -> list[str]:
+    """The coordinates of ``measurements`` whose link-side position ``ql_<c>`` is logged."""
+    return [c for c in measurements.coordinates if LINK_PREFIX + c in measurements.extras]
+
+
+def _sides(data: Any, j: int, settings: Settings | None) -> tuple[np.ndarray, np.ndarray]:
+    """The motor side's columns (samples × 6, reduced like τ) and the force on coordinate ``j``: the motor's
+    and the link's positions through the same treatment (both differentiated alike, so that δ̇ is the
+    difference of their velocities)."""
+    m = data.measurements
+    c = m.coordinates[j]
+    motor = states(dataclasses.replace(m, qd=None, qdd=None), settings)
+    q = np.array(m.q, dtype=float)
+    q[:, j] = np.asarray(m.extras[LINK_PREFIX + c], dtype=float)
+    link = states(dataclasses.replace(m, q=q, qd=None, qdd=None), settings)
+    reduce = data.states.processing.reduce
+    qd, qdd = motor.qd[:, j], motor.qdd[:, j]
+    delta, delta_d = motor.q[:, j] - link.q[:, j], motor.qd[:, j] - link.qd[:, j]
+    columns = np.column_stack([qdd, qd, np.sign(qd), np.ones_like(qd), delta, delta_d])
+    return reduce(columns), np.asarray(data.tau)[:, j]
+
+
+def _fit(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares with the columns scaled; coefficients and their standard errors."""
+    scale = np.linalg.norm(x, axis=0)
+    scale[scale == 0] = 1.0
+    solution, *_ = np.linalg.lstsq(x / scale, y, rcond=None)
+    residual = y - (x / scale) @ solution
+    dof = max(len(y) - x.shape[1], 1)
+    covariance = np.linalg.pinv((x / scale).T @ (x / scale)) * float(residual @ residual) / dof
+    return solution / scale, np.sqrt(np.clip(np.diag(covariance), 0.0, None)) / scale
+
+
+def _error(y: np.ndarray, predicted: np.ndarray) -> float:
+    return 100.0 * float(np.linalg.norm(y - predicted) / max(np.linalg.norm(y), 1e-300))
+
+
+def test_all(robot: Any, sets: Mapping[str, Any], rigid_held: np.ndarray, min_gain: float,
+             settings: Settings | None = None) -> list[Elasticity]:
+    """:func:`test` on every coordinate whose link-side position is logged (not named where the model cannot
+    hold the elasticity: :func:`applicable`); ``rigid_held``: the rigid model's held-out force, ``samples × N``."""
+    estimation = sets["estimation"]
+    out = []
+    for c in logged_links(estimation.measurements):
+        found = test(sets, c, rigid_held[:, estimation.coordinates.index(c)], min_gain, settings)
+        why = applicable(robot, c)
+        out.append(found if why is None or not found.named else dataclasses.replace(found, named=False, reason=why))
+    return out
+
+
+def test(sets: Mapping[str, Any], coordinate: str, rigid_held: np.ndarray, min_gain: float,
+         settings: Settings | None = None) -> Elasticity:
+    """Test ``coordinate``'s transmission (module docstring) on the estimation and held-out data sets;
+    ``rigid_held``: the rigid model's prediction of the held-out force on that coordinate (reduced samples)."""
+    estimation, held = sets["estimation"], sets["validation"]
+    j = estimation.coordinates.index(coordinate)
+    x, y = _sides(estimation, j, settings)
+    xh, yh = _sides(held, j, settings)
+    rigid_columns = [0, 1, 2, 3]
+    c0, _ = _fit(x[:, rigid_columns], y)
+    c, sigma = _fit(x, y)
+    e0 = float(np.sum((yh - xh[:, rigid_columns] @ c0) ** 2))
+    e1 = float(np.sum((yh - xh @ c) ** 2))
+    gain = 1.0 - e1 / e0 if e0 > 0 else 0.0
+    errors = {"rigid": _error(yh, rigid_held), "motor_side": _error(yh, xh[:, rigid_columns] @ c0),
+              "elastic": _error(yh, xh @ c)}
+    values = {**dict(zip(COLUMNS, map(float, c))), "joint_inertia": float(c0[0])}
+    sigmas = dict(zip(COLUMNS, map(float, sigma)))
+    reason = _reason(values, sigmas, errors, gain, min_gain)
+    return Elasticity(coordinate, values, sigmas, errors, gain, float(np.sqrt(np.mean(x[:, 4] ** 2))),
+                      reason is None, reason, {"estimation": x @ c, "validation": xh @ c}, (x, y, xh, yh))
+
+
+def _reason(values: Mapping[str, float], sigmas: Mapping[str, float], errors: Mapping[str, float], gain: float,
+            min_gain: float) -> str | None:
+    """Why the elasticity is not named (module docstring), or ``None``."""
+    k, sk = values["stiffness"], sigmas["stiffness"]
+    if not gain >= min_gain:
+        return (f"the deflection explains {100 * gain:.3g} % of the motor side's held-out residual power "
+                f"(< {100 * min_gain:g} %)")
+    if not (k > 0 and k >= MIN_SIGMAS * sk):
+        return f"the stiffness {k:.4g} ± {sk:.2g} is not positive and {MIN_SIGMAS:g} σ from zero"
+    if not values["motor_inertia"] > 0:
+        return f"the motor side's inertia {values['motor_inertia']:.4g} is not positive"
+    whole = values["joint_inertia"]
+    if not whole - values["motor_inertia"] >= LINK_SHARE * abs(whole):
+        return (f"the motor side keeps {values['motor_inertia']:.4g} of the joint's {whole:.4g} inertia: less than "
+                f"{100 * LINK_SHARE:g} % is left to the link the spring would carry (a scale or zero error of the "
+                "link encoder, not a transmission)")
+    if not errors["elastic"] <= errors["rigid"]:
+        return (f"the elastic motor side predicts the held-out force worse ({errors['elastic']:.4g} %) than the "
+                f"rigid model ({errors['rigid']:.4g} %): the deflection absorbs something else")
+    return None
+
+
+def linked(measurements: Any, coordinates: Sequence[str]) -> Any:
+    """``measurements`` with the positions of ``coordinates`` read from their link-side encoders (``ql_<c>``), and
+    a measured velocity or acceleration of theirs replaced by the link position's central differences (the link's
+    own were not logged)."""
+    from symbolic.data.filters import central_difference
+
+    columns = [measurements.coordinates.index(c) for c in coordinates]
+    q = np.array(measurements.q, dtype=float)
+    for j, c in zip(columns, coordinates):
+        q[:, j] = np.asarray(measurements.extras[LINK_PREFIX + c], dtype=float)
+    changes: dict[str, Any] = {"q": q}
+    h = measurements.sample_period
+    for name, order in (("qd", 1), ("qdd", 2)):
+        given = getattr(measurements, name)
+        if given is not None:
+            x = np.array(given, dtype=float)
+            for j in columns:
+                column = q[:, j]
+                for _ in range(order):
+                    column = central_difference(column, h)
+                x[:, j] = column
+            changes[name] = x
+    return dataclasses.replace(measurements, **changes)
+
+
+def linked_sets(sets: Mapping[str, Any], coordinates: Sequence[str], settings: Settings | None = None) -> dict[str, Any]:
+    """The data sets of a diagnosis treated again with :func:`linked` positions: once a joint is named elastic, the
+    links' equations (every other row) see where its link is, not where its motor is."""
+    from symbolic.workflow.dataset import treat
+
+    def again(data: Any) -> Any:
+        record = None if data.record is None else again(data.record)
+        return dataclasses.replace(treat(linked(data.measurements, coordinates), data.role, settings), record=record,
+                                   start=data.start)
+
+    return {role: again(data) for role, data in sets.items()}
+
+
+def applicable(robot: Any, coordinate: str) -> str | None:
+    """Why the model cannot hold ``coordinate``'s elasticity (no frame turns or slides with it alone), or ``None``."""
+    return None if joint_frame(robot, coordinate) is not None else f"no frame moves with {coordinate} alone"
+
+
+def patch(editor: Any, robot: Any, found: Elasticity, comment: str) -> tuple[dict[str, float], str]:
+    """Write the elastic joint into the model file (Spong's model): the coordinate stays the motor side (its
+    drive's rotor inertia becomes J_m), a new coordinate ``<c>_flex`` = q_l − q (the link's angle minus the
+    motor's, = −δ) is added to the joint's DH θ (or d), so that the link and everything after it hang on
+    q + q_flex, and a ``[[force]]`` −k·q_flex − d·q̇_flex acts on it. Returns the parameters written and the
+    new coordinate's name."""
+    c, v = found.coordinate, found.values
+    frame = joint_frame(robot, c)
+    if frame is None:
+        raise ValueError(applicable(robot, c))
+    ratio = next((float(d.ratio) for d in robot.drives if d.coordinate == c and not getattr(d.ratio, "free_symbols", ())),
+                 1.0)
+    k = editor.parameter(coefficient_name("k", f"{c}_joint"), v["stiffness"], comment + "; the transmission's stiffness")
+    damping = max(v["damping"], 0.0)
+    d = editor.parameter(coefficient_name("d", f"{c}_joint"), damping, comment + "; the transmission's damping")
+    rotor = editor.parameter(coefficient_name("Ia", c), v["motor_inertia"] / ratio**2,
+                             comment + f"; the rotor's inertia (J_m = Ia·ratio² = {v['motor_inertia']:.6g} at the joint)")
+    editor.set_drive(c, "rotor_inertia", rotor, comment)
+    flex = editor.coordinate(f"{c}_flex", comment + "; the link's position minus the motor's")
+    key = "theta" if coordinate_kind(robot, c) == "revolute" else "d"
+    editor.set_frame_dh(frame.name, key, f"{editor.frame_dh(frame.name)[key]} + {flex}", comment + "; the link turns with "
+                        f"the motor plus the deflection")
+    editor.add_force(f"transmission_{c}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
+    return {k: v["stiffness"], d: damping, rotor: v["motor_inertia"] / ratio**2}, flex
+
+
+def motor_roles(robot: Any, coordinate: str) -> dict[str, str]:
+    """``{parameter: "viscous" | "coulomb"}``: the model file's friction on the coordinate where its ``[[friction]]``
+    viscous or Coulomb coefficient is one parameter of ``[parameters]``."""
+    names = {p.name for p in robot.parameters}
+    out = {}
+    for friction in robot.frictions:
+        if friction.coordinate == coordinate:
+            for role in ("viscous", "coulomb"):
+                symbol = getattr(friction, role, None)
+                if symbol is not None and getattr(symbol, "is_Symbol", False) and symbol.name in names:
+                    out[symbol.name] = role
+    return out
+
+
+def motor_values(robot: Any, found: Elasticity) -> dict[str, float]:
+    """The model file's friction parameters on the joint (:func:`motor_roles`) at the motor side's values. The
+    rigid fit's values are skewed there (the link's dynamics it cannot hold leak into them); the motor side
+    holds them exactly."""
+    return {name: found.values[role] for name, role in motor_roles(robot, found.coordinate).items()}
+
+
+def motor_corrections(robot: Any, found: Elasticity, min_gain: float) -> list[dict[str, Any]]:
+    """The model file's friction values on the joint that its motor side moves beyond 3σ and 10 % and that predict
+    the held-out force worse by at least ``min_gain`` of its residual power (the corrections' rule of
+    :mod:`symbolic.workflow.corrections`, read from the motor side's fit)."""
+    from symbolic.workflow.corrections import RELATIVE, SIGMAS
+
+    nominal = {p.name: float(p.value) for p in robot.parameters}
+    out = []
+    for name, role in motor_roles(robot, found.coordinate).items():
+        value, sigma, file_value = found.values[role], found.sigmas[role], nominal[name]
+        if not (abs(value - file_value) > SIGMAS * sigma and abs(value - file_value) > RELATIVE * abs(file_value)):
+            continue
+        at_file, with_value = found.held_out_error_with(role, file_value), found.errors["elastic"]
+        gain = 1.0 - (with_value / at_file) ** 2 if at_file > 0 else 0.0
+        if gain < min_gain:
+            continue
+        factor = value / file_value if file_value else None
+        how = (f"{1 / factor:.3g}× too high" if factor and factor < 1 else f"{factor:.3g}× too low") if factor else "wrong"
+        out.append({"parameter": name, "nominal": file_value, "value": value, "sigma": sigma,
+                    "relative_change": None if not file_value else (value - file_value) / abs(file_value),
+                    "evidence": {"sigmas": abs(value - file_value) / sigma if sigma else None,
+                                 "held_out_gap": with_value, "held_out_gap_at_nominal": at_file, "held_out_gain": gain,
+                                 "kind": "friction", "from": f"the motor side of {found.coordinate} (two encoders)"},
+                    "summary": f"friction {name} is {how} (model file {file_value:.4g}, motor side {value:.4g} ± "
+                               f"{sigma:.2g})"})
+    return out
+
+
+def experiment_lines(found: Elasticity) -> list[str]:
+    """The [signals] lines that give the patched model's new coordinate from the two encoders (its force is 0)."""
+    c = found.coordinate
+    return ["[signals]", f'q_{c}_flex = "{LINK_PREFIX}{c} - q_{c}"', f'tau_{c}_flex = "0"']
