@@ -451,14 +451,16 @@ class _DiagnoseHelp(argparse.Action):
         super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
 
     def __call__(self, parser: argparse.ArgumentParser, namespace, values, option_string=None) -> None:
-        from symbolic.workflow.effect_summaries import response_summaries, summaries  # no SymPy, no NumPy
+        from symbolic.workflow.effect_summaries import response_summaries, summaries, two_encoder_summaries
 
-        effects, response = summaries(), response_summaries()
-        width = max(map(len, [*effects, *response]))
+        effects, response, encoders = summaries(), response_summaries(), two_encoder_summaries()  # no SymPy, no NumPy
+        width = max(map(len, [*effects, *response, *encoders]))
         parser.epilog = "effects (--effects NAMES; default: all; --list-effects: their parameters and units):\n" + \
             "\n".join(f"  {name:{width}s}  {summary}" for name, summary in effects.items()) + \
             "\njudged on the response (with --simulate; --no-response leaves them out):\n" + \
-            "\n".join(f"  {name:{width}s}  {summary}" for name, summary in response.items())
+            "\n".join(f"  {name:{width}s}  {summary}" for name, summary in response.items()) + \
+            "\nfrom a joint's motor-side and link-side encoders (tested wherever ql_<c> is logged):\n" + \
+            "\n".join(f"  {name:{width}s}  {summary}" for name, summary in encoders.items())
         parser.print_help()
         parser.exit()
 
@@ -478,6 +480,12 @@ class _ListEffects(argparse.Action):
         for key, e in RESPONSE_EFFECTS.items():
             roles = ", ".join(f"{r} ({unit})" for r, unit in e.roles.items())
             print(f"{key}  {e.summary}  [{roles}]  (judged on the response: --simulate)")
+        from symbolic.workflow.effects.joint_elasticity import SUMMARIES
+
+        roles = {"joint_elasticity": "stiffness ({force}/{position}), damping ({force}·s/{position}), motor_inertia "
+                                     "({inertia})", "backlash": "width ({position})"}
+        for key, summary in SUMMARIES.items():
+            print(f"{key}  {summary}  [{roles[key]}]  (where ql_<c> is logged)")
         parser.exit()
 
 

@@ -6,6 +6,9 @@ angle divided by the gear ratio):
     J_m·θ̈ = u − Fv·θ̇ − Fc·sgn(θ̇) − k·(θ − q) − d·(θ̇ − q̇)         (the motor: rotor and gear, set-valued friction)
     J_l·q̈ = k·(θ − q) + d·(θ̇ − q̇) − m·g·c·cos q                      (the link: a body at c from the joint)
 
+With backlash b the transmitted torque k·(θ − q) + d·(θ̇ − q̇) becomes k·(δ ∓ b/2) + d·δ̇ in contact and 0 inside
+the dead band |δ| ≤ b/2 (δ = θ − q).
+
 Spong's reduced model of a flexible joint. The motor is integrated by the exact solution of a 1-DOF axis with
 viscous and set-valued Coulomb friction under a constant torque (tests/reference_integrator.interval: it sticks
 while |torque| ≤ Fc at rest), the spring's torque held over each fine step; the link by symplectic Euler; 50 fine
@@ -77,8 +80,18 @@ def model_text(**values: float) -> str:
     return MODEL.format(**{**TRUTH, **values})
 
 
+def transmitted(theta: float, w: float, q: float, v: float, p: dict, k: str = "k", d: str = "d") -> float:
+    """The torque through the transmission: k·(δ ∓ b/2) + d·δ̇ in contact, 0 inside the dead band |δ| < b/2
+    (``p["backlash"]`` = b, the band's whole width; 0: a spring); ``k``, ``d``: the keys of p to read."""
+    half = 0.5 * p.get("backlash", 0.0)
+    delta = theta - q
+    if abs(delta) <= half:
+        return 0.0
+    return p[k] * (delta - math.copysign(half, delta)) + p[d] * (w - v)
+
+
 def _link_acceleration(q: float, v: float, theta: float, w: float, p: dict) -> float:
-    return (p["k"] * (theta - q) + p["d"] * (w - v) - p["m"] * p["g"] * p["c"] * math.cos(q)) / p["Jl"]
+    return (transmitted(theta, w, q, v, p) - p["m"] * p["g"] * p["c"] * math.cos(q)) / p["Jl"]
 
 
 def run(t: np.ndarray, reference: np.ndarray, p: dict, *, motor_counts: float, link_counts: float,
@@ -90,7 +103,8 @@ def run(t: np.ndarray, reference: np.ndarray, p: dict, *, motor_counts: float, l
     link_step = 2 * math.pi / link_counts
     start = float(reference[0])
     # at rest on the reference: the spring holds the link's weight
-    theta, w = start + (0.0 if rigid else p["m"] * p["g"] * p["c"] * math.cos(start) / p["k"]), 0.0
+    sag = p["m"] * p["g"] * p["c"] * math.cos(start) / p["k"]
+    theta, w = start + (0.0 if rigid else sag + math.copysign(0.5 * p.get("backlash", 0.0), sag)), 0.0
     q, v = start, 0.0
     integral, previous, last_reference = 0.0, None, float(reference[0])
     motor, link, command = (np.empty(len(t)) for _ in range(3))
@@ -111,7 +125,7 @@ def run(t: np.ndarray, reference: np.ndarray, p: dict, *, motor_counts: float, l
                 theta, w = interval(theta, w, u - weight, h, p["Jm"] + p["Jl"], p["Fv"], p["Fc"])
                 q, v = theta, w
                 continue
-            spring = p["k"] * (theta - q) + p["d"] * (w - v)
+            spring = transmitted(theta, w, q, v, p)
             theta, w = interval(theta, w, u - spring, h, p["Jm"], p["Fv"], p["Fc"])
             v += h * _link_acceleration(q, v, theta, w, p)
             q += h * v
@@ -120,13 +134,15 @@ def run(t: np.ndarray, reference: np.ndarray, p: dict, *, motor_counts: float, l
 
 def write_joint_experiment(folder: Path, *, stiffness: float | None = None, rigid: bool = False, seconds: float = 6.0,
                            rate: float = 1000.0, motor_counts: float = 2**17 * GEAR, link_counts: float = 2**20,
-                           force_noise: float = 0.02, seed: int = 0, link_offset: float = 0.0) -> Path:
+                           force_noise: float = 0.02, seed: int = 0, link_offset: float = 0.0,
+                           backlash: float = 0.0) -> Path:
     """``folder/joint.csv`` and ``folder/joint.experiment.toml`` of the joint under its cascade; ``stiffness``
     replaces the truth's k, ``rigid``: a stiff transmission (motor and link one body of inertia J_m + J_l, each
-    encoder reading it), ``link_offset`` shifts the link encoder's zero."""
+    encoder reading it), ``link_offset`` shifts the link encoder's zero, ``backlash`` is the transmission's dead
+    band (its whole width, rad; the damper acts in contact only)."""
     from symbolic.data import write_columns
 
-    p = dict(TRUTH)
+    p = {**TRUTH, "backlash": backlash}
     if stiffness is not None:
         p["k"] = stiffness
     t = np.arange(int(round(seconds * rate))) / rate
@@ -191,7 +207,8 @@ def arm_run(t: np.ndarray, reference: np.ndarray, p: dict, *, rigid: bool, motor
     kp, kv, ki = (np.array(ARM_LOOP[k]) for k in ("kp_position", "kp_velocity", "ki_velocity"))
     q, v = reference[0].copy(), np.zeros(2)  # the links; the motor theta, w of joint 2 (elastic case)
     _, weight = _arm_terms(q, v, p)
-    theta, w = q[1] + (0.0 if rigid else weight[1] / p["k2"]), 0.0
+    sag = weight[1] / p["k2"]
+    theta, w = q[1] + (0.0 if rigid else sag + math.copysign(0.5 * p.get("backlash", 0.0), sag)), 0.0
     integral, previous = np.zeros(2), None
     motor, link, command = np.empty((len(t), 2)), np.empty(len(t)), np.empty((len(t), 2))
     for k in range(len(t)):
@@ -213,7 +230,7 @@ def arm_run(t: np.ndarray, reference: np.ndarray, p: dict, *, rigid: bool, motor
                 v = moreau(mass, force, v, h, 1, p["Fc2"])
                 q = q + h * v
                 continue
-            spring = p["k2"] * (theta - q[1]) + p["d2"] * (w - v[1])
+            spring = transmitted(theta, w, q[1], v[1], p, "k2", "d2")
             full = np.zeros((3, 3))
             full[:2, :2], full[2, 2] = mass, p["Jm2"]
             force = np.array([u[0] - terms[0] - p["Fv1"] * v[0], spring - terms[1], u[1] - spring - p["Fv2"] * w])
@@ -233,15 +250,16 @@ rotor_inertia = "Jm2"
 
 def write_arm_joint_experiment(folder: Path, *, rigid: bool = False, seconds: float = 6.0, rate: float = 1000.0,
                                motor_counts: float = 2**17 * GEAR, link_counts: float = 2**20, force_noise: float = 0.02,
-                               seed: int = 0) -> Path:
+                               seed: int = 0, stiffness: float | None = None, backlash: float = 0.0) -> Path:
     """``folder/arm.csv`` and ``folder/arm.experiment.toml`` of the two-link arm with joint 2 elastic (``rigid``:
-    stiff) under the cascade on the motor encoders; joint 2's link encoder logged as ``ql_q2``."""
+    stiff) under the cascade on the motor encoders; joint 2's link encoder logged as ``ql_q2``; ``stiffness``
+    replaces k2, ``backlash`` is joint 2's dead band."""
     from symbolic.data import write_columns
 
     t = np.arange(int(round(seconds * rate))) / rate
     reference = np.array([-0.6, 0.8]) + np.column_stack([reference_motion(t, 0.3), reference_motion(t + 0.37, 0.3)])
-    motor, link, command = arm_run(t, reference, ARM_TRUTH, rigid=rigid, motor_counts=motor_counts,
-                                   link_counts=link_counts)
+    p = {**ARM_TRUTH, "backlash": backlash, **({} if stiffness is None else {"k2": stiffness})}
+    motor, link, command = arm_run(t, reference, p, rigid=rigid, motor_counts=motor_counts, link_counts=link_counts)
     logged = command + np.random.default_rng(seed).normal(0.0, force_noise, command.shape)
     folder.mkdir(parents=True, exist_ok=True)
     write_columns({"t": t, "q_q1": motor[:, 0], "q_q2": motor[:, 1], "ql_q2": link, "tau_q1": logged[:, 0],

@@ -195,9 +195,10 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
     found: list[Found] = []
     wanted, response = response, None
     patched_text = patched_path = None
+    written_elastic: list[dict[str, float]] = []
     if source.is_file() and source.suffix.lower() != ".urdf":  # a URDF has no TOML text to patch (note below)
         editor = Editor(source.read_text(encoding="utf-8"), model.robot, str(source))
-        written, written_elastic, flexes = [], [], set()
+        written, flexes = [], set()
         for a, final in zip(accepted, finals):
             c = a.candidate
             editor.note(_evidence_comment(a, final, selection))
@@ -310,7 +311,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
     where_after = localise(estimation, after.predicted["estimation"])
     for a, final, parameters in zip(accepted, finals, written):
         found.append(_found(a, final, parameters, selection, validation is None))
-    found += [_found_elastic(e, w) for e, w in zip(elastic, written_elastic or [{} for _ in elastic])]
+    found += [f for e, w in zip(elastic, written_elastic or [{} for _ in elastic]) for f in _found_elastic(e, w)]
     for gone, p_value, others in selection.removed:
         c = gone.candidate
         notes.append(f"{c.label()} was accepted at round {gone.round} ({_roles_text(c.roles)}) and removed at the end: "
@@ -334,12 +335,21 @@ def _motor_sides(predicted: dict[str, np.ndarray], elastic: Sequence[Any], coord
     return out
 
 
-def _found_elastic(e: Any, written: dict[str, float]) -> Found:
-    """A named joint elasticity as the JSON's ``found`` lists it (its test in ``joint_elasticity``)."""
+def _found_elastic(e: Any, written: dict[str, float]) -> list[Found]:
+    """A named joint elasticity as the JSON's ``found`` lists it (its test in ``joint_elasticity``), and its
+    backlash when one is named."""
     roles = ("stiffness", "damping", "motor_inertia")
-    return Found("joint_elasticity", e.coordinate, {k: e.values[k] for k in roles}, {k: e.sigmas[k] for k in roles},
-                 dict(written), {"judged_on": "two encoders: the motor side's held-out force", "held_out_gain": e.gain,
-                                 "held_out_error_percent": dict(e.errors), "deflection_rms": e.deflection_rms})
+    evidence = {"judged_on": "two encoders: the motor side's held-out force", "held_out_gain": e.gain,
+                "held_out_error_percent": dict(e.errors), "deflection_rms": e.deflection_rms}
+    out = [Found("joint_elasticity", e.coordinate, {k: e.values[k] for k in roles}, {k: e.sigmas[k] for k in roles},
+                 dict(written), evidence)]
+    band = e.backlash
+    if band is not None and band["named"]:
+        out.append(Found("backlash", e.coordinate, {"width": band["width"]}, {"width": None},
+                         {k: v for k, v in written.items() if k.startswith("backlash")},
+                         {**evidence, "held_out_gain": band["gain"], "centre": band["centre"],
+                          "judged_on": "two encoders: the spring's held-out force with and without the dead band"}))
+    return out
 
 
 def _judge_response(patched: DynamicModel, sets: dict[str, DataSet], effects: Sequence[Any], fix: Sequence[str],

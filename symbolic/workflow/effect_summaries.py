@@ -47,6 +47,14 @@ def response_summaries(folder: Path = FOLDER) -> dict[str, str]:
     return {key: summary for key, (_, summary) in sorted(found.items(), key=lambda item: (item[1][0], item[0]))}
 
 
+def two_encoder_summaries(folder: Path = FOLDER) -> dict[str, str]:
+    """{name: summary} of the two-encoder test (``SUMMARIES`` of joint_elasticity.py, a dict literal)."""
+    for node in ast.parse((folder / "joint_elasticity.py").read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "SUMMARIES" for t in node.targets):
+            return dict(ast.literal_eval(node.value))
+    return {}
+
+
 def _literals(cls: ast.ClassDef) -> dict[str, object]:
     """The class's attributes assigned string literals, also by tuple unpacking (``name, roles = "x", (...)``)."""
     out: dict[str, object] = {}

@@ -114,16 +114,17 @@ def _elasticity(d: Diagnosis) -> list[str]:
     lines = ["### Joint elasticity (two encoders)", "",
              "Where a joint logs its link-side position (`ql_<c>`) beside the motor side's (`q_<c>`), the motor side's "
              "equation τ = J_m·q̈ + Fv·q̇ + Fc·sgn(q̇) + b + k·δ + d·δ̇ (δ = q − q_l) is fitted on the estimation data "
-             "and judged on the held-out force: the deflection must remove at least "
+             "and judged on the held-out force (a dead band in the spring, backlash, is then tried against it): the "
+             "deflection must remove at least "
              f"{100 * d.search.settings.min_gain:g} % of the motor side's held-out residual power, k be positive and "
              f"{joint_elasticity.MIN_SIGMAS:g} σ from zero, J_m positive, and the elastic motor side predict the force "
              "at least as well as the rigid model's row. Held-out errors are 100·‖τ − τ̂‖/‖τ‖ (%).", ""]
     rows = [[e.coordinate, _g(e.deflection_rms), _g(e.errors["rigid"]), _g(e.errors["motor_side"]), _g(e.errors["elastic"]),
              f"{100 * e.gain:.3g} %",
              ", ".join(f"{k} = {_g(e.values[k])} ± {_g(e.sigmas[k], 2)}" for k in ("stiffness", "damping", "motor_inertia")),
-             "named" if e.named else e.reason] for e in d.elasticity]
+             "named" if e.named else e.reason, _band(e.backlash)] for e in d.elasticity]
     lines += _table(["coordinate", "deflection rms", "rigid row", "motor side without spring", "with spring",
-                     "held-out gain", "motor side (± σ)", "verdict"], rows)
+                     "held-out gain", "motor side (± σ)", "verdict", "dead band (backlash)"], rows)
     named = [e for e in d.elasticity if e.named]
     if named:
         lines += ["", "The patched model holds each named joint as Spong's elastic joint (a coordinate `<c>_flex`, the link "
@@ -133,6 +134,14 @@ def _elasticity(d: Diagnosis) -> list[str]:
         lines += ["```"]
     lines.append("")
     return lines
+
+
+def _band(backlash: dict[str, Any] | None) -> str:
+    """The dead band's test in a cell: its width, centre and held-out gain over the spring, and the verdict."""
+    if backlash is None:
+        return "not tried"
+    head = f"width {_g(backlash['width'])} about {_g(backlash['centre'])}, removes {100 * backlash['gain']:.3g} %"
+    return f"{head}: named" if backlash["named"] else f"{head}: {backlash['reason']}"
 
 
 def _response(d: Diagnosis) -> list[str]:
@@ -239,7 +248,7 @@ def markdown(d: Diagnosis) -> str:
               f"earns its place on its own coordinate (physical, the held-out gain, ΔBIC < 0 there) and the group is judged "
               f"on their rows together. The stacked figures (share / held-out gain over all coordinates) are shown, not "
               f"judged. At the end, effects that later ones made insignificant are removed.", ""]
-    searched = [f for f in d.found if f.effect != "joint_elasticity"]
+    searched = [f for f in d.found if f.effect not in ("joint_elasticity", "backlash")]
     if searched:
         rows = [[f.label(), f.coordinate, _roles(f.parameters, f.sigmas), _roles(f.model_parameters),
                  f"{100 * f.evidence['explained_share']:.3g} %", _g(f.evidence["p_value"], 3),

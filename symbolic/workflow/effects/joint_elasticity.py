@@ -41,6 +41,10 @@ from symbolic.description.names import coefficient_name
 from symbolic.description.units import coordinate_kind
 from symbolic.workflow.effects.base import joint_frame
 
+SUMMARIES = {"joint_elasticity": "an elastic transmission between motor and link: k·δ + d·δ̇ (from two encoders, ql_<c>)",
+             "backlash": "a dead band in an elastic transmission, with its width (from two encoders, ql_<c>)"}
+"""What ``diagnose --help`` and ``--list-effects`` say of the two-encoder test (read from this text, not imported)."""
+
 LINK_PREFIX = "ql_"
 """The extra signal of a coordinate's link-side position (``ql_<c>``, in the coordinate's units)."""
 
@@ -60,7 +64,6 @@ ELASTIC_ROW = ("two encoders show its transmission elastic (joint_elasticity): i
                "whose deflection carries the link")
 """Why the equation-error search tries nothing on a coordinate whose elasticity is named (the Context's ``elastic``)."""
 
-UNITS = {"stiffness": "{force}/{position}", "damping": "{force}·s/{position}", "motor_inertia": "{inertia}"}
 
 
 @dataclass(frozen=True)
@@ -97,6 +100,10 @@ class Elasticity:
     """The motor side's force with the spring, per data set (``estimation``, ``validation``; reduced samples)."""
     design: tuple[np.ndarray, ...] = dataclasses.field(default=(), repr=False)
     """The motor side's columns and force, estimation then held out (for :meth:`held_out_error_with`)."""
+    backlash: Mapping[str, Any] | None = None
+    """The dead band's test where the spring is named (:func:`_backlash`): ``width``, ``centre`` (of the logged
+    deflection: the encoders' zeros differ by it), ``gain`` and ``named``/``reason``; ``None`` when not tried. When
+    named, ``values`` are the spring's in contact."""
 
     def held_out_error_with(self, role: str, value: float) -> float:
         """The held-out error (%) of the motor side with ``role``'s coefficient held at ``value`` and the others
@@ -117,7 +124,7 @@ class Elasticity:
         return {"effect": "joint_elasticity", "coordinate": self.coordinate, "named": self.named,
                 "reason": self.reason, "values": dict(self.values), "sigmas": dict(self.sigmas),
                 "held_out_error_percent": dict(self.errors), "gain": self.gain,
-                "deflection_rms": self.deflection_rms}
+                "deflection_rms": self.deflection_rms, "backlash": None if self.backlash is None else dict(self.backlash)}
 
 
 def logged_links(measurements: Any) -> list[str]:
@@ -125,21 +132,47 @@ def logged_links(measurements: Any) -> list[str]:
     return [c for c in measurements.coordinates if LINK_PREFIX + c in measurements.extras]
 
 
-def _sides(data: Any, j: int, settings: Settings | None) -> tuple[np.ndarray, np.ndarray]:
-    """The motor side's columns (samples × 6, reduced like τ) and the force on coordinate ``j``: the motor's
-    and the link's positions through the same treatment (both differentiated alike, so that δ̇ is the
-    difference of their velocities)."""
+@dataclass(frozen=True)
+class _Motion:
+    """One data set's motor side at every sample (before the treatment's reduction) and its reduced force."""
+
+    qdd: np.ndarray
+    qd: np.ndarray
+    delta: np.ndarray
+    delta_d: np.ndarray
+    reduce: Any
+    tau: np.ndarray
+
+    def columns(self, band: float = 0.0, centre: float = 0.0) -> np.ndarray:
+        """The motor side's columns (:data:`COLUMNS`), reduced like τ. With a dead band of width ``band`` about
+        ``centre`` (backlash), the spring and the damper act in contact only: k·(x ∓ band/2) and d·δ̇ where
+        |x| = |δ − centre| > band/2, nothing inside."""
+        if band <= 0.0:
+            spring, damper = self.delta, self.delta_d
+        else:
+            x = self.delta - centre
+            contact = np.abs(x) > 0.5 * band
+            spring, damper = np.where(contact, x - np.sign(x) * 0.5 * band, 0.0), np.where(contact, self.delta_d, 0.0)
+        return self.reduce(np.column_stack([self.qdd, self.qd, np.sign(self.qd), np.ones_like(self.qd), spring, damper]))
+
+
+def _motion(data: Any, j: int, settings: Settings | None) -> _Motion:
+    """The motor side of coordinate ``j``: the motor's and the link's positions through the same treatment (both
+    differentiated alike, so that δ̇ is the difference of their velocities)."""
     m = data.measurements
     c = m.coordinates[j]
     motor = states(dataclasses.replace(m, qd=None, qdd=None), settings)
     q = np.array(m.q, dtype=float)
     q[:, j] = np.asarray(m.extras[LINK_PREFIX + c], dtype=float)
     link = states(dataclasses.replace(m, q=q, qd=None, qdd=None), settings)
-    reduce = data.states.processing.reduce
-    qd, qdd = motor.qd[:, j], motor.qdd[:, j]
-    delta, delta_d = motor.q[:, j] - link.q[:, j], motor.qd[:, j] - link.qd[:, j]
-    columns = np.column_stack([qdd, qd, np.sign(qd), np.ones_like(qd), delta, delta_d])
-    return reduce(columns), np.asarray(data.tau)[:, j]
+    return _Motion(motor.qdd[:, j], motor.qd[:, j], motor.q[:, j] - link.q[:, j], motor.qd[:, j] - link.qd[:, j],
+                   data.states.processing.reduce, np.asarray(data.tau)[:, j])
+
+
+def _sides(data: Any, j: int, settings: Settings | None) -> tuple[np.ndarray, np.ndarray]:
+    """The motor side's columns (samples × 6, reduced like τ) and the force on coordinate ``j`` (a spring)."""
+    motion = _motion(data, j, settings)
+    return motion.columns(), motion.tau
 
 
 def _fit(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -173,11 +206,12 @@ def test_all(robot: Any, sets: Mapping[str, Any], rigid_held: np.ndarray, min_ga
 def test(sets: Mapping[str, Any], coordinate: str, rigid_held: np.ndarray, min_gain: float,
          settings: Settings | None = None) -> Elasticity:
     """Test ``coordinate``'s transmission (module docstring) on the estimation and held-out data sets;
-    ``rigid_held``: the rigid model's prediction of the held-out force on that coordinate (reduced samples)."""
+    ``rigid_held``: the rigid model's prediction of the held-out force on that coordinate (reduced samples).
+    Where the spring is named, a dead band in it (:func:`_backlash`) is tested against it."""
     estimation, held = sets["estimation"], sets["validation"]
     j = estimation.coordinates.index(coordinate)
-    x, y = _sides(estimation, j, settings)
-    xh, yh = _sides(held, j, settings)
+    motion, motion_held = _motion(estimation, j, settings), _motion(held, j, settings)
+    x, y, xh, yh = motion.columns(), motion.tau, motion_held.columns(), motion_held.tau
     rigid_columns = [0, 1, 2, 3]
     c0, _ = _fit(x[:, rigid_columns], y)
     c, sigma = _fit(x, y)
@@ -189,8 +223,58 @@ def test(sets: Mapping[str, Any], coordinate: str, rigid_held: np.ndarray, min_g
     values = {**dict(zip(COLUMNS, map(float, c))), "joint_inertia": float(c0[0])}
     sigmas = dict(zip(COLUMNS, map(float, sigma)))
     reason = _reason(values, sigmas, errors, gain, min_gain)
-    return Elasticity(coordinate, values, sigmas, errors, gain, float(np.sqrt(np.mean(x[:, 4] ** 2))),
-                      reason is None, reason, {"estimation": x @ c, "validation": xh @ c}, (x, y, xh, yh))
+    found = Elasticity(coordinate, values, sigmas, errors, gain, float(np.sqrt(np.mean(x[:, 4] ** 2))),
+                       reason is None, reason, {"estimation": x @ c, "validation": xh @ c}, (x, y, xh, yh))
+    return _backlash(found, motion, motion_held, min_gain) if found.named else found
+
+
+BACKLASH_GRID = 25
+"""Points per axis of the dead band's grid: its width from 0 to 90 % of the deflection's range, its centre over the
+deflection's 2–98 % quantiles; the best point is refined by a simplex search."""
+
+
+def _backlash(found: Elasticity, motion: _Motion, held: _Motion, min_gain: float) -> Elasticity:
+    """``found`` with a dead band in its spring when one is named: the band's width and centre fitted on the
+    estimation data (a grid, then a simplex search), named when the band removes at least ``min_gain`` of the
+    spring's held-out residual power, its stiffness is positive and the width lies inside the range searched."""
+    import scipy.optimize
+
+    y, yh = motion.tau, held.tau
+    low, high = np.quantile(motion.delta, [0.02, 0.98])
+    span = high - low
+
+    def cost(point: np.ndarray) -> float:
+        band, centre = float(point[0]), float(point[1])
+        if band < 0.0:
+            return math.inf
+        x = motion.columns(band, centre)
+        c, _ = _fit(x, y)
+        return float(np.sum((y - x @ c) ** 2))
+
+    grid = [(b, m) for b in np.linspace(0.0, 0.9 * span, BACKLASH_GRID) for m in np.linspace(low, high, BACKLASH_GRID)]
+    start = min(grid, key=lambda point: cost(np.array(point)))
+    best = scipy.optimize.minimize(cost, np.array(start), method="Nelder-Mead",
+                                   options={"xatol": 1e-4 * span, "fatol": 1e-12, "maxiter": 400}).x
+    band, centre = max(float(best[0]), 0.0), float(best[1])
+    x, xh = motion.columns(band, centre), held.columns(band, centre)
+    c, sigma = _fit(x, y)
+    spring_power = float(np.sum((yh - found.predicted["validation"]) ** 2))
+    gain = 1.0 - float(np.sum((yh - xh @ c) ** 2)) / spring_power if spring_power > 0 else 0.0
+    why = None
+    if not gain >= min_gain:
+        why = f"a dead band removes {100 * gain:.3g} % of the spring's held-out residual power (< {100 * min_gain:g} %)"
+    elif not c[4] > 0:
+        why = f"the stiffness in contact {c[4]:.4g} is not positive"
+    elif not band < 0.85 * span:
+        why = f"the band's width {band:.4g} reaches the edge of the range searched (90 % of the deflection's)"
+    backlash = {"width": band, "centre": centre, "gain": gain, "named": why is None, "reason": why}
+    if why is not None:
+        return dataclasses.replace(found, backlash=backlash)
+    values = {**found.values, **dict(zip(COLUMNS, map(float, c)))}
+    errors = {**found.errors, "elastic": _error(yh, xh @ c)}
+    return dataclasses.replace(found, values=values, sigmas=dict(zip(COLUMNS, map(float, sigma))), errors=errors,
+                               predicted={"estimation": x @ c, "validation": xh @ c},
+                               design=(x, y, xh, yh), backlash=backlash)
 
 
 def _reason(values: Mapping[str, float], sigmas: Mapping[str, float], errors: Mapping[str, float], gain: float,
@@ -279,9 +363,16 @@ def patch(editor: Any, robot: Any, found: Elasticity, comment: str) -> tuple[dic
     flex = editor.coordinate(f"{c}_flex", comment + "; the link's position minus the motor's")
     key = "theta" if coordinate_kind(robot, c) == "revolute" else "d"
     editor.set_frame_dh(frame.name, key, f"{editor.frame_dh(frame.name)[key]} + {flex}", comment + "; the link turns with "
-                        f"the motor plus the deflection")
-    editor.add_force(f"transmission_{c}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
-    return {k: v["stiffness"], d: damping, rotor: v["motor_inertia"] / ratio**2}, flex
+                        "the motor plus the deflection")
+    band = found.backlash if found.backlash is not None and found.backlash["named"] else None
+    if band is None:
+        editor.add_force(f"transmission_{c}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
+        return {k: v["stiffness"], d: damping, rotor: v["motor_inertia"] / ratio**2}, flex
+    b = editor.parameter(coefficient_name("backlash", c), band["width"], comment + "; the dead band's whole width")
+    contact = f"(1 + sign(abs({flex}) - {b}/2))/2"  # 1 in contact, 0 inside the band
+    editor.add_force(f"transmission_{c}", flex, f"-({k}*({flex} - {b}/2*sign({flex})) + {d}*qd_{flex})*{contact}",
+                     comment + "; the spring and damper act in contact only")
+    return {k: v["stiffness"], d: damping, rotor: v["motor_inertia"] / ratio**2, b: band["width"]}, flex
 
 
 def motor_roles(robot: Any, coordinate: str) -> dict[str, str]:
@@ -334,6 +425,9 @@ def motor_corrections(robot: Any, found: Elasticity, min_gain: float) -> list[di
 
 
 def experiment_lines(found: Elasticity) -> list[str]:
-    """The [signals] lines that give the patched model's new coordinate from the two encoders (its force is 0)."""
+    """The [signals] lines that give the patched model's new coordinate from the two encoders (its force is 0);
+    with a dead band, its centre is the encoders' zero difference and moves to the deflection's mapping."""
     c = found.coordinate
-    return ["[signals]", f'q_{c}_flex = "{LINK_PREFIX}{c} - q_{c}"', f'tau_{c}_flex = "0"']
+    band = found.backlash if found.backlash is not None and found.backlash["named"] else None
+    shift = "" if band is None else f" {'-' if band['centre'] < 0 else '+'} {abs(band['centre']):.6g}"
+    return ["[signals]", f'q_{c}_flex = "{LINK_PREFIX}{c} - q_{c}{shift}"', f'tau_{c}_flex = "0"']

@@ -1,0 +1,208 @@
+"""``joint_elasticity``: a transmission's stiffness from a motor-side and a link-side encoder (docs/workflow.md,
+"Joint elasticity").
+
+The truth is tests/elastic_reference.py's: Spong's elastic joint (a rotor with set-valued Coulomb friction, a
+spring and damper to the link) integrated without the product's simulator, under the industrial PI velocity
+cascade on the motor encoder, encoders of 2^17 counts per motor turn through 1:100 and 2^20 on the link, force
+noise. The searching code never sees it: it reads the log and the rigid model file.
+
+* one geared joint (k = 400 N·m/rad, the link's mode 8.2 Hz) and joint 2 of the two-link arm (k = 300): named with
+  k, and the rotor's inertia, within 10 %; nothing else named; the held-out gap falls to the noise's level; the
+  patched model loads with the deflection coordinate; the motor side's friction written;
+* the same joints rigid, over seeds and encoder resolutions: nothing named;
+* a rigid joint whose link encoder has a scale error or sits one sample late: not named (the checks of the module);
+* the motor side's fit itself on a case with known coefficients: exact to rounding.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import elastic_reference as truth
+import models
+from symbolic.description.modelfile import loads
+from symbolic.derivation.dynamics import derive
+from symbolic.workflow import diagnose
+from symbolic.workflow.effects import joint_elasticity
+
+
+def _joint(folder, **kwargs):
+    experiment = truth.write_joint_experiment(folder, **kwargs)
+    model = folder / "joint.toml"
+    model.write_text(truth.model_text(), encoding="utf-8")
+    return model, experiment
+
+
+def _arm(folder, **kwargs):
+    experiment = truth.write_arm_joint_experiment(folder, **kwargs)
+    model = folder / "arm.toml"
+    model.write_text(models.arm(parameters=models.ARM_PARAMETERS + "Jm2 = 0.01\n", extra=truth.ARM_MODEL_EXTRA),
+                     encoding="utf-8")
+    return model, experiment
+
+
+def _named(result) -> list[tuple[str, str]]:
+    return [(f.effect, f.coordinate) for f in result.found]
+
+
+def test_geared_joint_is_named_with_its_stiffness(tmp_path):
+    model, experiment = _joint(tmp_path)
+    result = diagnose(str(model), str(experiment), out=tmp_path / "out")
+    assert _named(result) == [("joint_elasticity", "q")]
+    (found,) = result.found
+    assert found.parameters["stiffness"] == pytest.approx(truth.TRUTH["k"], rel=0.10)
+    assert found.parameters["motor_inertia"] == pytest.approx(truth.TRUTH["Jm"], rel=0.10)
+    # the held-out gap: the rigid model misses the link's lag behind the motor; the motor side leaves the noise
+    assert result.before.gap["validation"] > 10.0 and result.after.gap["validation"] < 2.0
+    patched = derive(loads(result.patched_text, str(tmp_path / "p.toml")))
+    assert patched.robot.generalized_coordinates == ("q", "q_flex")
+    values = {p.name: float(p.value) for p in patched.robot.parameters}
+    assert values["k_q_joint"] == pytest.approx(truth.TRUTH["k"], rel=0.10)
+    # the motor side's friction, not the rigid fit's (which the link's lag skews), is written
+    assert values["Fv"] == pytest.approx(truth.TRUTH["Fv"], rel=0.10)
+    assert values["Fc"] == pytest.approx(truth.TRUTH["Fc"], rel=0.10)
+    (test,) = json.loads(json.dumps(result.to_dict()))["joint_elasticity"]
+    assert test["named"] and test["coordinate"] == "q"
+    report = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
+    assert "### Joint elasticity (two encoders)" in report and 'q_q_flex = "ql_q - q_q"' in report
+
+
+def test_joint_of_an_arm_is_named_and_the_other_joint_left_alone(tmp_path):
+    model, experiment = _arm(tmp_path)
+    result = diagnose(str(model), str(experiment))
+    assert _named(result) == [("joint_elasticity", "q2")]
+    (found,) = result.found
+    assert found.parameters["stiffness"] == pytest.approx(truth.ARM_TRUTH["k2"], rel=0.10)
+    assert found.parameters["motor_inertia"] == pytest.approx(truth.ARM_TRUTH["Jm2"], rel=0.10)
+    # joint 1's row sees link 2 where it is (its encoder): its held-out gap falls with joint 2's
+    detail = result.after.detail["validation"]
+    assert detail["q1"] < 0.5 and detail["q2"] < 1.0
+    # the model file's joint 2 friction (0.5, 0.4) is wrong against the truth (0.2, 0.3): named from the motor side
+    corrected = {c["parameter"]: c["value"] for c in result.corrections}
+    assert corrected["Fv2"] == pytest.approx(truth.ARM_TRUTH["Fv2"], rel=0.10)
+    assert corrected["Fc2"] == pytest.approx(truth.ARM_TRUTH["Fc2"], rel=0.10)
+
+
+def test_backlash_is_named_with_its_width(tmp_path):
+    """A geared joint whose transmission has a dead band of 0.01 rad around a 2000 N·m/rad spring."""
+    model, experiment = _joint(tmp_path, stiffness=2000.0, backlash=0.01)
+    result = diagnose(str(model), str(experiment))
+    assert _named(result) == [("joint_elasticity", "q"), ("backlash", "q")]
+    elastic, band = result.found
+    assert band.parameters["width"] == pytest.approx(0.01, rel=0.10)
+    assert elastic.parameters["stiffness"] == pytest.approx(2000.0, rel=0.10)
+    assert result.after.gap["validation"] < 2.0 < 50.0 < result.before.gap["validation"]
+    patched = derive(loads(result.patched_text, str(tmp_path / "p.toml")))
+    values = {p.name: float(p.value) for p in patched.robot.parameters}
+    assert values["backlash_q"] == pytest.approx(0.01, rel=0.10)
+    (force,) = [f for f in patched.robot.forces if f.coordinate == "q_flex"]
+    # inside the band nothing is transmitted; in contact the spring acts from the band's edge
+    symbols = {s.name: s for s in force.expression.free_symbols}
+    expression = force.expression.subs({symbols[k]: v for k, v in values.items() if k in symbols})
+
+    def torque(deflection: float, rate: float) -> float:
+        return float(expression.subs({symbols["q_flex"]: deflection, symbols["q_flex_dot"]: rate}))
+
+    assert torque(0.004, 0.3) == 0.0
+    assert torque(0.015, 0.0) == pytest.approx(-values["k_q_joint"] * (0.015 - values["backlash_q"] / 2), rel=1e-12)
+
+
+@pytest.mark.slow
+def test_backlash_on_a_joint_of_an_arm(tmp_path):
+    model, experiment = _arm(tmp_path, stiffness=2000.0, backlash=0.008)
+    result = diagnose(str(model), str(experiment))
+    assert ("backlash", "q2") in _named(result) and ("joint_elasticity", "q2") in _named(result)
+    band = next(f for f in result.found if f.effect == "backlash")
+    assert band.parameters["width"] == pytest.approx(0.008, rel=0.10)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="a known false naming: with joint 2's backlash, the equation-error search names a "
+                   "flexible_mode(q1) of 0.001 kg·m² at 4.7 Hz, 55 % of a 0.43 % residual on joint 1 (the impacts' "
+                   "content beyond the treatment's band; docs/workflow.md, \"Joint elasticity\")")
+def test_backlash_on_a_joint_of_an_arm_names_nothing_else(tmp_path):
+    model, experiment = _arm(tmp_path, stiffness=2000.0, backlash=0.008)
+    result = diagnose(str(model), str(experiment))
+    assert _named(result) == [("joint_elasticity", "q2"), ("backlash", "q2")]
+
+
+NULLS = [dict(seed=s, motor_counts=m, link_counts=l) for s, (m, l) in
+         enumerate([(2**17 * truth.GEAR, 2**20), (2**17 * truth.GEAR, 2**14), (2**12 * truth.GEAR, 2**12),
+                    (2**20 * truth.GEAR, 2**20)])]
+
+
+@pytest.mark.parametrize("case", NULLS, ids=[f"seed{c['seed']}" for c in NULLS])
+def test_rigid_joint_names_nothing(tmp_path, case):
+    model, experiment = _joint(tmp_path, rigid=True, **case)
+    result = diagnose(str(model), str(experiment))
+    assert _named(result) == []
+    (test,) = result.elasticity
+    assert not test.named
+
+
+def test_rigid_arm_names_no_elasticity(tmp_path):
+    model, experiment = _arm(tmp_path, rigid=True)
+    result = diagnose(str(model), str(experiment))
+    assert "joint_elasticity" not in [f.effect for f in result.found]
+    (test,) = result.elasticity
+    assert not test.named and test.coordinate == "q2"
+
+
+def _sets(folder, modify=None, **kwargs):
+    import dataclasses
+
+    from symbolic.workflow.dataset import load_sets
+    from symbolic.workflow.diagnosis import _fit
+
+    model, experiment = _joint(folder, **kwargs)
+    dynamic = derive(loads(model.read_text(), str(model)))
+    estimation, held, _ = load_sets(dynamic.robot, experiment)
+    if modify is not None:
+        estimation, held = (dataclasses.replace(d, measurements=modify(d.measurements)) for d in (estimation, held))
+    sets = {"estimation": estimation, "validation": held}
+    return sets, _fit(dynamic, sets, None).predicted["validation"][:, 0]
+
+
+@pytest.mark.parametrize("error", ["scale", "late"])
+def test_link_encoder_errors_on_a_rigid_joint_are_not_a_spring(tmp_path, error):
+    import dataclasses
+
+    def modify(m):
+        link = np.asarray(m.extras["ql_q"], dtype=float)
+        link = link * 1.01 if error == "scale" else np.concatenate([link[:1], link[:-1]])
+        return dataclasses.replace(m, extras={**m.extras, "ql_q": link})
+
+    sets, rigid = _sets(tmp_path, modify, rigid=True)
+    test = joint_elasticity.test(sets, "q", rigid, 0.10)
+    assert not test.named, test
+
+
+def test_motor_side_fit_is_exact_on_its_own_columns(tmp_path):
+    """The least squares of the motor side, given a force made of its own columns: the coefficients to rounding."""
+    sets, _ = _sets(tmp_path)
+    x, _ = joint_elasticity._sides(sets["estimation"], 0, None)
+    c = np.array([0.02, 0.3, 0.5, -0.1, 400.0, 0.8])
+    values, sigmas = joint_elasticity._fit(x, x @ c)
+    assert values == pytest.approx(c, rel=1e-9)
+
+
+def test_without_a_link_encoder_nothing_is_tested(tmp_path):
+    folder = tmp_path
+    experiment = truth.write_joint_experiment(folder)
+    text = experiment.read_text().replace('ql_q = "ql_q"\n', "")
+    experiment.write_text(text)
+    (folder / "joint.toml").write_text(truth.model_text())
+    result = diagnose(str(folder / "joint.toml"), str(experiment))
+    assert result.elasticity == ()
+    assert "joint_elasticity" not in [f.effect for f in result.found]
+
+
+def test_stiffness_reads_the_link_mode():
+    """The mode of the link with the motor held: √(k/J_l)/2π with J_l the joint's inertia less the rotor's."""
+    e = joint_elasticity.Elasticity("q", {"stiffness": 400.0, "motor_inertia": 0.02}, {}, {}, 0.9, 0.01, True, None)
+    assert e.frequency_hz(0.17) == pytest.approx(math.sqrt(400.0 / 0.15) / (2 * math.pi), rel=1e-12)
+    assert e.frequency_hz(0.01) is None
