@@ -41,6 +41,7 @@ bench:
 	$(PYTHON) bench/consistent.py --out bench/results/consistent.md
 	$(PYTHON) bench/output_error.py --out bench/results/output_error.md
 	$(PYTHON) bench/response.py --out bench/results/response.md
+	$(PYTHON) bench/joint_elasticity.py --out bench/results/joint_elasticity.md
 	$(PYTHON) bench/fleet.py --out bench/results/fleet.md
 	$(PYTHON) bench/quotes.py
 

@@ -71,6 +71,26 @@ def test_geared_joint_is_named_with_its_stiffness(tmp_path):
     assert "### Joint elasticity (two encoders)" in report and 'q_q_flex = "ql_q - q_q"' in report
 
 
+def test_patched_joint_reproduces_the_response(tmp_path):
+    """The patched model, simulated in the machine's cascade with the report's experiment lines, follows the log:
+    the rigid model's simulated force misses it by a quarter, the elastic joint's by about the noise."""
+    from symbolic.simulation import simulate
+
+    model, experiment = _joint(tmp_path)
+    result = diagnose(str(model), str(experiment), out=tmp_path / "out")
+    (named,) = result.elasticity
+    lines = joint_elasticity.experiment_lines(named, reference=True)
+    mapped = experiment.read_text().replace("[signals]\n", "\n".join(lines) + "\n", 1)
+    (tmp_path / "patched.experiment.toml").write_text(mapped, encoding="utf-8")
+    patched = derive(loads(result.patched_text, str(tmp_path / "out" / "geared_joint_patched.toml")))
+    rigid = derive(loads(model.read_text(), str(model)))
+    elastic_errors = simulate(patched, tmp_path / "patched.experiment.toml").compare().relative_errors()
+    rigid_errors = simulate(rigid, experiment).compare().relative_errors()
+    assert rigid_errors["q"]["force"] > 15.0 and rigid_errors["q"]["position"] > 2.0
+    assert elastic_errors["q"]["force"] < 2.0 and elastic_errors["q"]["position"] < 0.3
+    assert elastic_errors["q_flex"]["position"] < 3.0  # the deflection itself, against the two encoders'
+
+
 def test_joint_of_an_arm_is_named_and_the_other_joint_left_alone(tmp_path):
     model, experiment = _arm(tmp_path)
     result = diagnose(str(model), str(experiment))

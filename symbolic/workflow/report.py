@@ -129,8 +129,12 @@ def _elasticity(d: Diagnosis) -> list[str]:
     if named:
         lines += ["", "The patched model holds each named joint as Spong's elastic joint (a coordinate `<c>_flex`, the link "
                   "minus the motor, in the joint's DH entry; the transmission as a [[force]] on it; J_m as the drive's "
-                  "rotor inertia). To identify or simulate it, map the deflection in the experiment file:", "", "```toml"]
-        lines += [line for e in named for line in joint_elasticity.experiment_lines(e)[1 if e is not named[0] else 0:]]
+                  "rotor inertia). To simulate it, map the deflection in the experiment file (the lines below, added to its "
+                  "[signals]); `identify` refuses its link equation (no force: the scale of its parameters rests on "
+                  "noise) unless one of them is fixed:", "", "```toml"]
+        reference = d.sets["estimation"].measurements.ref is not None
+        lines += [line for e in named
+                  for line in joint_elasticity.experiment_lines(e, reference)[1 if e is not named[0] else 0:]]
         lines += ["```"]
     lines.append("")
     return lines

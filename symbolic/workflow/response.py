@@ -42,13 +42,9 @@ from symbolic.identify.output_error import (FittedParameter, OutputErrorFit, out
                                             simulation_errors)
 from symbolic.workflow.effects.on_response import (PARAMETER, RESPONSE_EFFECTS, Key, ResponseCandidate,
                                                    ResponseEffect)
-from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN
+from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN, MIN_SIGMAS
 
 log = logging.getLogger("symbolic")
-
-MIN_SIGMAS = 5.0
-"""A freed value is named only this many of its σ away from its null value (the σ of a coloured output
-error are a lower bound: a necessary condition beside the held-out gain)."""
 
 MAX_ROUNDS = 6
 """At most this many effects are named by the response (each round refits everything named before)."""

@@ -28,6 +28,11 @@ with 16 to 20 bits per turn they removed at most 7.4 % of the held-out residual 
 data sets of ``bench/diagnose.py`` (most below 3 %), while a missing effect that the workflow must name
 removes most of what is left (a gap that halves is 75 % of its power)."""
 
+MIN_SIGMAS = 5.0
+"""A fitted value is named only this many of its σ away from its null value (a delay from 0, a gain from 1, a
+stiffness from 0). The σ of a coloured residual are a lower bound of the spread: a necessary condition beside
+the held-out gain, not a sufficient one (the response search, the two-encoder test)."""
+
 SOKAL_WINDOW = 5.0
 
 

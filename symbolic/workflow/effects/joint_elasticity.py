@@ -40,6 +40,7 @@ from symbolic.data.treatment import Settings, states
 from symbolic.description.names import coefficient_name
 from symbolic.description.units import coordinate_kind
 from symbolic.workflow.effects.base import joint_frame
+from symbolic.workflow.statistics import MIN_SIGMAS
 
 SUMMARIES = {"joint_elasticity": "an elastic transmission between motor and link: k·δ + d·δ̇ (from two encoders, ql_<c>)",
              "backlash": "a dead band in an elastic transmission, with its width (from two encoders, ql_<c>)"}
@@ -47,9 +48,6 @@ SUMMARIES = {"joint_elasticity": "an elastic transmission between motor and link
 
 LINK_PREFIX = "ql_"
 """The extra signal of a coordinate's link-side position (``ql_<c>``, in the coordinate's units)."""
-
-MIN_SIGMAS = 5.0
-"""The stiffness must lie this many standard errors from zero (the response search's threshold)."""
 
 LINK_SHARE = 0.05
 """The link's share of the joint's inertia (J − J_m)/J must reach this: a spring that carries the link carries its
@@ -424,10 +422,14 @@ def motor_corrections(robot: Any, found: Elasticity, min_gain: float) -> list[di
     return out
 
 
-def experiment_lines(found: Elasticity) -> list[str]:
+def experiment_lines(found: Elasticity, reference: bool = False) -> list[str]:
     """The [signals] lines that give the patched model's new coordinate from the two encoders (its force is 0);
-    with a dead band, its centre is the encoders' zero difference and moves to the deflection's mapping."""
+    with a dead band, its centre is the encoders' zero difference and moves to the deflection's mapping.
+    ``reference``: the log has ``ref_<c>`` columns, which the data contract wants for every coordinate or none; the
+    deflection's is its own reading (no loop drives it: the controller's coordinates are the motors')."""
     c = found.coordinate
     band = found.backlash if found.backlash is not None and found.backlash["named"] else None
     shift = "" if band is None else f" {'-' if band['centre'] < 0 else '+'} {abs(band['centre']):.6g}"
-    return ["[signals]", f'q_{c}_flex = "{LINK_PREFIX}{c} - q_{c}{shift}"', f'tau_{c}_flex = "0"']
+    deflection = f"{LINK_PREFIX}{c} - q_{c}{shift}"
+    lines = ["[signals]", f'q_{c}_flex = "{deflection}"', f'tau_{c}_flex = "0"']
+    return lines + ([f'ref_{c}_flex = "{deflection}"'] if reference else [])
