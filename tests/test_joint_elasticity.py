@@ -91,6 +91,21 @@ def test_patched_joint_reproduces_the_response(tmp_path):
     assert elastic_errors["q_flex"]["position"] < 3.0  # the deflection itself, against the two encoders'
 
 
+def test_simulated_path_measures_the_patched_joint_in_the_loop(tmp_path):
+    """diagnose --simulate: the gaps after are the patched elastic joint's, simulated in the machine's cascade with
+    the deflection mapped — force, position and velocity, estimation and held out (the tail from the record's
+    start) — far below the rigid model's."""
+    model, experiment = _joint(tmp_path)
+    result = diagnose(str(model), str(experiment), simulate=True, figures=False)
+    assert _named(result) == [("joint_elasticity", "q")]
+    before, after = result.to_dict()["gap_detail"]["before"], result.to_dict()["gap_detail"]["after"]
+    for role in ("estimation", "validation"):
+        assert before[role]["force"]["q"] > 15.0 and after[role]["force"]["q"] < 2.0
+        assert before[role]["position"]["q"] > 2.0 and after[role]["position"]["q"] < 0.3
+        assert after[role]["velocity"]["q"] < 2.0
+    assert any("simulated in the loop with the deflections mapped" in n for n in result.notes)
+
+
 def test_joint_of_an_arm_is_named_and_the_other_joint_left_alone(tmp_path):
     model, experiment = _arm(tmp_path)
     result = diagnose(str(model), str(experiment))

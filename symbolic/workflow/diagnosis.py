@@ -176,6 +176,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
     elasticity = joint_elasticity.test_all(model.robot, sets, before.predicted["validation"],
                                            (search or SearchSettings()).min_gain, settings)
     elastic = [e for e in elasticity if e.named]
+    motor_sets = sets  # the loop reads the motors: the simulated path of the patched model runs on these
     if elastic:  # the links' equations see where an elastic joint's link is: its encoder's position
         sets = joint_elasticity.linked_sets(sets, [e.coordinate for e in elastic], settings)
         estimation, held = sets["estimation"], sets["validation"]
@@ -225,9 +226,11 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
         if flexes:
             notes.append(f"the patched model adds {', '.join(sorted(flexes))}, the deflection the link-side encoders "
                          "measure (ql_<c> − q_<c>, the experiment lines of report.md): IDIM-LS cannot identify its "
-                         "homogeneous link equation (docs/workflow.md, \"Joint elasticity\"), so the gap after on "
-                         f"{', '.join(e.coordinate for e in elastic)} is the patched model's motor side, the rest the "
-                         "search's final fit")
+                         "homogeneous link equation (docs/workflow.md, \"Joint elasticity\"), so "
+                         + ("the gap after is the patched model at its written values simulated in the loop with the "
+                            "deflections mapped (a held-out tail from its record's start)" if simulate else
+                            f"the gap after on {', '.join(e.coordinate for e in elastic)} is the patched model's motor "
+                            "side, the rest the search's final fit"))
         if added:
             # an added coordinate the data lack (a second mass's deflection): the patched model cannot be
             # identified by IDIM-LS on these data; its fit is the search's final joint fit, whose columns are
@@ -260,6 +263,8 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
         _check_loads(patched_text, target, source)
         patched_path = target if out is not None else None
         measured_model = derive(loads(patched_text, str(target))) if added else patched
+        if simulate and elastic and not unmeasured:
+            after = _simulated_elastic(measured_model, motor_sets, elastic, simulate, after)
         values = measured_model.parameter_vector.by_name()
         controller = _controller(estimation.measurements)
         period = float(estimation.measurements.sample_period)
@@ -323,6 +328,29 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
                           caveats=tuple(caveats), cpu_seconds=cpu_seconds, response=response,
                           elasticity=tuple(elasticity))
     return diagnosis
+
+
+def _simulated_elastic(patched: DynamicModel, sets: dict[str, DataSet], elastic: Sequence[Any], simulate: Simulator,
+                       after: Fit) -> Fit:
+    """``after`` on the simulated path of a patched model with elastic joints: the model at its written values run
+    in the machine's loop on the motor-side data with the deflections mapped
+    (:func:`~symbolic.workflow.effects.joint_elasticity.with_deflections`); gaps on the data's coordinates, a held-out
+    tail simulated from its record's start."""
+    p = patched.parameter_vector.array()
+    predicted, motion = {}, {}
+    for role, data in sets.items():
+        # a held-out tail is simulated from its record's start: a loop started mid-motion has an integral and
+        # a last reading the machine did not have (docs/workflow.md, "Judged on the response")
+        record, start = (data.record, data.start) if data.record is not None else (data, 0)
+        out = simulate(patched, p, joint_elasticity.with_deflections(record.measurements, elastic))
+        n, rows = len(data.coordinates), slice(start, start + data.measurements.samples)
+        tau = np.asarray(out.tau if isinstance(out, SimulatedSignals) else out, dtype=float)[rows, :n]
+        predicted[role] = data.reduce(data.states.processing.forces(tau))
+        if isinstance(out, SimulatedSignals):
+            motion[role] = _motion_gaps(data, SimulatedSignals(tau, np.asarray(out.q)[rows, :n],
+                                                               np.asarray(out.qd)[rows, :n]))
+    gap, detail = _gaps(sets, predicted)
+    return Fit(patched, after.nominal, predicted, gap, detail, motion or None)
 
 
 def _motor_sides(predicted: dict[str, np.ndarray], elastic: Sequence[Any], coordinates: Sequence[str]) -> dict[str, np.ndarray]:

@@ -322,6 +322,32 @@ def linked(measurements: Any, coordinates: Sequence[str]) -> Any:
     return dataclasses.replace(measurements, **changes)
 
 
+def with_deflections(measurements: Any, found: Sequence[Elasticity]) -> Any:
+    """``measurements`` (motor-side positions) with the patched model's deflection coordinates added, as
+    :func:`experiment_lines` maps them: ``<c>_flex`` = ql_<c> − q_<c> (+ a dead band's centre), no force, its
+    reference its own reading; for the simulated path of a diagnosis (the loop reads the motors)."""
+    from symbolic.data.filters import central_difference
+
+    m = measurements
+    extra = []
+    for e in found:
+        band = e.backlash if e.backlash is not None and e.backlash["named"] else None
+        shift = 0.0 if band is None else band["centre"]
+        j = m.coordinates.index(e.coordinate)
+        extra.append(np.asarray(m.extras[LINK_PREFIX + e.coordinate], dtype=float) - np.asarray(m.q)[:, j] + shift)
+    flex = np.column_stack(extra)
+    changes: dict[str, Any] = {"coordinates": (*m.coordinates, *(f"{e.coordinate}_flex" for e in found)),
+                               "q": np.hstack([m.q, flex]), "tau": np.hstack([m.tau, np.zeros_like(flex)])}
+    h = m.sample_period
+    if m.qd is not None:
+        changes["qd"] = np.hstack([m.qd, central_difference(flex, h)])
+    if m.qdd is not None:
+        changes["qdd"] = np.hstack([m.qdd, central_difference(central_difference(flex, h), h)])
+    if m.ref is not None:
+        changes["ref"] = np.hstack([m.ref, flex])
+    return dataclasses.replace(m, **changes)
+
+
 def linked_sets(sets: Mapping[str, Any], coordinates: Sequence[str], settings: Settings | None = None) -> dict[str, Any]:
     """The data sets of a diagnosis treated again with :func:`linked` positions: once a joint is named elastic, the
     links' equations (every other row) see where its link is, not where its motor is."""
