@@ -240,7 +240,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
                              "after and the model's own values are those of the search's final joint fit")
             design = selection.final
             predicted = _motor_sides({role: design.predicted(role) for role in sets}, elastic, estimation.coordinates)
-            gap, detail = _gaps(sets, predicted)
+            gap, detail = _gaps(motor_sets, predicted)
             own_fit = final_nominal(before.nominal.terms, design.identification.values)
             after = Fit(patched, own_fit, predicted, gap, detail)
         else:
@@ -284,7 +284,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
             named = {c["parameter"] for c in motor}
             changes = [{**c, "correction": c["correction"] or c["parameter"] in named} for c in reviewed[1]]
             reviewed = ([*reviewed[0], *motor], changes, *reviewed[2:])
-        before, where_before, simulate, after = _before_corrections(model, sets, simulate, fix, reviewed[0], before,
+        before, where_before, simulate, after = _before_corrections(model, motor_sets, simulate, fix, reviewed[0], before,
                                                                     where_before, after, caveats)
         if wanted is not False and simulate and elastic:
             notes.append("the search judged on the response did not run: the patched model's elastic joints need their "
@@ -307,13 +307,13 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
         notes.append(f"the model has no {what} ({model.robot.source}) to patch: the gap after is that of the search's final fit")
         written = [{} for _ in accepted]
         design = selection.final
-        predicted = {role: design.predicted(role) for role in sets}
-        after = Fit(model, before.nominal, predicted, _gaps(sets, predicted)[0], _gaps(sets, predicted)[1])
+        predicted = _motor_sides({role: design.predicted(role) for role in sets}, elastic, estimation.coordinates)
+        after = Fit(model, before.nominal, predicted, *_gaps(motor_sets, predicted))
         reviewed = review(model, model, {s.name: float(v) for s, v in model.parameters.items()},
                           FinalFit.of_design(before.nominal.terms, selection.final, sets), {}, [], [], estimation,
                           notes, selection.settings.min_gain)
     lap("patch and shrink")
-    where_after = localise(estimation, after.predicted["estimation"])
+    where_after = localise(motor_sets["estimation"], after.predicted["estimation"])
     for a, final, parameters in zip(accepted, finals, written):
         found.append(_found(a, final, parameters, selection, validation is None))
     found += [f for e, w in zip(elastic, written_elastic or [{} for _ in elastic]) for f in _found_elastic(e, w)]
@@ -456,14 +456,24 @@ def held_force_finding(model: DynamicModel, sets: dict[str, DataSet], nominal: F
 
 
 def held_force_gaps(model: DynamicModel, sets: dict[str, DataSet], fit: Fit | None,
-                    fix: Sequence[str] = ()) -> dict[str, Any]:
+                    fix: Sequence[str] = (), rows: Sequence[str] | None = None) -> dict[str, Any]:
     """``model`` identified on the data as logged (``fit``, when already made on the inverse path) and with
     the force treated as held over each sample (:func:`~symbolic.workflow.dataset.with_held_force`): the
     gaps both ways, ``{"gap_validation": {"as_logged", "held_force"}, "gap_estimation": {...},
-    "removed_share"}``, the share of the held-out residual power the treatment removes."""
+    "removed_share"}``, the share of the held-out residual power the treatment removes. ``rows``: the gaps
+    over these coordinates only (the rows the model holds: not an elastic joint's, whose rigid row it is not)."""
     plain = fit or _fit(model, sets, None, fix)
-    held = _fit(model, {role: with_held_force(data) for role, data in sets.items()}, None, fix)
-    return _held_gaps(plain.gap, held.gap)
+    treated = {role: with_held_force(data) for role, data in sets.items()}
+    held = _fit(model, treated, None, fix)
+    if rows is None:
+        return _held_gaps(plain.gap, held.gap)
+
+    def over_rows(fitted: Fit, data_sets: dict[str, DataSet]) -> dict[str, float]:
+        return {role: relative_gap(data.tau[:, columns], fitted.predicted[role][:, columns])
+                for role, data in data_sets.items()
+                for columns in [[data.coordinates.index(c) for c in rows]]}
+
+    return _held_gaps(over_rows(plain, sets), over_rows(held, treated))
 
 
 def patched_held_force(diagnosis: Diagnosis, settings: Settings | None, search: SearchSettings | None,
@@ -479,6 +489,13 @@ def patched_held_force(diagnosis: Diagnosis, settings: Settings | None, search: 
     sets = diagnosis.sets
     if settings_for(sets["estimation"].measurements, settings).held_force is not None:
         return None
+    elastic = {e.coordinate for e in diagnosis.elasticity if e.named}
+    if elastic:  # its rows at the links' positions before any effect: an effect accepted on them may mimic the lead
+        rows = [c for c in sets["estimation"].coordinates if c not in elastic]
+        if rows:
+            return {**held_force_gaps(diagnosis.model, sets, None, fix, rows),
+                    "checked_on": f"the model's rows other than the elastic joints' ({', '.join(rows)}), at the links' "
+                                  "positions, before the search's effects"}
     patched = diagnosis.after.model
     names = set(patched.robot.generalized_coordinates)
     added = names - set(sets["estimation"].coordinates) - set(diagnosis.model.robot.generalized_coordinates)

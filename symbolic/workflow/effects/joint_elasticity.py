@@ -350,7 +350,9 @@ def with_deflections(measurements: Any, found: Sequence[Elasticity]) -> Any:
 
 def linked_sets(sets: Mapping[str, Any], coordinates: Sequence[str], settings: Settings | None = None) -> dict[str, Any]:
     """The data sets of a diagnosis treated again with :func:`linked` positions: once a joint is named elastic, the
-    links' equations (every other row) see where its link is, not where its motor is."""
+    links' equations (every other row) see where its link is, not where its motor is. The forces stay the logged
+    ones (replacing an elastic row's by the torque its transmission passes, so that its rigid row reads as Spong's
+    link side, left the arm's joint 1 with a larger residual, 0.57 % against 0.47 %: tried and dropped)."""
     from symbolic.workflow.dataset import treat
 
     def again(data: Any) -> Any:
