@@ -91,7 +91,7 @@ def test_an_axis_drive_gain_is_named_where_the_inertia_is_known(tmp_path: Path) 
 def test_a_position_sensors_bias_is_named_where_gravity_is_known(tmp_path: Path) -> None:
     """Joint 2's encoder reads 0.05 rad more than the angle (the loop holds the arm off by as much); with the
     links' masses and centres of mass known, gravity shows it: sensor_bias(q2) 0.05 within 10 %, first. Nothing
-    else should be named; a second round still names q1's bias of −0.0015 rad (xfail, issue 34's next work)."""
+    else is named (a second round's q1 bias of −0.0015 rad was, before σ counted the error's colour)."""
     text = models.arm()
     for name, value in (("m1", "3.0"), ("m2", "2.0"), ("c1", "0.2"), ("c2", "0.15")):
         text = text.replace(f"{name} = {value}\n", f"{name} = {{ value = {value}, fixed = true }}\n")
@@ -105,10 +105,11 @@ def test_a_position_sensors_bias_is_named_where_gravity_is_known(tmp_path: Path)
     result = _diagnose(tmp_path, "arm", text, effects, counts=0, position_bias=(0.0, 0.05), force_noise=0.05,
                        seed=1, layer="[identification]\nheld_force = true\n")
     named = _named(result)
-    assert list(named)[0] == "sensor_bias(q2)" and named["sensor_bias(q2)"]["bias"] == pytest.approx(0.05, rel=0.1)
-    if len(named) > 1:  # a known defect, kept visible: near the floor a 10 % relative gain is cheap
-        pytest.xfail(f"named after the bias: {list(named)[1:]} (measured: sensor_bias(q1) -0.00146 rad, 10.8 % of "
-                     "a held-out error already at its floor)")
+    assert list(named) == ["sensor_bias(q2)"] and named["sensor_bias(q2)"]["bias"] == pytest.approx(0.05, rel=0.1)
+    # the second round's sensor_bias(q1) (−0.0015 rad, 10.8 % of a held-out error at its floor) was named while
+    # its σ assumed a white simulation error; with σ × √τ_int it is far below 5σ
+    (second,) = [j for j in result.response.rounds[1] if j.candidate.label() == "sensor_bias(q1)"]
+    assert second.sigmas < 5.0
 
 
 @pytest.mark.slow

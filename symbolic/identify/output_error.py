@@ -131,6 +131,8 @@ class OutputErrorFit:
     timings: dict[str, float] = field(default_factory=dict)
     start_method: str = "IDIM-LS solution"
     signal_values: dict[str, FittedParameter] = field(default_factory=dict)
+    residual: np.ndarray | None = field(default=None, repr=False)
+    """The weighted residual at the end, ``samples × compared columns`` (its colour: the σ above assume it white)."""
 
     def values(self) -> dict[str, float]:
         """{model parameter: fitted value}, for writing back into the model file."""
@@ -731,7 +733,7 @@ def output_error(
                           iterations, cost0, float(r @ r), residuals.errors(y0, loop.layer_at(theta0)),
                           residuals.errors(y, loop.layer_at(theta)),
                           {s.name: float(model.parameters[s]) for s in model.parameter_symbols if s in fixed},
-                          timings, start_method, values)
+                          timings, start_method, values, r.reshape(measurements.samples, -1))
 
 
 def simulation_errors(model: DynamicModel, measurements: Measurements, fit: OutputErrorFit | None = None, *,

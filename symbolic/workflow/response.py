@@ -42,7 +42,7 @@ from symbolic.identify.output_error import (FittedParameter, OutputErrorFit, out
                                             simulation_errors)
 from symbolic.workflow.effects.on_response import (PARAMETER, RESPONSE_EFFECTS, Key, ResponseCandidate,
                                                    ResponseEffect)
-from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN, MIN_SIGMAS
+from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN, MIN_SIGMAS, pooled_autocorrelation_time
 
 log = logging.getLogger("symbolic")
 
@@ -297,7 +297,10 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[
     values = {k: v for k, v in _all_values_of(fit).items() if k in candidate.frees}
     gain = _gain(current["validation"], after_held, candidate.coordinate or None)
     stacked = _gain(current["validation"], after_held, None)
-    sigmas = min((abs(v.value - null) / v.sigma if v.sigma > 0 else math.inf)
+    # the Jacobian's σ assume a white residual; a simulation error is coloured (a slow drift spans many samples):
+    # σ × √τ_int, as the equation-error search corrects its own (statistics.autocorrelation_time)
+    colour = math.sqrt(pooled_autocorrelation_time(fit.residual)) if fit.residual is not None else 1.0
+    sigmas = min((abs(v.value - null) / (v.sigma * colour) if v.sigma > 0 else math.inf)
                  for (k, v), null in zip(sorted(values.items(), key=lambda kv: candidate.frees.index(kv[0])),
                                          candidate.null))
     roles = candidate.effect.roles_of(values, 1.0 / float(estimation.sample_period))
