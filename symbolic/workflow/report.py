@@ -122,7 +122,8 @@ def _elasticity(d: Diagnosis) -> list[str]:
     rows = [[e.coordinate, _g(e.deflection_rms), _g(e.errors["rigid"]), _g(e.errors["motor_side"]), _g(e.errors["elastic"]),
              f"{100 * e.gain:.3g} %",
              ", ".join(f"{k} = {_g(e.values[k])} ± {_g(e.sigmas[k], 2)}" for k in ("stiffness", "damping", "motor_inertia")),
-             "named" if e.named else e.reason, _band(e.backlash)] for e in d.elasticity]
+             ("named" + (f" (link mode ≈ {e.to_dict()['link_mode_hz']:.3g} Hz)" if e.to_dict()["link_mode_hz"] else ""))
+             if e.named else e.reason, _band(e.backlash)] for e in d.elasticity]
     lines += _table(["coordinate", "deflection rms", "rigid row", "motor side without spring", "with spring",
                      "held-out gain", "motor side (± σ)", "verdict", "dead band (backlash)"], rows)
     named = [e for e in d.elasticity if e.named]

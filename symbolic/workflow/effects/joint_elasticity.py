@@ -17,9 +17,9 @@ equation-error search does not try.
 The judge is the held-out data: the motor side with δ and δ̇ must explain the held-out force better than the
 motor side without them by the search's effect size (the same 10 % of the coordinate's residual power), k must be
 positive and 5 σ from zero, J_m positive and at most 95 % of the joint's whole inertia (the motor side's fitted
-without the spring: the link the spring carries has the rest), and the motor side with the spring must predict the held-out force at
-least as well as the whole rigid model's row (else the deflection columns absorb something else: a scale error
-of the link encoder, say). On a rigid joint the two encoders differ by their resolutions: δ is noise, the
+without the spring: the link the spring carries has the rest), and the motor side with the spring must predict
+the held-out force at least as well as the whole rigid model's row (else the deflection columns absorb something
+else: a scale error of the link encoder, say). On a rigid joint the two encoders differ by their resolutions: δ is noise, the
 motor side without the link's dynamics stays far worse than the rigid row, and nothing is named.
 
 Without a link-side encoder nothing is tried here (from the response alone the elasticity is a
@@ -61,7 +61,6 @@ COLUMNS = ("motor_inertia", "viscous", "coulomb", "offset", "stiffness", "dampin
 ELASTIC_ROW = ("two encoders show its transmission elastic (joint_elasticity): its row is the motor side's, "
                "whose deflection carries the link")
 """Why the equation-error search tries nothing on a coordinate whose elasticity is named (the Context's ``elastic``)."""
-
 
 
 @dataclass(frozen=True)
@@ -113,7 +112,9 @@ class Elasticity:
         return _error(yh, xh[:, others] @ c + value * xh[:, k])
 
     def frequency_hz(self, joint_inertia: float) -> float | None:
-        """The link's mode with the motor held, √(k/J_l)/2π, J_l = ``joint_inertia`` − J_m (None if J_l ≤ 0)."""
+        """The link's mode with the motor held, √(k/J_l)/2π, J_l = ``joint_inertia`` − J_m (None if J_l ≤ 0): on one
+        joint the link's own; in a chain a guide (the motor side's inertia without the spring is the joint's as the
+        motion saw it)."""
         link = joint_inertia - self.values["motor_inertia"]
         return math.sqrt(self.values["stiffness"] / link) / (2 * math.pi) if link > 0 and self.values["stiffness"] > 0 \
             else None
@@ -122,7 +123,9 @@ class Elasticity:
         return {"effect": "joint_elasticity", "coordinate": self.coordinate, "named": self.named,
                 "reason": self.reason, "values": dict(self.values), "sigmas": dict(self.sigmas),
                 "held_out_error_percent": dict(self.errors), "gain": self.gain,
-                "deflection_rms": self.deflection_rms, "backlash": None if self.backlash is None else dict(self.backlash)}
+                "deflection_rms": self.deflection_rms,
+                "link_mode_hz": self.frequency_hz(self.values.get("joint_inertia", math.nan)),
+                "backlash": None if self.backlash is None else dict(self.backlash)}
 
 
 def logged_links(measurements: Any) -> list[str]:
