@@ -113,6 +113,22 @@ def test_a_position_sensors_bias_is_named_where_gravity_is_known(tmp_path: Path)
 
 
 @pytest.mark.slow
+def test_a_position_sensors_bias_is_named_under_a_quantising_loop(tmp_path: Path) -> None:
+    """The same bias read through a 2^16-count encoder that the PD loop quantises (declared in its [controller]):
+    the fit adds the bias to the count (docs/data.md), and sensor_bias(q2) comes out within 10 %, alone."""
+    text = models.arm()
+    for name, value in (("m1", "3.0"), ("m2", "2.0"), ("c1", "0.2"), ("c2", "0.15")):
+        text = text.replace(f"{name} = {value}\n", f"{name} = {{ value = {value}, fixed = true }}\n")
+    from symbolic.workflow.effects import EFFECTS
+
+    effects = [e for k, e in EFFECTS.items() if k != "payload"] + list(RESPONSE_EFFECTS.values())
+    result = _diagnose(tmp_path, "arm", text, effects, counts=2**16, position_bias=(0.0, 0.05), force_noise=0.05,
+                       seed=1, layer="[identification]\nheld_force = true\n")
+    named = _named(result)
+    assert list(named) == ["sensor_bias(q2)"] and named["sensor_bias(q2)"]["bias"] == pytest.approx(0.05, rel=0.1)
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("kind, options", [("axis", dict(seed=3, counts=2**16, force_noise=0.03)),
                                            ("axis", dict(seed=4, counts=2**20, force_noise=0.01)),
                                            ("arm", dict(seed=2, force_noise=0.05))])

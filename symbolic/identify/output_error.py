@@ -35,7 +35,9 @@ compared as logged (the sensor model of the simulation, or the command the simul
 its free values are fitted after the parameters (:class:`SignalValue`): a drive gain through the loop's
 constants, a drive bias and a replayed force's values through the loop's inputs, a position sensor's bias
 through the reference and the initial state, a force sensor's values on the comparison only — all with
-exact derivatives (docs/data.md, "Output error").
+exact derivatives (docs/data.md, "Output error"). Under a quantising controller a free position bias is added
+to the quantised reading through the reference (an index offset on the counted position), where a fixed one is
+quantised with the position: the two readings differ by less than one count.
 
 Parameters fitted: the model-file parameters IDIM-LS determines (those ``identify --out`` writes), minus
 ``fixed = true`` and ``fix``; the others keep their model-file values. σ per parameter from the Jacobian at
@@ -494,9 +496,6 @@ def _signal_value(value: FreeValue, ctrl: control.Controller, measurements: Meas
                        "e.g. delay = 1)")
     elif kind == "q" and value.field != "bias":
         unsupported = "a position sensor's free gain or delay (its bias may be free)"
-    elif kind == "q" and feedback and np.any(ctrl.quantisation > 0):
-        unsupported = ("a position sensor's free bias under a quantising [controller] (the quantiser reads the "
-                       "biased position)")
     if unsupported:
         raise DataError(source, where, f"declared free, but the output-error fit cannot estimate {unsupported} yet "
                                        "(allowed free: [drive] gain and bias, and delay under torque replay; "

@@ -5,13 +5,16 @@ set off by a homing error. The controller reads the biased position, so the mach
 where gravity or a spring acts at known parameters the response shows it. With every inertial parameter
 of the links beyond free, a bias is a rotation of those links' frames and the data cannot tell it (the
 search names nothing).
+
+Under a quantising ``[controller]`` the fit adds the bias to the quantised reading (an index offset applied to the
+counted position), where a declared fixed bias is quantised with the position: the two readings differ by less
+than one count, the encoder's own rounding, and the bias's sensitivity through the loop is then exact (the
+reference row, :mod:`symbolic.identify.output_error`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-
-import numpy as np
 
 from symbolic.workflow.effects.on_response import Key, ResponseEffect, register_response
 
@@ -30,12 +33,8 @@ class SensorBias(ResponseEffect):
     guide = "declare it in the experiment's [sensors] (the lines below), or home the axis again"
 
     def frees(self, model, measurements, coordinate: str) -> dict[Key, float]:
-        layer = getattr(measurements, "signal_layer", None)
-        controller = getattr(measurements, "controller", None)
-        if layer is None:
+        if getattr(measurements, "signal_layer", None) is None:
             return {}
-        if controller is not None and controller.kind != "torque" and np.any(np.asarray(controller.quantisation) > 0):
-            return {}  # the quantiser reads the biased position: not yet in the output-error fit
         return {("sensors", f"q_{coordinate}", "bias"): 0.0}
 
     def roles_of(self, values: Mapping[Key, object], rate: float) -> dict[str, float]:
