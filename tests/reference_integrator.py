@@ -56,9 +56,10 @@ def interval(q: float, v: float, tau: float, h: float, J: float, Fv: float, Fc: 
 
 def axis_pd_run(t: np.ndarray, reference: np.ndarray, J: float, Fv: float, Fc: float, kp: float, kd: float,
                 resolution: float, saturation: float = math.inf, drive_gain: float = 1.0,
-                drive_bias: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                drive_bias: float = 0.0, drive_delay: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(true q, encoder readings, commanded τ) at the samples, from rest at q = 0; the command clipped to
-    ±``saturation``; the drive applies drive_gain·(command + drive_bias) to the axis."""
+    ±``saturation``; the drive applies drive_gain·(command + drive_bias) to the axis, ``drive_delay`` samples
+    after the controller computed it (0 before the first command arrives)."""
     q, v = 0.0, 0.0
     period = float(t[1] - t[0])
     true, read, force = (np.empty(len(t)) for _ in range(3))
@@ -69,7 +70,8 @@ def axis_pd_run(t: np.ndarray, reference: np.ndarray, J: float, Fv: float, Fc: f
         tau = min(max(kp * (reference[k] - measured) - kd * velocity, -saturation), saturation)
         true[k], read[k], force[k] = q, measured, tau
         last = measured
-        q, v = interval(q, v, drive_gain * (tau + drive_bias), period, J, Fv, Fc)
+        applied = force[k - drive_delay] if k >= drive_delay else 0.0
+        q, v = interval(q, v, drive_gain * (applied + drive_bias), period, J, Fv, Fc)
     return true, read, force
 
 
@@ -91,7 +93,7 @@ def write_axis_experiment(folder: Path, *, J: float = 0.05, Fv: float = 0.3, Fc:
                           kd: float = 1.0, rate: float = 1000.0, seconds: float = 4.0, counts: int = 2**16,
                           force_noise: float = 0.0, seed: int = 0, saturation: float = math.inf,
                           drive: tuple[float, float] = (1.0, 0.0), force_sensor: float | None = None,
-                          layer: str = "", log_delay: int = 0) -> Path:
+                          layer: str = "", log_delay: int = 0, drive_delay: int = 0) -> Path:
     """Write ``folder/axis.csv`` and ``folder/axis.experiment.toml`` (with its PD ``[controller]`` and the
     encoder's quantisation) of the axis under PD; ``counts`` per revolution (0: exact positions),
     ``force_noise`` the standard deviation (N·m) of white noise added to the logged force, ``saturation`` the
@@ -99,13 +101,14 @@ def write_axis_experiment(folder: Path, *, J: float = 0.05, Fv: float = 0.3, Fc:
     is gain·(command + bias) and the log holds the command; ``force_sensor``: the log holds that gain times the
     applied force instead (a force sensor's reading); ``layer``: TOML appended to the experiment file (its
     ``[sensors]``/``[drive]``, as the test declares them); ``log_delay``: the logged force lags the applied
-    one by that many samples (a logging path's delay)."""
+    one by that many samples (a logging path's delay); ``drive_delay``: the drive applies each command that many
+    samples late (the log holds the command when computed)."""
     from symbolic.data import write_columns
 
     t = np.arange(int(round(seconds * rate))) / rate
     r = reference_motion(t)
     resolution = 2 * math.pi / counts if counts else 0.0
-    _, read, force = axis_pd_run(t, r, J, Fv, Fc, kp, kd, resolution, saturation, *drive)
+    _, read, force = axis_pd_run(t, r, J, Fv, Fc, kp, kd, resolution, saturation, *drive, drive_delay=drive_delay)
     if force_sensor is not None:
         force = force_sensor * drive[0] * (force + drive[1])
     force = lagged(force, log_delay)
@@ -154,13 +157,16 @@ def write_arm_experiment(folder: Path, *, kp: tuple[float, float] = (120.0, 60.0
                          seed: int = 0, parameters: dict | None = None,
                          drive: tuple[tuple[float, float], tuple[float, float]] = ((1.0, 0.0), (1.0, 0.0)),
                          layer: str = "", log_delay: tuple[int, int] = (0, 0),
-                         position_bias: tuple[float, float] = (0.0, 0.0)) -> Path:
+                         position_bias: tuple[float, float] = (0.0, 0.0),
+                         drive_delay: tuple[int, int] = (0, 0)) -> Path:
     """``folder/arm.csv`` and ``folder/arm.experiment.toml``: the arm under a PD loop on both joints (no
     gravity compensation), integrated by ``solve_ivp`` (DOP853, rtol 1e-11) from
     sample to sample with the force held; encoders of ``counts`` per revolution, white force noise; ``drive``
     per joint (gain, bias): the force applied is gain·(command + bias), the log holds the command; ``layer``:
     TOML appended to the experiment file; ``log_delay``: per joint, the logged force lags by that many samples;
-    ``position_bias``: per joint, the encoder reads the angle plus that much (the loop and the log see it)."""
+    ``position_bias``: per joint, the encoder reads the angle plus that much (the loop and the log see it);
+    ``drive_delay``: per joint, the drive applies each command that many samples late (the log holds it when
+    computed)."""
     from scipy.integrate import solve_ivp
 
     from symbolic.data import write_columns
@@ -185,7 +191,8 @@ def write_arm_experiment(folder: Path, *, kp: tuple[float, float] = (120.0, 60.0
         velocity = np.zeros(2) if last is None else (measured - last) / period
         tau = kp_ * (r[k] - measured) - kd_ * velocity
         read[k], logged_tau[k], last = measured, tau, measured
-        applied = np.array([g * (u + b) for u, (g, b) in zip(tau, drive)])
+        late = [logged_tau[k - d, j] if k >= d else 0.0 for j, d in enumerate(drive_delay)]  # each drive's latency
+        applied = np.array([g * (u + b) for u, (g, b) in zip(late, drive)])
         solution = solve_ivp(lambda _, x: np.concatenate([x[2:], arm_forward(x[:2], x[2:], applied, p)]),
                              (0.0, period),
                              state, method="DOP853", rtol=1e-11, atol=1e-13)

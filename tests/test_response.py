@@ -113,6 +113,28 @@ def test_a_position_sensors_bias_is_named_where_gravity_is_known(tmp_path: Path)
 
 
 @pytest.mark.slow
+def test_a_drive_applying_its_command_late_is_named_as_a_drive_delay(tmp_path: Path) -> None:
+    """The axis's drive applies each PD command 2 samples late (the loop runs on the late force; the log holds the
+    command when computed): drive_delay(q) 2, within one sample, and nothing else; not a logged force's lag."""
+    result = _diagnose(tmp_path, "axis", drive_delay=2, force_noise=0.02, counts=2**16, seed=1)
+    named = _named(result)
+    assert list(named) == ["drive_delay(q)"] and abs(named["drive_delay(q)"]["delay"] - 2.0) < 1.0
+    assert result.response.experiment_lines() == ["[drive]", "tau_q = { delay = 2 }"]
+    (judged,) = result.response.named
+    assert judged.gain > 0.5 and judged.to_dict()["distance_in_sigmas"] is None  # a scanned whole number: no σ
+
+
+@pytest.mark.slow
+def test_a_drive_delay_of_the_arms_loop(tmp_path: Path) -> None:
+    """Both drives of the arm apply their commands 2 samples late (a bus cycle): one delay for the loop, the
+    simulated loop's kind (a joint's own latency alone is not simulated in a feedback loop: docs/workflow.md)."""
+    result = _diagnose(tmp_path, "arm", drive_delay=(2, 2), force_noise=0.05, counts=2**16, seed=2)
+    named = _named(result)
+    assert list(named) == ["drive_delay(all)"] and abs(named["drive_delay(all)"]["delay"] - 2.0) < 1.0
+    assert result.response.experiment_lines() == ["[drive]", "tau_q1 = { delay = 2 }", "tau_q2 = { delay = 2 }"]
+
+
+@pytest.mark.slow
 def test_a_position_sensors_bias_is_named_under_a_quantising_loop(tmp_path: Path) -> None:
     """The same bias read through a 2^16-count encoder that the PD loop quantises (declared in its [controller]):
     the fit adds the bias to the count (docs/data.md), and sensor_bias(q2) comes out within 10 %, alone."""
@@ -139,7 +161,7 @@ def test_nothing_missing_names_nothing(tmp_path: Path, kind: str, options: dict)
     assert result.response.refit is None or result.response.refit["moved"] == []
     assert result.response.corrections == ()
     tried = [j for r in result.response.rounds for j in r]
-    assert {j.candidate.effect.identifier for j in tried} >= {"delay", "drive_gain"}
+    assert {j.candidate.effect.identifier for j in tried} >= {"delay", "drive_gain", "drive_delay"}
 
 
 def test_freed_adds_a_channel_at_its_null_value(tmp_path: Path) -> None:

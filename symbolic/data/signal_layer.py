@@ -301,6 +301,18 @@ def freed(measurements: Measurements, values: Mapping[tuple[str, str, str], floa
     the experiment does not declare is added (its log is the signal as loaded, its other values neutral) —
     each starting at ``start`` (``None``: its value now) and the model's signals made again from the logs
     (:func:`reapply`). What a search for a missing delay, gain or bias fits (:mod:`symbolic.workflow.response`)."""
+    return _declared(measurements, values, source, free=True)
+
+
+def fixed(measurements: Measurements, values: Mapping[tuple[str, str, str], float], source: str) -> Measurements:
+    """``measurements`` with the layer's values ``{(table, signal, field): value}`` declared at those values and
+    not free (a channel the experiment does not declare is added, as by :func:`freed`): what a search scans
+    where the fit cannot free a value (a drive's delay inside a feedback loop: whole samples)."""
+    return _declared(measurements, values, source, free=False)
+
+
+def _declared(measurements: Measurements, values: Mapping[tuple[str, str, str], float | None], source: str,
+              free: bool) -> Measurements:
     layer = getattr(measurements, "signal_layer", None)
     if layer is None:
         raise DataError(source, "signal layer", "plain measurements have no signal layer; load an experiment")
@@ -320,8 +332,8 @@ def freed(measurements: Measurements, values: Mapping[tuple[str, str, str], floa
             logged[signal] = _readonly(np.array(getattr(measurements, kind)[:, j], dtype=float))
         if start is not None:
             _check(name, float(start), f"[{table}] {signal} {name}", source)
-        free = tuple(f for f in FIELDS if f in channel.free or f == name)
-        tables[table][signal] = dataclasses.replace(channel, free=free,
+        freed_fields = tuple(f for f in FIELDS if f in channel.free or (free and f == name))
+        tables[table][signal] = dataclasses.replace(channel, free=freed_fields,
                                                     **({name: float(start)} if start is not None else {}))
     widened = SignalLayer(MappingProxyType(tables["sensors"]), MappingProxyType(tables["drive"]),
                           MappingProxyType(logged))

@@ -40,7 +40,7 @@ from symbolic.derivation.dynamics import DynamicModel
 from symbolic.errors import IdentificationError, SimulationError
 from symbolic.identify.output_error import (FittedParameter, OutputErrorFit, output_error, simulated,
                                             simulation_errors)
-from symbolic.workflow.effects.on_response import (PARAMETER, RESPONSE_EFFECTS, Key, ResponseCandidate,
+from symbolic.workflow.effects.on_response import (PARAMETER, RESPONSE_EFFECTS, Key, ResponseCandidate, fixed_key,
                                                    ResponseEffect)
 from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN, MIN_SIGMAS, pooled_autocorrelation_time
 
@@ -89,13 +89,16 @@ class Judged:
     converged: bool
     verdict: str | None
     fit: OutputErrorFit | None = field(default=None, repr=False, compare=False)
+    carried: dict[Key, FittedParameter] = field(default_factory=dict, repr=False, compare=False)
+    """Fixed (scanned) values named in earlier rounds, which the fit holds but does not return."""
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"effect": self.candidate.effect.identifier, "coordinate": self.candidate.coordinate,
                                "label": self.candidate.label(), "parameters": dict(self.roles),
                                "sigmas": {_name(k): v.sigma for k, v in self.values.items()},
                                "held_out_gain": self.gain, "stacked_held_out_gain": self.stacked_gain,
-                               "distance_in_sigmas": self.sigmas, "converged": self.converged,
+                               "distance_in_sigmas": self.sigmas if math.isfinite(self.sigmas) else None,
+                               "converged": self.converged,
                                "errors": {"estimation": self.estimation, "held_out": self.held_out}}
         if self.verdict is not None:
             out["verdict"] = self.verdict
@@ -156,8 +159,12 @@ class ResponseSearch:
 
 
 def _all_values(judged: Judged) -> dict[Key, FittedParameter]:
-    """Every value of ``judged``'s fit (the ones named before it included), by key."""
-    return dict(judged.values) if judged.fit is None else _all_values_of(judged.fit)
+    """Every value of ``judged``'s fit (the ones named before it included), by key; a scanned value, declared
+    fixed in the fit, from the judgement (:func:`~symbolic.workflow.effects.on_response.fixed_key`)."""
+    if judged.fit is None:
+        return dict(judged.values)
+    return {**_all_values_of(judged.fit), **{k: v for k, v in judged.values.items() if fixed_key(k)},
+            **judged.carried}
 
 
 def _name(key: Key) -> str:
@@ -276,33 +283,65 @@ def _refit(model: DynamicModel, estimation: Measurements, held_out: tuple[Measur
             "estimation": fit.errors, "converged": fit.converged}, fit
 
 
+def _layered(measurements: Measurements, values: Mapping[Key, float | None], source: str) -> Measurements:
+    """``measurements`` with the layer's ``values``: free where the output error can fit them, declared fixed
+    where it cannot (:func:`~symbolic.workflow.effects.on_response.fixed_key`: a drive's delay in the loop)."""
+    free = {k: v for k, v in values.items() if k[0] != PARAMETER and not fixed_key(k)}
+    held = {k: v for k, v in values.items() if k[0] != PARAMETER and fixed_key(k)}
+    out = signal_layer.freed(measurements, free, source) if free else measurements
+    return signal_layer.fixed(out, held, source) if held else out
+
+
 def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[Key, float],
            estimation: Measurements, held_out: tuple[Measurements, int], current: Mapping[str, Errors], signals: str,
            min_gain: float, source: str, now: tuple[np.ndarray, list[str]]) -> Judged:
     """Fit ``candidate``'s values with everything ``accepted`` free too, and judge it on ``held_out``;
-    ``now``: the current model's simulation of the estimation data (where the fit starts)."""
-    frees = {**dict(accepted), **{k: _start(candidate, k, estimation, now) for k in candidate.frees
-                                  if k not in accepted}}
-    layer_keys = {k: v for k, v in frees.items() if k[0] != PARAMETER}
-    start = {k[1]: (v if v is not None else float(_value(model, k[1]))) for k, v in frees.items() if k[0] == PARAMETER}
+    ``now``: the current model's simulation of the estimation data (where the fit starts). A scanned candidate
+    (:attr:`~symbolic.workflow.effects.on_response.ResponseEffect.scan`) is fitted at each of its values and the
+    one that lowers the estimation data's simulation error most is judged."""
+    carried = {k: FittedParameter(_name(k), float(v), 0.0, 0.0, float(v), None)
+               for k, v in accepted.items() if fixed_key(k)}
+    scanned = candidate.effect.scan
+    trials = [{k: value for k in candidate.frees} for value in scanned] if scanned else \
+        [{k: _start(candidate, k, estimation, now) for k in candidate.frees if k not in accepted}]
+    best: tuple[float, Any, Any, dict[Key, float | None]] | None = None
+    problem = "no value fitted"
+    for trial in trials:
+        frees = {**dict(accepted), **trial}
+        start = {k[1]: (v if v is not None else float(_value(model, k[1]))) for k, v in frees.items()
+                 if k[0] == PARAMETER}
+        try:
+            est, held = _layered(estimation, frees, source), _layered(held_out[0], frees, source)
+            fit = output_error(model, est, start=start, signals=signals, max_iterations=CANDIDATE_ITERATIONS,
+                               tolerance=TOLERANCE)
+        except (DataError, IdentificationError, SimulationError, np.linalg.LinAlgError) as error:
+            problem = getattr(error, "problem", None) or str(error)
+            continue
+        # compared by the estimation errors (% of each signal), not the costs: each fit weighs its columns by its
+        # own start's residual, so costs of different trials are on different scales
+        score = _gain(current["estimation"], fit.errors, candidate.coordinate or None)
+        if best is None or score > best[0]:
+            best = (score, fit, held, trial)
+    if best is None:
+        return Judged(candidate, {}, {}, {}, -math.inf, -math.inf, 0.0, {}, False, f"not fitted: {problem}")
+    _, fit, held, trial = best
     try:
-        est = signal_layer.freed(estimation, layer_keys, source) if layer_keys else estimation
-        held = signal_layer.freed(held_out[0], layer_keys, source) if layer_keys else held_out[0]
-        fit = output_error(model, est, start=start, signals=signals, max_iterations=CANDIDATE_ITERATIONS,
-                           tolerance=TOLERANCE)
         after_held = simulation_errors(model, _at(held, fit, source), fit, signals=signals, start=held_out[1])
     except (DataError, IdentificationError, SimulationError, np.linalg.LinAlgError) as error:
         problem = getattr(error, "problem", None) or str(error)
         return Judged(candidate, {}, {}, {}, -math.inf, -math.inf, 0.0, {}, False, f"not fitted: {problem}")
     values = {k: v for k, v in _all_values_of(fit).items() if k in candidate.frees}
+    if scanned:  # held fixed in the fit: its value is the trial's, without a σ (module docstring of on_response)
+        values = {k: FittedParameter(_name(k), float(v), 0.0, 0.0, 0.0, None) for k, v in trial.items()}
     gain = _gain(current["validation"], after_held, candidate.coordinate or None)
     stacked = _gain(current["validation"], after_held, None)
     # the Jacobian's σ assume a white residual; a simulation error is coloured (a slow drift spans many samples):
     # σ × √τ_int, as the equation-error search corrects its own (statistics.autocorrelation_time)
     colour = math.sqrt(pooled_autocorrelation_time(fit.residual)) if fit.residual is not None else 1.0
-    sigmas = min((abs(v.value - null) / (v.sigma * colour) if v.sigma > 0 else math.inf)
-                 for (k, v), null in zip(sorted(values.items(), key=lambda kv: candidate.frees.index(kv[0])),
-                                         candidate.null))
+    sigmas = math.inf if scanned else \
+        min((abs(v.value - null) / (v.sigma * colour) if v.sigma > 0 else math.inf)
+            for (k, v), null in zip(sorted(values.items(), key=lambda kv: candidate.frees.index(kv[0])),
+                                    candidate.null))
     roles = candidate.effect.roles_of(values, 1.0 / float(estimation.sample_period))
     verdict = candidate.effect.check(roles)
     if verdict is None and not gain >= min_gain:
@@ -312,15 +351,14 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[
         verdict = f"worsens the held-out simulation error over all coordinates ({100 * stacked:.3g} %)"
     if verdict is None and not sigmas >= MIN_SIGMAS:
         verdict = f"its value is {sigmas:.3g} σ from nothing missing (at least {MIN_SIGMAS:g} needed)"
-    return Judged(candidate, values, fit.errors, after_held, gain, stacked, sigmas, roles, fit.converged, verdict, fit)
+    return Judged(candidate, values, fit.errors, after_held, gain, stacked, sigmas, roles, fit.converged, verdict, fit,
+                  carried)
 
 
 def _now(model: DynamicModel, estimation: Measurements, accepted: Mapping[Key, float],
          last: OutputErrorFit | None, source: str) -> tuple[np.ndarray, list[str]]:
     """The current model (``last`` fit's values) simulated on the estimation data: (y, the model's coordinates)."""
-    layer_keys = {k: v for k, v in accepted.items() if k[0] != PARAMETER}
-    data = signal_layer.freed(estimation, layer_keys, source) if layer_keys else estimation
-    y, _, _ = simulated(model, data, last)
+    y, _, _ = simulated(model, _layered(estimation, accepted, source), last)
     return y, list(model.robot.generalized_coordinates)
 
 

@@ -10,6 +10,9 @@ the effect when its fit lowers the held-out simulation error (docs/workflow.md, 
 
 Adding one: a module in this folder whose effect subclasses :class:`ResponseEffect` and ends with
 ``register_response(MyEffect())``.
+
+A value the output error cannot free (a drive's delay inside a feedback loop moves the loop by whole samples)
+is scanned instead (:attr:`ResponseEffect.scan`) and declared fixed at its value (:func:`fixed_key`).
 """
 
 from __future__ import annotations
@@ -44,7 +47,7 @@ class ResponseCandidate:
     null: tuple[float, ...]
 
     def label(self) -> str:
-        subject = self.frees[0][1] if self.frees[0][0] == PARAMETER else self.coordinate
+        subject = self.frees[0][1] if self.frees[0][0] == PARAMETER else (self.coordinate or "all")
         return f"{self.effect.identifier}({subject})"
 
 
@@ -65,6 +68,10 @@ class ResponseEffect:
 
     identifier: ClassVar[str] = ""
     summary: ClassVar[str] = ""
+    scan: ClassVar[tuple[float, ...]] = ()
+    """Values to try in turn instead of fitting (a value the output error cannot free: whole samples of a delay
+    inside the loop); each is simulated with the accepted values refitted, the one that lowers the estimation
+    data's simulation error most is judged, and it has no σ (the distance from nothing missing is not asked; the range's end is not located)."""
     rank: ClassVar[int] = 100
     roles: ClassVar[dict[str, str]] = {}
     guide: ClassVar[str] = ""
@@ -108,6 +115,12 @@ class ResponseEffect:
     def describe(self) -> dict[str, Any]:
         return {"effect": self.identifier, "summary": self.summary, "judged_on": "response",
                 "parameters": dict(self.roles)}
+
+
+def fixed_key(key: Key) -> bool:
+    """Whether ``key`` is declared fixed rather than free once accepted: a drive's delay (the loop delays its
+    command by whole samples; the output error has no sensitivity to it)."""
+    return key[0] == "drive" and key[2] == "delay"
 
 
 def _driven(measurements: Measurements) -> Sequence[str]:
