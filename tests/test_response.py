@@ -209,7 +209,7 @@ def test_the_command_line_takes_response_effects(tmp_path: Path) -> None:
 
 
 def test_every_response_effect_declares_itself() -> None:
-    assert set(RESPONSE_EFFECTS) == {"delay", "drive_gain", "sensor_bias", "correction"}
+    assert set(RESPONSE_EFFECTS) == {"delay", "drive_delay", "drive_gain", "sensor_bias", "correction"}
     for effect in RESPONSE_EFFECTS.values():
         described = effect.describe()
         assert described["judged_on"] == "response" and effect.summary and effect.guide and effect.roles
