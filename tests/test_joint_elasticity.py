@@ -69,6 +69,7 @@ def test_geared_joint_is_named_with_its_stiffness(tmp_path):
     assert test["named"] and test["coordinate"] == "q"
     report = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
     assert "### Joint elasticity (two encoders)" in report and 'q_q_flex = "ql_q - q_q"' in report
+    assert (tmp_path / "out" / "transmission_q.png").stat().st_size > 0 and "](transmission_q.png)" in report
 
 
 def test_patched_joint_reproduces_the_response(tmp_path):

@@ -6,7 +6,9 @@
   (direction-dependent viscous or Coulomb friction, a Stribeck rise) reports the total coefficients
   (Fv⁺ and Fv⁻, not their difference from the model's Fv): the model's own term, as fitted with the effect,
   is added to both, so that the slopes and levels seen are the printed ones;
-* ``spectrum_<c>.png``: Welch spectra of the residual before and after, found peaks marked.
+* ``spectrum_<c>.png``: Welch spectra of the residual before and after, found peaks marked;
+* ``transmission_<c>.png``: for a joint named elastic from two encoders, the torque through its transmission
+  against its deflection, with the fitted spring (and dead band).
 
 Every axis carries its unit, from the model's coordinates (rad or m, N·m or N:
 :mod:`symbolic.description.units`) and the data's time (s); every mark has a legend entry; the fitted
@@ -70,7 +72,29 @@ def figures(d: Diagnosis) -> dict[str, Any]:
         figure = Figure(figsize=(9, 4.5))
         _effect(figure, d, a, found, final[:, j] + term, term if curve is None else curve, refined, units[c])
         out[f"effect_{k}_{a.effect.name}_{c}.png"] = figure
+    for e in d.elasticity:
+        if e.named and e.deflection is not None:
+            out[f"transmission_{e.coordinate}.png"] = _transmission(Figure(figsize=(9, 4.5)), e, units[e.coordinate])
     return out
+
+
+def _transmission(fig: Any, e: Any, u: CoordinateUnits) -> Any:
+    """The spring's torque as the two encoders measure it (the motor side's force less its other terms) against
+    the deflection, with the fitted law: a line through the origin, or with backlash a dead band."""
+    delta, measured = e.transmission()
+    grid = np.linspace(delta.min(), delta.max(), 400)
+    ax = fig.add_subplot(1, 1, 1)
+    ax.plot(delta, measured, ".", ms=2, label="measured: τ − J_m·q̈ − Fv·q̇ − Fc·sgn(q̇) − b − d·δ̇")
+    band = e.backlash if e.backlash is not None and e.backlash["named"] else None
+    law = f"k = {e.values['stiffness']:.4g} {u.unit('force')}/{u.position}" + \
+        (f", dead band {band['width']:.3g} {u.position}" if band else "")
+    ax.plot(grid, e.spring(grid), "-", lw=1.2, label=f"fitted: {law}")
+    ax.set_xlabel(u.label("position", f"deflection δ = q − q_l of {e.coordinate}"))
+    ax.set_ylabel(u.label("force", "torque through the transmission"))
+    ax.set_title(f"Joint elasticity on {e.coordinate} (two encoders), estimation data")
+    ax.legend(loc="upper left")
+    fig.tight_layout()
+    return fig
 
 
 def _law(a: Any, est: Any, values: np.ndarray) -> np.ndarray | None:

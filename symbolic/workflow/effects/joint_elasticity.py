@@ -97,10 +97,30 @@ class Elasticity:
     """The motor side's force with the spring, per data set (``estimation``, ``validation``; reduced samples)."""
     design: tuple[np.ndarray, ...] = dataclasses.field(default=(), repr=False)
     """The motor side's columns and force, estimation then held out (for :meth:`held_out_error_with`)."""
+    deflection: np.ndarray | None = dataclasses.field(default=None, repr=False)
+    """The measured deflection δ on the estimation data, reduced like τ (for the report's figure)."""
     backlash: Mapping[str, Any] | None = None
     """The dead band's test where the spring is named (:func:`_backlash`): ``width``, ``centre`` (of the logged
     deflection: the encoders' zeros differ by it), ``gain`` and ``named``/``reason``; ``None`` when not tried. When
     named, ``values`` are the spring's in contact."""
+
+    def transmission(self) -> tuple[np.ndarray, np.ndarray]:
+        """(δ, the spring's torque as measured) on the estimation data: the force less every other term of the
+        motor side as fitted, against the deflection (the report's figure)."""
+        x, y = self.design[0], self.design[1]
+        c = np.array([self.values[k] for k in COLUMNS])
+        others = [i for i in range(len(COLUMNS)) if COLUMNS[i] != "stiffness"]
+        return self.deflection, y - x[:, others] @ c[others]
+
+    def spring(self, delta: np.ndarray) -> np.ndarray:
+        """The fitted spring's torque at deflections ``delta``: k·δ, or with a dead band k·(x ∓ b/2) outside
+        |x| ≤ b/2, x = δ − centre."""
+        k = self.values["stiffness"]
+        band = self.backlash if self.backlash is not None and self.backlash["named"] else None
+        if band is None:
+            return k * delta
+        x = delta - band["centre"]
+        return np.where(np.abs(x) > band["width"] / 2, k * (x - np.sign(x) * band["width"] / 2), 0.0)
 
     def held_out_error_with(self, role: str, value: float) -> float:
         """The held-out error (%) of the motor side with ``role``'s coefficient held at ``value`` and the others
@@ -225,7 +245,8 @@ def test(sets: Mapping[str, Any], coordinate: str, rigid_held: np.ndarray, min_g
     sigmas = dict(zip(COLUMNS, map(float, sigma)))
     reason = _reason(values, sigmas, errors, gain, min_gain)
     found = Elasticity(coordinate, values, sigmas, errors, gain, float(np.sqrt(np.mean(x[:, 4] ** 2))),
-                       reason is None, reason, {"estimation": x @ c, "validation": xh @ c}, (x, y, xh, yh))
+                       reason is None, reason, {"estimation": x @ c, "validation": xh @ c}, (x, y, xh, yh),
+                       motion.reduce(motion.delta[:, None])[:, 0])
     return _backlash(found, motion, motion_held, min_gain) if found.named else found
 
 
