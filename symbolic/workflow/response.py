@@ -297,8 +297,8 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[
            min_gain: float, source: str, now: tuple[np.ndarray, list[str]]) -> Judged:
     """Fit ``candidate``'s values with everything ``accepted`` free too, and judge it on ``held_out``;
     ``now``: the current model's simulation of the estimation data (where the fit starts). A scanned candidate
-    (:attr:`~symbolic.workflow.effects.on_response.ResponseEffect.scan`) is fitted at each of its values and the
-    one that lowers the estimation data's simulation error most is judged."""
+    (:attr:`~symbolic.workflow.effects.on_response.ResponseEffect.scan`) is fitted at its values in turn, until two
+    past the best, and the one that lowers the estimation data's simulation error most is judged."""
     carried = {k: FittedParameter(_name(k), float(v), 0.0, 0.0, float(v), None)
                for k, v in accepted.items() if fixed_key(k)}
     scanned = candidate.effect.scan
@@ -306,7 +306,11 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[
         [{k: _start(candidate, k, estimation, now) for k in candidate.frees if k not in accepted}]
     best: tuple[float, Any, Any, dict[Key, float | None]] | None = None
     problem = "no value fitted"
+    since = 0  # trials since the best: a scan stops two values past it (the error rises away from the delay)
     for trial in trials:
+        if scanned and best is not None and since >= 2:
+            break
+        since += 1
         frees = {**dict(accepted), **trial}
         start = {k[1]: (v if v is not None else float(_value(model, k[1]))) for k, v in frees.items()
                  if k[0] == PARAMETER}
@@ -321,7 +325,7 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[
         # own start's residual, so costs of different trials are on different scales
         score = _gain(current["estimation"], fit.errors, candidate.coordinate or None)
         if best is None or score > best[0]:
-            best = (score, fit, held, trial)
+            best, since = (score, fit, held, trial), 0
     if best is None:
         return Judged(candidate, {}, {}, {}, -math.inf, -math.inf, 0.0, {}, False, f"not fitted: {problem}")
     _, fit, held, trial = best
