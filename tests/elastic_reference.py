@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from reference_integrator import interval, reference_motion
+from reference_integrator import arm_terms, interval, reference_motion
 
 TRUTH = {"Jm": 0.02, "Jl": 0.15, "m": 2.0, "c": 0.1, "g": 9.81, "Fv": 0.3, "Fc": 0.5, "k": 400.0, "d": 0.8}
 """The joint's truth: k/J_l puts the link's mode with the motor held at 8.2 Hz (an industrial arm's 8–10 Hz)."""
@@ -173,20 +173,6 @@ mode with the motor held near 8 Hz at the arm's mean pose) and a damper d2 to li
 ARM_LOOP = {"kp_position": (30.0, 30.0), "kp_velocity": (15.0, 1.5), "ki_velocity": (150.0, 15.0)}
 
 
-def _arm_terms(q: np.ndarray, v: np.ndarray, p: dict) -> tuple[np.ndarray, np.ndarray]:
-    """The arm's mass matrix and its bias + gravity (tests/reference_integrator.arm_forward's terms, written again)."""
-    l1, m1, m2, c1, c2, I1, I2, g = (p[k] for k in ("l1", "m1", "m2", "c1", "c2", "I1", "I2", "g"))
-    cos2, sin2 = math.cos(q[1]), math.sin(q[1])
-    m11 = I1 + m1 * c1**2 + I2 + m2 * (l1**2 + c2**2 + 2 * l1 * c2 * cos2)
-    m12 = I2 + m2 * (c2**2 + l1 * c2 * cos2)
-    m22 = I2 + m2 * c2**2
-    h = m2 * l1 * c2 * sin2
-    bias = np.array([-h * (2 * v[0] * v[1] + v[1] ** 2), h * v[0] ** 2])
-    gravity = np.array([(m1 * c1 + m2 * l1) * g * math.cos(q[0]) + m2 * c2 * g * math.cos(q[0] + q[1]),
-                        m2 * c2 * g * math.cos(q[0] + q[1])])
-    return np.array([[m11, m12], [m12, m22]]), bias + gravity
-
-
 def moreau(mass: np.ndarray, force: np.ndarray, v: np.ndarray, h: float, j: int, Fc: float) -> np.ndarray:
     """Velocities after one step of Moreau's time-stepping with set-valued Coulomb friction Fc on coordinate ``j``:
     the friction impulse λ ∈ [−Fc·h, Fc·h] that stops coordinate j if it can, else opposes its free velocity."""
@@ -206,7 +192,7 @@ def arm_run(t: np.ndarray, reference: np.ndarray, p: dict, *, rigid: bool, motor
     step_m, step_l = 2 * math.pi / motor_counts, 2 * math.pi / link_counts
     kp, kv, ki = (np.array(ARM_LOOP[k]) for k in ("kp_position", "kp_velocity", "ki_velocity"))
     q, v = reference[0].copy(), np.zeros(2)  # the links; the motor theta, w of joint 2 (elastic case)
-    _, weight = _arm_terms(q, v, p)
+    _, weight = arm_terms(q, v, p)
     sag = weight[1] / p["k2"]
     theta, w = q[1] + (0.0 if rigid else sag + math.copysign(0.5 * p.get("backlash", 0.0), sag)), 0.0
     integral, previous = np.zeros(2), None
@@ -223,7 +209,7 @@ def arm_run(t: np.ndarray, reference: np.ndarray, p: dict, *, rigid: bool, motor
         integral = integral + period * error
         command[k] = u
         for _ in range(substeps):
-            mass, terms = _arm_terms(q, v, p)
+            mass, terms = arm_terms(q, v, p)
             if rigid:  # one body per joint: the rotor on joint 2's diagonal, its friction set-valued
                 mass = mass + np.diag([0.0, p["Jm2"]])
                 force = u - terms - np.array([p["Fv1"] * v[0], p["Fv2"] * v[1]])

@@ -135,8 +135,9 @@ ARM = {"l1": 0.4, "l2": 0.3, "m1": 3.0, "m2": 2.0, "c1": 0.2, "c2": 0.15, "I1": 
 viscous friction only: its truth here."""
 
 
-def arm_forward(q: np.ndarray, v: np.ndarray, tau: np.ndarray, p: dict) -> np.ndarray:
-    """q̈ of the planar two-link arm written out by hand (angles from the horizontal, gravity down)."""
+def arm_terms(q: np.ndarray, v: np.ndarray, p: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The planar two-link arm's mass matrix and its Coriolis, centrifugal and gravity forces, written out by
+    hand (angles from the horizontal, gravity down)."""
     l1, m1, m2, c1, c2, I1, I2, g = (p[k] for k in ("l1", "m1", "m2", "c1", "c2", "I1", "I2", "g"))
     cos2, sin2 = math.cos(q[1]), math.sin(q[1])
     m11 = I1 + m1 * c1**2 + I2 + m2 * (l1**2 + c2**2 + 2 * l1 * c2 * cos2)
@@ -146,10 +147,15 @@ def arm_forward(q: np.ndarray, v: np.ndarray, tau: np.ndarray, p: dict) -> np.nd
     bias = np.array([-h * (2 * v[0] * v[1] + v[1] ** 2), h * v[0] ** 2])
     gravity = np.array([(m1 * c1 + m2 * l1) * g * math.cos(q[0]) + m2 * c2 * g * math.cos(q[0] + q[1]),
                         m2 * c2 * g * math.cos(q[0] + q[1])])
-    friction = np.array([p["Fv1"] * v[0], p["Fv2"] * v[1]])
-    rhs = tau - bias - gravity - friction
-    det = m11 * m22 - m12**2
-    return np.array([m22 * rhs[0] - m12 * rhs[1], m11 * rhs[1] - m12 * rhs[0]]) / det
+    return np.array([[m11, m12], [m12, m22]]), bias + gravity
+
+
+def arm_forward(q: np.ndarray, v: np.ndarray, tau: np.ndarray, p: dict) -> np.ndarray:
+    """q̈ of the planar two-link arm (:func:`arm_terms`) with viscous friction on both joints."""
+    mass, terms = arm_terms(q, v, p)
+    rhs = tau - terms - np.array([p["Fv1"] * v[0], p["Fv2"] * v[1]])
+    det = mass[0, 0] * mass[1, 1] - mass[0, 1] ** 2
+    return np.array([mass[1, 1] * rhs[0] - mass[0, 1] * rhs[1], mass[0, 0] * rhs[1] - mass[0, 1] * rhs[0]]) / det
 
 
 def write_arm_experiment(folder: Path, *, kp: tuple[float, float] = (120.0, 60.0), kd: tuple[float, float] = (8.0, 4.0),
