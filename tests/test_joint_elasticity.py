@@ -240,6 +240,15 @@ def test_without_a_link_encoder_nothing_is_tested(tmp_path):
     assert "joint_elasticity" not in [f.effect for f in result.found]
 
 
+def test_a_validation_file_without_the_link_encoder_tests_nothing(tmp_path):
+    """--validate with a log whose experiment does not map ql_<c>: there is nothing to judge on; no test, no crash."""
+    model, experiment = _joint(tmp_path / "estimation")
+    other = truth.write_joint_experiment(tmp_path / "validation", seed=5)
+    other.write_text(other.read_text().replace('ql_q = "ql_q"\n', ""))
+    result = diagnose(str(model), str(experiment), validation=str(other), figures=False)
+    assert result.elasticity == ()
+
+
 def test_stiffness_reads_the_link_mode():
     """The mode of the link with the motor held: √(k/J_l)/2π with J_l the joint's inertia less the rotor's."""
     e = joint_elasticity.Elasticity("q", {"stiffness": 400.0, "motor_inertia": 0.02}, {}, {}, 0.9, 0.01, True, None)

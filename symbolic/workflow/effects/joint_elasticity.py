@@ -213,11 +213,14 @@ def _error(y: np.ndarray, predicted: np.ndarray) -> float:
 
 def test_all(robot: Any, sets: Mapping[str, Any], rigid_held: np.ndarray, min_gain: float,
              settings: Settings | None = None) -> list[Elasticity]:
-    """:func:`test` on every coordinate whose link-side position is logged (not named where the model cannot
-    hold the elasticity: :func:`applicable`); ``rigid_held``: the rigid model's held-out force, ``samples × N``."""
-    estimation = sets["estimation"]
+    """:func:`test` on every coordinate whose link-side position is logged in the estimation and the held-out data
+    (not named where the model cannot hold the elasticity: :func:`applicable`); ``rigid_held``: the rigid model's
+    held-out force, ``samples × N``."""
+    estimation, held = sets["estimation"], sets["validation"]
     out = []
     for c in logged_links(estimation.measurements):
+        if c not in logged_links(held.measurements):  # a validation file without the link encoder: nothing to judge on
+            continue
         found = test(sets, c, rigid_held[:, estimation.coordinates.index(c)], min_gain, settings)
         why = applicable(robot, c)
         out.append(found if why is None or not found.named else dataclasses.replace(found, named=False, reason=why))
