@@ -480,12 +480,11 @@ class _ListEffects(argparse.Action):
         for key, e in RESPONSE_EFFECTS.items():
             roles = ", ".join(f"{r} ({unit})" for r, unit in e.roles.items())
             print(f"{key}  {e.summary}  [{roles}]  (judged on the response: --simulate)")
-        from symbolic.workflow.effects.joint_elasticity import SUMMARIES
+        from symbolic.workflow.effects.joint_elasticity import ROLES, SUMMARIES
 
-        roles = {"joint_elasticity": "stiffness ({force}/{position}), damping ({force}·s/{position}), motor_inertia "
-                                     "({inertia})", "backlash": "width ({position})"}
         for key, summary in SUMMARIES.items():
-            print(f"{key}  {summary}  [{roles[key]}]  (where ql_<c> is logged)")
+            roles = ", ".join(f"{r} ({unit})" for r, unit in ROLES[key].items())
+            print(f"{key}  {summary}  [{roles}]  (where ql_<c> is logged)")
         parser.exit()
 
 

@@ -223,7 +223,7 @@ def test_link_encoder_errors_on_a_rigid_joint_are_not_a_spring(tmp_path, error):
 def test_motor_side_fit_is_exact_on_its_own_columns(tmp_path):
     """The least squares of the motor side, given a force made of its own columns: the coefficients to rounding."""
     sets, _ = _sets(tmp_path)
-    x, _ = joint_elasticity._sides(sets["estimation"], 0, None)
+    x = joint_elasticity._motion(sets["estimation"], 0, None).columns()
     c = np.array([0.02, 0.3, 0.5, -0.1, 400.0, 0.8])
     values, sigmas = joint_elasticity._fit(x, x @ c)
     assert values == pytest.approx(c, rel=1e-9)

@@ -243,7 +243,7 @@ def corrections(fit: FinalFit, values: Sequence[Value], robot: Robot, min_gain: 
             moved_by = abs(other.value - other.nominal) / other.sigma if other.sigma > 0 else None
             evidence["lowered_bandwidth"] = {"value": other.value, "sigma": other.sigma, "sigmas": moved_by}
         entry = {"parameter": v.parameter, "nominal": v.nominal, "value": v.value, "sigma": v.sigma,
-                 "relative_change": v.relative_change, "evidence": evidence, "summary": _sentence(v, kind)}
+                 "relative_change": v.relative_change, "evidence": evidence, "summary": sentence(v, kind)}
         if gain < min_gain:
             moved.append({**entry, "why": "held-out"})
         elif not v.physical:
@@ -312,7 +312,7 @@ def moved_note(m: Mapping[str, Any], min_gain: float = MIN_HELD_OUT_GAIN) -> str
             f"< {100 * min_gain:g} %): not named a correction")
 
 
-def _sentence(v: Value, kind: str) -> str:
+def sentence(v: Value, kind: str) -> str:
     """"stiffness Ks is 1.7× too high (model file 1, data 0.5878 ± 0.0006)"."""
     what = f"{kind} {v.parameter}" if kind not in ("parameter", "combination") else (
         f"the base parameter {v.parameter} = {v.expression}" if v.expression else v.parameter)

@@ -371,8 +371,8 @@ def _found_elastic(e: Any, written: dict[str, float]) -> list[Found]:
                 "held_out_error_percent": dict(e.errors), "deflection_rms": e.deflection_rms}
     out = [Found("joint_elasticity", e.coordinate, {k: e.values[k] for k in roles}, {k: e.sigmas[k] for k in roles},
                  dict(written), evidence)]
-    band = e.backlash
-    if band is not None and band["named"]:
+    band = e.band
+    if band is not None:
         out.append(Found("backlash", e.coordinate, {"width": band["width"]}, {"width": None},
                          {k: v for k, v in written.items() if k.startswith("backlash")},
                          {**evidence, "held_out_gain": band["gain"], "centre": band["centre"],

@@ -9,6 +9,7 @@ this reading equals the registry's). Anything else — ``--list-effects``, the s
 from __future__ import annotations
 
 import ast
+from collections.abc import Callable
 from pathlib import Path
 
 FOLDER = Path(__file__).with_name("effects")
@@ -17,34 +18,32 @@ FOLDER = Path(__file__).with_name("effects")
 def summaries(folder: Path = FOLDER) -> dict[str, str]:
     """{registry key: summary} of the effects declared in ``folder``'s modules, in the catalogue's order (by
     ``rank`` when written as a literal, else the default 1000, then by key)."""
-    found: dict[str, tuple[int, str]] = {}
-    for path in sorted(folder.glob("*.py")):
-        if path.name.startswith("_") or path.stem == "base":
-            continue
-        for node in ast.parse(path.read_text(encoding="utf-8")).body:
-            if isinstance(node, ast.ClassDef):
-                values = _literals(node)
-                if isinstance(values.get("name"), str) and isinstance(values.get("summary"), str):
-                    rank = values.get("rank")
-                    found[values["name"]] = (rank if isinstance(rank, int) else 1000, values["summary"])
-    return {key: summary for key, (_, summary) in sorted(found.items(), key=lambda item: (item[1][0], item[0]))}
+    return _declared(folder, "name", 1000, lambda node: True, skip=("base",))
 
 
 def response_summaries(folder: Path = FOLDER) -> dict[str, str]:
     """{identifier: summary} of the effects judged on the response (classes deriving from ``ResponseEffect``
     that assign ``identifier`` and ``summary`` as string literals), in the registry's order (``rank``, then key)."""
+    return _declared(folder, "identifier", 100,
+                     lambda node: any(isinstance(b, ast.Name) and b.id == "ResponseEffect" for b in node.bases))
+
+
+def _declared(folder: Path, key: str, default_rank: int, chosen: Callable[[ast.ClassDef], bool],
+              skip: tuple[str, ...] = ()) -> dict[str, str]:
+    """{``key``: summary} of the classes of ``folder``'s modules (not ``_``-prefixed, not ``skip``) that ``chosen``
+    accepts and that assign ``key`` and ``summary`` as string literals, ordered by ``rank`` (a literal, else
+    ``default_rank``), then by key."""
     found: dict[str, tuple[int, str]] = {}
     for path in sorted(folder.glob("*.py")):
-        if path.name.startswith("_"):
+        if path.name.startswith("_") or path.stem in skip:
             continue
         for node in ast.parse(path.read_text(encoding="utf-8")).body:
-            if isinstance(node, ast.ClassDef) and any(isinstance(b, ast.Name) and b.id == "ResponseEffect"
-                                                      for b in node.bases):
+            if isinstance(node, ast.ClassDef) and chosen(node):
                 values = _literals(node)
-                if isinstance(values.get("identifier"), str) and isinstance(values.get("summary"), str):
+                if isinstance(values.get(key), str) and isinstance(values.get("summary"), str):
                     rank = values.get("rank")
-                    found[values["identifier"]] = (rank if isinstance(rank, int) else 100, values["summary"])
-    return {key: summary for key, (_, summary) in sorted(found.items(), key=lambda item: (item[1][0], item[0]))}
+                    found[values[key]] = (rank if isinstance(rank, int) else default_rank, values["summary"])
+    return {name: summary for name, (_, summary) in sorted(found.items(), key=lambda item: (item[1][0], item[0]))}
 
 
 def two_encoder_summaries(folder: Path = FOLDER) -> dict[str, str]:

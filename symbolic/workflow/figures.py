@@ -85,7 +85,7 @@ def _transmission(fig: Any, e: Any, u: CoordinateUnits) -> Any:
     grid = np.linspace(delta.min(), delta.max(), 400)
     ax = fig.add_subplot(1, 1, 1)
     ax.plot(delta, measured, ".", ms=2, label="measured: τ − J_m·q̈ − Fv·q̇ − Fc·sgn(q̇) − b − d·δ̇")
-    band = e.backlash if e.backlash is not None and e.backlash["named"] else None
+    band = e.band
     law = f"k = {e.values['stiffness']:.4g} {u.unit('force')}/{u.position}" + \
         (f", dead band {band['width']:.3g} {u.position}" if band else "")
     ax.plot(grid, e.spring(grid), "-", lw=1.2, label=f"fitted: {law}")

@@ -122,8 +122,7 @@ def _elasticity(d: Diagnosis) -> list[str]:
     rows = [[e.coordinate, _g(e.deflection_rms), _g(e.errors["rigid"]), _g(e.errors["motor_side"]), _g(e.errors["elastic"]),
              f"{100 * e.gain:.3g} %",
              ", ".join(f"{k} = {_g(e.values[k])} ± {_g(e.sigmas[k], 2)}" for k in ("stiffness", "damping", "motor_inertia")),
-             ("named" + (f" (link mode ≈ {e.to_dict()['link_mode_hz']:.3g} Hz)" if e.to_dict()["link_mode_hz"] else ""))
-             if e.named else e.reason, _band(e.backlash)] for e in d.elasticity]
+             _elastic_verdict(e), _band(e.backlash)] for e in d.elasticity]
     lines += _table(["coordinate", "deflection rms", "rigid row", "motor side without spring", "with spring",
                      "held-out gain", "motor side (± σ)", "verdict", "dead band (backlash)"], rows)
     named = [e for e in d.elasticity if e.named]
@@ -139,6 +138,14 @@ def _elasticity(d: Diagnosis) -> list[str]:
         lines += ["```"]
     lines.append("")
     return lines
+
+
+def _elastic_verdict(e: Any) -> str:
+    """"named" with the link's mode the fit implies, or why not."""
+    if not e.named:
+        return e.reason
+    mode = e.frequency_hz(e.values["joint_inertia"])
+    return "named" + (f" (link mode ≈ {mode:.3g} Hz)" if mode else "")
 
 
 def _band(backlash: dict[str, Any] | None) -> str:

@@ -89,8 +89,6 @@ class Judged:
     converged: bool
     verdict: str | None
     fit: OutputErrorFit | None = field(default=None, repr=False, compare=False)
-    carried: dict[Key, FittedParameter] = field(default_factory=dict, repr=False, compare=False)
-    """Fixed (scanned) values named in earlier rounds, which the fit holds but does not return."""
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"effect": self.candidate.effect.identifier, "coordinate": self.candidate.coordinate,
@@ -133,9 +131,8 @@ class ResponseSearch:
 
     def layer_values(self) -> dict[Key, float]:
         """The signal-layer values named (for the experiment file)."""
-        if not self.named:
-            return {}
-        return {k: v.value for k, v in _all_values(self.named[-1]).items() if k[0] != PARAMETER}
+        # every named one's: a scanned value is held fixed in later fits, which return only the free ones
+        return {k: v.value for j in self.named for k, v in _all_values(j).items() if k[0] != PARAMETER}
 
     def experiment_lines(self) -> list[str]:
         """The TOML lines (``[sensors]``/``[drive]`` tables and their entries) that declare what was named."""
@@ -163,8 +160,7 @@ def _all_values(judged: Judged) -> dict[Key, FittedParameter]:
     fixed in the fit, from the judgement (:func:`~symbolic.workflow.effects.on_response.fixed_key`)."""
     if judged.fit is None:
         return dict(judged.values)
-    return {**_all_values_of(judged.fit), **{k: v for k, v in judged.values.items() if fixed_key(k)},
-            **judged.carried}
+    return {**_all_values_of(judged.fit), **{k: v for k, v in judged.values.items() if fixed_key(k)}}
 
 
 def _name(key: Key) -> str:
@@ -211,7 +207,8 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
             break
         best = max(passing, key=lambda j: j.gain)
         named.append(best)
-        accepted = {k: v.value for k, v in _all_values(best).items()}
+        held_fixed = {k: v for k, v in accepted.items() if fixed_key(k)}  # the fits return only the free values
+        accepted = {**held_fixed, **{k: v.value for k, v in _all_values(best).items()}}
         last = best.fit
         current = {"estimation": best.estimation, "validation": best.held_out}
         remaining = [c for c in remaining if (c.effect, c.coordinate, c.frees) != (best.candidate.effect,
@@ -299,8 +296,6 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[
     ``now``: the current model's simulation of the estimation data (where the fit starts). A scanned candidate
     (:attr:`~symbolic.workflow.effects.on_response.ResponseEffect.scan`) is fitted at its values in turn, until two
     past the best, and the one that lowers the estimation data's simulation error most is judged."""
-    carried = {k: FittedParameter(_name(k), float(v), 0.0, 0.0, float(v), None)
-               for k, v in accepted.items() if fixed_key(k)}
     scanned = candidate.effect.scan
     trials = [{k: value for k in candidate.frees} for value in scanned] if scanned else \
         [{k: _start(candidate, k, estimation, now) for k in candidate.frees if k not in accepted}]
@@ -355,8 +350,7 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[
         verdict = f"worsens the held-out simulation error over all coordinates ({100 * stacked:.3g} %)"
     if verdict is None and not sigmas >= MIN_SIGMAS:
         verdict = f"its value is {sigmas:.3g} σ from nothing missing (at least {MIN_SIGMAS:g} needed)"
-    return Judged(candidate, values, fit.errors, after_held, gain, stacked, sigmas, roles, fit.converged, verdict, fit,
-                  carried)
+    return Judged(candidate, values, fit.errors, after_held, gain, stacked, sigmas, roles, fit.converged, verdict, fit)
 
 
 def _now(model: DynamicModel, estimation: Measurements, accepted: Mapping[Key, float],

@@ -41,10 +41,16 @@ from symbolic.description.names import coefficient_name
 from symbolic.description.units import coordinate_kind
 from symbolic.workflow.effects.base import joint_frame
 from symbolic.workflow.statistics import MIN_SIGMAS
+from symbolic.workflow.terms import relative_gap
 
 SUMMARIES = {"joint_elasticity": "an elastic transmission between motor and link: k·δ + d·δ̇ (from two encoders, ql_<c>)",
              "backlash": "a dead band in an elastic transmission, with its width (from two encoders, ql_<c>)"}
 """What ``diagnose --help`` and ``--list-effects`` say of the two-encoder test (read from this text, not imported)."""
+
+ROLES = {"joint_elasticity": {"stiffness": "{force}/{position}", "damping": "{force}·s/{position}",
+                              "motor_inertia": "{inertia}"},
+         "backlash": {"width": "{position}"}}
+"""What each names, with units (``--list-effects``)."""
 
 LINK_PREFIX = "ql_"
 """The extra signal of a coordinate's link-side position (``ql_<c>``, in the coordinate's units)."""
@@ -104,6 +110,11 @@ class Elasticity:
     deflection: the encoders' zeros differ by it), ``gain`` and ``named``/``reason``; ``None`` when not tried. When
     named, ``values`` are the spring's in contact."""
 
+    @property
+    def band(self) -> Mapping[str, Any] | None:
+        """The dead band when one is named (:attr:`backlash`), else ``None``."""
+        return self.backlash if self.backlash is not None and self.backlash["named"] else None
+
     def transmission(self) -> tuple[np.ndarray, np.ndarray]:
         """(δ, the spring's torque as measured) on the estimation data: the force less every other term of the
         motor side as fitted, against the deflection (the report's figure)."""
@@ -115,8 +126,7 @@ class Elasticity:
     def spring(self, delta: np.ndarray) -> np.ndarray:
         """The fitted spring's torque at deflections ``delta``: k·δ, or with a dead band k·(x ∓ b/2) outside
         |x| ≤ b/2, x = δ − centre."""
-        k = self.values["stiffness"]
-        band = self.backlash if self.backlash is not None and self.backlash["named"] else None
+        k, band = self.values["stiffness"], self.band
         if band is None:
             return k * delta
         x = delta - band["centre"]
@@ -129,7 +139,7 @@ class Elasticity:
         k = COLUMNS.index(role)
         others = [i for i in range(len(COLUMNS)) if i != k]
         c, _ = _fit(x[:, others], y - value * x[:, k])
-        return _error(yh, xh[:, others] @ c + value * xh[:, k])
+        return relative_gap(yh, xh[:, others] @ c + value * xh[:, k])
 
     def frequency_hz(self, joint_inertia: float) -> float | None:
         """The link's mode with the motor held, √(k/J_l)/2π, J_l = ``joint_inertia`` − J_m (None if J_l ≤ 0): on one
@@ -144,7 +154,7 @@ class Elasticity:
                 "reason": self.reason, "values": dict(self.values), "sigmas": dict(self.sigmas),
                 "held_out_error_percent": dict(self.errors), "gain": self.gain,
                 "deflection_rms": self.deflection_rms,
-                "link_mode_hz": self.frequency_hz(self.values.get("joint_inertia", math.nan)),
+                "link_mode_hz": self.frequency_hz(self.values["joint_inertia"]),
                 "backlash": None if self.backlash is None else dict(self.backlash)}
 
 
@@ -180,20 +190,11 @@ class _Motion:
 def _motion(data: Any, j: int, settings: Settings | None) -> _Motion:
     """The motor side of coordinate ``j``: the motor's and the link's positions through the same treatment (both
     differentiated alike, so that δ̇ is the difference of their velocities)."""
-    m = data.measurements
-    c = m.coordinates[j]
-    motor = states(dataclasses.replace(m, qd=None, qdd=None), settings)
-    q = np.array(m.q, dtype=float)
-    q[:, j] = np.asarray(m.extras[LINK_PREFIX + c], dtype=float)
-    link = states(dataclasses.replace(m, q=q, qd=None, qdd=None), settings)
+    positions = dataclasses.replace(data.measurements, qd=None, qdd=None)
+    motor = states(positions, settings)
+    link = states(linked(positions, [positions.coordinates[j]]), settings)
     return _Motion(motor.qdd[:, j], motor.qd[:, j], motor.q[:, j] - link.q[:, j], motor.qd[:, j] - link.qd[:, j],
                    data.states.processing.reduce, np.asarray(data.tau)[:, j])
-
-
-def _sides(data: Any, j: int, settings: Settings | None) -> tuple[np.ndarray, np.ndarray]:
-    """The motor side's columns (samples × 6, reduced like τ) and the force on coordinate ``j`` (a spring)."""
-    motion = _motion(data, j, settings)
-    return motion.columns(), motion.tau
 
 
 def _fit(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -205,10 +206,6 @@ def _fit(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     dof = max(len(y) - x.shape[1], 1)
     covariance = np.linalg.pinv((x / scale).T @ (x / scale)) * float(residual @ residual) / dof
     return solution / scale, np.sqrt(np.clip(np.diag(covariance), 0.0, None)) / scale
-
-
-def _error(y: np.ndarray, predicted: np.ndarray) -> float:
-    return 100.0 * float(np.linalg.norm(y - predicted) / max(np.linalg.norm(y), 1e-300))
 
 
 def test_all(robot: Any, sets: Mapping[str, Any], rigid_held: np.ndarray, min_gain: float,
@@ -242,8 +239,8 @@ def test(sets: Mapping[str, Any], coordinate: str, rigid_held: np.ndarray, min_g
     e0 = float(np.sum((yh - xh[:, rigid_columns] @ c0) ** 2))
     e1 = float(np.sum((yh - xh @ c) ** 2))
     gain = 1.0 - e1 / e0 if e0 > 0 else 0.0
-    errors = {"rigid": _error(yh, rigid_held), "motor_side": _error(yh, xh[:, rigid_columns] @ c0),
-              "elastic": _error(yh, xh @ c)}
+    errors = {"rigid": relative_gap(yh, rigid_held), "motor_side": relative_gap(yh, xh[:, rigid_columns] @ c0),
+              "elastic": relative_gap(yh, xh @ c)}
     values = {**dict(zip(COLUMNS, map(float, c))), "joint_inertia": float(c0[0])}
     sigmas = dict(zip(COLUMNS, map(float, sigma)))
     reason = _reason(values, sigmas, errors, gain, min_gain)
@@ -296,7 +293,7 @@ def _backlash(found: Elasticity, motion: _Motion, held: _Motion, min_gain: float
     if why is not None:
         return dataclasses.replace(found, backlash=backlash)
     values = {**found.values, **dict(zip(COLUMNS, map(float, c)))}
-    errors = {**found.errors, "elastic": _error(yh, xh @ c)}
+    errors = {**found.errors, "elastic": relative_gap(yh, xh @ c)}
     return dataclasses.replace(found, values=values, sigmas=dict(zip(COLUMNS, map(float, sigma))), errors=errors,
                                predicted={"estimation": x @ c, "validation": xh @ c},
                                design=(x, y, xh, yh), backlash=backlash)
@@ -328,48 +325,46 @@ def linked(measurements: Any, coordinates: Sequence[str]) -> Any:
     """``measurements`` with the positions of ``coordinates`` read from their link-side encoders (``ql_<c>``), and
     a measured velocity or acceleration of theirs replaced by the link position's central differences (the link's
     own were not logged)."""
-    from symbolic.data.filters import central_difference
-
     columns = [measurements.coordinates.index(c) for c in coordinates]
     q = np.array(measurements.q, dtype=float)
     for j, c in zip(columns, coordinates):
         q[:, j] = np.asarray(measurements.extras[LINK_PREFIX + c], dtype=float)
     changes: dict[str, Any] = {"q": q}
-    h = measurements.sample_period
     for name, order in (("qd", 1), ("qdd", 2)):
         given = getattr(measurements, name)
         if given is not None:
             x = np.array(given, dtype=float)
-            for j in columns:
-                column = q[:, j]
-                for _ in range(order):
-                    column = central_difference(column, h)
-                x[:, j] = column
+            x[:, columns] = _differentiated(q[:, columns], measurements.sample_period, order)
             changes[name] = x
     return dataclasses.replace(measurements, **changes)
+
+
+def _differentiated(x: np.ndarray, step: float, order: int) -> np.ndarray:
+    """``x`` (samples × k) differentiated ``order`` times by central differences (the treatment's)."""
+    from symbolic.data.filters import central_difference
+
+    for _ in range(order):
+        x = central_difference(x, step)
+    return x
 
 
 def with_deflections(measurements: Any, found: Sequence[Elasticity]) -> Any:
     """``measurements`` (motor-side positions) with the patched model's deflection coordinates added, as
     :func:`experiment_lines` maps them: ``<c>_flex`` = ql_<c> − q_<c> (+ a dead band's centre), no force, its
     reference its own reading; for the simulated path of a diagnosis (the loop reads the motors)."""
-    from symbolic.data.filters import central_difference
-
     m = measurements
     extra = []
     for e in found:
-        band = e.backlash if e.backlash is not None and e.backlash["named"] else None
-        shift = 0.0 if band is None else band["centre"]
+        shift = 0.0 if e.band is None else e.band["centre"]
         j = m.coordinates.index(e.coordinate)
         extra.append(np.asarray(m.extras[LINK_PREFIX + e.coordinate], dtype=float) - np.asarray(m.q)[:, j] + shift)
     flex = np.column_stack(extra)
     changes: dict[str, Any] = {"coordinates": (*m.coordinates, *(f"{e.coordinate}_flex" for e in found)),
                                "q": np.hstack([m.q, flex]), "tau": np.hstack([m.tau, np.zeros_like(flex)])}
-    h = m.sample_period
     if m.qd is not None:
-        changes["qd"] = np.hstack([m.qd, central_difference(flex, h)])
+        changes["qd"] = np.hstack([m.qd, _differentiated(flex, m.sample_period, 1)])
     if m.qdd is not None:
-        changes["qdd"] = np.hstack([m.qdd, central_difference(central_difference(flex, h), h)])
+        changes["qdd"] = np.hstack([m.qdd, _differentiated(flex, m.sample_period, 2)])
     if m.ref is not None:
         changes["ref"] = np.hstack([m.ref, flex])
     return dataclasses.replace(m, **changes)
@@ -417,7 +412,7 @@ def patch(editor: Any, robot: Any, found: Elasticity, comment: str) -> tuple[dic
     key = "theta" if coordinate_kind(robot, c) == "revolute" else "d"
     editor.set_frame_dh(frame.name, key, f"{editor.frame_dh(frame.name)[key]} + {flex}", comment + "; the link turns with "
                         "the motor plus the deflection")
-    band = found.backlash if found.backlash is not None and found.backlash["named"] else None
+    band = found.band
     if band is None:
         editor.add_force(f"transmission_{c}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
         return {k: v["stiffness"], d: damping, rotor: v["motor_inertia"] / ratio**2}, flex
@@ -452,28 +447,26 @@ def motor_values(robot: Any, found: Elasticity) -> dict[str, float]:
 def motor_corrections(robot: Any, found: Elasticity, min_gain: float) -> list[dict[str, Any]]:
     """The model file's friction values on the joint that its motor side moves beyond 3σ and 10 % and that predict
     the held-out force worse by at least ``min_gain`` of its residual power (the corrections' rule of
-    :mod:`symbolic.workflow.corrections`, read from the motor side's fit)."""
-    from symbolic.workflow.corrections import RELATIVE, SIGMAS
+    :mod:`symbolic.workflow.corrections`, read from the motor side's fit, in its words)."""
+    from symbolic.workflow.corrections import RELATIVE, SIGMAS, Value, sentence
 
     nominal = {p.name: float(p.value) for p in robot.parameters}
     out = []
     for name, role in motor_roles(robot, found.coordinate).items():
-        value, sigma, file_value = found.values[role], found.sigmas[role], nominal[name]
-        if not (abs(value - file_value) > SIGMAS * sigma and abs(value - file_value) > RELATIVE * abs(file_value)):
+        v = Value(name, nominal[name], found.values[role], found.sigmas[role], column=-1, scale=1.0)
+        moved = abs(v.value - v.nominal)
+        if not (moved > SIGMAS * v.sigma and moved > RELATIVE * abs(v.nominal)):
             continue
-        at_file, with_value = found.held_out_error_with(role, file_value), found.errors["elastic"]
+        at_file, with_value = found.held_out_error_with(role, v.nominal), found.errors["elastic"]
         gain = 1.0 - (with_value / at_file) ** 2 if at_file > 0 else 0.0
         if gain < min_gain:
             continue
-        factor = value / file_value if file_value else None
-        how = (f"{1 / factor:.3g}× too high" if factor and factor < 1 else f"{factor:.3g}× too low") if factor else "wrong"
-        out.append({"parameter": name, "nominal": file_value, "value": value, "sigma": sigma,
-                    "relative_change": None if not file_value else (value - file_value) / abs(file_value),
-                    "evidence": {"sigmas": abs(value - file_value) / sigma if sigma else None,
-                                 "held_out_gap": with_value, "held_out_gap_at_nominal": at_file, "held_out_gain": gain,
-                                 "kind": "friction", "from": f"the motor side of {found.coordinate} (two encoders)"},
-                    "summary": f"friction {name} is {how} (model file {file_value:.4g}, motor side {value:.4g} ± "
-                               f"{sigma:.2g})"})
+        out.append({"parameter": name, "nominal": v.nominal, "value": v.value, "sigma": v.sigma,
+                    "relative_change": v.relative_change,
+                    "evidence": {"sigmas": moved / v.sigma if v.sigma else None, "held_out_gap": with_value,
+                                 "held_out_gap_at_nominal": at_file, "held_out_gain": gain, "kind": "friction",
+                                 "from": f"the motor side of {found.coordinate} (two encoders)"},
+                    "summary": sentence(v, "friction")})
     return out
 
 
@@ -482,8 +475,7 @@ def experiment_lines(found: Elasticity, reference: bool = False) -> list[str]:
     with a dead band, its centre is the encoders' zero difference and moves to the deflection's mapping.
     ``reference``: the log has ``ref_<c>`` columns, which the data contract wants for every coordinate or none; the
     deflection's is its own reading (no loop drives it: the controller's coordinates are the motors')."""
-    c = found.coordinate
-    band = found.backlash if found.backlash is not None and found.backlash["named"] else None
+    c, band = found.coordinate, found.band
     shift = "" if band is None else f" {'-' if band['centre'] < 0 else '+'} {abs(band['centre']):.6g}"
     deflection = f"{LINK_PREFIX}{c} - q_{c}{shift}"
     lines = ["[signals]", f'q_{c}_flex = "{deflection}"', f'tau_{c}_flex = "0"']
