@@ -7,7 +7,8 @@ simulated path (``diagnose(..., simulate=True, response=True)``) with the whole 
 * null cases — the axis over seeds, encoders of 2^16 and 2^20 counts per revolution and force noise of 0.01
   and 0.03 N·m; the arm over seeds — count what the response names (goal: 0);
 * one case of each effect: a force logged 3 samples late on the axis and on the arm's joint 2, a drive gain
-  of 1.3 on the arm's joint 2 — the value named.
+  of 1.3 on the arm's joint 2, a drive applying its command late inside the loop (the axis's, both of the
+  arm's, the arm's joint 2 alone) — the value named.
 
 * the flexible rig logged as real rigs are (tests/rig_reference.py), its file's Ks 1.7× too high: the values
   written against the truth's.
@@ -79,7 +80,13 @@ def main() -> None:
              ("arm, joint 2's force logged 3 samples late", "delay 3 on q2", "arm",
               dict(log_delay=(0, 3), force_noise=0.05, seed=1)),
              ("arm, joint 2's drive gain 1.3", "gain 1.3 on q2", "arm",
-              dict(drive=((1.0, 0.0), (1.3, 0.0)), force_noise=0.05, seed=1))]
+              dict(drive=((1.0, 0.0), (1.3, 0.0)), force_noise=0.05, seed=1)),
+             ("axis, drive 2 samples late in the loop", "drive delay 2", "axis",
+              dict(drive_delay=2, force_noise=0.02, counts=2**16, seed=1)),
+             ("arm, both drives 2 samples late", "drive delay 2 on q1 and q2", "arm",
+              dict(drive_delay=(2, 2), force_noise=0.05, seed=2)),
+             ("arm, joint 2's drive 3 samples late", "drive delay 3 on q2", "arm",
+              dict(drive_delay=(0, 3), force_noise=0.05, seed=3))]
     for title, truth, kind, options in ([] if args.quick else cases):
         named, _ = run(kind, **options)
         text = "; ".join(f"{label} {({k: round(v, 4) for k, v in roles.items()} if isinstance(roles, dict) else roles)}"

@@ -126,12 +126,22 @@ def test_a_drive_applying_its_command_late_is_named_as_a_drive_delay(tmp_path: P
 
 @pytest.mark.slow
 def test_a_drive_delay_of_the_arms_loop(tmp_path: Path) -> None:
-    """Both drives of the arm apply their commands 2 samples late (a bus cycle): one delay for the loop, the
-    simulated loop's kind (a joint's own latency alone is not simulated in a feedback loop: docs/workflow.md)."""
+    """Both drives of the arm apply their commands 2 samples late (a bus cycle): one delay for the loop,
+    drive_delay(all), not one joint's."""
     result = _diagnose(tmp_path, "arm", drive_delay=(2, 2), force_noise=0.05, counts=2**16, seed=2)
     named = _named(result)
     assert list(named) == ["drive_delay(all)"] and abs(named["drive_delay(all)"]["delay"] - 2.0) < 1.0
     assert result.response.experiment_lines() == ["[drive]", "tau_q1 = { delay = 2 }", "tau_q2 = { delay = 2 }"]
+
+
+@pytest.mark.slow
+def test_one_joints_drive_delay_is_named_on_that_joint(tmp_path: Path) -> None:
+    """Only the second joint's drive applies its commands late, 3 samples (its own drive's latency; the first
+    joint's is on time): drive_delay(q2) 3, within one sample — not the loop's delay, not the first joint's."""
+    result = _diagnose(tmp_path, "arm", drive_delay=(0, 3), force_noise=0.05, counts=2**16, seed=3)
+    named = _named(result)
+    assert list(named) == ["drive_delay(q2)"] and abs(named["drive_delay(q2)"]["delay"] - 3.0) < 1.0
+    assert result.response.experiment_lines() == ["[drive]", "tau_q2 = { delay = 3 }"]
 
 
 @pytest.mark.slow

@@ -378,3 +378,37 @@ def test_the_sensor_model_of_a_simulation_and_the_delays_derivative() -> None:
         step = 1e-6
         central = (shift(x, offset + step) - shift(x, offset - step)) / (2 * step)
         np.testing.assert_allclose(shift_derivative(x, offset)[3:-4], central[3:-4], rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("method", ["rk4", "Radau"])
+def test_each_drive_of_a_feedback_loop_applies_its_command_its_own_samples_late(tmp_path: Path, method: str) -> None:
+    """Each coordinate's drive its own whole delay inside a PD loop (docs/data.md): the force applied to q1 at
+    sample k is the PD law at sample k − d1, and to q2 at k − d2, from the simulated positions (no quantisation:
+    kp·(r − q) − kd·(q_j − q_j−1)/T, 0 before the first command arrives). Delays alike are the loop's own
+    ``[controller] delay``: the same run to the last bit."""
+    import models
+
+    model_path = tmp_path / "arm.toml"
+    model_path.write_text(models.arm(), encoding="utf-8")
+    arm = symbolic.derive(symbolic.load(str(model_path)))
+    t = np.arange(0.0, 0.3, 1 / RATE)
+    ref = np.column_stack([0.3 * np.sin(2 * np.pi * 2 * t), -0.2 * np.sin(2 * np.pi * 3 * t)])
+    kp, kd = np.array([120.0, 60.0]), np.array([8.0, 4.0])
+    columns = {"t": t, "q_q1": np.zeros_like(t), "q_q2": np.zeros_like(t), "tau_q1": np.zeros_like(t),
+               "tau_q2": np.zeros_like(t), "ref_q1": ref[:, 0], "ref_q2": ref[:, 1]}
+    loop = ('[controller]\nkind = "pd"\ncoordinates = ["q1", "q2"]\nkp = [120.0, 60.0]\nkd = [8.0, 4.0]\n'
+            'reference = "ref"\n')
+    runs = {}
+    for name, text in (("own", "[drive]\ntau_q1 = { delay = 1 }\ntau_q2 = { delay = 3 }\n"),
+                       ("alike", "[drive]\ntau_q1 = { delay = 2 }\ntau_q2 = { delay = 2 }\n"),
+                       ("loop", "delay = 2\n")):
+        path = experiment(tmp_path, columns, loop + text, f"{name}.toml")
+        runs[name] = simulate(arm, load(path, model=arm.robot), method=method).simulated
+    np.testing.assert_array_equal(runs["alike"].q, runs["loop"].q)
+    q, tau = runs["own"].q, runs["own"].tau
+    velocity = np.vstack([np.zeros((1, 2)), np.diff(q, axis=0) * RATE])
+    law = kp * (ref - q) - kd * velocity
+    for j, d in enumerate((1, 3)):
+        np.testing.assert_array_equal(tau[:d, j], 0.0)
+        np.testing.assert_allclose(tau[d:, j], law[:-d, j], rtol=1e-12, atol=1e-9)
+    assert np.max(np.abs(runs["own"].q - runs["alike"].q)) > 1e-4  # the delays matter

@@ -106,6 +106,9 @@ class Controller:
         ``cascade_pi``: expressions of the data's columns added to the command before saturation, or ``None``.
     reference_velocity
         ``cascade_pi``: expressions of the data's columns giving ṙ, or ``None`` (r's backward difference).
+    drive_delays
+        Samples each controlled coordinate's drive adds to ``delay`` (the experiment's ``[drive] tau_<c> delay``,
+        set by :func:`symbolic.simulation.simulator.drive_layer`; empty: none). Never read from ``[controller]``.
     """
 
     kind: str
@@ -127,6 +130,16 @@ class Controller:
     velocity_feedforward: np.ndarray = field(default_factory=lambda: np.zeros(0))
     feedforward: tuple[str, ...] | None = None
     reference_velocity: tuple[str, ...] | None = None
+    drive_delays: tuple[int, ...] = ()
+
+    @property
+    def line_length(self) -> int:
+        """Outputs the delay line keeps: the longest delay of a coordinate, ``delay`` plus its drive's."""
+        return self.delay + max(self.drive_delays, default=0)
+
+    def output_delay(self, k: int) -> int:
+        """Samples between measuring and applying on the ``k``-th controlled coordinate."""
+        return self.delay + (self.drive_delays[k] if self.drive_delays else 0)
 
     @property
     def size(self) -> int:
@@ -156,14 +169,15 @@ class Controller:
     def memory_size(self, line: bool = True) -> int:
         """Length of the controller's state: started flag, last positions, past velocities, integral (for
         ``cascade_pi`` also the last filtered velocity, for its derivative), and the delay line
-        (``nc·delay``) unless ``line`` is false (a line kept outside the state)."""
+        (``nc·line_length``) unless ``line`` is false (a line kept outside the state)."""
         nc, ns = self.size, len(self.sensors)
         loop = 2 * nc if self.kind == CASCADE_PI else nc
-        return 1 + ns + ns * (len(self.velocity_filter) - 1) + loop + (nc * self.delay if line else 0)
+        return 1 + ns + ns * (len(self.velocity_filter) - 1) + loop + (nc * self.line_length if line else 0)
 
     def structure(self) -> tuple[Any, ...]:
         """What the controller's compiled function depends on besides its numbers (:func:`symbolic.simulation.controller.constants`)."""
-        return (self.kind, self.coordinates, tuple(self.states), self.delay, len(self.velocity_filter))
+        return (self.kind, self.coordinates, tuple(self.states), self.delay, len(self.velocity_filter),
+                self.drive_delays)
 
     def describe(self) -> str:
         """One line: kind, coordinates and the optional features in use."""
@@ -182,6 +196,8 @@ class Controller:
             parts.append(f"disturbance {', '.join(self.disturbance)}")
         if self.delay:
             parts.append(f"delay {self.delay} sample(s)")
+        if any(self.drive_delays):
+            parts.append("drive delays " + ", ".join(f"{c} {d}" for c, d in zip(self.coordinates, self.drive_delays)))
         if len(self.velocity_filter) > 1:
             parts.append(f"velocity filter {list(map(float, self.velocity_filter))}")
         return "; ".join(parts)
@@ -492,9 +508,9 @@ def check_delay(controller: Controller, samples: int | None) -> Controller:
     DataError
         ``[controller] delay`` of ``samples − 1`` or more, with the allowed range.
     """
-    if samples is not None and controller.delay > max(samples - 2, 0):
+    if samples is not None and controller.line_length > max(samples - 2, 0):
         raise DataError(controller.source, "[controller] delay",
-                        f"{controller.delay} samples reaches the end of the log ({samples} samples): no output "
+                        f"{controller.line_length} samples reaches the end of the log ({samples} samples): no output "
                         f"would act within it (allowed: 0 to {max(samples - 2, 0)})")
     return controller
 

@@ -183,12 +183,21 @@ def gain_index(controller: Controller, k: int) -> int:
     return 4 * controller.size + k
 
 
+def _applied(controller: Controller, line: list, u: ca.SX) -> ca.SX:
+    """The outputs applied now: coordinate k's from ``output_delay(k)`` samples ago (``line`` oldest first, u now)."""
+    if not line:
+        return u
+    rows = [u[k] if controller.output_delay(k) == 0 else line[len(line) - controller.output_delay(k)][k]
+            for k in range(controller.size)]
+    return ca.vertcat(*rows)
+
+
 # -- the delay line -------------------------------------------------------------------------------------------
 
 
 def line_outside(controller: Controller) -> bool:
     """Whether ``controller``'s delay is kept in a :class:`DelayLine` (longer than :data:`LINE_IN_MEMORY`)."""
-    return controller.delay > LINE_IN_MEMORY
+    return controller.line_length > LINE_IN_MEMORY
 
 
 class DelayLine:
@@ -255,7 +264,7 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
     index = [names.index(c) for c in controller.coordinates]
     sensors = controller.sensors
     ns, nx = len(sensors), controller.reference_size
-    delay = 0 if external else controller.delay
+    length = 0 if external else controller.line_length
     memory = ca.SX.sym("m", controller.memory_size(line=not external))
     q, r, d = ca.SX.sym("q", n), ca.SX.sym("r", nx), ca.SX.sym("d", nc)
     tau_log = ca.SX.sym("tau_log", n)
@@ -276,7 +285,7 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
     at += nc
     last_velocity = memory[at:at + nc] if controller.kind == CASCADE_PI else None  # v_k-1, for kd_velocity
     at += nc if controller.kind == CASCADE_PI else 0
-    line = [memory[at + i * nc: at + (i + 1) * nc] for i in range(delay)]  # oldest first
+    line = [memory[at + i * nc: at + (i + 1) * nc] for i in range(length)]  # oldest first
 
     position = ca.vertcat(*[q[names.index(s)] for s in sensors])
     # the sensor: rounding to the resolution (floor(x + 1/2): round half up, as a counter does)
@@ -303,7 +312,7 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
         }[controller.kind]
     u = ca.fmin(ca.fmax(u, -saturation), saturation)
     a = ca.SX.sym("a", nc) if external else None
-    applied = a if external else line[0] if line else u
+    applied = a if external else _applied(controller, line, u)
     force = gain * (applied + d)
     tau = ca.SX.zeros(n)
     for j, i in enumerate(index):

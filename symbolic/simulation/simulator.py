@@ -443,7 +443,8 @@ def drive_layer(ctrl: control.Controller, signals: control.Inputs, measurements:
                  parameters: Mapping[sp.Symbol, float]) -> tuple[control.Controller, control.Inputs]:
     """``ctrl`` and its inputs with the experiment's ``[drive]`` (docs/data.md, "The signal layer"): the force
     applied is g·(τ_ctrl(t − d) + b) for the controller's output τ_ctrl = gain·(u + disturbance), so the loop's
-    gain becomes g·gain, its delay delay + d (whole samples: the loop's delay is one shift for every coordinate)
+    gain becomes g·gain, its delay delay + d (whole samples; the delay common to every coordinate joins the
+    loop's, each coordinate's own beyond it is :attr:`~symbolic.data.controller.Controller.drive_delays`)
     and b/gain joins the disturbance, itself delayed by d. A replayed force (``torque``) is the logged command,
     which :func:`symbolic.data.load` already turned into the applied force."""
     layer = measurements.signal_layer if isinstance(measurements, Experiment) else None
@@ -456,13 +457,20 @@ def drive_layer(ctrl: control.Controller, signals: control.Inputs, measurements:
             raise DataError(source, f"[drive] {channel.signal}", f"coordinate {channel.coordinate!r} is not driven by "
                                                                  f"the [controller] (its coordinates: "
                                                                  f"{', '.join(ctrl.coordinates)})")
-    delays = {0.0 if ch is None else ch.delay for ch in channels}
-    if len(delays) > 1 or any(d != int(d) for d in delays):
-        raise DataError(source, "[drive] delay", f"delays of {', '.join(f'{d:g}' for d in sorted(delays))} samples on "
-                                                 "the coordinates of a feedback [controller] (allowed there: one whole "
-                                                 "number of samples for every controlled coordinate, the loop's "
-                                                 "delay; fractional and per-coordinate delays apply to a replayed force)")
-    shift = int(delays.pop())
+    shifts = [0.0 if ch is None else ch.delay for ch in channels]
+    if any(d != int(d) or d < 0 for d in shifts):
+        raise DataError(source, "[drive] delay", f"delays of {', '.join(f'{d:g}' for d in shifts)} samples on the "
+                                                 "coordinates of a feedback [controller] (allowed there: whole numbers "
+                                                 "of samples ≥ 0, the drive's latency in the loop; fractional delays "
+                                                 "apply to a replayed force)")
+    shifts = [int(d) for d in shifts]
+    common = min(shifts)
+    own = tuple(d - common for d in shifts)
+    if any(own) and ctrl.delay + max(shifts) > control.LINE_IN_MEMORY:
+        raise DataError(source, "[drive] delay", f"drive delays of {', '.join(map(str, shifts))} samples besides the "
+                                                 f"loop's {ctrl.delay} (allowed: differing delays up to "
+                                                 f"{control.LINE_IN_MEMORY} samples in all; one delay for every "
+                                                 "coordinate otherwise)")
     before = control.drive_gains(ctrl, parameters)
     disturbance = signals.disturbance.copy()
     for k, ch in enumerate(channels):
@@ -471,10 +479,12 @@ def drive_layer(ctrl: control.Controller, signals: control.Inputs, measurements:
                 raise DataError(source, f"[drive] {ch.signal} bias", "the [controller] gain of the coordinate is 0: a "
                                                                      "drive bias needs a non-zero loop gain")
             disturbance[:, k] += ch.bias / before[k]
-    if shift:
-        disturbance = np.vstack([np.repeat(disturbance[:1], shift, axis=0), disturbance[:-shift]])
+    for k, shift in enumerate(shifts):  # the disturbance joins the command before the drive: late with it
+        if shift:
+            disturbance[:, k] = np.concatenate([np.repeat(disturbance[:1, k], shift), disturbance[:-shift, k]])
     gain = tuple(g if ch is None else sp.Float(ch.gain) * g for g, ch in zip(ctrl.gain, channels))
-    ctrl = control.check_delay(dataclasses.replace(ctrl, gain=gain, delay=ctrl.delay + shift), measurements.samples)
+    ctrl = dataclasses.replace(ctrl, gain=gain, delay=ctrl.delay + common, drive_delays=own if any(own) else ())
+    ctrl = control.check_delay(ctrl, measurements.samples)
     return ctrl, dataclasses.replace(signals, disturbance=np.ascontiguousarray(disturbance))
 
 

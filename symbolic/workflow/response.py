@@ -19,8 +19,9 @@ the **held-out** data, never on the data it was fitted on:
   necessary condition, not a sufficient one;
 * the effect's physical check (a drive gain within 0.2–5, a stiffness positive).
 
-Forward selection: the best candidate of a round that passes is named, its values stay free in the next
-rounds, and the search ends when none passes. The truth of a synthetic case never enters here: the
+Forward selection: of a round's candidates that pass, the one that lowers the held-out error over every
+coordinate most (``stacked_gain``: candidates of one coordinate and of all compare on it) is named, its values
+stay free in the next rounds, and the search ends when none passes. The truth of a synthetic case never enters here: the
 candidates are the catalogue's, on every coordinate the log drives.
 """
 
@@ -205,7 +206,7 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
         passing = [j for j in judged if j.verdict is None]
         if not passing:
             break
-        best = max(passing, key=lambda j: j.gain)
+        best = max(passing, key=lambda j: (j.stacked_gain, j.gain))  # over every coordinate: scopes differ
         named.append(best)
         held_fixed = {k: v for k, v in accepted.items() if fixed_key(k)}  # the fits return only the free values
         accepted = {**held_fixed, **{k: v.value for k, v in _all_values(best).items()}}

@@ -6,9 +6,11 @@ a current loop's latency, a fieldbus cycle, a drive that updates on the next syn
 shows it. The output error cannot free a delay inside the loop (a delay line of whole samples), so the search
 scans d = 1 … 5 samples, refitting the accepted values at each, and judges the best (the done-when of issue 34
 asks a delay within one sample). A drive's delay at the scan's end is not located (a longer one: declare it).
-The simulated feedback loop delays its whole command alike, so on a machine of several axes the candidate is one
-delay for every controlled coordinate (``drive_delay(all)``: a bus or controller cycle); one axis's own latency
-alone is not simulated in a feedback loop yet.
+On a machine of several axes the candidates are one delay for
+every controlled coordinate (``drive_delay(all)``: a bus or controller cycle) and each coordinate's own
+(``drive_delay(q2)``: that axis's drive), each coordinate's own delay line in the simulated loop
+(:attr:`~symbolic.data.controller.Controller.drive_delays`); the one that lowers the simulation error most is
+judged.
 """
 
 from __future__ import annotations
@@ -30,9 +32,8 @@ class DriveDelay(ResponseEffect):
     scan = tuple(float(d) for d in range(1, MAX_SAMPLES + 1))
 
     def candidates(self, model, measurements, fixed) -> list[ResponseCandidate]:
-        """One candidate for the loop: every controlled coordinate's drive late by the same d (a simulated feedback
-        loop delays its whole command alike: docs/simulation.md, "delay"); a coordinate's own latency alone is
-        not simulated in a feedback loop yet."""
+        """Every controlled coordinate's drive late by the same d, and on a machine of several axes each
+        coordinate's drive alone (module docstring)."""
         layer = getattr(measurements, "signal_layer", None)
         controller = getattr(measurements, "controller", None)
         if layer is None or controller is None or controller.kind == "torque":
@@ -40,9 +41,11 @@ class DriveDelay(ResponseEffect):
         signals = [f"tau_{c}" for c in controller.coordinates]
         if any(s in layer.sensors for s in signals):
             return []  # a force sensor's reading is no command
+        if len(signals) == 1:
+            return [ResponseCandidate(self, controller.coordinates[0], (("drive", signals[0], "delay"),), (0.0,))]
         frees = tuple(("drive", s, "delay") for s in signals)
-        coordinate = controller.coordinates[0] if len(signals) == 1 else ""
-        return [ResponseCandidate(self, coordinate, frees, tuple(0.0 for _ in frees))]
+        every = ResponseCandidate(self, "", frees, tuple(0.0 for _ in frees))
+        return [every, *(ResponseCandidate(self, c, (key,), (0.0,)) for c, key in zip(controller.coordinates, frees))]
 
     def roles_of(self, values: Mapping[Key, object], rate: float) -> dict[str, float]:
         return {"delay": next(iter(values.values())).value}
