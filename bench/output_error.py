@@ -85,7 +85,8 @@ def main() -> int:
             theta = np.array([values[n] for n in free])
             loop.run(theta, sensitivities=False)
             started = time.perf_counter()
-            loop.function(True)
+            chunked = loop.function(True)
+            chunked.function(chunked.length(measurements.samples))
             build = time.perf_counter() - started
             plain = best(args.repeat, lambda: loop.run(theta, sensitivities=False))
             sensitive = best(args.repeat, lambda: loop.run(theta))

@@ -278,20 +278,19 @@ class ClosedLoop:
     initial_given: bool = False
     _functions: dict = field(default_factory=dict)
 
-    def function(self, sensitivities: bool) -> ca.Function:
+    def function(self, sensitivities: bool) -> sim.Chunked:
+        """The loop's samples, with or without sensitivities, in compiled chunks of the log's length
+        (:class:`~symbolic.simulation.simulator.Chunked`)."""
         if sensitivities not in self._functions:
             if sensitivities:
-                from symbolic.codegen.compiled import compile_casadi
-
                 f = sensitivity_function(self.ctrl, self.plant, self.names, self.measurements.sample_period,
                                          self.substeps, self.free, self.c_smooth is not None, self.sensed,
                                          len(self.signal_values))
-                fast = compile_casadi(f) if self.compiled is not False else None
-                self._functions[True] = fast or f
+                self._functions[True] = sim.Chunked(f, self.compiled)
             else:
                 self._functions[False] = sim._closed_loop(self.ctrl, self.plant, self.names,
                                                           self.measurements.sample_period, self.substeps,
-                                                          self.compiled, self.sensed)[0]
+                                                          self.compiled, self.sensed)
         return self._functions[sensitivities]
 
     def parameters(self, theta: np.ndarray) -> np.ndarray:
@@ -411,20 +410,17 @@ class ClosedLoop:
             if ks:
                 w = np.vstack([w, dw.reshape(ks * w.shape[0], -1)])
         p = self.parameters(theta)
-        loops: dict[int, ca.Function] = {}
         outputs = []
         samples = self.measurements.samples
+        length = function.length(samples)
+        extra = [smooth] if sensitivities and smooth is not None else []
+        if sensitivities and ks:
+            extra.append(dc.ravel())  # column-major nc × ks
         for start in range(0, samples, sim.CHUNK):
             size = min(sim.CHUNK, samples - start)
-            if size not in loops:
-                loops[size] = function.mapaccum("closed_loop", size)
-            extra = [smooth] if sensitivities and smooth is not None else []
-            if sensitivities and ks:
-                extra.append(dc.ravel())  # column-major nc × ks
-            states, y = loops[size](z, np.ascontiguousarray(w[:, start:start + size]), p, c, self.eps, *extra)
-            z = np.asarray(states)[:, -1]
-            outputs.append(np.asarray(y))
-            if not np.isfinite(z).all():
+            z, y = function(length, z, w[:, start:start + size], p, c, self.eps, *extra)
+            outputs.append(y)
+            if z is not None and not np.isfinite(z).all():
                 outputs.append(np.full((outputs[-1].shape[0], samples - start - size), np.nan))
                 break
         y = np.hstack(outputs).T

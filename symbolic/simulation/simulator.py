@@ -370,7 +370,7 @@ class Plant:
     rhs: ca.Function
     bias: ca.Function
     closed_loops: dict = field(default_factory=dict, repr=False)
-    """The (compiled) sample functions built on this plant, by controller structure (:func:`_closed_loop`)."""
+    """The closed loops built on this plant (compiled chunks), by controller structure (:func:`_closed_loop`)."""
 
     def __reduce__(self) -> tuple:
         # pickled for the cache folder without the closed loops of this process (their libraries are
@@ -600,12 +600,13 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     X, T = ca.MX.sym("x", 2 * n), ca.MX.sym("tau", n)
     P, E = ca.MX.sym("p", plant.rhs.size1_in(2)), ca.MX.sym("eps")
     h = period / substeps
-    S = ca.MX.sym("t")
-    k1 = plant.rhs(X, T, P, E, S)
-    k2 = plant.rhs(X + h / 2 * k1, T, P, E, S + h / 2)
+    S, K1 = ca.MX.sym("t"), ca.MX.sym("k1", 2 * n)
+    k2 = plant.rhs(X + h / 2 * K1, T, P, E, S + h / 2)
     k3 = plant.rhs(X + h / 2 * k2, T, P, E, S + h / 2)
     k4 = plant.rhs(X + h * k3, T, P, E, S + h)
-    rk4 = ca.Function("rk4", [X, T, P, E, S], [X + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+    # the first stage is an input: the sample's first step shares it with y's q̈ (one evaluation of five saved)
+    rk4_after = ca.Function("rk4_stages", [X, K1, T, P, E, S], [X + h / 6 * (K1 + 2 * k2 + 2 * k3 + k4)])
+    rk4 = ca.Function("rk4", [X, T, P, E, S], [rk4_after(X, plant.rhs(X, T, P, E, S), T, P, E, S)])
     Z, W = ca.MX.sym("z", 2 * n + memory + depth * n), ca.MX.sym("w", nr + nc + n + 1 + (nc if external else 0))
     C = ca.MX.sym("c", step_controller.size1_in(5))
     x, m = Z[: 2 * n], Z[2 * n:2 * n + memory]
@@ -617,8 +618,10 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
         m_next, tau, u = step_controller(*read, W[nr + nc + n + 1:])
     else:
         (m_next, tau), u = step_controller(*read), ca.MX(0, 1)
-    x_next = _repeat(rk4, substeps, x, tau, P, E, starts=t_k + h * ca.DM(range(substeps)).T)
     xdot = plant.rhs(x, tau, P, E, t_k)
+    x_first = rk4_after(x, xdot, tau, P, E, t_k)
+    x_next = x_first if substeps == 1 else \
+        _repeat(rk4, substeps - 1, x_first, tau, P, E, starts=t_k + h * ca.DM(range(1, substeps)).T)
     return ca.Function("closed_loop_sample", [Z, W, P, C, E], [ca.vertcat(x_next, m_next, *history[:depth]),
                                                                  ca.vertcat(x, xdot[n:], tau, u)],
                        ["z", "w", "p", "c", "eps"], ["z_next", "y"])
@@ -632,22 +635,70 @@ def _repeat(step: ca.Function, count: int, x: ca.MX, *args: ca.MX, starts: ca.MX
     return step.fold(count)(x, *[ca.repmat(a, 1, count) for a in args], starts)
 
 
-CHUNK = 1000
-"""Samples per ``mapaccum`` call: CasADi builds a mapaccum in a time that grows faster than linearly
-with its length (0.03 s for 1000 samples, 0.7 s for 10 000), so long logs are run in chunks."""
+CHUNK = 1024
+"""Samples per call of a compiled chunk (:class:`Chunked`): CasADi builds a mapaccum in a time that grows faster
+than linearly with its length (0.03 s for 1000 samples, 0.7 s for 10 000), so long logs are run in chunks."""
+
+
+@dataclass(eq=False)
+class Chunked:
+    """A sample function ``(z, w, *args) -> (z_next, y)`` run over a block of samples by one call: its ``mapaccum``
+    compiled as a whole — a loop in C over the sample's code. Calling a compiled sample function from CasADi's
+    virtual machine once per sample (its mapaccum over a library) cost more than the sample itself (the 7-DOF Panda
+    under PD: 6 µs a sample of 11; bench/simulate.py). Blocks of :data:`CHUNK` samples; a shorter block is padded
+    with its last column to the length compiled (:meth:`length` of the log: one length per loop and log), and
+    what the padding computes is dropped."""
+
+    sample: ca.Function
+    compiled: bool | None
+    _functions: dict = field(default_factory=dict, repr=False)
+    is_compiled: bool = False
+
+    @staticmethod
+    def length(samples: int) -> int:
+        """The compiled length for ``samples`` left: :data:`CHUNK`, or a short log's power of two (≥ 16)."""
+        return CHUNK if samples >= CHUNK else max(16, 1 << (samples - 1).bit_length())
+
+    def function(self, length: int) -> ca.Function:
+        if length not in self._functions:
+            function = self._blocks(length)
+            fast = compile_casadi(function) if self.compiled is not False else None
+            if self.compiled and fast is None:
+                LOG.warning("no working C compiler: the simulation runs in CasADi's virtual machine")
+            self.is_compiled = fast is not None
+            self._functions[length] = fast or function
+        return self._functions[length]
+
+    def _blocks(self, length: int) -> ca.Function:
+        """``(z, w, *args) -> (z_last, y)`` over ``length`` samples, ``w`` one column a sample and the other inputs
+        the sample's own (not repeated: converting them to ``length`` columns, and every state back to NumPy, cost
+        a fifth of the run)."""
+        sample = self.sample
+        names = [sample.name_in(i) for i in range(sample.n_in())]
+        inputs = [ca.MX.sym(name, sample.sparsity_in(i)) for i, name in enumerate(names)]
+        inputs[1] = ca.MX.sym(names[1], sample.size1_in(1), length)
+        states, y = sample.mapaccum(sample.name(), length)(*inputs)
+        return ca.Function(sample.name(), inputs, [states[:, -1], y], names, ["z_last", "y"])
+
+    def __call__(self, length: int, z: np.ndarray, w: np.ndarray, *args: Any) -> tuple[np.ndarray | None, np.ndarray]:
+        """(z after the block's last sample, y of each sample as columns) of the block ``w`` (one column a sample,
+        at most ``length``) by the function compiled for ``length`` samples; z is ``None`` after a padded block
+        (a log's last)."""
+        size = w.shape[1]
+        if size < length:
+            w = np.hstack([w, np.repeat(w[:, -1:], length - size, axis=1)])
+        last, y = self.function(length)(z, np.ascontiguousarray(w), *args)
+        return (np.asarray(last).ravel() if size == length else None), np.asarray(y)[:, :size]
+
 
 def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float, substeps: int,
-                 compiled: bool | None, sensed: PositionSensors | None = None) -> tuple[ca.Function, bool]:
-    """The (compiled) sample function, built once per plant, controller structure and position sensors."""
+                 compiled: bool | None, sensed: PositionSensors | None = None) -> Chunked:
+    """The closed loop's samples in compiled chunks, built once per plant, controller structure and position sensors."""
     external = control.line_outside(ctrl)
     key = (ctrl.structure(), external, names, period, substeps, compiled, sensed)
     cache = plant.closed_loops
     if key not in cache:
-        function = sample_function(ctrl, plant, names, period, substeps, external, sensed)
-        fast = compile_casadi(function) if compiled is not False else None
-        if compiled and fast is None:
-            LOG.warning("no working C compiler: the simulation runs in CasADi's virtual machine")
-        cache[key] = (fast or function, fast is not None)
+        cache[key] = Chunked(sample_function(ctrl, plant, names, period, substeps, external, sensed), compiled)
     return cache[key]
 
 
@@ -668,31 +719,29 @@ def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measur
                     compiled: bool | None, timings: dict[str, float],
                     sensed: PositionSensors | None = None) -> tuple[np.ndarray, bool]:
     started = time.perf_counter()
-    function, is_compiled = _closed_loop(ctrl, plant, names, measurements.sample_period, substeps, compiled, sensed)
-    timings["compile"] = time.perf_counter() - started
-    started = time.perf_counter()
+    loop = _closed_loop(ctrl, plant, names, measurements.sample_period, substeps, compiled, sensed)
     line = control.DelayLine(ctrl.delay, ctrl.size) if control.line_outside(ctrl) else None
-    z = loop_state(x0, ctrl.memory_size(line=line is None), sensed)
-    w = loop_inputs(signals, measurements)
-    loops: dict[int, ca.Function] = {}
-    outputs = []
     # with a delay line, a chunk's applied outputs were computed at least `delay` samples before it
     chunk = CHUNK if line is None else min(CHUNK, ctrl.delay)
+    length = loop.length(measurements.samples) if line is None else chunk
+    loop.function(length)
+    timings["compile"] = time.perf_counter() - started
+    started = time.perf_counter()
+    z = loop_state(x0, ctrl.memory_size(line=line is None), sensed)
+    w = loop_inputs(signals, measurements)
+    outputs = []
     n4 = 4 * plant.n
     for start in range(0, measurements.samples, chunk):
         size = min(chunk, measurements.samples - start)
-        if size not in loops:
-            loops[size] = function.mapaccum("closed_loop", size)
         inputs = w[:, start:start + size]
         if line is not None:
             inputs = np.vstack([inputs, line.applied(start, size).T])
-        states, y = loops[size](z, inputs, p, c, eps)
-        z, y = np.asarray(states)[:, -1], np.asarray(y)
+        z, y = loop(length, z, inputs, p, c, eps)
         if line is not None:
             line.computed(start, y[n4:].T)
         outputs.append(y[:n4])
     timings["integrate"] = time.perf_counter() - started
-    return np.hstack(outputs).T, is_compiled
+    return np.hstack(outputs).T, loop.is_compiled
 
 
 # -- solve_ivp from sample to sample -----------------------------------------------------------------------------
