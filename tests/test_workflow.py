@@ -178,6 +178,23 @@ def test_nothing_missing_names_nothing(tmp_path: Path) -> None:
     assert d.after.gap == pytest.approx(d.before.gap, rel=1e-9)
 
 
+def test_a_log_without_noise_names_nothing_at_the_treatments_floor(tmp_path: Path) -> None:
+    """The arm under PD integrated by tests/reference_integrator.py (DOP853, rtol 1e-11), no quantisation and no
+    force noise, nothing missing: the residual (1 % of the force, the treatment's and the Coulomb smoothing's
+    own) repeats on the held-out data, so an offset and a resonance on q1 passed the relative rules while
+    removing 0.008 % of q1's force spread. Refused by size (statistics.MIN_FORCE_SHARE, 0.1 %); nothing named."""
+    from reference_integrator import write_arm_experiment
+    import models
+
+    experiment = write_arm_experiment(tmp_path, counts=0, force_noise=0.0, seconds=6.0)
+    model = tmp_path / "arm.toml"
+    model.write_text(models.arm(), encoding="utf-8")
+    d = diagnose(str(model), str(experiment), out=tmp_path / "out", figures=False)
+    assert d.found == ()
+    refused = [c for r in d.search.rounds for c in r.candidates if any(f.startswith("size:") for f in c.failed)]
+    assert any(c.coordinate == "q1" and len(c.failed) == 1 for c in refused)  # passed everything else
+
+
 @pytest.mark.slow
 def test_no_false_discoveries_over_seeds_and_noise(tmp_path: Path) -> None:
     """9 axis data sets (3 seeds × 0.5, 2, 5 % noise) and 4 arm data sets (2 seeds × 1, 3 %), closed loop:

@@ -30,8 +30,8 @@ from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals, exclude
 from symbolic.workflow.effects.joint_elasticity import ELASTIC_ROW
 from symbolic.workflow.separability import Separability
 from symbolic.workflow.records import Accepted, Candidate, Group, Grouped, Judged, Round, SearchSettings
-from symbolic.workflow.statistics import (autocorrelation_time, combined_f_test, pooled_autocorrelation_time,
-                                         score_inflation)
+from symbolic.workflow.statistics import (MIN_FORCE_SHARE, autocorrelation_time, combined_f_test,
+                                         pooled_autocorrelation_time, score_inflation)
 from symbolic.workflow.terms import ModelTerms, solve_normal, wls
 
 COLLINEAR = 1e-6
@@ -559,6 +559,9 @@ class _RoundState:
             self.Xv = design.weighted("validation", design.columns["validation"])
             self.held0 = self.by((self.yv - self.Xv @ self.coef) ** 2)
         self.held_out0 = float(self.held0.sum())
+        held = design.sets["estimation" if search.cross_validate else "validation"]
+        spread = held.tau - held.tau.mean(axis=0)
+        self.force_power = self.by(design.weighted("estimation" if search.cross_validate else "validation", spread) ** 2)
         self._spectra: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     def by(self, x: np.ndarray) -> np.ndarray:
@@ -865,7 +868,18 @@ class _RoundState:
             if m.gain < s.min_gain:
                 m.failed.append(f"held-out: removes {100 * m.gain:.3g} % of {m.coordinate}'s held-out residual power "
                                 f"left without it (at least {100 * s.min_gain:g} % needed)")
+            elif (size := self.force_size(m)) < MIN_FORCE_SHARE:
+                m.failed.append(f"size: removes {100 * size:.2g} % of {m.coordinate}'s force spread from the held-out "
+                                f"residual (at least {100 * MIN_FORCE_SHARE:g} %)")
         return m
+
+    def force_size(self, c: Judged) -> float:
+        """What ``c`` removes from its own coordinates' held-out residual, as a fraction of their measured
+        force's spread (RMS; :data:`~symbolic.workflow.statistics.MIN_FORCE_SHARE`)."""
+        own = list(c.own)
+        removed = float(np.sum(c.held0[own]) - np.sum(c.held1[own]))
+        force = float(np.sum(self.force_power[own]))
+        return math.sqrt(max(removed, 0.0) / force) if force > 0 else math.inf
 
     def score(self, c: Judged, effective: np.ndarray) -> None:
         """ΔBIC over every coordinate (ranking) and on the own coordinates (which must be negative)."""
@@ -894,6 +908,9 @@ class _RoundState:
         if c.gain < s.min_gain:
             c.failed.append(f"held-out: removes {100 * c.gain:.3g} % of {where} held-out residual power "
                             f"(at least {100 * s.min_gain:g} % needed)")
+        elif (size := self.force_size(c)) < MIN_FORCE_SHARE:
+            c.failed.append(f"size: removes {100 * size:.2g} % of {where} force spread from the held-out residual "
+                            f"(at least {100 * MIN_FORCE_SHARE:g} %: below, the residual is the treatment's own)")
         if not c.delta_bic_own < 0:
             c.failed.append(f"BIC: ΔBIC = {c.delta_bic_own:.3g} on {where} rows is not negative")
 

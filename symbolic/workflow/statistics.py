@@ -28,6 +28,14 @@ with 16 to 20 bits per turn they removed at most 7.4 % of the held-out residual 
 data sets of ``bench/diagnose.py`` (most below 3 %), while a missing effect that the workflow must name
 removes most of what is left (a gap that halves is 75 % of its power)."""
 
+MIN_FORCE_SHARE = 1e-3
+"""An effect must remove from its coordinates' held-out residual at least this fraction of their measured force's
+spread (RMS about the mean; in power, its square): 0.1 %, below what any force or current sensor resolves. On data
+without noise the residual is what the treatment's filters leave, of the order 1e-4 of the force, and it repeats
+between the estimation and the held-out data, so an effect fitted to it passes the relative rules (the 7-DOF Panda
+simulated under PD, nothing missing: a joint stiffness of 4e-5 N·m/rad, 0.0004 % of the joint's force, was
+named)."""
+
 MIN_SIGMAS = 5.0
 """A fitted value is named only this many of its σ away from its null value (a delay from 0, a gain from 1, a
 stiffness from 0). The σ of a coloured residual are a lower bound of the spread: a necessary condition beside
