@@ -43,7 +43,7 @@ from symbolic.identify.output_error import (FittedParameter, OutputErrorFit, out
                                             simulation_errors)
 from symbolic.workflow.effects.on_response import (PARAMETER, RESPONSE_EFFECTS, Key, ResponseCandidate, fixed_key,
                                                    ResponseEffect)
-from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN, MIN_SIGMAS, pooled_autocorrelation_time
+from symbolic.workflow.statistics import MIN_FORCE_SHARE, MIN_HELD_OUT_GAIN, MIN_SIGMAS, pooled_autocorrelation_time
 
 log = logging.getLogger("symbolic")
 
@@ -182,6 +182,11 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
     source = str(estimation.source)
     base = {"estimation": simulation_errors(model, estimation, signals=signals),
             "validation": simulation_errors(model, held_out, signals=signals, start=held_from)}
+    floor = 100 * MIN_FORCE_SHARE
+    if all(e < floor for errors in base["validation"].values() for e in errors.values()):
+        return ResponseSearch(signals, base, base, (), (), time.perf_counter() - started,
+                              (f"not run: the held-out simulation error is below {floor:g} % of every signal's "
+                               "spread (the simulation's and the treatment's own: nothing to explain)",))
     refit, last = _refit(model, estimation, (held_out, held_from), base, signals, fix, min_gain, determined)
     if refit is not None and "skipped" in refit:
         return ResponseSearch(signals, base, base, (), (), time.perf_counter() - started,
@@ -347,6 +352,10 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[
     if verdict is None and not gain >= min_gain:
         verdict = (f"removes {100 * gain:.3g} % of the held-out simulation error's power on its coordinate "
                    f"(the effect size is {100 * min_gain:.3g} %)")
+    if verdict is None and (size := _removed(current["validation"], after_held, candidate.coordinate or None)) < \
+            100 * MIN_FORCE_SHARE:
+        verdict = (f"removes {size:.2g} % of the signals' spread from the held-out simulation error (at least "
+                   f"{100 * MIN_FORCE_SHARE:g} %: below, the error is the simulation's and the treatment's own)")
     if verdict is None and not stacked > 0:
         verdict = f"worsens the held-out simulation error over all coordinates ({100 * stacked:.3g} %)"
     if verdict is None and not sigmas >= MIN_SIGMAS:
@@ -398,6 +407,14 @@ def _at(held: Measurements, fit: OutputErrorFit, source: str) -> Measurements:
 
 def _value(model: DynamicModel, name: str) -> float:
     return float(next(v for s, v in model.parameters.items() if s.name == name))
+
+
+def _removed(before: Errors, after: Errors, coordinate: str | None) -> float:
+    """√ of the mean over the signals of ``coordinate`` (all: ``None``) of e_before² − e_after², in % of each
+    signal's spread: what the candidate removes from the error (statistics.MIN_FORCE_SHARE)."""
+    drops = [before[s][c] ** 2 - after[s][c] ** 2 for s in before for c in before[s]
+             if (coordinate is None or c == coordinate) and c in after.get(s, {})]
+    return math.sqrt(max(float(np.mean(drops)), 0.0)) if drops else 0.0
 
 
 def _gain(before: Errors, after: Errors, coordinate: str | None) -> float:
