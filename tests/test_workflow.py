@@ -503,8 +503,29 @@ def test_a_simulated_path_with_motion_gives_position_and_velocity_gaps(tmp_path:
     for when in ("before", "after"):
         for role in ("estimation", "validation"):
             assert detail[when][role]["position"]["q"] == pytest.approx(1.0, rel=1e-9)
-            assert detail[when][role]["velocity"]["q"] == pytest.approx(2.0, rel=1e-9)
+        assert detail[when]["estimation"]["velocity"]["q"] == pytest.approx(2.0, rel=1e-9)
+        # the held-out tail is simulated from its record's start: the stand-in differentiates the whole record,
+        # the gap compares with the tail's own differentiation, whose filter starts at the tail
+        assert detail[when]["validation"]["velocity"]["q"] == pytest.approx(2.0, rel=1e-3)
     assert detail["note"] is None
+
+
+def test_the_held_out_tail_is_simulated_from_its_records_start(tmp_path: Path) -> None:
+    """Without --validate the held-out data are the record's last fifth: the simulated path runs the whole record
+    (a loop started mid-motion has an integral and a last reading the machine did not have, and kicks) and the gap
+    is the tail's. A stand-in off by 10 % from the record's 10th sample on, 30 % before: the held-out gap is 10 %."""
+    model, truth, _, _ = AXIS_CASES["coulomb"]
+    lengths = []
+
+    def simulate(m, p, measurements):
+        lengths.append(measurements.samples)
+        tau = np.asarray(measurements.tau, float)
+        return tau * np.where(np.arange(len(tau)) < 10, 1.3, 1.1)[:, None]
+
+    d = run(tmp_path, model, truth, simulate=simulate)
+    total = d.sets["estimation"].measurements.samples + d.sets["validation"].measurements.samples
+    assert set(lengths) == {d.sets["estimation"].measurements.samples, total}
+    assert d.before.gap["validation"] == pytest.approx(10.0, rel=1e-9)
 
 
 def test_the_simulated_path_needs_a_controller(tmp_path: Path) -> None:

@@ -339,16 +339,11 @@ def _simulated_elastic(patched: DynamicModel, sets: dict[str, DataSet], elastic:
     p = patched.parameter_vector.array()
     predicted, motion = {}, {}
     for role, data in sets.items():
-        # a held-out tail is simulated from its record's start: a loop started mid-motion has an integral and
-        # a last reading the machine did not have (docs/workflow.md, "Judged on the response")
-        record, start = (data.record, data.start) if data.record is not None else (data, 0)
-        out = simulate(patched, p, joint_elasticity.with_deflections(record.measurements, elastic))
-        n, rows = len(data.coordinates), slice(start, start + data.measurements.samples)
-        tau = np.asarray(out.tau if isinstance(out, SimulatedSignals) else out, dtype=float)[rows, :n]
+        tau, signals = _simulated_on(patched, p, data, simulate,
+                                     lambda m: joint_elasticity.with_deflections(m, elastic))
         predicted[role] = data.reduce(data.states.processing.forces(tau))
-        if isinstance(out, SimulatedSignals):
-            motion[role] = _motion_gaps(data, SimulatedSignals(tau, np.asarray(out.q)[rows, :n],
-                                                               np.asarray(out.qd)[rows, :n]))
+        if signals is not None:
+            motion[role] = _motion_gaps(data, signals)
     gap, detail = _gaps(sets, predicted)
     return Fit(patched, after.nominal, predicted, gap, detail, motion or None)
 
@@ -640,17 +635,34 @@ def _fit(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | No
         p = model.parameter_vector.updated({name: e.value for name, e in nominal.parameters.items()}).array()
         predicted, motion = {}, {}
         for role, data in sets.items():
-            out = simulate(model, p, data.measurements)
-            tau = np.asarray(out.tau if isinstance(out, SimulatedSignals) else out, dtype=float)
-            if tau.shape != data.measurements.tau.shape:
-                raise ValueError(f"simulate returned shape {tau.shape}, expected {data.measurements.tau.shape}")
+            tau, signals = _simulated_on(model, p, data, simulate)
             predicted[role] = data.reduce(data.states.processing.forces(tau))  # like the logged force
-            if isinstance(out, SimulatedSignals):
-                motion[role] = _motion_gaps(data, out)
+            if signals is not None:
+                motion[role] = _motion_gaps(data, signals)
         gap, detail = _gaps(sets, predicted)
         return Fit(model, nominal, predicted, gap, detail, motion or None)
     gap, detail = _gaps(sets, predicted)
     return Fit(model, nominal, predicted, gap, detail)
+
+
+def _simulated_on(model: DynamicModel, p: np.ndarray, data: DataSet, simulate: Simulator,
+                  prepared: Callable[[Measurements], Measurements] | None = None
+                  ) -> tuple[np.ndarray, SimulatedSignals | None]:
+    """τ (and the motion, where ``simulate`` returns it) of ``model`` at ``p`` simulated on ``data``, on the data's
+    coordinates. A held-out tail is simulated from its record's start and cut: a loop started mid-motion has an
+    integral and a last reading the machine did not have, and its first samples kick (docs/workflow.md, "Judged
+    on the response"). ``prepared``: what the record's measurements need first (an elastic joint's deflection)."""
+    record, start = (data.record, data.start) if data.record is not None else (data, 0)
+    measurements = record.measurements if prepared is None else prepared(record.measurements)
+    out = simulate(model, p, measurements)
+    n, rows = len(data.coordinates), slice(start, start + data.measurements.samples)
+    full = np.asarray(out.tau if isinstance(out, SimulatedSignals) else out, dtype=float)
+    if full.shape[0] != measurements.samples or full.shape[1] < n:
+        raise ValueError(f"simulate returned shape {full.shape}, expected ({measurements.samples}, {n})")
+    tau = full[rows, :n]
+    if not isinstance(out, SimulatedSignals):
+        return tau, None
+    return tau, SimulatedSignals(tau, np.asarray(out.q)[rows, :n], np.asarray(out.qd)[rows, :n])
 
 
 def _before_corrections(model: DynamicModel, sets: dict[str, DataSet], simulate: Simulator | None, fix: Sequence[str],
