@@ -27,10 +27,11 @@ candidates are the catalogue's, on every coordinate the log drives.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -41,6 +42,7 @@ from symbolic.derivation.dynamics import DynamicModel
 from symbolic.errors import IdentificationError, SimulationError
 from symbolic.identify.output_error import (FittedParameter, OutputErrorFit, output_error, simulated,
                                             simulation_errors)
+from symbolic.workflow import forked
 from symbolic.workflow.effects.on_response import (PARAMETER, RESPONSE_EFFECTS, Key, ResponseCandidate, fixed_key,
                                                    ResponseEffect)
 from symbolic.workflow.statistics import MIN_FORCE_SHARE, MIN_HELD_OUT_GAIN, MIN_SIGMAS, pooled_autocorrelation_time
@@ -204,9 +206,8 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
             break
         log.info("diagnose %s: response round %d, %d candidate(s)", model.name, round_number, len(remaining))
         now = _now(model, estimation, accepted, last, source)
-        judged = tuple(_judge(model, c, accepted, estimation, (held_out, held_from), current, signals, min_gain,
-                              source, now)
-                       for c in remaining)
+        judged = _judge_all(remaining, lambda c: _judge(model, c, accepted, estimation, (held_out, held_from),
+                                                        current, signals, min_gain, source, now))
         rounds.append(judged)
         passing = [j for j in judged if j.verdict is None]
         if not passing:
@@ -230,6 +231,23 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
     corrections = tuple(_corrections(model, final)) if final is not None else ()
     return ResponseSearch(signals, base, current, tuple(rounds), tuple(named), time.perf_counter() - started,
                           tuple(notes), refit, values, corrections)
+
+
+def _judge_all(candidates: Sequence[ResponseCandidate], judge: Callable[[ResponseCandidate], Judged]
+               ) -> tuple[Judged, ...]:
+    """``judge`` of every candidate, in order: half of them in a forked copy of this process where two cores are
+    usable (:mod:`symbolic.workflow.forked`; each candidate is an output-error fit of seconds, independent of the
+    others). The candidates' effects stay here (a user's effect class need not be picklable)."""
+    if len(candidates) < 2 or forked.usable_processes() < 2:
+        return tuple(judge(c) for c in candidates)
+
+    def work(part: Sequence[ResponseCandidate]) -> list[Judged]:
+        return [dataclasses.replace(judge(c), candidate=None) for c in part]
+
+    mine, theirs = forked.in_two(work, candidates[0::2], candidates[1::2])
+    out: list[Judged] = [None] * len(candidates)  # type: ignore[list-item]
+    out[0::2], out[1::2] = mine, theirs
+    return tuple(dataclasses.replace(j, candidate=c) for j, c in zip(out, candidates))
 
 
 def _corrections(model: DynamicModel, fit: OutputErrorFit) -> list[dict[str, Any]]:
