@@ -656,8 +656,9 @@ class Chunked:
 
     @staticmethod
     def length(samples: int) -> int:
-        """The compiled length for ``samples`` left: :data:`CHUNK`, or a short log's power of two (≥ 16)."""
-        return CHUNK if samples >= CHUNK else max(16, 1 << (samples - 1).bit_length())
+        """The compiled length for a log of ``samples``: the first of 64, 256 and :data:`CHUNK` that holds it, else
+        :data:`CHUNK` (few lengths, so few libraries to compile: each is a compiler run of a second or so)."""
+        return next((n for n in (64, 256) if samples <= n), CHUNK)
 
     def function(self, length: int) -> ca.Function:
         if length not in self._functions:
