@@ -652,7 +652,7 @@ def _simulated_on(model: DynamicModel, p: np.ndarray, data: DataSet, simulate: S
     coordinates. A held-out tail is simulated from its record's start and cut: a loop started mid-motion has an
     integral and a last reading the machine did not have, and its first samples kick (docs/workflow.md, "Judged
     on the response"). ``prepared``: what the record's measurements need first (an elastic joint's deflection)."""
-    record, start = (data.record, data.start) if data.record is not None else (data, 0)
+    record, start = (data.record, data.start) if data.record is not None and data.start > 0 else (data, 0)
     measurements = record.measurements if prepared is None else prepared(record.measurements)
     out = simulate(model, p, measurements)
     n, rows = len(data.coordinates), slice(start, start + data.measurements.samples)
@@ -727,9 +727,14 @@ def _fit_or_inverse(model: DynamicModel, sets: dict[str, DataSet], simulate: Sim
 def _motion_gaps(data: DataSet, simulated: SimulatedSignals) -> dict[str, dict[str, float]]:
     """Relative position and velocity errors per coordinate, 100·‖x_meas − x_sim‖/‖x_meas‖ (the definition
     of ``symbolic simulate``), over every sample; the measured q̇ is the data set's own, filtered and
-    differentiated once with the diagnosis' treatment (its ``settings``, else the experiment's)."""
+    differentiated once with the diagnosis' treatment (its ``settings``, else the experiment's) — a held-out
+    tail's through its record, as it is simulated (:func:`_simulated_on`: no filter starts at the tail)."""
     measurements = data.measurements
-    measured = {"position": np.asarray(measurements.q, float), "velocity": np.asarray(data.states.qd, float)}
+    qd = np.asarray(data.states.qd, float)
+    if data.record is not None and data.start > 0:
+        whole = np.asarray(data.record.states.qd, float)[data.start:data.start + len(qd)]
+        qd = whole if whole.shape == qd.shape else qd
+    measured = {"position": np.asarray(measurements.q, float), "velocity": qd}
     ours = {"position": np.asarray(simulated.q, float), "velocity": np.asarray(simulated.qd, float)}
     return {signal: {c: relative_gap(measured[signal][:, j], ours[signal][:, j])
                      for j, c in enumerate(measurements.coordinates)} for signal in measured}
