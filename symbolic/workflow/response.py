@@ -427,16 +427,20 @@ def _value(model: DynamicModel, name: str) -> float:
     return float(next(v for s, v in model.parameters.items() if s.name == name))
 
 
+def _pairs(before: Errors, after: Errors, coordinate: str | None) -> list[tuple[float, float]]:
+    """(e_before, e_after) of each signal of ``coordinate`` (all coordinates: ``None``) compared in both."""
+    return [(before[s][c], after[s][c]) for s in before for c in before[s]
+            if (coordinate is None or c == coordinate) and c in after.get(s, {})]
+
+
 def _removed(before: Errors, after: Errors, coordinate: str | None) -> float:
     """√ of the mean over the signals of ``coordinate`` (all: ``None``) of e_before² − e_after², in % of each
     signal's spread: what the candidate removes from the error (statistics.MIN_FORCE_SHARE)."""
-    drops = [before[s][c] ** 2 - after[s][c] ** 2 for s in before for c in before[s]
-             if (coordinate is None or c == coordinate) and c in after.get(s, {})]
+    drops = [b ** 2 - a ** 2 for b, a in _pairs(before, after, coordinate)]
     return math.sqrt(max(float(np.mean(drops)), 0.0)) if drops else 0.0
 
 
 def _gain(before: Errors, after: Errors, coordinate: str | None) -> float:
     """1 − the mean of (e_after/e_before)² over the signals of ``coordinate`` (all coordinates: ``None``)."""
-    ratios = [(after[s][c] / before[s][c]) ** 2 for s in before for c in before[s]
-              if (coordinate is None or c == coordinate) and c in after.get(s, {}) and before[s][c] > 0]
+    ratios = [(a / b) ** 2 for b, a in _pairs(before, after, coordinate) if b > 0]
     return 1.0 - float(np.mean(ratios)) if ratios else -math.inf
