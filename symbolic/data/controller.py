@@ -67,6 +67,18 @@ def allowed_keys(kind: str) -> tuple[str, ...]:
     return COMMON_KEYS + (GAINS[kind] + LOOP_KEYS + extra if kind != "torque" else ())
 
 
+LINE_IN_MEMORY = 32
+"""The longest delay (samples) kept as a shift register in the controller's memory. Shifting costs nc·delay
+copies per sample, and the compiled closed loop carries (and copies) its whole state at every sample, so a
+longer delay goes to a :class:`~symbolic.simulation.controller.DelayLine` outside it. The compiled loop is then run in chunks of at most
+``delay`` samples, whose outputs the line returns ``delay`` samples later: a Python call per chunk, which
+the short delays, the common ones (a sample or two of computation), never pay. About 32 the two cost about
+the same on a one-coordinate loop (bench/delay.py, bench/results/delay.md: within 25 % per sample at 32 and 33)."""
+
+DRIVE_SLOTS = 8
+"""Drive delays are compiled in steps of this many samples (:attr:`Controller.drive_slots`)."""
+
+
 @dataclass(frozen=True, eq=False)
 class Controller:
     """A validated ``[controller]`` table (module docstring); per-coordinate arrays in the order of ``coordinates``.
@@ -133,13 +145,35 @@ class Controller:
     drive_delays: tuple[int, ...] = ()
 
     @property
-    def line_length(self) -> int:
-        """Outputs the delay line keeps: the longest delay of a coordinate, ``delay`` plus its drive's."""
+    def longest_delay(self) -> int:
+        """Samples between measuring and applying on the latest coordinate: ``delay`` plus its drive's."""
         return self.delay + max(self.drive_delays, default=0)
 
-    def output_delay(self, k: int) -> int:
-        """Samples between measuring and applying on the ``k``-th controlled coordinate."""
-        return self.delay + (self.drive_delays[k] if self.drive_delays else 0)
+    @property
+    def drive_slots(self) -> int:
+        """Drive delays the compiled loop can apply without compiling again (0 without drive delays): the
+        longest rounded up to :data:`DRIVE_SLOTS`, within :data:`LINE_IN_MEMORY` in all. Which one a
+        coordinate's drive applies is a number of the loop (:meth:`drive_weights`), not its structure: a scan
+        of a drive's delay over 1–5 samples compiles one loop, not five."""
+        if not self.drive_delays:
+            return 0
+        longest = max(self.drive_delays)
+        rounded = -(-max(longest, 1) // DRIVE_SLOTS) * DRIVE_SLOTS
+        return max(longest, min(rounded, LINE_IN_MEMORY - self.delay))
+
+    @property
+    def line_length(self) -> int:
+        """Outputs the delay line keeps: ``delay`` plus the drives' slots."""
+        return self.delay + self.drive_slots
+
+    def drive_weights(self) -> np.ndarray:
+        """One row per controlled coordinate, one column per extra delay 0 … :attr:`drive_slots`: 1 at the
+        coordinate's drive delay, 0 elsewhere (row by row; empty without drive delays)."""
+        if not self.drive_delays:
+            return np.zeros(0)
+        weights = np.zeros((self.size, self.drive_slots + 1))
+        weights[np.arange(self.size), list(self.drive_delays)] = 1.0
+        return weights.ravel()
 
     @property
     def size(self) -> int:
@@ -177,7 +211,7 @@ class Controller:
     def structure(self) -> tuple[Any, ...]:
         """What the controller's compiled function depends on besides its numbers (:func:`symbolic.simulation.controller.constants`)."""
         return (self.kind, self.coordinates, tuple(self.states), self.delay, len(self.velocity_filter),
-                self.drive_delays)
+                self.drive_slots)
 
     def describe(self) -> str:
         """One line: kind, coordinates and the optional features in use."""
@@ -508,9 +542,9 @@ def check_delay(controller: Controller, samples: int | None) -> Controller:
     DataError
         ``[controller] delay`` of ``samples − 1`` or more, with the allowed range.
     """
-    if samples is not None and controller.line_length > max(samples - 2, 0):
+    if samples is not None and controller.longest_delay > max(samples - 2, 0):
         raise DataError(controller.source, "[controller] delay",
-                        f"{controller.line_length} samples reaches the end of the log ({samples} samples): no output "
+                        f"{controller.longest_delay} samples reaches the end of the log ({samples} samples): no output "
                         f"would act within it (allowed: 0 to {max(samples - 2, 0)})")
     return controller
 

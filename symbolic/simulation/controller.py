@@ -25,22 +25,14 @@ import numpy as np
 import sympy as sp
 
 from symbolic.data import DataError, Measurements
-from symbolic.data.controller import (CASCADE_PI, GAINS, KEYS, KINDS, STATE_FEEDBACK, Controller, allowed_keys,
-                                      check_delay, check_names, parse, replay)
+from symbolic.data.controller import (CASCADE_PI, GAINS, KEYS, KINDS, LINE_IN_MEMORY, STATE_FEEDBACK, Controller,
+                                      allowed_keys, check_delay, check_names, parse, replay)
 from symbolic.errors import ModelError
 from symbolic.description.expressions import RESERVED_NAMES, parse_expression
 
 __all__ = ["CASCADE_PI", "GAINS", "KEYS", "KINDS", "LINE_IN_MEMORY", "STATE_FEEDBACK", "Controller", "DelayLine", "Inputs",
            "allowed_keys", "check_delay", "constants", "controller_function", "drive_gains", "evaluate", "inputs",
            "line_outside", "parse", "replay", "state_reference"]
-
-LINE_IN_MEMORY = 32
-"""The longest delay (samples) kept as a shift register in the controller's memory. Shifting costs nc·delay
-copies per sample, and the compiled closed loop carries (and copies) its whole state at every sample, so a
-longer delay goes to a :class:`DelayLine` outside it. The compiled loop is then run in chunks of at most
-``delay`` samples, whose outputs the line returns ``delay`` samples later: a Python call per chunk, which
-the short delays, the common ones (a sample or two of computation), never pay. About 32 the two cost about
-the same on a one-coordinate loop (bench/delay.py, bench/results/delay.md: within 25 % per sample at 32 and 33)."""
 
 
 # -- the signals a controller reads from the log -------------------------------------------------------
@@ -172,10 +164,12 @@ def constants(controller: Controller, parameters: Mapping[sp.Symbol, float]) -> 
     """The numbers :func:`controller_function` takes as its ``c`` input (gains evaluated at ``parameters``):
     kp, kd, ki, kv, gain, saturation (one per controlled coordinate each), quantisation (one per sensed
     coordinate), the velocity filter's taps, then K row by row (state feedback; empty otherwise), then
-    the velocity feedforward weights (``cascade_pi``, one per coordinate; empty otherwise)."""
+    the velocity feedforward weights (``cascade_pi``, one per coordinate; empty otherwise), then which delay each
+    drive applies (:meth:`Controller.drive_weights`; empty without drive delays)."""
     return np.concatenate([controller.kp, controller.kd, controller.ki, controller.kv,
                            drive_gains(controller, parameters), controller.saturation, controller.quantisation,
-                           controller.velocity_filter, controller.K.ravel(), controller.velocity_feedforward])
+                           controller.velocity_filter, controller.K.ravel(), controller.velocity_feedforward,
+                           controller.drive_weights()])
 
 
 def gain_index(controller: Controller, k: int) -> int:
@@ -183,13 +177,18 @@ def gain_index(controller: Controller, k: int) -> int:
     return 4 * controller.size + k
 
 
-def _applied(controller: Controller, line: list, u: ca.SX) -> ca.SX:
-    """The outputs applied now: coordinate k's from ``output_delay(k)`` samples ago (``line`` oldest first, u now)."""
+def _applied(controller: Controller, line: list, u: ca.SX, weights: ca.SX) -> ca.SX:
+    """The outputs applied now (``line`` oldest first, u now): ``delay`` samples ago, or with drive delays
+    coordinate k's from ``delay + j`` samples ago, j where its row of ``weights`` holds its 1
+    (:meth:`Controller.drive_weights`: a number of the loop, so that one compiled loop applies any of them)."""
     if not line:
         return u
-    rows = [u[k] if controller.output_delay(k) == 0 else line[len(line) - controller.output_delay(k)][k]
-            for k in range(controller.size)]
-    return ca.vertcat(*rows)
+    past = [u, *reversed(line)]  # past[i]: the output of i samples ago
+    if not controller.drive_slots:
+        return past[controller.delay]
+    slots = controller.drive_slots + 1
+    return ca.vertcat(*[sum(weights[k * slots + j] * past[controller.delay + j][k] for j in range(slots))
+                        for k in range(controller.size)])
 
 
 # -- the delay line -------------------------------------------------------------------------------------------
@@ -269,14 +268,16 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
     q, r, d = ca.SX.sym("q", n), ca.SX.sym("r", nx), ca.SX.sym("d", nc)
     tau_log = ca.SX.sym("tau_log", n)
     nf = len(controller.velocity_feedforward)
-    c = ca.SX.sym("c", 6 * nc + ns + taps + controller.K.size + nf)
+    drive = controller.drive_weights().size
+    c = ca.SX.sym("c", 6 * nc + ns + taps + controller.K.size + nf + drive)
     kp, kd, ki, kv, gain, saturation = (c[i * nc:(i + 1) * nc] for i in range(6))
     resolution = c[6 * nc:6 * nc + ns]
     weights = c[6 * nc + ns:6 * nc + ns + taps]
     # K row by row: CasADi reshapes column-major, so the transpose of the (states × inputs) reshape
     K = ca.reshape(c[6 * nc + ns + taps:6 * nc + ns + taps + controller.K.size], nx, nc).T \
         if controller.kind == STATE_FEEDBACK else None
-    feedforward_weight = c[c.numel() - nf:]
+    feedforward_weight = c[c.numel() - drive - nf:c.numel() - drive]
+    drive_weights = c[c.numel() - drive:]
     started, last = memory[0], memory[1:1 + ns]
     at = 1 + ns
     past = [memory[at + i * ns: at + (i + 1) * ns] for i in range(taps - 1)]  # v_b,k-1, v_b,k-2, ...
@@ -312,7 +313,7 @@ def controller_function(controller: Controller, model_coordinates: Sequence[str]
         }[controller.kind]
     u = ca.fmin(ca.fmax(u, -saturation), saturation)
     a = ca.SX.sym("a", nc) if external else None
-    applied = a if external else _applied(controller, line, u)
+    applied = a if external else _applied(controller, line, u, drive_weights)
     force = gain * (applied + d)
     tau = ca.SX.zeros(n)
     for j, i in enumerate(index):

@@ -443,8 +443,9 @@ def drive_layer(ctrl: control.Controller, signals: control.Inputs, measurements:
                  parameters: Mapping[sp.Symbol, float]) -> tuple[control.Controller, control.Inputs]:
     """``ctrl`` and its inputs with the experiment's ``[drive]`` (docs/data.md, "The signal layer"): the force
     applied is g·(τ_ctrl(t − d) + b) for the controller's output τ_ctrl = gain·(u + disturbance), so the loop's
-    gain becomes g·gain, its delay delay + d (whole samples; the delay common to every coordinate joins the
-    loop's, each coordinate's own beyond it is :attr:`~symbolic.data.controller.Controller.drive_delays`)
+    gain becomes g·gain, its delay delay + d (whole samples: each coordinate's is
+    :attr:`~symbolic.data.controller.Controller.drive_delays`; beyond the controller's memory one delay for
+    every coordinate joins the loop's own)
     and b/gain joins the disturbance, itself delayed by d. A replayed force (``torque``) is the logged command,
     which :func:`symbolic.data.load` already turned into the applied force."""
     layer = measurements.signal_layer if isinstance(measurements, Experiment) else None
@@ -464,7 +465,9 @@ def drive_layer(ctrl: control.Controller, signals: control.Inputs, measurements:
                                                  "of samples ≥ 0, the drive's latency in the loop; fractional delays "
                                                  "apply to a replayed force)")
     shifts = [int(d) for d in shifts]
-    common = min(shifts)
+    # within the controller's memory a drive's delay is a number of the compiled loop (Controller.drive_slots);
+    # beyond it one delay for all joins the loop's, kept in a DelayLine
+    common = min(shifts) if ctrl.delay + max(shifts) > control.LINE_IN_MEMORY else 0
     own = tuple(d - common for d in shifts)
     if any(own) and ctrl.delay + max(shifts) > control.LINE_IN_MEMORY:
         raise DataError(source, "[drive] delay", f"drive delays of {', '.join(map(str, shifts))} samples besides the "
