@@ -11,7 +11,7 @@ test:
 	$(PYTHON) -m pytest -n 2 -q
 
 test-fast:
-	$(PYTHON) -m pytest -q -m "not slow"
+	$(PYTHON) -m pytest -n 2 -q -m "not slow"
 
 # Regenerate generated/ from the built-in robots (byte-identical from run to run), docs/reproduction.md, and
 # the bench/results/ sections that README.md and docs/*.md quote (bench/quotes.py).

@@ -33,7 +33,9 @@ RATE, SAMPLES = 200.0, 4000
 
 
 def arm_context() -> tuple[str, Context, Signals]:
-    text = models.arm()
+    # joint 2 with a motor (a rotor inertia): the effects offered only on a motor's joint are checked there
+    text = models.arm(parameters=models.ARM_PARAMETERS + "Jm2 = 0.01\n",
+                      extra='[[drive]]\ncoordinate = "q2"\nratio = 1\nrotor_inertia = "Jm2"\n')
     robot = symbolic.loads(text, "arm.toml")
     rng = np.random.default_rng(7)
     t = np.arange(SAMPLES) / RATE

@@ -40,8 +40,8 @@ SHARED = ROOT.parent / "shared"
 EXCLUDED = {
     "python3 -m venv .venv && . .venv/bin/activate && python3 -m pip install -e '.[dev]'":
         "the install itself: the test runs inside it, and a second one downloads 1.6 GB (PYTHONPATH stands for it)",
-    "symbolic derive fivebar && python3 -m pytest -n 2":
-        "runs this whole suite (minutes); `symbolic derive fivebar` is run from the console block below it",
+    'symbolic derive fivebar && python3 -m pytest -n 2 -m "not slow"':
+        "runs this suite (minutes); `symbolic derive fivebar` is run from the console block below it",
 }
 """README commands not run, each with the reason (by the command's text without its trailing comment)."""
 

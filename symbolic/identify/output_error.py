@@ -678,7 +678,10 @@ def output_error(
         raise DataError(str(getattr(data, "source", data)), "max_iterations",
                         f"expected a whole number ≥ 1, got {max_iterations!r}")
     started = time.perf_counter()
-    measurements = load(data, model.robot.generalized_coordinates, model=model.robot, experiment=experiment)
+    # from given values the data may lack a coordinate the simulation starts at rest and compares nowhere (a
+    # second mass's deflection the patched model of a diagnosis adds); IDIM-LS's start needs them all
+    coordinates = model.robot.generalized_coordinates if start is None else None
+    measurements = load(data, coordinates, model=model.robot, experiment=experiment)
     fixed = fixed_symbols(model, fix)
     start_method = "given values"
     if start is None:

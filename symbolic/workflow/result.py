@@ -49,11 +49,14 @@ class Found:
     model_parameters: dict[str, float]
     evidence: dict[str, Any]
     variant: str | None = None
-    """Which variant of ``effect`` (``"position"`` or ``"time"`` for ``periodic``); ``None`` for the others."""
+    """Which variant of ``effect`` (``"position"`` or ``"time"`` for ``periodic``, ``"one_encoder"`` for
+    ``joint_elasticity`` from the motor encoder alone); ``None`` for the others."""
 
     def label(self) -> str:
-        """``periodic (in time)``, ``coulomb``: the effect as the report names it."""
-        return self.effect if self.variant is None else f"{self.effect} (in {self.variant})"
+        """``periodic (in time)``, ``joint_elasticity (one encoder)``, ``coulomb``: the effect as the report names it."""
+        if self.variant is None:
+            return self.effect
+        return f"{self.effect} ({'in ' if self.variant in ('position', 'time') else ''}{self.variant.replace('_', ' ')})"
 
     def to_dict(self) -> dict[str, Any]:
         return {"effect": self.effect, **({"variant": self.variant} if self.variant else {}),

@@ -347,7 +347,7 @@ def markdown_table(effects: Mapping[str, Effect] | None = None) -> str:
     effects = EFFECTS if effects is None else effects
     rows = ["| effect | τ-side term | columns | roles | model file |", "|---|---|---|---|---|"]
     for key, e in effects.items():
-        name = f"`{e.identifier}` (in {e.variant}; key `{key}`)" if e.variant else f"`{key}`"
+        name = f"`{e.identifier}` ({e.label().partition(' (')[2].rstrip(')')}; key `{key}`)" if e.variant else f"`{key}`"
         roles = ", ".join(f"`{r}`" + (f" ({_unit_text(e.units[r])})" if e.units.get(r) else "") for r in e.roles)
         roles += f" ({e.roles_note})" if e.roles_note else ""
         rows.append(f"| {name} | {e.formula or e.summary} | {e.regressors} | {roles} | {e.written_as} |")

@@ -48,6 +48,15 @@ class FlexibleMode(Effect):
 
     def applicable(self, context, j):
         c = context.coordinates[j]
+        if motor_declared(context.robot, c):
+            return (f"the model declares a motor on {c} (a [[drive]] with a rotor inertia): a second mass ringing there "
+                    "is its link behind the transmission (joint_elasticity, one encoder)")
+        return self.holds(context, j)
+
+    def holds(self, context, j):
+        """Why the model cannot hold a second mass on coordinate ``j`` (a modal coordinate; no frame moves
+        with it alone), or ``None``."""
+        c = context.coordinates[j]
         kind = context.kind(c)
         if kind == "modal":
             return f"{c} is a modal coordinate"
@@ -177,6 +186,19 @@ class FlexibleMode(Effect):
         f, z = min(modes, key=lambda m: abs(math.log(max(m[0], 1e-12) / roles["frequency_hz"])))
         return {"frequency_hz": f, "damping_ratio": z}, {**own, "ringing": "closed-loop mode of the patched model",
                                                           "closed_loop_modes": [list(m) for m in modes]}
+
+
+def motor_declared(robot, coordinate: str) -> bool:
+    """Whether the model declares a motor on ``coordinate``: a ``[[drive]]`` with a rotor inertia that is not 0.
+    Its encoder reads the motor, and a second mass ringing behind it is the link on an elastic transmission
+    (:class:`~symbolic.workflow.effects.joint_elasticity.OneEncoder`) rather than a load on a coupling."""
+    for drive in robot.drives:
+        if drive.coordinate == coordinate:
+            value = drive.rotor_inertia
+            zero = value == 0 if isinstance(value, (int, float)) else bool(getattr(value, "is_zero", False))
+            if not zero:
+                return True
+    return False
 
 
 register(FlexibleMode())

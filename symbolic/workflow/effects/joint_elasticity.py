@@ -22,8 +22,13 @@ the held-out force at least as well as the whole rigid model's row (else the def
 else: a scale error of the link encoder, say). On a rigid joint the two encoders differ by their resolutions: δ is noise, the
 motor side without the link's dynamics stays far worse than the rigid row, and nothing is named.
 
-Without a link-side encoder nothing is tried here (from the response alone the elasticity is a
-``flexible_mode``'s second mass on the coordinate: that effect's case).
+Without a link-side encoder the motor's encoder alone still shows the link ringing on the spring: the motor
+must supply the link's inertia times the link's acceleration, q̈_l = L(s)·q̈ with L the link's mode on k and d
+(the :class:`~symbolic.workflow.effects.flexible_mode.FlexibleMode` column). From one encoder a transmission's
+elasticity and a load on a compliant coupling give the same response on the coordinate; where the model declares a
+motor on the joint (a ``[[drive]]`` with a rotor inertia), the search offers it as :class:`OneEncoder`, named
+``joint_elasticity`` with the spring's stiffness k = J_L·ω² and damping d = 2ζω·J_L, and ``flexible_mode`` is not
+offered there.
 """
 
 from __future__ import annotations
@@ -35,11 +40,13 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import sympy as sp
 
 from symbolic.data.treatment import Settings, states
 from symbolic.description.names import coefficient_name
 from symbolic.description.units import coordinate_kind
-from symbolic.workflow.effects.base import joint_frame
+from symbolic.workflow.effects.base import joint_frame, register
+from symbolic.workflow.effects.flexible_mode import FlexibleMode, motor_declared
 from symbolic.workflow.statistics import MIN_SIGMAS
 from symbolic.workflow.terms import relative_gap
 
@@ -480,3 +487,119 @@ def experiment_lines(found: Elasticity, reference: bool = False) -> list[str]:
     deflection = f"{LINK_PREFIX}{c} - q_{c}{shift}"
     lines = ["[signals]", f'q_{c}_flex = "{deflection}"', f'tau_{c}_flex = "0"']
     return lines + ([f'ref_{c}_flex = "{deflection}"'] if reference else [])
+
+
+class OneEncoder(FlexibleMode):
+    """``joint_elasticity`` from the motor's encoder alone (module docstring): the link's inertia J_L rings behind
+    the joint's motor on a spring k and damper d, found by its ringing as ``flexible_mode`` finds a second mass —
+    the same column, grid and checks — on a coordinate whose model declares a motor. Roles: the spring's
+    ``stiffness`` k = J_L·ω² and ``damping`` d = 2ζω·J_L at the link's own mode (ω, ζ: the link's frequency and
+    damping ratio with the motor held), and the ringing as the data show it (``frequency_hz``, ``damping_ratio``:
+    the closed-loop mode of the patched model under the data's ``[controller]``, as ``flexible_mode`` reports it).
+    Written as Spong's joint (:meth:`patch`): the file's link — its inertia, its weight and its couplings to the
+    other joints — behind the spring."""
+
+    name, contract, variant = "joint_elasticity_one_encoder", "joint_elasticity", "one_encoder"
+    rank = 120
+    roles = ("stiffness", "damping", "frequency_hz", "damping_ratio")
+    summary = "an elastic transmission between motor and link seen by the motor encoder alone: the link rings on k, d"
+    formula = "J_L·q̈_l, q̈_l = L(s)·q̈ (the link on the spring k = J_L·ω², d = 2ζω·J_L)"
+    written_as = "Spong's joint: `<q>_flex` added to the joint's DH (the file's link turns with q + `<q>_flex`), `[[force]]` −k·x − d·ẋ, the rotor's inertia the motor side's"
+    roles_note = "k and d at the link's own mode; the ringing, closed loop"
+    units = {"stiffness": "{force}/{position}", "damping": "{force}·s/{position}", "frequency_hz": "Hz",
+             "damping_ratio": ""}
+
+    def label(self) -> str:
+        return "joint_elasticity (one encoder)"
+
+    def applicable(self, context, j):
+        c = context.coordinates[j]
+        if not motor_declared(context.robot, c):
+            return f"no motor declared on {c} (a [[drive]] with a rotor inertia): a second mass there is a flexible_mode"
+        return self.holds(context, j)
+
+    def roles_of(self, c, value, reference):
+        roles = super().roles_of(c, value, reference)
+        w = 2.0 * math.pi * roles["frequency_hz"]
+        roles = {**roles, "stiffness": roles["load"] * w * w, "damping": 2.0 * roles["damping_ratio"] * w * roles["load"]}
+        if reference is not None:  # the coordinate's own inertia, on a machine of one coordinate: the motor's
+            roles["motor_inertia"] = reference
+        return roles
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        """Spong's joint, as two encoders write it (:func:`patch`): the link and everything after it on
+        q + ``<q>_flex``, the spring and damper on ``<q>_flex``, the motor's inertia the coordinate's own where the
+        fit gives it (one coordinate), else the file's rotor inertia. The link keeps the file's inertia and weight."""
+        coordinate = context.coordinates[j]
+        motor = roles.get("motor_inertia")
+        if motor is None or not motor > 0:
+            motor = rotor_inertia(context.robot, coordinate)
+        spring = _Spring(coordinate, {"stiffness": roles["stiffness"], "damping": roles["damping"], "motor_inertia": motor})
+        written, _ = patch(editor, context.robot, spring, comment)
+        return written
+
+    LINK_RANGE = (0.5, 2.0)
+    """The ringing inertia J_L must lie within these factors of the link's inertia about the joint in the model
+    file: a transmission carries the whole link. Where the motion barely excites the link's mode the data fix
+    J_L/ω² alone (the term (J_L/ω²)·d⁴q/dt⁴ of a stiff spring), and a fit far below the mode with a fraction of the
+    link's inertia matches it as well: on the geared joint of the tests without Coulomb friction (whose
+    stick-slip rings the link), k 4000 N·m/rad came out as 15 on a load of 0.007 of the link's 0.15."""
+
+    def check(self, roles, reference, context, j):
+        problem = super().check(roles, reference, context, j)
+        if problem is not None:
+            return problem
+        link = link_inertia(context.model, context.coordinates[j], np.mean(context.q, axis=0), context.coordinates)
+        low, high = self.LINK_RANGE
+        if link is not None and link > 0 and not low <= roles["load"] / link <= high:
+            return (f"the inertia ringing on the spring, {roles['load']:.4g}, is {roles['load'] / link:.3g}× the link's "
+                    f"inertia about the joint in the model file ({link:.4g}; allowed {low:g}–{high:g}×): a "
+                    "transmission carries the whole link (the link's mode is not excited enough to separate its "
+                    "frequency from its inertia)")
+        return None
+
+    def as_measured(self, patched, parameters, context, j, roles, controller, period):
+        measured, extra = super().as_measured(patched, parameters, context, j, roles, controller, period)
+        return {**measured, "stiffness": roles["stiffness"], "damping": roles["damping"]}, extra
+
+
+def link_inertia(model: Any, coordinate: str, position: np.ndarray, coordinates: Sequence[str]) -> float | None:
+    """The link's inertia about ``coordinate``'s joint in the model file: D's diagonal entry at ``position`` (the
+    data's coordinates in ``coordinates`` order; the model's others at 0) less the rotor's Ia·ratio², at the
+    file's values; ``None`` without a model."""
+    if model is None:
+        return None
+    names = list(model.robot.generalized_coordinates)
+    at = {symbol: sp.Float(value) for symbol, value in model.parameters.items()}
+    at.update({symbol: sp.Float(0) for symbol in model.coordinates})
+    at.update({model.coordinates[names.index(c)]: sp.Float(float(x)) for c, x in zip(coordinates, position) if c in names})
+    k = names.index(coordinate)
+    return float((model.D[k, k] - _rotor(model.robot, coordinate)).xreplace(at))
+
+
+@dataclass(frozen=True)
+class _Spring:
+    """A transmission found from one encoder, as :func:`patch` reads an :class:`Elasticity` (no dead band)."""
+
+    coordinate: str
+    values: Mapping[str, float]
+    band: None = None
+
+
+def rotor_inertia(robot: Any, coordinate: str) -> float:
+    """The rotor's inertia at ``coordinate``'s joint in the model file, Ia·ratio² at the file's values (0 without one)."""
+    return float(_rotor(robot, coordinate).xreplace({s: sp.Float(v) for s, v in robot.parameter_values.items()}))
+
+
+def _rotor(robot: Any, coordinate: str) -> sp.Expr:
+    """Ia·ratio² of ``coordinate``'s drives, as an expression of the parameters."""
+    return sum((_expression(d.rotor_inertia) * _expression(d.ratio) ** 2 for d in robot.drives
+                if d.coordinate == coordinate), sp.Float(0))
+
+
+def _expression(value: Any) -> sp.Expr:
+    """A drive's field as an expression (the validated robot holds numbers or parsed expressions)."""
+    return sp.Float(value) if isinstance(value, (int, float)) else value
+
+
+register(OneEncoder())
