@@ -33,6 +33,14 @@ def test_the_second_half_is_computed_in_another_process() -> None:
     assert len({pid for *_, pid in theirs}) == 1 and theirs[0][2] != os.getpid()
 
 
+@needs_fork
+def test_interleaved_alternates_the_items_and_keeps_their_order() -> None:
+    """Items 0, 2, 4 here and 1, 3 in the child; the results in the items' order, each half's extra value apart."""
+    out, (here, there) = forked.interleaved(lambda part: (tagged(part), os.getpid()), [1, 2, 3, 4, 5])
+    assert [(x, y) for x, y, _ in out] == [(1, 1), (2, 4), (3, 9), (4, 16), (5, 25)]
+    assert {pid for *_, pid in out[0::2]} == {here} == {os.getpid()} and {pid for *_, pid in out[1::2]} == {there} != {here}
+
+
 def test_an_empty_second_half_forks_nothing() -> None:
     assert forked.in_two(tagged, [7], []) == ([(7, 49, os.getpid())], [])
 

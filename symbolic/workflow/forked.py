@@ -25,6 +25,7 @@ from symbolic.numeric.blas import one_blas_thread
 
 T = TypeVar("T")
 R = TypeVar("R")
+X = TypeVar("X")
 
 
 def usable_processes() -> int:
@@ -45,6 +46,17 @@ def in_two(work: Callable[[Sequence[T]], R], here: Sequence[T], there: Sequence[
         return work(here), work(there)
     with one_blas_thread():  # two processes on two cores: BLAS threads of both would contend and spin
         return _split(work, here, there)
+
+
+def interleaved(work: Callable[[Sequence[T]], tuple[list[R], X]], items: Sequence[T]) -> tuple[list[R], tuple[X, X]]:
+    """``work`` over ``items`` shared alternately with a forked child (:func:`in_two`): items 0, 2, 4, … here and
+    1, 3, 5, … there, so that a run of costly neighbours (one effect on every coordinate) is split too. ``work``
+    returns its results, one per item, and one more value; returns the results in the items' order and the two
+    more values (here's, there's)."""
+    (mine, extra_here), (theirs, extra_there) = in_two(work, items[0::2], items[1::2])
+    out: list[R] = [None] * len(items)  # type: ignore[list-item]
+    out[0::2], out[1::2] = mine, theirs
+    return out, (extra_here, extra_there)
 
 
 def _split(work: Callable[[Sequence[T]], R], here: Sequence[T], there: Sequence[T]) -> tuple[R, R]:

@@ -241,12 +241,10 @@ def _judge_all(candidates: Sequence[ResponseCandidate], judge: Callable[[Respons
     if len(candidates) < 2 or forked.usable_processes() < 2:
         return tuple(judge(c) for c in candidates)
 
-    def work(part: Sequence[ResponseCandidate]) -> list[Judged]:
-        return [dataclasses.replace(judge(c), candidate=None) for c in part]
+    def work(part: Sequence[ResponseCandidate]) -> tuple[list[Judged], None]:
+        return [dataclasses.replace(judge(c), candidate=None) for c in part], None
 
-    mine, theirs = forked.in_two(work, candidates[0::2], candidates[1::2])
-    out: list[Judged] = [None] * len(candidates)  # type: ignore[list-item]
-    out[0::2], out[1::2] = mine, theirs
+    out, _ = forked.interleaved(work, candidates)
     return tuple(dataclasses.replace(j, candidate=c) for j, c in zip(out, candidates))
 
 

@@ -206,12 +206,9 @@ class Search:
                 c.effect = None  # type: ignore[assignment]
             return done, {k: v for k, v in self._reduced.items() if k not in known}
 
-        # interleaved: each effect's coordinates alternate between the processes (the costly effects are split)
-        (mine, _), (theirs, treated) = forked.in_two(work, pairs[0::2], pairs[1::2])
+        out, (_, treated) = forked.interleaved(work, pairs)
         for key, value in treated.items():
             self._reduced.setdefault(key, value)
-        out: list[Candidate] = [None] * len(pairs)  # type: ignore[list-item]
-        out[0::2], out[1::2] = mine, theirs
         for c, (effect, _) in zip(out, pairs):
             c.effect = effect
         return out
