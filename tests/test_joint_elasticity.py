@@ -16,6 +16,7 @@ noise. The searching code never sees it: it reads the log and the rigid model fi
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -266,6 +267,26 @@ def test_one_encoder_patched_joint_is_simulated_on_the_simulated_path(tmp_path):
     assert result.before.gap["validation"] > 15.0 and result.after.gap["validation"] < 0.25 * result.before.gap["validation"]
     assert result.response is None and any("adds q_flex, which the data do not measure" in n and "did not run" in n
                                            for n in result.notes)
+
+
+def test_a_correction_of_a_spring_on_an_unmeasured_coordinate_is_judged_where_the_data_are(tmp_path):
+    """The one-encoder patched joint's spring acts on q_flex, which the log does not hold: a correction of k or d is
+    judged on the coordinates the data compare (its gain was −inf: the mean over no signal at all)."""
+    from symbolic.data import load
+    from symbolic.workflow.effects.on_response import RESPONSE_EFFECTS
+    from symbolic.workflow.response import search_response
+
+    model, experiment = _motor_encoder_only(tmp_path, seconds=4.0)
+    result = diagnose(str(model), str(experiment), figures=False)
+    patched = derive(loads(result.patched_text, str(tmp_path / "p.toml")))
+    data = load(str(experiment))
+    cut = int(0.8 * data.samples)  # fitted on the record's first 80 %, judged on the rest simulated from its start
+    head = dataclasses.replace(data, t=data.t[:cut], q=data.q[:cut], tau=data.tau[:cut], ref=data.ref[:cut])
+    search = search_response(patched, head, data, held_from=cut, effects=[RESPONSE_EFFECTS["correction"]], fix=[],
+                             min_gain=0.1, determined=[])
+    judged = {j.candidate.label(): j for j in search.rounds[0]}
+    assert set(judged) == {"correction(k_q_joint)", "correction(d_q_joint)"}
+    assert all(j.candidate.coordinate == "" and math.isfinite(j.gain) for j in judged.values())
 
 
 def test_one_encoder_rigid_joint_names_nothing(tmp_path):

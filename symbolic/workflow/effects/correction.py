@@ -37,6 +37,8 @@ class Correction(ResponseEffect):
             if parameter_kind(robot, parameter.name) not in KINDS:
                 continue
             coordinate = force_coordinate(robot, parameter.name)
+            if coordinate not in measurements.coordinates:  # a coordinate the data lack (a second mass's
+                coordinate = ""  # deflection): judged where the data compare, on every coordinate they hold
             value = float(model.parameters[parameter.symbol])
             out.append(ResponseCandidate(self, coordinate, ((PARAMETER, parameter.name, ""),), (value,)))
         return out
