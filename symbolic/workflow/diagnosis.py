@@ -210,7 +210,8 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
             editor.note(f"symbolic diagnose: joint_elasticity({e.coordinate}) from the motor-side and link-side "
                         f"encoders: k = {e.values['stiffness']:.6g} ± {e.sigmas['stiffness']:.2g}, the deflection "
                         f"removes {100 * e.gain:.3g} % of the motor side's held-out residual power")
-            values, flex = joint_elasticity.patch(editor, model.robot, e, f"symbolic diagnose: joint_elasticity({e.coordinate})")
+            values, flex = joint_elasticity.patch(editor, model.robot, e.coordinate, e.values, e.band,
+                                                  f"symbolic diagnose: joint_elasticity({e.coordinate})")
             written_elastic.append(values)
             flexes.add(flex)
         removed = editor.drop_unused()
@@ -268,7 +269,9 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
         patched_path = target if out is not None else None
         measured_model = derive(loads(patched_text, str(target))) if added else patched
         if simulate and elastic and not unmeasured:
-            after = _simulated_elastic(measured_model, motor_sets, elastic, simulate, after)
+            # the deflections mapped from the two encoders (joint_elasticity.with_deflections)
+            after = _simulated_as_written(measured_model, motor_sets, simulate, after,
+                                          lambda m: joint_elasticity.with_deflections(m, elastic))
         values = measured_model.parameter_vector.by_name()
         controller = _controller(estimation.measurements)
         period = float(estimation.measurements.sample_period)
@@ -342,15 +345,6 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
                           caveats=tuple(caveats), cpu_seconds=cpu_seconds, response=response,
                           elasticity=tuple(elasticity))
     return diagnosis
-
-
-def _simulated_elastic(patched: DynamicModel, sets: dict[str, DataSet], elastic: Sequence[Any], simulate: Simulator,
-                       after: Fit) -> Fit:
-    """``after`` on the simulated path of a patched model with elastic joints: the model at its written values run
-    in the machine's loop on the motor-side data with the deflections mapped
-    (:func:`~symbolic.workflow.effects.joint_elasticity.with_deflections`); gaps on the data's coordinates, a held-out
-    tail simulated from its record's start."""
-    return _simulated_as_written(patched, sets, simulate, after, lambda m: joint_elasticity.with_deflections(m, elastic))
 
 
 def _simulated_as_written(patched: DynamicModel, sets: dict[str, DataSet], simulate: Simulator, after: Fit,

@@ -17,6 +17,7 @@ from symbolic.data import Measurements
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.workflow.dataset import DataSet
 from symbolic.workflow.effects import NOT_SUPPORTED
+from symbolic.workflow.effects.base import labelled
 from symbolic.workflow.records import variant_of
 from symbolic.workflow.search import Search
 from symbolic.workflow.terms import NominalFit
@@ -54,9 +55,7 @@ class Found:
 
     def label(self) -> str:
         """``periodic (in time)``, ``joint_elasticity (one encoder)``, ``coulomb``: the effect as the report names it."""
-        if self.variant is None:
-            return self.effect
-        return f"{self.effect} ({'in ' if self.variant in ('position', 'time') else ''}{self.variant.replace('_', ' ')})"
+        return labelled(self.effect, self.variant)
 
     def to_dict(self) -> dict[str, Any]:
         return {"effect": self.effect, **({"variant": self.variant} if self.variant else {}),

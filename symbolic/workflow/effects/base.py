@@ -80,6 +80,16 @@ class Signals:
     start: int = 0
 
 
+def variant_words(variant: str) -> str:
+    """A variant as the report writes it: ``in position``, ``in time`` (periodic), ``one encoder``."""
+    return f"in {variant}" if variant in ("position", "time") else variant.replace("_", " ")
+
+
+def labelled(identifier: str, variant: str | None) -> str:
+    """An effect's name in the report: ``periodic (in time)``, ``joint_elasticity (one encoder)``, ``coulomb``."""
+    return identifier if variant is None else f"{identifier} ({variant_words(variant)})"
+
+
 def on_row(j: int, n: int, columns: list[np.ndarray]) -> np.ndarray:
     """``samples × n × k``: the given per-sample columns acting on coordinate ``j`` only."""
     out = np.zeros((len(columns[0]), n, len(columns)))
@@ -151,7 +161,7 @@ class Effect:
 
     def label(self) -> str:
         """How the report names it: the identifier, with the variant (``periodic (in time)``)."""
-        return self.identifier if self.variant is None else f"{self.identifier} (in {self.variant})"
+        return labelled(self.identifier, self.variant)
 
     def applicable(self, context: Context, j: int) -> str | None:
         """``None`` when the effect can act on coordinate ``j``, else the reason why not."""
@@ -347,7 +357,7 @@ def markdown_table(effects: Mapping[str, Effect] | None = None) -> str:
     effects = EFFECTS if effects is None else effects
     rows = ["| effect | τ-side term | columns | roles | model file |", "|---|---|---|---|---|"]
     for key, e in effects.items():
-        name = f"`{e.identifier}` ({e.label().partition(' (')[2].rstrip(')')}; key `{key}`)" if e.variant else f"`{key}`"
+        name = f"`{e.identifier}` ({variant_words(e.variant)}; key `{key}`)" if e.variant else f"`{key}`"
         roles = ", ".join(f"`{r}`" + (f" ({_unit_text(e.units[r])})" if e.units.get(r) else "") for r in e.roles)
         roles += f" ({e.roles_note})" if e.roles_note else ""
         rows.append(f"| {name} | {e.formula or e.summary} | {e.regressors} | {roles} | {e.written_as} |")

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from symbolic.derivation.drives import rotor_inertia
 from symbolic.description.names import coefficient_name
 from symbolic.workflow.effects.base import Effect, joint_frame, on_row, register
 
@@ -192,13 +193,8 @@ def motor_declared(robot, coordinate: str) -> bool:
     """Whether the model declares a motor on ``coordinate``: a ``[[drive]]`` with a rotor inertia that is not 0.
     Its encoder reads the motor, and a second mass ringing behind it is the link on an elastic transmission
     (:class:`~symbolic.workflow.effects.joint_elasticity.OneEncoder`) rather than a load on a coupling."""
-    for drive in robot.drives:
-        if drive.coordinate == coordinate:
-            value = drive.rotor_inertia
-            zero = value == 0 if isinstance(value, (int, float)) else bool(getattr(value, "is_zero", False))
-            if not zero:
-                return True
-    return False
+    k = robot.generalized_coordinates.index(coordinate)
+    return rotor_inertia(robot)[k, k].is_zero is not True  # a parameter's (not known to be 0) counts
 
 
 register(FlexibleMode())

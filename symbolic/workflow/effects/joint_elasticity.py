@@ -43,6 +43,7 @@ import numpy as np
 import sympy as sp
 
 from symbolic.data.treatment import Settings, states
+from symbolic.derivation.drives import rotor_inertia as reflected_rotors
 from symbolic.description.names import coefficient_name
 from symbolic.description.units import coordinate_kind
 from symbolic.workflow.effects.base import joint_frame, register
@@ -397,13 +398,14 @@ def applicable(robot: Any, coordinate: str) -> str | None:
     return None if joint_frame(robot, coordinate) is not None else f"no frame moves with {coordinate} alone"
 
 
-def patch(editor: Any, robot: Any, found: Elasticity, comment: str) -> tuple[dict[str, float], str]:
+def patch(editor: Any, robot: Any, c: str, v: Mapping[str, float], band: Mapping[str, Any] | None,
+          comment: str) -> tuple[dict[str, float], str]:
     """Write the elastic joint into the model file (Spong's model): the coordinate stays the motor side (its
     drive's rotor inertia becomes J_m), a new coordinate ``<c>_flex`` = q_l − q (the link's angle minus the
     motor's, = −δ) is added to the joint's DH θ (or d), so that the link and everything after it hang on
-    q + q_flex, and a ``[[force]]`` −k·q_flex − d·q̇_flex acts on it. Returns the parameters written and the
-    new coordinate's name."""
-    c, v = found.coordinate, found.values
+    q + q_flex, and a ``[[force]]`` −k·q_flex − d·q̇_flex acts on it; ``v`` holds ``stiffness``, ``damping`` and
+    ``motor_inertia``, ``band`` a dead band (:attr:`Elasticity.band`) or ``None``. Returns the parameters written
+    and the new coordinate's name."""
     frame = joint_frame(robot, c)
     if frame is None:
         raise ValueError(applicable(robot, c))
@@ -419,7 +421,6 @@ def patch(editor: Any, robot: Any, found: Elasticity, comment: str) -> tuple[dic
     key = "theta" if coordinate_kind(robot, c) == "revolute" else "d"
     editor.set_frame_dh(frame.name, key, f"{editor.frame_dh(frame.name)[key]} + {flex}", comment + "; the link turns with "
                         "the motor plus the deflection")
-    band = found.band
     if band is None:
         editor.add_force(f"transmission_{c}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
         return {k: v["stiffness"], d: damping, rotor: v["motor_inertia"] / ratio**2}, flex
@@ -509,9 +510,6 @@ class OneEncoder(FlexibleMode):
     units = {"stiffness": "{force}/{position}", "damping": "{force}·s/{position}", "frequency_hz": "Hz",
              "damping_ratio": ""}
 
-    def label(self) -> str:
-        return "joint_elasticity (one encoder)"
-
     def applicable(self, context, j):
         c = context.coordinates[j]
         if not motor_declared(context.robot, c):
@@ -534,8 +532,8 @@ class OneEncoder(FlexibleMode):
         motor = roles.get("motor_inertia")
         if motor is None or not motor > 0:
             motor = rotor_inertia(context.robot, coordinate)
-        spring = _Spring(coordinate, {"stiffness": roles["stiffness"], "damping": roles["damping"], "motor_inertia": motor})
-        written, _ = patch(editor, context.robot, spring, comment)
+        spring = {"stiffness": roles["stiffness"], "damping": roles["damping"], "motor_inertia": motor}
+        written, _ = patch(editor, context.robot, coordinate, spring, None, comment)
         return written
 
     LINK_RANGE = (0.5, 2.0)
@@ -574,32 +572,13 @@ def link_inertia(model: Any, coordinate: str, position: np.ndarray, coordinates:
     at.update({symbol: sp.Float(0) for symbol in model.coordinates})
     at.update({model.coordinates[names.index(c)]: sp.Float(float(x)) for c, x in zip(coordinates, position) if c in names})
     k = names.index(coordinate)
-    return float((model.D[k, k] - _rotor(model.robot, coordinate)).xreplace(at))
-
-
-@dataclass(frozen=True)
-class _Spring:
-    """A transmission found from one encoder, as :func:`patch` reads an :class:`Elasticity` (no dead band)."""
-
-    coordinate: str
-    values: Mapping[str, float]
-    band: None = None
+    return float((model.D[k, k] - reflected_rotors(model.robot)[k, k]).xreplace(at))
 
 
 def rotor_inertia(robot: Any, coordinate: str) -> float:
     """The rotor's inertia at ``coordinate``'s joint in the model file, Ia·ratio² at the file's values (0 without one)."""
-    return float(_rotor(robot, coordinate).xreplace({s: sp.Float(v) for s, v in robot.parameter_values.items()}))
-
-
-def _rotor(robot: Any, coordinate: str) -> sp.Expr:
-    """Ia·ratio² of ``coordinate``'s drives, as an expression of the parameters."""
-    return sum((_expression(d.rotor_inertia) * _expression(d.ratio) ** 2 for d in robot.drives
-                if d.coordinate == coordinate), sp.Float(0))
-
-
-def _expression(value: Any) -> sp.Expr:
-    """A drive's field as an expression (the validated robot holds numbers or parsed expressions)."""
-    return sp.Float(value) if isinstance(value, (int, float)) else value
+    k = robot.generalized_coordinates.index(coordinate)
+    return float(reflected_rotors(robot)[k, k].xreplace({s: sp.Float(v) for s, v in robot.parameter_values.items()}))
 
 
 register(OneEncoder())
