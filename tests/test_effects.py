@@ -44,9 +44,11 @@ def arm_context() -> tuple[str, Context, Signals]:
                   for _ in range(n)], axis=1)
     qd = np.gradient(q, 1 / RATE, axis=0)
     qdd = np.gradient(qd, 1 / RATE, axis=0)
-    context = Context(robot, tuple(robot.generalized_coordinates), q, qd, qdd, passband=40.0, kept_period=1 / RATE,
-                      duration=float(t[-1]), rate=RATE)
-    return text, context, Signals(q, qd, qdd, t, RATE, robot)
+    model = symbolic.derive(robot)  # for the effects whose columns need the model's numbers (the link behind a drive)
+    coordinates = tuple(robot.generalized_coordinates)
+    context = Context(robot, coordinates, q, qd, qdd, passband=40.0, kept_period=1 / RATE, duration=float(t[-1]),
+                      rate=RATE, model=model)
+    return text, context, Signals(q, qd, qdd, t, RATE, robot, model=model, coordinates=coordinates)
 
 
 TEXT, CONTEXT, SIGNALS = arm_context()

@@ -273,7 +273,7 @@ class Search:
     def _signals_of(self, data: DataSet, record: Signals | None = None) -> Signals:
         s = data.states
         return Signals(s.q, s.qd, s.qdd, np.asarray(data.measurements.t), float(s.processing.rate),
-                       self.context.robot, record, data.start)
+                       self.context.robot, record, data.start, self.context.model, self.context.coordinates)
 
     def reduced(self, effect: Effect, j: int, values: Sequence[Any], role: str) -> list[tuple[np.ndarray, np.ndarray]]:
         """The effect's columns at ``values`` on a data set, treated like the regressor, as (rows, columns on

@@ -72,7 +72,9 @@ class Separability:
         if id(motion) not in self._probe_columns:  # the probes live as long as the search
             self._probe_columns[id(motion)] = self.search.terms.regressor(motion.q, motion.qd, motion.qdd, t=motion.t)[:, :, self.search.terms.free]
         model = self._probe_columns[id(motion)]
-        signals = Signals(motion.q, motion.qd, motion.qdd, motion.t, motion.rate, self.search.context.robot)
+        x = self.search.context
+        signals = Signals(motion.q, motion.qd, motion.qdd, motion.t, motion.rate, x.robot, model=x.model,
+                          coordinates=x.coordinates)
         own = c.effect.columns_at(signals, c.j, c.value)
         blocks, start = [], model.shape[2]
         for a in design.accepted:

@@ -78,6 +78,11 @@ class Signals:
     samples ``start`` to ``start + len(t)``, so that its state at the first sample is that of the motion
     before. ``None`` otherwise (a separate data set: its start is a guess)."""
     start: int = 0
+    model: Any = None
+    """The derived model (:class:`symbolic.derivation.dynamics.DynamicModel`), for an effect whose columns need its
+    numbers (the link behind an elastic transmission); ``None`` when the caller has none."""
+    coordinates: tuple[str, ...] = ()
+    """The model's coordinates that ``q``'s columns hold, in order (with :attr:`model`)."""
 
 
 def variant_words(variant: str) -> str:
