@@ -91,7 +91,10 @@ CASES = [
 
 ONE_ENCODER = [(f"geared joint, k {k:g}, motor encoder alone", "joint", dict(stiffness=k, one_encoder=True),
                 {"stiffness": k}) for k in (150.0, 400.0, 1500.0, 4000.0)] + [
-    ("arm joint 2, k 300, motor encoders alone", "arm", dict(one_encoder=True), {"stiffness": truth.ARM_TRUTH["k2"]})]
+    ("arm joint 2, k 300, motor encoders alone", "arm", dict(one_encoder=True), {"stiffness": truth.ARM_TRUTH["k2"]}),
+    ("arm joint 2, k 1000, motor encoders alone", "arm", dict(stiffness=1000.0, one_encoder=True), {"stiffness": 1000.0}),
+    ("geared joint, k 2000, backlash 10 mrad, motor encoder alone (backlash from one encoder: not built)", "joint",
+     dict(stiffness=2000.0, backlash=0.01, one_encoder=True), {"stiffness": 2000.0, "width": 0.01})]
 
 
 def main() -> None:
