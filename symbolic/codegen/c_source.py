@@ -6,13 +6,15 @@ In single precision (``precision="float"``) the same functions, with the same na
 
 from __future__ import annotations
 
+import functools
 import logging
 import time
 
 import sympy as sp
 
 from symbolic.derivation.dynamics import DynamicModel
-from symbolic.codegen.c_printer import CPrinter, c_double, c_float, check_precision
+from symbolic.derivation.products import Product
+from symbolic.codegen.c_printer import PRECISIONS, CPrinter, c_double, c_float, check_precision
 from symbolic.codegen.exported import (
     batched_programs, function_specs, input_symbols, model_regressor, programs, solved_specs,
 )
@@ -40,20 +42,24 @@ def c_sources(model: DynamicModel, banner: str, precision: str = "double", accur
     dict
         File name → text.
     """
-    context = c_context(model, banner, precision)
-    return render_c(context, accuracy or [])
+    return render_c(c_context(model, precision), banner, accuracy or [])
 
 
-def render_c(context: dict, accuracy: list[str]) -> dict[str, str]:
-    """The header and source of a :func:`c_context`, the header with the ``accuracy`` comment lines."""
+def render_c(context: dict, banner: str, accuracy: list[str]) -> dict[str, str]:
+    """The header and source of a :func:`c_context` under ``banner``, the header with the ``accuracy`` lines."""
     stem = context["stem"]
-    context = {**context, "accuracy": [comment_text(line) for line in accuracy]}
+    context = {**context, "banner": banner, "accuracy": [comment_text(line) for line in accuracy]}
     return {f"{stem}.h": render("model.h.j2", **context), f"{stem}.c": render("model.c.j2", **context)}
 
 
-def c_context(model: DynamicModel, banner: str, precision: str = "double") -> dict:
-    """What the C templates print, every expression already printed in ``precision``."""
-    single = check_precision(precision) == "float"
+def c_context(model: DynamicModel, precision: str = "double") -> dict:
+    """What the C templates print, every expression already printed in ``precision`` (printed once per model:
+    the float C is printed for the measurement of its error and for the files, with the same text)."""
+    return model.products.get(_CONTEXTS[check_precision(precision)])
+
+
+def _build_context(model: DynamicModel, precision: str) -> dict:
+    single = precision == "float"
     real = "float" if single else "double"
     name = check_c_name(model.name, model.robot.source)
     symbols = input_symbols(model)
@@ -92,7 +98,6 @@ def c_context(model: DynamicModel, banner: str, precision: str = "double") -> di
         )
     stem = c_file_stem(model, precision)
     context = {
-        "banner": banner,
         "name": name,
         "stem": stem,
         "guard": f"{stem.upper()}_H",
@@ -131,6 +136,12 @@ def c_context(model: DynamicModel, banner: str, precision: str = "double") -> di
     }
     logging.getLogger(__name__).info("%s: C source printed in %.1f s", model.name, time.perf_counter() - start)
     return context
+
+
+_CONTEXTS: dict[str, Product[dict]] = {
+    precision: Product(f"C text ({precision})", functools.partial(_build_context, precision=precision))
+    for precision in PRECISIONS
+}
 
 
 def _input_run(angles: tuple[sp.Expr, ...], places: dict[sp.Symbol, tuple[str, int]]) -> str | None:
