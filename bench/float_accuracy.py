@@ -1,0 +1,81 @@
+"""Single-precision C: the float functions' measured error against the double ones, every built-in robot and the
+URDF arms of example-robot-data that tests/test_urdf.py imports (docs/contracts.md, "Single-precision C").
+
+The figures are those ``symbolic generate NAME --precision float`` writes into ``NAME_float.h``
+(:func:`symbolic.codegen.c_accuracy.float_accuracy`: both C sources compiled, called through ctypes at 1000 random
+states inside the joint limits, seed 36; the worst over the states of ‖f_float − f_double‖₂ / ‖f_double‖₂).
+
+    python bench/float_accuracy.py --out bench/results/float_accuracy.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.metadata
+import platform
+import sys
+import warnings
+from pathlib import Path
+
+import symbolic
+from symbolic.codegen.c_accuracy import NOTED, SEED, STATES, float_accuracy
+
+ARMS = {  # the arms of tests/test_urdf.py (ARMS), by their file in example-robot-data's robots folder
+    "ur5": "ur_description/urdf/ur5_robot.urdf",
+    "panda (URDF)": "panda_description/urdf/panda.urdf",
+    "kinova": "kinova_description/robots/kinova.urdf",
+    "xarm7": "xarm_description/urdf/xarm7.urdf",
+    "z1": "z1_description/urdf/z1.urdf",
+    "so101": "so_arm_description/urdf/so101.urdf",
+}
+SHOWN = ("inertia", "gravity", "inverse_dynamics", "forward_dynamics")
+
+
+def models() -> list[tuple[str, symbolic.Robot]]:
+    """The built-in robots, then the URDF arms (skipped, saying so, without example-robot-data)."""
+    found = [(name, symbolic.robots.load(name)) for name in symbolic.robots.names()]
+    try:
+        folder = Path(importlib.metadata.distribution("example-robot-data").locate_file(
+            "cmeel.prefix/share/example-robot-data/robots"))
+    except importlib.metadata.PackageNotFoundError:
+        print("example-robot-data is not installed: the URDF arms are left out", file=sys.stderr)
+        return found
+    return found + [(label, symbolic.load(folder / path)) for label, path in ARMS.items()]
+
+
+def row(label: str, robot: symbolic.Robot) -> str:
+    accuracy = float_accuracy(symbolic.derive(robot))
+    errors = {e.name: e for e in accuracy.errors}
+    shown = [errors[name].text().split(" ", 1)[1] if name in errors else "—" for name in SHOWN]
+    above = [e.text() for e in accuracy.errors if e.name not in SHOWN and e.worst is not None and e.worst > NOTED]
+    return f"| {label} | " + " | ".join(shown) + f" | {'; '.join(above) or '—'} |"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # model notes (units, URDF conversions) are not what is measured here
+        rows = [row(label, robot) for label, robot in models()]
+    text = "\n".join([
+        "# Single-precision C: measured error against double",
+        "",
+        f"`python bench/float_accuracy.py` on {platform.machine()} / Python {platform.python_version()}: each robot's "
+        f"float and double C compiled and called through ctypes at {STATES} random states inside the joint limits "
+        f"(seed {SEED}); the worst over the states of ‖f_float − f_double‖₂ / ‖f_double‖₂ (D: Frobenius), as "
+        "`symbolic generate NAME --precision float` states it in `NAME_float.h`. Above "
+        f"{NOTED:g}, ‖f_double‖ at the worst state against its median: a much smaller output is a difference of larger "
+        "terms (cancellation), a much larger one a configuration near a singular one.",
+        "",
+        "| robot | D | g | τ | q̈ (forward dynamics) | other functions above 1e-05 |",
+        "|---|---|---|---|---|---|",
+        *rows,
+        "",
+    ])
+    args.out.write_text(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
