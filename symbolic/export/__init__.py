@@ -17,6 +17,7 @@ and the targets: docs/contracts.md, "generated/ and make generate" and "Output f
 from __future__ import annotations
 
 import hashlib
+import inspect
 import os
 import stat
 from collections.abc import Iterable
@@ -90,9 +91,9 @@ def render(model: DynamicModel, targets: Iterable[str] = TARGETS, command: str |
     for name in TARGETS:
         if name in targets:
             module = target(name)
-            # a target whose files depend on the C's precision says so (PRECISION); the others are called as
+            # a target whose files depend on the C's precision takes it as a keyword; the others are called as
             # they always were, so a target written without it keeps working
-            options = {"precision": precision} if getattr(module, "PRECISION", False) else {}
+            options = {"precision": precision} if "precision" in inspect.signature(module.render).parameters else {}
             files.update(module.render(model, head, figures, **options))
     return files
 

@@ -12,10 +12,6 @@ if TYPE_CHECKING:
 SUMMARY = "C99 header and source (NAME.h, NAME.c): no allocation, only <math.h>"
 
 
-PRECISION = True
-"""The files depend on the precision asked for (``render``'s ``precision``)."""
-
-
 def render(model: DynamicModel, head: str, figures: bool, precision: str = "double") -> dict[str, bytes]:
     """``{NAME.h, NAME.c}`` (double) or ``{NAME_float.h, NAME_float.c}`` (``precision="float"``)."""
     from symbolic.codegen.c_source import c_sources

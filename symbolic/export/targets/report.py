@@ -14,10 +14,6 @@ if TYPE_CHECKING:
 SUMMARY = "Markdown report (NAME.md): D(Q), Christoffel symbols, gravity, friction, decoupling conditions"
 
 
-PRECISION = True
-"""With ``precision="float"`` the report adds the single-precision C's measured error."""
-
-
 def render(model: DynamicModel, head: str, figures: bool, precision: str = "double") -> dict[str, bytes]:
     """``figures``: also ``NAME_apparent_mass.png`` for a model with an end effector
     (:mod:`symbolic.export.apparent_mass_figure`; needs matplotlib), linked from the report. ``precision="float"``:
