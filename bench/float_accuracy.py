@@ -18,7 +18,7 @@ import warnings
 from pathlib import Path
 
 import symbolic
-from symbolic.codegen.c_accuracy import NOTED, SEED, STATES, float_accuracy
+from symbolic.codegen.c_accuracy import NOTED, SEED, STATES, FunctionError, float_accuracy
 
 ARMS = {  # the arms of tests/test_urdf.py (ARMS), by their file in example-robot-data's robots folder
     "ur5": "ur_description/urdf/ur5_robot.urdf",
@@ -43,11 +43,19 @@ def models() -> list[tuple[str, symbolic.Robot]]:
     return found + [(label, symbolic.load(folder / path)) for label, path in ARMS.items()]
 
 
+def cell(error: FunctionError) -> str:
+    """``3.2e-07``; above NOTED with ‖f_double‖ at that state (no ``|``: it would split the Markdown table)."""
+    if error.worst is None:
+        return "0 (zero)"
+    where = error.where()
+    return f"{error.worst:.1e}" + (f" (‖f_double‖ {where})" if where else "")
+
+
 def row(label: str, robot: symbolic.Robot) -> str:
     accuracy = float_accuracy(symbolic.derive(robot))
     errors = {e.name: e for e in accuracy.errors}
-    shown = [errors[name].text().split(" ", 1)[1] if name in errors else "—" for name in SHOWN]
-    above = [e.text() for e in accuracy.errors if e.name not in SHOWN and e.worst is not None and e.worst > NOTED]
+    shown = [cell(errors[name]) if name in errors else "—" for name in SHOWN]
+    above = [f"{e.name} {cell(e)}" for e in accuracy.errors if e.name not in SHOWN and e.worst is not None and e.worst > NOTED]
     return f"| {label} | " + " | ".join(shown) + f" | {'; '.join(above) or '—'} |"
 
 

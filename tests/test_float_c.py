@@ -106,6 +106,17 @@ def test_precision_other_than_double_or_float_is_refused(precision, tmp_path: Pa
         assert not (tmp_path / "out").exists()  # refused before anything was derived or written
 
 
+def test_without_a_c_compiler_float_c_is_refused_saying_why(tmp_path: Path, monkeypatch) -> None:
+    """The stated error is measured by compiling: with no compiler on the PATH there is no float C, and the error says so."""
+    from symbolic.codegen.c_accuracy import measure_float_accuracy
+    from symbolic.errors import ExportError
+
+    monkeypatch.delenv("CC", raising=False)
+    monkeypatch.setenv("PATH", str(tmp_path))  # an empty folder: no cc, gcc or clang
+    with pytest.raises(ExportError, match=r"could not be compiled and loaded: no C compiler \(\$CC, cc, gcc or clang"):
+        measure_float_accuracy(derived("emps"), count=3)
+
+
 def test_double_output_is_unchanged() -> None:
     """precision="double" (the default) renders exactly the committed generated/ files."""
     files = export.render(derived("emps"), ["c"], command="make generate", precision="double")

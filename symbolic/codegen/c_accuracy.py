@@ -270,7 +270,8 @@ def _load(model: DynamicModel, precision: str) -> ctypes.CDLL:
     library = compiled.load_library(text, f"{model.name}_{precision}", ctypes.CDLL)
     if library is None:
         raise ExportError("--precision float: the float C's error against the double C is measured by compiling both, "
-                          "and no working C compiler was found ($CC, cc, gcc or clang on the PATH)")
+                          f"and the {precision} C of {model.name} could not be compiled and loaded: no C compiler ($CC, "
+                          "cc, gcc or clang on the PATH), or see the warning above")
     return library
 
 
