@@ -17,8 +17,11 @@ import sys
 import warnings
 from pathlib import Path
 
+import numpy as np
+
 import symbolic
-from symbolic.codegen.c_accuracy import NOTED, SEED, STATES, FunctionError, float_accuracy
+from symbolic.codegen.c_accuracy import NOTED, SEED, STATES, FunctionError, float_accuracy, sample_states
+from symbolic.numeric import numeric_model
 
 ARMS = {  # the arms of tests/test_urdf.py (ARMS), by their file in example-robot-data's robots folder
     "ur5": "ur_description/urdf/ur5_robot.urdf",
@@ -51,12 +54,27 @@ def cell(error: FunctionError) -> str:
     return f"{error.worst:.1e}" + (f" (‖f_double‖ {where})" if where else "")
 
 
+def conditioning(model: symbolic.DynamicModel) -> tuple[float, float]:
+    """Over the same states: the largest condition number of D(q), and the largest ‖τ‖ / ‖D q̈‖ (how much
+    τ − bias cancels). Forward dynamics loses about their product with float's 6e-8 (docs/contracts.md)."""
+    num = numeric_model(model)
+    states = sample_states(model)
+    cond, cancel = 0.0, 0.0
+    for q, qd, qdd, t in zip(*(states[a].astype(float) for a in ("q", "qd", "qdd", "t"))):
+        D = num.inertia(q)
+        tau = num.inverse_dynamics(q, qd, qdd, t=float(t[0]))
+        cond, cancel = max(cond, np.linalg.cond(D)), max(cancel, np.linalg.norm(tau) / np.linalg.norm(D @ qdd))
+    return cond, cancel
+
+
 def row(label: str, robot: symbolic.Robot) -> str:
-    accuracy = float_accuracy(symbolic.derive(robot))
+    model = symbolic.derive(robot)
+    accuracy = float_accuracy(model)
     errors = {e.name: e for e in accuracy.errors}
     shown = [cell(errors[name]) if name in errors else "—" for name in SHOWN]
     above = [f"{e.name} {cell(e)}" for e in accuracy.errors if e.name not in SHOWN and e.worst is not None and e.worst > NOTED]
-    return f"| {label} | " + " | ".join(shown) + f" | {'; '.join(above) or '—'} |"
+    cond, cancel = conditioning(model)
+    return f"| {label} | " + " | ".join(shown) + f" | {cond:.2g} | {cancel:.2g} | {'; '.join(above) or '—'} |"
 
 
 def main() -> None:
@@ -74,10 +92,12 @@ def main() -> None:
         f"(seed {SEED}); the worst over the states of ‖f_float − f_double‖₂ / ‖f_double‖₂ (D: Frobenius), as "
         "`symbolic generate NAME --precision float` states it in `NAME_float.h`. Above "
         f"{NOTED:g}, ‖f_double‖ at the worst state against its median: a much smaller output is a difference of larger "
-        "terms (cancellation), a much larger one a configuration near a singular one.",
+        "terms (cancellation), a much larger one a configuration near a singular one. Forward dynamics solves "
+        "D q̈ = τ − bias: its error grows with the condition number of D and with the cancellation in τ − bias, "
+        "both given over the same states (double, from the numeric model).",
         "",
-        "| robot | D | g | τ | q̈ (forward dynamics) | other functions above 1e-05 |",
-        "|---|---|---|---|---|---|",
+        "| robot | D | g | τ | q̈ (forward dynamics) | max cond(D) | max ‖τ‖/‖D q̈‖ | other functions above 1e-05 |",
+        "|---|---|---|---|---|---|---|---|",
         *rows,
         "",
     ])
