@@ -59,6 +59,7 @@ def c_context(model: DynamicModel, precision: str = "double") -> dict:
 
 
 def _build_context(model: DynamicModel, precision: str) -> dict:
+    """The templates' context (without banner and accuracy lines): names, signatures, printed statements."""
     single = precision == "float"
     real = "float" if single else "double"
     name = check_c_name(model.name, model.robot.source)
@@ -108,7 +109,6 @@ def _build_context(model: DynamicModel, precision: str) -> dict:
         # a Cholesky pivot of J D^-1 J^T below this fraction of its trace is singular: 1e-12 is ~5000
         # double epsilons; in float, rounding alone leaves pivots of ~1e-6 of the trace, hence 1e-5
         "pivot": "1e-5f" if single else "1e-12",
-
         "description": comment_text(model.robot.description or model.name),
         "nq": model.n,
         "np": len(model.robot.parameters),
