@@ -233,6 +233,23 @@ def test_including_both_headers_is_an_error(tmp_path: Path) -> None:
     assert build.returncode != 0 and "declare the same functions, in float and in double" in build.stderr
 
 
+def test_time_varying_model_takes_float_time(tmp_path: Path) -> None:
+    """Forces in t (tests/test_time_varying.py's arm, with friction): t is a float input too, and it compiles strictly."""
+    from test_time_varying import load, mains_text
+
+    model = symbolic.derive(load(mains_text()))
+    files = export.render(model, ["c"], precision="float")
+    for file, content in files.items():
+        (tmp_path / file).write_bytes(content)
+    name = f"{model.name}_float"
+    header = files[f"{name}.h"].decode()
+    assert f"void {model.name}_applied(const float *q, const float *qd, const float *t, const float *p, float *Q);" in header
+    assert stated(header, "inertia") <= 1e-6 and stated(header, "friction") <= 1e-6
+    build = subprocess.run([gcc(), *FLOAT_STRICT, "-c", "-o", str(tmp_path / f"{name}.o"), str(tmp_path / f"{name}.c")],
+                           capture_output=True, text=True)
+    assert build.returncode == 0 and not build.stderr, build.stderr
+
+
 @pytest.mark.slow
 def test_float_generation_is_byte_identical_across_hash_seeds(tmp_path: Path) -> None:
     outputs = []
