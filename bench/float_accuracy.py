@@ -48,6 +48,8 @@ def models() -> list[tuple[str, symbolic.Robot]]:
 
 def cell(error: FunctionError) -> str:
     """``3.2e-07``; above NOTED with ‖f_double‖ at that state (no ``|``: it would split the Markdown table)."""
+    if error.states == 0:
+        return "not measured"
     if error.worst is None:
         return "0 (zero)"
     where = error.where()

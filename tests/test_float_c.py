@@ -250,6 +250,25 @@ def test_time_varying_model_takes_float_time(tmp_path: Path) -> None:
     assert build.returncode == 0 and not build.stderr, build.stderr
 
 
+def test_model_without_parameters_and_a_singular_operational_inertia(tmp_path: Path) -> None:
+    """P = 0 (the parameter arrays hold one unused entry) and one coordinate: J D^-1 J^T is singular at every state,
+    so the operational inertia has no figure, and the header says why instead of printing 0."""
+    import models
+
+    text = models.pendulum("pendulum1", ("q1",), (2.0,), (0.5,), 9.81, inline=True, end_effector=True)
+    model = symbolic.derive(symbolic.loads(text, "pendulum1.toml"))
+    files = export.render(model, ["c", "report"], precision="float")
+    header = files["pendulum1_float.h"].decode()
+    assert "extern const float pendulum1_parameter_defaults[1];" in header
+    assert "operational_inertia not measured (a non-zero status at every state)" in header
+    assert "| operational_inertia | not measured (a non-zero status at every state) |" in files["pendulum1.md"].decode()
+    (tmp_path / "pendulum1_float.h").write_bytes(files["pendulum1_float.h"])
+    (tmp_path / "pendulum1_float.c").write_bytes(files["pendulum1_float.c"])
+    build = subprocess.run([gcc(), *FLOAT_STRICT, "-c", "-o", str(tmp_path / "p.o"), str(tmp_path / "pendulum1_float.c")],
+                           capture_output=True, text=True)
+    assert build.returncode == 0 and not build.stderr, build.stderr
+
+
 @pytest.mark.slow
 def test_float_generation_is_byte_identical_across_hash_seeds(tmp_path: Path) -> None:
     outputs = []

@@ -51,6 +51,10 @@ MODAL = 0.01
 TIME = 10.0
 """Time (s) of a time-varying model, drawn in [0, TIME]."""
 
+UNMEASURED = "a non-zero status at every state"
+"""Why a solved function has no figure (e.g. the operational inertia of a robot whose end effector moves in fewer
+than three directions: J D^-1 J^T is singular everywhere)."""
+
 NOTED = 1e-5
 """A worst error above this is printed with the size of the output where it occurred (cancellation shows)."""
 
@@ -63,7 +67,7 @@ class FunctionError:
     ----------
     name : the function's name without the model prefix (``inertia``)
     worst : max over the states of ‖f_float − f_double‖₂ / ‖f_double‖₂; None when f_double is exactly zero
-        at every state (the function has nothing to compute, e.g. the stiffness of a rigid model), ``inf``
+        at every state or when no state was measured (``states`` 0) (the function has nothing to compute, e.g. the stiffness of a rigid model), ``inf``
         when f_double is zero at a state where f_float is not
     states : the states it was measured at (the solved functions skip those where either library reports
         a non-zero status, e.g. a singular J)
@@ -80,6 +84,8 @@ class FunctionError:
 
     def text(self) -> str:
         """``inertia 3.1e-07`` (two significant digits), ``stiffness 0 (zero)``; above :data:`NOTED`, where."""
+        if self.states == 0:
+            return f"{self.name} not measured ({UNMEASURED})"
         if self.worst is None:
             return f"{self.name} 0 (zero)"
         if self.worst == 0:

@@ -108,10 +108,14 @@ def _apparent_mass(model: DynamicModel) -> dict | None:
 
 def _accuracy(accuracy) -> dict:
     """The single-precision section's table: each function's worst error and, above NOTED, where it occurred."""
-    from symbolic.codegen.c_accuracy import NOTED
+    from symbolic.codegen.c_accuracy import NOTED, UNMEASURED
 
-    rows = [{"name": e.name, "worst": "0 (the output is zero)" if e.worst is None else f"{e.worst:.1e}", "where": e.where()}
-            for e in accuracy.errors]
+    def worst(e) -> str:
+        if e.states == 0:
+            return f"not measured ({UNMEASURED})"
+        return "0 (the output is zero)" if e.worst is None else f"{e.worst:.1e}"
+
+    rows = [{"name": e.name, "worst": worst(e), "where": e.where()} for e in accuracy.errors]
     return {"states": accuracy.states, "seed": accuracy.seed, "noted": f"{NOTED:g}", "errors": rows}
 
 
