@@ -43,6 +43,7 @@ bench:
 	$(PYTHON) bench/response.py --out bench/results/response.md
 	$(PYTHON) bench/joint_elasticity.py --out bench/results/joint_elasticity.md
 	$(PYTHON) bench/fleet.py --out bench/results/fleet.md
+	$(PYTHON) bench/float_accuracy.py --out bench/results/float_accuracy.md
 	$(PYTHON) bench/quotes.py
 
 clean:

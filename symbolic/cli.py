@@ -143,6 +143,13 @@ def cmd_generate(args: argparse.Namespace) -> int:
     if unknown or not targets:
         print(f"error: --targets: unknown target(s) {sorted(unknown)} (allowed: {', '.join(export.TARGETS)})", file=sys.stderr)
         return 2
+    from symbolic.codegen.c_printer import check_precision
+
+    try:
+        check_precision(args.precision)  # before the derivation, like --out
+    except ValueError as error:
+        print(f"error: --precision: {error}", file=sys.stderr)
+        return 2
     try:
         export.check_output_directory(args.out)  # before the derivation: seconds for a large model
     except export.ExportError as error:
@@ -156,9 +163,9 @@ def cmd_generate(args: argparse.Namespace) -> int:
             return 2
     robot = resolve(args.model, args)
     model = derive(robot)
-    command = export.regenerate_command(args.model, targets)
+    command = export.regenerate_command(args.model, targets, args.precision)
     try:
-        written = export.generate(model, args.out, targets, command=command, figures=args.figures)
+        written = export.generate(model, args.out, targets, command=command, figures=args.figures, precision=args.precision)
     except export.ExportError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -593,6 +600,10 @@ def parser() -> argparse.ArgumentParser:
                    help=f"comma-separated subset of {','.join(targets)} (default: all)")
     g.add_argument("--figures", action="store_true",
                    help="with the report: the apparent mass over the workspace as NAME_apparent_mass.png (needs matplotlib)")
+    g.add_argument("--precision", default="double", metavar="{double,float}",
+                   help="C in double (default, NAME.h/NAME.c) or single precision (NAME_float.h/NAME_float.c, the same "
+                        "functions in float; their error against double measured with a C compiler and stated in the "
+                        "header and the report)")
     g.set_defaults(func=cmd_generate)
     a = sub.add_parser("analyze", help="decoupling and gravity-balancing conditions (Madill 4.2)")
     a.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")

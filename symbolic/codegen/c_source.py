@@ -1,14 +1,20 @@
-"""Generated C (docs/contracts.md, "Generated C"): ``NAME.h`` and ``NAME.c``, C99, no allocation, only <math.h>."""
+"""Generated C (docs/contracts.md, "Generated C"): ``NAME.h`` and ``NAME.c``, C99, no allocation, only <math.h>.
+
+In single precision (``precision="float"``) the same functions, with the same names, compute in ``float``:
+``NAME_float.h`` and ``NAME_float.c`` (docs/contracts.md, "Single-precision C").
+"""
 
 from __future__ import annotations
 
+import functools
 import logging
 import time
 
 import sympy as sp
 
 from symbolic.derivation.dynamics import DynamicModel
-from symbolic.codegen.c_printer import CPrinter, c_double
+from symbolic.derivation.products import Product
+from symbolic.codegen.c_printer import PRECISIONS, CPrinter, c_double, c_float, check_precision
 from symbolic.codegen.exported import (
     batched_programs, function_specs, input_symbols, model_regressor, programs, solved_specs,
 )
@@ -16,8 +22,46 @@ from symbolic.codegen.naming import check_c_name, comment_text
 from symbolic.codegen.templates import render
 
 
-def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
-    """{file name: text} of the C header and source."""
+def c_file_stem(model: DynamicModel, precision: str = "double") -> str:
+    """``NAME`` (double) or ``NAME_float``: the name of the generated header and source without extension."""
+    return model.name if check_precision(precision) == "double" else f"{model.name}_float"
+
+
+def c_sources(model: DynamicModel, banner: str, precision: str = "double", accuracy: list[str] | None = None) -> dict[str, str]:
+    """{file name: text} of the C header and source.
+
+    Parameters
+    ----------
+    model : the derived model
+    banner : the first comment line of each file
+    precision : ``"double"`` (``NAME.h``, ``NAME.c``) or ``"float"`` (``NAME_float.h``, ``NAME_float.c``)
+    accuracy : comment lines the float header carries (its measured error against the double functions)
+
+    Returns
+    -------
+    dict
+        File name → text.
+    """
+    return render_c(c_context(model, precision), banner, accuracy or [])
+
+
+def render_c(context: dict, banner: str, accuracy: list[str]) -> dict[str, str]:
+    """The header and source of a :func:`c_context` under ``banner``, the header with the ``accuracy`` lines."""
+    stem = context["stem"]
+    context = {**context, "banner": banner, "accuracy": [comment_text(line) for line in accuracy]}
+    return {f"{stem}.h": render("model.h.j2", **context), f"{stem}.c": render("model.c.j2", **context)}
+
+
+def c_context(model: DynamicModel, precision: str = "double") -> dict:
+    """What the C templates print, every expression already printed in ``precision`` (printed once per model:
+    the float C is printed for the measurement of its error and for the files, with the same text)."""
+    return model.products.get(_CONTEXTS[check_precision(precision)])
+
+
+def _build_context(model: DynamicModel, precision: str) -> dict:
+    """The templates' context (without banner and accuracy lines): names, signatures, printed statements."""
+    single = precision == "float"
+    real = "float" if single else "double"
     name = check_c_name(model.name, model.robot.source)
     symbols = input_symbols(model)
     places = {s: (array, i) for array, group in symbols.items() for i, s in enumerate(group)}
@@ -30,7 +74,7 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
         batched = batched_all[spec.name]
         program = batched.program
         trig_slots = {s: f"sn[{k}]" for k, s in enumerate(batched.sines)} | {c: f"cs[{k}]" for k, c in enumerate(batched.cosines)}
-        printer = CPrinter(slots | trig_slots)
+        printer = CPrinter(slots | trig_slots, precision=precision)
         used = set().union(*(a.free_symbols for a in batched.angles))
         for _, e in program.statements:
             used |= e.free_symbols
@@ -43,7 +87,7 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
             {
                 "name": spec.name,
                 "doc": spec.doc,
-                "signature": ", ".join(f"const double *{a}" for a in spec.inputs) + f", double *{spec.output}",
+                "signature": ", ".join(f"const {real} *{a}" for a in spec.inputs) + f", {real} *{spec.output}",
                 "layout": ", ".join(_layout(a, model) for a in spec.inputs) + f"; output {spec.output}[{spec.rows * spec.cols}]",
                 "operations": built[spec.name].operations,
                 "angles": [printer.doprint(a) for a in batched.angles],
@@ -53,10 +97,18 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
                 "outputs": [{"name": f"{spec.output}[{i}]", "value": printer.doprint(e)} for i, e in enumerate(program.outputs)],
             }
         )
+    stem = c_file_stem(model, precision)
     context = {
-        "banner": banner,
         "name": name,
-        "guard": f"{name.upper()}_H",
+        "stem": stem,
+        "guard": f"{stem.upper()}_H",
+        "double_guard": f"{name.upper()}_H",
+        "single": single,
+        "real": real,
+        "fs": "f" if single else "",  # suffix of libm's functions and of literals: sqrtf, 0.0f
+        # a Cholesky pivot of J D^-1 J^T below this fraction of its trace is singular: 1e-12 is ~5000
+        # double epsilons; in float, rounding alone leaves pivots of ~1e-6 of the trace, hence 1e-5
+        "pivot": "1e-5f" if single else "1e-12",
         "description": comment_text(model.robot.description or model.name),
         "nq": model.n,
         "np": len(model.robot.parameters),
@@ -66,7 +118,7 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
                 "index": i,
                 "name": p.name,
                 "value": repr(p.value),
-                "literal": c_double(sp.Rational(repr(p.value))),
+                "literal": (c_float if single else c_double)(sp.Rational(repr(p.value))),
                 "unit": comment_text(p.unit),
                 "description": comment_text(p.description),
             }
@@ -75,16 +127,21 @@ def c_sources(model: DynamicModel, banner: str) -> dict[str, str]:
         "functions": functions,
         "solved": [
             {"name": f.name, "doc": f.doc, "status": f.status,
-             "signature": ", ".join(f"const double *{a}" for a in f.inputs) + f", double *{f.output}"}
+             "signature": ", ".join(f"const {real} *{a}" for a in f.inputs) + f", {real} *{f.output}"}
             for f in solved_specs(model)
         ],
         "end_effector": model.robot.end_effector is not None,
         "time_varying": model.time_varying,
         "theta": [{"index": i, "name": t} for i, t in enumerate(model_regressor(model).names)],
     }
-    sources = {f"{name}.h": render("model.h.j2", **context), f"{name}.c": render("model.c.j2", **context)}
     logging.getLogger(__name__).info("%s: C source printed in %.1f s", model.name, time.perf_counter() - start)
-    return sources
+    return context
+
+
+_CONTEXTS: dict[str, Product[dict]] = {
+    precision: Product(f"C text ({precision})", functools.partial(_build_context, precision=precision))
+    for precision in PRECISIONS
+}
 
 
 def _input_run(angles: tuple[sp.Expr, ...], places: dict[sp.Symbol, tuple[str, int]]) -> str | None:

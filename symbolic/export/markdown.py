@@ -106,14 +106,29 @@ def _apparent_mass(model: DynamicModel) -> dict | None:
     }
 
 
+def _accuracy(accuracy) -> dict:
+    """The single-precision section's table: each function's worst error and, above NOTED, where it occurred."""
+    from symbolic.codegen.c_accuracy import NOTED, UNMEASURED
+
+    def worst(e) -> str:
+        if e.states == 0:
+            return f"not measured ({UNMEASURED})"
+        return "0 (the output is zero)" if e.worst is None else f"{e.worst:.1e}"
+
+    rows = [{"name": e.name, "worst": worst(e), "where": e.where()} for e in accuracy.errors]
+    return {"states": accuracy.states, "seed": accuracy.seed, "noted": f"{NOTED:g}", "errors": rows}
+
+
 def report_markdown(
     model: DynamicModel, banner: str, operations: dict[str, tuple[int, int]], version: str, analysis=None,
-    figure: str | None = None,
+    figure: str | None = None, accuracy=None,
 ) -> str:
     """The reviewer's report NAME.md.
 
     ``operations`` maps each C function to (operations, angles); ``analysis`` is the
-    :func:`~symbolic.derivation.analysis.decoupling` result to list (None: the section says how to get it).
+    :func:`~symbolic.derivation.analysis.decoupling` result to list (None: the section says how to get it);
+    ``accuracy`` the :class:`~symbolic.codegen.c_accuracy.FloatAccuracy` of the single-precision C (None: the
+    report of a double generation, without that section).
     """
     r = model.reduced
     names = _latex_names(model)
@@ -166,5 +181,6 @@ def report_markdown(
         "constraints": [{"coordinate": c.coordinate, "latex": sp.latex(c.expression)} for c in model.robot.constraints],
         "apparent_mass": _apparent_mass(model),
         "apparent_mass_figure": figure,
+        "accuracy": _accuracy(accuracy) if accuracy is not None else None,
     }
     return render("report.md.j2", **context)

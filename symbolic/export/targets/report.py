@@ -14,9 +14,10 @@ if TYPE_CHECKING:
 SUMMARY = "Markdown report (NAME.md): D(Q), Christoffel symbols, gravity, friction, decoupling conditions"
 
 
-def render(model: DynamicModel, head: str, figures: bool) -> dict[str, bytes]:
+def render(model: DynamicModel, head: str, figures: bool, precision: str = "double") -> dict[str, bytes]:
     """``figures``: also ``NAME_apparent_mass.png`` for a model with an end effector
-    (:mod:`symbolic.export.apparent_mass_figure`; needs matplotlib), linked from the report."""
+    (:mod:`symbolic.export.apparent_mass_figure`; needs matplotlib), linked from the report. ``precision="float"``:
+    a section with the float C's error against the double C (:func:`symbolic.codegen.c_accuracy.float_accuracy`)."""
     from symbolic.codegen.exported import batched_programs, programs
     from symbolic.derivation.analysis import decoupling
     from symbolic.errors import ModelWarning
@@ -39,6 +40,11 @@ def render(model: DynamicModel, head: str, figures: bool) -> dict[str, bytes]:
             figure = file_name(model)
         except NoFigure as why:  # nothing to draw: no figure, no link, and the reason
             warnings.warn(f"no apparent-mass figure: {why}", ModelWarning, stacklevel=3)
-    files[f"{model.name}.md"] = report_markdown(model, head, ops, __version__, analysis, figure).encode()
+    accuracy = None
+    if precision == "float":
+        from symbolic.codegen.c_accuracy import float_accuracy
+
+        accuracy = float_accuracy(model)
+    files[f"{model.name}.md"] = report_markdown(model, head, ops, __version__, analysis, figure, accuracy).encode()
     logging.getLogger("symbolic.export").info("%s: report in %.1f s", model.name, time.perf_counter() - start)
     return files
