@@ -263,3 +263,22 @@ def test_a_normal_system_that_is_not_finite_explains_nothing() -> None:
     assert solve_normal(gram, np.array([1.0, 2.0])).tolist() == [0.0, 0.0]
     assert solve_normal(np.eye(2), np.array([np.nan, 1.0])).tolist() == [0.0, 0.0]
     np.testing.assert_allclose(solve_normal(np.array([[4.0, 0.0], [0.0, 1.0]]), np.array([2.0, 3.0])), [0.5, 3.0])
+
+
+def test_a_fold_does_not_fit_a_column_its_training_blocks_do_not_hold():
+    """Cross-validation: a candidate's column that lives in the held-out block alone (a transient at the record's
+    start) gets coefficient 0 on the other blocks — they cannot tell it — and the model's columns their own least
+    squares there (to 1e-12); a column the training blocks hold is fitted as before."""
+    from symbolic.workflow.search import _fold_solve
+
+    rng = np.random.default_rng(3)
+    X, y = rng.normal(size=(200, 2)), rng.normal(size=200)
+    local = np.zeros(200)
+    local[:20] = np.exp(-np.arange(20) / 3.0)
+    local[20:] = 1e-9 * rng.normal(size=180)  # rounding-level leftovers on the training blocks
+    train = slice(20, None)
+    for Z, fitted in ((local, False), (rng.normal(size=200), True)):
+        A = np.column_stack([X, Z])
+        coef = _fold_solve(A[train].T @ A[train], A[train].T @ y[train], 2, np.array([Z @ Z]))
+        expected = np.linalg.lstsq(A[train] if fitted else X[train], y[train], rcond=None)[0]
+        assert coef == pytest.approx(expected if fitted else [*expected, 0.0], rel=1e-12, abs=1e-12)

@@ -295,6 +295,25 @@ class Search:
         return [store[k] for k in keys]
 
 
+FOLD_SUPPORT = 1e-6
+"""A candidate's column with less than this share of its power on a fold's training blocks is not fitted there
+(coefficient 0): the training data cannot tell its coefficient (a transient at the record's start, such as the free
+motion of ``joint_elasticity`` (one encoder), lives in the first block alone; scaled to unit norm, its coefficient
+on the other blocks was noise blown up a millionfold)."""
+
+
+def _fold_solve(gram: np.ndarray, right: np.ndarray, p: int, power: np.ndarray) -> np.ndarray:
+    """Coefficients of a cross-validation fold's training fit: the model's ``p`` columns, then the candidate's, of
+    whole power ``power``; a candidate column the training blocks hardly hold (:data:`FOLD_SUPPORT`) gets 0."""
+    weak = np.diag(gram)[p:] <= FOLD_SUPPORT * power
+    if not weak.any():
+        return solve_normal(gram, right)
+    keep = np.concatenate([np.ones(p, bool), ~weak])
+    coef = np.zeros(len(right))
+    coef[keep] = solve_normal(gram[np.ix_(keep, keep)], right[keep])
+    return coef
+
+
 def _acting(raw: Sequence[np.ndarray]) -> np.ndarray:
     """The coordinates (axis 1) on which any of the ``samples × N × k`` arrays ``raw`` is non-zero. A
     coordinate found acting is not looked at again (``ndarray.any`` stops at the first non-zero); only
@@ -613,8 +632,8 @@ class _RoundState:
                 cf = self.X[inside].T @ Zf
                 gf = np.block([[g, cf], [cf.T, Zf.T @ Zf]])
                 bf = np.concatenate([b, Zf.T @ self.y[inside]])
-                coef = solve_normal(gram - gf, right - bf)
                 p = self.X.shape[1]
+                coef = _fold_solve(gram - gf, right - bf, p, np.diag(zz))
                 e = self.y[fold] - self.X[fold] @ coef[:p]
                 position = np.searchsorted(fold, inside)
                 e[position] -= Zf @ coef[p:]
