@@ -1,0 +1,382 @@
+"""Write a model as an MJCF file (docs/model-format.md, "MJCF export"), for MuJoCo.
+
+The values are the model's parameters (nominal, or identified ones passed as ``values``). Each frame becomes a
+``<body>`` nested in its parent's, placed at the frame's pose at Q = 0 (``pos``, ``quat``), with one
+``<inertial>`` combining the bodies it carries (total mass, centre of mass, full inertia about it in the
+frame's axes, Huygens–Steiner, as the URDF exporter combines them) and the joint of the coordinate that moves it:
+
+* a general frame (URDF joint): a ``hinge`` or ``slide`` about or along ±axis at the body's origin;
+* a modified-DH frame ``Rx(α)·Tx(a)·Rz(θ)·Tz(d)``: placed at ``Rx(α)·Tx(a)·Rz(θ₀)·Tz(d₀)``, joint about or along
+  ±z at its origin;
+* a standard-DH frame ``Rz(θ)·Tz(d)·Tx(a)·Rx(α)``: placed at ``Rz(θ₀)·Tz(d₀)·Tx(a)·Rx(α)``, joint about or along
+  the parent's ±z through the parent's origin, written in the body's axes (MJCF's joint ``pos`` and ``axis``), so
+  one body per frame, as in the model.
+
+The drive and friction of a coordinate go on its joint: ``armature`` = rotor inertia × ratio² (the term
+:func:`symbolic.derivation.drives.rotor_inertia` adds to D), ``damping`` = viscous friction Fv (MuJoCo's passive
+force −d·q̇), ``frictionloss`` = Coulomb friction Fc (MuJoCo's friction-loss constraint); every coordinate gets a
+``<motor>`` with ``gear`` = the drive's ratio (1 without a ``[[drive]]``), so ``ctrl`` is the motor torque τ/ratio.
+Gravity is ``<option gravity>``; ``<compiler angle="radian">`` keeps the numbers as the model has them.
+
+What MJCF cannot hold is refused (:class:`~symbolic.errors.ExportError`, naming the file and the key): beams and
+their modal coordinates, closed loops and coupled coordinates (``[[constraint]]``: MuJoCo's equality constraints
+are soft and add degrees of freedom), Stribeck friction (``frictionloss`` is one level), a frame moved by several
+coordinates or by another multiple than ±1 of one, a coordinate moving several frames, and a moving body whose
+mass or inertia MuJoCo's compiler rejects. What leaves the rigid dynamics exact is left out with a
+:class:`~symbolic.errors.ModelWarning` and an XML comment, as the URDF exporter does: friction offsets,
+``[[force]]`` entries (time-varying ones among them); direction-dependent friction is written as the mean of its
+two values. The text is a function of the model and the values only: elements and attributes in a fixed order,
+every number ``repr``-exact (the shortest text that reads back as the same double).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sp
+
+from symbolic.description.robot import BASE, TIME, Directional, Frame, Robot
+from symbolic.description.urdf import axis_rotation
+from symbolic.errors import ExportError, ModelWarning
+
+MJMINVAL = 1e-15
+"""MuJoCo's ``mjMINVAL``: its compiler refuses a moving body whose mass or principal inertia is below it."""
+
+TRANSLATION_ONLY_RADIUS = 1e-3
+"""m: a point mass that only translates is written with the inertia m·r² of this radius on each axis (it does
+not enter its dynamics, and MuJoCo refuses zero)."""
+
+
+@dataclass(frozen=True)
+class Placement:
+    """A frame at Q = 0 in its parent's axes, and its joint in its own axes (``kind`` None: welded)."""
+
+    rotation: np.ndarray
+    position: np.ndarray
+    kind: str | None = None
+    coordinate: str = ""
+    axis: np.ndarray | None = None
+    anchor: np.ndarray | None = None
+    limits: Mapping[str, float] | None = None
+
+
+def _number(x: float) -> str:
+    """``repr`` of the double: the shortest text that reads back exactly (0 for both zeros)."""
+    return repr(float(x)) if x != 0 else "0"
+
+
+def _numbers(values) -> str:
+    return " ".join(_number(x) for x in values)
+
+
+def _rx(a: float) -> np.ndarray:
+    return np.array([[1.0, 0.0, 0.0], [0.0, math.cos(a), -math.sin(a)], [0.0, math.sin(a), math.cos(a)]])
+
+
+def _rz(a: float) -> np.ndarray:
+    return np.array([[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0], [0.0, 0.0, 1.0]])
+
+
+def _ry(a: float) -> np.ndarray:
+    return np.array([[math.cos(a), 0.0, math.sin(a)], [0.0, 1.0, 0.0], [-math.sin(a), 0.0, math.cos(a)]])
+
+
+def quaternion(R: np.ndarray) -> np.ndarray:
+    """The unit quaternion (w, x, y, z) of rotation matrix ``R``, w ≥ 0 (Shepperd's method: the largest of the
+    four squared components is taken by square root, the others from it, which keeps every digit)."""
+    trace = np.trace(R)
+    candidates = [trace, R[0, 0], R[1, 1], R[2, 2]]
+    k = int(np.argmax(candidates))
+    if k == 0:
+        s = 2.0 * math.sqrt(1.0 + trace)
+        q = np.array([s / 4, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s])
+    else:
+        i, j, l = k - 1, k % 3, (k + 1) % 3
+        s = 2.0 * math.sqrt(1.0 + R[i, i] - R[j, j] - R[l, l])
+        q = np.zeros(4)
+        q[0] = (R[l, j] - R[j, l]) / s
+        q[1 + i] = s / 4
+        q[1 + j] = (R[j, i] + R[i, j]) / s
+        q[1 + l] = (R[l, i] + R[i, l]) / s
+    return -q if q[0] < 0 else q
+
+
+class _Writer:
+    def __init__(self, robot: Robot, values: Mapping[str, float] | None) -> None:
+        self.robot = robot
+        self.values = {p.symbol: float(values.get(p.name, p.value)) if values else p.value for p in robot.parameters}
+        self.dropped: list[str] = []
+        self.notes: list[str] = []
+
+    # -- values ----------------------------------------------------------------------------------
+    def fail(self, key: str, problem: str) -> ExportError:
+        return ExportError(f"{self.robot.source}: {key}: cannot be written as MJCF: {problem}")
+
+    def value(self, expr, key: str) -> float:
+        x = sp.sympify(sp.sympify(expr).xreplace(self.values))
+        if x.free_symbols:
+            raise self.fail(key, f"{x} depends on {sorted(map(str, x.free_symbols))}")
+        result = float(x)
+        if not math.isfinite(result):
+            raise self.fail(key, f"{expr} is not finite at the parameter values")
+        return result
+
+    def motion(self, f: Frame, which: str) -> tuple[str, int, float] | None:
+        """(coordinate, sign, offset) of the frame's ``theta``/``d`` = ±q + offset, or None if constant."""
+        key = f"[[frame]] {f.name!r} {which}"
+        expr = sp.sympify(getattr(f, which))
+        coordinates = [s for s in expr.free_symbols if s.name in self.robot.coordinates]
+        if not coordinates:
+            return None
+        if len(coordinates) > 1:
+            raise self.fail(key, f"moved by several coordinates ({expr}); an MJCF joint is one degree of freedom")
+        (q,) = coordinates
+        slope = sp.diff(expr, q)
+        if slope not in (1, -1):
+            raise self.fail(key, f"{expr} is not ±{q} + a constant (MJCF joints have no gearing)")
+        return q.name, int(slope), self.value(expr - slope * q, key)
+
+    # -- placements --------------------------------------------------------------------------------
+    def placement(self, f: Frame) -> Placement:
+        if f.joint is not None:
+            return self.general(f)
+        turning, sliding = self.motion(f, "theta"), self.motion(f, "d")
+        if turning and sliding:
+            raise self.fail(f"[[frame]] {f.name!r}", "both θ and d move (a cylindrical joint: two MJCF joints would "
+                                                     "need two bodies)")
+        key = f"[[frame]] {f.name!r}"
+        theta = turning[2] if turning else self.value(f.theta, f"{key} theta")
+        d = sliding[2] if sliding else self.value(f.d, f"{key} d")
+        a, alpha = self.value(f.a, f"{key} a"), self.value(f.alpha, f"{key} alpha")
+        moving = turning or sliding
+        kind = None if moving is None else ("hinge" if turning else "slide")
+        if self.robot.convention == "modified":
+            R, p = _rx(alpha) @ _rz(theta), np.array([a, 0.0, 0.0]) + _rx(alpha) @ np.array([0.0, 0.0, d])
+            axis, anchor = np.array([0.0, 0.0, 1.0]), np.zeros(3)
+        else:
+            R = _rz(theta) @ _rx(alpha)
+            p = np.array([0.0, 0.0, d]) + _rz(theta) @ np.array([a, 0.0, 0.0])
+            axis, anchor = R.T @ np.array([0.0, 0.0, 1.0]), -(R.T @ p)  # the parent's z through its origin
+        if moving is None:
+            return Placement(R, p)
+        return Placement(R, p, kind, moving[0], moving[1] * axis, anchor)
+
+    def general(self, f: Frame) -> Placement:
+        j, key = f.joint, f"[[frame]] {f.name!r}"
+        xyz = np.array([self.value(x, f"{key} origin.xyz") for x in j.xyz])
+        r, p, y = (self.value(x, f"{key} origin.rpy") for x in j.rpy)
+        R = _rz(y) @ _ry(p) @ _rx(r)
+        if j.type == "fixed":
+            return Placement(R, xyz)
+        axis = np.array([self.value(x, f"{key} joint.axis") for x in j.axis])
+        axis = axis / np.linalg.norm(axis)
+        prismatic = j.type == "prismatic"
+        coordinate, sign, offset = self.motion(f, "d" if prismatic else "theta")
+        if offset and prismatic:
+            xyz = xyz + R @ axis * offset
+        elif offset:
+            R = R @ axis_rotation(axis, offset)
+        limits = j.limits if j.type != "continuous" else None
+        return Placement(R, xyz, "slide" if prismatic else "hinge", coordinate, sign * axis, np.zeros(3), limits)
+
+    # -- elements ----------------------------------------------------------------------------------
+    def inertial(self, frame: str, moving: bool, rotates: bool = True) -> ET.Element | None:
+        """The bodies of ``frame`` as one ``<inertial>``: total mass, centre of mass, inertia about it.
+
+        A body that only translates (no hinge between it and the base) has dynamics without its inertia tensor;
+        where MuJoCo would refuse the model's one (a point mass), that of a 1 mm ball of its mass is written, noted
+        in a comment.
+        """
+        bodies = [b for b in self.robot.bodies if b.frame == frame]
+        if not bodies:
+            return None
+        key = f"[[body]] on frame {frame!r}"
+        masses = [self.value(b.mass, key) for b in bodies]
+        coms = [np.array([self.value(c, key) for c in b.com]) for b in bodies]
+        tensors = [np.array([[self.value(e, key) for e in row] for row in b.inertia_tensor.tolist()]) for b in bodies]
+        total = sum(masses)
+        centre = sum(m * c for m, c in zip(masses, coms)) / total if total > 0 else np.zeros(3)
+        inertia = np.zeros((3, 3))
+        for m, c, tensor in zip(masses, coms, tensors):
+            r = c - centre
+            inertia += tensor + m * (r @ r * np.eye(3) - np.outer(r, r))  # Huygens–Steiner
+        if moving and not rotates and total >= MJMINVAL and np.linalg.eigvalsh(inertia)[0] < MJMINVAL:
+            inertia = total * TRANSLATION_ONLY_RADIUS**2 * np.eye(3)
+            self.notes.append(f"{key}: only translates, so its inertia tensor does not enter the dynamics; MuJoCo "
+                              f"needs a positive one: {_number(inertia[0, 0])} kg m^2 on each axis is written")
+        self.check_inertia(key, total, inertia, moving)
+        element = ET.Element("inertial")
+        element.set("pos", _numbers(centre))
+        element.set("mass", _number(total))
+        element.set("fullinertia", _numbers(inertia[i, j] for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))))
+        return element
+
+    def check_inertia(self, key: str, mass: float, inertia: np.ndarray, moving: bool) -> None:
+        """What MuJoCo's compiler refuses: principal moments that break A + B ≥ C, and (on a body a joint moves)
+        a mass or principal moment below mjMINVAL."""
+        moments = np.sort(np.linalg.eigvalsh(inertia))
+        if moments[0] + moments[1] < moments[2] - 1e-12 * max(moments[2], MJMINVAL):
+            raise self.fail(key, f"principal inertias {_numbers(moments)} break A + B >= C (no rigid body has them; "
+                                 "MuJoCo refuses them)")
+        if moving and (mass < MJMINVAL or moments[0] < MJMINVAL):
+            raise self.fail(key, f"mass {_number(mass)} and principal inertias {_numbers(moments)}: MuJoCo requires "
+                                 f"a mass and principal inertias above {MJMINVAL} on a body a joint moves")
+
+    def joint(self, place: Placement) -> ET.Element:
+        element = ET.Element("joint")
+        element.set("name", place.coordinate)
+        element.set("type", place.kind)
+        element.set("pos", _numbers(place.anchor))
+        element.set("axis", _numbers(place.axis))
+        limits = place.limits or {}
+        if "lower" in limits and "upper" in limits:
+            element.set("limited", "true")
+            element.set("range", _numbers((limits["lower"], limits["upper"])))
+        for attribute, number in self.joint_dynamics(place.coordinate).items():
+            element.set(attribute, _number(number))
+        return element
+
+    def joint_dynamics(self, coordinate: str) -> dict[str, float]:
+        """``armature`` from the drive, ``damping`` and ``frictionloss`` from the friction (those present, non-zero)."""
+        out: dict[str, float] = {}
+        drive = next((d for d in self.robot.drives if d.coordinate == coordinate), None)
+        if drive is not None:
+            key = f"[[drive]] {coordinate!r}"
+            out["armature"] = self.value(drive.rotor_inertia, key) * self.value(drive.ratio, key) ** 2
+        friction = next((f for f in self.robot.frictions if f.coordinate == coordinate), None)
+        if friction is not None:
+            key = f"[[friction]] {coordinate!r}"
+            if friction.stribeck is not None:
+                raise self.fail(f"{key} stribeck", "MuJoCo's frictionloss is one level; a Coulomb level rising to a "
+                                                   "static one at rest (Stribeck) has no MJCF form")
+            for attribute, coefficient in (("damping", friction.viscous), ("frictionloss", friction.coulomb)):
+                if coefficient is not None:
+                    out[attribute] = self.coefficient(coefficient, key, attribute)
+            if friction.offset is not None:
+                self.dropped.append(f"{key}: the offset (a constant force; MJCF joints have none)")
+        return {k: v for k, v in out.items() if v != 0}
+
+    def coefficient(self, coefficient, key: str, attribute: str) -> float:
+        if isinstance(coefficient, Directional):
+            self.dropped.append(f"{key}: direction-dependent {attribute} (MJCF has one value; their mean is written)")
+            return (self.value(coefficient.positive, key) + self.value(coefficient.negative, key)) / 2
+        return self.value(coefficient, key)
+
+    # -- the tree ----------------------------------------------------------------------------------
+    def body(self, f: Frame, parent: ET.Element, rotates: bool = False) -> None:
+        place = self.placement(f)
+        rotates = rotates or place.kind == "hinge"
+        element = ET.SubElement(parent, "body")
+        element.set("name", f.name)
+        element.set("pos", _numbers(place.position))
+        element.set("quat", _numbers(quaternion(place.rotation)))
+        inertial = self.inertial(f.name, moving=place.kind is not None and not self.carried(f), rotates=rotates)
+        if inertial is not None:
+            element.append(inertial)
+        elif place.kind is not None and not self.carried(f):
+            raise self.fail(f"[[frame]] {f.name!r}", f"no body: MuJoCo requires a mass and inertia above {MJMINVAL} on "
+                                                     "a body a joint moves (or on a body welded to it)")
+        if place.kind is not None:
+            element.append(self.joint(place))
+        for child in self.robot.frames:
+            if child.parent == f.name:
+                self.body(child, element, rotates)
+
+    def carried(self, f: Frame) -> bool:
+        """Whether a frame welded to ``f`` (no joint, recursively) carries a body: MuJoCo counts its mass with f's."""
+        for child in self.robot.frames:
+            if child.parent == f.name and self.placement(child).kind is None:
+                if any(b.frame == child.name for b in self.robot.bodies) or self.carried(child):
+                    return True
+        return False
+
+    def check(self) -> None:
+        """Refuse what MJCF cannot hold; note what is left out."""
+        r = self.robot
+        if r.beams:
+            raise self.fail(f"[[beam]] {r.beams[0].name!r}", "flexible links and their modal coordinates have no MJCF form")
+        if r.constraints:
+            raise self.fail(f"[[constraint]] {r.constraints[0].coordinate!r}",
+                            "closed loops and coupled coordinates: MuJoCo's equality constraints are soft and add "
+                            "degrees of freedom, so its dynamics would not be this model's")
+        moved: dict[str, list[str]] = {}
+        for f in r.frames:
+            for s in sp.sympify(f.theta).free_symbols | sp.sympify(f.d).free_symbols:
+                if s.name in r.coordinates:
+                    moved.setdefault(s.name, []).append(f.name)
+        for coordinate, frames in moved.items():
+            if len(frames) > 1:
+                raise self.fail(f"coordinate {coordinate!r}", f"moves frames {', '.join(map(repr, frames))}; an MJCF "
+                                                              "joint moves one body (its subtree)")
+        for force in r.forces:
+            kind = "time-varying " if sp.sympify(force.expression).has(TIME) else ""
+            self.dropped.append(f"[[force]] {force.name!r}: a {kind}applied force (MJCF has no such term)")
+
+    def write(self) -> str:
+        self.check()
+        r = self.robot
+        root = ET.Element("mujoco")
+        root.set("model", r.name)
+        ET.SubElement(root, "compiler", {"angle": "radian"})
+        ET.SubElement(root, "option", {"gravity": _numbers(self.value(g, "gravity") for g in r.gravity)})
+        world = ET.SubElement(root, "worldbody")
+        base = ET.SubElement(world, "body", {"name": BASE})
+        inertial = self.inertial(BASE, moving=False)
+        if inertial is not None:
+            base.append(inertial)
+        for f in r.frames:
+            if f.parent == BASE:
+                self.body(f, base)
+        actuators = ET.SubElement(root, "actuator")
+        for coordinate in r.coordinates:
+            drive = next((d for d in r.drives if d.coordinate == coordinate), None)
+            gear = 1.0 if drive is None else self.value(drive.ratio, f"[[drive]] {coordinate!r} ratio")
+            ET.SubElement(actuators, "motor", {"name": coordinate, "joint": coordinate, "gear": _number(gear)})
+        return self.text(root)
+
+    def text(self, root: ET.Element) -> str:
+        source = r.source.rsplit("/", 1)[-1] if (r := self.robot).source else r.name
+        comment = lambda text: ET.Comment(f" {text.replace('--', '- -')} ")  # noqa: E731 - "--" ends an XML comment
+        root.insert(0, comment(f"written by symbolic export-mjcf from {source}: inertials, armature, damping and "
+                                  "frictionloss are the model's parameter values"))
+        for i, d in enumerate(self.dropped, start=1):
+            root.insert(i, comment(f"not in this file: {d}"))
+        for i, note in enumerate(self.notes, start=1 + len(self.dropped)):
+            root.insert(i, comment(f"note: {note}"))
+        for d in self.dropped:
+            warnings.warn(f"{r.source}: MJCF export leaves out {d}", ModelWarning, stacklevel=4)
+        ET.indent(root, space="  ")
+        return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def mjcf(robot: Robot, values: Mapping[str, float] | None = None) -> str:
+    """The MJCF text of ``robot`` with its parameter values (``values`` replaces some, by name).
+
+    Parameters
+    ----------
+    robot
+        A validated robot (``symbolic.load``, ``symbolic.robots.load``).
+    values
+        Parameter values by name (identified ones) replacing the nominal ones.
+
+    Returns
+    -------
+    str
+        The MJCF document (module docstring): bodies, joints, inertials, armature (rotor inertia × ratio², as
+        :func:`symbolic.derivation.drives.rotor_inertia`), damping (Fv) and frictionloss (Fc) of Janot (15),
+        one ``<motor>`` per coordinate with the drive's ratio as gear, gravity.
+
+    Raises
+    ------
+    ExportError
+        For what MJCF cannot hold (module docstring), naming the model file and entry.
+    """
+    unknown = set(values or {}) - {p.name for p in robot.parameters}
+    if unknown:
+        raise ExportError(f"{robot.source}: unknown parameter(s) {sorted(unknown)}")
+    return _Writer(robot, values).write()
