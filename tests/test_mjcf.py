@@ -1,0 +1,240 @@
+"""MJCF export (symbolic/export/mjcf.py) checked by MuJoCo itself, no mocks.
+
+The written file is loaded with ``mujoco.MjModel.from_xml_path``; at random states MuJoCo's inverse dynamics
+(``mj_inverse``: qfrc_inverse) and bias (``qfrc_bias``) are compared with symbolic's numeric model (the rigid part
+D(q)·q̈ + C·q̇ + g, friction taken out of ours and MuJoCo's constraints — contacts, limits, friction loss — and
+passive forces switched off), then armature, damping and friction loss each on its own, the round trip URDF →
+model → MJCF against Pinocchio's model of the same URDF, the identified EMPS axis replayed open loop in MuJoCo
+against symbolic's own simulation, and the refusals.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import symbolic
+from symbolic.description.robot import Drive, Friction, Stribeck
+from symbolic.errors import ExportError
+from symbolic.export.mjcf import mjcf
+from symbolic.numeric import numeric_model
+
+mujoco = pytest.importorskip("mujoco", reason="MuJoCo is not installed (pip install -e '.[dev]' brings it)")
+
+TOLERANCE = 1e-9
+"""Relative: ‖τ_MuJoCo − τ_symbolic‖∞ / max(‖τ_symbolic‖∞, ‖bias_symbolic‖∞) at each state, for τ and the bias."""
+
+PUMA_PHYSICAL = {"m1": 1.0, "Ixx1": 0.35, "Izz1": 0.35, "Izz3": 0.025}
+"""Corke's PUMA 560 inertias of links 1 (mass 0, diag(0, 0.35, 0)) and 3 break A + B ≥ C, which MuJoCo refuses:
+the kinematics (standard DH) is checked with these physical values instead."""
+
+URDF_ARMS = {
+    "ur5": ("ur_description/urdf/ur5_robot.urdf", None),
+    "panda_urdf": ("panda_description/urdf/panda.urdf", "panda_link7"),  # the fingers' <mimic> is a constraint
+    "kinova": ("kinova_description/robots/kinova.urdf", None),
+    "xarm7": ("xarm_description/urdf/xarm7.urdf", None),
+    "z1": ("z1_description/urdf/z1.urdf", None),
+    "so101": ("so_arm_description/urdf/so101.urdf", None),
+}
+
+
+def quiet(function, *args, **kwargs):
+    """``function(*args)`` with symbolic's ModelWarnings (Corke's inertias, what MJCF leaves out) silenced."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", symbolic.ModelWarning)
+        return function(*args, **kwargs)
+
+
+def load(robot: symbolic.Robot, folder: Path, values=None):
+    """The robot written as MJCF into ``folder`` and read back by MuJoCo's own loader."""
+    path = folder / f"{robot.name}.xml"
+    path.write_text(quiet(mjcf, robot, values))
+    return mujoco.MjModel.from_xml_path(str(path))
+
+
+def dof_index(m, coordinates) -> np.ndarray:
+    """MuJoCo's dof address of each coordinate (joints are named after the coordinates)."""
+    return np.array([m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, c)] for c in coordinates])
+
+
+def rigid_only(m) -> None:
+    """Switch off what is not the rigid dynamics: constraints (contacts, limits, friction loss) and passive forces."""
+    m.opt.disableflags |= (mujoco.mjtDisableBit.mjDSBL_CONSTRAINT | mujoco.mjtDisableBit.mjDSBL_DAMPER
+                           | mujoco.mjtDisableBit.mjDSBL_SPRING)
+
+
+def mujoco_dynamics(m, index, q, qd, qdd) -> tuple[np.ndarray, np.ndarray]:
+    """(qfrc_inverse, qfrc_bias) in the coordinates' order."""
+    d = mujoco.MjData(m)
+    d.qpos[index], d.qvel[index], d.qacc[index] = q, qd, qdd
+    mujoco.mj_inverse(m, d)
+    return d.qfrc_inverse[index].copy(), d.qfrc_bias[index].copy()
+
+
+def worst_relative_error(robot: symbolic.Robot, m, values=None, states: int = 5, seed: int = 11) -> float:
+    """max over random states of the relative differences of τ and of the bias, MuJoCo against symbolic."""
+    num = numeric_model(symbolic.derive(robot))
+    p = num.parameters.updated(values or {}).array()
+    rigid_only(m)
+    index = dof_index(m, robot.coordinates)
+    rng = np.random.default_rng(seed)
+    worst = 0.0
+    for _ in range(states):
+        q, qd, qdd = rng.uniform(-1.5, 1.5, (3, len(robot.coordinates)))
+        friction = num.friction(q, qd, p)
+        tau, bias = num.inverse_dynamics(q, qd, qdd, p) - friction, num.bias(q, qd, p) - friction
+        tau_mj, bias_mj = mujoco_dynamics(m, index, q, qd, qdd)
+        scale = max(np.abs(tau).max(), np.abs(bias).max())  # EMPS's bias is 0: gravity is across its axis
+        worst = max(worst, np.abs(tau_mj - tau).max() / scale, np.abs(bias_mj - bias).max() / scale)
+    return worst
+
+
+def robots_folder() -> Path:
+    from test_urdf import robots_folder as folder
+
+    return folder()
+
+
+# -- rigid dynamics against symbolic's ------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["panda", "puma560", "emps"])
+def test_built_in_robot_agrees_with_mujoco(tmp_path: Path, name: str) -> None:
+    robot = quiet(symbolic.robots.load, name)
+    values = PUMA_PHYSICAL if name == "puma560" else None
+    assert worst_relative_error(robot, load(robot, tmp_path, values), values) < TOLERANCE
+
+
+@pytest.mark.parametrize("arm", sorted(URDF_ARMS))
+def test_urdf_arm_agrees_with_mujoco(tmp_path: Path, arm: str) -> None:
+    path, tip = URDF_ARMS[arm]
+    robot = quiet(symbolic.load, robots_folder() / path, tip=tip)
+    assert worst_relative_error(robot, load(robot, tmp_path)) < TOLERANCE
+
+
+# -- drives and friction --------------------------------------------------------------------------------------------
+def with_drives_and_friction(robot: symbolic.Robot) -> symbolic.Robot:
+    """``robot`` with a drive (ratio, rotor inertia) and viscous and Coulomb friction on every coordinate."""
+    n = len(robot.coordinates)
+    drives = tuple(Drive(c, ratio=50.0 + 10 * i, rotor_inertia=1e-4 * (i + 1)) for i, c in enumerate(robot.coordinates))
+    frictions = tuple(Friction(c, viscous=0.5 + 0.1 * i, coulomb=2.0 - 0.2 * i) for i, c in enumerate(robot.coordinates))
+    assert n == len(drives)
+    return symbolic.validate(dataclasses.replace(robot, drives=drives, frictions=frictions, validated=False))
+
+
+def test_armature_damping_frictionloss_and_gear(tmp_path: Path) -> None:
+    """Armature = Ia·ratio² adds to D's diagonal (MuJoCo's M equals symbolic's D, rotors included); damping gives
+    the passive force −Fv·q̇; frictionloss holds Fc; each motor's gear is the drive's ratio. The rigid τ still
+    agrees with the rotors inside both."""
+    robot = with_drives_and_friction(quiet(symbolic.robots.load, "panda"))
+    m = load(robot, tmp_path)
+    ratios = np.array([50.0 + 10 * i for i in range(7)])
+    index = dof_index(m, robot.coordinates)
+    assert np.array_equal(m.dof_armature[index], 1e-4 * np.arange(1, 8) * ratios**2)
+    assert np.array_equal(m.dof_damping[index], 0.5 + 0.1 * np.arange(7))
+    assert np.array_equal(m.dof_frictionloss[index], 2.0 - 0.2 * np.arange(7))
+    assert np.array_equal(m.actuator_gear[:, 0], ratios)
+    num = numeric_model(symbolic.derive(robot))
+    rng = np.random.default_rng(5)
+    q, qd = rng.uniform(-1.5, 1.5, (2, 7))
+    d = mujoco.MjData(m)
+    d.qpos[index], d.qvel[index] = q, qd
+    mujoco.mj_forward(m, d)
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    D = num.inertia(q)
+    assert np.abs(M[np.ix_(index, index)] - D).max() < TOLERANCE * np.abs(D).max()
+    assert np.abs(d.qfrc_passive[index] + (0.5 + 0.1 * np.arange(7)) * qd).max() < 1e-14
+    assert worst_relative_error(robot, m) < TOLERANCE
+
+
+def test_direction_dependent_friction_is_the_mean_and_offset_left_out_with_warnings(tmp_path: Path) -> None:
+    from symbolic.description.robot import Directional
+
+    emps = quiet(symbolic.robots.load, "emps")
+    robot = symbolic.validate(dataclasses.replace(emps, frictions=(
+        Friction("q", viscous=Directional(100.0, 300.0), coulomb="Fc", offset="offset"),), validated=False))
+    with pytest.warns(symbolic.ModelWarning) as notes:
+        text = mjcf(robot)
+    messages = sorted(str(n.message) for n in notes)
+    assert len(messages) == 2 and "direction-dependent damping" in messages[0] and "offset" in messages[1], messages
+    assert 'damping="200.0"' in text and "<!-- not in this file: [[friction]] 'q': the offset" in text
+
+
+# -- URDF → model → MJCF against Pinocchio's model of the URDF -------------------------------------------------------
+@pytest.mark.parametrize("arm", ["ur5", "xarm7"])
+def test_mjcf_of_a_urdf_agrees_with_pinocchio(tmp_path: Path, arm: str) -> None:
+    from reference_pinocchio import UrdfReference
+
+    path = robots_folder() / URDF_ARMS[arm][0]
+    robot = quiet(symbolic.load, path)
+    m = load(robot, tmp_path)
+    rigid_only(m)
+    reference = UrdfReference(path, robot.coordinates)
+    index = dof_index(m, robot.coordinates)
+    rng = np.random.default_rng(23)
+    for _ in range(5):
+        q, qd, qdd = rng.uniform(-1.5, 1.5, (3, len(robot.coordinates)))
+        tau = reference.rnea(q, qd, qdd)
+        tau_mj, bias_mj = mujoco_dynamics(m, index, q, qd, qdd)
+        assert np.abs(tau_mj - tau).max() < TOLERANCE * np.abs(tau).max()
+        bias = reference.rnea(q, qd, np.zeros_like(q))
+        assert np.abs(bias_mj - bias).max() < TOLERANCE * np.abs(bias).max()
+
+
+# -- refusals, the command line, determinism ------------------------------------------------------------------------
+def stribeck_emps() -> symbolic.Robot:
+    emps = quiet(symbolic.robots.load, "emps")
+    return symbolic.validate(dataclasses.replace(emps, frictions=(
+        Friction("q", viscous="Fv", coulomb="Fc", stribeck=Stribeck(30.0, 0.01)),), validated=False))
+
+
+REFUSED = {
+    "flexible": ("single_flexible_link", "[[beam]] 'link': cannot be written as MJCF: flexible links"),
+    "closed loop": ("janot_branch", "[[constraint]] 'q3': cannot be written as MJCF: closed loops"),
+    "several coordinates": ("omni", "cannot be written as MJCF"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(REFUSED))
+def test_cli_refuses_what_mjcf_cannot_hold_in_one_line_and_writes_nothing(tmp_path: Path, case: str, capsys) -> None:
+    from symbolic.cli import main
+
+    name, message = REFUSED[case]
+    out = tmp_path / "robot.xml"
+    assert main(["-q", "export-mjcf", name, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: ") and f"{name}.toml: " in err and message in err, err
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_stribeck_friction_is_refused() -> None:
+    with pytest.raises(ExportError) as error:
+        mjcf(stribeck_emps())
+    assert "emps.toml: [[friction]] 'q' stribeck: cannot be written as MJCF: MuJoCo's frictionloss is one level" in str(error.value)
+    assert "\n" not in str(error.value)
+
+
+def test_cli_writes_the_same_bytes_in_any_process(tmp_path: Path) -> None:
+    """export-mjcf in two processes with different hash seeds, and the library call: byte-identical."""
+    texts = []
+    for seed in ("0", "12345"):
+        out = tmp_path / f"panda_{seed}.xml"
+        environment = {**os.environ, "PYTHONHASHSEED": seed}
+        subprocess.run([sys.executable, "-m", "symbolic", "-q", "export-mjcf", "panda", "--out", str(out)],
+                       check=True, env=environment, capture_output=True)
+        texts.append(out.read_bytes())
+    assert texts[0] == texts[1] == mjcf(symbolic.robots.load("panda")).encode()
+    assert mujoco.MjModel.from_xml_path(str(tmp_path / "panda_0.xml")).nu == 7
+
+
+def test_cli_refuses_an_out_that_is_not_an_xml_file(tmp_path: Path, capsys) -> None:
+    from symbolic.cli import main
+
+    assert main(["export-mjcf", "panda", "--out", str(tmp_path / "panda.urdf")]) == 2
+    assert "name the MJCF file to write" in capsys.readouterr().err
