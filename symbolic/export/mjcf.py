@@ -106,6 +106,20 @@ def quaternion(R: np.ndarray) -> np.ndarray:
     return -q if q[0] < 0 else q
 
 
+def _combined(masses: list[float], coms: list[np.ndarray], tensors: list[np.ndarray]) -> tuple[float, np.ndarray, np.ndarray]:
+    """Total mass, centre of mass and inertia about it of rigidly joined bodies (Huygens–Steiner); one body's
+    own numbers as they are (no division by its mass, which could change the last digit)."""
+    if len(masses) == 1:
+        return masses[0], coms[0], tensors[0]
+    total = sum(masses)
+    centre = sum(m * c for m, c in zip(masses, coms)) / total if total > 0 else np.zeros(3)
+    inertia = np.zeros((3, 3))
+    for m, c, tensor in zip(masses, coms, tensors):
+        r = c - centre
+        inertia += tensor + m * (r @ r * np.eye(3) - np.outer(r, r))
+    return total, centre, inertia
+
+
 class _Writer:
     def __init__(self, robot: Robot, values: Mapping[str, float] | None) -> None:
         self.robot = robot
@@ -199,12 +213,7 @@ class _Writer:
         masses = [self.value(b.mass, key) for b in bodies]
         coms = [np.array([self.value(c, key) for c in b.com]) for b in bodies]
         tensors = [np.array([[self.value(e, key) for e in row] for row in b.inertia_tensor.tolist()]) for b in bodies]
-        total = sum(masses)
-        centre = sum(m * c for m, c in zip(masses, coms)) / total if total > 0 else np.zeros(3)
-        inertia = np.zeros((3, 3))
-        for m, c, tensor in zip(masses, coms, tensors):
-            r = c - centre
-            inertia += tensor + m * (r @ r * np.eye(3) - np.outer(r, r))  # Huygens–Steiner
+        total, centre, inertia = _combined(masses, coms, tensors)
         if moving and not rotates and total >= MJMINVAL and np.linalg.eigvalsh(inertia)[0] < MJMINVAL:
             inertia = total * TRANSLATION_ONLY_RADIUS**2 * np.eye(3)
             self.notes.append(f"{key}: only translates, so its inertia tensor does not enter the dynamics; MuJoCo "
