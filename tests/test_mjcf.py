@@ -310,3 +310,31 @@ def test_identified_emps_simulates_in_mujoco_with_its_friction(tmp_path: Path, e
     bound = 2 * values["Fc"] * T / values["M"] + integration
     assert gap <= bound and T < 0.05, (gap, bound, gaps)
     assert 100 * integration < gap  # the friction laws' difference, not the integrators', is what is bounded
+
+
+def test_general_frames_limits_and_a_welded_frame_agree_with_mujoco(tmp_path: Path) -> None:
+    """URDF-style frames of every type (revolute with limits, continuous about −y, prismatic on a turned origin,
+    a fixed frame between, an oblique axis): the rigid dynamics agree and the limits are MuJoCo's ranges."""
+    from models import general_frames
+
+    robot = quiet(symbolic.loads, general_frames(), "general.toml")
+    m = load(robot, tmp_path)
+    q1 = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "q1")
+    assert m.jnt_limited[q1] and list(m.jnt_range[q1]) == [-3.0, 3.0]
+    assert not m.jnt_limited[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "q2")]  # continuous
+    assert worst_relative_error(robot, m) < TOLERANCE
+
+
+def test_applied_forces_are_left_out_with_a_warning_naming_the_time_varying_one() -> None:
+    from symbolic.description.robot import Force
+
+    emps = quiet(symbolic.robots.load, "emps")
+    robot = symbolic.validate(dataclasses.replace(emps, frictions=(), validated=False, forces=(
+        Force("spring", "q", "-1000*q"), Force("mains", "q", "2*sin(2*pi*50*t)"))))
+    with pytest.warns(symbolic.ModelWarning) as notes:
+        text = mjcf(robot)
+    messages = [str(n.message) for n in notes]
+    assert sorted(m.split("leaves out ")[1] for m in messages) == [
+        "[[force]] 'mains': a time-varying applied force (MJCF has no such term)",
+        "[[force]] 'spring': an applied force (MJCF has no such term)"], messages
+    assert text.count("<!-- not in this file: [[force]]") == 2

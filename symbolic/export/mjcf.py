@@ -323,8 +323,8 @@ class _Writer:
                 raise self.fail(f"coordinate {coordinate!r}", f"moves frames {', '.join(map(repr, frames))}; an MJCF "
                                                               "joint moves one body (its subtree)")
         for force in r.forces:
-            kind = "time-varying " if sp.sympify(force.expression).has(TIME) else ""
-            self.dropped.append(f"[[force]] {force.name!r}: a {kind}applied force (MJCF has no such term)")
+            kind = "a time-varying" if sp.sympify(force.expression).has(TIME) else "an"
+            self.dropped.append(f"[[force]] {force.name!r}: {kind} applied force (MJCF has no such term)")
 
     def write(self) -> str:
         self.check()
