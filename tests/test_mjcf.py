@@ -338,3 +338,18 @@ def test_applied_forces_are_left_out_with_a_warning_naming_the_time_varying_one(
         "[[force]] 'mains': a time-varying applied force (MJCF has no such term)",
         "[[force]] 'spring': an applied force (MJCF has no such term)"], messages
     assert text.count("<!-- not in this file: [[force]]") == 2
+
+
+def test_quaternion_is_mujocos_for_any_rotation() -> None:
+    """Shepperd's quaternion against MuJoCo's mju_mat2Quat, half-turns (where the trace is −1) included."""
+    from scipy.spatial.transform import Rotation
+
+    from symbolic.export.mjcf import quaternion
+
+    turns = [np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0]), np.diag([-1.0, -1.0, 1.0]), np.eye(3)]
+    for R in turns + list(Rotation.random(50, random_state=4).as_matrix()):
+        expected = np.zeros(4)
+        mujoco.mju_mat2Quat(expected, np.ascontiguousarray(R).reshape(-1))
+        expected = -expected if expected[0] < 0 else expected
+        q = quaternion(R)
+        assert np.abs(q - expected).max() < 1e-15 or (q[0] == 0 and np.abs(q + expected).max() < 1e-15), (R, q, expected)
