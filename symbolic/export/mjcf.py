@@ -36,6 +36,7 @@ import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import PurePath
 
 import numpy as np
 import sympy as sp
@@ -121,6 +122,8 @@ def _combined(masses: list[float], coms: list[np.ndarray], tensors: list[np.ndar
 
 
 class _Writer:
+    """One export: the robot, its parameter values, and what is left out (warned) or noted (comments only)."""
+
     def __init__(self, robot: Robot, values: Mapping[str, float] | None) -> None:
         self.robot = robot
         self.values = {p.symbol: float(values.get(p.name, p.value)) if values else p.value for p in robot.parameters}
@@ -129,9 +132,11 @@ class _Writer:
 
     # -- values ----------------------------------------------------------------------------------
     def fail(self, key: str, problem: str) -> ExportError:
+        """The one-line error for ``key``: file, key, what MJCF cannot hold."""
         return ExportError(f"{self.robot.source}: {key}: cannot be written as MJCF: {problem}")
 
-    def value(self, expr, key: str) -> float:
+    def value(self, expr: sp.Expr | str | float, key: str) -> float:
+        """``expr`` at the parameter values, a finite number, or an error naming ``key``."""
         x = sp.sympify(sp.sympify(expr).xreplace(self.values))
         if x.free_symbols:
             raise self.fail(key, f"{x} depends on {sorted(map(str, x.free_symbols))}")
@@ -157,6 +162,7 @@ class _Writer:
 
     # -- placements --------------------------------------------------------------------------------
     def placement(self, f: Frame) -> Placement:
+        """Where a DH frame sits at Q = 0 and its joint (module docstring); general frames by :meth:`general`."""
         if f.joint is not None:
             return self.general(f)
         turning, sliding = self.motion(f, "theta"), self.motion(f, "d")
@@ -181,6 +187,8 @@ class _Writer:
         return Placement(R, p, kind, moving[0], moving[1] * axis, anchor)
 
     def general(self, f: Frame) -> Placement:
+        """A general frame: origin ``Trans(xyz)·Rot(rpy)`` with the joint's constant offset, joint about or along
+        ±axis at the origin (:class:`~symbolic.description.robot.Joint`)."""
         j, key = f.joint, f"[[frame]] {f.name!r}"
         xyz = np.array([self.value(x, f"{key} origin.xyz") for x in j.xyz])
         r, p, y = (self.value(x, f"{key} origin.rpy") for x in j.rpy)
@@ -237,6 +245,7 @@ class _Writer:
                                  f"a mass and principal inertias above {MJMINVAL} on a body a joint moves")
 
     def joint(self, place: Placement) -> ET.Element:
+        """The ``<joint>`` of a moving frame, with its range, armature, damping and friction loss."""
         element = ET.Element("joint")
         element.set("name", place.coordinate)
         element.set("type", place.kind)
@@ -270,7 +279,8 @@ class _Writer:
                 self.dropped.append(f"{key}: the offset (a constant force; MJCF joints have none)")
         return {k: v for k, v in out.items() if v != 0}
 
-    def coefficient(self, coefficient, key: str, attribute: str) -> float:
+    def coefficient(self, coefficient: sp.Expr | Directional, key: str, attribute: str) -> float:
+        """A friction coefficient's value; a direction-dependent one's mean, noted as left out."""
         if isinstance(coefficient, Directional):
             self.dropped.append(f"{key}: direction-dependent {attribute} (MJCF has one value; their mean is written)")
             return (self.value(coefficient.positive, key) + self.value(coefficient.negative, key)) / 2
@@ -278,6 +288,7 @@ class _Writer:
 
     # -- the tree ----------------------------------------------------------------------------------
     def body(self, f: Frame, parent: ET.Element, rotates: bool = False) -> None:
+        """``f`` as a ``<body>`` in ``parent``, then its child frames in it; ``rotates``: a hinge lies above."""
         place = self.placement(f)
         rotates = rotates or place.kind == "hinge"
         element = ET.SubElement(parent, "body")
@@ -327,6 +338,7 @@ class _Writer:
             self.dropped.append(f"[[force]] {force.name!r}: {kind} applied force (MJCF has no such term)")
 
     def write(self) -> str:
+        """The document: compiler and option, the body tree under ``base``, a motor per coordinate."""
         self.check()
         r = self.robot
         root = ET.Element("mujoco")
@@ -349,14 +361,13 @@ class _Writer:
         return self.text(root)
 
     def text(self, root: ET.Element) -> str:
-        source = r.source.rsplit("/", 1)[-1] if (r := self.robot).source else r.name
-        comment = lambda text: ET.Comment(f" {text.replace('--', '- -')} ")  # noqa: E731 - "--" ends an XML comment
-        root.insert(0, comment(f"written by symbolic export-mjcf from {source}: inertials, armature, damping and "
-                                  "frictionloss are the model's parameter values"))
-        for i, d in enumerate(self.dropped, start=1):
-            root.insert(i, comment(f"not in this file: {d}"))
-        for i, note in enumerate(self.notes, start=1 + len(self.dropped)):
-            root.insert(i, comment(f"note: {note}"))
+        """The document's text, with the comments on what is left out (each also a ModelWarning) and noted."""
+        r = self.robot
+        comments = [f"written by symbolic export-mjcf from {PurePath(r.source).name}: inertials, armature, damping and "
+                    "frictionloss are the model's parameter values"]
+        comments += [f"not in this file: {d}" for d in self.dropped] + [f"note: {n}" for n in self.notes]
+        for i, text in enumerate(comments):
+            root.insert(i, ET.Comment(f" {text.replace('--', '- -')} "))  # "--" would end an XML comment
         for d in self.dropped:
             warnings.warn(f"{r.source}: MJCF export leaves out {d}", ModelWarning, stacklevel=4)
         ET.indent(root, space="  ")
