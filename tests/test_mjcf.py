@@ -21,8 +21,7 @@ import numpy as np
 import pytest
 
 import symbolic
-from symbolic.description.robot import Drive, Friction, Stribeck
-from symbolic.errors import ExportError
+from symbolic.description.robot import Drive, Friction
 from symbolic.export.mjcf import mjcf
 from symbolic.numeric import numeric_model
 from shared_data import emps  # noqa: F401  (fixture)
@@ -189,10 +188,13 @@ def test_mjcf_of_a_urdf_agrees_with_pinocchio(tmp_path: Path, arm: str) -> None:
 
 
 # -- refusals, the command line, determinism ------------------------------------------------------------------------
-def stribeck_emps() -> symbolic.Robot:
-    emps = quiet(symbolic.robots.load, "emps")
-    return symbolic.validate(dataclasses.replace(emps, frictions=(
-        Friction("q", viscous="Fv", coulomb="Fc", stribeck=Stribeck(30.0, 0.01)),), validated=False))
+def stribeck_emps(folder: Path) -> Path:
+    """EMPS's model file with a Stribeck rise of its Coulomb level (Fs = 30 N, vs = 0.01 m/s)."""
+    text = (Path(symbolic.robots.__file__).parent / "emps.toml").read_text()
+    text = text.replace('offset = "offset"', 'offset = "offset"\nstribeck = { static = "30", velocity = "0.01" }')
+    path = folder / "emps_stribeck.toml"
+    path.write_text(text)
+    return path
 
 
 REFUSED = {
@@ -214,11 +216,16 @@ def test_cli_refuses_what_mjcf_cannot_hold_in_one_line_and_writes_nothing(tmp_pa
     assert not out.exists() and list(tmp_path.iterdir()) == []
 
 
-def test_stribeck_friction_is_refused() -> None:
-    with pytest.raises(ExportError) as error:
-        mjcf(stribeck_emps())
-    assert "emps.toml: [[friction]] 'q' stribeck: cannot be written as MJCF: MuJoCo's frictionloss is one level" in str(error.value)
-    assert "\n" not in str(error.value)
+def test_stribeck_friction_is_refused_in_one_line_and_nothing_written(tmp_path: Path, capsys) -> None:
+    from symbolic.cli import main
+
+    model = stribeck_emps(tmp_path)
+    out = tmp_path / "emps.xml"
+    assert main(["-q", "export-mjcf", str(model), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"error: {model}: [[friction]] 'q' stribeck: cannot be written as MJCF: MuJoCo's frictionloss is "
+                   "one level; a Coulomb level rising to a static one at rest (Stribeck) has no MJCF form\n"), err
+    assert not out.exists()
 
 
 def test_cli_writes_the_same_bytes_in_any_process(tmp_path: Path) -> None:
