@@ -156,8 +156,8 @@ def test_armature_damping_frictionloss_and_gear(tmp_path: Path) -> None:
 def test_direction_dependent_friction_is_the_mean_and_offset_left_out_with_warnings(tmp_path: Path) -> None:
     from symbolic.description.robot import Directional
 
-    emps = quiet(symbolic.robots.load, "emps")
-    robot = symbolic.validate(dataclasses.replace(emps, frictions=(
+    axis = quiet(symbolic.robots.load, "emps")
+    robot = symbolic.validate(dataclasses.replace(axis, frictions=(
         Friction("q", viscous=Directional(100.0, 300.0), coulomb="Fc", offset="offset"),), validated=False))
     with pytest.warns(symbolic.ModelWarning) as notes:
         text = mjcf(robot)
@@ -335,8 +335,8 @@ def test_general_frames_limits_and_a_welded_frame_agree_with_mujoco(tmp_path: Pa
 def test_applied_forces_are_left_out_with_a_warning_naming_the_time_varying_one() -> None:
     from symbolic.description.robot import Force
 
-    emps = quiet(symbolic.robots.load, "emps")
-    robot = symbolic.validate(dataclasses.replace(emps, frictions=(), validated=False, forces=(
+    axis = quiet(symbolic.robots.load, "emps")
+    robot = symbolic.validate(dataclasses.replace(axis, frictions=(), validated=False, forces=(
         Force("spring", "q", "-1000*q"), Force("mains", "q", "2*sin(2*pi*50*t)"))))
     with pytest.warns(symbolic.ModelWarning) as notes:
         text = mjcf(robot)
