@@ -135,7 +135,8 @@ def test_armature_damping_frictionloss_and_gear(tmp_path: Path) -> None:
     m = load(robot, tmp_path)
     ratios = np.array([50.0 + 10 * i for i in range(7)])
     index = dof_index(m, robot.coordinates)
-    assert np.array_equal(m.dof_armature[index], 1e-4 * np.arange(1, 8) * ratios**2)
+    # Ia·ratio² computed exactly and rounded once: within an ulp of the product in doubles
+    assert np.allclose(m.dof_armature[index], 1e-4 * np.arange(1, 8) * ratios**2, rtol=1e-15, atol=0)
     assert np.array_equal(m.dof_damping[index], 0.5 + 0.1 * np.arange(7))
     assert np.array_equal(m.dof_frictionloss[index], 2.0 - 0.2 * np.arange(7))
     assert np.array_equal(m.actuator_gear[:, 0], ratios)

@@ -26,24 +26,28 @@ mass or inertia MuJoCo's compiler rejects. What leaves the rigid dynamics exact 
 :class:`~symbolic.errors.ModelWarning` and an XML comment, as the URDF exporter does: friction offsets,
 ``[[force]]`` entries (time-varying ones among them); direction-dependent friction is written as the mean of its
 two values. The text is a function of the model and the values only: elements and attributes in a fixed order,
-every number ``repr``-exact (the shortest text that reads back as the same double).
+every number ``repr``-exact (the shortest text that reads back as the same double), and every number computed
+(placements, quaternions, combined inertias) with mpmath at :data:`DIGITS` digits and rounded once to a double, so
+no processor's C library or BLAS can change a last digit (the generated code's rule, README "Generated code").
 """
 
 from __future__ import annotations
 
-import math
 import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import PurePath
 
+import mpmath
 import numpy as np
 import sympy as sp
 
 from symbolic.description.robot import BASE, TIME, Directional, Frame, Robot
-from symbolic.description.urdf import axis_rotation
 from symbolic.errors import ExportError, ModelWarning
+
+DIGITS = 40
+"""Decimal digits of the computation of every written number (each rounded once to the nearest double)."""
 
 MJMINVAL = 1e-15
 """MuJoCo's ``mjMINVAL``: its compiler refuses a moving body whose mass or principal inertia is below it."""
@@ -66,40 +70,83 @@ class Placement:
     limits: Mapping[str, float] | None = None
 
 
-def _number(x: float) -> str:
-    """``repr`` of the double: the shortest text that reads back exactly (0 for both zeros)."""
-    return repr(float(x)) if x != 0 else "0"
+def _number(x) -> str:
+    """``repr`` of the nearest double: the shortest text that reads back exactly (0 for both zeros)."""
+    x = float(x)
+    return repr(x) if x != 0 else "0"
 
 
 def _numbers(values) -> str:
     return " ".join(_number(x) for x in values)
 
 
-def _rx(a: float) -> np.ndarray:
-    return np.array([[1.0, 0.0, 0.0], [0.0, math.cos(a), -math.sin(a)], [0.0, math.sin(a), math.cos(a)]])
+def _matrix(rows) -> np.ndarray:
+    """An array of mpmath numbers (object dtype: NumPy's arithmetic on them is Python's, no BLAS)."""
+    return np.array([[mpmath.mpf(x) for x in row] for row in rows], dtype=object)
 
 
-def _rz(a: float) -> np.ndarray:
-    return np.array([[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0], [0.0, 0.0, 1.0]])
+def _vector(values) -> np.ndarray:
+    return np.array([mpmath.mpf(x) for x in values], dtype=object)
 
 
-def _ry(a: float) -> np.ndarray:
-    return np.array([[math.cos(a), 0.0, math.sin(a)], [0.0, 1.0, 0.0], [-math.sin(a), 0.0, math.cos(a)]])
+def _identity() -> np.ndarray:
+    return _matrix([[1, 0, 0], [0, 1, 0], [0, 0, 1]])
+
+
+def _mp(x: sp.Expr) -> mpmath.mpf:
+    """An exact real SymPy number to :data:`DIGITS` digits (SymPy's own evaluation: cos(π/2) is 0 exactly)."""
+    return mpmath.mpf(str(sp.N(x, DIGITS)))
+
+
+def _cos_sin(angle: sp.Expr) -> tuple[mpmath.mpf, mpmath.mpf]:
+    return _mp(sp.cos(angle)), _mp(sp.sin(angle))
+
+
+def _rx(a: sp.Expr) -> np.ndarray:
+    c, s = _cos_sin(a)
+    return _matrix([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def _ry(a: sp.Expr) -> np.ndarray:
+    c, s = _cos_sin(a)
+    return _matrix([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def _rz(a: sp.Expr) -> np.ndarray:
+    c, s = _cos_sin(a)
+    return _matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def _axis_rotation(u: np.ndarray, angle: sp.Expr) -> np.ndarray:
+    """Rotation by ``angle`` about the unit axis ``u`` (Rodrigues: c·E + s·S(u) + (1 − c)·u·uᵀ)."""
+    c, s = _cos_sin(angle)
+    cross = _matrix([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+    return c * _identity() + s * cross + (1 - c) * np.outer(u, u)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / mpmath.sqrt(sum(x * x for x in v))
+
+
+def _moments(inertia: np.ndarray) -> np.ndarray:
+    """Principal moments, ascending (in doubles: they decide a refusal, they are not written)."""
+    return np.sort(np.linalg.eigvalsh(inertia.astype(float)))
 
 
 def quaternion(R: np.ndarray) -> np.ndarray:
     """The unit quaternion (w, x, y, z) of rotation matrix ``R``, w ≥ 0 (Shepperd's method: the largest of the
     four squared components is taken by square root, the others from it, which keeps every digit)."""
-    trace = np.trace(R)
+    R = _matrix(R)
+    trace = R[0, 0] + R[1, 1] + R[2, 2]
     candidates = [trace, R[0, 0], R[1, 1], R[2, 2]]
-    k = int(np.argmax(candidates))
+    k = max(range(4), key=lambda i: candidates[i])
+    q = _vector([0, 0, 0, 0])
     if k == 0:
-        s = 2.0 * math.sqrt(1.0 + trace)
-        q = np.array([s / 4, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s])
+        s = 2 * mpmath.sqrt(1 + trace)
+        q[:] = [s / 4, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
     else:
         i, j, l = k - 1, k % 3, (k + 1) % 3
-        s = 2.0 * math.sqrt(1.0 + R[i, i] - R[j, j] - R[l, l])
-        q = np.zeros(4)
+        s = 2 * mpmath.sqrt(1 + R[i, i] - R[j, j] - R[l, l])
         q[0] = (R[l, j] - R[j, l]) / s
         q[1 + i] = s / 4
         q[1 + j] = (R[j, i] + R[i, j]) / s
@@ -107,17 +154,17 @@ def quaternion(R: np.ndarray) -> np.ndarray:
     return -q if q[0] < 0 else q
 
 
-def _combined(masses: list[float], coms: list[np.ndarray], tensors: list[np.ndarray]) -> tuple[float, np.ndarray, np.ndarray]:
+def _combined(masses: list, coms: list[np.ndarray], tensors: list[np.ndarray]) -> tuple:
     """Total mass, centre of mass and inertia about it of rigidly joined bodies (Huygens–Steiner); one body's
-    own numbers as they are (no division by its mass, which could change the last digit)."""
+    own numbers as they are."""
     if len(masses) == 1:
         return masses[0], coms[0], tensors[0]
     total = sum(masses)
-    centre = sum(m * c for m, c in zip(masses, coms)) / total if total > 0 else np.zeros(3)
-    inertia = np.zeros((3, 3))
+    centre = sum(m * c for m, c in zip(masses, coms)) / total if total > 0 else _vector([0, 0, 0])
+    inertia = _matrix([[0, 0, 0]] * 3)
     for m, c, tensor in zip(masses, coms, tensors):
         r = c - centre
-        inertia += tensor + m * (r @ r * np.eye(3) - np.outer(r, r))
+        inertia = inertia + tensor + m * (sum(x * x for x in r) * _identity() - np.outer(r, r))
     return total, centre, inertia
 
 
@@ -126,7 +173,8 @@ class _Writer:
 
     def __init__(self, robot: Robot, values: Mapping[str, float] | None) -> None:
         self.robot = robot
-        self.values = {p.symbol: float(values.get(p.name, p.value)) if values else p.value for p in robot.parameters}
+        self.values = {p.symbol: sp.Rational(float(values.get(p.name, p.value) if values else p.value))
+                       for p in robot.parameters}
         self.dropped: list[str] = []
         self.notes: list[str] = []
 
@@ -135,18 +183,23 @@ class _Writer:
         """The one-line error for ``key``: file, key, what MJCF cannot hold."""
         return ExportError(f"{self.robot.source}: {key}: cannot be written as MJCF: {problem}")
 
-    def value(self, expr: sp.Expr | str | float, key: str) -> float:
-        """``expr`` at the parameter values, a finite number, or an error naming ``key``."""
+    def exact(self, expr: sp.Expr | str | float, key: str) -> sp.Expr:
+        """``expr`` at the parameter values (each the exact binary value of its double), kept exact; an error naming
+        ``key`` if that is not a finite real number."""
         x = sp.sympify(sp.sympify(expr).xreplace(self.values))
         if x.free_symbols:
             raise self.fail(key, f"{x} depends on {sorted(map(str, x.free_symbols))}")
-        result = float(x)
-        if not math.isfinite(result):
-            raise self.fail(key, f"{expr} is not finite at the parameter values")
-        return result
+        number = sp.N(x, DIGITS)
+        if not (number.is_Number and number.is_finite):
+            raise self.fail(key, f"{expr} is not a finite real number at the parameter values")
+        return x
 
-    def motion(self, f: Frame, which: str) -> tuple[str, int, float] | None:
-        """(coordinate, sign, offset) of the frame's ``theta``/``d`` = ±q + offset, or None if constant."""
+    def value(self, expr: sp.Expr | str | float, key: str) -> mpmath.mpf:
+        """:meth:`exact` to :data:`DIGITS` digits."""
+        return _mp(self.exact(expr, key))
+
+    def motion(self, f: Frame, which: str) -> tuple[str, int, sp.Expr] | None:
+        """(coordinate, sign, exact offset) of the frame's ``theta``/``d`` = ±q + offset, or None if constant."""
         key = f"[[frame]] {f.name!r} {which}"
         expr = sp.sympify(getattr(f, which))
         coordinates = [s for s in expr.free_symbols if s.name in self.robot.coordinates]
@@ -158,7 +211,7 @@ class _Writer:
         slope = sp.diff(expr, q)
         if slope not in (1, -1):
             raise self.fail(key, f"{expr} is not ±{q} + a constant (MJCF joints have no gearing)")
-        return q.name, int(slope), self.value(expr - slope * q, key)
+        return q.name, int(slope), self.exact(expr - slope * q, key)
 
     # -- placements --------------------------------------------------------------------------------
     def placement(self, f: Frame) -> Placement:
@@ -170,18 +223,19 @@ class _Writer:
             raise self.fail(f"[[frame]] {f.name!r}", "both θ and d move (a cylindrical joint: two MJCF joints would "
                                                      "need two bodies)")
         key = f"[[frame]] {f.name!r}"
-        theta = turning[2] if turning else self.value(f.theta, f"{key} theta")
-        d = sliding[2] if sliding else self.value(f.d, f"{key} d")
-        a, alpha = self.value(f.a, f"{key} a"), self.value(f.alpha, f"{key} alpha")
+        theta = turning[2] if turning else self.exact(f.theta, f"{key} theta")
+        d = _mp(sliding[2]) if sliding else self.value(f.d, f"{key} d")
+        a, alpha = self.value(f.a, f"{key} a"), self.exact(f.alpha, f"{key} alpha")
         moving = turning or sliding
         kind = None if moving is None else ("hinge" if turning else "slide")
+        z = _vector([0, 0, 1])
         if self.robot.convention == "modified":
-            R, p = _rx(alpha) @ _rz(theta), np.array([a, 0.0, 0.0]) + _rx(alpha) @ np.array([0.0, 0.0, d])
-            axis, anchor = np.array([0.0, 0.0, 1.0]), np.zeros(3)
+            R, p = _rx(alpha) @ _rz(theta), _vector([a, 0, 0]) + _rx(alpha) @ (d * z)
+            axis, anchor = z, _vector([0, 0, 0])
         else:
             R = _rz(theta) @ _rx(alpha)
-            p = np.array([0.0, 0.0, d]) + _rz(theta) @ np.array([a, 0.0, 0.0])
-            axis, anchor = R.T @ np.array([0.0, 0.0, 1.0]), -(R.T @ p)  # the parent's z through its origin
+            p = d * z + _rz(theta) @ _vector([a, 0, 0])
+            axis, anchor = R.T @ z, -(R.T @ p)  # the parent's z through its origin
         if moving is None:
             return Placement(R, p)
         return Placement(R, p, kind, moving[0], moving[1] * axis, anchor)
@@ -190,21 +244,20 @@ class _Writer:
         """A general frame: origin ``Trans(xyz)·Rot(rpy)`` with the joint's constant offset, joint about or along
         ±axis at the origin (:class:`~symbolic.description.robot.Joint`)."""
         j, key = f.joint, f"[[frame]] {f.name!r}"
-        xyz = np.array([self.value(x, f"{key} origin.xyz") for x in j.xyz])
-        r, p, y = (self.value(x, f"{key} origin.rpy") for x in j.rpy)
+        xyz = _vector([self.value(x, f"{key} origin.xyz") for x in j.xyz])
+        r, p, y = (self.exact(x, f"{key} origin.rpy") for x in j.rpy)
         R = _rz(y) @ _ry(p) @ _rx(r)
         if j.type == "fixed":
             return Placement(R, xyz)
-        axis = np.array([self.value(x, f"{key} joint.axis") for x in j.axis])
-        axis = axis / np.linalg.norm(axis)
+        axis = _unit(_vector([self.value(x, f"{key} joint.axis") for x in j.axis]))
         prismatic = j.type == "prismatic"
         coordinate, sign, offset = self.motion(f, "d" if prismatic else "theta")
-        if offset and prismatic:
-            xyz = xyz + R @ axis * offset
-        elif offset:
-            R = R @ axis_rotation(axis, offset)
+        if offset != 0 and prismatic:
+            xyz = xyz + R @ axis * _mp(offset)
+        elif offset != 0:
+            R = R @ _axis_rotation(axis, offset)
         limits = j.limits if j.type != "continuous" else None
-        return Placement(R, xyz, "slide" if prismatic else "hinge", coordinate, sign * axis, np.zeros(3), limits)
+        return Placement(R, xyz, "slide" if prismatic else "hinge", coordinate, sign * axis, _vector([0, 0, 0]), limits)
 
     # -- elements ----------------------------------------------------------------------------------
     def inertial(self, frame: str, moving: bool, rotates: bool = True) -> ET.Element | None:
@@ -219,11 +272,11 @@ class _Writer:
             return None
         key = f"[[body]] on frame {frame!r}"
         masses = [self.value(b.mass, key) for b in bodies]
-        coms = [np.array([self.value(c, key) for c in b.com]) for b in bodies]
-        tensors = [np.array([[self.value(e, key) for e in row] for row in b.inertia_tensor.tolist()]) for b in bodies]
+        coms = [_vector([self.value(c, key) for c in b.com]) for b in bodies]
+        tensors = [_matrix([[self.value(e, key) for e in row] for row in b.inertia_tensor.tolist()]) for b in bodies]
         total, centre, inertia = _combined(masses, coms, tensors)
-        if moving and not rotates and total >= MJMINVAL and np.linalg.eigvalsh(inertia)[0] < MJMINVAL:
-            inertia = total * TRANSLATION_ONLY_RADIUS**2 * np.eye(3)
+        if moving and not rotates and total >= MJMINVAL and _moments(inertia)[0] < MJMINVAL:
+            inertia = total * mpmath.mpf(TRANSLATION_ONLY_RADIUS) ** 2 * _identity()
             self.notes.append(f"{key}: only translates, so its inertia tensor does not enter the dynamics; MuJoCo "
                               f"needs a positive one: {_number(inertia[0, 0])} kg m^2 on each axis is written")
         self.check_inertia(key, total, inertia, moving)
@@ -233,10 +286,10 @@ class _Writer:
         element.set("fullinertia", _numbers(inertia[i, j] for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))))
         return element
 
-    def check_inertia(self, key: str, mass: float, inertia: np.ndarray, moving: bool) -> None:
+    def check_inertia(self, key: str, mass: mpmath.mpf, inertia: np.ndarray, moving: bool) -> None:
         """What MuJoCo's compiler refuses: principal moments that break A + B ≥ C, and (on a body a joint moves)
         a mass or principal moment below mjMINVAL."""
-        moments = np.sort(np.linalg.eigvalsh(inertia))
+        moments = _moments(inertia)
         if moments[0] + moments[1] < moments[2] - 1e-12 * max(moments[2], MJMINVAL):
             raise self.fail(key, f"principal inertias {_numbers(moments)} break A + B >= C (no rigid body has them; "
                                  "MuJoCo refuses them)")
@@ -259,9 +312,9 @@ class _Writer:
             element.set(attribute, _number(number))
         return element
 
-    def joint_dynamics(self, coordinate: str) -> dict[str, float]:
+    def joint_dynamics(self, coordinate: str) -> dict[str, mpmath.mpf]:
         """``armature`` from the drive, ``damping`` and ``frictionloss`` from the friction (those present, non-zero)."""
-        out: dict[str, float] = {}
+        out: dict[str, mpmath.mpf] = {}
         drive = next((d for d in self.robot.drives if d.coordinate == coordinate), None)
         if drive is not None:
             key = f"[[drive]] {coordinate!r}"
@@ -279,7 +332,7 @@ class _Writer:
                 self.dropped.append(f"{key}: the offset (a constant force; MJCF joints have none)")
         return {k: v for k, v in out.items() if v != 0}
 
-    def coefficient(self, coefficient: sp.Expr | Directional, key: str, attribute: str) -> float:
+    def coefficient(self, coefficient: sp.Expr | Directional, key: str, attribute: str) -> mpmath.mpf:
         """A friction coefficient's value; a direction-dependent one's mean, noted as left out."""
         if isinstance(coefficient, Directional):
             self.dropped.append(f"{key}: direction-dependent {attribute} (MJCF has one value; their mean is written)")
@@ -356,7 +409,7 @@ class _Writer:
         actuators = ET.SubElement(root, "actuator")
         for coordinate in r.coordinates:
             drive = next((d for d in r.drives if d.coordinate == coordinate), None)
-            gear = 1.0 if drive is None else self.value(drive.ratio, f"[[drive]] {coordinate!r} ratio")
+            gear = 1 if drive is None else self.value(drive.ratio, f"[[drive]] {coordinate!r} ratio")
             ET.SubElement(actuators, "motor", {"name": coordinate, "joint": coordinate, "gear": _number(gear)})
         return self.text(root)
 
@@ -399,4 +452,5 @@ def mjcf(robot: Robot, values: Mapping[str, float] | None = None) -> str:
     unknown = set(values or {}) - {p.name for p in robot.parameters}
     if unknown:
         raise ExportError(f"{robot.source}: unknown parameter(s) {sorted(unknown)}")
-    return _Writer(robot, values).write()
+    with mpmath.workdps(DIGITS):
+        return _Writer(robot, values).write()
