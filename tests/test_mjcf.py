@@ -242,6 +242,15 @@ def test_cli_writes_the_same_bytes_in_any_process(tmp_path: Path) -> None:
     assert mujoco.MjModel.from_xml_path(str(tmp_path / "panda_0.xml")).nu == 7
 
 
+def test_values_are_checked_by_name_and_finiteness() -> None:
+    panda = symbolic.robots.load("panda")
+    with pytest.raises(symbolic.SymbolicError, match=r"unknown parameter\(s\) \['mass_of_nothing'\]"):
+        mjcf(panda, {"mass_of_nothing": 1.0})
+    with pytest.raises(symbolic.SymbolicError, match="not finite: m1"):
+        mjcf(panda, {"m1": float("nan")})
+    assert '<inertial pos="0.003875 0.002081 -0.04762" mass="2.5"' in mjcf(panda, {"m1": 2.5})
+
+
 def test_cli_refuses_an_out_that_is_not_an_xml_file(tmp_path: Path, capsys) -> None:
     from symbolic.cli import main
 

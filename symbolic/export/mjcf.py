@@ -33,6 +33,7 @@ no processor's C library or BLAS can change a last digit (the generated code's r
 
 from __future__ import annotations
 
+import math
 import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
@@ -187,6 +188,7 @@ class _Writer:
         """``expr`` at the parameter values (each the exact binary value of its double), kept exact; an error naming
         ``key`` if that is not a finite real number."""
         x = sp.sympify(sp.sympify(expr).xreplace(self.values))
+        x = x.xreplace({f: sp.Rational(f) for f in x.atoms(sp.Float)})  # a literal 1.5708 as its double, exactly
         if x.free_symbols:
             raise self.fail(key, f"{x} depends on {sorted(map(str, x.free_symbols))}")
         number = sp.N(x, DIGITS)
@@ -452,5 +454,8 @@ def mjcf(robot: Robot, values: Mapping[str, float] | None = None) -> str:
     unknown = set(values or {}) - {p.name for p in robot.parameters}
     if unknown:
         raise ExportError(f"{robot.source}: unknown parameter(s) {sorted(unknown)}")
+    infinite = sorted(name for name, value in (values or {}).items() if not math.isfinite(float(value)))
+    if infinite:
+        raise ExportError(f"{robot.source}: parameter value(s) not finite: {', '.join(infinite)}")
     with mpmath.workdps(DIGITS):
         return _Writer(robot, values).write()
