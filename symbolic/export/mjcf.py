@@ -266,8 +266,8 @@ class _Writer:
         """The bodies of ``frame`` as one ``<inertial>``: total mass, centre of mass, inertia about it.
 
         A body that only translates (no hinge between it and the base) has dynamics without its inertia tensor;
-        where MuJoCo would refuse the model's one (a point mass), that of a 1 mm ball of its mass is written, noted
-        in a comment.
+        where MuJoCo would refuse the model's one (a point mass), m·r² about each axis (r =
+        :data:`TRANSLATION_ONLY_RADIUS`) is written, noted in a comment.
         """
         bodies = [b for b in self.robot.bodies if b.frame == frame]
         if not bodies:
