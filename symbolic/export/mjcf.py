@@ -449,7 +449,15 @@ def mjcf(robot: Robot, values: Mapping[str, float] | None = None) -> str:
     Raises
     ------
     ExportError
-        For what MJCF cannot hold (module docstring), naming the model file and entry.
+        For what MJCF cannot hold (module docstring), naming the model file and entry; for unknown or non-finite
+        ``values``.
+
+    References
+    ----------
+    MuJoCo's XML reference (``body``, ``inertial`` ``fullinertia``, ``joint`` ``armature``/``damping``/
+    ``frictionloss``/``range``, ``motor`` ``gear``, ``compiler`` ``angle``) and its computation chapter (armature
+    added to the joint-space inertia, damping a passive force, friction loss a constraint); Janot, Gautier and
+    Brunot (2019) (15) for the friction law f = Fv·q̇ + Fc·sign(q̇) + offset whose terms are written.
     """
     unknown = set(values or {}) - {p.name for p in robot.parameters}
     if unknown:
