@@ -110,7 +110,11 @@ def test_built_in_robot_agrees_with_mujoco(tmp_path: Path, name: str) -> None:
     assert worst_relative_error(robot, load(robot, tmp_path, values), values) < TOLERANCE
 
 
-@pytest.mark.parametrize("arm", sorted(URDF_ARMS))
+SLOW_ARMS = ("kinova", "so101", "xarm7")
+"""Derived in 3–6 s each on a cold cache: marked slow so that this file stays under 30 s of one core."""
+
+
+@pytest.mark.parametrize("arm", [pytest.param(a, marks=pytest.mark.slow) if a in SLOW_ARMS else a for a in sorted(URDF_ARMS)])
 def test_urdf_arm_agrees_with_mujoco(tmp_path: Path, arm: str) -> None:
     path, tip = URDF_ARMS[arm]
     robot = quiet(symbolic.load, robots_folder() / path, tip=tip)
@@ -168,7 +172,7 @@ def test_direction_dependent_friction_is_the_mean_and_offset_left_out_with_warni
 
 
 # -- URDF → model → MJCF against Pinocchio's model of the URDF -------------------------------------------------------
-@pytest.mark.parametrize("arm", ["ur5", "xarm7"])
+@pytest.mark.parametrize("arm", ["ur5", "z1"])
 def test_mjcf_of_a_urdf_agrees_with_pinocchio(tmp_path: Path, arm: str) -> None:
     from reference_pinocchio import UrdfReference
 
