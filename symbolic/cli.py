@@ -258,8 +258,8 @@ def _identify_output_error(args: argparse.Namespace, model) -> int:
     from symbolic.description.modelfile import with_loadable_values
     from symbolic.identify.output_error import output_error
 
-    if args.figures or args.validate or args.out and Path(args.out).suffix.lower() == ".urdf":
-        raise ModelError(args.model, "--method didim", "--figures, --validate and a URDF --out are not available "
+    if args.figures or args.validate or args.out and Path(args.out).suffix.lower() in (".urdf", ".xml"):
+        raise ModelError(args.model, "--method didim", "--figures, --validate and a URDF or MJCF --out are not available "
                                                        "with the output error yet (allowed: --out FILE.toml, --json)")
     fit = output_error(model, args.data, experiment=args.experiment, signals=args.signals,
                        weights=(args.force_weight, args.position_weight), fix=fix_names(args.fix),
@@ -301,10 +301,15 @@ def cmd_identify(args: argparse.Namespace) -> int:
         from symbolic.export.urdf import urdf
 
         write_text_atomically(Path(args.out), urdf(model.robot, result.values()))
+    elif args.out and Path(args.out).suffix.lower() == ".xml":
+        from symbolic.export.mjcf import mjcf
+
+        write_text_atomically(Path(args.out), mjcf(model.robot, result.values()))
     elif args.out:
         source = Path(model.robot.source)
         if not source.is_file() or source.suffix.lower() == ".urdf":
-            raise ModelError(args.model, "--out", "the model has no TOML file to update (write --out FILE.urdf for a URDF model)")
+            raise ModelError(args.model, "--out", "the model has no TOML file to update (write --out FILE.urdf or "
+                                                 "FILE.xml for a URDF model)")
         text, kept = with_loadable_values(source.read_text(encoding="utf-8"), result.values(), str(source),
                                           provenance=f"identified by symbolic identify from {Path(args.data).name}")
         write_model_atomically(Path(args.out), text)
@@ -573,6 +578,18 @@ def cmd_export_urdf(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_export_mjcf(args: argparse.Namespace) -> int:
+    from symbolic.errors import ExportError
+    from symbolic.export.mjcf import mjcf
+
+    out = Path(args.out)
+    if not str(args.out).strip() or out.is_dir() or out.suffix.lower() != ".xml":
+        raise ExportError(f"--out {args.out!r}: name the MJCF file to write (e.g. --out robot.xml)")
+    write_text_atomically(out, mjcf(resolve(args.model, args)))
+    print(out)
+    return 0
+
+
 def cmd_first_peak(args: argparse.Namespace) -> int:
     from symbolic.reproduction.madill.first_peak import identify_experiment
 
@@ -632,7 +649,7 @@ def parser() -> argparse.ArgumentParser:
                    "(as fixed = true in [parameters] does)")
     i.add_argument("--out", metavar="FILE.toml", help="write the model file with the identified values (a value the "
                    "model file cannot hold, e.g. a negative mass, is not written and the reason is printed; "
-                   "FILE.urdf: as URDF)")
+                   "FILE.urdf: as URDF; FILE.xml: as MuJoCo's MJCF)")
     i.add_argument("--figures", metavar="DIR", help="PNG figures: measured vs predicted force and the residual per coordinate")
     i.add_argument("--json", action="store_true", help="machine-readable result")
     i.set_defaults(func=cmd_identify)
@@ -701,7 +718,12 @@ def parser() -> argparse.ArgumentParser:
     u.add_argument("model", help="model file (.toml, .urdf) or built-in robot name")
     u.add_argument("--out", metavar="FILE.urdf", required=True, help="the URDF file to write")
     u.set_defaults(func=cmd_export_urdf)
-    for command in (d, g, a, i, s, w, u):
+    x = sub.add_parser("export-mjcf", help="write the model as a MuJoCo MJCF file (inertials, armature, damping, "
+                       "frictionloss at the parameter values; a motor per coordinate)")
+    x.add_argument("model", help="model file (.toml, .urdf) or built-in robot name")
+    x.add_argument("--out", metavar="FILE.xml", required=True, help="the MJCF file to write")
+    x.set_defaults(func=cmd_export_mjcf)
+    for command in (d, g, a, i, s, w, u, x):
         command.add_argument("--root", metavar="LINK", help="URDF models: the fixed link the chain starts from (default: the tree's root)")
         command.add_argument("--tip", metavar="LINK", help="URDF models: the last link of the chain (default: the whole tree moves)")
     ls = sub.add_parser("list", help="list the built-in robots")
