@@ -1,0 +1,387 @@
+"""The convex form of the physically consistent fit, solved to a certified global optimum (issue 38 §3).
+
+In the standard parameters of each body — [XX XY XZ YY YZ ZZ MX MY MZ M] about its frame, which the
+regressor's θ is affine in — physical consistency is a linear matrix inequality (Wensing, Kim & Slotine,
+"Linear matrix inequalities for physically consistent inertial parameter identification: a statistical
+perspective on the mass distribution", IEEE RA-L 3(1), 2018, eq. (9), (12) and Theorem 1):
+
+    J(π) = [[½·tr(I_O)·1 − I_O, h], [hᵀ, m]] ⪰ 0                                                    (10)
+
+so that with the summary (1) of :mod:`symbolic.identify.consistent` the fit
+
+    min_x ‖R·K·(T·x + t₀) − z‖²  s.t.  J_b(x) ⪰ 0 (each body b),  E·x = e,  G·x ≤ g                   (11)
+
+is a small semidefinite program (Wensing et al. 2018, eq. (21)): its size is b residuals and ten variables
+a body, whatever the log's length. x holds each body's standard parameters and the other free parameters
+(friction, drives: θ is affine in them); E·x = e keeps what the model file writes as numbers (a constant
+mass, a constant centre-of-mass coordinate, m·c linear in m; products of inertia written as 0 where one of
+the two centre-of-mass coordinates is constant), G·x ≤ g the bounds (the signs of the roles, ``min``/``max``;
+a centre of mass's bound l ≤ c is l·m ≤ h, linear since m ≥ 0). Where the model file's form is not convex in x
+(a product of inertia written as 0 with both centre-of-mass coordinates free, a constant inertia with a free
+centre of mass) those constraints are dropped: (11) is then a relaxation, and its optimum a lower bound of
+the model's.
+
+:func:`solve` solves (11) with Clarabel (Goulart & Chen, "Clarabel: an interior-point solver for conic
+programs with quadratic objectives", 2024), a primal–dual interior-point method: its dual objective is a lower
+bound of (11) (weak duality), so the gap between its primal and dual objectives certifies the optimum as
+global. :func:`polish` then removes the interior-point method's last inaccuracy on the face of the cones
+the answer lies on.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from symbolic.identify.consistent import AXES, INERTIA_KEYS, BodyPlan, Problem, standard_parameters
+
+SAMPLES_EXTRA = 12
+"""Samples of θ(p) beyond the number of unknowns of the affine map x ↦ θ (:func:`lift`)."""
+AFFINE_TOLERANCE = 1e-9
+"""θ is taken as affine in x when the map fitted on random samples reproduces fresh samples to this
+fraction of their size."""
+FACE_TOLERANCE = 1e-7
+"""An eigenvalue of a body's J below this fraction of its largest is taken as zero by :func:`polish`."""
+SQRT2 = np.sqrt(2.0)
+PSD_ORDER = [(i, j) for j in range(4) for i in range(j + 1)]
+"""Clarabel's vectorization of a symmetric 4×4 matrix: the upper triangle column by column, the entries off
+the diagonal multiplied by √2 (so that the inner product is kept)."""
+
+
+@dataclass(frozen=True, eq=False)
+class Lifted:
+    """(11) for a :class:`symbolic.identify.consistent.Problem`: θ = T·x + t₀, E·x = e, G·x ≤ g.
+
+    ``blocks[k]`` holds the ten indices of x of the k-th body of the problem (XX … M), ``raw`` the indices of
+    the problem's other free parameters (in the order of ``Problem.raw``); ``dropped`` says which constraints
+    of the model file's form are not in (11) (empty: (11) is the problem itself, not a relaxation).
+    """
+
+    T: np.ndarray
+    t0: np.ndarray
+    E: np.ndarray
+    e: np.ndarray
+    G: np.ndarray
+    g: np.ndarray
+    blocks: tuple[tuple[int, ...], ...]
+    raw: tuple[int, ...]
+    dropped: tuple[str, ...]
+
+    @property
+    def size(self) -> int:
+        return self.T.shape[1]
+
+    @property
+    def exact(self) -> bool:
+        return not self.dropped
+
+
+def lifted_point(prob: Problem, p: np.ndarray) -> np.ndarray:
+    """x of (11) at the model-file parameters p: each body's ten standard parameters, then the others."""
+    parts = [standard_parameters(*_body_values(body, p)) for body in prob.bodies]
+    return np.concatenate(parts + [p[list(prob.raw)]])
+
+
+def _body_values(body: BodyPlan, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass, centre of mass, inertia about the centre of mass) of a planned body at p (constants as written)."""
+    def value(slot):
+        return float(p[slot]) if isinstance(slot, int) else float(slot)
+
+    Ic = np.zeros((3, 3))
+    for key, slot in zip(INERTIA_KEYS, body.inertia):
+        i, j = AXES[key]
+        Ic[i, j] = Ic[j, i] = value(slot)
+    return value(body.mass), np.array([value(s) for s in body.com]), Ic
+
+
+def parameters_of(prob: Problem, x: np.ndarray, p_start: np.ndarray) -> np.ndarray:
+    """The model-file parameters p of a point x of (11) (the inverse of :func:`lifted_point` on its image):
+    m = M, c = h/m, I_c = I_O − m·(cᵀc·1 − c·cᵀ) (parallel axes). A body of mass 0 keeps the centre of mass of
+    ``p_start`` (any serves: h = 0)."""
+    p = np.array(p_start, float)
+    for k, body in enumerate(prob.bodies):
+        XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = x[10 * k:10 * k + 10]
+        c = np.array([MX, MY, MZ]) / M if M > 0 else _body_values(body, p_start)[1]
+        IO = np.array([[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]])
+        Ic = IO - max(M, 0.0) * (c @ c * np.eye(3) - np.outer(c, c))
+        if isinstance(body.mass, int):
+            p[body.mass] = M
+        for axis in body.free_com:
+            p[body.com[axis]] = c[axis]
+        for key, slot in zip(INERTIA_KEYS, body.inertia):
+            if isinstance(slot, int):
+                p[slot] = Ic[AXES[key]]
+    p[list(prob.raw)] = x[10 * len(prob.bodies):]
+    return p
+
+
+def lift(prob: Problem, p0: np.ndarray, seed: int = 0) -> Lifted | None:
+    """(11) for ``prob``, or None where θ is not affine in x (a body the log-Cholesky plan could not hold, a
+    parameter written in expressions of others: their θ is not an affine image of x).
+
+    T and t₀ are fitted on random parameter vectors around ``p0`` (masses positive) and checked on as many
+    fresh ones (:data:`AFFINE_TOLERANCE`): θ is polynomial in p, so the check holds exactly or fails clearly."""
+    if prob.penalties:
+        return None
+    rng = np.random.default_rng(seed)
+    n = 10 * len(prob.bodies) + len(prob.raw)
+    samples = [_sample(prob, p0, rng) for _ in range(2 * (n + 1 + SAMPLES_EXTRA))]
+    X = np.array([np.append(lifted_point(prob, p), 1.0) for p in samples])
+    Theta = np.array([prob.theta(p) for p in samples])
+    half = len(samples) // 2
+    coefficients, *_ = np.linalg.lstsq(X[:half], Theta[:half], rcond=None)
+    error = np.abs(X[half:] @ coefficients - Theta[half:]).max(initial=0.0)
+    if error > AFFINE_TOLERANCE * max(float(np.abs(Theta).max(initial=0.0)), 1e-300):
+        return None
+    E, e, G, g, dropped = _constraints(prob, n)
+    blocks = tuple(tuple(range(10 * k, 10 * k + 10)) for k in range(len(prob.bodies)))
+    raw = tuple(range(10 * len(prob.bodies), n))
+    return Lifted(coefficients[:-1].T, coefficients[-1], E, e, G, g, blocks, raw, tuple(dropped))
+
+
+def _sample(prob: Problem, p0: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Random free parameters of the size of p0's (masses positive)."""
+    size = np.maximum(np.abs(p0), 0.1 * max(float(np.abs(p0).max(initial=0.0)), 1.0))
+    p = p0 + size * rng.uniform(-1.0, 1.0, len(p0))
+    for body in prob.bodies:
+        if isinstance(body.mass, int):
+            p[body.mass] = size[body.mass] * rng.uniform(0.5, 2.0)
+    return p
+
+
+def _constraints(prob: Problem, n: int):
+    """E, e, G, g of (11) and the constraints of the model file's form left out (see the module's docstring)."""
+    eq, ineq, dropped = [], [], []
+    for k, body in enumerate(prob.bodies):
+        _body_constraints(prob, body, 10 * k, n, eq, ineq, dropped)
+    for j, i in enumerate(prob.raw):
+        at = prob.raw_offset + j
+        row = np.zeros(n)
+        row[10 * len(prob.bodies) + j] = 1.0
+        if np.isfinite(prob.lower[at]):
+            ineq.append((-row, -prob.lower[at]))
+        if np.isfinite(prob.upper[at]):
+            ineq.append((row, prob.upper[at]))
+    E = np.array([r for r, _ in eq]).reshape(-1, n)
+    G = np.array([r for r, _ in ineq]).reshape(-1, n)
+    return E, np.array([v for _, v in eq], float), G, np.array([v for _, v in ineq], float), dropped
+
+
+def _body_constraints(prob: Problem, body: BodyPlan, at: int, n: int, eq: list, ineq: list, dropped: list) -> None:
+    """A body's rows of E·x = e and G·x ≤ g (x[at:at+10] = XX XY XZ YY YZ ZZ MX MY MZ M)."""
+    def unit(*pairs: tuple[int, float]) -> np.ndarray:
+        row = np.zeros(n)
+        for i, v in pairs:
+            row[at + i] += v
+        return row
+
+    M, H = 9, (6, 7, 8)
+    k = body.offset
+    if isinstance(body.mass, int):
+        low, high = np.exp(2 * prob.lower[k]), np.exp(2 * prob.upper[k])
+        if low > 0:
+            ineq.append((unit((M, -1.0)), -low))
+        if np.isfinite(high):
+            ineq.append((unit((M, 1.0)), high))
+        k += 1
+    else:
+        eq.append((unit((M, 1.0)), float(body.mass)))
+    for axis in range(3):
+        if isinstance(body.com[axis], float):  # h = c·m
+            eq.append((unit((H[axis], 1.0), (M, -body.com[axis])), 0.0))
+            continue
+        low, high = prob.lower[k], prob.upper[k]
+        if np.isfinite(low):  # l·m ≤ h
+            ineq.append((unit((H[axis], -1.0), (M, low)), 0.0))
+        if np.isfinite(high):
+            ineq.append((unit((H[axis], 1.0), (M, -high)), 0.0))
+        k += 1
+    constant_com = [isinstance(s, float) for s in body.com]
+    if not body.free_inertia:  # a constant inertia: I_O = I_c + m·(cᵀc·1 − c·cᵀ), affine in m where c is constant
+        if not all(constant_com):
+            dropped.append(f"{body.name}: constant inertia about a free centre of mass")
+            return
+        c = np.array(body.com, float)
+        _, _, Ic = _body_values(body, np.zeros(len(prob.free)))
+        shift = c @ c * np.eye(3) - np.outer(c, c)
+        for index, key in enumerate(INERTIA_KEYS):
+            i, j = AXES[key]
+            eq.append((unit((index, 1.0), (M, -shift[i, j])), Ic[i, j]))
+        return
+    for key in ("xy", "xz", "yz"):
+        if isinstance(body.inertia[INERTIA_KEYS.index(key)], int):
+            continue
+        i, j = AXES[key]  # I_c,ij = 0: I_O,ij = −m·c_i·c_j = −c_i·h_j with c_i constant
+        if constant_com[i] or constant_com[j]:
+            ci, hj = (body.com[i], H[j]) if constant_com[i] else (body.com[j], H[i])
+            eq.append((unit((INERTIA_KEYS.index(key), 1.0), (hj, ci)), 0.0))
+        else:
+            dropped.append(f"{body.name}: I{key} = 0 about a free centre of mass")
+
+
+def pseudo_rows(block: tuple[int, ...], n: int) -> np.ndarray:
+    """The linear map x ↦ svec(J(x)) of (10) for one body (10 × n, Clarabel's order :data:`PSD_ORDER`):
+    Σ = ½·tr(I_O)·1 − I_O, i.e. Σ_xx = ½(−XX + YY + ZZ), Σ_xy = −XY, …; J's last column (h, m)."""
+    XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = block
+    entries = {(0, 0): {XX: -0.5, YY: 0.5, ZZ: 0.5}, (1, 1): {XX: 0.5, YY: -0.5, ZZ: 0.5},
+               (2, 2): {XX: 0.5, YY: 0.5, ZZ: -0.5}, (0, 1): {XY: -1.0}, (0, 2): {XZ: -1.0}, (1, 2): {YZ: -1.0},
+               (0, 3): {MX: 1.0}, (1, 3): {MY: 1.0}, (2, 3): {MZ: 1.0}, (3, 3): {M: 1.0}}
+    out = np.zeros((10, n))
+    for row, (i, j) in enumerate(PSD_ORDER):
+        for column, value in entries[(i, j)].items():
+            out[row, column] = value * (1.0 if i == j else SQRT2)
+    return out
+
+
+def pseudo_matrix(x: np.ndarray, block: tuple[int, ...]) -> np.ndarray:
+    """J of (10) at x for one body."""
+    v = pseudo_rows(block, len(x)) @ x
+    J = np.zeros((4, 4))
+    for value, (i, j) in zip(v, PSD_ORDER):
+        J[i, j] = J[j, i] = value / (1.0 if i == j else SQRT2)
+    return J
+
+
+@dataclass(frozen=True)
+class ConicSolution:
+    """What :func:`solve` found: x, the costs ‖R·β − z‖² of its primal point and of the dual's lower bound, the
+    solver's status, its iterations and time."""
+
+    x: np.ndarray
+    cost: float
+    lower_bound: float
+    status: str
+    iterations: int
+    seconds: float
+
+    @property
+    def solved(self) -> bool:
+        return self.status == "Solved"
+
+
+def solve(lifted: Lifted, A: np.ndarray, z: np.ndarray, typical: np.ndarray) -> ConicSolution:
+    """(11) with Clarabel, in the scaled variables u = x/typical and the scaled residual r = (A·T·x − d)/‖d‖
+    (d = z − A·t₀, A = R·K): min ½‖r‖² subject to the zero cone (the residual's definition, E·x = e), the
+    nonnegative cone (g − G·x) and one 4×4 PSD cone a body (J_b scaled by its size).
+
+    Returns the primal point and both objectives as costs ‖A·θ − z‖² (the dual's is a lower bound of (11))."""
+    import clarabel
+    import scipy.sparse as sparse
+
+    n, b = lifted.size, len(z)
+    D = np.asarray(typical, float)
+    d = z - A @ lifted.t0
+    scale = max(float(np.linalg.norm(d)), 1e-300)
+    AT = A @ lifted.T * D / scale
+    rows, rhs, cones = [np.hstack([AT, -np.eye(b)])], [d / scale], []
+    eq_scale = np.maximum(np.abs(lifted.E * D).max(axis=1, initial=0.0), 1e-300)[:, None] if len(lifted.e) else None
+    if len(lifted.e):
+        rows.append(np.hstack([lifted.E * D / eq_scale, np.zeros((len(lifted.e), b))]))
+        rhs.append(lifted.e / eq_scale[:, 0])
+    cones.append(clarabel.ZeroConeT(b + len(lifted.e)))
+    if len(lifted.g):
+        g_scale = np.maximum(np.abs(lifted.G * D).max(axis=1, initial=0.0), 1e-300)[:, None]
+        rows.append(np.hstack([lifted.G * D / g_scale, np.zeros((len(lifted.g), b))]))
+        rhs.append(lifted.g / g_scale[:, 0])
+        cones.append(clarabel.NonnegativeConeT(len(lifted.g)))
+    for block in lifted.blocks:
+        J = pseudo_rows(block, n) * D
+        size = max(float(np.abs(J).max()), 1e-300)
+        rows.append(np.hstack([-J / size, np.zeros((10, b))]))
+        rhs.append(np.zeros(10))
+        cones.append(clarabel.PSDTriangleConeT(4))
+    P = sparse.csc_matrix(sparse.block_diag([sparse.csc_matrix((n, n)), sparse.identity(b)]))
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    solver = clarabel.DefaultSolver(P, np.zeros(n + b), sparse.csc_matrix(np.vstack(rows)), np.concatenate(rhs),
+                                    cones, settings)
+    out: Any = solver.solve()
+    x = D * np.array(out.x[:n])
+    r = A @ (lifted.T @ x + lifted.t0) - z
+    return ConicSolution(x, float(r @ r), 2.0 * scale**2 * float(out.obj_val_dual), str(out.status),
+                         int(out.iterations), float(out.solve_time))
+
+
+def polish(lifted: Lifted, A: np.ndarray, z: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """x moved to the exact optimum of (11) on the face of the cones it lies on, where that stays feasible.
+
+    An interior-point answer is optimal to the solver's tolerance only (about 1e-8 of the cost, so about 1e-4
+    in β where the least squares are already consistent). On the face — each body's J = V·S·Vᵀ with V the
+    eigenvectors of J's eigenvalues above :data:`FACE_TOLERANCE` of its largest, S ⪰ 0 free, the active
+    bounds held — (11) is a least-squares problem with linear equalities, solved exactly (the minimum-norm
+    step from x). The step is kept only if every J stays positive semidefinite, the bounds hold and the cost
+    does not rise."""
+    F, f0 = _face(lifted, x)
+    rows, rhs = [lifted.E @ F], [lifted.e - lifted.E @ f0]
+    if len(lifted.g):
+        active = lifted.g - lifted.G @ x <= FACE_TOLERANCE * np.maximum(np.abs(lifted.g), np.abs(lifted.G @ x) + 1e-300)
+        rows.append(lifted.G[active] @ F)
+        rhs.append(lifted.g[active] - lifted.G[active] @ f0)
+    C, c = np.vstack(rows), np.concatenate(rhs)
+    w0 = np.linalg.lstsq(F, x - f0, rcond=None)[0]
+    M = A @ lifted.T @ F
+    target = z - A @ (lifted.T @ f0 + lifted.t0)
+    null = _null_space(C) if C.size else np.eye(F.shape[1])
+    w_particular = w0 + (np.linalg.lstsq(C, c - C @ w0, rcond=None)[0] if C.size else 0.0)
+    step = np.linalg.lstsq(M @ null, target - M @ w_particular, rcond=None)[0]
+    candidate = F @ (w_particular + null @ step) + f0
+    return candidate if _better(lifted, A, z, x, candidate) else x
+
+
+def _face(lifted: Lifted, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """x = F·w + f0 on the face of the PSD cones at x: each body's ten entries as the image of the symmetric
+    r×r matrices S under S ↦ π(V·S·Vᵀ) (V: J's eigenvectors of the eigenvalues kept), the others free."""
+    n = lifted.size
+    columns, f0 = [], np.zeros(n)
+    for block in lifted.blocks:
+        J = pseudo_matrix(x, block)
+        lam, V = np.linalg.eigh(J)
+        V = V[:, lam > FACE_TOLERANCE * max(float(lam[-1]), 1e-300)]
+        for i in range(V.shape[1]):
+            for j in range(i, V.shape[1]):
+                E = np.outer(V[:, i], V[:, j])
+                columns.append(_standard_of_pseudo(0.5 * (E + E.T), block, n))
+    for i in lifted.raw:
+        column = np.zeros(n)
+        column[i] = 1.0
+        columns.append(column)
+    return np.array(columns).reshape(-1, n).T, f0
+
+
+def _standard_of_pseudo(J: np.ndarray, block: tuple[int, ...], n: int) -> np.ndarray:
+    """The standard parameters (at ``block`` of an n-vector) of a pseudo-inertia J: I_O = tr(Σ)·1 − Σ,
+    h = J[:3, 3], m = J[3, 3] (the inverse of (10))."""
+    sigma = J[:3, :3]
+    IO = np.trace(sigma) * np.eye(3) - sigma
+    out = np.zeros(n)
+    out[list(block)] = [IO[0, 0], IO[0, 1], IO[0, 2], IO[1, 1], IO[1, 2], IO[2, 2], *J[:3, 3], J[3, 3]]
+    return out
+
+
+def _null_space(C: np.ndarray) -> np.ndarray:
+    """An orthonormal basis of C's null space (SVD, rank to 1e-10 of the largest singular value)."""
+    _, s, Vt = np.linalg.svd(C)
+    rank = int(np.sum(s > 1e-10 * s.max(initial=0.0)))
+    return Vt[rank:].T
+
+
+def _better(lifted: Lifted, A: np.ndarray, z: np.ndarray, x: np.ndarray, candidate: np.ndarray) -> bool:
+    """Whether ``candidate`` is feasible (every J ⪰ 0 to 1e-12 of its size, the bounds and equalities to
+    1e-9) and costs no more than x."""
+    for block in lifted.blocks:
+        lam = np.linalg.eigvalsh(pseudo_matrix(candidate, block))
+        if lam[0] < -1e-12 * max(float(np.abs(lam).max()), 1e-300):
+            return False
+    size = max(float(np.abs(candidate).max(initial=0.0)), 1e-300)
+    if len(lifted.g) and np.any(lifted.G @ candidate - lifted.g > 1e-9 * size):
+        return False
+    if len(lifted.e) and np.any(np.abs(lifted.E @ candidate - lifted.e) > 1e-9 * size):
+        return False
+
+    def cost(v: np.ndarray) -> float:
+        r = A @ (lifted.T @ v + lifted.t0) - z
+        return float(r @ r)
+
+    return cost(candidate) <= cost(x)
