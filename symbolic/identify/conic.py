@@ -42,6 +42,9 @@ SAMPLES_EXTRA = 12
 AFFINE_TOLERANCE = 1e-9
 """θ is taken as affine in x when the map fitted on random samples reproduces fresh samples to this
 fraction of their size."""
+DUAL_TOLERANCE = 1e-6
+"""A dual bound (:func:`dual_bound`) is certified when what its point's infeasibility may take from it is
+below this fraction of it."""
 FACE_TOLERANCE = 1e-7
 """An eigenvalue of a body's J below this fraction of its largest is taken as zero by :func:`polish`."""
 SQRT2 = np.sqrt(2.0)
@@ -261,47 +264,184 @@ class ConicSolution:
         return self.status == "Solved"
 
 
-def solve(lifted: Lifted, A: np.ndarray, z: np.ndarray, typical: np.ndarray) -> ConicSolution:
-    """(11) with Clarabel, in the scaled variables u = x/typical and the scaled residual r = (A·T·x − d)/‖d‖
-    (d = z − A·t₀, A = R·K): min ½‖r‖² subject to the zero cone (the residual's definition, E·x = e), the
-    nonnegative cone (g − G·x) and one 4×4 PSD cone a body (J_b scaled by its size).
+@dataclass(frozen=True, eq=False)
+class _Scaled:
+    """(11) in the solver's units: x = D·u; the residual M·u − d (M = A·T·D/‖d‖, d = (z − A·t₀)/‖d‖); each body's
+    J in the congruent units S·J·S, S = diag(1/ℓ, 1/ℓ, 1/ℓ, 1)/√μ (its rows ``cones``); E, G row-normalised."""
 
-    Returns the primal point and both objectives as costs ‖A·θ − z‖² (the dual's is a lower bound of (11))."""
+    D: np.ndarray
+    M: np.ndarray
+    d: np.ndarray
+    norm: float
+    cones: tuple[np.ndarray, ...]
+    E: np.ndarray
+    e: np.ndarray
+    G: np.ndarray
+    g: np.ndarray
+
+
+def _scaled(lifted: Lifted, A: np.ndarray, z: np.ndarray, sizes: np.ndarray) -> _Scaled:
+    """:class:`_Scaled` for bodies of masses μ and lengths ℓ ``sizes[k] = (μ, ℓ)`` (the other variables by
+    their own sizes, ``sizes[-1]``): the units in which each body's J has entries of order 1."""
+    n = lifted.size
+    D = np.array(sizes[-1], float)
+    weights = []
+    for block, (mu, ell) in zip(lifted.blocks, sizes[:-1]):
+        D[list(block)] = [ell * ell * mu] * 6 + [ell * mu] * 3 + [mu]
+        weights.append(np.array([1 / (ell * ell * mu) if j < 3 else (1 / (ell * mu) if i < 3 else 1 / mu)
+                                 for i, j in PSD_ORDER]))
+    d = z - A @ lifted.t0
+    norm = max(float(np.linalg.norm(d)), 1e-300)
+    cones = tuple(pseudo_rows(block, n) * D * w[:, None] for block, w in zip(lifted.blocks, weights))
+
+    def normalised(rows: np.ndarray, rhs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        size = np.maximum(np.abs(rows * D).max(axis=1, initial=0.0), 1e-300) if len(rhs) else np.ones(0)
+        return (rows * D) / size[:, None], rhs / size
+
+    E, e = normalised(lifted.E, lifted.e)
+    G, g = normalised(lifted.G, lifted.g)
+    return _Scaled(D, A @ lifted.T * D / norm, d / norm, norm, cones, E, e, G, g)
+
+
+def body_sizes(lifted: Lifted, x0: np.ndarray) -> list:
+    """(μ, ℓ) of each body at x0 — its mass (or, where 0, the mean of the others'), and its radius of gyration
+    √(tr Σ/m) (at least 1e-3 of the largest) — and the sizes of the other variables (|x0|, at least 1e-3 of
+    the largest); the units of :func:`_scaled`."""
+    masses = np.array([abs(x0[block[9]]) for block in lifted.blocks])
+    fallback = float(masses[masses > 0].mean()) if np.any(masses > 0) else 1.0
+    out = []
+    for block, mass in zip(lifted.blocks, masses):
+        mu = mass if mass > 0 else fallback
+        trace = max(float(np.trace(pseudo_matrix(x0, block)[:3, :3])), 0.0)
+        out.append((mu, np.sqrt(trace / mu)))
+    lengths = np.array([ell for _, ell in out] + [0.0])
+    out = [(mu, max(ell, 1e-3 * float(lengths.max()), 1e-6)) for mu, ell in out]
+    raw = np.abs(x0)
+    out.append(np.maximum(raw, 1e-3 * max(float(raw.max(initial=0.0)), 1e-12)))
+    return out
+
+
+def _settings(tight: bool = False):
+    """Clarabel's settings, quiet; ``tight``: its tolerances at 1e-12 (the dual of :func:`dual_bound`, whose
+    point's rounding is multiplied by the size of the primal answer)."""
+    import clarabel
+
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    if tight:
+        settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-12
+        settings.tol_ktratio = 1e-10
+    return settings
+
+
+def solve(lifted: Lifted, A: np.ndarray, z: np.ndarray, sizes: list) -> ConicSolution:
+    """The primal of (11) with Clarabel: min ½‖r‖² over (u, r) subject to the zero cone (r = M·u − d,
+    E·u = e), the nonnegative cone (g − G·u) and one 4×4 PSD cone a body (in the units of :func:`_scaled`).
+
+    Returns x = D·u, its cost ‖A·θ − z‖², and Clarabel's dual objective as a cost (a bound only to the
+    solver's tolerance; :func:`dual_bound` gives one checked independently)."""
     import clarabel
     import scipy.sparse as sparse
 
+    sc = _scaled(lifted, A, z, sizes)
     n, b = lifted.size, len(z)
-    D = np.asarray(typical, float)
-    d = z - A @ lifted.t0
-    scale = max(float(np.linalg.norm(d)), 1e-300)
-    AT = A @ lifted.T * D / scale
-    rows, rhs, cones = [np.hstack([AT, -np.eye(b)])], [d / scale], []
-    eq_scale = np.maximum(np.abs(lifted.E * D).max(axis=1, initial=0.0), 1e-300)[:, None] if len(lifted.e) else None
-    if len(lifted.e):
-        rows.append(np.hstack([lifted.E * D / eq_scale, np.zeros((len(lifted.e), b))]))
-        rhs.append(lifted.e / eq_scale[:, 0])
-    cones.append(clarabel.ZeroConeT(b + len(lifted.e)))
-    if len(lifted.g):
-        g_scale = np.maximum(np.abs(lifted.G * D).max(axis=1, initial=0.0), 1e-300)[:, None]
-        rows.append(np.hstack([lifted.G * D / g_scale, np.zeros((len(lifted.g), b))]))
-        rhs.append(lifted.g / g_scale[:, 0])
-        cones.append(clarabel.NonnegativeConeT(len(lifted.g)))
-    for block in lifted.blocks:
-        J = pseudo_rows(block, n) * D
-        size = max(float(np.abs(J).max()), 1e-300)
-        rows.append(np.hstack([-J / size, np.zeros((10, b))]))
+    rows = [np.hstack([sc.M, -np.eye(b)]), np.hstack([sc.E, np.zeros((len(sc.e), b))])]
+    rhs, cones = [sc.d, sc.e], [clarabel.ZeroConeT(b + len(sc.e))]
+    if len(sc.g):
+        rows.append(np.hstack([sc.G, np.zeros((len(sc.g), b))]))
+        rhs.append(sc.g)
+        cones.append(clarabel.NonnegativeConeT(len(sc.g)))
+    for J in sc.cones:
+        rows.append(np.hstack([-J, np.zeros((10, b))]))
         rhs.append(np.zeros(10))
         cones.append(clarabel.PSDTriangleConeT(4))
     P = sparse.csc_matrix(sparse.block_diag([sparse.csc_matrix((n, n)), sparse.identity(b)]))
-    settings = clarabel.DefaultSettings()
-    settings.verbose = False
-    solver = clarabel.DefaultSolver(P, np.zeros(n + b), sparse.csc_matrix(np.vstack(rows)), np.concatenate(rhs),
-                                    cones, settings)
-    out: Any = solver.solve()
-    x = D * np.array(out.x[:n])
+    out: Any = clarabel.DefaultSolver(P, np.zeros(n + b), sparse.csc_matrix(np.vstack(rows)), np.concatenate(rhs),
+                                      cones, _settings()).solve()
+    x = sc.D * np.array(out.x[:n])
     r = A @ (lifted.T @ x + lifted.t0) - z
-    return ConicSolution(x, float(r @ r), 2.0 * scale**2 * float(out.obj_val_dual), str(out.status),
+    return ConicSolution(x, float(r @ r), 2.0 * sc.norm**2 * float(out.obj_val_dual), str(out.status),
                          int(out.iterations), float(out.solve_time))
+
+
+@dataclass(frozen=True)
+class DualBound:
+    """A lower bound of (11) checked in NumPy from a dual point (:func:`dual_bound`): ``value`` and
+    ``error`` (what the point's infeasibility may take from it) as costs ‖A·θ − z‖², the solver's status,
+    iterations and time."""
+
+    value: float
+    error: float
+    status: str
+    iterations: int
+    seconds: float
+
+
+def dual_bound(lifted: Lifted, A: np.ndarray, z: np.ndarray, sizes: list, x: np.ndarray) -> DualBound:
+    """The Lagrange dual of (11), solved with Clarabel and its bound recomputed in NumPy.
+
+    With multipliers Z_b ⪰ 0 (the bodies' J), ν (E·x = e) and λ ≥ 0 (G·x ≤ g), minimising the Lagrangian
+    ‖M·x − d‖² − Σ⟨Z_b, J_b(x)⟩ + νᵀ(E·x − e) + λᵀ(G·x − g) over x is finite exactly when
+    Σ J_b*(Z_b) − Eᵀν − Gᵀλ = 2·Mᵀs for some s, and is then −‖s‖² − 2·sᵀd − νᵀe − λᵀg (Boyd & Vandenberghe,
+    Convex Optimization, §5.2; the dual of Wensing et al.'s SDP). Every such point bounds (11) from below
+    (weak duality), whether or not the primal optimum is attained (where the data leave point masses on the
+    first joints' axes unseen, it is approached only as those masses grow without bound, and a primal
+    interior-point method's own dual estimate is off by its residual times their size). The dual's optimum is
+    unique in s and bounded. Its bound is recomputed from s alone: Z_b, ν and λ solved from the equality by
+    ``x`` (the primal answer) sizes what the dual point's rounding may cost (:func:`_checked_bound`)."""
+    import clarabel
+    import scipy.sparse as sparse
+
+    sc = _scaled(lifted, A, z, sizes)
+    n, b, nb, ne, ng = lifted.size, len(z), len(sc.cones), len(sc.e), len(sc.g)
+    Jt = np.hstack([J.T for J in sc.cones]) if nb else np.zeros((n, 0))
+    equality = np.hstack([Jt, -sc.E.T, -sc.G.T, -2.0 * sc.M.T])  # variables [ζ_b…, ν, λ, s]
+    size = equality.shape[1]
+    rows, rhs, cones = [equality], [np.zeros(n)], [clarabel.ZeroConeT(n)]
+    if ng:
+        rows.append(np.hstack([np.zeros((ng, 10 * nb + ne)), -np.eye(ng), np.zeros((ng, b))]))
+        rhs.append(np.zeros(ng))
+        cones.append(clarabel.NonnegativeConeT(ng))
+    for k in range(nb):
+        block = np.zeros((10, size))
+        block[:, 10 * k:10 * k + 10] = -np.eye(10)
+        rows.append(block)
+        rhs.append(np.zeros(10))
+        cones.append(clarabel.PSDTriangleConeT(4))
+    P = sparse.csc_matrix(sparse.block_diag([sparse.csc_matrix((size - b, size - b)), 2.0 * sparse.identity(b)]))
+    q = np.concatenate([np.zeros(10 * nb), sc.e, sc.g, 2.0 * sc.d])
+    out: Any = clarabel.DefaultSolver(P, q, sparse.csc_matrix(np.vstack(rows)), np.concatenate(rhs), cones,
+                                      _settings(tight=True)).solve()
+    s = np.array(out.x[size - b:])
+    return _checked_bound(sc, Jt, s, out, x)
+
+
+def _checked_bound(sc: _Scaled, Jt: np.ndarray, s: np.ndarray, out: Any, x: np.ndarray) -> DualBound:
+    """The dual bound at the solver's point, recomputed (λ clipped at 0): −‖s‖² − 2·sᵀd − νᵀe − λᵀg as a cost,
+    and what the point's infeasibility could cost at the primal point x (:func:`solve`'s): Σ_b Σ_{λ_i(Z_b) < 0} |λ_i|·w_iᵀ·J_b(x)·w_i
+    + |(Σ J_b*(Z_b) − Eᵀν − Gᵀλ − 2Mᵀs)ᵀ·x|, as a cost (weak duality holds exactly for a feasible
+    dual point; this is what rounding, or a solver's tolerance, may take from it near x)."""
+    nb, ne = Jt.shape[1] // 10, len(sc.e)
+    v = np.array(out.x[:Jt.shape[1] + ne + len(sc.g)])
+    nu, lam = v[10 * nb:10 * nb + ne], np.maximum(v[10 * nb + ne:], 0.0)
+    v = np.concatenate([v[:10 * nb], nu, lam])
+    u = x / sc.D
+    residual = np.hstack([Jt, -sc.E.T, -sc.G.T]) @ v - 2.0 * sc.M.T @ s
+    error = abs(float(residual @ u))
+    for k, J in enumerate(sc.cones):  # ⟨Z, J⟩ ≥ Σ_{λ_i < 0} λ_i·w_iᵀJw_i for J ⪰ 0 (Z = Σ λ_i·w_i·w_iᵀ)
+        lam_z, w = np.linalg.eigh(_matrix(v[10 * k:10 * k + 10]))
+        extent = np.einsum("ji,jk,ki->i", w, _matrix(J @ u), w)
+        error += float(np.sum(np.maximum(-lam_z, 0.0) * np.maximum(extent, 0.0)))
+    value = -float(s @ s) - 2.0 * float(s @ sc.d) - float(nu @ sc.e) - float(lam @ sc.g)
+    return DualBound(sc.norm**2 * value, sc.norm**2 * error, str(out.status), int(out.iterations), float(out.solve_time))
+
+
+def _matrix(v: np.ndarray) -> np.ndarray:
+    """The symmetric 4×4 matrix of a vector in Clarabel's order (:data:`PSD_ORDER`)."""
+    out = np.zeros((4, 4))
+    for value, (i, j) in zip(v, PSD_ORDER):
+        out[i, j] = out[j, i] = value / (1.0 if i == j else SQRT2)
+    return out
 
 
 def polish(lifted: Lifted, A: np.ndarray, z: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -385,3 +525,58 @@ def _better(lifted: Lifted, A: np.ndarray, z: np.ndarray, x: np.ndarray, candida
         return float(r @ r)
 
     return cost(candidate) <= cost(x)
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """How far the written parameters are from the global optimum, as the convex form certifies it.
+
+    ``cost`` is the written parameters' ‖y_w − W_w·β‖² over all weighted rows (‖R·β − z‖² + ρ², (1)),
+    ``lower_bound`` the same for the dual bound of (11) (:func:`dual_bound`: no consistent parameters cost
+    less, weak duality; where (11) is a relaxation, ``exact`` is False and ``dropped`` names what it leaves
+    out), ``duality_gap`` the primal solve's cost minus that bound relative to the bound; ``dual_error`` what the
+    dual point's rounding may take from the bound, relative to it (:func:`_checked_bound`).
+    """
+
+    solver: str
+    status: str
+    dual_status: str
+    cost: float
+    lower_bound: float
+    duality_gap: float
+    dual_error: float
+    exact: bool
+    dropped: tuple[str, ...]
+    iterations: int
+    seconds: float
+
+    @property
+    def ratio(self) -> float:
+        """cost / lower bound (≥ 1 up to the dual point's rounding)."""
+        return self.cost / self.lower_bound if self.lower_bound > 0 else (1.0 if self.cost <= 0 else float("inf"))
+
+    @property
+    def certified(self) -> bool:
+        """Both solves ended (solved, or solved to Clarabel's reduced tolerances) and the dual point's rounding
+        may take less than :data:`DUAL_TOLERANCE` of the bound."""
+        ended = ("Solved", "AlmostSolved")
+        return self.status in ended and self.dual_status in ended and self.dual_error <= DUAL_TOLERANCE
+
+    @classmethod
+    def of(cls, solved: ConicSolution, bound: DualBound, cost: float, rho2: float, lifted: Lifted) -> Certificate:
+        """From :func:`solve`'s and :func:`dual_bound`'s answers, the written parameters' ‖R·β − z‖² and ρ² of (1)."""
+        import clarabel
+
+        gap = (solved.cost - bound.value) / max(bound.value + rho2, 1e-300)
+        lower = bound.value + rho2
+        return cls(f"clarabel {clarabel.__version__}", solved.status, bound.status, cost + rho2, lower, gap,
+                   bound.error / max(lower, 1e-300), lifted.exact, lifted.dropped,
+                   solved.iterations + bound.iterations, solved.seconds + bound.seconds)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"solver": self.solver, "status": self.status, "dual_status": self.dual_status, "cost": self.cost,
+                "lower_bound": self.lower_bound, "cost_ratio": self.ratio,
+                "relative_error_ratio": float(np.sqrt(self.ratio)), "duality_gap": self.duality_gap,
+                "dual_error": self.dual_error,
+                "certified": self.certified, "exact": self.exact, "relaxed": list(self.dropped),
+                "iterations": self.iterations, "seconds": self.seconds}

@@ -58,6 +58,10 @@ GRADIENT_TOLERANCE = 1e-6
 """The second pass ends when the gradient of the cost in its scaled coordinates is below this times σ²
 (σ² = ρ²/(rows − b), the residual variance per row): moving any coordinate by its typical size would change
 χ² by about 1e-6 at most. With noise-free data (σ² = 0) it runs until the trust region falls below rounding."""
+CERTIFIED_WITHIN = 1e-3
+"""The fit has converged when its cost ‖y_w − W_w·β‖² (all weighted rows) is within this fraction of the
+lower bound the convex form certifies (:func:`symbolic.identify.conic.dual_bound`): within 0.1 % of the
+global optimum (issue 38 §3; measured: bench/results/consistent.md)."""
 START_MARGIN = 1e-3
 """A start that is not strictly feasible is moved inside by this fraction of the body's scale."""
 
@@ -289,7 +293,7 @@ class BodyPlan:
         diagonal = np.array([float(i == j) for _, (i, j) in pairs])
         return rows, cols, slots, at, diagonal
 
-    def start(self, p: np.ndarray, floor_mass: float, floor_inertia: float) -> np.ndarray:
+    def start(self, p: np.ndarray, floor_mass: float, floor_inertia: float, margin: float = START_MARGIN) -> np.ndarray:
         """φ of this body at parameters ``p`` (its constants as planned), moved inside the feasible set
         where p is not (a mass below ``floor_mass`` is raised to it; Σ_c + δ·1 keeps the zero pattern)."""
         out = []
@@ -303,7 +307,7 @@ class BodyPlan:
                 Ic[i, j] = Ic[j, i] = p[slot] if isinstance(slot, int) else float(slot)
             sigma = 0.5 * np.trace(Ic) * np.eye(3) - Ic
             smallest = np.linalg.eigvalsh(sigma)[0]
-            margin = max(START_MARGIN * np.trace(np.abs(sigma)) / 3, floor_inertia)
+            margin = max(margin * np.trace(np.abs(sigma)) / 3, floor_inertia)
             if smallest < margin:
                 sigma = sigma + (margin - smallest) * np.eye(3)
             A = _upper_cholesky(sigma[np.ix_(self.order, self.order)])
@@ -418,13 +422,15 @@ class ConsistentFit:
     seconds: float
     converged: bool = True
     message: str = ""
+    certificate: Any = None
 
     def to_dict(self) -> dict[str, Any]:
         return {"relative_error": self.relative_error,
                 "least_squares_relative_error": self.least_squares_relative_error,
                 "exact_bodies": list(self.exact), "penalized_bodies": list(self.penalized),
                 "bodies_on_boundary": list(self.boundary), "evaluations": self.evaluations, "seconds": self.seconds,
-                "converged": self.converged}
+                "converged": self.converged, "message": self.message,
+                "certificate": None if self.certificate is None else self.certificate.to_dict()}
 
     def summary(self) -> str:
         lines = [f"consistent fit: relative error {self.relative_error:.4g} % (least squares {self.least_squares_relative_error:.4g} %), "
@@ -474,15 +480,16 @@ class Problem:
             jac[i, self.raw_offset + k] = 1.0
         return p, jac
 
-    def start(self, p: np.ndarray) -> np.ndarray:
-        """φ at parameters ``p`` (nominal values), moved strictly inside the feasible set and the bounds."""
+    def start(self, p: np.ndarray, margin: float = START_MARGIN) -> np.ndarray:
+        """φ at parameters ``p`` (nominal values), moved strictly inside the feasible set (by ``margin`` of each
+        body's scale, masses by ``margin`` of the largest) and the bounds."""
         masses = [p[b.mass] for b in self.bodies if b.free_mass]
-        floor_mass = START_MARGIN * max([abs(m) for m in masses] + [1e-12])
+        floor_mass = margin * max([abs(m) for m in masses] + [1e-12])
         inertias = [abs(p[s]) for b in self.bodies for s in b.inertia if isinstance(s, int)]
-        floor_inertia = 1e-6 * max(inertias + [1e-12])
+        floor_inertia = min(1e-6, margin) * max(inertias + [1e-12])
         phi = np.zeros(self.size)
         for body in self.bodies:
-            phi[body.offset:body.offset + body.size] = body.start(p, floor_mass, floor_inertia)
+            phi[body.offset:body.offset + body.size] = body.start(p, floor_mass, floor_inertia, margin)
         phi[self.raw_offset:] = p[list(self.raw)]
         return _inside(phi, self.lower, self.upper)
 
@@ -717,8 +724,7 @@ def fit(prob: Problem, K: np.ndarray, W: np.ndarray, y: np.ndarray, weights: np.
     started = time.perf_counter()
     summary = Summary.of(W, y, weights)
     with one_blas_thread():
-        solution, evaluations = _solve(prob, summary.R @ K, summary, p0, name, started)
-    p, _ = prob.parameters(solution.x, linear=True)
+        p, evaluations, converged, message, certificate = _estimate(prob, summary.R @ K, summary, p0, name, started)
     beta = K @ prob.theta(p)
     norm = max(float(np.linalg.norm(y)), 1e-300)
     relative = 100.0 * float(np.linalg.norm(y - W @ beta)) / norm
@@ -733,9 +739,104 @@ def fit(prob: Problem, K: np.ndarray, W: np.ndarray, y: np.ndarray, weights: np.
         sigmas={s.name: float(np.sqrt(covariance[k, k])) for k, s in enumerate(prob.free)},
         beta=beta, relative_error=relative, least_squares_relative_error=best,
         exact=tuple(body.name for body in prob.bodies), penalized=tuple(n for n, _ in prob.penalties),
-        boundary=tuple(_on_boundary(prob, p)), evaluations=evaluations, seconds=seconds, converged=solution.converged,
-        message=solution.message)
+        boundary=tuple(_on_boundary(prob, p)), evaluations=evaluations, seconds=seconds, converged=converged,
+        message=message, certificate=certificate)
     return result, p, covariance
+
+
+def _estimate(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, name: str, started: float):
+    """p* of (2), the evaluations (or interior-point iterations) spent, whether it converged, why it stopped,
+    and the certificate of its global optimality (None without one).
+
+    Where θ is affine in the lifted variables of (11) (:func:`symbolic.identify.conic.lift`) the convex form
+    is solved by Clarabel: where (11) is the problem itself (every constraint of the model file's form is
+    convex there: bodies written with their ten parameters, constants, bounds) its polished answer is the
+    answer; where it is a relaxation (constraints dropped), its optimum is a lower bound only, and the
+    log-Cholesky passes (:func:`_solve`) run from its answer (brought into the model's form) and from ``p0``,
+    the better kept. Either way the answer's cost is compared with the certified lower bound: converged when
+    within :data:`CERTIFIED_WITHIN` of it (or, for the log-Cholesky passes, by their own test)."""
+    from symbolic.identify import conic
+
+    lifted = _lifted(prob, p0)
+    if lifted is None:
+        solution, evaluations = _solve(prob, A, summary, p0, name, started)
+        return prob.parameters(solution.x, linear=True)[0], evaluations, solution.converged, solution.message, None
+    sizes = conic.body_sizes(lifted, conic.lifted_point(prob, prob.parameters(prob.linear(prob.start(p0)), linear=True)[0]))
+    solved = conic.solve(lifted, A, summary.z, sizes)
+    bound = conic.dual_bound(lifted, A, summary.z, sizes, solved.x)
+    if lifted.exact:
+        x = conic.polish(lifted, A, summary.z, solved.x)
+        p, evaluations, local = _feasible(prob, conic.parameters_of(prob, x, p0)), solved.iterations, None
+    else:
+        p, evaluations, local = _model_form(prob, A, summary, p0, conic.parameters_of(prob, solved.x, p0), name, started)
+    r = A @ prob.theta(p) - summary.z
+    certificate = conic.Certificate.of(solved, bound, float(r @ r), summary.rho**2, lifted)
+    within = certificate.certified and certificate.ratio <= 1.0 + CERTIFIED_WITHIN
+    what = "optimum" if lifted.exact else "relaxation's optimum"
+    message = (f"×{certificate.ratio:.7f} of the certified lower bound of the {what} ({certificate.solver}: primal "
+               f"{solved.status}, dual {bound.status})")
+    if local is not None:
+        message += f"; log-Cholesky passes: {local.message}"
+    return p, evaluations, within, message, certificate
+
+
+def _lifted(prob: Problem, p0: np.ndarray):
+    """The convex form (11) of ``prob`` (:func:`symbolic.identify.conic.lift`), or None where θ is not affine in
+    its variables or Clarabel cannot be imported (the log-Cholesky passes then run alone)."""
+    try:
+        import clarabel  # noqa: F401  (a run-time dependency; a broken install falls back to the passes)
+    except ImportError:
+        log.warning("clarabel cannot be imported: the consistent fit runs without its certificate")
+        return None
+    from symbolic.identify import conic
+
+    return conic.lift(prob, p0)
+
+
+def _lifted_typical(lifted, x0: np.ndarray) -> np.ndarray:
+    """Sizes of the variables of (11) for the solver's scaling: each body's largest standard parameter (so
+    that a body's scaling keeps its J's shape), the others |x0| or 1e-3 of the largest."""
+    out = np.maximum(np.abs(x0), 1e-3 * max(float(np.abs(x0).max(initial=0.0)), 1e-12))
+    for block in lifted.blocks:
+        out[list(block)] = max(float(np.abs(x0[list(block)]).max()), 1e-12)
+    return out
+
+
+def _model_form(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, relaxed: np.ndarray, name: str,
+                started: float):
+    """The log-Cholesky passes from the relaxation's answer (moved into the model's form by
+    :meth:`Problem.start`) and from ``p0``; the cheaper answer, the evaluations of both, its solution."""
+    best, spent = None, 0
+    for start in (relaxed, p0):
+        solution, evaluations = _solve(prob, A, summary, start, name, started)
+        spent += evaluations
+        p = prob.parameters(solution.x, linear=True)[0]
+        r = A @ prob.theta(p) - summary.z
+        if best is None or float(r @ r) < best[0]:
+            best = (float(r @ r), p, solution)
+    return best[1], spent, best[2]
+
+
+def _feasible(prob: Problem, p: np.ndarray) -> np.ndarray:
+    """p with each body's Σ_c = ½·tr(I_c)·1 − I_c raised to positive semidefinite where the interior-point
+    answer left it a rounding below (Σ_c + δ·1, δ = −λ_min + 1e-15 of J's scale: I_c's diagonal + 2δ, its zero
+    pattern kept) and each free mass at 0 at least: every J of (4) is then ⪰ 0 (J ⪰ 0 ⇔ m ≥ 0, Σ_c ⪰ 0)."""
+    p = np.array(p, float)
+    for body in prob.bodies:
+        if body.free_mass:
+            p[body.mass] = max(p[body.mass], 0.0)
+        if not body.free_inertia:
+            continue
+        Ic = np.zeros((3, 3))
+        for key, slot in zip(INERTIA_KEYS, body.inertia):
+            Ic[AXES[key]] = Ic[AXES[key][::-1]] = p[slot] if isinstance(slot, int) else float(slot)
+        mass = p[body.mass] if body.free_mass else float(body.mass)
+        lam = np.linalg.eigvalsh(0.5 * np.trace(Ic) * np.eye(3) - Ic)
+        scale = max(float(lam[-1]), abs(mass), 1e-300)
+        delta = max(0.0, -float(lam[0])) + 1e-15 * scale if lam[0] < 1e-15 * scale else 0.0
+        for key in ("xx", "yy", "zz"):
+            p[body.inertia[INERTIA_KEYS.index(key)]] += 2.0 * delta
+    return p
 
 
 def _solve(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, name: str, started: float):
