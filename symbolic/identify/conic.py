@@ -42,9 +42,12 @@ SAMPLES_EXTRA = 12
 AFFINE_TOLERANCE = 1e-9
 """θ is taken as affine in x when the map fitted on random samples reproduces fresh samples to this
 fraction of their size."""
-DUAL_TOLERANCE = 1e-6
-"""A dual bound (:func:`dual_bound`) is certified when what its point's infeasibility may take from it is
-below this fraction of it."""
+DUAL_TOLERANCE = 1e-2
+"""A dual bound (:func:`dual_bound`) counts when what its point's infeasibility may take from it is below
+this fraction of it (:attr:`Certificate.guaranteed_ratio` allows for that part)."""
+UNSEEN = 1e-10
+"""A point mass the data see less than this (relative, :func:`_unseen`) is taken as unseen: the data of a
+body's whole frame structurally miss it (rounding), as a mass on the first joint's axis."""
 FACE_TOLERANCE = 1e-7
 """An eigenvalue of a body's J below this fraction of its largest is taken as zero by :func:`polish`."""
 SQRT2 = np.sqrt(2.0)
@@ -384,11 +387,28 @@ def dual_bound(lifted: Lifted, A: np.ndarray, z: np.ndarray, sizes: list, x: np.
     ‖M·x − d‖² − Σ⟨Z_b, J_b(x)⟩ + νᵀ(E·x − e) + λᵀ(G·x − g) over x is finite exactly when
     Σ J_b*(Z_b) − Eᵀν − Gᵀλ = 2·Mᵀs for some s, and is then −‖s‖² − 2·sᵀd − νᵀe − λᵀg (Boyd & Vandenberghe,
     Convex Optimization, §5.2; the dual of Wensing et al.'s SDP). Every such point bounds (11) from below
-    (weak duality), whether or not the primal optimum is attained (where the data leave point masses on the
-    first joints' axes unseen, it is approached only as those masses grow without bound, and a primal
-    interior-point method's own dual estimate is off by its residual times their size). The dual's optimum is
-    unique in s and bounded. Its bound is recomputed from s alone: Z_b, ν and λ solved from the equality by
+    (weak duality), whether or not the primal optimum is attained, and the dual's optimum is unique in s.
+
+    Where the data do not see a point mass w (M·x(w·wᵀ) = 0: a mass on the first joints' axes), the infimum
+    of (11) is approached only as such masses grow without bound, and any rounding of Z_b along w is
+    multiplied by their size. The dual is therefore solved twice: the second time with Z_b·w = 0 imposed for
+    each unseen w (:func:`_unseen`), which every optimal Z_b satisfies (Z_b ⪰ 0 and wᵀZ_b·w = 0) and which,
+    imposed on a nearby w, only restricts the dual (its points stay dual feasible: the bound stays a bound).
     ``x`` (the primal answer) sizes what the dual point's rounding may cost (:func:`_checked_bound`)."""
+    first = _dual(lifted, A, z, sizes, x, ())
+    directions = _unseen(lifted, A, first.Z, sizes)
+    return _dual(lifted, A, z, sizes, x, directions).bound if any(len(w) for w in directions) else first.bound
+
+
+@dataclass(frozen=True, eq=False)
+class _DualSolution:
+    bound: DualBound
+    Z: tuple[np.ndarray, ...]
+
+
+def _dual(lifted: Lifted, A: np.ndarray, z: np.ndarray, sizes: list, x: np.ndarray, unseen) -> _DualSolution:
+    """One solve of the dual (:func:`dual_bound`), with Z_b·w = 0 for the directions ``unseen[b]`` (in the
+    congruent units of :func:`_scaled`, as Z_b is)."""
     import clarabel
     import scipy.sparse as sparse
 
@@ -397,7 +417,13 @@ def dual_bound(lifted: Lifted, A: np.ndarray, z: np.ndarray, sizes: list, x: np.
     Jt = np.hstack([J.T for J in sc.cones]) if nb else np.zeros((n, 0))
     equality = np.hstack([Jt, -sc.E.T, -sc.G.T, -2.0 * sc.M.T])  # variables [ζ_b…, ν, λ, s]
     size = equality.shape[1]
-    rows, rhs, cones = [equality], [np.zeros(n)], [clarabel.ZeroConeT(n)]
+    rows, rhs = [equality], [np.zeros(n)]
+    for k, directions in enumerate(unseen):
+        for w in directions:
+            rows.append(np.hstack([np.zeros((4, 10 * k)), _times(w),
+                                   np.zeros((4, size - 10 * k - 10))]))
+            rhs.append(np.zeros(4))
+    cones = [clarabel.ZeroConeT(sum(len(r) for r in rhs))]
     if ng:
         rows.append(np.hstack([np.zeros((ng, 10 * nb + ne)), -np.eye(ng), np.zeros((ng, b))]))
         rhs.append(np.zeros(ng))
@@ -413,7 +439,38 @@ def dual_bound(lifted: Lifted, A: np.ndarray, z: np.ndarray, sizes: list, x: np.
     out: Any = clarabel.DefaultSolver(P, q, sparse.csc_matrix(np.vstack(rows)), np.concatenate(rhs), cones,
                                       _settings(tight=True)).solve()
     s = np.array(out.x[size - b:])
-    return _checked_bound(sc, Jt, s, out, x)
+    zs = tuple(_matrix(np.array(out.x[10 * k:10 * k + 10])) for k in range(nb))
+    return _DualSolution(_checked_bound(sc, Jt, s, out, x), zs)
+
+
+def _times(w: np.ndarray) -> np.ndarray:
+    """The 4 × 10 matrix of ζ ↦ Z(ζ)·w (Z of Clarabel's vector, :data:`PSD_ORDER`)."""
+    out = np.zeros((4, 10))
+    for k, (i, j) in enumerate(PSD_ORDER):
+        scale = 1.0 if i == j else 1.0 / SQRT2
+        out[i, k] += scale * w[j]
+        if i != j:
+            out[j, k] += scale * w[i]
+    return out
+
+
+def _unseen(lifted: Lifted, A: np.ndarray, Z: tuple[np.ndarray, ...], sizes: list) -> tuple[tuple[np.ndarray, ...], ...]:
+    """For each body, the eigenvectors w of Z_b (congruent units of :func:`_scaled`) of eigenvalues below 1e-6
+    of its largest whose point masses the data do not see: v = S⁻¹·w = √μ·(ℓ·w₁, ℓ·w₂, ℓ·w₃, w₄) in the
+    original units, ‖A·T·x(v·vᵀ)‖ below :data:`UNSEEN` of ‖A·T‖·‖x(v·vᵀ)‖."""
+    AT = A @ lifted.T
+    scale = max(float(np.linalg.norm(AT, 2)), 1e-300)
+    out = []
+    for block, Zb, (mu, ell) in zip(lifted.blocks, Z, sizes):
+        lam, V = np.linalg.eigh(Zb)
+        found = []
+        for i in np.flatnonzero(lam <= 1e-6 * max(float(np.abs(lam).max()), 1e-300)):
+            v = np.sqrt(mu) * V[:, i] * np.array([ell, ell, ell, 1.0])
+            x = _standard_of_pseudo(np.outer(v, v), block, lifted.size)
+            if np.linalg.norm(AT @ x) <= UNSEEN * scale * np.linalg.norm(x):
+                found.append(V[:, i])
+        out.append(tuple(found))
+    return tuple(out)
 
 
 def _checked_bound(sc: _Scaled, Jt: np.ndarray, s: np.ndarray, out: Any, x: np.ndarray) -> DualBound:
@@ -556,11 +613,15 @@ class Certificate:
         return self.cost / self.lower_bound if self.lower_bound > 0 else (1.0 if self.cost <= 0 else float("inf"))
 
     @property
-    def certified(self) -> bool:
-        """Both solves ended (solved, or solved to Clarabel's reduced tolerances) and the dual point's rounding
-        may take less than :data:`DUAL_TOLERANCE` of the bound."""
+    def guaranteed_ratio(self) -> float:
+        """cost / (lower bound less what the dual point's rounding may take from it): the written parameters
+        cost at most this times the global optimum; ∞ where a solve did not end (solved, or solved to
+        Clarabel's reduced tolerances) or the rounding may take more than :data:`DUAL_TOLERANCE` of the bound."""
         ended = ("Solved", "AlmostSolved")
-        return self.status in ended and self.dual_status in ended and self.dual_error <= DUAL_TOLERANCE
+        if self.status not in ended or self.dual_status not in ended or self.dual_error > DUAL_TOLERANCE:
+            return float("inf")
+        lower = self.lower_bound * (1.0 - self.dual_error)
+        return self.cost / lower if lower > 0 else (1.0 if self.cost <= 0 else float("inf"))
 
     @classmethod
     def of(cls, solved: ConicSolution, bound: DualBound, cost: float, rho2: float, lifted: Lifted) -> Certificate:
@@ -577,6 +638,5 @@ class Certificate:
         return {"solver": self.solver, "status": self.status, "dual_status": self.dual_status, "cost": self.cost,
                 "lower_bound": self.lower_bound, "cost_ratio": self.ratio,
                 "relative_error_ratio": float(np.sqrt(self.ratio)), "duality_gap": self.duality_gap,
-                "dual_error": self.dual_error,
-                "certified": self.certified, "exact": self.exact, "relaxed": list(self.dropped),
+                "dual_error": self.dual_error, "guaranteed_cost_ratio": self.guaranteed_ratio, "exact": self.exact, "relaxed": list(self.dropped),
                 "iterations": self.iterations, "seconds": self.seconds}

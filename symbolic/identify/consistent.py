@@ -60,8 +60,8 @@ GRADIENT_TOLERANCE = 1e-6
 χ² by about 1e-6 at most. With noise-free data (σ² = 0) it runs until the trust region falls below rounding."""
 CERTIFIED_WITHIN = 1e-3
 """The fit has converged when its cost ‖y_w − W_w·β‖² (all weighted rows) is within this fraction of the
-lower bound the convex form certifies (:func:`symbolic.identify.conic.dual_bound`): within 0.1 % of the
-global optimum (issue 38 §3; measured: bench/results/consistent.md)."""
+lower bound the convex form certifies (:attr:`symbolic.identify.conic.Certificate.guaranteed_ratio`):
+within 0.1 % of the global optimum (issue 38 §3; measured: bench/results/consistent.md)."""
 START_MARGIN = 1e-3
 """A start that is not strictly feasible is moved inside by this fraction of the body's scale."""
 
@@ -771,10 +771,11 @@ def _estimate(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, na
         p, evaluations, local = _model_form(prob, A, summary, p0, conic.parameters_of(prob, solved.x, p0), name, started)
     r = A @ prob.theta(p) - summary.z
     certificate = conic.Certificate.of(solved, bound, float(r @ r), summary.rho**2, lifted)
-    within = certificate.certified and certificate.ratio <= 1.0 + CERTIFIED_WITHIN
-    what = "optimum" if lifted.exact else "relaxation's optimum"
-    message = (f"×{certificate.ratio:.7f} of the certified lower bound of the {what} ({certificate.solver}: primal "
-               f"{solved.status}, dual {bound.status})")
+    within = certificate.guaranteed_ratio <= 1.0 + CERTIFIED_WITHIN
+    what = "global optimum" if lifted.exact else "global optimum of its convex relaxation"
+    message = (f"cost ×{certificate.ratio:.7f} of the dual lower bound of the {what}, at most "
+               f"×{certificate.guaranteed_ratio:.7f} allowing for the dual point's rounding ({certificate.solver}: "
+               f"primal {solved.status}, dual {bound.status})")
     if local is not None:
         message += f"; log-Cholesky passes: {local.message}"
     return p, evaluations, within, message, certificate
