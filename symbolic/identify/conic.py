@@ -48,8 +48,8 @@ this fraction of it (:attr:`Certificate.guaranteed_ratio` allows for that part).
 UNSEEN = 1e-10
 """A point mass the data see less than this (relative, :func:`_unseen`) is taken as unseen: the data of a
 body's whole frame structurally miss it (rounding), as a mass on the first joint's axis."""
-FACE_TOLERANCE = 1e-7
-"""An eigenvalue of a body's J below this fraction of its largest is taken as zero by :func:`polish`."""
+FACE_TOLERANCES = (1e-10, 1e-8, 1e-6, 1e-4)
+"""Eigenvalues of a body's J below these fractions of its largest are taken as zero by :func:`polish`, in turn."""
 SQRT2 = np.sqrt(2.0)
 PSD_ORDER = [(i, j) for j in range(4) for i in range(j + 1)]
 """Clarabel's vectorization of a symmetric 4×4 matrix: the upper triangle column by column, the entries off
@@ -505,15 +505,25 @@ def polish(lifted: Lifted, A: np.ndarray, z: np.ndarray, x: np.ndarray) -> np.nd
     """x moved to the exact optimum of (11) on the face of the cones it lies on, where that stays feasible.
 
     An interior-point answer is optimal to the solver's tolerance only (about 1e-8 of the cost, so about 1e-4
-    in β where the least squares are already consistent). On the face — each body's J = V·S·Vᵀ with V the
-    eigenvectors of J's eigenvalues above :data:`FACE_TOLERANCE` of its largest, S ⪰ 0 free, the active
-    bounds held — (11) is a least-squares problem with linear equalities, solved exactly (the minimum-norm
-    step from x). The step is kept only if every J stays positive semidefinite, the bounds hold and the cost
-    does not rise."""
-    F, f0 = _face(lifted, x)
+    in β where the least squares are already consistent). On a face — each body's J = V·S·Vᵀ with V the
+    eigenvectors of J's eigenvalues above a fraction of its largest, S free, the active bounds held — (11) is
+    a least-squares problem with linear equalities, solved exactly (the minimum-norm step). The fractions
+    :data:`FACE_TOLERANCES` are tried in turn; a step is kept only if every J stays positive semidefinite,
+    the bounds hold and the cost falls."""
+    best = x
+    for tolerance in FACE_TOLERANCES:
+        candidate = _face_optimum(lifted, A, z, x, tolerance)
+        if candidate is not None and _better(lifted, A, z, best, candidate):
+            best = candidate
+    return best
+
+
+def _face_optimum(lifted: Lifted, A: np.ndarray, z: np.ndarray, x: np.ndarray, tolerance: float) -> np.ndarray | None:
+    """The least-squares optimum of (11) on the face of x at ``tolerance`` (:func:`polish`), or None."""
+    F, f0 = _face(lifted, x, tolerance)
     rows, rhs = [lifted.E @ F], [lifted.e - lifted.E @ f0]
     if len(lifted.g):
-        active = lifted.g - lifted.G @ x <= FACE_TOLERANCE * np.maximum(np.abs(lifted.g), np.abs(lifted.G @ x) + 1e-300)
+        active = lifted.g - lifted.G @ x <= tolerance * np.maximum(np.abs(lifted.g), np.abs(lifted.G @ x) + 1e-300)
         rows.append(lifted.G[active] @ F)
         rhs.append(lifted.g[active] - lifted.G[active] @ f0)
     C, c = np.vstack(rows), np.concatenate(rhs)
@@ -521,13 +531,14 @@ def polish(lifted: Lifted, A: np.ndarray, z: np.ndarray, x: np.ndarray) -> np.nd
     M = A @ lifted.T @ F
     target = z - A @ (lifted.T @ f0 + lifted.t0)
     null = _null_space(C) if C.size else np.eye(F.shape[1])
+    if null.shape[1] == 0:
+        return None
     w_particular = w0 + (np.linalg.lstsq(C, c - C @ w0, rcond=None)[0] if C.size else 0.0)
     step = np.linalg.lstsq(M @ null, target - M @ w_particular, rcond=None)[0]
-    candidate = F @ (w_particular + null @ step) + f0
-    return candidate if _better(lifted, A, z, x, candidate) else x
+    return F @ (w_particular + null @ step) + f0
 
 
-def _face(lifted: Lifted, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _face(lifted: Lifted, x: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
     """x = F·w + f0 on the face of the PSD cones at x: each body's ten entries as the image of the symmetric
     r×r matrices S under S ↦ π(V·S·Vᵀ) (V: J's eigenvectors of the eigenvalues kept), the others free."""
     n = lifted.size
@@ -535,7 +546,7 @@ def _face(lifted: Lifted, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     for block in lifted.blocks:
         J = pseudo_matrix(x, block)
         lam, V = np.linalg.eigh(J)
-        V = V[:, lam > FACE_TOLERANCE * max(float(lam[-1]), 1e-300)]
+        V = V[:, lam > tolerance * max(float(lam[-1]), 1e-300)]
         for i in range(V.shape[1]):
             for j in range(i, V.shape[1]):
                 E = np.outer(V[:, i], V[:, j])

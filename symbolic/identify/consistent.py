@@ -49,6 +49,8 @@ MAX_EVALUATIONS = 500
 """Evaluations of the first pass at most."""
 MAX_ITERATIONS = 200
 """Newton iterations of the second pass at most."""
+POLISH_ITERATIONS = 30
+"""Newton iterations at most after the interior-point solve of the convex form (:func:`_newton_polish`)."""
 STALL_CHI2, STALL_ITERATIONS = 0.01, 10
 """The second pass also stops, unconverged, when χ² = 2·cost/σ² fell by less than STALL_CHI2 over the last
 STALL_ITERATIONS iterations: the cost is then creeping along directions the data barely see, a gain no test
@@ -766,7 +768,8 @@ def _estimate(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, na
     bound = conic.dual_bound(lifted, A, summary.z, sizes, solved.x)
     if lifted.exact:
         x = conic.polish(lifted, A, summary.z, solved.x)
-        p, evaluations, local = _feasible(prob, conic.parameters_of(prob, x, p0)), solved.iterations, None
+        p = _newton_polish(prob, A, summary, _feasible(prob, conic.parameters_of(prob, x, p0)), name, started)
+        p, evaluations, local = _feasible(prob, p), solved.iterations, None
     else:
         p, evaluations, local = _model_form(prob, A, summary, p0, conic.parameters_of(prob, solved.x, p0), name, started)
     r = A @ prob.theta(p) - summary.z
@@ -818,11 +821,52 @@ def _model_form(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, 
     return best[1], spent, best[2]
 
 
+def _newton_polish(prob: Problem, A: np.ndarray, summary: Summary, p: np.ndarray, name: str, started: float) -> np.ndarray:
+    """p, or the answer of at most :data:`POLISH_ITERATIONS` Newton iterations (:func:`_newton`) from it where
+    cheaper: the interior-point answer is optimal to about 1e-8 of the cost; Newton's method in the Cholesky
+    coordinates (8), with the factor's diagonal free in sign (L·Lᵀ is positive semidefinite whatever the signs,
+    so that a body at the boundary, L → 0, is a smooth minimum there), brings it to rounding where the answer
+    is regular."""
+    x1 = prob.linear(prob.start(p, margin=0.0))
+    lower, upper = prob.linear_bounds()
+    lower = np.where(prob.exponents == 1, -np.inf, lower)
+    logs = prob.exponents > 0
+    scale = np.where(logs, np.maximum(np.abs(x1), 1e-3 * float(np.abs(x1[logs]).max(initial=0.0)) + 1e-300),
+                     prob.typical(prob.start(p, margin=0.0)))
+    solution = _newton(prob, A, summary, _inside(x1, lower, upper), lower, upper, scale, 0.0,
+                       _Progress(name, started, summary.norm), POLISH_ITERATIONS)
+    polished = prob.parameters(solution.x, linear=True)[0]
+
+    def cost(q: np.ndarray) -> float:
+        r = A @ prob.theta(q) - summary.z
+        return float(r @ r)
+
+    return polished if cost(polished) < cost(p) else p
+
+
+def _tidy(prob: Problem, p: np.ndarray) -> np.ndarray:
+    """p with each body's free centre-of-mass coordinates and products of inertia below 1e-15 of its size
+    (the largest |c|, and the largest diagonal inertia) set to 0."""
+    for body in prob.bodies:
+        com = [body.com[a] for a in body.free_com]
+        if com:
+            size = max(float(np.abs(p[com]).max()), 0.0)
+            p[com] = np.where(np.abs(p[com]) < max(1e-15 * size, 1e-30), 0.0, p[com])
+        if body.free_inertia:
+            diagonal = [body.inertia[INERTIA_KEYS.index(k)] for k in ("xx", "yy", "zz")]
+            products = [s for k, s in zip(INERTIA_KEYS, body.inertia) if k in ("xy", "xz", "yz") and isinstance(s, int)]
+            size = float(np.abs(p[diagonal]).max())
+            p[products] = np.where(np.abs(p[products]) < max(1e-15 * size, 1e-30), 0.0, p[products])
+    return p
+
+
 def _feasible(prob: Problem, p: np.ndarray) -> np.ndarray:
     """p with each body's Σ_c = ½·tr(I_c)·1 − I_c raised to positive semidefinite where the interior-point
     answer left it a rounding below (Σ_c + δ·1, δ = −λ_min + 1e-15 of J's scale: I_c's diagonal + 2δ, its zero
-    pattern kept) and each free mass at 0 at least: every J of (4) is then ⪰ 0 (J ⪰ 0 ⇔ m ≥ 0, Σ_c ⪰ 0)."""
-    p = np.array(p, float)
+    pattern kept) and each free mass at 0 at least: every J of (4) is then ⪰ 0 (J ⪰ 0 ⇔ m ≥ 0, Σ_c ⪰ 0).
+    Centres of mass and products of inertia below 1e-15 of the body's size (rounding, as 1e-44) are 0 first:
+    the model file writes magnitudes of 1e-30 to 1e30 or 0 (docs/model-format.md)."""
+    p = _tidy(prob, np.array(p, float))
     for body in prob.bodies:
         if body.free_mass:
             p[body.mass] = max(p[body.mass], 0.0)
@@ -897,7 +941,7 @@ class _Progress:
 
 
 def _newton(prob: Problem, A: np.ndarray, summary: Summary, x1: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-            typical: np.ndarray, weight: float, progress: _Progress) -> _Solution:
+            typical: np.ndarray, weight: float, progress: _Progress, iterations: int = MAX_ITERATIONS) -> _Solution:
     """The second pass: Newton's method with a trust region (Nocedal & Wright, Algorithm 4.1; the step of
     :func:`_trust_step`) on F(φ) = ½‖A·θ(p(φ)) − z‖² (+ the penalties) with its exact Hessian
 
@@ -935,8 +979,8 @@ def _newton(prob: Problem, A: np.ndarray, summary: Summary, x1: np.ndarray, lowe
     gtol = max(GRADIENT_TOLERANCE * variance, 1e-300)
     u = coordinates.inverse(x1)
     cost, g, H = parts(u)
-    costs, radius, message, converged = [cost], 1.0, f"{MAX_ITERATIONS} Newton iterations", False
-    for _ in range(MAX_ITERATIONS):
+    costs, radius, message, converged = [cost], 1.0, f"{iterations} Newton iterations", False
+    for _ in range(iterations):
         if np.linalg.norm(g) <= gtol:
             message, converged = "the gradient is below its tolerance", True
             break
