@@ -603,7 +603,8 @@ class Certificate:
     ``lower_bound`` the same for the dual bound of (11) (:func:`dual_bound`: no consistent parameters cost
     less, weak duality; where (11) is a relaxation, ``exact`` is False and ``dropped`` names what it leaves
     out), ``duality_gap`` the primal solve's cost minus that bound relative to the bound; ``dual_error`` what the
-    dual point's rounding may take from the bound, relative to it (:func:`_checked_bound`).
+    dual point's rounding may take from the bound, as a cost (:func:`_checked_bound`); ``floor`` the rounding of
+    the costs themselves (1e-12·‖y_w‖²: below it, noise-free data, cost and bound are both 0).
     """
 
     solver: str
@@ -613,6 +614,7 @@ class Certificate:
     lower_bound: float
     duality_gap: float
     dual_error: float
+    floor: float
     exact: bool
     dropped: tuple[str, ...]
     iterations: int
@@ -629,20 +631,25 @@ class Certificate:
         cost at most this times the global optimum; ∞ where a solve did not end (solved, or solved to
         Clarabel's reduced tolerances) or the rounding may take more than :data:`DUAL_TOLERANCE` of the bound."""
         ended = ("Solved", "AlmostSolved")
-        if self.status not in ended or self.dual_status not in ended or self.dual_error > DUAL_TOLERANCE:
+        if self.status not in ended or self.dual_status not in ended or self.dual_error > DUAL_TOLERANCE * max(
+                self.lower_bound, self.floor):
             return float("inf")
-        lower = self.lower_bound * (1.0 - self.dual_error)
-        return self.cost / lower if lower > 0 else (1.0 if self.cost <= 0 else float("inf"))
+        lower = self.lower_bound - self.dual_error
+        if self.cost - lower <= self.floor:
+            return 1.0
+        return self.cost / lower if lower > 0 else float("inf")
 
     @classmethod
-    def of(cls, solved: ConicSolution, bound: DualBound, cost: float, rho2: float, lifted: Lifted) -> Certificate:
-        """From :func:`solve`'s and :func:`dual_bound`'s answers, the written parameters' ‖R·β − z‖² and ρ² of (1)."""
+    def of(cls, solved: ConicSolution, bound: DualBound, cost: float, rho2: float, norm2: float,
+           lifted: Lifted) -> Certificate:
+        """From :func:`solve`'s and :func:`dual_bound`'s answers, the written parameters' ‖R·β − z‖², ρ² of (1)
+        and ‖y_w‖²."""
         import clarabel
 
         gap = (solved.cost - bound.value) / max(bound.value + rho2, 1e-300)
         lower = bound.value + rho2
         return cls(f"clarabel {clarabel.__version__}", solved.status, bound.status, cost + rho2, lower, gap,
-                   bound.error / max(lower, 1e-300), lifted.exact, lifted.dropped,
+                   bound.error, 1e-12 * norm2, lifted.exact, lifted.dropped,
                    solved.iterations + bound.iterations, solved.seconds + bound.seconds)
 
     def to_dict(self) -> dict[str, Any]:

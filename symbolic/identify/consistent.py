@@ -773,7 +773,7 @@ def _estimate(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, na
     else:
         p, evaluations, local = _model_form(prob, A, summary, p0, conic.parameters_of(prob, solved.x, p0), name, started)
     r = A @ prob.theta(p) - summary.z
-    certificate = conic.Certificate.of(solved, bound, float(r @ r), summary.rho**2, lifted)
+    certificate = conic.Certificate.of(solved, bound, float(r @ r), summary.rho**2, summary.norm**2, lifted)
     within = certificate.guaranteed_ratio <= 1.0 + CERTIFIED_WITHIN
     what = "global optimum" if lifted.exact else "global optimum of its convex relaxation"
     message = (f"cost ×{certificate.ratio:.7f} of the dual lower bound of the {what}, at most "
