@@ -656,5 +656,6 @@ class Certificate:
         return {"solver": self.solver, "status": self.status, "dual_status": self.dual_status, "cost": self.cost,
                 "lower_bound": self.lower_bound, "cost_ratio": self.ratio,
                 "relative_error_ratio": float(np.sqrt(self.ratio)), "duality_gap": self.duality_gap,
-                "dual_error": self.dual_error, "guaranteed_cost_ratio": self.guaranteed_ratio, "exact": self.exact, "relaxed": list(self.dropped),
+                "dual_error": self.dual_error, "guaranteed_cost_ratio": self.guaranteed_ratio, "exact": self.exact,
+                "relaxed": list(self.dropped),
                 "iterations": self.iterations, "seconds": self.seconds}

@@ -437,6 +437,10 @@ class ConsistentFit:
     def summary(self) -> str:
         lines = [f"consistent fit: relative error {self.relative_error:.4g} % (least squares {self.least_squares_relative_error:.4g} %), "
                  f"{self.evaluations} evaluations, {self.seconds:.2f} s"]
+        if self.certificate is not None:
+            c = self.certificate
+            lines.append(f"  global optimum certified by {c.solver} (the convex form{'' if c.exact else ', relaxed'}): "
+                         f"cost ×{c.ratio:.6f} of its lower bound, at most ×{c.guaranteed_ratio:.6f}")
         if not self.converged:
             lines.append(f"  stopped before convergence ({self.message}): what is left to gain lies along directions "
                          "the data barely determine (an optimum on the boundary of consistency, or none at a finite point)")
