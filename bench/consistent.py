@@ -13,7 +13,7 @@ and how far the written model is from the certified global optimum.
   after ``--old-limit`` seconds (the issue measured 31 min 32 s on a 30 s 6-DOF log): the ratio is against it.
 
 Each row also gives the written model's cost ‖y_w − W_w·β‖² over the certified lower bound of the global
-optimum (the Lagrange dual of the convex form, Wensing et al. 2018, solved with Clarabel and recomputed in
+optimum (the Lagrange dual of the convex form, Wensing et al. 2017, solved with Clarabel and recomputed in
 NumPy: symbolic/identify/conic.py), and at most that ratio allowing for the dual point's rounding.
 
 Goals: a 6- or 7-DOF arm in ≤ 10 s whatever the log's length (issue 23); the written model within 1.001× of

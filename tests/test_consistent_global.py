@@ -5,7 +5,7 @@ References kept out of the code under test:
 * a synthetic two-joint spatial arm with a known consistent truth: without noise the fit gives the truth's
   base parameters (1e-8 in the metric of the fit); with it, where the least squares are already consistent,
   the consistent fit is the least squares (1e-9 relative);
-* an independent solve of the same convex problem (Wensing et al. 2018's SDP) in Burer–Monteiro form — each
+* an independent solve of the same convex problem (Wensing et al. 2017's SDP) in Burer–Monteiro form — each
   body's J = L·Lᵀ with L a full 4×4 lower-triangular factor, so that every J is positive semidefinite,
   minimised without constraints by L-BFGS from several starts; for this convex problem with full-size factors
   every local minimum is global (Burer & Monteiro 2005), so the best of the starts bounds the optimum from

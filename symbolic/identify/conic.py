@@ -3,7 +3,9 @@
 In the standard parameters of each body — [XX XY XZ YY YZ ZZ MX MY MZ M] about its frame, which the
 regressor's θ is affine in — physical consistency is a linear matrix inequality (Wensing, Kim & Slotine,
 "Linear matrix inequalities for physically consistent inertial parameter identification: a statistical
-perspective on the mass distribution", IEEE RA-L 3(1), 2018, eq. (9), (12) and Theorem 1):
+perspective on the mass distribution", IEEE RA-L 2(3), 2017, arXiv:1701.04395: the pseudo-inertia of a body
+is positive semidefinite exactly when some mass distribution has its ten parameters; their equation numbers
+are not quoted here, not having been checked against the published text):
 
     J(π) = [[½·tr(I_O)·1 − I_O, h], [hᵀ, m]] ⪰ 0                                                    (10)
 
@@ -11,7 +13,7 @@ so that with the summary (1) of :mod:`symbolic.identify.consistent` the fit
 
     min_x ‖R·K·(T·x + t₀) − z‖²  s.t.  J_b(x) ⪰ 0 (each body b),  E·x = e,  G·x ≤ g                   (11)
 
-is a small semidefinite program (Wensing et al. 2018, eq. (21)): its size is b residuals and ten variables
+is a small semidefinite program (the form Wensing et al. solve to global optimality): its size is b residuals and ten variables
 a body, whatever the log's length. x holds each body's standard parameters and the other free parameters
 (friction, drives: θ is affine in them); E·x = e keeps what the model file writes as numbers (a constant
 mass, a constant centre-of-mass coordinate, m·c linear in m; products of inertia written as 0 where one of
@@ -386,7 +388,7 @@ def dual_bound(lifted: Lifted, A: np.ndarray, z: np.ndarray, sizes: list, x: np.
     With multipliers Z_b ⪰ 0 (the bodies' J), ν (E·x = e) and λ ≥ 0 (G·x ≤ g), minimising the Lagrangian
     ‖M·x − d‖² − Σ⟨Z_b, J_b(x)⟩ + νᵀ(E·x − e) + λᵀ(G·x − g) over x is finite exactly when
     Σ J_b*(Z_b) − Eᵀν − Gᵀλ = 2·Mᵀs for some s, and is then −‖s‖² − 2·sᵀd − νᵀe − λᵀg (Boyd & Vandenberghe,
-    Convex Optimization, §5.2; the dual of Wensing et al.'s SDP). Every such point bounds (11) from below
+    Convex Optimization, §5.2). Every such point bounds (11) from below
     (weak duality), whether or not the primal optimum is attained, and the dual's optimum is unique in s.
 
     Where the data do not see a point mass w (M·x(w·wᵀ) = 0: a mass on the first joints' axes), the infimum
