@@ -77,9 +77,9 @@ def symbolic_value(expression, values: dict[str, float]) -> float:
     return float(expression.xreplace({s: values[s.name] for s in expression.free_symbols}))
 
 
-def burer_monteiro(summary, K, prob, starts: int = 2, seed: int = 0) -> float:
+def burer_monteiro(summary, K, prob, p0: np.ndarray, starts: int = 2, seed: int = 0) -> float:
     """The smallest ‖R·K·θ − z‖² + ρ² found by L-BFGS over J_b = L_b·L_bᵀ (L_b 4×4 lower triangular), the
-    problem's other parameters free, from the nominal start and ``starts − 1`` random ones. Only for
+    problem's other parameters free, from the nominal values p0 and ``starts − 1`` random starts. Only for
     problems whose bodies are all written with their ten parameters and no bounds (the Panda's)."""
     import scipy.optimize
 
@@ -117,7 +117,7 @@ def burer_monteiro(summary, K, prob, starts: int = 2, seed: int = 0) -> float:
         grad[n:] = gx[n:]
         return float(r @ r), grad
 
-    nominal = conic.lifted_point(prob, np.array([v for v in prob_nominal(prob)]))
+    nominal = conic.lifted_point(prob, p0)
     rng = np.random.default_rng(seed)
     best = np.inf
     for attempt in range(starts):
@@ -133,13 +133,6 @@ def burer_monteiro(summary, K, prob, starts: int = 2, seed: int = 0) -> float:
                                         options={"maxiter": 2000, "maxfun": 4000, "ftol": 1e-15, "gtol": 1e-12})
         best = min(best, found.fun)
     return best + summary.rho**2
-
-
-PROB_NOMINAL: dict[int, np.ndarray] = {}
-
-
-def prob_nominal(prob) -> np.ndarray:
-    return PROB_NOMINAL[id(prob)]
 
 
 def check_certified(result, *, independent: float | None = None) -> None:
@@ -215,8 +208,7 @@ def test_panda_log_reaches_the_certified_global_optimum() -> None:
     independent Burer–Monteiro solve's best cost (and the written model within 1.001 of that)."""
     result = panda_result()
     summary, K, prob, free = summary_of(result)
-    PROB_NOMINAL[id(prob)] = np.array([result.model.parameters[s] for s in free])
-    independent = burer_monteiro(summary, K, prob)
+    independent = burer_monteiro(summary, K, prob, np.array([result.model.parameters[s] for s in free]))
     check_certified(result, independent=independent)
     assert result.consistent.certificate.exact
 

@@ -750,7 +750,8 @@ def fit(prob: Problem, K: np.ndarray, W: np.ndarray, y: np.ndarray, weights: np.
     return result, p, covariance
 
 
-def _estimate(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, name: str, started: float):
+def _estimate(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, name: str,
+              started: float) -> tuple[np.ndarray, int, bool, str, Any]:
     """p* of (2), the evaluations (or interior-point iterations) spent, whether it converged, why it stopped,
     and the certificate of its global optimality (None without one).
 
@@ -788,7 +789,7 @@ def _estimate(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, na
     return p, evaluations, within, message, certificate
 
 
-def _lifted(prob: Problem, p0: np.ndarray):
+def _lifted(prob: Problem, p0: np.ndarray) -> Any:
     """The convex form (11) of ``prob`` (:func:`symbolic.identify.conic.lift`), or None where θ is not affine in
     its variables or Clarabel cannot be imported (the log-Cholesky passes then run alone)."""
     try:
@@ -811,7 +812,7 @@ def _lifted_typical(lifted, x0: np.ndarray) -> np.ndarray:
 
 
 def _model_form(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, relaxed: np.ndarray, name: str,
-                started: float):
+                started: float) -> tuple[np.ndarray, int, _Solution]:
     """The log-Cholesky passes from the relaxation's answer (moved into the model's form by
     :meth:`Problem.start`) and from ``p0``; the cheaper answer, the evaluations of both, its solution."""
     best, spent = None, 0
