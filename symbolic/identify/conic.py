@@ -13,8 +13,8 @@ so that with the summary (1) of :mod:`symbolic.identify.consistent` the fit
 
     min_x ‖R·K·(T·x + t₀) − z‖²  s.t.  J_b(x) ⪰ 0 (each body b),  E·x = e,  G·x ≤ g                   (11)
 
-is a small semidefinite program (the form Wensing et al. solve to global optimality): its size is b residuals and ten variables
-a body, whatever the log's length. x holds each body's standard parameters and the other free parameters
+is a small semidefinite program (the form Wensing et al. solve to global optimality): its size is b
+residuals and ten variables a body, whatever the log's length. x holds each body's standard parameters and the other free parameters
 (friction, drives: θ is affine in them); E·x = e keeps what the model file writes as numbers (a constant
 mass, a constant centre-of-mass coordinate, m·c linear in m; products of inertia written as 0 where one of
 the two centre-of-mass coordinates is constant), G·x ≤ g the bounds (the signs of the roles, ``min``/``max``;
@@ -24,10 +24,10 @@ centre of mass) those constraints are dropped: (11) is then a relaxation, and it
 the model's.
 
 :func:`solve` solves (11) with Clarabel (Goulart & Chen, "Clarabel: an interior-point solver for conic
-programs with quadratic objectives", 2024), a primal–dual interior-point method: its dual objective is a lower
-bound of (11) (weak duality), so the gap between its primal and dual objectives certifies the optimum as
-global. :func:`polish` then removes the interior-point method's last inaccuracy on the face of the cones
-the answer lies on.
+programs with quadratic objectives", 2024), a primal–dual interior-point method, and :func:`polish` removes
+its last inaccuracy on the face of the cones the answer lies on. :func:`dual_bound` solves the Lagrange dual
+of (11), also with Clarabel, and recomputes its bound in NumPy (weak duality: no consistent parameters cost
+less); :class:`Certificate` sets the written parameters' cost against it.
 """
 
 from __future__ import annotations

@@ -759,9 +759,11 @@ def _estimate(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, na
     is solved by Clarabel: where (11) is the problem itself (every constraint of the model file's form is
     convex there: bodies written with their ten parameters, constants, bounds) its polished answer is the
     answer; where it is a relaxation (constraints dropped), its optimum is a lower bound only, and the
-    log-Cholesky passes (:func:`_solve`) run from its answer (brought into the model's form) and from ``p0``,
-    the better kept. Either way the answer's cost is compared with the certified lower bound: converged when
-    within :data:`CERTIFIED_WITHIN` of it (or, for the log-Cholesky passes, by their own test)."""
+    log-Cholesky passes (:func:`_solve`) run from its answer (brought into the model's form), and from ``p0``
+    where that answer is not within :data:`CERTIFIED_WITHIN` of the bound, the better kept. Either way the
+    answer's cost is compared with the certified lower bound (:class:`symbolic.identify.conic.Certificate`):
+    converged when within :data:`CERTIFIED_WITHIN` of it. Where θ is not affine in those variables the
+    log-Cholesky passes run alone and say themselves whether they converged."""
     from symbolic.identify import conic
 
     lifted = _lifted(prob, p0)
@@ -771,14 +773,20 @@ def _estimate(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, na
     sizes = conic.body_sizes(lifted, conic.lifted_point(prob, prob.parameters(prob.linear(prob.start(p0)), linear=True)[0]))
     solved = conic.solve(lifted, A, summary.z, sizes)
     bound = conic.dual_bound(lifted, A, summary.z, sizes, solved.x)
+
+    def certify(p: np.ndarray) -> conic.Certificate:
+        r = A @ prob.theta(p) - summary.z
+        return conic.Certificate.of(solved, bound, float(r @ r), summary.rho**2, summary.norm**2, lifted)
+
     if lifted.exact:
         x = conic.polish(lifted, A, summary.z, solved.x)
         p = _newton_polish(prob, A, summary, _feasible(prob, conic.parameters_of(prob, x, p0)), name, started)
         p, evaluations, local = _feasible(prob, p), solved.iterations, None
     else:
-        p, evaluations, local = _model_form(prob, A, summary, p0, conic.parameters_of(prob, solved.x, p0), name, started)
-    r = A @ prob.theta(p) - summary.z
-    certificate = conic.Certificate.of(solved, bound, float(r @ r), summary.rho**2, summary.norm**2, lifted)
+        p, evaluations, local = _model_form(prob, A, summary, (conic.parameters_of(prob, solved.x, p0), p0),
+                                            lambda q: certify(q).guaranteed_ratio <= 1.0 + CERTIFIED_WITHIN, name, started)
+        p = _feasible(prob, p)
+    certificate = certify(p)
     within = certificate.guaranteed_ratio <= 1.0 + CERTIFIED_WITHIN
     what = "global optimum" if lifted.exact else "global optimum of its convex relaxation"
     message = (f"cost ×{certificate.ratio:.7f} of the dual lower bound of the {what}, at most "
@@ -811,18 +819,21 @@ def _lifted_typical(lifted, x0: np.ndarray) -> np.ndarray:
     return out
 
 
-def _model_form(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, relaxed: np.ndarray, name: str,
-                started: float) -> tuple[np.ndarray, int, _Solution]:
-    """The log-Cholesky passes from the relaxation's answer (moved into the model's form by
-    :meth:`Problem.start`) and from ``p0``; the cheaper answer, the evaluations of both, its solution."""
+def _model_form(prob: Problem, A: np.ndarray, summary: Summary, starts: Sequence[np.ndarray],
+                good: Callable[[np.ndarray], bool], name: str, started: float) -> tuple[np.ndarray, int, _Solution]:
+    """The log-Cholesky passes from each of ``starts`` in turn (the relaxation's answer, moved into the model's
+    form by :meth:`Problem.start`, then the nominal values) until an answer is ``good`` (certified close enough
+    to the bound); the cheapest answer, the evaluations of all, its solution."""
     best, spent = None, 0
-    for start in (relaxed, p0):
+    for start in starts:
         solution, evaluations = _solve(prob, A, summary, start, name, started)
         spent += evaluations
         p = prob.parameters(solution.x, linear=True)[0]
         r = A @ prob.theta(p) - summary.z
         if best is None or float(r @ r) < best[0]:
             best = (float(r @ r), p, solution)
+        if good(best[1]):
+            break
     return best[1], spent, best[2]
 
 
