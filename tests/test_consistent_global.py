@@ -229,3 +229,17 @@ def test_six_axis_arm_reaches_the_certified_optimum() -> None:
     assert not certificate.exact and any("= 0 about a free centre of mass" in d for d in certificate.dropped)
     summary, *_ = summary_of(result)
     assert certificate.lower_bound - certificate.dual_error >= summary.rho**2 * (1 - 1e-12)
+
+
+def test_mass_bounds_are_kept_by_the_convex_form() -> None:
+    """The all-free arm lets the data-blind masses run off (tens of kg on the first axis); with ``min``/``max``
+    on the masses in the model file the convex form keeps them inside (as linear inequalities on m) and the
+    answer is still certified."""
+    text = arm_text().replace("m1 = 3.0", "m1 = { value = 3.0, min = 1.0, max = 6.0 }")
+    text = text.replace("m2 = 2.0", "m2 = { value = 2.0, min = 1.0, max = 4.0 }")
+    model = symbolic.derive(symbolic.loads(text, "arm3d.toml"))
+    truth = with_values(model, {"Izz2": -0.05, "cx2": 0.05})
+    result = identify_model(model, data(model, truth, noise=0.01), consistent=True)
+    values = result.values()
+    assert 1.0 - 1e-9 <= values["m1"] <= 6.0 + 1e-9 and 1.0 - 1e-9 <= values["m2"] <= 4.0 + 1e-9, values
+    check_certified(result)
