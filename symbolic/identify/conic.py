@@ -650,7 +650,7 @@ class Certificate:
 
         gap = (solved.cost - bound.value) / max(bound.value + rho2, 1e-300)
         lower = bound.value + rho2
-        return cls(f"clarabel {clarabel.__version__}", solved.status, bound.status, cost + rho2, lower, gap,
+        return cls(f"clarabel {getattr(clarabel, '__version__', '?')}", solved.status, bound.status, cost + rho2, lower, gap,
                    bound.error, 1e-12 * norm2, lifted.exact, lifted.dropped,
                    solved.iterations + bound.iterations, solved.seconds + bound.seconds)
 
