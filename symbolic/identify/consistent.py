@@ -49,6 +49,8 @@ MAX_EVALUATIONS = 500
 """Evaluations of the first pass at most."""
 MAX_ITERATIONS = 200
 """Newton iterations of the second pass at most."""
+POLISH_ITERATIONS = 30
+"""Newton iterations at most after the interior-point solve of the convex form (:func:`_newton_polish`)."""
 STALL_CHI2, STALL_ITERATIONS = 0.01, 10
 """The second pass also stops, unconverged, when χ² = 2·cost/σ² fell by less than STALL_CHI2 over the last
 STALL_ITERATIONS iterations: the cost is then creeping along directions the data barely see, a gain no test
@@ -58,6 +60,10 @@ GRADIENT_TOLERANCE = 1e-6
 """The second pass ends when the gradient of the cost in its scaled coordinates is below this times σ²
 (σ² = ρ²/(rows − b), the residual variance per row): moving any coordinate by its typical size would change
 χ² by about 1e-6 at most. With noise-free data (σ² = 0) it runs until the trust region falls below rounding."""
+CERTIFIED_WITHIN = 1e-3
+"""The fit has converged when its cost ‖y_w − W_w·β‖² (all weighted rows) is within this fraction of the
+lower bound the convex form certifies (:attr:`symbolic.identify.conic.Certificate.guaranteed_ratio`):
+within 0.1 % of the global optimum (issue 38 §3; measured: bench/results/consistent.md)."""
 START_MARGIN = 1e-3
 """A start that is not strictly feasible is moved inside by this fraction of the body's scale."""
 
@@ -289,7 +295,7 @@ class BodyPlan:
         diagonal = np.array([float(i == j) for _, (i, j) in pairs])
         return rows, cols, slots, at, diagonal
 
-    def start(self, p: np.ndarray, floor_mass: float, floor_inertia: float) -> np.ndarray:
+    def start(self, p: np.ndarray, floor_mass: float, floor_inertia: float, margin: float = START_MARGIN) -> np.ndarray:
         """φ of this body at parameters ``p`` (its constants as planned), moved inside the feasible set
         where p is not (a mass below ``floor_mass`` is raised to it; Σ_c + δ·1 keeps the zero pattern)."""
         out = []
@@ -303,7 +309,7 @@ class BodyPlan:
                 Ic[i, j] = Ic[j, i] = p[slot] if isinstance(slot, int) else float(slot)
             sigma = 0.5 * np.trace(Ic) * np.eye(3) - Ic
             smallest = np.linalg.eigvalsh(sigma)[0]
-            margin = max(START_MARGIN * np.trace(np.abs(sigma)) / 3, floor_inertia)
+            margin = max(margin * np.trace(np.abs(sigma)) / 3, floor_inertia)
             if smallest < margin:
                 sigma = sigma + (margin - smallest) * np.eye(3)
             A = _upper_cholesky(sigma[np.ix_(self.order, self.order)])
@@ -418,17 +424,23 @@ class ConsistentFit:
     seconds: float
     converged: bool = True
     message: str = ""
+    certificate: Any = None
 
     def to_dict(self) -> dict[str, Any]:
         return {"relative_error": self.relative_error,
                 "least_squares_relative_error": self.least_squares_relative_error,
                 "exact_bodies": list(self.exact), "penalized_bodies": list(self.penalized),
                 "bodies_on_boundary": list(self.boundary), "evaluations": self.evaluations, "seconds": self.seconds,
-                "converged": self.converged}
+                "converged": self.converged, "message": self.message,
+                "certificate": None if self.certificate is None else self.certificate.to_dict()}
 
     def summary(self) -> str:
         lines = [f"consistent fit: relative error {self.relative_error:.4g} % (least squares {self.least_squares_relative_error:.4g} %), "
                  f"{self.evaluations} evaluations, {self.seconds:.2f} s"]
+        if self.certificate is not None:
+            c = self.certificate
+            lines.append(f"  global optimum certified by {c.solver} (the convex form{'' if c.exact else ', relaxed'}): "
+                         f"cost ×{c.ratio:.6f} of its lower bound, at most ×{c.guaranteed_ratio:.6f}")
         if not self.converged:
             lines.append(f"  stopped before convergence ({self.message}): what is left to gain lies along directions "
                          "the data barely determine (an optimum on the boundary of consistency, or none at a finite point)")
@@ -474,15 +486,16 @@ class Problem:
             jac[i, self.raw_offset + k] = 1.0
         return p, jac
 
-    def start(self, p: np.ndarray) -> np.ndarray:
-        """φ at parameters ``p`` (nominal values), moved strictly inside the feasible set and the bounds."""
+    def start(self, p: np.ndarray, margin: float = START_MARGIN) -> np.ndarray:
+        """φ at parameters ``p`` (nominal values), moved strictly inside the feasible set (by ``margin`` of each
+        body's scale, masses by ``margin`` of the largest) and the bounds."""
         masses = [p[b.mass] for b in self.bodies if b.free_mass]
-        floor_mass = START_MARGIN * max([abs(m) for m in masses] + [1e-12])
+        floor_mass = margin * max([abs(m) for m in masses] + [1e-12])
         inertias = [abs(p[s]) for b in self.bodies for s in b.inertia if isinstance(s, int)]
-        floor_inertia = 1e-6 * max(inertias + [1e-12])
+        floor_inertia = min(1e-6, margin) * max(inertias + [1e-12])
         phi = np.zeros(self.size)
         for body in self.bodies:
-            phi[body.offset:body.offset + body.size] = body.start(p, floor_mass, floor_inertia)
+            phi[body.offset:body.offset + body.size] = body.start(p, floor_mass, floor_inertia, margin)
         phi[self.raw_offset:] = p[list(self.raw)]
         return _inside(phi, self.lower, self.upper)
 
@@ -717,8 +730,7 @@ def fit(prob: Problem, K: np.ndarray, W: np.ndarray, y: np.ndarray, weights: np.
     started = time.perf_counter()
     summary = Summary.of(W, y, weights)
     with one_blas_thread():
-        solution, evaluations = _solve(prob, summary.R @ K, summary, p0, name, started)
-    p, _ = prob.parameters(solution.x, linear=True)
+        p, evaluations, converged, message, certificate = _estimate(prob, summary.R @ K, summary, p0, name, started)
     beta = K @ prob.theta(p)
     norm = max(float(np.linalg.norm(y)), 1e-300)
     relative = 100.0 * float(np.linalg.norm(y - W @ beta)) / norm
@@ -733,9 +745,159 @@ def fit(prob: Problem, K: np.ndarray, W: np.ndarray, y: np.ndarray, weights: np.
         sigmas={s.name: float(np.sqrt(covariance[k, k])) for k, s in enumerate(prob.free)},
         beta=beta, relative_error=relative, least_squares_relative_error=best,
         exact=tuple(body.name for body in prob.bodies), penalized=tuple(n for n, _ in prob.penalties),
-        boundary=tuple(_on_boundary(prob, p)), evaluations=evaluations, seconds=seconds, converged=solution.converged,
-        message=solution.message)
+        boundary=tuple(_on_boundary(prob, p)), evaluations=evaluations, seconds=seconds, converged=converged,
+        message=message, certificate=certificate)
     return result, p, covariance
+
+
+def _estimate(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, name: str,
+              started: float) -> tuple[np.ndarray, int, bool, str, Any]:
+    """p* of (2), the evaluations (or interior-point iterations) spent, whether it converged, why it stopped,
+    and the certificate of its global optimality (None without one).
+
+    Where θ is affine in the lifted variables of (11) (:func:`symbolic.identify.conic.lift`) the convex form
+    is solved by Clarabel: where (11) is the problem itself (every constraint of the model file's form is
+    convex there: bodies written with their ten parameters, constants, bounds) its polished answer is the
+    answer; where it is a relaxation (constraints dropped), its optimum is a lower bound only, and the
+    log-Cholesky passes (:func:`_solve`) run from its answer (brought into the model's form), and from ``p0``
+    where that answer is not within :data:`CERTIFIED_WITHIN` of the bound, the better kept. Either way the
+    answer's cost is compared with the certified lower bound (:class:`symbolic.identify.conic.Certificate`):
+    converged when within :data:`CERTIFIED_WITHIN` of it. Where θ is not affine in those variables the
+    log-Cholesky passes run alone and say themselves whether they converged."""
+    from symbolic.identify import conic
+
+    lifted = _lifted(prob, p0)
+    if lifted is None:
+        solution, evaluations = _solve(prob, A, summary, p0, name, started)
+        return prob.parameters(solution.x, linear=True)[0], evaluations, solution.converged, solution.message, None
+    sizes = conic.body_sizes(lifted, conic.lifted_point(prob, prob.parameters(prob.linear(prob.start(p0)), linear=True)[0]))
+    solved = conic.solve(lifted, A, summary.z, sizes)
+    bound = conic.dual_bound(lifted, A, summary.z, sizes, solved.x)
+
+    def certify(p: np.ndarray) -> conic.Certificate:
+        r = A @ prob.theta(p) - summary.z
+        return conic.Certificate.of(solved, bound, float(r @ r), summary.rho**2, summary.norm**2, lifted)
+
+    if lifted.exact:
+        x = conic.polish(lifted, A, summary.z, solved.x)
+        p = _newton_polish(prob, A, summary, _feasible(prob, conic.parameters_of(prob, x, p0)), name, started)
+        p, evaluations, local = _feasible(prob, p), solved.iterations, None
+    else:
+        p, evaluations, local = _model_form(prob, A, summary, (conic.parameters_of(prob, solved.x, p0), p0),
+                                            lambda q: certify(q).guaranteed_ratio <= 1.0 + CERTIFIED_WITHIN, name, started)
+        p = _feasible(prob, p)
+    certificate = certify(p)
+    within = certificate.guaranteed_ratio <= 1.0 + CERTIFIED_WITHIN
+    what = "global optimum" if lifted.exact else "global optimum of its convex relaxation"
+    message = (f"cost ×{certificate.ratio:.7f} of the dual lower bound of the {what}, at most "
+               f"×{certificate.guaranteed_ratio:.7f} allowing for the dual point's rounding ({certificate.solver}: "
+               f"primal {solved.status}, dual {bound.status})")
+    if local is not None:
+        message += f"; log-Cholesky passes: {local.message}"
+    return p, evaluations, within, message, certificate
+
+
+def _lifted(prob: Problem, p0: np.ndarray) -> Any:
+    """The convex form (11) of ``prob`` (:func:`symbolic.identify.conic.lift`), or None where θ is not affine in
+    its variables or Clarabel cannot be imported (the log-Cholesky passes then run alone)."""
+    try:
+        import clarabel  # noqa: F401  (a run-time dependency; a broken install falls back to the passes)
+    except ImportError:
+        log.warning("clarabel cannot be imported: the consistent fit runs without its certificate")
+        return None
+    from symbolic.identify import conic
+
+    return conic.lift(prob, p0)
+
+
+def _lifted_typical(lifted, x0: np.ndarray) -> np.ndarray:
+    """Sizes of the variables of (11) for the solver's scaling: each body's largest standard parameter (so
+    that a body's scaling keeps its J's shape), the others |x0| or 1e-3 of the largest."""
+    out = np.maximum(np.abs(x0), 1e-3 * max(float(np.abs(x0).max(initial=0.0)), 1e-12))
+    for block in lifted.blocks:
+        out[list(block)] = max(float(np.abs(x0[list(block)]).max()), 1e-12)
+    return out
+
+
+def _model_form(prob: Problem, A: np.ndarray, summary: Summary, starts: Sequence[np.ndarray],
+                good: Callable[[np.ndarray], bool], name: str, started: float) -> tuple[np.ndarray, int, _Solution]:
+    """The log-Cholesky passes from each of ``starts`` in turn (the relaxation's answer, moved into the model's
+    form by :meth:`Problem.start`, then the nominal values) until an answer is ``good`` (certified close enough
+    to the bound); the cheapest answer, the evaluations of all, its solution."""
+    best, spent = None, 0
+    for start in starts:
+        solution, evaluations = _solve(prob, A, summary, start, name, started)
+        spent += evaluations
+        p = prob.parameters(solution.x, linear=True)[0]
+        r = A @ prob.theta(p) - summary.z
+        if best is None or float(r @ r) < best[0]:
+            best = (float(r @ r), p, solution)
+        if good(best[1]):
+            break
+    return best[1], spent, best[2]
+
+
+def _newton_polish(prob: Problem, A: np.ndarray, summary: Summary, p: np.ndarray, name: str, started: float) -> np.ndarray:
+    """p, or the answer of at most :data:`POLISH_ITERATIONS` Newton iterations (:func:`_newton`) from it where
+    cheaper: the interior-point answer is optimal to about 1e-8 of the cost; Newton's method in the Cholesky
+    coordinates (8), with the factor's diagonal free in sign (L·Lᵀ is positive semidefinite whatever the signs,
+    so that a body at the boundary, L → 0, is a smooth minimum there), brings it to rounding where the answer
+    is regular."""
+    x1 = prob.linear(prob.start(p, margin=0.0))
+    lower, upper = prob.linear_bounds()
+    lower = np.where(prob.exponents == 1, -np.inf, lower)
+    logs = prob.exponents > 0
+    scale = np.where(logs, np.maximum(np.abs(x1), 1e-3 * float(np.abs(x1[logs]).max(initial=0.0)) + 1e-300),
+                     prob.typical(prob.start(p, margin=0.0)))
+    solution = _newton(prob, A, summary, _inside(x1, lower, upper), lower, upper, scale, 0.0,
+                       _Progress(name, started, summary.norm), POLISH_ITERATIONS)
+    polished = prob.parameters(solution.x, linear=True)[0]
+
+    def cost(q: np.ndarray) -> float:
+        r = A @ prob.theta(q) - summary.z
+        return float(r @ r)
+
+    return polished if cost(polished) < cost(p) else p
+
+
+def _tidy(prob: Problem, p: np.ndarray) -> np.ndarray:
+    """p with each body's free centre-of-mass coordinates and products of inertia below 1e-15 of its size
+    (the largest |c|, and the largest diagonal inertia) set to 0."""
+    for body in prob.bodies:
+        com = [body.com[a] for a in body.free_com]
+        if com:
+            size = max(float(np.abs(p[com]).max()), 0.0)
+            p[com] = np.where(np.abs(p[com]) < max(1e-15 * size, 1e-30), 0.0, p[com])
+        if body.free_inertia:
+            diagonal = [body.inertia[INERTIA_KEYS.index(k)] for k in ("xx", "yy", "zz")]
+            products = [s for k, s in zip(INERTIA_KEYS, body.inertia) if k in ("xy", "xz", "yz") and isinstance(s, int)]
+            size = float(np.abs(p[diagonal]).max())
+            p[products] = np.where(np.abs(p[products]) < max(1e-15 * size, 1e-30), 0.0, p[products])
+    return p
+
+
+def _feasible(prob: Problem, p: np.ndarray) -> np.ndarray:
+    """p with each body's Σ_c = ½·tr(I_c)·1 − I_c raised to positive semidefinite where the interior-point
+    answer left it a rounding below (Σ_c + δ·1, δ = −λ_min + 1e-15 of J's scale: I_c's diagonal + 2δ, its zero
+    pattern kept) and each free mass at 0 at least: every J of (4) is then ⪰ 0 (J ⪰ 0 ⇔ m ≥ 0, Σ_c ⪰ 0).
+    Centres of mass and products of inertia below 1e-15 of the body's size (rounding, as 1e-44) are 0 first:
+    the model file writes magnitudes of 1e-30 to 1e30 or 0 (docs/model-format.md)."""
+    p = _tidy(prob, np.array(p, float))
+    for body in prob.bodies:
+        if body.free_mass:
+            p[body.mass] = max(p[body.mass], 0.0)
+        if not body.free_inertia:
+            continue
+        Ic = np.zeros((3, 3))
+        for key, slot in zip(INERTIA_KEYS, body.inertia):
+            Ic[AXES[key]] = Ic[AXES[key][::-1]] = p[slot] if isinstance(slot, int) else float(slot)
+        mass = p[body.mass] if body.free_mass else float(body.mass)
+        lam = np.linalg.eigvalsh(0.5 * np.trace(Ic) * np.eye(3) - Ic)
+        scale = max(float(lam[-1]), abs(mass), 1e-300)
+        delta = max(0.0, -float(lam[0])) + 1e-15 * scale if lam[0] < 1e-15 * scale else 0.0
+        for key in ("xx", "yy", "zz"):
+            p[body.inertia[INERTIA_KEYS.index(key)]] += 2.0 * delta
+    return p
 
 
 def _solve(prob: Problem, A: np.ndarray, summary: Summary, p0: np.ndarray, name: str, started: float):
@@ -795,7 +957,7 @@ class _Progress:
 
 
 def _newton(prob: Problem, A: np.ndarray, summary: Summary, x1: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-            typical: np.ndarray, weight: float, progress: _Progress) -> _Solution:
+            typical: np.ndarray, weight: float, progress: _Progress, iterations: int = MAX_ITERATIONS) -> _Solution:
     """The second pass: Newton's method with a trust region (Nocedal & Wright, Algorithm 4.1; the step of
     :func:`_trust_step`) on F(φ) = ½‖A·θ(p(φ)) − z‖² (+ the penalties) with its exact Hessian
 
@@ -833,8 +995,8 @@ def _newton(prob: Problem, A: np.ndarray, summary: Summary, x1: np.ndarray, lowe
     gtol = max(GRADIENT_TOLERANCE * variance, 1e-300)
     u = coordinates.inverse(x1)
     cost, g, H = parts(u)
-    costs, radius, message, converged = [cost], 1.0, f"{MAX_ITERATIONS} Newton iterations", False
-    for _ in range(MAX_ITERATIONS):
+    costs, radius, message, converged = [cost], 1.0, f"{iterations} Newton iterations", False
+    for _ in range(iterations):
         if np.linalg.norm(g) <= gtol:
             message, converged = "the gradient is below its tolerance", True
             break
