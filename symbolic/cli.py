@@ -567,25 +567,25 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def cmd_export_urdf(args: argparse.Namespace) -> int:
-    from symbolic.errors import ExportError
     from symbolic.export.urdf import urdf
 
-    out = Path(args.out)
-    if not str(args.out).strip() or out.is_dir() or out.suffix.lower() != ".urdf":
-        raise ExportError(f"--out {args.out!r}: name the URDF file to write (e.g. --out robot.urdf)")
-    write_text_atomically(out, urdf(resolve(args.model, args)))
-    print(out)
-    return 0
+    return _export_file(args, urdf, ".urdf", "URDF")
 
 
 def cmd_export_mjcf(args: argparse.Namespace) -> int:
-    from symbolic.errors import ExportError
     from symbolic.export.mjcf import mjcf
 
+    return _export_file(args, mjcf, ".xml", "MJCF")
+
+
+def _export_file(args: argparse.Namespace, writer, suffix: str, kind: str) -> int:
+    """``export-urdf`` and ``export-mjcf``: the model written by ``writer`` to ``--out``, a file named ``*suffix``."""
+    from symbolic.errors import ExportError
+
     out = Path(args.out)
-    if not str(args.out).strip() or out.is_dir() or out.suffix.lower() != ".xml":
-        raise ExportError(f"--out {args.out!r}: name the MJCF file to write (e.g. --out robot.xml)")
-    write_text_atomically(out, mjcf(resolve(args.model, args)))
+    if not str(args.out).strip() or out.is_dir() or out.suffix.lower() != suffix:
+        raise ExportError(f"--out {args.out!r}: name the {kind} file to write (e.g. --out robot{suffix})")
+    write_text_atomically(out, writer(resolve(args.model, args)))
     print(out)
     return 0
 
