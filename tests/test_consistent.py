@@ -30,8 +30,8 @@ import symbolic
 from symbolic.cli import main
 from symbolic.data import Measurements
 from symbolic.identify import consistent
-from symbolic.identify.consistent import (body_of_standard, from_log_cholesky, log_cholesky, pseudo_inertia,
-                                          pseudo_of_standard, standard_parameters)
+from symbolic.identify.consistent import from_log_cholesky, log_cholesky
+from symbolic.identify.pseudo_inertia import body_of_standard, pseudo_inertia, pseudo_of_standard, standard_parameters
 from symbolic.identify.known import fixed_symbols, parameter_bounds
 from symbolic.identify.model import geometric_parameters, identify_model, model_base
 from symbolic.numeric import numeric_model

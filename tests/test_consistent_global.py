@@ -27,7 +27,7 @@ import pytest
 
 import symbolic
 from symbolic.identify import conic, consistent
-from symbolic.identify.consistent import pseudo_inertia
+from symbolic.identify.pseudo_inertia import pseudo_inertia
 from symbolic.identify.known import fixed_symbols, parameter_bounds
 from symbolic.identify.model import geometric_parameters, identify_model, model_base
 from symbolic.numeric.base_parameters import theta_values

@@ -37,7 +37,12 @@ from typing import Any
 
 import numpy as np
 
-from symbolic.identify.consistent import AXES, INERTIA_KEYS, BodyPlan, Problem, standard_parameters
+from symbolic.identify.pseudo_inertia import AXES, INERTIA_KEYS, standard_parameters
+
+Problem = Any
+"""A :class:`symbolic.identify.consistent.Problem` (not imported: that module calls this one)."""
+BodyPlan = Any
+"""A :class:`symbolic.identify.consistent.BodyPlan`."""
 
 SAMPLES_EXTRA = 12
 """Samples of θ(p) beyond the number of unknowns of the affine map x ↦ θ (:func:`lift`)."""
