@@ -195,13 +195,21 @@ def experiment_text(result: Excitation) -> str:
              "# simulate MODEL trajectory.experiment.toml` runs it through the [controller] below (positions and",
              "# forces here are placeholders: the reference as position, zero force). After the robot has run it,",
              "# map the recorded log instead and run `symbolic identify`.",
-             f"data = {json.dumps(TRAJECTORY)}", f"model = {json.dumps(result.model.name)}", "", "[signals]", *signals, ""]
+             f"data = {json.dumps(TRAJECTORY)}", *_model_line(result.model), "", "[signals]", *signals, ""]
     given = result.settings.given()
     if given:
         lines += ["[identification]", *(f"{k} = {_toml(v)}" for k, v in given.items()), ""]
     if result.controller:
         lines += ["[controller]", *(f"{k} = {_toml(v)}" for k, v in result.controller.items()), ""]
     return "\n".join(lines)
+
+
+def _model_line(model: DynamicModel) -> list[str]:
+    """``model = "NAME"`` for a built-in robot (a model file's path is the user's to give: MODEL on the command line)."""
+    from symbolic import robots
+
+    builtin = model.name in robots.names() and Path(str(model.robot.source)).resolve() == robots.path(model.name).resolve()
+    return [f"model = {json.dumps(model.name)}"] if builtin else []
 
 
 def _toml(value: Any) -> str:
