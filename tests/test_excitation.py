@@ -236,3 +236,38 @@ def test_unknown_coordinate_in_the_experiment_is_refused(files) -> None:
     (files / "bad.toml").write_text(EXPERIMENT.replace("torque = { q1", "torque = { q9 = 1.0, q1"))
     with pytest.raises(symbolic.data.DataError, match=r"\[excitation\] torque.q9: unknown coordinate"):
         read_declarations(files / "bad.toml", ("q1", "q2"))
+
+
+CONTROLLER = """
+[controller]
+kind = "pd"
+kp = [150.0, 60.0]
+kd = [8.0, 3.0]
+reference = "ref"
+saturation = [{s1}, 80.0]
+"""
+
+
+def test_the_design_is_checked_in_the_loop_and_simulate_reads_it(files, capsys) -> None:
+    """Torque limits far away (the kinematic limits bind): the PD loop's force stays below them and its outputs
+    below their saturation."""
+    (files / "loop.toml").write_text(EXPERIMENT + CONTROLLER.format(s1=150.0))
+    out = files / "design"
+    assert main(["-q", "excite", str(files / "arm.toml"), "--experiment", str(files / "loop.toml"), "--duration", "3",
+                 "--harmonics", "2", "--starts", "1", "--torque", "q1=200,q2=100", "--out", str(out), "--json"]) == 0
+    loop = json.loads(capsys.readouterr().out)["loop"]
+    assert not loop["refused"] and loop["coordinates"]["q1"]["peak_torque"] <= 150.0
+    assert 0 < loop["coordinates"]["q1"]["tracking_max"] < 1.0
+    assert "[controller]" in (out / "trajectory.experiment.toml").read_text()
+    assert main(["-q", "simulate", str(files / "arm.toml"), str(out / "trajectory.experiment.toml"), "--json"]) == 0
+
+
+def test_a_design_that_saturates_in_the_loop_is_refused(files, capsys) -> None:
+    (files / "loop.toml").write_text(EXPERIMENT + CONTROLLER.format(s1=10.0))
+    out = files / "design"
+    assert main(["-q", "excite", str(files / "arm.toml"), "--experiment", str(files / "loop.toml"), "--duration", "3",
+                 "--harmonics", "2", "--starts", "1", "--torque", "q1=200,q2=100", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "the design saturates in the loop of the experiment's [controller] (pd on q1, q2" in err
+    assert "q1 peak |τ| 10 reaches the controller's output limit 10 (|gain|·saturation)" in err and "--torque q1=9.5" in err
+    assert len(err.strip().splitlines()) == 1 and not out.exists()

@@ -6,6 +6,7 @@ report.md and the figures (docs/data.md, "Excitation design").
 from __future__ import annotations
 
 import json
+import logging
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -24,7 +25,10 @@ from symbolic.derivation.dynamics import DynamicModel
 from symbolic.identify.least_squares import percent
 from symbolic.identify.excitation import (HARMONICS, STARTS, Design, FourierTrajectory, check_options, design,
                                           resolve_limits)
+from symbolic.identify.excitation_loop import LoopCheck, check_in_loop, refusal
 from symbolic.identify.excitation_noise import Noise, Prediction, equivalent_noise, predict, resolve_noise, treatment
+
+LOG = logging.getLogger(__name__)
 
 TRAJECTORY = "trajectory.csv"
 EXPERIMENT = "trajectory.experiment.toml"
@@ -73,6 +77,8 @@ class Excitation:
     settings: Settings
     controller: Mapping[str, Any] | None = None
     """The experiment's ``[controller]`` table as declared, carried into trajectory.experiment.toml."""
+    loop: LoopCheck | None = None
+    """The design run through that controller (:mod:`symbolic.identify.excitation_loop`); ``None`` without one."""
 
     def samples(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """t, q, q̇, q̈ of the reference at the declared rate over one period, both ends included."""
@@ -82,6 +88,7 @@ class Excitation:
         return {"model": self.model.name, "design": self.design.to_dict(), "noise": self.noise.to_dict(),
                 "predicted": self.predicted.to_dict(),
                 "compare": None if self.compare is None else self.compare.to_dict(),
+                "loop": None if self.loop is None else self.loop.to_dict(),
                 "collision_avoidance": "not checked: the design keeps each coordinate within its limits only"}
 
 
@@ -95,9 +102,11 @@ def reference_samples(trajectory: FourierTrajectory, rate: float) -> tuple[np.nd
 def excite(model: DynamicModel, declared: Declared, duration: float, *, limits: Mapping[str, Mapping[str, Any]] | None = None,
            noise: Mapping[str, Mapping[str, Any]] | None = None, rate: float | None = None, harmonics: int = HARMONICS,
            criterion: str = "d", starts: int = STARTS, seed: int = 0, compare: str | Path | None = None,
-           grid_points: int | None = None) -> Excitation:
-    """Design, predict, compare (module docstring). ``limits`` and ``noise``: ``{kind: {coordinate: value}}``
-    from the command line, replacing the experiment's; ``rate`` likewise."""
+           grid_points: int | None = None, check_loop: bool = True) -> Excitation:
+    """Design, check in the loop, predict, compare (module docstring). ``limits`` and ``noise``: ``{kind:
+    {coordinate: value}}`` from the command line, replacing the experiment's; ``rate`` likewise. With a
+    ``[controller]`` declared (and ``check_loop``), a design that saturates in that loop is refused
+    (:func:`symbolic.identify.excitation_loop.refusal`: an :class:`IdentificationError`, nothing returned)."""
     check_options(duration, harmonics, criterion, starts)
     where = ("experiment", declared.table.values)
     given = ("command line", {**(limits or {}), **(noise or {})})
@@ -109,9 +118,15 @@ def excite(model: DynamicModel, declared: Declared, duration: float, *, limits: 
     sigma = equivalent_noise(model, declared_noise, processing, [mid])
     made = design(model, bounds, duration, weights=1.0 / sigma**2, harmonics=harmonics, criterion=criterion,
                   starts=starts, seed=seed, grid_points=grid_points)
+    loop = None
+    if declared.controller and check_loop:
+        LOG.info("excitation: the design in the loop of [controller] (%s)", declared.controller.get("kind", "?"))
+        loop = check_in_loop(model, made.trajectory, declared_noise.rate, bounds, declared.controller)
+        if loop.refused:
+            raise refusal(loop)
     predicted = _predict_reference(model, made.trajectory, declared_noise, declared.settings, "design")
     compared = None if compare is None else predict_log(model, compare, declared_noise, declared.settings)
-    return Excitation(model, made, declared_noise, predicted, compared, declared.settings, declared.controller)
+    return Excitation(model, made, declared_noise, predicted, compared, declared.settings, declared.controller, loop)
 
 
 def _predict_reference(model: DynamicModel, trajectory: FourierTrajectory, noise: Noise, settings: Settings,
@@ -243,6 +258,10 @@ def report(result: Excitation, figures: Sequence[str], notes: Sequence[str]) -> 
                             ("torque", f"{d.limits.torque[i]:g}")):
             cells.append(f"{bound} ({d.worst[kind][i]:.3f}; {d.limits.origin.get(f'{kind} {c}', '?')})")
         lines.append(f"| {c} | " + " | ".join(cells) + " |")
+    lines += ["", "## Checked in the loop", ""]
+    lines += result.loop.table() if result.loop is not None else [
+        "Not checked: the experiment declares no [controller] (run trajectory.experiment.toml through `symbolic "
+        "simulate` with one before the robot moves)."]
     lines += ["", "## Predicted uncertainty", "",
               f"From the declared noise at {result.noise.rate:g} Hz (force σ, encoder resolution; equivalent force noise "
               f"per coordinate {', '.join(f'{s:.4g}' for s in result.predicted.noise)}), the treatment's filters as an "
@@ -373,5 +392,7 @@ def summary(result: Excitation) -> str:
     lines = [f"excitation of {result.model.name}: T = {d.trajectory.period:g} s, {d.trajectory.harmonics} harmonics, "
              f"criterion {d.criterion} {d.value:.6g} (best start {d.start_value:.6g}), worst ratio to a limit {worst:.4f}, "
              f"{d.seconds:.1f} s"]
+    if result.loop is not None:
+        lines += [line for line in result.loop.table() if line]
     lines += [line for line in _sigma_table(result.predicted, result.compare) if line]
     return "\n".join(lines)
