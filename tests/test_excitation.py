@@ -248,6 +248,7 @@ saturation = [{s1}, 80.0]
 """
 
 
+@pytest.mark.slow  # the closed loop is compiled (about 10 s in a fresh cache)
 def test_the_design_is_checked_in_the_loop_and_simulate_reads_it(files, capsys) -> None:
     """Torque limits far away (the kinematic limits bind): the PD loop's force stays below them and its outputs
     below their saturation."""
@@ -262,6 +263,7 @@ def test_the_design_is_checked_in_the_loop_and_simulate_reads_it(files, capsys) 
     assert main(["-q", "simulate", str(files / "arm.toml"), str(out / "trajectory.experiment.toml"), "--json"]) == 0
 
 
+@pytest.mark.slow
 def test_a_design_that_saturates_in_the_loop_is_refused(files, capsys) -> None:
     (files / "loop.toml").write_text(EXPERIMENT + CONTROLLER.format(s1=10.0))
     out = files / "design"
@@ -271,3 +273,23 @@ def test_a_design_that_saturates_in_the_loop_is_refused(files, capsys) -> None:
     assert "the design saturates in the loop of the experiment's [controller] (pd on q1, q2" in err
     assert "q1 peak |τ| 10 reaches the controller's output limit 10 (|gain|·saturation)" in err and "--torque q1=9.5" in err
     assert len(err.strip().splitlines()) == 1 and not out.exists()
+
+
+def test_constraint_jacobian_against_casadi_ad(arm) -> None:
+    """The Jacobian assembled from the structure equals CasADi's AD of the same constraints."""
+    import casadi as ca
+
+    limits = ex.resolve_limits(arm, ("test", LIMITS))
+    regressor = ex.casadi_regressor(arm)
+    grid = np.linspace(0, 3.0, 40, endpoint=False)
+    problem = ex.Problem(regressor, limits, 3.0, 3, grid, np.ones(2), "d")
+    z = ex.random_start(np.random.default_rng(4), problem)
+    ours = problem.constraints.jacobian(z)
+    x = ca.MX.sym("z", len(z))
+    C = ca.mtimes(ca.DM(ex.rest_null_space(3)), ca.reshape(x, 5, 2))  # noqa: N806
+    states = [ca.mtimes(ca.DM(m), C) for m in ex.basis(grid, 3.0, 3)]
+    tau = regressor.torque.map(len(grid))(*(s.T for s in states)).T
+    g = ca.vertcat(*(ca.vec(v) for v in (*states, tau)))
+    reference = np.asarray(ca.Function("J", [x], [ca.jacobian(g, x)])(z))
+    assert np.abs(ours - reference).max() <= 1e-10 * np.abs(reference).max()
+    assert np.allclose(np.asarray(problem.constraints(z)).ravel(), np.asarray(ca.Function("g", [x], [g])(z)).ravel())
