@@ -293,3 +293,21 @@ def test_constraint_jacobian_against_casadi_ad(arm) -> None:
     reference = np.asarray(ca.Function("J", [x], [ca.jacobian(g, x)])(z))
     assert np.abs(ours - reference).max() <= 1e-10 * np.abs(reference).max()
     assert np.allclose(np.asarray(problem.constraints(z)).ravel(), np.asarray(ca.Function("g", [x], [g])(z)).ravel())
+
+
+def test_the_same_seed_gives_the_same_design(arm) -> None:
+    limits = ex.resolve_limits(arm, ("test", LIMITS))
+    first, second = (ex.design(arm, limits, 2.0, harmonics=2, starts=2, seed=7) for _ in range(2))
+    assert np.array_equal(first.trajectory.a, second.trajectory.a) and np.array_equal(first.trajectory.b, second.trajectory.b)
+    other = ex.design(arm, limits, 2.0, harmonics=2, starts=1, seed=8)
+    assert not np.array_equal(first.trajectory.a, other.trajectory.a)
+
+
+def test_the_shipped_panda_declarations_are_complete() -> None:
+    from symbolic.robots import example_path
+
+    names = tuple(f"q{i}" for i in range(1, 8))
+    declared = read_declarations(example_path("panda_excitation"), names)
+    for kind in ("position", "velocity", "acceleration", "torque", "force_noise", "resolution"):
+        assert set(declared.table.values[kind]) == set(names), kind
+    assert declared.table.rate == 1000.0
