@@ -22,7 +22,7 @@ from symbolic.identify.model import base_regressor, identify_model, model_base
 LIMITS = {"position": {"q1": (-1.5, 1.5), "q2": (-2.0, 2.0)}, "velocity": {"q1": 2.0, "q2": 2.5},
           "acceleration": {"q1": 8.0, "q2": 10.0}, "torque": {"q1": 20.0, "q2": 8.0}}
 NOISE = {"force_noise": {"q1": 0.2, "q2": 0.1}, "resolution": {"q1": 0.0, "q2": 0.0}}
-RATE = 200.0
+RATE = 1000.0  # the Monte-Carlo log: 400 decimated rows per coordinate (docs/data.md, "Predicted σ")
 EXPERIMENT = """[excitation]
 rate = 200.0
 position = { q1 = [-1.5, 1.5], q2 = [-2.0, 2.0] }
@@ -92,9 +92,7 @@ def test_design_improves_on_its_start_and_on_a_naive_sine(arm, designed) -> None
     naive = naive_sine(arm, 4.0)
     sigma = designed.predicted.noise
     t, q, qd, qdd = reference_samples(naive, RATE)
-    p = treatment(RATE, len(t))
-    kept = slice(p.border[0], len(t) - p.border[1])
-    sine = predict(arm, "sine", q[kept], qd[kept], qdd[kept], sigma, 4.0)
+    sine = predict(arm, "sine", q, qd, qdd, sigma, 4.0, treatment(RATE, len(t)))
     assert designed.predicted.log_det > sine.log_det + 5.0
     assert designed.predicted.condition_number < sine.condition_number
 

@@ -2,16 +2,17 @@
 
 IDIM-LS (:mod:`symbolic.identify.least_squares`) estimates β from y = Wβ + ρ; with noise of covariance
 Σ = diag(σ_j²) per coordinate, white at the sample rate f_s, weighted least squares gives
-Cov(β̂) = (Σ_k W_kᵀ Σ⁻¹ W_k)⁻¹ = M⁻¹ over the samples k the treatment keeps (the log minus its borders), and
-the predicted σ%_i = 100·√(M⁻¹)_ii / |β_i| at the model's nominal β.
+Cov(β̂) = (Σ_k W_kᵀ Σ⁻¹ W_k)⁻¹ = M⁻¹ over the samples k the treatment keeps (the log minus its borders), W_k
+the regressor as identify reduces it (low-passed by the decimation filter: :func:`predict`), and the predicted
+σ%_i = 100·√(M⁻¹)_ii / |β_i| at the model's nominal β.
 
 The treatment's filters enter as an **effective noise bandwidth** (the approximation stated here):
 
 * *Force noise* σ_τ,j per sample: the decimation filter (:mod:`symbolic.data.filters`) passes it unchanged
-  below its edge f_b = 0.8·(f_s/2)/d, where the excitation's content lies, so its density there is that of
-  white noise of variance σ_τ,j² at f_s and the sum over all kept samples at f_s holds (decimation keeps the
-  information of the band; the σ that ``identify`` prints from the decimated residual is 0.85–0.9 times the
-  spread it predicts, docs/data.md).
+  below its edge f_b = 0.8·(f_s/2)/d, so its density there is that of white noise of variance σ_τ,j² at f_s;
+  the regressor, low-passed by the same filter, keeps only its content below f_b, and each decimated row stands
+  for d samples (the σ that ``identify`` prints from the decimated residual is 0.85–0.9 times this spread,
+  docs/data.md).
 * *Encoder quantisation* of resolution δ_i: white position noise of variance δ_i²/12, low-passed by the
   zero-phase Butterworth (|H(f)|⁴ in power, forward and backward) and differentiated twice by central
   differences ((f_s sin(2πf/f_s))⁴ in power), becomes acceleration noise; its mean density over [0, f_b] is
@@ -155,25 +156,28 @@ class Prediction:
 
 
 def predict(model: DynamicModel, label: str, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, sigma: Sequence[float],
-            duration: float, chunk: int = 4096) -> Prediction:
-    """The predicted σ of the base parameters from the states of the kept samples (rows of q, q̇, q̈), the
-    equivalent noise ``sigma`` per coordinate, through identify's own base regressor
-    (:func:`symbolic.identify.model.base_regressor`)."""
+            duration: float, processing: Processing) -> Prediction:
+    """The predicted σ of the base parameters from the states of every sample (rows of q, q̇, q̈, before the
+    border is dropped), the equivalent noise ``sigma`` per coordinate and identify's treatment ``processing``.
+
+    The regressor is identify's own (:func:`symbolic.identify.model.base_regressor`), reduced as identify reduces it
+    (:meth:`Processing.reduce`: border dropped, low-passed and decimated by d): the decimation filter removes the
+    regressor's content above its edge (the square-wave harmonics of a Coulomb column) and keeps the noise density
+    below it, so M = d·Σ_k W_d,kᵀ Σ⁻¹ W_d,k over the decimated rows, with Σ the noise per sample at the log's rate.
+    """
     from symbolic.identify.model import base_regressor, model_base
 
     _, base = model_base(model)
-    regressor = base_regressor(model)
+    reduced = processing.reduce(base_regressor(model)(q, qd, qdd))
     weights = 1.0 / np.asarray(sigma, float) ** 2
-    b = len(base.names)
-    M = np.zeros((b, b))  # noqa: N806
-    for start in range(0, len(q), chunk):
-        Y = regressor(q[start:start + chunk], qd[start:start + chunk], qdd[start:start + chunk])  # noqa: N806
-        M += np.einsum("kjp,j,kjr->pr", Y, weights, Y)
+    M = processing.decimation * np.einsum("kjp,j,kjr->pr", reduced, weights, reduced)  # noqa: N806
     M = 0.5 * (M + M.T)  # noqa: N806
+    b = len(base.names)
     try:
         covariance = np.linalg.inv(M) if np.linalg.matrix_rank(M) == b else np.full((b, b), np.inf)
     except np.linalg.LinAlgError:
         covariance = np.full((b, b), np.inf)
     sigmas = np.sqrt(np.abs(np.diag(covariance)))
-    return Prediction(label, tuple(base.names), np.asarray(base.values, float), sigmas, M, len(q),
+    kept = len(q) - processing.border[0] - processing.border[1]
+    return Prediction(label, tuple(base.names), np.asarray(base.values, float), sigmas, M, kept,
                       np.asarray(sigma, float), float(duration))

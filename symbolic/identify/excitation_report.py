@@ -133,9 +133,8 @@ def _predict_reference(model: DynamicModel, trajectory: FourierTrajectory, noise
                        label: str) -> Prediction:
     t, q, qd, qdd = reference_samples(trajectory, noise.rate)
     p = treatment(noise.rate, len(t), settings)
-    kept = slice(p.border[0], len(t) - p.border[1])
-    sigma = equivalent_noise(model, noise, p, q[kept][:: max(1, len(t) // 50)])
-    return predict(model, label, q[kept], qd[kept], qdd[kept], sigma, trajectory.period)
+    sigma = equivalent_noise(model, noise, p, q[:: max(1, len(t) // 50)])
+    return predict(model, label, q, qd, qdd, sigma, trajectory.period, p)
 
 
 def predict_log(model: DynamicModel, path: str | Path, noise: Noise, settings: Settings | None = None) -> Prediction:
@@ -147,11 +146,10 @@ def predict_log(model: DynamicModel, path: str | Path, noise: Noise, settings: S
     measured = load(path, model=model.robot)
     treated = states(measured, settings)
     p = treated.processing
-    kept = slice(p.border[0], measured.samples - p.border[1])
     at_rate = noise.at_rate(measured.rate)
-    sigma = equivalent_noise(model, at_rate, p, treated.q[kept][:: max(1, measured.samples // 50)])
-    return predict(model, f"log {Path(str(path)).name}", treated.q[kept], treated.qd[kept], treated.qdd[kept], sigma,
-                   float(measured.t[-1] - measured.t[0]))
+    sigma = equivalent_noise(model, at_rate, p, treated.q[:: max(1, measured.samples // 50)])
+    return predict(model, f"log {Path(str(path)).name}", treated.q, treated.qd, treated.qdd, sigma,
+                   float(measured.t[-1] - measured.t[0]), p)
 
 
 # -- the files -----------------------------------------------------------------------------------------------
