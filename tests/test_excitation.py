@@ -309,3 +309,16 @@ def test_the_shipped_panda_declarations_are_complete() -> None:
     for kind in ("position", "velocity", "acceleration", "torque", "force_noise", "resolution"):
         assert set(declared.table.values[kind]) == set(names), kind
     assert declared.table.rate == 1000.0
+
+
+def test_every_command_reads_an_experiment_with_an_excitation_table(files) -> None:
+    """The loader accepts [excitation] beside the data (checked the same way) and refuses a bad one."""
+    t = np.arange(50) / 100.0
+    rows = np.column_stack([t, 0.1 * np.sin(t), 0.2 * np.cos(t), np.sin(3 * t), np.cos(2 * t)])
+    np.savetxt(files / "log.csv", rows, delimiter=",", header="t,q_q1,q_q2,tau_q1,tau_q2", comments="")
+    (files / "run.toml").write_text('data = "log.csv"\n' + EXPERIMENT)
+    robot = symbolic.loads(models.arm(), "arm")
+    assert symbolic.data.load(files / "run.toml", model=robot).samples == 50
+    (files / "bad.toml").write_text('data = "log.csv"\n' + EXPERIMENT.replace("acceleration = {", "acceleration = { q7 = 1.0,"))
+    with pytest.raises(symbolic.data.DataError, match=r"\[excitation\] acceleration.q7: unknown coordinate"):
+        symbolic.data.load(files / "bad.toml", model=robot)
