@@ -540,6 +540,8 @@ class Start:
     status: str
     worst: float
     seconds: float
+    worst_kind: str = ""
+    """The kind of limit (position, velocity, acceleration, torque) closest to or beyond its bound."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -580,8 +582,9 @@ class Design:
                 "grid_points": self.grid_points, "seconds": self.seconds,
                 "worst_ratio_to_limit": {k: dict(zip(self.limits.coordinates, map(float, v)))
                                          for k, v in self.worst.items()},
-                "starts": [{"start": s.seed_index, "start_value": s.start_value, "value": s.value,
-                            "status": s.status, "worst_ratio": s.worst, "seconds": s.seconds} for s in self.starts],
+                "starts": [{"start": s.seed_index, "start_value": s.start_value, "value": s.value, "status": s.status,
+                            "worst_ratio": s.worst, "worst_kind": s.worst_kind, "seconds": s.seconds}
+                           for s in self.starts],
                 "limits": self.limits.to_dict(), "trajectory": self.trajectory.to_dict()}
 
 
@@ -633,8 +636,8 @@ def design(model: DynamicModel, limits: Limits, duration: float, *, weights: Seq
     for k in range(starts):
         z, run = _one_start(problem, random_start(rng, problem), fine, k)
         runs.append(run)
-        LOG.info("excitation: start %d/%d: criterion %.6g -> %.6g (%s, worst ratio to a limit %.6f, %.1f s)", k + 1,
-                 starts, run.start_value, run.value, run.status, run.worst, run.seconds)
+        LOG.info("excitation: start %d/%d: criterion %.6g -> %.6g (%s, worst ratio to a limit %.6f (%s), %.1f s)",
+                 k + 1, starts, run.start_value, run.value, run.status, run.worst, run.worst_kind, run.seconds)
         if run.worst <= 1.0 + TOLERANCE and (best is None or run.value < best[1].value):
             best = (z, run)
     if best is None:
@@ -666,16 +669,17 @@ def _one_start(problem: Problem, z0: np.ndarray, fine: np.ndarray, index: int) -
     start_value = problem.value(z0)
     declared, tightened = problem.limits, problem.limits
     factors = {k: np.ones(problem.regressor.n) for k in KINDS}
-    z, status, worst = z0, "not solved", math.inf
+    z, status, worst, worst_kind = z0, "not solved", math.inf, ""
     for _ in range(4):
         problem.with_limits(tightened)
         z, status = problem.solve(z)
         ratios = violation(problem.regressor, problem.trajectory(z), declared, fine)
-        worst = max(float(v.max()) for v in ratios.values())
+        worst_kind = max(ratios, key=lambda k: float(ratios[k].max()))
+        worst = float(ratios[worst_kind].max())
         if worst <= 1.0 + TOLERANCE:
             break
         for k, v in ratios.items():
             factors[k] = np.where(v > 1.0, factors[k] / v * (1.0 - 1e-4), factors[k])
         tightened = declared.scaled(factors)
     problem.with_limits(declared)
-    return z, Start(index, start_value, problem.value(z), status, worst, time.perf_counter() - started)
+    return z, Start(index, start_value, problem.value(z), status, worst, time.perf_counter() - started, worst_kind)
