@@ -36,6 +36,7 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
+import sympy as sp
 
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.errors import IdentificationError
@@ -54,6 +55,10 @@ IPOPT_OPTIONS = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
                  "ipopt.hessian_approximation": "limited-memory", "ipopt.max_iter": 300}
 """IPOPT's options (CasADi's names): quiet, limited-memory Hessian (the criterion's second derivatives are not
 formed), at most 300 iterations per solve."""
+SIGN_VELOCITY = 1e-2
+"""ε of the smooth sign tanh(v/ε) the optimiser sees in place of Coulomb friction's sign(v) (coordinate units per
+second): with the exact sign, M and τ jump where a velocity crosses zero at a grid point, and IPOPT's line search
+stalls. Limits are verified, and σ predicted, with the exact sign."""
 TOLERANCE = 1e-6
 """Relative excess over a limit tolerated on the verification grid."""
 
@@ -229,9 +234,21 @@ class CasadiRegressor:
     torque_jacobian: ca.Function
 
 
-def casadi_regressor(model: DynamicModel) -> CasadiRegressor:
+def has_sign(model: DynamicModel) -> bool:
+    """Whether the base regressor holds sign(·) (Coulomb friction): its columns jump where a velocity crosses zero."""
+    from symbolic.identify.model import model_base
+
+    reg, base = model_base(model)
+    columns = list(reg.Y.extract(list(range(model.n)), list(base.independent)))
+    return any(d.has(sp.sign) for _, d in reg.sub.program(columns)) or any(c.has(sp.sign) for c in columns)
+
+
+def casadi_regressor(model: DynamicModel, sign_velocity: float | None = None) -> CasadiRegressor:
     """Translate the base columns of the model's regressor into CasADi SX (the straight-line program of the
-    generated code, :func:`symbolic.codegen.casadi.program_to_sx`) at the nominal parameter values."""
+    generated code, :func:`symbolic.codegen.casadi.program_to_sx`) at the nominal parameter values.
+
+    ``sign_velocity`` ε: sign(v) becomes tanh(v/ε) (what the optimiser sees, :data:`SIGN_VELOCITY`); ``None``:
+    the exact sign (what the limits are verified on and identify uses)."""
     from symbolic.codegen.casadi import program_to_sx
     from symbolic.identify.model import model_base
 
@@ -244,7 +261,8 @@ def casadi_regressor(model: DynamicModel) -> CasadiRegressor:
     q, qd, qdd, w = (ca.SX.sym(name, n) for name in ("q", "qd", "qdd", "w"))
     p = ca.DM(model.parameter_vector.coerce(None))
     groups = [model.coordinates, model.velocities, model.accelerations, model.parameter_symbols]
-    flat = program_to_sx(reg.sub, columns, groups, [q, qd, qdd, ca.SX(p)])
+    module = None if sign_velocity is None else {"sign": lambda v: ca.tanh(v / sign_velocity)}
+    flat = program_to_sx(reg.sub, columns, groups, [q, qd, qdd, ca.SX(p)], module)
     W = ca.reshape(flat, b, n).T  # lambdify's outputs are row-major  # noqa: N806
     beta = np.asarray(base.values, float)
     tau = ca.mtimes(W, ca.DM(beta))
@@ -253,7 +271,7 @@ def casadi_regressor(model: DynamicModel) -> CasadiRegressor:
         ca.Function("W", [q, qd, qdd], [W], ["q", "qd", "qdd"], ["W"]),
         ca.Function("M", [q, qd, qdd, w], [ca.mtimes(W.T, ca.mtimes(ca.diag(w), W))], ["q", "qd", "qdd", "w"], ["M"]),
         ca.Function("tau", [q, qd, qdd], [tau], ["q", "qd", "qdd"], ["tau"]),
-        _compiled(ca.Function(f"dtau_{_identifier(model.name)}", [q, qd, qdd],
+        _compiled(ca.Function(f"dtau_{_identifier(model.name)}{'' if sign_velocity is None else '_smooth'}", [q, qd, qdd],
                               [ca.jacobian(tau, ca.vertcat(q, qd, qdd))], ["q", "qd", "qdd"], ["dtau"])))
 
 
@@ -431,6 +449,8 @@ class Problem:
     grid: np.ndarray
     weights: np.ndarray
     criterion: str
+    exact: CasadiRegressor | None = None
+    """The regressor with the exact sign, on which limits are verified (default: ``regressor``)."""
     callback: _CriterionCallback = field(init=False, repr=False)
     constraints: _Constraints = field(init=False, repr=False)
     objective: ca.Function = field(init=False, repr=False)
@@ -438,6 +458,7 @@ class Problem:
     bounds: tuple[np.ndarray, np.ndarray] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        self.exact = self.exact or self.regressor
         n, L, K = self.regressor.n, self.harmonics, len(self.grid)  # noqa: N806
         self.callback = _CriterionCallback("criterion", len(self.regressor.names), CRITERIA[self.criterion])
         z = ca.MX.sym("z", n * (2 * L - 1))
@@ -518,7 +539,7 @@ def random_start(rng: np.random.Generator, problem: Problem, fill: float = 0.6) 
     q = problem.trajectory(z.ravel()).evaluate(fine)[0]
     z[:, 0] = middle - 0.5 * (q.max(axis=0) + q.min(axis=0))
     for _ in range(6):
-        if violation(problem.regressor, problem.trajectory(z.ravel()), limits, fine)["torque"].max() <= fill:
+        if violation(problem.exact, problem.trajectory(z.ravel()), limits, fine)["torque"].max() <= fill:
             break
         z[:, 1:] *= 0.7
         q = problem.trajectory(z.ravel()).evaluate(fine)[0]
@@ -623,12 +644,13 @@ def design(model: DynamicModel, limits: Limits, duration: float, *, weights: Seq
     check_options(duration, harmonics, criterion, starts)
     started = time.perf_counter()
     regressor = casadi_regressor(model)
+    smooth = casadi_regressor(model, SIGN_VELOCITY) if has_sign(model) else regressor
     n = regressor.n
     w = np.ones(n) if weights is None else np.asarray(weights, float)
     K = grid_points or max(100, 20 * harmonics)  # noqa: N806
     grid = np.linspace(0.0, duration, K, endpoint=False)
     fine = np.linspace(0.0, duration, FINER * K, endpoint=False)
-    problem = Problem(regressor, limits, float(duration), harmonics, grid, w / w.mean(), criterion)
+    problem = Problem(smooth, limits, float(duration), harmonics, grid, w / w.mean(), criterion, regressor)
     LOG.info("excitation: %d coordinates × %d harmonics, %d base parameters, %d grid points, criterion %s, %d start(s)",
              n, harmonics, len(regressor.names), K, criterion, starts)
     rng = np.random.default_rng(seed)
@@ -673,7 +695,7 @@ def _one_start(problem: Problem, z0: np.ndarray, fine: np.ndarray, index: int) -
     for _ in range(4):
         problem.with_limits(tightened)
         z, status = problem.solve(z)
-        ratios = violation(problem.regressor, problem.trajectory(z), declared, fine)
+        ratios = violation(problem.exact, problem.trajectory(z), declared, fine)
         worst_kind = max(ratios, key=lambda k: float(ratios[k].max()))
         worst = float(ratios[worst_kind].max())
         if worst <= 1.0 + TOLERANCE:
