@@ -189,11 +189,17 @@ def files(tmp_path):
 
 def test_command_writes_the_folder_and_simulate_reads_it(files, capsys) -> None:
     out = files / "design"
+    t = np.arange(1000) / 200.0  # an existing log: a slow sine on each joint, identify's canonical columns
+    q = np.column_stack([0.8 * np.sin(2 * np.pi * 0.3 * t), 1.0 * np.sin(2 * np.pi * 0.5 * t)])
+    np.savetxt(files / "old.csv", np.column_stack([t, q, np.sin(t), np.cos(t)]), delimiter=",",
+               header="t,q_q1,q_q2,tau_q1,tau_q2", comments="")
     code = main(["-q", "excite", str(files / "arm.toml"), "--experiment", str(files / "exp.toml"), "--duration", "3",
-                 "--harmonics", "2", "--starts", "1", "--out", str(out), "--json"])
+                 "--harmonics", "2", "--starts", "1", "--out", str(out), "--compare", str(files / "old.csv"), "--json"])
     assert code == 0, capsys.readouterr().err
     result = json.loads(capsys.readouterr().out)
     assert result["design"]["criterion"] == "d"
+    assert result["compare"]["label"] == "log old.csv" and set(result["compare"]["parameters"]) == set(result["predicted"]["parameters"])
+    assert "σ % log old.csv" in (out / "report.md").read_text()
     header = (out / "trajectory.csv").read_text().splitlines()[1]
     assert header == "t,ref_q1,ref_q2,qd_q1,qd_q2,qdd_q1,qdd_q2"
     assert {"report.md", "excitation.json", "trajectory.experiment.toml"} <= {p.name for p in out.iterdir()}
@@ -322,3 +328,11 @@ def test_every_command_reads_an_experiment_with_an_excitation_table(files) -> No
     (files / "bad.toml").write_text('data = "log.csv"\n' + EXPERIMENT.replace("acceleration = {", "acceleration = { q7 = 1.0,"))
     with pytest.raises(symbolic.data.DataError, match=r"\[excitation\] acceleration.q7: unknown coordinate"):
         symbolic.data.load(files / "bad.toml", model=robot)
+
+
+def test_an_unreadable_compare_log_is_refused_before_the_design(files, capsys) -> None:
+    out = files / "design"
+    assert main(["-q", "excite", str(files / "arm.toml"), "--experiment", str(files / "exp.toml"), "--duration", "3",
+                 "--compare", str(files / "missing.csv"), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "missing.csv" in err and len(err.strip().splitlines()) == 1 and not out.exists()

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from symbolic.data import Measurements
 from symbolic.data import files as data_files
 from symbolic.data.errors import DataError
 from symbolic.data.excitation import ExcitationTable, parse
@@ -101,13 +102,17 @@ def reference_samples(trajectory: FourierTrajectory, rate: float) -> tuple[np.nd
 
 def excite(model: DynamicModel, declared: Declared, duration: float, *, limits: Mapping[str, Mapping[str, Any]] | None = None,
            noise: Mapping[str, Mapping[str, Any]] | None = None, rate: float | None = None, harmonics: int = HARMONICS,
-           criterion: str = "d", starts: int = STARTS, seed: int = 0, compare: str | Path | None = None,
+           criterion: str = "d", starts: int = STARTS, seed: int = 0, compare: str | Path | Measurements | None = None,
            grid_points: int | None = None, check_loop: bool = True) -> Excitation:
     """Design, check in the loop, predict, compare (module docstring). ``limits`` and ``noise``: ``{kind:
     {coordinate: value}}`` from the command line, replacing the experiment's; ``rate`` likewise. With a
     ``[controller]`` declared (and ``check_loop``), a design that saturates in that loop is refused
     (:func:`symbolic.identify.excitation_loop.refusal`: an :class:`IdentificationError`, nothing returned)."""
     check_options(duration, harmonics, criterion, starts)
+    if compare is not None:  # a log that cannot be read is refused before the design, not after it
+        from symbolic.data import load
+
+        compare = load(compare, model=model.robot)
     where = ("experiment", declared.table.values)
     given = ("command line", {**(limits or {}), **(noise or {})})
     bounds = resolve_limits(model, where, given)
@@ -137,13 +142,16 @@ def _predict_reference(model: DynamicModel, trajectory: FourierTrajectory, noise
     return predict(model, label, q, qd, qdd, sigma, trajectory.period, p)
 
 
-def predict_log(model: DynamicModel, path: str | Path, noise: Noise, settings: Settings | None = None) -> Prediction:
-    """The predicted σ for an existing log (a data or experiment file identify reads): its states as identify
-    treats them (filtered positions, central differences, borders dropped), the declared noise at its rate."""
+def predict_log(model: DynamicModel, path: str | Path | Measurements, noise: Noise,
+                settings: Settings | None = None) -> Prediction:
+    """The predicted σ for an existing log (a data or experiment file identify reads, or its measurements): its
+    states as identify treats them (filtered positions, central differences, borders dropped), the declared noise
+    at its rate."""
     from symbolic.data import load
     from symbolic.data.treatment import states
 
-    measured = load(path, model=model.robot)
+    measured = path if isinstance(path, Measurements) else load(path, model=model.robot)
+    path = measured.source
     treated = states(measured, settings)
     p = treated.processing
     at_rate = noise.at_rate(measured.rate)
