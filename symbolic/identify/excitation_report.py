@@ -213,8 +213,9 @@ def experiment_text(result: Excitation) -> str:
               [f"ref_{c} = \"ref_{c}\"" for c in names] + [f"refd_{c} = \"qd_{c}\"" for c in names]
     lines = [f"# The excitation reference of {result.model.name} (symbolic excite): t, ref_<c> and the reference's",
              "# qd_<c>, qdd_<c> in trajectory.csv. A trajectory player reads ref_<c> (and qd_<c>, qdd_<c>); `symbolic",
-             "# simulate MODEL trajectory.experiment.toml` runs it through the [controller] below (positions and",
-             "# forces here are placeholders: the reference as position, zero force). After the robot has run it,",
+             "# simulate MODEL trajectory.experiment.toml` runs it through a [controller] (the input's, below, when it",
+             "# declared one; positions and forces here are placeholders: the reference as position, zero force).",
+             "# After the robot has run it,",
              "# map the recorded log instead and run `symbolic identify`.",
              f"data = {json.dumps(TRAJECTORY)}", *_model_line(result.model), "", "[signals]", *signals, ""]
     given = result.settings.given()
