@@ -373,6 +373,36 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_excite(args: argparse.Namespace) -> int:
+    from symbolic import export
+    from symbolic.identify import excitation_report as excite
+    from symbolic.identify.excitation import check_options
+
+    check_options(args.duration, args.harmonics, args.criterion, args.starts)  # before deriving: nothing written
+    try:
+        export.check_output_directory(args.out)
+    except export.ExportError as error:
+        print(f"error: --out: {error}", file=sys.stderr)
+        return 2
+    model = derive(resolve(args.model, args))
+    names = model.robot.generalized_coordinates
+    limits = {kind: excite.option_values(kind, getattr(args, kind), names)
+              for kind in ("position", "velocity", "acceleration", "torque")}
+    noise = {kind: excite.option_values(kind, getattr(args, kind), names) for kind in ("force_noise", "resolution")}
+    declared = excite.read_declarations(args.experiment, names)
+    result = excite.excite(model, declared, args.duration, limits=limits, noise=noise, rate=args.rate,
+                           harmonics=args.harmonics, criterion=args.criterion, starts=args.starts, seed=args.seed,
+                           compare=args.compare)
+    paths, notes = excite.write(result, args.out, figures=not args.no_figures)
+    if args.json:
+        print(strict_json({**result.to_dict(), "files": [str(p) for p in paths], "notes": notes}))
+        return 0
+    print(excite.summary(result))
+    for line in [*(f"wrote {p}" for p in paths), *notes]:
+        print(line)
+    return 0
+
+
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from symbolic.workflow import SearchSettings, diagnose
     from symbolic.workflow.effects import EFFECTS, select
@@ -665,6 +695,27 @@ def parser() -> argparse.ArgumentParser:
                    "coordinate, rad/s for a revolute one (default 1e-4)")
     s.add_argument("--window", type=float, default=1.0, help="length of the worst window, seconds (default 1)")
     s.set_defaults(func=cmd_simulate)
+    e = sub.add_parser("excite", help="design an exciting trajectory (Fourier series, D-optimal) and predict the σ it gives")
+    e.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
+    e.add_argument("--experiment", metavar="EXP.toml", help="experiment file with an [excitation] table (limits, noise, "
+                   "rate) and [identification] settings; its data file is not read")
+    e.add_argument("--duration", type=float, required=True, metavar="T", help="period and length of the reference (s)")
+    e.add_argument("--out", metavar="DIR", required=True, help="folder for trajectory.csv, trajectory.experiment.toml, "
+                   "excitation.json, report.md and the figures")
+    e.add_argument("--harmonics", type=int, default=5, help="harmonics per coordinate (default 5)")
+    e.add_argument("--criterion", default="d", help="d (D-optimality, default), a (A-optimality) or condition")
+    e.add_argument("--starts", type=int, default=3, help="random starts (default 3)")
+    e.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
+    e.add_argument("--compare", metavar="LOG", help="an existing log (data or experiment file identify reads): its "
+                   "predicted σ beside the design's")
+    for kind, example in (("position", "q1=-1:1"), ("velocity", "q1=2"), ("acceleration", "q1=10"), ("torque", "q1=50"),
+                          ("force-noise", "q1=0.1"), ("resolution", "q1=1e-5")):
+        e.add_argument(f"--{kind}", metavar="C=V,...", help=f"replaces the experiment's [excitation] {kind.replace('-', '_')}: "
+                       f"{example}, or one value for every coordinate")
+    e.add_argument("--rate", type=float, help="sample rate of the log to be recorded (Hz)")
+    e.add_argument("--no-figures", action="store_true", help="write no PNG figures")
+    e.add_argument("--json", action="store_true", help="machine-readable result")
+    e.set_defaults(func=cmd_excite)
     w = sub.add_parser("diagnose", help="find the effects the model misses in measured data and patch the model file",
                        add_help=False, formatter_class=argparse.RawDescriptionHelpFormatter)
     w.add_argument("-h", "--help", action=_DiagnoseHelp, help="show this help message, with the effects, and exit")
@@ -723,7 +774,7 @@ def parser() -> argparse.ArgumentParser:
     x.add_argument("model", help="model file (.toml, .urdf) or built-in robot name")
     x.add_argument("--out", metavar="FILE.xml", required=True, help="the MJCF file to write")
     x.set_defaults(func=cmd_export_mjcf)
-    for command in (d, g, a, i, s, w, u, x):
+    for command in (d, g, a, i, s, e, w, u, x):
         command.add_argument("--root", metavar="LINK", help="URDF models: the fixed link the chain starts from (default: the tree's root)")
         command.add_argument("--tip", metavar="LINK", help="URDF models: the last link of the chain (default: the whole tree moves)")
     ls = sub.add_parser("list", help="list the built-in robots")

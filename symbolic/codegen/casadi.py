@@ -174,3 +174,17 @@ def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
         out["operational_inertia"] = ca.Function("operational_inertia", [q, p], [lam], ["q", "p"], ["Lambda"])
         out["apparent_mass"] = ca.Function("apparent_mass", [q, u, p], [mass], ["q", "u", "p"], ["m"])
     return out
+
+
+def program_to_sx(sub, outputs: sp.Matrix, groups: list, values: list, module: dict | None = None) -> ca.SX:
+    """``outputs`` (expressions in the intermediate symbols of ``sub``) as one CasADi column, the symbols of
+    each group in ``groups`` replaced by the entries of the matching CasADi column in ``values``: the same
+    straight-line program as the C code and the simulation plant, so CasADi's AD differentiates exactly that.
+    ``module`` replaces functions of :data:`CASADI_MODULE` (e.g. ``sign`` by a smooth one)."""
+    flat = list(outputs)
+    program = sub.program(flat)
+    function = sp.lambdify([list(g) for g in groups], flat, modules=[{**CASADI_MODULE, **(module or {})}],
+                           printer=_CasadiPrinter(),
+                           cse=lambda exprs: (program, exprs))
+    return ca.vertcat(*[ca.SX(v) if not isinstance(v, ca.SX) else v
+                        for v in function(*[[v[i] for i in range(v.shape[0])] for v in values])])

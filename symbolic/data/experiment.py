@@ -29,7 +29,7 @@ import numpy as np
 import sympy as sp
 
 from symbolic import robots
-from symbolic.data import files, signal_layer
+from symbolic.data import excitation, files, signal_layer
 from symbolic.data.controller import Controller, parse
 from symbolic.data.errors import DataError
 from symbolic.data.keys import check_keys
@@ -48,7 +48,7 @@ DATA_PATH_VARIABLE = "SYMBOLIC_DATA_PATH"
 when it is not found at the path the experiment file gives."""
 
 TOP_KEYS = ("data", "model", "description", "rate", "resample", "columns", "signals", "constants", "window",
-            "controller", "identification", "sensors", "drive")
+            "controller", "identification", "sensors", "drive", "excitation")
 
 WINDOW_KEYS = ("start", "stop")
 
@@ -239,6 +239,8 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
     if model is not None:
         check_units(measurements, model)
     measurements, layer = signal_layer.apply(measurements, layer, source)
+    if "excitation" in spec:  # checked here as every table is; symbolic excite reads it (symbolic.data.excitation)
+        excitation.parse(spec["excitation"], coordinates or _coordinates_of(model) or measurements.coordinates, source)
     controller = None
     if "controller" in spec:
         controller_table = _table(spec, "controller", source)

@@ -1,0 +1,707 @@
+"""Excitation design: a periodic reference whose log will determine the base parameters best (docs/data.md,
+"Excitation design").
+
+The reference of every coordinate is a finite Fourier series of period T = 2π/ω_f (Swevers, Ganseman, Tükel,
+De Schutter, Van Brussel, IEEE Trans. Robot. Autom. 13(5), 1997, (12)–(13))::
+
+    q_i(t)   = q_i0 + Σ_l  a_il/(ω_f l)·sin(ω_f l t) − b_il/(ω_f l)·cos(ω_f l t)       l = 1 … L
+    q̇_i(t)   =        Σ_l  a_il·cos(ω_f l t) + b_il·sin(ω_f l t)
+    q̈_i(t)   =        Σ_l −a_il ω_f l·sin(ω_f l t) + b_il ω_f l·cos(ω_f l t)
+
+At rest at t = 0 (and so at t = T): q̇_i(0) = Σ_l a_il = 0 and q̈_i(0) = ω_f Σ_l l·b_il = 0, two linear
+equalities per coordinate, eliminated exactly: a_iL = −Σ_{l<L} a_il and b_iL = −Σ_{l<L} l·b_il / L, so the
+optimiser moves the other 2L − 1 coefficients (L ≥ 2: with one harmonic the equalities leave no motion).
+
+The design maximises the information of the base parameters β (τ = W β, :mod:`symbolic.numeric.base_parameters`)
+that the log would carry: M = Σ_k W_kᵀ Σ⁻¹ W_k, W_k the base regressor at the reference's state at the grid
+times t_k and Σ = diag(σ_j²) the equivalent force noise per coordinate (:mod:`symbolic.identify.excitation_noise`);
+criterion D (−log det M, default), A or the condition number (:mod:`symbolic.identify.excitation_criteria`).
+Under, at every grid time, |q_i − mid_i| ≤ half range, |q̇_i| ≤ v_i, |q̈_i| ≤ a_i (linear in the coefficients)
+and |τ_i| ≤ τ_i with τ = W(q, q̇, q̈)·β at the model's nominal values. The regressor is translated into CasADi
+(the straight-line program of the generated code) and mapped over the grid; ∂M/∂x is CasADi's reverse-mode
+AD, the criterion's ∂/∂M its closed form, and IPOPT (in the casadi wheel; limited-memory Hessian) solves
+from several random starts (seeded). The result is verified on a grid ten times finer; a limit crossed there
+(between grid points) is tightened by the excess and the start solved again. Collision avoidance (with the
+robot itself and its surroundings) is not part of the design.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+import sympy as sp
+
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.errors import IdentificationError
+from symbolic.identify.excitation_criteria import CRITERIA, positive_definite
+
+LOG = logging.getLogger(__name__)
+
+KINDS = ("position", "velocity", "acceleration", "torque")
+HARMONICS = 5
+"""Default number of harmonics L per coordinate."""
+STARTS = 3
+"""Default number of random starts."""
+FINER = 10
+"""The verification grid is this many times finer than the design grid."""
+IPOPT_OPTIONS = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-7,
+                 "ipopt.hessian_approximation": "limited-memory", "ipopt.max_iter": 300}
+"""IPOPT's options (CasADi's names): quiet, limited-memory Hessian (the criterion's second derivatives are not
+formed), at most 300 iterations per solve."""
+SIGN_VELOCITY = 1e-2
+"""ε of the smooth sign tanh(v/ε) the optimiser sees in place of Coulomb friction's sign(v) (coordinate units per
+second): with the exact sign, M and τ jump where a velocity crosses zero at a grid point, and IPOPT's line search
+stalls. Limits are verified, and σ predicted, with the exact sign."""
+TOLERANCE = 1e-6
+"""Relative excess over a limit tolerated on the verification grid."""
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Per coordinate (the model's order): position bounds, and bounds on |q̇|, |q̈| and |τ| (``inf``: none).
+
+    ``origin`` says where each came from: ``{"velocity q1": "model file", ...}``.
+    """
+
+    coordinates: tuple[str, ...]
+    lower: np.ndarray
+    upper: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    torque: np.ndarray
+    origin: Mapping[str, str] = field(default_factory=dict)
+
+    def scaled(self, factors: Mapping[str, np.ndarray]) -> Limits:
+        """The limits with ``factors`` ({kind: per-coordinate factor ≤ 1}) applied; position about its middle."""
+        middle, half = 0.5 * (self.lower + self.upper), 0.5 * (self.upper - self.lower)
+        f = {k: np.asarray(factors.get(k, np.ones(len(self.coordinates))), float) for k in KINDS}
+        with np.errstate(invalid="ignore"):
+            lower = np.where(np.isfinite(half), middle - f["position"] * half, self.lower)
+            upper = np.where(np.isfinite(half), middle + f["position"] * half, self.upper)
+        return Limits(self.coordinates, lower, upper, self.velocity * f["velocity"],
+                      self.acceleration * f["acceleration"], self.torque * f["torque"], self.origin)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {c: {"position": [float(self.lower[i]), float(self.upper[i])], "velocity": float(self.velocity[i]),
+                    "acceleration": float(self.acceleration[i]), "torque": float(self.torque[i])}
+                for i, c in enumerate(self.coordinates)}
+
+
+def model_file_limits(model: DynamicModel) -> dict[str, dict[str, Any]]:
+    """The limits a model file declares: ``joint.limit`` of its general (URDF) frames, URDF ``<limit>``
+    included — lower/upper → position, velocity → velocity, effort → torque — for the frames whose joint
+    variable is one generalized coordinate. DH frames declare none."""
+    found: dict[str, dict[str, Any]] = {k: {} for k in KINDS}
+    names = set(model.robot.generalized_coordinates)
+    for frame in model.robot.frames:
+        joint = frame.joint
+        if joint is None or not joint.limits or joint.type == "fixed":
+            continue
+        variable = str(frame.d if joint.type == "prismatic" else frame.theta)
+        if variable not in names:
+            continue
+        limits = joint.limits
+        if "lower" in limits and "upper" in limits and joint.type != "continuous":
+            found["position"][variable] = (float(limits["lower"]), float(limits["upper"]))
+        if "velocity" in limits:
+            found["velocity"][variable] = float(limits["velocity"])
+        if "effort" in limits:
+            found["torque"][variable] = float(limits["effort"])
+    return found
+
+
+def resolve_limits(model: DynamicModel, *sources: tuple[str, Mapping[str, Mapping[str, Any]]]) -> Limits:
+    """The limits of every coordinate: the model file's (:func:`model_file_limits`), replaced by each of
+    ``sources`` in turn (``(origin, {kind: {coordinate: value}})``, e.g. the experiment's ``[excitation]``, then
+    the command line). A limit no source declares is refused with what to declare.
+
+    Raises
+    ------
+    IdentificationError
+        Naming the coordinates and the limit missing, and where to declare it.
+    """
+    names = tuple(model.robot.generalized_coordinates)
+    merged: dict[str, dict[str, Any]] = {k: {} for k in KINDS}
+    origin: dict[str, str] = {}
+    for where, declared in (("model file", model_file_limits(model)), *sources):
+        for kind in KINDS:
+            for c, value in (declared.get(kind) or {}).items():
+                merged[kind][c], origin[f"{kind} {c}"] = value, where
+    for kind in KINDS:
+        missing = [c for c in names if c not in merged[kind]]
+        if missing:
+            example = "[-1.0, 1.0]" if kind == "position" else "2.0"
+            raise IdentificationError(
+                f"no {kind} limit for coordinate{'s' if len(missing) > 1 else ''} {', '.join(missing)}: declare it in the "
+                f"experiment's [excitation] table ({kind} = {{ {missing[0]} = {example} }}, or one number for every "
+                f"coordinate; inf for none) or with --{kind} {missing[0]}={example.strip('[]').replace(', ', ':')}"
+                + (" (or as joint.limit in the model file)" if kind in ("position", "velocity", "torque") else ""))
+    position = np.array([merged["position"][c] for c in names], float).reshape(len(names), 2)
+    return Limits(names, position[:, 0], position[:, 1], *(np.array([merged[k][c] for c in names], float)
+                                                            for k in KINDS[1:]), origin)
+
+
+# -- the Fourier series -------------------------------------------------------------------------------------
+
+
+def basis(t: np.ndarray, period: float, harmonics: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Φ_q, Φ_q̇, Φ_q̈ (``len(t) × (1 + 2L)``): q = Φ_q·c for a coordinate's c = [q0, a_1…a_L, b_1…b_L]
+    (module docstring)."""
+    t = np.asarray(t, float).reshape(-1, 1)
+    omega = 2.0 * np.pi / period * np.arange(1, harmonics + 1)
+    s, c = np.sin(omega * t), np.cos(omega * t)
+    ones, zeros = np.ones((len(t), 1)), np.zeros((len(t), 1))
+    return (np.hstack([ones, s / omega, -c / omega]), np.hstack([zeros, c, s]),
+            np.hstack([zeros, -s * omega, c * omega]))
+
+
+def rest_null_space(harmonics: int) -> np.ndarray:
+    """Z ((1 + 2L) × (2L − 1)): c = Z·z meets Σ a_l = 0 and Σ l·b_l = 0 for every z, by construction
+    (a_L and b_L are the combinations of the others that make the sums zero)."""
+    L = harmonics  # noqa: N806
+    Z = np.zeros((1 + 2 * L, 2 * L - 1))  # noqa: N806
+    Z[0, 0] = 1.0
+    for l in range(L - 1):  # noqa: E741
+        Z[1 + l, 1 + l] = 1.0
+        Z[L, 1 + l] = -1.0
+        Z[1 + L + l, L + l] = 1.0
+        Z[2 * L, L + l] = -(l + 1) / L
+    return Z
+
+
+@dataclass(frozen=True)
+class FourierTrajectory:
+    """A periodic reference per coordinate (module docstring): ``offsets`` q_i0 (N), ``a`` and ``b`` (N × L)."""
+
+    coordinates: tuple[str, ...]
+    period: float
+    offsets: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+
+    @property
+    def harmonics(self) -> int:
+        return self.a.shape[1]
+
+    def coefficients(self) -> np.ndarray:
+        """(1 + 2L) × N: column i is coordinate i's [q0, a, b]."""
+        return np.vstack([self.offsets, self.a.T, self.b.T])
+
+    def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """q, q̇, q̈ at times ``t`` (``len(t) × N`` each)."""
+        C = self.coefficients()  # noqa: N806
+        return tuple(phi @ C for phi in basis(t, self.period, self.harmonics))  # type: ignore[return-value]
+
+    @classmethod
+    def from_free(cls, coordinates: Sequence[str], period: float, harmonics: int, z: np.ndarray) -> FourierTrajectory:
+        """The trajectory of the free coefficients z (N·(2L − 1), coordinate by coordinate; :func:`rest_null_space`)."""
+        n = len(coordinates)
+        C = rest_null_space(harmonics) @ np.asarray(z, float).reshape(n, 2 * harmonics - 1).T  # noqa: N806
+        return cls(tuple(coordinates), float(period), C[0].copy(), C[1:1 + harmonics].T.copy(), C[1 + harmonics:].T.copy())
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"period": self.period, "harmonics": self.harmonics,
+                "coordinates": {c: {"q0": float(self.offsets[i]), "a": self.a[i].tolist(), "b": self.b[i].tolist()}
+                                for i, c in enumerate(self.coordinates)}}
+
+
+# -- the regressor in CasADi ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class CasadiRegressor:
+    """The base regressor W(q, q̇, q̈) (N × b) and the functions the design maps over a grid.
+
+    ``information(q, qd, qdd, w) -> Wᵀdiag(w)W`` (b × b), ``torque(q, qd, qdd) -> W·β`` (N), β the base
+    parameters at the model's nominal values, ``torque_jacobian(q, qd, qdd) -> ∂τ/∂[q; q̇; q̈]`` (N × 3N; compiled
+    C when a compiler is found, :func:`symbolic.codegen.compiled.compile_casadi`: its source depends on the model
+    alone, so it is compiled once per machine).
+    """
+
+    n: int
+    names: tuple[str, ...]
+    beta: np.ndarray
+    regressor: ca.Function
+    information: ca.Function
+    torque: ca.Function
+    torque_jacobian: ca.Function
+
+
+def has_sign(model: DynamicModel) -> bool:
+    """Whether the base regressor holds sign(·) (Coulomb friction): its columns jump where a velocity crosses zero."""
+    from symbolic.identify.model import model_base
+
+    reg, base = model_base(model)
+    columns = list(reg.Y.extract(list(range(model.n)), list(base.independent)))
+    return any(d.has(sp.sign) for _, d in reg.sub.program(columns)) or any(c.has(sp.sign) for c in columns)
+
+
+def casadi_regressor(model: DynamicModel, sign_velocity: float | None = None) -> CasadiRegressor:
+    """Translate the base columns of the model's regressor into CasADi SX (the straight-line program of the
+    generated code, :func:`symbolic.codegen.casadi.program_to_sx`) at the nominal parameter values.
+
+    ``sign_velocity`` ε: sign(v) becomes tanh(v/ε) (what the optimiser sees, :data:`SIGN_VELOCITY`); ``None``:
+    the exact sign (what the limits are verified on and identify uses)."""
+    from symbolic.codegen.casadi import program_to_sx
+    from symbolic.identify.model import model_base
+
+    if model.time_varying:
+        raise IdentificationError(f"model {model.name}'s forces depend on time t: an excitation design for a "
+                                  "time-varying model is not supported")
+    reg, base = model_base(model)
+    n, b = model.n, len(base.names)
+    columns = reg.Y.extract(list(range(n)), list(base.independent))
+    q, qd, qdd, w = (ca.SX.sym(name, n) for name in ("q", "qd", "qdd", "w"))
+    p = ca.DM(model.parameter_vector.coerce(None))
+    groups = [model.coordinates, model.velocities, model.accelerations, model.parameter_symbols]
+    module = None if sign_velocity is None else {"sign": lambda v: ca.tanh(v / sign_velocity)}
+    flat = program_to_sx(reg.sub, columns, groups, [q, qd, qdd, ca.SX(p)], module)
+    W = ca.reshape(flat, b, n).T  # lambdify's outputs are row-major  # noqa: N806
+    beta = np.asarray(base.values, float)
+    tau = ca.mtimes(W, ca.DM(beta))
+    return CasadiRegressor(
+        n, tuple(base.names), beta,
+        ca.Function("W", [q, qd, qdd], [W], ["q", "qd", "qdd"], ["W"]),
+        ca.Function("M", [q, qd, qdd, w], [ca.mtimes(W.T, ca.mtimes(ca.diag(w), W))], ["q", "qd", "qdd", "w"], ["M"]),
+        ca.Function("tau", [q, qd, qdd], [tau], ["q", "qd", "qdd"], ["tau"]),
+        _compiled(ca.Function(f"dtau_{_identifier(model.name)}{'' if sign_velocity is None else '_smooth'}", [q, qd, qdd],
+                              [ca.jacobian(tau, ca.vertcat(q, qd, qdd))], ["q", "qd", "qdd"], ["dtau"])))
+
+
+def _identifier(name: str) -> str:
+    return "".join(ch if ch.isalnum() else "_" for ch in name)
+
+
+def _compiled(function: ca.Function) -> ca.Function:
+    """``function`` compiled (cached per machine), or itself without a compiler."""
+    from symbolic.codegen.compiled import compile_casadi
+
+    return compile_casadi(function) or function
+
+
+def information_matrix(regressor: CasadiRegressor, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                       weights: np.ndarray) -> np.ndarray:
+    """M = Σ_k W_kᵀ diag(weights) W_k over the samples (rows of q, q̇, q̈), numerically."""
+    mapped = regressor.information.map("M_sum", "serial", len(q), [3], [0], {})  # summed over the samples
+    return np.asarray(mapped(q.T, qd.T, qdd.T, np.asarray(weights, float)))
+
+
+def torques(regressor: CasadiRegressor, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+    """τ = W·β at the samples (``samples × N``)."""
+    return np.asarray(regressor.torque.map(len(q))(q.T, qd.T, qdd.T)).T
+
+
+# -- the optimisation ----------------------------------------------------------------------------------------
+
+
+class _CriterionCallback(ca.Callback):
+    """A criterion of M (:data:`~symbolic.identify.excitation_criteria.CRITERIA`) as a CasADi function whose
+    Jacobian is the criterion's closed-form gradient G (so that CasADi chains it with the AD of M(x))."""
+
+    def __init__(self, name: str, size: int, criterion) -> None:
+        ca.Callback.__init__(self)
+        self.size, self.criterion, self.kept = size, criterion, []
+        self.construct(name, {})
+
+    def get_n_in(self) -> int:
+        return 1
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(self.size, self.size)
+
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(1, 1)
+
+    def eval(self, arg):
+        return [self._value(np.asarray(arg[0]))[0]]
+
+    def _value(self, M: np.ndarray) -> tuple[float, np.ndarray]:  # noqa: N803
+        if not positive_definite(M):  # outside the domain: a large value, no slope (IPOPT backtracks)
+            return 1e10, np.zeros_like(M)
+        return self.criterion(M)
+
+    def has_jacobian(self) -> bool:
+        return True
+
+    def get_jacobian(self, name, inames, onames, opts):
+        jacobian = _CriterionGradient(name, self)
+        self.kept.append(jacobian)  # CasADi holds no Python reference to it
+        return jacobian
+
+
+class _CriterionGradient(ca.Callback):
+    def __init__(self, name: str, outer: _CriterionCallback) -> None:
+        ca.Callback.__init__(self)
+        self.outer = outer
+        self.construct(name, {})
+
+    def get_n_in(self) -> int:
+        return 2
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(self.outer.size, self.outer.size) if i == 0 else ca.Sparsity.dense(1, 1)
+
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(1, self.outer.size ** 2)
+
+    def eval(self, arg):
+        return [self.outer._value(np.asarray(arg[0]))[1].reshape(1, -1, order="F")]
+
+
+class _Constraints(ca.Callback):
+    """g(z) = [q; q̇; q̈; τ] at the grid points (each K × N, stacked column by column: coordinate blocks) with its
+    Jacobian assembled from the structure: the states are linear in z, s_k = B_s[k]·z per coordinate
+    (B_s = Φ_s·Z), and τ_k depends on z only through the state at t_k, so
+    ∂τ_jk/∂z_(i,r) = Σ_s (∂τ_j/∂s_i)_k B_s[k, r] with the per-sample ∂τ/∂s of
+    :attr:`CasadiRegressor.torque_jacobian` (compiled) — where CasADi's AD of the whole map would propagate every
+    one of the N·(2L − 1) directions through every sample (ten times slower for the Panda)."""
+
+    def __init__(self, regressor: CasadiRegressor, grid: np.ndarray, period: float, harmonics: int) -> None:
+        ca.Callback.__init__(self)
+        self.regressor, self.n, self.K = regressor, regressor.n, len(grid)
+        Z = rest_null_space(harmonics)  # noqa: N806
+        self.B = [phi @ Z for phi in basis(grid, period, harmonics)]  # K × m each
+        self.m = Z.shape[1]
+        self.linear = np.vstack([np.kron(np.eye(self.n), b) for b in self.B])  # (3·N·K) × (N·m)
+        self.kept = []
+        self.construct("constraints", {})
+
+    def get_n_in(self) -> int:
+        return 1
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(self.n * self.m, 1)
+
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(4 * self.n * self.K, 1)
+
+    def states(self, z: np.ndarray) -> list[np.ndarray]:
+        C = np.asarray(z, float).reshape(self.n, self.m).T  # noqa: N806
+        return [b @ C for b in self.B]  # K × N each
+
+    def eval(self, arg):
+        states = self.states(np.asarray(arg[0]).ravel())
+        tau = np.asarray(self.regressor.torque.map(self.K)(*(x.T for x in states))).T
+        return [np.concatenate([x.T.ravel() for x in (*states, tau)])]
+
+    def jacobian(self, z: np.ndarray) -> np.ndarray:
+        states = self.states(z)
+        A = np.asarray(self.regressor.torque_jacobian.map(self.K)(*(x.T for x in states)))  # noqa: N806
+        A = A.reshape(self.n, self.K, 3, self.n)  # [j, k, s, i]: column k·3N + s·N + i of the map's horzcat  # noqa: N806
+        torque = np.einsum("jksi,skr->jkir", A, np.stack(self.B)).reshape(self.n * self.K, self.n * self.m)
+        return np.vstack([self.linear, torque])
+
+    def has_jacobian(self) -> bool:
+        return True
+
+    def get_jacobian(self, name, inames, onames, opts):
+        jacobian = _ConstraintJacobian(name, self)
+        self.kept.append(jacobian)
+        return jacobian
+
+
+class _ConstraintJacobian(ca.Callback):
+    def __init__(self, name: str, outer: _Constraints) -> None:
+        ca.Callback.__init__(self)
+        self.outer = outer
+        self.construct(name, {})
+
+    def get_n_in(self) -> int:
+        return 2
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return self.outer.get_sparsity_in(0) if i == 0 else self.outer.get_sparsity_out(0)
+
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(4 * self.outer.n * self.outer.K, self.outer.n * self.outer.m)
+
+    def eval(self, arg):
+        return [self.outer.jacobian(np.asarray(arg[0]).ravel())]
+
+
+@dataclass(eq=False)
+class Problem:
+    """The design problem on a grid: the NLP in the free coefficients z, its constraints and criterion."""
+
+    regressor: CasadiRegressor
+    limits: Limits
+    period: float
+    harmonics: int
+    grid: np.ndarray
+    weights: np.ndarray
+    criterion: str
+    exact: CasadiRegressor | None = None
+    """The regressor with the exact sign, on which limits are verified (default: ``regressor``)."""
+    callback: _CriterionCallback = field(init=False, repr=False)
+    constraints: _Constraints = field(init=False, repr=False)
+    objective: ca.Function = field(init=False, repr=False)
+    solver: Any = field(init=False, repr=False)
+    bounds: tuple[np.ndarray, np.ndarray] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.exact = self.exact or self.regressor
+        n, L, K = self.regressor.n, self.harmonics, len(self.grid)  # noqa: N806
+        self.callback = _CriterionCallback("criterion", len(self.regressor.names), CRITERIA[self.criterion])
+        z = ca.MX.sym("z", n * (2 * L - 1))
+        C = ca.mtimes(ca.DM(rest_null_space(L)), ca.reshape(z, 2 * L - 1, n))  # noqa: N806
+        phi = [ca.DM(m) for m in basis(self.grid, self.period, L)]
+        states = [ca.mtimes(m, C) for m in phi]  # K × N each
+        M = self.regressor.information.map("M_sum", "serial", K, [3], [0], {})(*(s.T for s in states), ca.DM(self.weights)) / K  # noqa: N806
+        f = self.callback(M)
+        self.constraints = _Constraints(self.regressor, self.grid, self.period, L)
+        g = self.constraints(z)
+        self.objective = ca.Function("objective", [z], [f, ca.gradient(f, z)])
+        self.bounds = self._constraint_bounds(self.limits, K)
+        self.solver = ca.nlpsol("excitation", "ipopt", {"x": z, "f": f, "g": g}, dict(IPOPT_OPTIONS))
+
+    @staticmethod
+    def _constraint_bounds(limits: Limits, K: int) -> tuple[np.ndarray, np.ndarray]:  # noqa: N803
+        rows = [(limits.lower, limits.upper), (-limits.velocity, limits.velocity),
+                (-limits.acceleration, limits.acceleration), (-limits.torque, limits.torque)]
+        lower = np.concatenate([np.repeat(lo, K) for lo, _ in rows])  # ca.vec is column-major: coordinate blocks
+        upper = np.concatenate([np.repeat(hi, K) for _, hi in rows])
+        return lower, upper
+
+    def with_limits(self, limits: Limits) -> None:
+        """Tighten the constraint bounds (the NLP is unchanged)."""
+        self.bounds = self._constraint_bounds(limits, len(self.grid))
+
+    def solve(self, z0: np.ndarray) -> tuple[np.ndarray, str]:
+        """IPOPT from ``z0``: the free coefficients and IPOPT's return status."""
+        result = self.solver(x0=z0, lbg=self.bounds[0], ubg=self.bounds[1])
+        return np.asarray(result["x"]).ravel(), str(self.solver.stats().get("return_status", "unknown"))
+
+    def value(self, z: np.ndarray) -> float:
+        return float(self.objective(z)[0])
+
+    def gradient(self, z: np.ndarray) -> np.ndarray:
+        return np.asarray(self.objective(z)[1]).ravel()
+
+    def trajectory(self, z: np.ndarray) -> FourierTrajectory:
+        return FourierTrajectory.from_free(self.limits.coordinates, self.period, self.harmonics, z)
+
+
+def violation(regressor: CasadiRegressor, trajectory: FourierTrajectory, limits: Limits,
+              t: np.ndarray) -> dict[str, np.ndarray]:
+    """Per kind, per coordinate: the largest ratio of the excursion to its limit on the times ``t`` (≤ 1: inside).
+
+    Position: the excursion from the middle of [lower, upper] over the half range."""
+    q, qd, qdd = trajectory.evaluate(t)
+    tau = torques(regressor, q, qd, qdd)
+    middle, half = 0.5 * (limits.lower + limits.upper), 0.5 * (limits.upper - limits.lower)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = {"position": np.abs(q - np.where(np.isfinite(middle), middle, 0.0)).max(axis=0) / half,
+                 "velocity": np.abs(qd).max(axis=0) / limits.velocity,
+                 "acceleration": np.abs(qdd).max(axis=0) / limits.acceleration,
+                 "torque": np.abs(tau).max(axis=0) / limits.torque}
+    return {k: np.nan_to_num(v, nan=0.0) for k, v in ratio.items()}
+
+
+def random_start(rng: np.random.Generator, problem: Problem, fill: float = 0.6) -> np.ndarray:
+    """Free coefficients of a random reference inside the limits: random coefficients decaying as 1/l, each
+    coordinate scaled to use ``fill`` of its position range, velocity and acceleration bounds (the tightest),
+    centred in its range, then all shrunk until |τ| is within ``fill`` of its bound (a few halvings at most)."""
+    n, L = problem.regressor.n, problem.harmonics  # noqa: N806
+    decay = np.concatenate([[1.0], 1.0 / np.arange(1, L), 1.0 / np.arange(1, L)])
+    z = rng.standard_normal((n, 2 * L - 1)) * decay
+    z[:, 0] = 0.0
+    limits, fine = problem.limits, np.linspace(0.0, problem.period, FINER * len(problem.grid), endpoint=False)
+    trajectory = problem.trajectory(z.ravel())
+    q, qd, qdd = trajectory.evaluate(fine)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.nanmin(np.vstack([fill * (limits.upper - limits.lower) / np.ptp(q, axis=0),
+                                     fill * limits.velocity / np.abs(qd).max(axis=0),
+                                     fill * limits.acceleration / np.abs(qdd).max(axis=0)]), axis=0)
+    scale = np.where(np.isfinite(scale), scale, 1.0)
+    z *= scale[:, None]
+    middle = np.where(np.isfinite(limits.lower + limits.upper), 0.5 * (limits.lower + limits.upper),
+                      np.where(np.isfinite(limits.lower), limits.lower + 1.0, np.where(np.isfinite(limits.upper),
+                                                                                      limits.upper - 1.0, 0.0)))
+    q = problem.trajectory(z.ravel()).evaluate(fine)[0]
+    z[:, 0] = middle - 0.5 * (q.max(axis=0) + q.min(axis=0))
+    for _ in range(6):
+        if violation(problem.exact, problem.trajectory(z.ravel()), limits, fine)["torque"].max() <= fill:
+            break
+        z[:, 1:] *= 0.7
+        q = problem.trajectory(z.ravel()).evaluate(fine)[0]
+        z[:, 0] += middle - 0.5 * (q.max(axis=0) + q.min(axis=0))
+    return z.ravel()
+
+
+# -- the design ----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Start:
+    """One random start: the criterion at the start and after the solve, IPOPT's status, the worst ratio to a
+    limit on the verification grid, and whether the result was kept."""
+
+    seed_index: int
+    start_value: float
+    value: float
+    status: str
+    worst: float
+    seconds: float
+    worst_kind: str = ""
+    """The kind of limit (position, velocity, acceleration, torque) closest to or beyond its bound."""
+
+
+@dataclass(frozen=True, eq=False)
+class Design:
+    """An excitation design: the reference, the criterion, the limits, and how it was found.
+
+    Attributes
+    ----------
+    trajectory
+        The designed reference.
+    criterion
+        ``"d"``, ``"a"`` or ``"condition"``; ``value`` its value on the design grid (M normalised per grid point),
+        ``start_value`` the best start's value before the solve.
+    limits
+        The limits declared (those tightened on the verification grid are in ``margins``).
+    worst
+        {kind: largest ratio to the limit per coordinate on the verification grid} (≤ 1 + 1e-6).
+    starts
+        Every start.
+    weights
+        1/σ² per coordinate used in M.
+    """
+
+    trajectory: FourierTrajectory
+    criterion: str
+    value: float
+    start_value: float
+    limits: Limits
+    worst: Mapping[str, np.ndarray]
+    starts: tuple[Start, ...]
+    weights: np.ndarray
+    grid_points: int
+    seconds: float
+    regressor: CasadiRegressor = field(repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"criterion": self.criterion, "value": self.value, "start_value": self.start_value,
+                "grid_points": self.grid_points, "seconds": self.seconds,
+                "worst_ratio_to_limit": {k: dict(zip(self.limits.coordinates, map(float, v)))
+                                         for k, v in self.worst.items()},
+                "starts": [{"start": s.seed_index, "start_value": s.start_value, "value": s.value, "status": s.status,
+                            "worst_ratio": s.worst, "worst_kind": s.worst_kind, "seconds": s.seconds}
+                           for s in self.starts],
+                "limits": self.limits.to_dict(), "trajectory": self.trajectory.to_dict()}
+
+
+def design(model: DynamicModel, limits: Limits, duration: float, *, weights: Sequence[float] | None = None,
+           harmonics: int = HARMONICS, criterion: str = "d", starts: int = STARTS, seed: int = 0,
+           grid_points: int | None = None) -> Design:
+    """The periodic reference of period ``duration`` (s) that optimises ``criterion`` under ``limits``
+    (module docstring).
+
+    Parameters
+    ----------
+    model
+        The derived model; its base parameters at the nominal values give the torques.
+    limits
+        From :func:`resolve_limits`.
+    duration
+        T, the period and length of the reference (s), > 0.
+    weights
+        1/σ_j² per coordinate (the equivalent force noise, :func:`symbolic.identify.excitation_noise.equivalent_noise`);
+        default 1.
+    harmonics
+        L ≥ 2 harmonics per coordinate.
+    criterion
+        A name of :data:`~symbolic.identify.excitation_criteria.CRITERIA`.
+    starts, seed
+        Random starts, drawn from ``numpy.random.default_rng(seed)``: the same seed, the same design.
+    grid_points
+        Grid of the constraints and of M (default max(100, 20·L): 20 points per period of the highest harmonic); verified on one :data:`FINER` times finer.
+
+    Raises
+    ------
+    IdentificationError
+        For a duration, harmonics, criterion or start count that cannot be used (one line each), or when no start
+        gives a reference inside the limits.
+    """
+    check_options(duration, harmonics, criterion, starts)
+    started = time.perf_counter()
+    regressor = casadi_regressor(model)
+    smooth = casadi_regressor(model, SIGN_VELOCITY) if has_sign(model) else regressor
+    n = regressor.n
+    w = np.ones(n) if weights is None else np.asarray(weights, float)
+    K = grid_points or max(100, 20 * harmonics)  # noqa: N806
+    grid = np.linspace(0.0, duration, K, endpoint=False)
+    fine = np.linspace(0.0, duration, FINER * K, endpoint=False)
+    problem = Problem(smooth, limits, float(duration), harmonics, grid, w / w.mean(), criterion, regressor)
+    LOG.info("excitation: %d coordinates × %d harmonics, %d base parameters, %d grid points, criterion %s, %d start(s)",
+             n, harmonics, len(regressor.names), K, criterion, starts)
+    rng = np.random.default_rng(seed)
+    best, runs = None, []
+    for k in range(starts):
+        z, run = _one_start(problem, random_start(rng, problem), fine, k)
+        runs.append(run)
+        LOG.info("excitation: start %d/%d: criterion %.6g -> %.6g (%s, worst ratio to a limit %.6f (%s), %.1f s)",
+                 k + 1, starts, run.start_value, run.value, run.status, run.worst, run.worst_kind, run.seconds)
+        if run.worst <= 1.0 + TOLERANCE and (best is None or run.value < best[1].value):
+            best = (z, run)
+    if best is None:
+        raise IdentificationError(f"no start of {starts} gave a reference inside the limits (worst ratio to a limit "
+                                  f"{min(r.worst for r in runs):.4g}): loosen the limits or give more --starts")
+    trajectory = problem.trajectory(best[0])
+    return Design(trajectory, criterion, best[1].value, best[1].start_value, limits,
+                  violation(regressor, trajectory, limits, fine), tuple(runs), w, K, time.perf_counter() - started,
+                  regressor)
+
+
+def check_options(duration: float, harmonics: int, criterion: str, starts: int) -> None:
+    """One line per option that cannot be used."""
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        raise IdentificationError(f"--duration: the reference's period T must be a time > 0 s, got {duration!r}")
+    if isinstance(harmonics, bool) or not isinstance(harmonics, int) or harmonics < 2:
+        raise IdentificationError(f"--harmonics: at least 2 harmonics are needed (at rest at t = 0 and T, one "
+                                  f"harmonic leaves no motion), got {harmonics!r}")
+    if criterion not in CRITERIA:
+        raise IdentificationError(f"--criterion: unknown criterion {criterion!r} (allowed: {', '.join(CRITERIA)})")
+    if isinstance(starts, bool) or not isinstance(starts, int) or starts < 1:
+        raise IdentificationError(f"--starts: at least 1 random start, got {starts!r}")
+
+
+def _one_start(problem: Problem, z0: np.ndarray, fine: np.ndarray, index: int) -> tuple[np.ndarray, Start]:
+    """Solve from ``z0``; where the verification grid finds a limit crossed between grid points, tighten that
+    limit by the excess (and 1e-4 more) and solve again from the result (three times at most)."""
+    started = time.perf_counter()
+    start_value = problem.value(z0)
+    declared, tightened = problem.limits, problem.limits
+    factors = {k: np.ones(problem.regressor.n) for k in KINDS}
+    z, status, worst, worst_kind = z0, "not solved", math.inf, ""
+    for _ in range(4):
+        problem.with_limits(tightened)
+        z, status = problem.solve(z)
+        ratios = violation(problem.exact, problem.trajectory(z), declared, fine)
+        worst_kind = max(ratios, key=lambda k: float(ratios[k].max()))
+        worst = float(ratios[worst_kind].max())
+        if worst <= 1.0 + TOLERANCE:
+            break
+        for k, v in ratios.items():
+            factors[k] = np.where(v > 1.0, factors[k] / v * (1.0 - 1e-4), factors[k])
+        tightened = declared.scaled(factors)
+    problem.with_limits(declared)
+    return z, Start(index, start_value, problem.value(z), status, worst, time.perf_counter() - started, worst_kind)

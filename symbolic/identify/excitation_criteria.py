@@ -1,0 +1,64 @@
+"""Information criteria of an excitation design: the extension point of :mod:`symbolic.identify.excitation`.
+
+A criterion is a function of the information matrix M = WᵀΣ⁻¹W of the base parameters (b × b, symmetric
+positive definite) returning ``(value, G)``: the value to *minimise* and its gradient G = ∂value/∂M
+(symmetric). The design differentiates M(x) exactly by CasADi's algorithmic differentiation of the base
+regressor and chains G in (d value = tr(G·dM)), so a new criterion is one function added to
+:data:`CRITERIA`, with its gradient in closed form:
+
+* ``d`` (D-optimality, default): −log det M; G = −M⁻¹ (d log det M = tr(M⁻¹dM)). Maximising det M minimises
+  the volume of the confidence ellipsoid of β̂, whose covariance is σ²M⁻¹, and is invariant to the units
+  (scaling) of the parameters (Swevers, Ganseman, Tükel, De Schutter, Van Brussel, IEEE Trans. Robot. Autom.
+  13(5), 1997).
+* ``a`` (A-optimality): log tr(M⁻¹), the log of the sum of the parameters' variances; G = −M⁻²/tr(M⁻¹)
+  (d tr(M⁻¹) = −tr(M⁻¹dM M⁻¹)). It depends on the parameters' units.
+* ``condition``: log cond(Σ^(−1/2)W) = ½ log(λ_max/λ_min) of M, the criterion of Gautier and Khalil
+  (IEEE Trans. Robot. Autom. 8(3), 1992, "Exciting trajectories for the identification of base inertial
+  parameters of robots"); G = ½(v_max v_maxᵀ/λ_max − v_min v_minᵀ/λ_min) for the unit eigenvectors (the
+  derivative of a simple eigenvalue, dλ = vᵀdM v; not differentiable where an extreme eigenvalue is double).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+Criterion = Callable[[np.ndarray], tuple[float, np.ndarray]]
+
+
+def d_optimal(M: np.ndarray) -> tuple[float, np.ndarray]:  # noqa: N803
+    """−log det M and its gradient −M⁻¹ (by Cholesky: M = LLᵀ, log det M = 2 Σ log L_ii)."""
+    L = np.linalg.cholesky(M)  # noqa: N806
+    inverse = np.linalg.inv(M)
+    return float(-2.0 * np.log(np.diag(L)).sum()), -0.5 * (inverse + inverse.T)
+
+
+def a_optimal(M: np.ndarray) -> tuple[float, np.ndarray]:  # noqa: N803
+    """log tr(M⁻¹) and its gradient −M⁻²/tr(M⁻¹)."""
+    inverse = np.linalg.inv(M)
+    trace = float(np.trace(inverse))
+    square = inverse @ inverse
+    return float(np.log(trace)), -0.5 * (square + square.T) / trace
+
+
+def condition(M: np.ndarray) -> tuple[float, np.ndarray]:  # noqa: N803
+    """½ log(λ_max/λ_min) of M (log of the condition number of the weighted W) and its gradient."""
+    values, vectors = np.linalg.eigh(0.5 * (M + M.T))
+    low, high = vectors[:, 0], vectors[:, -1]
+    G = 0.5 * (np.outer(high, high) / values[-1] - np.outer(low, low) / values[0])  # noqa: N806
+    return float(0.5 * np.log(values[-1] / values[0])), G
+
+
+CRITERIA: dict[str, Criterion] = {"d": d_optimal, "a": a_optimal, "condition": condition}
+"""Criterion name → function (module docstring); the names ``symbolic excite --criterion`` accepts."""
+
+
+def positive_definite(M: np.ndarray) -> bool:  # noqa: N803
+    """Whether M is numerically positive definite (a criterion is defined)."""
+    try:
+        np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        return False
+    values = np.linalg.eigvalsh(M)
+    return bool(values[0] > values[-1] * 1e-14)

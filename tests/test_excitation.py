@@ -1,0 +1,338 @@
+"""Excitation design (symbolic excite, symbolic.identify.excitation): constraints, exact gradients, the
+information matrix against identify's own regressor, improvement over its start and a naive sine, predicted σ
+against a Monte-Carlo of identify on noisy simulated logs, and the errors of bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import models
+import symbolic
+from symbolic.cli import main
+from symbolic.data import Measurements
+from symbolic.errors import IdentificationError
+from symbolic.identify import excitation as ex
+from symbolic.identify.excitation_noise import Noise, equivalent_noise, predict, treatment
+from symbolic.identify.excitation_report import Declared, excite, read_declarations, reference_samples
+from symbolic.identify.model import base_regressor, identify_model, model_base
+
+LIMITS = {"position": {"q1": (-1.5, 1.5), "q2": (-2.0, 2.0)}, "velocity": {"q1": 2.0, "q2": 2.5},
+          "acceleration": {"q1": 8.0, "q2": 10.0}, "torque": {"q1": 20.0, "q2": 8.0}}
+NOISE = {"force_noise": {"q1": 0.2, "q2": 0.1}, "resolution": {"q1": 0.0, "q2": 0.0}}
+RATE = 1000.0  # the Monte-Carlo log: 400 decimated rows per coordinate (docs/data.md, "Predicted σ")
+EXPERIMENT = """[excitation]
+rate = 200.0
+position = { q1 = [-1.5, 1.5], q2 = [-2.0, 2.0] }
+velocity = { q1 = 2.0, q2 = 2.5 }
+acceleration = { q1 = 8.0, q2 = 10.0 }
+torque = { q1 = 20.0, q2 = 8.0 }
+force_noise = { q1 = 0.2, q2 = 0.1 }
+"""
+
+
+@pytest.fixture(scope="module")
+def arm() -> symbolic.DynamicModel:
+    return symbolic.derive(symbolic.loads(models.arm(), "arm"))
+
+
+@pytest.fixture(scope="module")
+def smooth_arm() -> symbolic.DynamicModel:
+    """The arm with viscous friction only: a regressor differentiable everywhere (no sign(q̇))."""
+    text = models.arm(parameters="Fv1 = 0.8\nFv2 = 0.5\n", friction1='viscous = "Fv1"', friction2='viscous = "Fv2"')
+    return symbolic.derive(symbolic.loads(text, "arm"))
+
+
+@pytest.fixture(scope="module")
+def designed(arm):
+    """One design of the arm: 4 s, 3 harmonics, 2 starts (seeded), the declared noise's weights."""
+    declared = Declared("test", ex_table(), symbolic.data.Settings())
+    return excite(arm, declared, 4.0, harmonics=3, starts=2, seed=3)
+
+
+def ex_table():
+    from symbolic.data.excitation import ExcitationTable
+
+    return ExcitationTable({**LIMITS, **NOISE}, RATE)
+
+
+def test_rest_is_exact_for_any_coefficients() -> None:
+    rng = np.random.default_rng(0)
+    for harmonics in (2, 3, 5):
+        z = rng.standard_normal(2 * (2 * harmonics - 1))
+        trajectory = ex.FourierTrajectory.from_free(("a", "b"), 3.0, harmonics, z)
+        q, qd, qdd = trajectory.evaluate(np.array([0.0, 3.0]))
+        assert np.abs(qd).max() < 1e-13 and np.abs(qdd).max() < 1e-12
+        assert np.allclose(q[0], q[1], atol=1e-12)  # periodic
+        assert np.allclose(trajectory.a.sum(axis=1), 0, atol=1e-14)
+
+
+def test_design_respects_the_limits_on_a_fine_grid(arm, designed) -> None:
+    design = designed.design
+    t = np.linspace(0.0, 4.0, 40_001)
+    q, qd, qdd = design.trajectory.evaluate(t)
+    tau = base_regressor(arm)(q, qd, qdd) @ model_base(arm)[1].values  # identify's regressor, not the CasADi one
+    names = ("q1", "q2")
+    for i, c in enumerate(names):
+        lower, upper = LIMITS["position"][c]
+        assert lower - 1e-9 <= q[:, i].min() and q[:, i].max() <= upper + 1e-9
+        assert np.abs(qd[:, i]).max() <= LIMITS["velocity"][c] * (1 + 1e-6)
+        assert np.abs(qdd[:, i]).max() <= LIMITS["acceleration"][c] * (1 + 1e-6)
+        assert np.abs(tau[:, i]).max() <= LIMITS["torque"][c] * (1 + 1e-6)
+    start = design.trajectory.evaluate(np.array([0.0, 4.0]))
+    assert np.abs(start[1]).max() < 1e-12 and np.abs(start[2]).max() < 1e-12  # at rest at both ends, exactly
+    assert max(v.max() for v in design.worst.values()) > 0.9  # the design uses its room
+
+
+def test_design_improves_on_its_start_and_on_a_naive_sine(arm, designed) -> None:
+    design = designed.design
+    assert design.value < design.start_value - 5.0  # −log det of M per grid point: det grew by e^5 at least
+    naive = naive_sine(arm, 4.0)
+    sigma = designed.predicted.noise
+    t, q, qd, qdd = reference_samples(naive, RATE)
+    sine = predict(arm, "sine", q, qd, qdd, sigma, 4.0, treatment(RATE, len(t)))
+    assert designed.predicted.log_det > sine.log_det + 5.0
+    assert designed.predicted.condition_number < sine.condition_number
+
+
+def naive_sine(model, period: float) -> ex.FourierTrajectory:
+    """One sine per coordinate at the fundamental, joint 2 at twice the frequency, as large as the limits allow."""
+    limits = ex.resolve_limits(model, ("test", LIMITS))
+    regressor = ex.casadi_regressor(model)
+    amplitude = np.array([1.0, 1.0])
+    for _ in range(60):
+        a = np.zeros((2, 2))
+        a[0, 0], a[1, 1] = amplitude[0], amplitude[1]
+        trajectory = ex.FourierTrajectory(("q1", "q2"), period, np.zeros(2), a, np.zeros((2, 2)))
+        ratios = ex.violation(regressor, trajectory, limits, np.linspace(0, period, 4000))
+        worst = np.max(np.vstack(list(ratios.values())), axis=0)
+        if worst.max() <= 1.0:
+            return trajectory
+        amplitude = amplitude / np.maximum(worst, 1.0) * 0.999
+    raise AssertionError("no naive sine inside the limits")
+
+
+@pytest.mark.parametrize("criterion", ["d", "a", "condition"])
+def test_gradient_against_central_differences(smooth_arm, criterion) -> None:
+    limits = ex.resolve_limits(smooth_arm, ("test", LIMITS))
+    regressor = ex.casadi_regressor(smooth_arm)
+    problem = ex.Problem(regressor, limits, 3.0, 3, np.linspace(0, 3.0, 60, endpoint=False), np.array([1.0, 4.0]),
+                         criterion)
+    z = ex.random_start(np.random.default_rng(1), problem)
+    gradient = problem.gradient(z)
+    h = 1e-5 * np.maximum(1.0, np.abs(z))
+    finite = np.array([(problem.value(z + h[i] * e) - problem.value(z - h[i] * e)) / (2 * h[i])
+                       for i, e in enumerate(np.eye(len(z)))])
+    assert np.linalg.norm(gradient - finite) <= 1e-6 * np.linalg.norm(finite)
+
+
+def test_information_matrix_equals_identify_regressor(arm) -> None:
+    rng = np.random.default_rng(2)
+    q, qd, qdd = rng.uniform(-2, 2, (3, 300, 2))
+    weights = np.array([0.7, 3.0])
+    ours = ex.information_matrix(ex.casadi_regressor(arm), q, qd, qdd, weights)
+    Y = base_regressor(arm)(q, qd, qdd)  # noqa: N806
+    theirs = np.einsum("kjp,j,kjr->pr", Y, weights, Y)
+    assert np.abs(ours - theirs).max() <= 1e-9 * np.abs(theirs).max()
+
+
+def test_predicted_sigma_agrees_with_monte_carlo_of_identify(arm, designed) -> None:
+    """Noisy logs of the design (τ = Wβ at the reference plus white force noise of the declared σ per coordinate),
+    each identified by identify_model: the spread of the estimates against the predicted σ."""
+    t, q, qd, qdd = designed.samples()
+    _, base = model_base(arm)
+    tau = base_regressor(arm)(q, qd, qdd) @ base.values
+    sigma = np.array([NOISE["force_noise"]["q1"], NOISE["force_noise"]["q2"]])
+    rng = np.random.default_rng(5)
+    estimates = []
+    for _ in range(150):
+        noisy = tau + rng.standard_normal(tau.shape) * sigma
+        log = Measurements.from_arrays(t, ("q1", "q2"), q, noisy)
+        estimates.append(identify_model(arm, log, method="wls").identification.values)
+    spread = np.std(np.array(estimates), axis=0, ddof=1)
+    predicted = designed.predicted
+    checked = 0
+    for k, name in enumerate(predicted.names):
+        if predicted.relative[k] < 50.0:
+            assert abs(spread[k] / predicted.sigmas[k] - 1.0) < 0.2, (name, spread[k], predicted.sigmas[k])
+            checked += 1
+    assert checked >= 6
+
+
+def test_quantisation_enters_through_the_inertia(arm) -> None:
+    noise = Noise(("q1", "q2"), np.array([0.1, 0.1]), np.array([1e-4, 0.0]), 1000.0)
+    p = treatment(1000.0, 4001)
+    quantised = equivalent_noise(arm, noise, p, [np.zeros(2)])
+    plain = equivalent_noise(arm, Noise(("q1", "q2"), noise.force, np.zeros(2), 1000.0), p, [np.zeros(2)])
+    assert np.all(quantised > plain) and np.allclose(plain, 0.1)
+
+
+def test_model_file_limits_are_read(tmp_path) -> None:
+    model = symbolic.derive(symbolic.loads(models.general_frames(), "g"))
+    found = ex.model_file_limits(model)
+    assert found["position"]["q1"] == (-3.0, 3.0)
+    with pytest.raises(IdentificationError, match=r"no position limit for coordinates q2, q3, q4.*--position q2=-1.0:1.0"):
+        ex.resolve_limits(model)
+
+
+# -- the command line --------------------------------------------------------------------------------------
+
+
+@pytest.fixture()
+def files(tmp_path):
+    (tmp_path / "arm.toml").write_text(models.arm())
+    (tmp_path / "exp.toml").write_text(EXPERIMENT)
+    return tmp_path
+
+
+def test_command_writes_the_folder_and_simulate_reads_it(files, capsys) -> None:
+    out = files / "design"
+    t = np.arange(1000) / 200.0  # an existing log: a slow sine on each joint, identify's canonical columns
+    q = np.column_stack([0.8 * np.sin(2 * np.pi * 0.3 * t), 1.0 * np.sin(2 * np.pi * 0.5 * t)])
+    np.savetxt(files / "old.csv", np.column_stack([t, q, np.sin(t), np.cos(t)]), delimiter=",",
+               header="t,q_q1,q_q2,tau_q1,tau_q2", comments="")
+    code = main(["-q", "excite", str(files / "arm.toml"), "--experiment", str(files / "exp.toml"), "--duration", "3",
+                 "--harmonics", "2", "--starts", "1", "--out", str(out), "--compare", str(files / "old.csv"), "--json"])
+    assert code == 0, capsys.readouterr().err
+    result = json.loads(capsys.readouterr().out)
+    assert result["design"]["criterion"] == "d"
+    assert result["compare"]["label"] == "log old.csv" and set(result["compare"]["parameters"]) == set(result["predicted"]["parameters"])
+    assert "σ % log old.csv" in (out / "report.md").read_text()
+    header = (out / "trajectory.csv").read_text().splitlines()[1]
+    assert header == "t,ref_q1,ref_q2,qd_q1,qd_q2,qdd_q1,qdd_q2"
+    assert {"report.md", "excitation.json", "trajectory.experiment.toml"} <= {p.name for p in out.iterdir()}
+    loaded = symbolic.data.load(out / "trajectory.experiment.toml", model=symbolic.loads(models.arm(), "arm"))
+    assert loaded.ref is not None and loaded.samples == 601
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--velocity", "q3=2"], "--velocity: coordinate: unknown coordinate 'q3' (the model's: q1, q2)"),
+    (["--duration", "0"], "--duration: the reference's period T must be a time > 0 s, got 0.0"),
+    (["--harmonics", "1"], "--harmonics: at least 2 harmonics"),
+    (["--criterion", "e"], "--criterion: unknown criterion 'e' (allowed: d, a, condition)"),
+])
+def test_bad_options_are_one_line_and_write_nothing(files, capsys, options, message) -> None:
+    out = files / "design"
+    argv = ["-q", "excite", str(files / "arm.toml"), "--experiment", str(files / "exp.toml"), "--duration", "3",
+            "--out", str(out), *options]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_missing_limits_are_named(files, capsys) -> None:
+    out = files / "design"
+    assert main(["-q", "excite", str(files / "arm.toml"), "--duration", "3", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "no position limit for coordinates q1, q2: declare it in the experiment's [excitation] table" in err
+    assert len(err.strip().splitlines()) == 1 and not out.exists()
+    (files / "partial.toml").write_text(EXPERIMENT.replace("acceleration = { q1 = 8.0, q2 = 10.0 }\n",
+                                                           "acceleration = { q1 = 8.0 }\n"))
+    assert main(["-q", "excite", str(files / "arm.toml"), "--experiment", str(files / "partial.toml"), "--duration",
+                 "3", "--out", str(out)]) == 2
+    assert "no acceleration limit for coordinate q2" in capsys.readouterr().err and not out.exists()
+
+
+def test_unknown_coordinate_in_the_experiment_is_refused(files) -> None:
+    (files / "bad.toml").write_text(EXPERIMENT.replace("torque = { q1", "torque = { q9 = 1.0, q1"))
+    with pytest.raises(symbolic.data.DataError, match=r"\[excitation\] torque.q9: unknown coordinate"):
+        read_declarations(files / "bad.toml", ("q1", "q2"))
+
+
+CONTROLLER = """
+[controller]
+kind = "pd"
+kp = [150.0, 60.0]
+kd = [8.0, 3.0]
+reference = "ref"
+saturation = [{s1}, 80.0]
+"""
+
+
+@pytest.mark.slow  # the closed loop is compiled (about 10 s in a fresh cache)
+def test_the_design_is_checked_in_the_loop_and_simulate_reads_it(files, capsys) -> None:
+    """Torque limits far away (the kinematic limits bind): the PD loop's force stays below them and its outputs
+    below their saturation."""
+    (files / "loop.toml").write_text(EXPERIMENT + CONTROLLER.format(s1=150.0))
+    out = files / "design"
+    assert main(["-q", "excite", str(files / "arm.toml"), "--experiment", str(files / "loop.toml"), "--duration", "3",
+                 "--harmonics", "2", "--starts", "1", "--torque", "q1=200,q2=100", "--out", str(out), "--json"]) == 0
+    loop = json.loads(capsys.readouterr().out)["loop"]
+    assert not loop["refused"] and loop["coordinates"]["q1"]["peak_torque"] <= 150.0
+    assert 0 < loop["coordinates"]["q1"]["tracking_max"] < 1.0
+    assert "[controller]" in (out / "trajectory.experiment.toml").read_text()
+    assert main(["-q", "simulate", str(files / "arm.toml"), str(out / "trajectory.experiment.toml"), "--json"]) == 0
+
+
+@pytest.mark.slow
+def test_a_design_that_saturates_in_the_loop_is_refused(files, capsys) -> None:
+    (files / "loop.toml").write_text(EXPERIMENT + CONTROLLER.format(s1=10.0))
+    out = files / "design"
+    assert main(["-q", "excite", str(files / "arm.toml"), "--experiment", str(files / "loop.toml"), "--duration", "3",
+                 "--harmonics", "2", "--starts", "1", "--torque", "q1=200,q2=100", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "the design saturates in the loop of the experiment's [controller] (pd on q1, q2" in err
+    assert "q1 peak |τ| 10 reaches the controller's output limit 10 (|gain|·saturation)" in err and "--torque q1=9.5" in err
+    assert len(err.strip().splitlines()) == 1 and not out.exists()
+
+
+def test_constraint_jacobian_against_casadi_ad(arm) -> None:
+    """The Jacobian assembled from the structure equals CasADi's AD of the same constraints."""
+    import casadi as ca
+
+    limits = ex.resolve_limits(arm, ("test", LIMITS))
+    regressor = ex.casadi_regressor(arm)
+    grid = np.linspace(0, 3.0, 40, endpoint=False)
+    problem = ex.Problem(regressor, limits, 3.0, 3, grid, np.ones(2), "d")
+    z = ex.random_start(np.random.default_rng(4), problem)
+    ours = problem.constraints.jacobian(z)
+    x = ca.MX.sym("z", len(z))
+    C = ca.mtimes(ca.DM(ex.rest_null_space(3)), ca.reshape(x, 5, 2))  # noqa: N806
+    states = [ca.mtimes(ca.DM(m), C) for m in ex.basis(grid, 3.0, 3)]
+    tau = regressor.torque.map(len(grid))(*(s.T for s in states)).T
+    g = ca.vertcat(*(ca.vec(v) for v in (*states, tau)))
+    reference = np.asarray(ca.Function("J", [x], [ca.jacobian(g, x)])(z))
+    assert np.abs(ours - reference).max() <= 1e-10 * np.abs(reference).max()
+    assert np.allclose(np.asarray(problem.constraints(z)).ravel(), np.asarray(ca.Function("g", [x], [g])(z)).ravel())
+
+
+def test_the_same_seed_gives_the_same_design(arm) -> None:
+    limits = ex.resolve_limits(arm, ("test", LIMITS))
+    first, second = (ex.design(arm, limits, 2.0, harmonics=2, starts=2, seed=7) for _ in range(2))
+    assert np.array_equal(first.trajectory.a, second.trajectory.a) and np.array_equal(first.trajectory.b, second.trajectory.b)
+    other = ex.design(arm, limits, 2.0, harmonics=2, starts=1, seed=8)
+    assert not np.array_equal(first.trajectory.a, other.trajectory.a)
+
+
+def test_the_shipped_panda_declarations_are_complete() -> None:
+    from symbolic.robots import example_path
+
+    names = tuple(f"q{i}" for i in range(1, 8))
+    declared = read_declarations(example_path("panda_excitation"), names)
+    for kind in ("position", "velocity", "acceleration", "torque", "force_noise", "resolution"):
+        assert set(declared.table.values[kind]) == set(names), kind
+    assert declared.table.rate == 1000.0
+
+
+def test_every_command_reads_an_experiment_with_an_excitation_table(files) -> None:
+    """The loader accepts [excitation] beside the data (checked the same way) and refuses a bad one."""
+    t = np.arange(50) / 100.0
+    rows = np.column_stack([t, 0.1 * np.sin(t), 0.2 * np.cos(t), np.sin(3 * t), np.cos(2 * t)])
+    np.savetxt(files / "log.csv", rows, delimiter=",", header="t,q_q1,q_q2,tau_q1,tau_q2", comments="")
+    (files / "run.toml").write_text('data = "log.csv"\n' + EXPERIMENT)
+    robot = symbolic.loads(models.arm(), "arm")
+    assert symbolic.data.load(files / "run.toml", model=robot).samples == 50
+    (files / "bad.toml").write_text('data = "log.csv"\n' + EXPERIMENT.replace("acceleration = {", "acceleration = { q7 = 1.0,"))
+    with pytest.raises(symbolic.data.DataError, match=r"\[excitation\] acceleration.q7: unknown coordinate"):
+        symbolic.data.load(files / "bad.toml", model=robot)
+
+
+def test_an_unreadable_compare_log_is_refused_before_the_design(files, capsys) -> None:
+    out = files / "design"
+    assert main(["-q", "excite", str(files / "arm.toml"), "--experiment", str(files / "exp.toml"), "--duration", "3",
+                 "--compare", str(files / "missing.csv"), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "missing.csv" in err and len(err.strip().splitlines()) == 1 and not out.exists()
