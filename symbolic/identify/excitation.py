@@ -301,7 +301,37 @@ def torques(regressor: CasadiRegressor, q: np.ndarray, qd: np.ndarray, qdd: np.n
 # -- the optimisation ----------------------------------------------------------------------------------------
 
 
-class _CriterionCallback(ca.Callback):
+class _WithJacobian(ca.Callback):
+    """A callback that gives CasADi its Jacobian as another callback (:attr:`jacobian_class`), kept alive here:
+    CasADi holds no Python reference to it."""
+
+    jacobian_class: type
+
+    def has_jacobian(self) -> bool:
+        return True
+
+    def get_jacobian(self, name, inames, onames, opts):
+        jacobian = self.jacobian_class(name, self)
+        self.kept.append(jacobian)
+        return jacobian
+
+
+class _Jacobian(ca.Callback):
+    """The Jacobian of ``outer`` at (its input, its output), one matrix."""
+
+    def __init__(self, name: str, outer: ca.Callback) -> None:
+        ca.Callback.__init__(self)
+        self.outer = outer
+        self.construct(name, {})
+
+    def get_n_in(self) -> int:
+        return 2
+
+    def get_n_out(self) -> int:
+        return 1
+
+
+class _CriterionCallback(_WithJacobian):
     """A criterion of M (:data:`~symbolic.identify.excitation_criteria.CRITERIA`) as a CasADi function whose
     Jacobian is the criterion's closed-form gradient G (so that CasADi chains it with the AD of M(x))."""
 
@@ -330,27 +360,8 @@ class _CriterionCallback(ca.Callback):
             return 1e10, np.zeros_like(M)
         return self.criterion(M)
 
-    def has_jacobian(self) -> bool:
-        return True
 
-    def get_jacobian(self, name, inames, onames, opts):
-        jacobian = _CriterionGradient(name, self)
-        self.kept.append(jacobian)  # CasADi holds no Python reference to it
-        return jacobian
-
-
-class _CriterionGradient(ca.Callback):
-    def __init__(self, name: str, outer: _CriterionCallback) -> None:
-        ca.Callback.__init__(self)
-        self.outer = outer
-        self.construct(name, {})
-
-    def get_n_in(self) -> int:
-        return 2
-
-    def get_n_out(self) -> int:
-        return 1
-
+class _CriterionGradient(_Jacobian):
     def get_sparsity_in(self, i: int) -> ca.Sparsity:
         return ca.Sparsity.dense(self.outer.size, self.outer.size) if i == 0 else ca.Sparsity.dense(1, 1)
 
@@ -361,7 +372,10 @@ class _CriterionGradient(ca.Callback):
         return [self.outer._value(np.asarray(arg[0]))[1].reshape(1, -1, order="F")]
 
 
-class _Constraints(ca.Callback):
+_CriterionCallback.jacobian_class = _CriterionGradient
+
+
+class _Constraints(_WithJacobian):
     """g(z) = [q; q̇; q̈; τ] at the grid points (each K × N, stacked column by column: coordinate blocks) with its
     Jacobian assembled from the structure: the states are linear in z, s_k = B_s[k]·z per coordinate
     (B_s = Φ_s·Z), and τ_k depends on z only through the state at t_k, so
@@ -407,27 +421,8 @@ class _Constraints(ca.Callback):
         torque = np.einsum("jksi,skr->jkir", A, np.stack(self.B)).reshape(self.n * self.K, self.n * self.m)
         return np.vstack([self.linear, torque])
 
-    def has_jacobian(self) -> bool:
-        return True
 
-    def get_jacobian(self, name, inames, onames, opts):
-        jacobian = _ConstraintJacobian(name, self)
-        self.kept.append(jacobian)
-        return jacobian
-
-
-class _ConstraintJacobian(ca.Callback):
-    def __init__(self, name: str, outer: _Constraints) -> None:
-        ca.Callback.__init__(self)
-        self.outer = outer
-        self.construct(name, {})
-
-    def get_n_in(self) -> int:
-        return 2
-
-    def get_n_out(self) -> int:
-        return 1
-
+class _ConstraintJacobian(_Jacobian):
     def get_sparsity_in(self, i: int) -> ca.Sparsity:
         return self.outer.get_sparsity_in(0) if i == 0 else self.outer.get_sparsity_out(0)
 
@@ -436,6 +431,9 @@ class _ConstraintJacobian(ca.Callback):
 
     def eval(self, arg):
         return [self.outer.jacobian(np.asarray(arg[0]).ravel())]
+
+
+_Constraints.jacobian_class = _ConstraintJacobian
 
 
 @dataclass(eq=False)
