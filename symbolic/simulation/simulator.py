@@ -34,7 +34,7 @@ from symbolic.derivation.dynamics import DynamicModel
 from symbolic.derivation.products import Product
 from symbolic.errors import SimulationError
 from symbolic.simulation import controller as control
-from symbolic.codegen.casadi import CASADI_MODULE, _CasadiPrinter, cholesky_solve
+from symbolic.codegen.casadi import cholesky_solve, program_to_sx
 from symbolic.codegen.compiled import compile_casadi
 from symbolic.simulation.comparison import Comparison, compare, treatment
 
@@ -386,14 +386,10 @@ def _build_plant(model: DynamicModel) -> Plant:
     n = model.n
     q, qd, tau = ca.SX.sym("q", n), ca.SX.sym("qd", n), ca.SX.sym("tau", n)
     p, eps, t = ca.SX.sym("p", len(model.parameter_symbols)), ca.SX.sym("eps"), ca.SX.sym("t")
-    module = {**CASADI_MODULE, "sign": lambda v: ca.tanh(v / eps)}
+    smooth = {"sign": lambda v: ca.tanh(v / eps)}
 
     def translate(outputs: sp.Matrix, groups: list, values: list) -> ca.SX:
-        flat = list(outputs)
-        program = model.sub.program(flat)
-        function = sp.lambdify([list(g) for g in groups], flat, modules=[module], printer=_CasadiPrinter(),
-                               cse=lambda exprs: (program, exprs))
-        return ca.vertcat(*function(*[[v[i] for i in range(v.shape[0])] for v in values]))
+        return program_to_sx(model.sub, outputs, groups, values, smooth)
 
     symbols = [model.coordinates, model.velocities, model.parameter_symbols, (model.time,)]
     D = ca.reshape(translate(model.reduced.D, [symbols[0], symbols[2]], [q, p]), n, n).T

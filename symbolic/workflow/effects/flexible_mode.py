@@ -82,11 +82,8 @@ class FlexibleMode(Effect):
         if signals.record is not None:  # the load's state at the first sample is what the motion before left
             whole = self.columns_at(signals.record, j, value)
             return whole[signals.start:signals.start + len(signals.t)]
-        w = 2.0 * math.pi * frequency
-        # bilinear transform s = K(z − 1)/(z + 1), K prewarped so that the resonance stays at ω
-        K = w / math.tan(w / (2.0 * signals.rate))
+        a, K, w = mode_denominator(frequency, damping, signals.rate)
         c1, c0 = 2.0 * damping * w * K, w * w
-        a = np.array([K * K + c1 + c0, 2.0 * (c0 - K * K), K * K - c1 + c0])
         b = np.array([c1 + c0, 2.0 * c0, c0 - c1]) / a[0]
         a = a / a[0]
         x = signals.qdd[:, j]
@@ -187,6 +184,15 @@ class FlexibleMode(Effect):
         f, z = min(modes, key=lambda m: abs(math.log(max(m[0], 1e-12) / roles["frequency_hz"])))
         return {"frequency_hz": f, "damping_ratio": z}, {**own, "ringing": "closed-loop mode of the patched model",
                                                           "closed_loop_modes": [list(m) for m in modes]}
+
+
+def mode_denominator(frequency: float, damping: float, rate: float) -> tuple[np.ndarray, float, float]:
+    """(a, K, ω): the denominator s² + 2ζω·s + ω² of a mode at ``frequency`` (Hz) and ``damping`` ζ by the bilinear
+    transform s = K(z − 1)/(z + 1) at ``rate``, K prewarped so that the resonance stays at ω (not normalised)."""
+    w = 2.0 * math.pi * frequency
+    K = w / math.tan(w / (2.0 * rate))
+    c1, c0 = 2.0 * damping * w * K, w * w
+    return np.array([K * K + c1 + c0, 2.0 * (c0 - K * K), K * K - c1 + c0]), K, w
 
 
 def motor_declared(robot, coordinate: str) -> bool:

@@ -63,7 +63,7 @@ from symbolic.derivation.products import Product
 from symbolic.description.names import coefficient_name
 from symbolic.description.units import coordinate_kind
 from symbolic.workflow.effects.base import joint_frame, register
-from symbolic.workflow.effects.flexible_mode import FlexibleMode, motor_declared
+from symbolic.workflow.effects.flexible_mode import FlexibleMode, mode_denominator, motor_declared
 from symbolic.workflow.statistics import MIN_SIGMAS
 from symbolic.workflow.terms import relative_gap
 
@@ -709,11 +709,7 @@ def _filters(value: tuple[float, float], rate: float) -> Any:
     at ω (``value`` = (ω/2π, ζ)); ``at_rest``: the filters start at rest on x[0], else from zero."""
     import scipy.signal
 
-    frequency, damping = value
-    w = 2.0 * math.pi * frequency
-    K = w / math.tan(w / (2.0 * rate))
-    c1, c0 = 2.0 * damping * w * K, w * w
-    a = np.array([K * K + c1 + c0, 2.0 * (c0 - K * K), K * K - c1 + c0])
+    a, K, _ = mode_denominator(*value, rate)
     numerators = [b / a[0] for b in (np.array([1.0, 2.0, 1.0]), K * np.array([1.0, 0.0, -1.0]),
                                       K * K * np.array([1.0, -2.0, 1.0]))]
     a = a / a[0]
