@@ -443,6 +443,13 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.json:
         print(strict_json(result.to_dict()))
         return 0
+    if getattr(result, "judged_on", None) == "response":  # coordinates the data do not measure
+        for line in result.summary():
+            print(line)
+        if args.out:
+            written = [str(Path(args.out) / "report.md")] + ([str(result.patched_path)] if result.patched_path else [])
+            print(f"wrote {' and '.join(written)}")
+        return 0
     gap = lambda fit: f"{fit.gap['estimation']:.4g} % (estimation), {fit.gap['validation']:.4g} % (held out)"  # noqa: E731
     for caveat in result.caveats:
         print(f"note: {caveat}")

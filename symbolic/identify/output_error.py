@@ -638,6 +638,7 @@ def output_error(
     compiled: bool | None = None,
     initial: tuple[Any, Any] | None = None,
     tolerance: float = SIGMA_TOLERANCE,
+    evaluate_if_nothing_free: bool = False,
 ) -> OutputErrorFit:
     """Fit ``model``'s parameters by the output error of its closed loop on ``data`` (module docstring).
 
@@ -660,6 +661,9 @@ def output_error(
         Parameters kept at their values besides ``fixed = true`` ones.
     max_iterations
         Levenberg–Marquardt iterations before stopping unconverged.
+    evaluate_if_nothing_free
+        With nothing to fit (``start`` empty, no free signal value): the loop evaluated once at the values given
+        instead of the error (a search's candidate whose values are all held: a delay line's length scanned).
     tolerance
         Converged when the Gauss–Newton step is below this many standard deviations of every estimate
         (:data:`SIGMA_TOLERANCE`; a search that only compares fits may stop sooner).
@@ -695,7 +699,7 @@ def output_error(
     start = {n: float(v) for n, v in start.items() if n not in fixed_names}
     names = list(start)
     layer = getattr(measurements, "signal_layer", None)
-    if not start and not (layer and layer.free):
+    if not start and not (layer and layer.free) and not evaluate_if_nothing_free:
         raise IdentificationError(f"model {model.name}: no parameter to fit by output error (IDIM-LS determines none "
                                   "directly and alone; try --consistent, or free parameters kept fixed)")
     loop = closed_loop(model, measurements, names, parameters=start, friction_velocity=friction_velocity,
@@ -715,10 +719,15 @@ def output_error(
                                   "whose simulation stays finite")
     residuals = residuals.weighted_at(first, loop.layer_at(theta0))
     timings = {"setup": time.perf_counter() - started}
-    result = levenberg_marquardt(loop, residuals, theta0, lower, upper, max_iterations, timings, tolerance)
+    if theta0.size:
+        result = levenberg_marquardt(loop, residuals, theta0, lower, upper, max_iterations, timings, tolerance)
+    else:  # nothing free: the loop at the values given
+        r0 = residuals.of(first, loop.layer_at(theta0))
+        result = (theta0, np.zeros((r0.size, 0)), r0, first, first, 0, True, "nothing free: evaluated once",
+                  float(r0 @ r0))
     theta, J, r, y0, y, iterations, converged, message, cost0 = result
     scale = np.where(theta0 != 0, np.abs(theta0), 1.0)
-    sigma = _sigmas(J * scale, float(r @ r)) * scale
+    sigma = _sigmas(J * scale, float(r @ r)) * scale if theta.size else np.zeros(0)
     fitted, values = {}, {}
     for j, name in enumerate([*names, *(v.name for v in loop.signal_values)]):
         bound = "min" if theta[j] == lower[j] and np.isfinite(lower[j]) else (

@@ -499,17 +499,24 @@ def modes(before: DynamicModel, after: DynamicModel, after_values: Mapping[str, 
     """The linearised modes with the file's values (``before``) and the patched model's (``after`` at
     ``after_values``), at rest at the data's mean position (module docstring); ``None`` for a model
     without elastic coordinates. A controller the closed-loop linearisation cannot take is noted."""
+    mean = {c: float(np.mean(data.states.q[:, k])) for k, c in enumerate(data.coordinates)}
+    return modes_at(before, after, after_values, mean, controller, period, notes)
+
+
+def modes_at(before: DynamicModel, after: DynamicModel, after_values: Mapping[str, float],
+             mean: Mapping[str, float], controller: Mapping[str, Any] | None, period: float,
+             notes: list[str]) -> dict[str, Any] | None:
+    """:func:`modes` at rest at ``mean`` (a coordinate it lacks at 0: one the data do not measure)."""
     from symbolic.workflow.modes import closed_loop_modes, plant_modes
 
     if not (elastic(before.robot) or elastic(after.robot)):
         return None
-    mean = {c: float(np.mean(data.states.q[:, k])) for k, c in enumerate(data.coordinates)}
 
     def rest(model: DynamicModel) -> np.ndarray:
         return np.array([mean.get(c, 0.0) for c in model.robot.generalized_coordinates])
 
     nominal = {s.name: float(v) for s, v in before.parameters.items()}
-    out: dict[str, Any] = {"before": None, "after": None, "position": mean, "closed_loop": None}
+    out: dict[str, Any] = {"before": None, "after": None, "position": dict(mean), "closed_loop": None}
     for role, model, values in (("before", before, nominal), ("after", after, after_values)):
         try:
             out[role] = [_mode(m) for m in plant_modes(model, values, rest(model))]

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from symbolic.data import Controller, DataError, Experiment, Measurements
+from symbolic.data import Controller, DataError, Experiment, Measurements, load
 from symbolic.derivation.dynamics import DynamicModel, derive
 from symbolic.errors import ModelError, ModelWarning, SimulationError
 from symbolic.identify.known import fixed_symbols
@@ -48,6 +48,7 @@ import symbolic.robots as robots
 from symbolic.workflow.patch import Editor
 from symbolic.workflow.records import SearchSettings, variant_of
 from symbolic.workflow.search import CurrentModel, Search
+from symbolic.workflow.unmeasured import ResponseDiagnosis, diagnose_on_response, unmeasured_coordinates
 from symbolic.workflow.terms import NominalFit, coordinate_gaps, final_nominal, fit_nominal, model_terms, relative_gap
 from symbolic.workflow.report import markdown
 from symbolic.workflow.result import Diagnosis, Fit, Found, SimulatedSignals, Simulator, _plain
@@ -76,8 +77,13 @@ def diagnose(
     figures: bool = True,
     fix: Sequence[str] = (),
     response: bool | None = None,
-) -> Diagnosis:
+) -> Diagnosis | ResponseDiagnosis:
     """Find where ``model`` and ``data`` disagree, name the missing effects, patch the model file.
+
+    A model with coordinates the data do not measure (an elastic joint seen by its motor encoder alone) is
+    judged on its response alone (:func:`symbolic.workflow.unmeasured.diagnose_on_response`, whose
+    :class:`~symbolic.workflow.unmeasured.ResponseDiagnosis` is returned then): it needs the experiment's
+    ``[controller]``, and ``response=False`` refuses it.
 
     Parameters
     ----------
@@ -120,7 +126,15 @@ def diagnose(
     fixed_symbols(model, fix)  # an unknown name is refused before the data are read
     given = dict(experiment=experiment, validation=validation, out=out, search=search, effects=effects,
                  simulate=simulate, fix=fix, response=response)
-    diagnosis = _diagnose(model, data, settings=settings, started=(clock, cpu), **given)
+    try:
+        diagnosis = _diagnose(model, data, settings=settings, started=(clock, cpu), **given)
+    except DataError:
+        if response is False or not _lacks_coordinates(model, data, experiment, validation):
+            raise
+        # a coordinate the data do not measure (an elastic joint's link behind its motor encoder): only the
+        # response can judge such a model (symbolic.workflow.unmeasured)
+        return diagnose_on_response(model, data, experiment=experiment, validation=validation, out=out,
+                                    search=search, effects=effects, figures=figures, fix=fix)
     checked = patched_held_force(diagnosis, settings, search, fix)
     if checked is not None and checked["removed_share"] >= (search or SearchSettings()).min_gain:
         # the patched model's residual shows a held command: the whole diagnosis again on the force so treated,
@@ -142,6 +156,16 @@ def diagnose(
         diagnosis = dataclasses.replace(diagnosis, seconds={**diagnosis.seconds, "report": time.perf_counter() - clock},
                                         cpu_seconds={**diagnosis.cpu_seconds, "report": _cpu_time() - cpu})
     return diagnosis
+
+
+def _lacks_coordinates(model: DynamicModel, data: str | Path | Measurements, experiment: str | Path | None,
+                       validation: str | Path | Measurements | None) -> bool:
+    """Whether the data hold no position of some coordinate of ``model`` (and are otherwise readable)."""
+    try:
+        loaded = load(data, None, model=model.robot, experiment=experiment, validation=validation)
+    except DataError:
+        return False
+    return bool(unmeasured_coordinates(model, loaded))
 
 
 def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experiment: str | Path | None,

@@ -8,6 +8,7 @@ from symbolic.data.times import time_windows
 from symbolic.workflow.effects import NOT_SUPPORTED, joint_elasticity
 from symbolic.workflow.result import Diagnosis
 from symbolic.workflow.records import Candidate, Grouped, Judged
+from symbolic.workflow.response import ResponseSearch
 
 
 def _g(x: Any, digits: int = 4) -> str:
@@ -158,11 +159,14 @@ def _band(backlash: dict[str, Any] | None) -> str:
 
 def _response(d: Diagnosis) -> list[str]:
     """The search judged on the response: errors per coordinate before and after, what it named, what it tried."""
-    r = d.response
-    if r is None:
-        return []
+    return [] if d.response is None else response_lines(d.response)
+
+
+def response_lines(r: ResponseSearch, subject: str = "The patched model", start: str = "IDIM-LS") -> list[str]:
+    """The section of :func:`_response` for ``r``: ``subject`` is what was simulated, ``start`` where a corrected
+    value came from (the re-identification, or the model file)."""
     lines = ["## Judged on the response", "",
-             f"The patched model simulated in the experiment's [controller] loop, compared on "
+             f"{subject} simulated in the experiment's [controller] loop, compared on "
              f"{'force and position' if r.signals == 'both' else r.signals}; each candidate's values fitted by output error on the estimation data and judged on the "
              "held-out data (docs/workflow.md, \"Judged on the response\"). Errors are 100·‖measured − simulated‖"
              "/‖measured − mean‖ (%).", ""]
@@ -178,7 +182,7 @@ def _response(d: Diagnosis) -> list[str]:
         return lines + [f"Not run: {r.refit['skipped']}.", ""]
     for c in r.corrections:
         change = "" if c["relative_change"] is None else f", {100 * c['relative_change']:+.3g} %"
-        lines += [f"Corrected through the response: the {c['kind']} `{c['parameter']}` {_g(c['idim_ls'])} (IDIM-LS) → "
+        lines += [f"Corrected through the response: the {c['kind']} `{c['parameter']}` {_g(c['idim_ls'])} ({start}) → "
                   f"{_g(c['value'])} ± {_g(c['sigma'])}{change} (written into the patched model).", ""]
     if r.named:
         lines += ["Named: " + "; ".join(f"`{j.candidate.label()}` ({_roles(j.roles)}; removes "
@@ -306,3 +310,31 @@ def markdown(d: Diagnosis) -> str:
         lines += [f"![{f.stem}]({f.name})" for f in d.figures]
         lines.append("")
     return "\n".join(lines).rstrip("\n") + "\n"
+
+
+def response_markdown(d: Any) -> str:
+    """The report of a diagnosis judged on the response alone (:class:`symbolic.workflow.unmeasured.ResponseDiagnosis`):
+    the data, the errors before and after per coordinate (recomputed on the patched model), what was named, the
+    modes, the notes."""
+    r = d.response
+    lines = [f"# Diagnosis of `{d.model.name}`, judged on the response", "",
+             f"The data measure {', '.join(f'`{c}`' for c in d.measured)} and not "
+             f"{', '.join(f'`{c}`' for c in d.unmeasured)}. Held out: {d.held_out}.", "",
+             "## Simulation errors", "",
+             "100·‖measured − simulated‖/‖measured − mean‖ (%), the model file as written and the patched model "
+             "simulated again (with the signal values named declared).", ""]
+    rows = [[signal, c] + [_g(d.before[role][signal][c]) + " → " + _g(d.after[role][signal][c])
+                           for role in ("estimation", "validation")]
+            for signal in d.before["validation"] for c in d.before["validation"][signal]]
+    lines += _table(["signal", "coordinate", "estimation", "held out"], rows)
+    lines.append("")
+    lines += response_lines(r, subject="The model file as written", start="model file")
+    if d.modes is not None:
+        lines += ["## Modes", "", f"Linearised at rest at the data's mean position: {d.modes.get('summary', '')}.", ""]
+    if d.patched_path is not None:
+        lines += ["## Patched model", "", f"`{d.patched_path.name}` holds the corrected values.", ""]
+    if d.figures:
+        lines += ["## Figures", ""] + [f"![{p.stem}]({p.name})" for p in d.figures] + [""]
+    if d.notes:
+        lines += ["## Notes", ""] + [f"- {n}." if not n.endswith(".") else f"- {n}" for n in d.notes] + [""]
+    return "\n".join(lines)

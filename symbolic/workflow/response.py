@@ -334,7 +334,7 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[
         try:
             est, held = _layered(estimation, frees, source), _layered(held_out[0], frees, source)
             fit = output_error(model, est, start=start, signals=signals, max_iterations=CANDIDATE_ITERATIONS,
-                               tolerance=TOLERANCE)
+                               tolerance=TOLERANCE, evaluate_if_nothing_free=bool(scanned))
         except (DataError, IdentificationError, SimulationError, np.linalg.LinAlgError) as error:
             problem = getattr(error, "problem", None) or str(error)
             continue
