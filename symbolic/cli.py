@@ -738,7 +738,7 @@ def parser() -> argparse.ArgumentParser:
     w.add_argument("--simulate", action="store_true",
                    help="measure the gap on the simulated controller output (the experiment's [controller]) instead of the inverse model")
     w.add_argument("--no-response", dest="response", action="store_false", default=None,
-                   help="with --simulate: do not search the effects judged on the response (delay, drive_gain, sensor_bias, "
+                   help="with --simulate (or a model with coordinates the data do not measure, which is judged on its response alone): do not search the effects judged on the response (delay, drive_gain, sensor_bias, "
                         "correction; by output error on held-out data, docs/workflow.md \"Judged on the response\")")
     w.add_argument("--effects", metavar="NAMES", help="search only these catalogue effects (comma-separated; default: all; periodic means both its "
                         "variants, periodic_time the one in time only)")

@@ -58,6 +58,7 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
+import scipy.linalg
 
 from symbolic.data import DataError, Measurements, load, signal_layer
 from symbolic.data.signal_layer import FreeValue, SignalLayer
@@ -685,9 +686,19 @@ def output_error(
     # from given values the data may lack a coordinate the simulation starts at rest and compares nowhere (a
     # second mass's deflection the patched model of a diagnosis adds); IDIM-LS's start needs them all
     coordinates = model.robot.generalized_coordinates if start is None else None
-    measurements = load(data, coordinates, model=model.robot, experiment=experiment)
+    try:
+        measurements = load(data, coordinates, model=model.robot, experiment=experiment)
+    except DataError as error:
+        measurements = _lacking(model, data, experiment, error)
+        coordinates = None
     fixed = fixed_symbols(model, fix)
     start_method = "given values"
+    if start is None and coordinates is None:  # no IDIM-LS without every coordinate: the file's values
+        start = _seen_parameters(model, measurements, fixed, signals, weights, friction_velocity, substeps, compiled,
+                                 initial)
+        missing = [c for c in model.robot.generalized_coordinates if c not in measurements.coordinates]
+        start_method = (f"model file's values (the data do not measure {', '.join(missing)}: no IDIM-LS); those "
+                        "the response sees fitted, the others held")
     if start is None:
         from symbolic.identify.model import identify_model
 
@@ -741,6 +752,50 @@ def output_error(
                           residuals.errors(y, loop.layer_at(theta)),
                           {s.name: float(model.parameters[s]) for s in model.parameter_symbols if s in fixed},
                           timings, start_method, values, r.reshape(measurements.samples, -1))
+
+
+SEEN = 1e-3
+"""A parameter is fitted from the model file's values (no IDIM-LS start) when its column of the start's
+sensitivity matrix, scaled to a relative change of the parameter, keeps at least this fraction of the
+strongest column's size after the columns before it in the pivoted order are projected out (column-pivoted QR):
+what the response sees only in combination with the others, or barely, is held at the file's value."""
+
+
+def _lacking(model: DynamicModel, data: str | Path | Measurements, experiment: str | Path | None,
+             error: DataError) -> Measurements:
+    """The data with the coordinates they measure, where they lack some of ``model``'s; else ``error`` (the
+    data are unusable for another reason)."""
+    try:
+        loaded = load(data, None, model=model.robot, experiment=experiment)
+    except DataError:
+        raise error from None
+    if all(c in loaded.coordinates for c in model.robot.generalized_coordinates):
+        raise error
+    return loaded
+
+
+def _seen_parameters(model: DynamicModel, measurements: Measurements, fixed: Any, signals: str,
+                     weights: tuple[float, float], friction_velocity: float, substeps: int | None,
+                     compiled: bool | None, initial: tuple[Any, Any] | None) -> dict[str, float]:
+    """The model file's values of the parameters the response sees (:data:`SEEN`), by the start's sensitivities
+    (one simulation with every free parameter's)."""
+    values = {s.name: float(model.parameters[s]) for s in model.parameter_symbols if s not in fixed}
+    names = list(values)
+    if not names:
+        return {}
+    loop = closed_loop(model, measurements, names, parameters=values, friction_velocity=friction_velocity,
+                       substeps=substeps, compiled=compiled, initial=initial)
+    theta = np.array([values[n] for n in names])
+    y, dy = loop.run(theta, sensitivities=True)
+    if not np.isfinite(y).all():
+        raise IdentificationError("the closed loop diverges at the model file's values: an output-error fit needs "
+                                  "a start whose simulation stays finite")
+    residuals = _residuals(measurements, loop.names, signals, weights, loop.ctrl, loop).weighted_at(y)
+    J = residuals.jacobian(y, dy) * np.where(theta != 0, np.abs(theta), 1.0)
+    _, R, order = scipy.linalg.qr(J, mode="economic", pivoting=True)
+    size = np.abs(np.diag(R))
+    kept = sorted(order[:len(size)][size > SEEN * max(size.max(initial=0.0), 1e-300)])
+    return {names[k]: values[names[k]] for k in kept}
 
 
 def simulation_errors(model: DynamicModel, measurements: Measurements, fit: OutputErrorFit | None = None, *,

@@ -83,7 +83,8 @@ def diagnose(
     A model with coordinates the data do not measure (an elastic joint seen by its motor encoder alone) is
     judged on its response alone (:func:`symbolic.workflow.unmeasured.diagnose_on_response`, whose
     :class:`~symbolic.workflow.unmeasured.ResponseDiagnosis` is returned then): it needs the experiment's
-    ``[controller]``, and ``response=False`` refuses it.
+    ``[controller]``; it runs with or without ``simulate`` (the response is all there is to judge), and
+    ``response=False`` refuses it.
 
     Parameters
     ----------
@@ -120,6 +121,7 @@ def diagnose(
         experiment's own loop, not a caller's simulator); ``False``: never (``diagnose --simulate --no-response``).
     """
     clock, cpu = time.perf_counter(), _cpu_time()
+    refused = response is False  # a model the data do not fully measure has nothing else to be judged on
     if response is None:  # the response is the experiment's own loop's: not a caller's simulator
         response = simulate is True
     model = _derived(model)
@@ -129,7 +131,7 @@ def diagnose(
     try:
         diagnosis = _diagnose(model, data, settings=settings, started=(clock, cpu), **given)
     except DataError:
-        if response is False or not _lacks_coordinates(model, data, experiment, validation):
+        if refused or not _lacks_coordinates(model, data, experiment, validation):
             raise
         # a coordinate the data do not measure (an elastic joint's link behind its motor encoder): only the
         # response can judge such a model (symbolic.workflow.unmeasured)
