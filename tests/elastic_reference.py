@@ -80,6 +80,65 @@ def model_text(**values: float) -> str:
     return MODEL.format(**{**TRUTH, **values})
 
 
+ELASTIC_MODEL = '''# The geared joint with its transmission elastic: q the motor (link units), q_flex the link's angle minus the motor's.
+name = "geared_joint"
+coordinates = ["q", "q_flex"]
+gravity = ["0", "-9.81", "0"]
+
+[parameters]
+Jl = {Jl!r}
+m = {m!r}
+c = {c!r}
+Fv = {Fv!r}
+Fc = {Fc!r}
+Ia = {Jm!r}
+k = {k!r}
+d = {d!r}
+
+[[frame]]
+name = "link"
+parent = "base"
+dh = {{ theta = "q + q_flex", d = "0", a = "0", alpha = "0" }}
+
+[[body]]
+name = "link"
+frame = "link"
+mass = "m"
+com = ["c", "0", "0"]
+inertia = {{ xx = "0", yy = "Jl - m*c**2", zz = "Jl - m*c**2" }}
+
+[[drive]]
+coordinate = "q"
+ratio = 1
+rotor_inertia = "Ia"
+
+[[friction]]
+coordinate = "q"
+viscous = "Fv"
+coulomb = "Fc"
+
+[[force]]
+name = "transmission"
+coordinate = "q_flex"
+expression = "-k*q_flex - d*qd_q_flex"
+'''
+
+
+def elastic_model_text(**values: float) -> str:
+    """The joint's model file as a user writes it when the transmission is known to be elastic: two coordinates,
+    the motor ``q`` and the link's deflection from it ``q_flex`` (Spong's model, the file's values the truth's
+    unless given)."""
+    return ELASTIC_MODEL.format(**{**TRUTH, **values})
+
+
+def motor_encoder_only(experiment: Path) -> Path:
+    """``experiment`` with its link-side encoders' columns (``ql_<c>``) left out of [signals]."""
+    text = experiment.read_text(encoding="utf-8")
+    experiment.write_text("".join(line for line in text.splitlines(keepends=True) if not line.startswith("ql_")),
+                          encoding="utf-8")
+    return experiment
+
+
 def transmitted(theta: float, w: float, q: float, v: float, p: dict, k: str = "k", d: str = "d") -> float:
     """The torque through the transmission: k·(δ ∓ b/2) + d·δ̇ in contact, 0 inside the dead band |δ| < b/2
     (``p["backlash"]`` = b, the band's whole width; 0: a spring); ``k``, ``d``: the keys of p to read."""
@@ -258,3 +317,17 @@ def write_arm_joint_experiment(folder: Path, *, rigid: bool = False, seconds: fl
                     f'kind = "cascade_pi"\ncoordinates = ["q1", "q2"]\n{gains}velocity_feedforward = [1.0, 1.0]\n'
                     f'reference = "ref"\nquantisation = [{resolution!r}, {resolution!r}]\n', encoding="utf-8")
     return path
+
+
+def elastic_arm_text(**values: float) -> str:
+    """The two-link arm's model file with joint 2's transmission elastic as a user writes it (coordinates q1, q2 —
+    joint 2's motor — and q2_flex, link 2's deflection from it), the values :data:`ARM_TRUTH`'s unless given."""
+    import models
+
+    p = {**ARM_TRUTH, **values}
+    text = models.arm(parameters="".join(f"{k} = {p[k]!r}\n" for k in ("Fv1", "Fv2", "Fc2", "Jm2", "k2", "d2")),
+                      friction1='viscous = "Fv1"',
+                      extra=ARM_MODEL_EXTRA + '\n[[force]]\nname = "transmission"\ncoordinate = "q2_flex"\n'
+                                              'expression = "-k2*q2_flex - d2*qd_q2_flex"\n')
+    return text.replace('coordinates = ["q1", "q2"]', 'coordinates = ["q1", "q2", "q2_flex"]').replace(
+        'theta = "q2"', 'theta = "q2 + q2_flex"')

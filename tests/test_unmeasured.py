@@ -23,61 +23,15 @@ from symbolic.identify.output_error import output_error, simulation_errors
 from symbolic.identify.least_squares import IdentificationError
 from symbolic.workflow import diagnose
 
-ELASTIC = '''# The geared joint with its transmission elastic: q the motor (link units), q_flex the link's angle minus the motor's.
-name = "geared_joint"
-coordinates = ["q", "q_flex"]
-gravity = ["0", "-9.81", "0"]
-
-[parameters]
-Jl = {Jl!r}
-m = {m!r}
-c = {c!r}
-Fv = {Fv!r}
-Fc = {Fc!r}
-Ia = {Jm!r}
-k = {k!r}
-d = {d!r}
-
-[[frame]]
-name = "link"
-parent = "base"
-dh = {{ theta = "q + q_flex", d = "0", a = "0", alpha = "0" }}
-
-[[body]]
-name = "link"
-frame = "link"
-mass = "m"
-com = ["c", "0", "0"]
-inertia = {{ xx = "0", yy = "Jl - m*c**2", zz = "Jl - m*c**2" }}
-
-[[drive]]
-coordinate = "q"
-ratio = 1
-rotor_inertia = "Ia"
-
-[[friction]]
-coordinate = "q"
-viscous = "Fv"
-coulomb = "Fc"
-
-[[force]]
-name = "transmission"
-coordinate = "q_flex"
-expression = "-k*q_flex - d*qd_q_flex"
-'''
 
 
 def _motor_encoder_only(folder, **kwargs):
-    """The joint's experiment with the link-side encoder's column left out of [signals]."""
-    experiment = truth.write_joint_experiment(folder, **kwargs)
-    text = experiment.read_text(encoding="utf-8")
-    experiment.write_text(text.replace('ql_q = "ql_q"\n', ""), encoding="utf-8")
-    return experiment
+    return truth.motor_encoder_only(truth.write_joint_experiment(folder, **kwargs))
 
 
 def _model(folder, **values) -> str:
     path = folder / "elastic.toml"
-    path.write_text(ELASTIC.format(**{**truth.TRUTH, **values}), encoding="utf-8")
+    path.write_text(truth.elastic_model_text(**values), encoding="utf-8")
     return str(path)
 
 
@@ -152,7 +106,7 @@ def test_nothing_free_is_evaluated_once_where_asked(tmp_path):
     """output_error(evaluate_if_nothing_free=True) with nothing to fit: the loop at the model's values, its
     errors those of simulation_errors; without the flag, refused."""
     experiment = _motor_encoder_only(tmp_path, seconds=1.0)
-    model = derive(loads(ELASTIC.format(**truth.TRUTH), "elastic.toml"))
+    model = derive(loads(truth.elastic_model_text(), "elastic.toml"))
     with pytest.raises(IdentificationError, match="no parameter to fit"):
         output_error(model, str(experiment), start={}, signals="both")
     fit = output_error(model, str(experiment), start={}, signals="both", evaluate_if_nothing_free=True)

@@ -221,8 +221,12 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
         remaining = [c for c in remaining if (c.effect, c.coordinate, c.frees) != (best.candidate.effect,
                                                                                     best.candidate.coordinate,
                                                                                     best.candidate.frees)]
+    named, dropped = _still_named(model, named, 1.0 / float(estimation.sample_period))
+    notes += [f"{j.candidate.label()} was named at round {_round_of(j, rounds)} and is not any more with what was named "
+              f"after it free in the same fit: {verdict}; its value is left at the model file's" for j, verdict in dropped]
     if named:
-        values = {n: p.value for n, p in named[-1].fit.parameters.items()}
+        left = {k[1] for j, _ in dropped for k in j.values if k[0] == PARAMETER}
+        values = {n: p.value for n, p in named[-1].fit.parameters.items() if n not in left}
     elif refit is not None and refit["accepted"] and refit["moved"]:
         values = {n: p.value for n, p in last.parameters.items()}
     else:  # nothing the response supports: the patched model as IDIM-LS identified it
@@ -231,6 +235,36 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
     corrections = tuple(_corrections(model, final)) if final is not None else ()
     return ResponseSearch(signals, base, current, tuple(rounds), tuple(named), time.perf_counter() - started,
                           tuple(notes), refit, values, corrections)
+
+
+def _still_named(model: DynamicModel, named: Sequence[Judged], rate: float
+                 ) -> tuple[list[Judged], list[tuple[Judged, str]]]:
+    """The named candidates judged again by their effect's own check at the last fit's values, where every one
+    named is free together (forward selection's first choice may be a local minimum's stand-in: a damping named
+    before the stiffness that then returns to the file's value). Those that fail it are dropped, with the reason;
+    the others carry the last fit's values (a parameter's change measured from the model file's value)."""
+    if len(named) < 2:
+        return list(named), []
+    last = _all_values(named[-1])
+    kept: list[Judged] = []
+    dropped: list[tuple[Judged, str]] = []
+    for j in named:
+        if not all(k in last for k in j.values):
+            kept.append(j)
+            continue
+        values = {k: dataclasses.replace(last[k], start=_value(model, k[1])) if k[0] == PARAMETER else last[k]
+                  for k in j.values}
+        roles = j.candidate.effect.roles_of(values, rate)
+        verdict = j.candidate.effect.check(roles)
+        if verdict is None:
+            kept.append(dataclasses.replace(j, values=values, roles=roles))
+        else:
+            dropped.append((j, verdict))
+    return kept, dropped
+
+
+def _round_of(judged: Judged, rounds: Sequence[Sequence[Judged]]) -> int:
+    return next((k + 1 for k, r in enumerate(rounds) if any(x is judged for x in r)), 0)
 
 
 def _judge_all(candidates: Sequence[ResponseCandidate], judge: Callable[[ResponseCandidate], Judged]
