@@ -122,3 +122,34 @@ def _loaded(experiment, model):
     from symbolic.data import load as load_data
 
     return load_data(str(experiment), None, model=model.robot)
+
+
+def test_a_correction_that_returns_to_the_files_value_is_not_named():
+    """response._still_named: forward selection named d first (a stand-in while k was wrong), then k; in the last
+    fit, with both free, d is back within 10 % of the file's value: d is dropped with its reason, k kept with the
+    last fit's value and its change measured from the file's value."""
+    from types import SimpleNamespace
+
+    from symbolic.identify.output_error import FittedParameter
+    from symbolic.workflow.effects.on_response import PARAMETER, RESPONSE_EFFECTS, ResponseCandidate
+    from symbolic.workflow.response import Judged, _still_named
+
+    model = derive(loads(truth.elastic_model_text(k=680.0), "elastic.toml"))
+    correction = RESPONSE_EFFECTS["correction"]
+    d_key, k_key = (PARAMETER, "d", ""), (PARAMETER, "k", "")
+
+    def judged(key, value, start, fitted):
+        values = {key: FittedParameter(key[1], value, 0.01, 0.0, start)}
+        roles = correction.roles_of(values, 1000.0)
+        fit = SimpleNamespace(parameters={k[1]: v for k, v in fitted.items()}, signal_values={})
+        return Judged(ResponseCandidate(correction, "", (key,), (start,)), values, {}, {}, 0.5, 0.5, 10.0, roles,
+                      True, None, fit)
+
+    first = judged(d_key, 2.4, 0.8, {d_key: FittedParameter("d", 2.4, 0.01, 0.0, 0.8)})
+    last_fit = {d_key: FittedParameter("d", 0.82, 0.01, 0.0, 2.4), k_key: FittedParameter("k", 403.0, 0.3, 0.0, 680.0)}
+    second = judged(k_key, 403.0, 680.0, last_fit)
+    kept, dropped = _still_named(model, [first, second], 1000.0)
+    assert [j.candidate.label() for j in kept] == ["correction(k)"]
+    assert [j.candidate.label() for j, _ in dropped] == ["correction(d)"]
+    assert "10 % at least" in dropped[0][1]
+    assert kept[0].roles["file_value"] == 680.0 and kept[0].roles["value"] == 403.0
