@@ -172,7 +172,10 @@ def _joints(model: DynamicModel) -> dict:
             if joint is not None and (kind == "prismatic") != prismatic:
                 continue
             for symbol in getattr(value, "free_symbols", ()):
-                found.setdefault(symbol, (kind, dict(joint.limits) if joint is not None else {}))
+                # a joint's limits bound its variable: the coordinate's own only where the variable is the
+                # coordinate itself (θ = −q + offset moves q over another range)
+                limits = dict(joint.limits) if joint is not None and value == symbol else {}
+                found.setdefault(symbol, (kind, limits))
     return found
 
 
