@@ -158,6 +158,11 @@ def rewrite(signals: Mapping[str, Any], methods: Mapping[str, str], source: str)
                                                  f"{shorten(text)} (allowed: /topic.field, /topic.field[0], "
                                                  "/topic.field[joint_name], /topic.a.b[1].c; names of letters, digits "
                                                  "and _)")
+                if text[match.end():match.end() + 1] in ("[", "."):
+                    raise DataError(source, key, f"cannot read the topic reference at character {match.end() + 1} of "
+                                                 f"{shorten(text)} (allowed: /topic.field, /topic.field[0], "
+                                                 "/topic.field[joint_name], /topic.a.b[1].c; names of letters, digits "
+                                                 "and _)")
                 reference = parse_reference(match.group())
                 request = requests.setdefault((reference.text, method),
                                               Request(reference, method, f"_bag{len(requests)}"))
@@ -203,14 +208,18 @@ class _Bag:
     def close(self) -> None:
         pass
 
-    def listing(self) -> str:
-        return listing([f"{t.name} ({t.msgtype}{'' if t.count is None else f', {t.count} messages'})"
-                        for t in self.topics.values()], most=8) or "none"
+    def listing(self, most: int = 8) -> str:
+        """The topics with their types and counts, for a message (the first ``most``)."""
+        shown = [f"{t.name} ({t.msgtype}{'' if t.count is None else f', {t.count} messages'})"
+                 for t in sorted(self.topics.values(), key=lambda t: t.name)[:most]]
+        more = f", and {len(self.topics) - most} more" if len(self.topics) > most else ""
+        return ", ".join(shown) + more if shown else "none"
 
 
-def _typestore(definitions: Mapping[str, tuple[str, str]], distro: str | None = None) -> Any:
-    """A typestore with the standard ROS 2 types (of ``distro`` when the bag names a known one, else the latest)
-    overridden by the bag's own definitions (name -> (format "msg" or "idl", text))."""
+def _typestore(definitions: Mapping[str, tuple[str, str]], used: set[str], distro: str | None = None) -> Any:
+    """A typestore of the types ``used`` (the topics') and those they contain: the bag's own definitions (name ->
+    (format "msg" or "idl", text)), else the standard ROS 2 ones (of ``distro`` when the bag names a known one,
+    else the latest)."""
     from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
 
     store = next((s for s in Stores if distro and s.value == f"ros2_{distro}"), Stores.LATEST)
@@ -226,8 +235,18 @@ def _typestore(definitions: Mapping[str, tuple[str, str]], distro: str | None = 
                     types.update(get_types_from_idl(part))
         except Exception:  # noqa: BLE001 - a definition rosbags cannot parse: the standard one (if any) is kept
             continue
+    needed, pending = {}, [t for t in used if t in types]
+    while pending:  # the closure of the used types (registering all of ROS 2's takes half a second)
+        name = pending.pop()
+        if name in needed:
+            continue
+        needed[name] = types[name]
+        for _, (node, arg) in types[name][1]:
+            inner = arg if node == _NAME else arg[0][1] if node in (_ARRAY, _SEQUENCE) and arg[0][0] == _NAME else None
+            if inner is not None and inner in types and inner not in needed:
+                pending.append(inner)
     typestore = get_typestore(Stores.EMPTY)
-    typestore.register(types)
+    typestore.register(needed)
     return typestore
 
 
@@ -276,7 +295,7 @@ class _Mcap(_Bag):
                 problem = previous.problem or problem or (f"its channels have types {previous.msgtype} and {name}"
                                                           if previous.msgtype != name else None)
             self.topics[channel.topic] = Topic(channel.topic, name, count, problem)
-        self.typestore = _typestore(definitions)
+        self.typestore = _typestore(definitions, {t.msgtype for t in self.topics.values()})
 
     def messages(self, topics: list[str]) -> Iterator[tuple[str, int, Any]]:
         try:
@@ -377,7 +396,7 @@ class _Rosbag2(_Bag):
                                                           else None)
             self.topics[connection.topic] = Topic(connection.topic, connection.msgtype, count, problem)
             self._connections.setdefault(connection.topic, []).append(connection)
-        self.typestore = _typestore(definitions, distro)
+        self.typestore = _typestore(definitions, {t.msgtype for t in self.topics.values()}, distro)
 
     def messages(self, topics: list[str]) -> Iterator[tuple[str, int, Any]]:
         connections = [c for t in topics for c in self._connections[t]]
@@ -733,8 +752,8 @@ class _Progress:
             now = time.perf_counter()
             if now >= self.next:
                 self.next = now + PROGRESS_EVERY
-                of = f" of {self.total} ({100 * self.count / self.total:.0f} %)" if self.total else ""
-                log.info("%s: read %d%s messages, %.1f s", self.path.name, self.count, of, now - self.start)
+                of = f" of {self.total} messages ({100 * self.count / self.total:.0f} %)" if self.total else " messages"
+                log.info("%s: read %d%s, %.1f s", self.path.name, self.count, of, now - self.start)
 
     def done(self) -> None:
         if time.perf_counter() - self.start >= PROGRESS_EVERY:
@@ -912,7 +931,9 @@ def align(series: dict[str, _Series], by_topic: dict[str, list[tuple[Request, _A
         after = int(np.count_nonzero(times > grid[-1]))
         if holds.get(name):  # a held command before the start gives the first value: not dropped
             before = max(before - 1, 0)
-        reports.append(TopicReport(name, bag.topics[name].msgtype, len(times) + repeated, 1e9 / period, stamps[name],
+        regular = steps[steps <= GAP_FACTOR * period]  # the rate between gaps
+        mean_rate = 1e9 * len(regular) / float(np.sum(regular)) if len(regular) else 1e9 / period
+        reports.append(TopicReport(name, bag.topics[name].msgtype, len(times) + repeated, mean_rate, stamps[name],
                                    methods or ("time base",), gaps, repeated, out_of_order, before, after))
     alignment = Alignment(str(path), base, float(rate), len(grid), int(grid[0]), tuple(reports))
     for line in alignment.lines():

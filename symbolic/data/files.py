@@ -130,7 +130,8 @@ def read(path: Path, columns: Sequence[str] | None = None, named_by: str = "<pyt
     if not exists(path):
         raise DataError(str(path), "file", "no such data file")
     if READERS[which].mapped:
-        return read_mapped(path, which, columns, named_by, signals, options, resample)[0]
+        source = str(path) if named_by == "<python>" else named_by
+        return read_mapped(path, which, columns, source, signals, options, resample)[0]
     if columns is not None:
         if which != "csv":
             raise DataError(named_by, "columns", f"names the columns of a CSV file without a header line; "

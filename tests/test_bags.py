@@ -1,0 +1,306 @@
+"""ROS 2 bags and MCAP files as data files (symbolic.data.bags; docs/data.md, "Bags and MCAP files").
+
+The bags are written here, in tmp_path, by the writers of the libraries the reader uses (rosbags' rosbag2 Writer
+with sqlite3 and MCAP storage; mcap_ros2's MCAP Writer), from EMPS's log and from a synthetic two-link log,
+joint states at 1 kHz (header stamps, logged 0.3 ms later) and commands at 500 Hz (no header: log time). Each
+identifies the same parameters as the canonical CSV of the same numbers to 1e-9 relative.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import bag_writers as bw
+import models
+import symbolic
+from shared_data import emps_folder
+from symbolic.data import DataError, load
+from symbolic.data import bags
+from symbolic.data import files
+from symbolic.identify.model import base_regressor, identify_model, model_base
+
+KINDS = ("mcap", "sqlite3", "rosbag2-mcap")
+EPOCH = 1_700_000_000_000_000_000
+"""The bags' clock at t = 0 (ns since 1970): stamps as a robot writes them."""
+JOINTS = ("shoulder_joint", "elbow_joint")
+"""The arm's joints as its messages name them (a URDF's names), mapped onto the model's q1, q2."""
+
+
+@pytest.fixture(scope="module")
+def arm() -> symbolic.DynamicModel:
+    return symbolic.derive(symbolic.loads(models.arm(), "arm"))
+
+
+def arm_log(arm, seconds: float = 3.0, rate: float = 1000.0):
+    """t, q, τ (the model's, plus seeded noise) and the commands held at 500 Hz, at ``rate``."""
+    n = int(round(seconds * rate)) + 1
+    t = np.arange(n) / rate
+    w = 2 * np.pi * np.array([[0.5, 1.3], [0.7, 1.9]])
+    amplitude = np.array([[0.8, 0.3], [0.6, 0.25]])
+    q = np.column_stack([sum(amplitude[j, i] * np.sin(w[j, i] * t + j) for i in range(2)) for j in range(2)])
+    qd = np.column_stack([sum(amplitude[j, i] * w[j, i] * np.cos(w[j, i] * t + j) for i in range(2)) for j in range(2)])
+    qdd = np.column_stack([sum(-amplitude[j, i] * w[j, i] ** 2 * np.sin(w[j, i] * t + j) for i in range(2))
+                           for j in range(2)])
+    tau = np.einsum("snp,p->sn", base_regressor(arm)(q, qd, qdd), model_base(arm)[1].values)
+    tau = tau + np.random.default_rng(7).normal(0.0, 0.01, tau.shape)
+    ref = np.roll(q, -10, axis=0)[::2]  # the commands, 10 ms ahead, every other sample
+    return t, q, tau, ref
+
+
+def arm_topics(t, q, tau, ref) -> list[bw.Topic]:
+    stamps = EPOCH + np.round(t * 1e9).astype(np.int64)
+    return [bw.joint_states(stamps, list(JOINTS), q, tau), bw.commands("/arm/command", stamps[::2], ref)]
+
+
+ARM_SIGNALS = """
+[signals]
+q_q1 = "/joint_states.position[shoulder_joint]"
+q_q2 = "/joint_states.position[elbow_joint]"
+tau_q1 = "/joint_states.effort[shoulder_joint]"
+tau_q2 = "/joint_states.effort[elbow_joint]"
+ref_q1 = "/arm/command.data[0]"
+ref_q2 = "/arm/command.data[1]"
+"""
+
+
+def experiment(folder: Path, bag: Path, body: str = ARM_SIGNALS, name: str = "run.experiment.toml") -> Path:
+    path = folder / name
+    path.write_text(f'data = "{bag.name}"\n{body}')
+    return path
+
+
+def canonical_csv(path: Path, t, coordinates, q, tau, ref) -> Path:
+    columns = {"t": t}
+    for kind, values in (("q", q), ("tau", tau), ("ref", ref)):
+        columns.update({f"{kind}_{c}": values[:, j] for j, c in enumerate(coordinates)})
+    return files.write(columns, path)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_two_link_bag_identifies_as_its_canonical_csv(arm, kind: str, tmp_path: Path) -> None:
+    t, q, tau, ref = arm_log(arm)
+    bag = bw.write(kind, tmp_path / "arm", arm_topics(t, q, tau, ref))
+    held = np.repeat(ref, 2, axis=0)[:len(t)]  # the commands held between their messages
+    csv = canonical_csv(tmp_path / "arm.csv", t, ("q1", "q2"), q, tau, held)
+    from_bag = load(experiment(tmp_path, bag), model=arm.robot)
+    from_csv = load(csv, model=arm.robot)
+    assert np.array_equal(from_bag.q, from_csv.q) and np.array_equal(from_bag.tau, from_csv.tau)
+    assert np.array_equal(from_bag.ref, from_csv.ref) and np.array_equal(from_bag.t, from_csv.t)
+    a = identify_model(arm, experiment(tmp_path, bag)).identification
+    b = identify_model(arm, csv).identification
+    assert a.names == b.names
+    np.testing.assert_allclose(a.values, b.values, rtol=1e-9, atol=0)
+    np.testing.assert_allclose(a.sigmas, b.sigmas, rtol=1e-9, atol=0)
+    report = from_bag.alignment
+    assert report.base == "the stamps of /joint_states" and report.samples == len(t)
+    rates = {r.topic: round(r.rate, 6) for r in report.topics}
+    assert rates == {"/joint_states": 1000.0, "/arm/command": 500.0}
+    stamps = {r.topic: r.stamps for r in report.topics}
+    assert stamps == {"/joint_states": "header", "/arm/command": "log"}
+    assert all(not r.gaps and r.dropped == 0 for r in report.topics)
+
+
+def emps_log():
+    import scipy.io
+
+    m = scipy.io.loadmat(emps_folder() / "DATA_EMPS.mat")
+    return (m["t"].ravel(), m["qm"].ravel(), m["vir"].ravel(), m["qg"].ravel(), float(m["gtau"][0, 0]))
+
+
+@pytest.mark.parametrize("kind", ("mcap", "sqlite3"))
+def test_emps_from_a_bag_gives_the_csv_figures(kind: str, tmp_path: Path) -> None:
+    """EMPS's log as a joint state (position, and the drive voltage as effort) at 1 kHz and its reference at
+    500 Hz; the force is gtau times the voltage, the drive gain, in [signals]."""
+    t, qm, vir, qg, gtau = emps_log()
+    stamps = EPOCH + np.round(t * 1e9).astype(np.int64)  # the log's own (single-precision) instants, to the ns
+    topics = [bw.joint_states(stamps, ["carriage"], qm[:, None], vir[:, None]),
+              bw.commands("/command", stamps[::2], qg[::2, None])]
+    bag = bw.write(kind, tmp_path / "emps", topics)
+    spec = experiment(tmp_path, bag, f"""model = "emps"
+[signals]
+q_q = "/joint_states.position[carriage]"
+tau_q = "gtau * /joint_states.effort[carriage]"
+ref_q = "/command.data[0]"
+[constants]
+gtau = {gtau!r}
+[identification]
+bandwidth = 20.0
+""")
+    csv = canonical_csv(tmp_path / "emps.csv", t, ("q",), qm[:, None], (gtau * vir)[:, None],
+                        np.repeat(qg[::2], 2)[:len(t), None])
+    model = symbolic.derive(symbolic.robots.load("emps"))
+    from symbolic.data import Settings
+
+    a = identify_model(model, spec).identification
+    b = identify_model(model, csv, settings=Settings(bandwidth=20.0)).identification
+    np.testing.assert_allclose(a.values, b.values, rtol=1e-9, atol=0)
+    # the README's figures (the shipped experiment on DATA_EMPS.mat)
+    assert [f"{v:.6g}" for v in a.values] == ["95.1163", "203.373", "20.409", "-3.17003"]
+    assert f"{a.relative_error:.4g}" == "4.039"
+
+
+def small_arm_bag(arm, tmp_path: Path, kind: str = "mcap", drop: slice | None = None, seconds: float = 1.0,
+                  topics=None) -> Path:
+    t, q, tau, ref = arm_log(arm, seconds)
+    written = topics if topics is not None else arm_topics(t, q, tau, ref)
+    if drop is not None:
+        del written[0].messages[drop]
+    return bw.write(kind, tmp_path / "arm", written)
+
+
+def test_a_dropped_burst_is_a_reported_gap(arm, tmp_path: Path) -> None:
+    bag = small_arm_bag(arm, tmp_path, drop=slice(400, 420))  # 20 joint states (20 ms) lost
+    with pytest.warns(symbolic.ModelWarning, match=r"/joint_states: 1 gap\(s\) in the messages, 20 message\(s\) "
+                                                   r"missing at 1000 Hz; the longest 21 ms at t = 0.399 s"):
+        loaded = load(experiment(tmp_path, bag), model=arm.robot)
+    report = loaded.alignment
+    assert report.base.startswith("a uniform grid at the rate of /joint_states")
+    assert report.samples == 1001 and np.allclose(np.diff(loaded.t), 1e-3)
+    joint = next(r for r in report.topics if r.topic == "/joint_states")
+    assert [(round(g[0], 6), round(g[1], 6), g[2]) for g in joint.gaps] == [(0.399, 0.021, 20)]
+    assert any("1 gap(s), 20 message(s) missing" in line for line in report.lines())
+
+
+def test_a_gap_beyond_max_gap_is_refused(arm, tmp_path: Path) -> None:
+    bag = small_arm_bag(arm, tmp_path, drop=slice(300, 500))
+    with pytest.raises(DataError) as caught:
+        load(experiment(tmp_path, bag), model=arm.robot)
+    message = str(caught.value)
+    assert "\n" not in message and message.startswith(f"{bag}: /joint_states: a gap of 201 ms at t = 0.299 s")
+    assert "[alignment] max_gap" in message
+    with pytest.warns(symbolic.ModelWarning, match="201 ms at t = 0.299 s, bridged by linear interpolation"):
+        loaded = load(experiment(tmp_path, bag, ARM_SIGNALS + "[alignment]\nmax_gap = 0.5\n"), model=arm.robot)
+    assert loaded.samples == 1001
+
+
+def refusal(path: Path, model=None) -> str:
+    with pytest.raises(DataError) as caught:
+        load(path, model=model)
+    message = str(caught.value)
+    assert "\n" not in message
+    return message
+
+
+def test_an_unknown_joint_name_is_one_line(arm, tmp_path: Path) -> None:
+    bag = small_arm_bag(arm, tmp_path)
+    spec = experiment(tmp_path, bag, ARM_SIGNALS.replace("position[elbow_joint]", "position[elbow_jiont]"))
+    assert refusal(spec, arm.robot) == (
+        f"{spec}: [signals] q_q2: joint 'elbow_jiont' is not among the names of /joint_states (its name: "
+        "shoulder_joint, elbow_joint); did you mean 'elbow_joint'?; give a joint the topic names (the URDF's joint "
+        "names) or a position, [0]")
+
+
+def test_a_topic_of_another_type_is_one_line(arm, tmp_path: Path) -> None:
+    bag = small_arm_bag(arm, tmp_path)
+    spec = experiment(tmp_path, bag, ARM_SIGNALS.replace('"/arm/command.data[0]"', '"/arm/command.position[q1]"'))
+    assert refusal(spec, arm.robot) == (
+        f"{spec}: [signals] ref_q1: /arm/command is a std_msgs/msg/Float64MultiArray, which has no field 'position' "
+        "(its fields: layout, data)")
+    spec = experiment(tmp_path, bag, ARM_SIGNALS.replace('"/arm/command.data[0]"', '"/arm/command.layout"'))
+    assert "is a message std_msgs/msg/MultiArrayLayout (its fields: dim, data_offset): name one of its numbers" in \
+        refusal(spec, arm.robot)
+    spec = experiment(tmp_path, bag, ARM_SIGNALS.replace('"/arm/command.data[0]"', '"/arm/command.data"'))
+    assert "/arm/command.data is an array: give a position, /arm/command.data[0], or a name" in refusal(spec, arm.robot)
+    spec = experiment(tmp_path, bag, ARM_SIGNALS.replace('"/arm/command.data[0]"', '"/arm/comand.data[0]"'))
+    assert "[signals] ref_q1: no topic '/arm/comand' in arm.mcap (its topics: /arm/command (std_msgs/msg/" \
+           "Float64MultiArray, 501 messages), /joint_states (sensor_msgs/msg/JointState, 1001 messages)); did you " \
+           "mean '/arm/command'?" in refusal(spec, arm.robot)
+    spec = experiment(tmp_path, bag, ARM_SIGNALS.replace('"/arm/command.data[0]"', '"/joint_states.name[0]"'))
+    assert "/joint_states.name is an array of string (allowed: arrays of numbers)" in refusal(spec, arm.robot)
+
+
+@pytest.mark.parametrize("kind", ("mcap", "sqlite3"))
+def test_a_truncated_file_is_one_line_and_nothing_is_written(arm, kind: str, tmp_path: Path) -> None:
+    bag = small_arm_bag(arm, tmp_path, kind)
+    storage = bag if bag.is_file() else next(bag.glob("*.db3"))
+    data = storage.read_bytes()
+    storage.write_bytes(data[: len(data) * 2 // 3])
+    spec = experiment(tmp_path, bag)
+    message = refusal(spec, arm.robot)
+    assert message.startswith(f"{storage}: file: truncated: ")
+    model = tmp_path / "arm.toml"
+    model.write_text(models.arm())
+    out = tmp_path / "identified.toml"
+    done = subprocess.run([sys.executable, "-m", "symbolic", "-q", "identify", str(model), str(spec), "--out", str(out)],
+                          capture_output=True, text=True, env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    assert done.returncode == 2 and done.stderr == f"error: {message}\n"
+    assert not out.exists()
+
+
+def test_the_grammar_is_strict_and_nothing_is_evaluated(arm, tmp_path: Path) -> None:
+    bag = small_arm_bag(arm, tmp_path)
+    for text, expected in (
+        ("/joint_states.position[", "cannot read the topic reference at character 23 of '/joint_states.position['"),
+        ("/joint_states", "cannot read a topic reference at character 1"),
+        ("/joint_states.position[0].__class__", "/joint_states.position[0] is a number, which has no fields"),
+        ("__import__('os') * /joint_states.position[0]", "[signals] q_q1:"),
+        ("/joint_states.header.stamp.sec.x", "/joint_states.header.stamp.sec is a int32, which has no fields"),
+    ):
+        spec = experiment(tmp_path, bag, ARM_SIGNALS.replace('"/joint_states.position[shoulder_joint]"', repr(text)))
+        assert expected in refusal(spec, arm.robot), text
+
+
+def test_expressions_of_topics_and_the_declared_methods(arm, tmp_path: Path) -> None:
+    """A current topic times a drive gain (a constant), a position by its index, the methods overridden."""
+    t, q, tau, ref = arm_log(arm, 1.0)
+    topics = arm_topics(t, q, tau, ref)
+    stamps = EPOCH + np.round(t[::4] * 1e9).astype(np.int64) + 123_456  # 250 Hz, not on the joint states' instants
+    topics.append(bw.commands("/currents", stamps, tau[::4] / 2.5))
+    bag = bw.write("mcap", tmp_path / "arm", topics)
+    body = ARM_SIGNALS.replace('"/joint_states.effort[elbow_joint]"', '"k * /currents.data[1]"')
+    body = body.replace("[elbow_joint]", "[1]") + '[constants]\nk = 2.5\n[alignment]\nmethod = { ref_q1 = "linear" }\n'
+    loaded = load(experiment(tmp_path, bag, body), model=arm.robot)
+    stamped = (stamps - EPOCH) / 1e9 - 1e-3  # t = 0 at the first joint state after the first current
+    inside = (loaded.t >= stamped[0]) & (loaded.t <= stamped[-1])
+    expected = np.interp(loaded.t, stamped, 2.5 * (tau[::4, 1] / 2.5))
+    np.testing.assert_allclose(loaded.tau[:, 1][inside], expected[inside], rtol=1e-12, atol=1e-12)
+    assert loaded.t[0] == pytest.approx(0.0) and loaded.alignment.start_ns == EPOCH + 1_000_000  # the first instant all have
+    np.testing.assert_array_equal(loaded.q[:, 1], q[1:len(loaded.t) + 1, 1])
+    commands = (np.arange(0, len(t), 2) / 1000.0)
+    np.testing.assert_allclose(loaded.ref[:, 0], np.interp(loaded.t + 1e-3, commands, ref[:, 0]), rtol=0, atol=1e-15)
+    assert {r.topic: r.methods for r in loaded.alignment.topics} == {
+        "/joint_states": ("linear",), "/arm/command": ("hold", "linear"), "/currents": ("linear",)}
+
+
+def test_a_bag_without_an_experiment_lists_its_topics(arm, tmp_path: Path) -> None:
+    bag = small_arm_bag(arm, tmp_path, "sqlite3")
+    message = refusal(bag, arm.robot)
+    assert message.startswith(f"{bag}: [signals]: a rosbag2 bag's topics are mapped onto the signals by an experiment")
+    assert "/joint_states (sensor_msgs/msg/JointState, 1001 messages)" in message
+
+
+def test_without_the_readers_the_error_names_the_install(monkeypatch, arm, tmp_path: Path) -> None:
+    bag = small_arm_bag(arm, tmp_path)
+    spec = experiment(tmp_path, bag)
+    for module in ("mcap", "mcap.reader", "mcap.exceptions"):
+        monkeypatch.setitem(sys.modules, module, None)
+    assert refusal(spec, arm.robot) == (f"{bag}: file: reading MCAP files needs the packages mcap and rosbags, which "
+                                        "are not installed (install them: pip install 'symbolic[bags]')")
+
+
+def test_progress_while_reading(arm, tmp_path: Path, monkeypatch, caplog) -> None:
+    bag = small_arm_bag(arm, tmp_path)
+    monkeypatch.setattr(bags, "PROGRESS_EVERY", 0.0)
+    with caplog.at_level("INFO", logger="symbolic"):
+        load(experiment(tmp_path, bag), model=arm.robot)
+    lines = [r.getMessage() for r in caplog.records]
+    assert any(line.startswith("arm.mcap: read 512 of 1502 messages (34 %), ") for line in lines), lines
+    assert any(line.endswith("time base: the stamps of /joint_states, 1001 samples at 1000 Hz, t = 0 at "
+                             "1700000000.000000000 s of the bag's clock") for line in lines), lines
+
+
+def test_a_validation_bag_is_mapped_by_the_experiment(arm, tmp_path: Path) -> None:
+    bag = small_arm_bag(arm, tmp_path)
+    other = tmp_path / "other"
+    other.mkdir()
+    second = small_arm_bag(arm, other, "sqlite3")
+    loaded = load(bag, model=arm.robot, validation=second, experiment=experiment(tmp_path, bag))
+    assert loaded.validation.alignment.file == str(second.resolve())
+    np.testing.assert_array_equal(loaded.validation.q, loaded.q)
