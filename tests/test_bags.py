@@ -8,6 +8,7 @@ identifies the same parameters as the canonical CSV of the same numbers to 1e-9 
 
 from __future__ import annotations
 
+import math
 import os
 import subprocess
 import sys
@@ -304,3 +305,49 @@ def test_a_validation_bag_is_mapped_by_the_experiment(arm, tmp_path: Path) -> No
     loaded = load(bag, model=arm.robot, validation=second, experiment=experiment(tmp_path, bag))
     assert loaded.validation.alignment.file == str(second.resolve())
     np.testing.assert_array_equal(loaded.validation.q, loaded.q)
+
+
+def test_a_campaign_reads_bags_and_bag_folders(arm, tmp_path: Path, capsys) -> None:
+    """Logs that are MCAP files and rosbag2 folders, mapped by the robot's experiment; results kept by content."""
+    from symbolic import cli
+
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    t, q, tau, ref = arm_log(arm, 2.0)
+    for k, kind in enumerate(("mcap", "sqlite3", "rosbag2-mcap")):
+        bw.write(kind, logs / f"arm_2024-03-0{k + 1}", arm_topics(t, q, tau * (1 + 0.01 * k), ref))
+    (tmp_path / "arm.toml").write_text(models.arm())
+    experiment(tmp_path, logs / "arm_2024-03-01.mcap", ARM_SIGNALS, "map.experiment.toml")
+    campaign = tmp_path / "fleet.toml"
+    campaign.write_text('name = "bags"\n[task]\nkind = "identify"\n[[robot]]\nid = "r01"\nmodel = "arm.toml"\n'
+                        'logs = "logs/arm_*"\nexperiment = "map.experiment.toml"\n'
+                        'time = { from = "name", pattern = "_(\\\\d{4}-\\\\d{2}-\\\\d{2})", format = "%Y-%m-%d" }\n')
+    out = tmp_path / "out"
+    assert cli.main(["-q", "campaign", str(campaign), "--out", str(out), "--workers", "0"]) == 0, capsys.readouterr()
+    import csv
+
+    rows = list(csv.DictReader((out / "results.csv").open()))
+    assert [(r["log"], r["status"]) for r in rows] == [
+        ("logs/arm_2024-03-01.mcap", "ok"), ("logs/arm_2024-03-02", "ok"), ("logs/arm_2024-03-03", "ok")]
+    fv = [float(r["value:Fv1"]) for r in rows]  # the forces 1 % and 2 % larger: every coefficient with them
+    assert fv[1] == pytest.approx(1.01 * fv[0], rel=1e-9) and fv[2] == pytest.approx(1.02 * fv[0], rel=1e-9)
+
+
+def test_excite_compares_with_a_bag(arm, tmp_path: Path, capsys) -> None:
+    """``excite --compare`` reads an existing log as identify does: here a bag through its experiment."""
+    from symbolic import cli
+
+    bag = small_arm_bag(arm, tmp_path, seconds=2.0)
+    spec = experiment(tmp_path, bag, ARM_SIGNALS + "[identification]\nbandwidth = 4.0\n")
+    (tmp_path / "arm.toml").write_text(models.arm())
+    code = cli.main(["-q", "excite", str(tmp_path / "arm.toml"), "--duration", "2", "--harmonics", "2", "--starts",
+                     "1", "--out", str(tmp_path / "design"), "--compare", str(spec), "--no-figures", "--json",
+                     "--rate", "1000", "--position=-1:1", "--velocity", "3", "--acceleration", "30", "--torque", "60",
+                     "--force-noise", "0.01"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    import json
+
+    compared = json.loads(captured.out)["compare"]
+    assert compared["duration"] == pytest.approx(2.0) and compared["samples"] > 1000  # kept after the borders
+    assert all(math.isfinite(p["sigma"]) for p in compared["parameters"].values()), compared
