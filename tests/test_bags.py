@@ -351,3 +351,36 @@ def test_excite_compares_with_a_bag(arm, tmp_path: Path, capsys) -> None:
     compared = json.loads(captured.out)["compare"]
     assert compared["duration"] == pytest.approx(2.0) and compared["samples"] > 1000  # kept after the borders
     assert all(math.isfinite(p["sigma"]) for p in compared["parameters"].values()), compared
+
+
+def symbolic_command(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "symbolic", *args], capture_output=True, text=True, cwd=cwd,
+                          env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+
+
+def test_simulate_reports_the_alignment_on_stderr_quiet_with_q(arm, tmp_path: Path) -> None:
+    bag = small_arm_bag(arm, tmp_path, seconds=2.0)
+    experiment(tmp_path, bag)
+    (tmp_path / "arm.toml").write_text(models.arm())
+    loud = symbolic_command("simulate", "arm.toml", "run.experiment.toml", "--json", cwd=tmp_path)
+    quiet = symbolic_command("-q", "simulate", "arm.toml", "run.experiment.toml", "--json", cwd=tmp_path)
+    assert loud.returncode == 0 and quiet.returncode == 0, loud.stderr + quiet.stderr
+    assert f"symbolic: {bag}: time base: the stamps of /joint_states, 2001 samples at 1000 Hz" in loud.stderr
+    assert f"symbolic: {bag}: /arm/command (std_msgs/msg/Float64MultiArray): 1001 messages at 500 Hz (log time), " \
+           "hold; no gap; dropped none" in loud.stderr
+    assert quiet.stderr == ""
+    import json
+
+    assert json.loads(quiet.stdout)["relative_error"] == json.loads(loud.stdout)["relative_error"]
+
+
+def test_diagnose_reads_a_bag(arm, tmp_path: Path, capsys) -> None:
+    from symbolic import cli
+
+    bag = small_arm_bag(arm, tmp_path, "sqlite3", seconds=2.0)
+    spec = experiment(tmp_path, bag)
+    (tmp_path / "arm.toml").write_text(models.arm())
+    assert cli.main(["-q", "diagnose", str(tmp_path / "arm.toml"), str(spec), "--out", str(tmp_path / "d")]) == 0, \
+        capsys.readouterr().err
+    assert "no significant missing effect" in capsys.readouterr().out
+    assert (tmp_path / "d" / "report.md").is_file()
