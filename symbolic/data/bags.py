@@ -40,7 +40,7 @@ import numpy as np
 from symbolic.data.errors import DataError
 from symbolic.data.keys import check_keys
 from symbolic.data.measurements import MAX_RATE, UNIFORM_TOLERANCE, duration, isfinite_number, split_name
-from symbolic.errors import ModelWarning, listing, shorten, suggestion
+from symbolic.errors import PROGRESS_EVERY, ModelWarning, listing, shorten, suggestion
 
 log = logging.getLogger(__name__)
 
@@ -63,8 +63,6 @@ GAP_FACTOR = 1.5
 MAX_GAP_SECONDS = 0.1
 MAX_GAP_PERIODS = 10
 """Default longest gap bridged: 0.1 s, or 10 of the topic's periods when that is longer (a slow topic)."""
-PROGRESS_EVERY = 2.0
-"""Seconds between two progress lines while messages are read."""
 
 NAME_FIELDS = ("name", "names", "joint_names")
 """Fields holding the names a ``[name]`` index is looked up in (JointState's ``name``, a controller state's
