@@ -637,7 +637,8 @@ def read(path: Path, signals: Mapping[str, Any] | None, options: Any, source: st
     bag = open_bag(path)
     try:
         if not signals:
-            raise DataError(source, "[signals]", f"a {bag.described}'s topics are mapped onto the signals by an "
+            article = "an" if bag.described[0] in "AEIMOU" else "a"  # an MCAP file, a rosbag2 bag
+            raise DataError(source, "[signals]", f"{article} {bag.described}'s topics are mapped onto the signals by an "
                                                  "experiment file's [signals], e.g. q_<joint> = "
                                                  "\"/joint_states.position[<joint>]\" (docs/data.md, \"Bags and MCAP "
                                                  f"files\"); the topics of {path.name}: {bag.listing()}")
