@@ -384,3 +384,20 @@ def test_diagnose_reads_a_bag(arm, tmp_path: Path, capsys) -> None:
         capsys.readouterr().err
     assert "no significant missing effect" in capsys.readouterr().out
     assert (tmp_path / "d" / "report.md").is_file()
+
+
+def test_message_time_header_stamp_else_log_time(arm, tmp_path: Path) -> None:
+    """Header stamps when set; a topic whose stamps are unset (0) and ``stamp = "log"`` take the log time."""
+    t, q, tau, ref = arm_log(arm, 0.5)
+    topics = arm_topics(t, q, tau, ref)
+    stamped = load(experiment(tmp_path, bw.write("mcap", tmp_path / "a", topics)), model=arm.robot)
+    logged = load(experiment(tmp_path, bw.write("mcap", tmp_path / "b", topics), ARM_SIGNALS + '[alignment]\n'
+                             'stamp = "log"\n', "b.toml"), model=arm.robot)
+    for _, fields in topics[0].messages:
+        fields["header"] = {"stamp": 0}
+    unset = load(experiment(tmp_path, bw.write("mcap", tmp_path / "c", topics), name="c.toml"), model=arm.robot)
+    assert [r.stamps for r in stamped.alignment.topics if r.topic == "/joint_states"] == ["header"]
+    for loaded in (logged, unset):
+        assert [r.stamps for r in loaded.alignment.topics if r.topic == "/joint_states"] == ["log"]
+        assert loaded.alignment.start_ns == EPOCH + 300_000  # the joint states logged 0.3 ms after their instants
+        np.testing.assert_array_equal(loaded.q, stamped.q)  # the same instants, 0.3 ms later on the bag's clock

@@ -786,12 +786,18 @@ def _stream(bag: _Bag, by_topic: dict[str, list[tuple[Request, _Accessor]]], sta
                                                    f"{decoders[topic_name]}: {_why(error)} (allowed: CDR messages of "
                                                    "the topic's type)") from None
         when = log_time
-        if header[topic_name]:
+        if header[topic_name]:  # the header stamp, unless the topic's first message leaves it unset (0)
             s = message.header.stamp
             given = int(s.sec) * 1_000_000_000 + int(s.nanosec)
-            if given:
+            if series[topic_name].size == 0:
+                stamps[topic_name] = "header" if given else "log"
+            if stamps[topic_name] == "header":
+                if not given:
+                    raise DataError(str(path), topic_name, f"message {series[topic_name].size + 1} has no header stamp "
+                                                           "(0) where the ones before have one: the topic's times "
+                                                           "would mix two clocks (allowed: stamps throughout, or "
+                                                           "[alignment] stamp = \"log\", the log time)")
                 when = given
-                stamps[topic_name] = "header"
         row = []
         for k, (request, accessor) in enumerate(requests):
             row.append(_value(message, accessor, request, topic_name, series[topic_name].size, cache, k, source,
@@ -928,8 +934,8 @@ def align(series: dict[str, _Series], by_topic: dict[str, list[tuple[Request, _A
                 _linear(times, column, grid)
         before = int(np.count_nonzero(times < grid[0]))
         after = int(np.count_nonzero(times > grid[-1]))
-        if holds.get(name):  # a held command before the start gives the first value: not dropped
-            before = max(before - 1, 0)
+        if holds.get(name) and before and not np.any(times == grid[0]):  # the held command at the start: used
+            before -= 1
         regular = steps[steps <= GAP_FACTOR * period]  # the rate between gaps
         mean_rate = 1e9 * len(regular) / float(np.sum(regular)) if len(regular) else 1e9 / period
         reports.append(TopicReport(name, bag.topics[name].msgtype, len(times) + repeated, mean_rate, stamps[name],
