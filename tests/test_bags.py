@@ -94,8 +94,10 @@ def test_a_two_link_bag_identifies_as_its_canonical_csv(arm, kind: str, tmp_path
     from_csv = load(csv, model=arm.robot)
     assert np.array_equal(from_bag.q, from_csv.q) and np.array_equal(from_bag.tau, from_csv.tau)
     assert np.array_equal(from_bag.ref, from_csv.ref) and np.array_equal(from_bag.t, from_csv.t)
-    a = identify_model(arm, experiment(tmp_path, bag)).identification
-    b = identify_model(arm, csv).identification
+    whole = identify_model(arm, experiment(tmp_path, bag))
+    a, b = whole.identification, identify_model(arm, csv).identification
+    assert whole.to_dict()["alignment"]["base"] == "the stamps of /joint_states"  # identify --json
+    assert "alignment" not in identify_model(arm, csv).to_dict()
     assert a.names == b.names
     np.testing.assert_allclose(a.values, b.values, rtol=1e-9, atol=0)
     np.testing.assert_allclose(a.sigmas, b.sigmas, rtol=1e-9, atol=0)
