@@ -297,7 +297,9 @@ class _Mcap(_Bag):
 
     def messages(self, topics: list[str]) -> Iterator[tuple[str, int, Any]]:
         try:
-            for _, channel, message in self._reader.iter_messages(topics=topics, log_time_order=False):
+            # in log-time order: the reader then decompresses a chunk only when its messages come next (in file
+            # order it would decompress every chunk before yielding the first message: the whole file in memory)
+            for _, channel, message in self._reader.iter_messages(topics=topics, log_time_order=True):
                 yield channel.topic, message.log_time, message.data
         except self._errors as error:
             raise DataError(str(self.path), "file", f"cannot read its messages: {_why(error)} (truncated or damaged? "
