@@ -104,7 +104,7 @@ def write_rosbag2(path: Path, topics: list[Topic], storage: str = "sqlite3") -> 
     return path
 
 
-def write_mcap(path: Path, topics: list[Topic]) -> Path:
+def write_mcap(path: Path, topics: list[Topic], chunk_size: int = 1 << 20) -> Path:
     """An MCAP file written by mcap_ros2's Writer (ros2msg schemas from rosbags' definitions, CDR messages)."""
     from mcap_ros2.writer import Writer
 
@@ -112,7 +112,7 @@ def write_mcap(path: Path, topics: list[Topic]) -> Path:
     merged = sorted(((ns, k, fields) for k, topic in enumerate(topics) for ns, fields in topic.messages),
                     key=lambda x: (x[0], x[1]))
     with path.open("wb") as f:
-        writer = Writer(f)
+        writer = Writer(f, chunk_size=chunk_size)
         schemas = [writer.register_msgdef(t.msgtype, typestore.generate_msgdef(t.msgtype, ros_version=2)[0])
                    for t in topics]
         for ns, k, fields in merged:

@@ -403,3 +403,23 @@ def test_message_time_header_stamp_else_log_time(arm, tmp_path: Path) -> None:
         assert [r.stamps for r in loaded.alignment.topics if r.topic == "/joint_states"] == ["log"]
         assert loaded.alignment.start_ns == EPOCH + 300_000  # the joint states logged 0.3 ms after their instants
         np.testing.assert_array_equal(loaded.q, stamped.q)  # the same instants, 0.3 ms later on the bag's clock
+
+
+def test_an_mcap_file_is_streamed_chunk_by_chunk(arm, tmp_path: Path, monkeypatch) -> None:
+    """A bag larger than memory is never read whole: when a message is handed over, the MCAP reader has
+    decompressed only the chunks up to it (here 4 KiB chunks: 42 of them)."""
+    bw.need("mcap", "mcap_ros2", "rosbags")
+    import mcap.reader
+
+    t, q, tau, ref = arm_log(arm, 1.0)
+    bag = bw.write_mcap(tmp_path / "arm.mcap", arm_topics(t, q, tau, ref), chunk_size=4096)
+    chunks = []
+    original = mcap.reader.breakup_chunk
+    monkeypatch.setattr(mcap.reader, "breakup_chunk", lambda *a, **k: chunks.append(1) or original(*a, **k))
+    reader = bags.open_bag(bag)
+    try:
+        seen = [len(chunks) for _ in reader.messages(list(reader.topics))]
+    finally:
+        reader.close()
+    assert len(seen) == 1502 and seen[-1] > 30
+    assert seen[0] <= 2 and all(s <= 2 + k * seen[-1] // len(seen) + 2 for k, s in enumerate(seen))
