@@ -88,9 +88,6 @@ def measure(spec: Path) -> dict:
     """One load in this process: seconds and peak resident bytes above the resident size before it."""
     import logging
 
-    import symbolic.data.bags  # noqa: F401 - imports before the measurement
-    import mcap.reader  # noqa: F401
-    import rosbags.typesys  # noqa: F401
     from symbolic.data import load
 
     logging.basicConfig(level=logging.WARNING)

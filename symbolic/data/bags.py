@@ -113,11 +113,13 @@ def _index(text: str | None) -> int | str | None:
 
 @dataclass(frozen=True)
 class Request:
-    """A reference aligned by one method; ``variable`` is its name in the rewritten expressions."""
+    """A reference aligned by one method; ``variable`` is its name in the rewritten expressions, ``key`` the first
+    signal that uses it (``[signals] q_x``, for messages)."""
 
     reference: Reference
     method: str
     variable: str
+    key: str
 
 
 def rewrite(signals: Mapping[str, Any], methods: Mapping[str, str], source: str) -> tuple[dict[str, Any], list[Request]]:
@@ -163,7 +165,7 @@ def rewrite(signals: Mapping[str, Any], methods: Mapping[str, str], source: str)
                                                  "and _)")
                 reference = parse_reference(match.group())
                 request = requests.setdefault((reference.text, method),
-                                              Request(reference, method, f"_bag{len(requests)}"))
+                                              Request(reference, method, f"_bag{len(requests)}", key))
                 pieces.append(f" {request.variable} ")
                 position = match.end()
                 expect_operand = False
@@ -645,14 +647,14 @@ def read(path: Path, signals: Mapping[str, Any] | None, options: Any, source: st
                                                  "\"/joint_states.position[<joint>]\" (docs/data.md, \"Bags and MCAP "
                                                  f"files\"); the topics of {path.name}: {bag.listing()}")
         rewritten, requests = rewrite(signals, settings["method"], source)
-        by_topic = _check(requests, rewritten, signals, settings, bag, source)
+        by_topic = _check(requests, bag, source)
         clock = settings["clock"] or _default_clock(signals, requests)
         if clock is not None and clock not in bag.topics:
             raise DataError(source, "[alignment] clock", f"no topic {clock!r} in {path.name} (its topics: "
                                                          f"{bag.listing()}){suggestion(clock, bag.topics)}")
         if clock is not None and clock not in by_topic:
             by_topic[clock] = []
-        series, stamps_used = _stream(bag, by_topic, settings["stamp"], path, source, signals)
+        series, stamps_used = _stream(bag, by_topic, settings["stamp"], path, source)
     finally:
         bag.close()
     vectors, alignment = align(series, by_topic, stamps_used, clock, settings, bag, path, source, resample)
@@ -720,13 +722,11 @@ def _default_clock(signals: Mapping[str, Any], requests: list[Request]) -> str |
     return requests[0].reference.topic if requests else None
 
 
-def _check(requests: list[Request], rewritten: Mapping[str, Any], signals: Mapping[str, Any], settings: dict,
-           bag: _Bag, source: str) -> dict[str, list[tuple[Request, _Accessor]]]:
+def _check(requests: list[Request], bag: _Bag, source: str) -> dict[str, list[tuple[Request, _Accessor]]]:
     """Every reference checked against its topic's type, grouped by topic."""
     by_topic: dict[str, list[tuple[Request, _Accessor]]] = {}
     for request in requests:
-        ref = request.reference
-        key = next(f"[signals] {n}" for n, text in signals.items() if isinstance(text, str) and ref.text in text)
+        ref, key = request.reference, request.key
         topic = bag.topics.get(ref.topic)
         if topic is None:
             raise DataError(source, key, f"no topic {ref.topic!r} in {bag.path.name} (its topics: {bag.listing()})"
@@ -761,8 +761,8 @@ class _Progress:
             log.info("%s: read %d messages, %.1f s", self.path.name, self.count, time.perf_counter() - self.start)
 
 
-def _stream(bag: _Bag, by_topic: dict[str, list[tuple[Request, _Accessor]]], stamp: str, path: Path, source: str,
-            signals: Mapping[str, Any]) -> tuple[dict[str, _Series], dict[str, str]]:
+def _stream(bag: _Bag, by_topic: dict[str, list[tuple[Request, _Accessor]]], stamp: str, path: Path,
+            source: str) -> tuple[dict[str, _Series], dict[str, str]]:
     """Read the messages of the topics once, message by message, keeping each one's time and the numbers."""
     typestore = bag.typestore
     series: dict[str, _Series] = {}
@@ -802,8 +802,7 @@ def _stream(bag: _Bag, by_topic: dict[str, list[tuple[Request, _Accessor]]], sta
                 when = given
         row = []
         for k, (request, accessor) in enumerate(requests):
-            row.append(_value(message, accessor, request, topic_name, series[topic_name].size, cache, k, source,
-                              signals))
+            row.append(_value(message, accessor, request, topic_name, series[topic_name].size, cache, k, source))
         series[topic_name].append(when, row)
         progress.tick()
     progress.done()
@@ -811,14 +810,16 @@ def _stream(bag: _Bag, by_topic: dict[str, list[tuple[Request, _Accessor]]], sta
 
 
 def _value(message: Any, accessor: _Accessor, request: Request, topic: str, number: int,
-           cache: dict, k: int, source: str, signals: Mapping[str, Any]) -> float:
+           cache: dict, k: int, source: str) -> float:
+    """The number ``request`` references in a decoded ``message`` (the ``number``-th of ``topic``); a name index
+    is looked up in the message's names (the last names and position kept in ``cache``, by topic and ``k``)."""
     obj = message
     levels = [message]
     for fieldname, index in accessor.steps:
         obj = getattr(obj, fieldname)
         if index is not None:
             if index >= len(obj):
-                raise DataError(source, _key(request, signals), f"{request.reference.text}: message {number + 1} of "
+                raise DataError(source, request.key, f"{request.reference.text}: message {number + 1} of "
                                                                 f"{topic} has {len(obj)} value(s) in "
                                                                 f"{fieldname}: no position {index} (allowed: 0 to "
                                                                 f"{len(obj) - 1})")
@@ -831,23 +832,18 @@ def _value(message: Any, accessor: _Accessor, request: Request, topic: str, numb
             position = known[1]
         else:
             if accessor.name not in names:
-                raise DataError(source, _key(request, signals), f"joint {accessor.name!r} is not among the names of "
+                raise DataError(source, request.key, f"joint {accessor.name!r} is not among the names of "
                                                                 f"{topic} (its {accessor.names_field}: {listing(names)})"
                                                                 f"{suggestion(accessor.name, names)}; give a joint the "
                                                                 "topic names (the URDF's joint names) or a position, [0]")
             position = list(names).index(accessor.name)
             cache[(topic, k)] = (list(names), position)
         if position >= len(obj):
-            raise DataError(source, _key(request, signals), f"{request.reference.text}: message {number + 1} of {topic} "
+            raise DataError(source, request.key, f"{request.reference.text}: message {number + 1} of {topic} "
                                                             f"names {len(names)} joints but has {len(obj)} value(s) in "
                                                             f"{accessor.steps[-1][0]} (allowed: one per name)")
         obj = obj[position]
     return float(obj)
-
-
-def _key(request: Request, signals: Mapping[str, Any]) -> str:
-    return next((f"[signals] {n}" for n, text in signals.items() if isinstance(text, str)
-                 and request.reference.text in text), "[signals]")
 
 
 def align(series: dict[str, _Series], by_topic: dict[str, list[tuple[Request, _Accessor]]], stamps: dict[str, str],
