@@ -146,6 +146,11 @@ bandwidth = 20.0
     # the README's figures (the shipped experiment on DATA_EMPS.mat)
     assert [f"{v:.6g}" for v in a.values] == ["95.1163", "203.373", "20.409", "-3.17003"]
     assert f"{a.relative_error:.4g}" == "4.039"
+    # the voltage as the drive signal u_q: the model's [[drive]] gain (gtau = 35.15 N/V, the published value)
+    driven = load(experiment(tmp_path, bag, 'model = "emps"\n[signals]\nq_q = "/joint_states.position[carriage]"\n'
+                                            'u_q = "/joint_states.effort[carriage]"\n', "u.toml"), model=model.robot)
+    assert dict(driven.drive_gains) == {"q": 35.15}
+    np.testing.assert_array_equal(driven.tau[:, 0], 35.15 * vir)
 
 
 def small_arm_bag(arm, tmp_path: Path, kind: str = "mcap", drop: slice | None = None, seconds: float = 1.0,
@@ -422,3 +427,49 @@ def test_an_mcap_file_is_streamed_chunk_by_chunk(arm, tmp_path: Path, monkeypatc
         reader.close()
     assert len(seen) == 1502 and seen[-1] > 30
     assert seen[0] <= 2 and all(s <= 2 + k * seen[-1] // len(seen) + 2 for k, s in enumerate(seen))
+
+
+def test_refusals_of_the_experiment_keys(arm, tmp_path: Path) -> None:
+    bag = small_arm_bag(arm, tmp_path, seconds=0.2)
+    for extra, where, expected in (
+        ("rate = 1000.0\n", "rate", "is a bag, whose messages carry their time: give the time base's rate as "
+                                    "[alignment] rate"),
+        ('columns = ["a"]\n', "columns", "is a bag, whose topics [signals] maps (leave out columns)"),
+        ("[alignment]\nrat = 1000.0\n", "[alignment] rat", "unknown key (allowed: rate, clock, stamp, max_gap, method); "
+                                                           "did you mean 'rate'?"),
+        ("[alignment]\nrate = -1.0\n", "[alignment] rate", "expected the time base's rate in Hz"),
+        ('[alignment]\nmethod = { ref_q3 = "hold" }\n', "[alignment] method ref_q3", "no such signal in [signals]"),
+        ('[alignment]\nmethod = { ref_q1 = "cubic" }\n', "[alignment] method ref_q1", 'expected "linear"'),
+        ('[alignment]\nstamp = "publish"\n', "[alignment] stamp", "expected one of 'header', 'log'"),
+        ('[alignment]\nclock = "/clock"\n', "[alignment] clock", "no topic '/clock' in arm.mcap"),
+        ('[alignment]\nclock = "/joint_states"\nrate = 100.0\n', "[alignment] clock", "not both"),
+    ):
+        body = ARM_SIGNALS + extra if extra.startswith("[") else extra + ARM_SIGNALS
+        spec = experiment(tmp_path, bag, body)
+        message = refusal(spec, arm.robot)
+        assert message.startswith(f"{spec}: {where}: ") and expected in message, message
+    spec = experiment(tmp_path, bag, ARM_SIGNALS.replace("[signals]", "[signals]\nt = \"/joint_states.header.stamp.sec\""))
+    assert "[signals] t: a bag's time is its messages'" in refusal(spec, arm.robot)
+    t, q, tau, ref = arm_log(arm, 0.2)
+    csv = canonical_csv(tmp_path / "arm.csv", t, ("q1", "q2"), q, tau, q)
+    spec = experiment(tmp_path, csv, "[alignment]\nrate = 1000.0\n")
+    assert refusal(spec, arm.robot) == (f"{spec}: [alignment]: aligns the topics of a bag (.mcap, .db3, a rosbag2 "
+                                        "folder); arm.csv is a data file with one time: leave it out")
+
+
+def test_a_clock_that_jitters_needs_a_rate_or_resample(arm, tmp_path: Path) -> None:
+    t, q, tau, ref = arm_log(arm, 0.5)
+    topics = arm_topics(t, q, tau, ref)
+    jitter = np.random.default_rng(1).integers(-5_000, 5_000, len(t))  # ±5 µs: 0.5 % of the step
+    for (_, fields), dt in zip(topics[0].messages, jitter):
+        fields["header"] = {"stamp": fields["header"]["stamp"] + int(dt)}
+    bag = bw.write("mcap", tmp_path / "arm", topics)
+    message = refusal(experiment(tmp_path, bag), arm.robot)
+    assert "[alignment]: the stamps of /joint_states, the time base, vary from" in message
+    assert "give [alignment] rate = <Hz> (a uniform grid) or resample = true" in message
+    on_grid = load(experiment(tmp_path, bag, ARM_SIGNALS + "[alignment]\nrate = 1000.0\n"), model=arm.robot)
+    assert on_grid.alignment.base == "a uniform grid at [alignment] rate = 1000 Hz"
+    assert np.allclose(np.diff(on_grid.t), 1e-3, rtol=0, atol=1e-12)
+    resampled = load(experiment(tmp_path, bag, "resample = true\n" + ARM_SIGNALS), model=arm.robot)
+    assert resampled.alignment.base == "a uniform grid over the stamps of /joint_states (resample = true)"
+    assert np.abs(on_grid.q - q[:len(on_grid.t)]).max() < 1e-4  # within the jitter (µs) times the velocity
