@@ -473,3 +473,37 @@ def test_a_clock_that_jitters_needs_a_rate_or_resample(arm, tmp_path: Path) -> N
     resampled = load(experiment(tmp_path, bag, "resample = true\n" + ARM_SIGNALS), model=arm.robot)
     assert resampled.alignment.base == "a uniform grid over the stamps of /joint_states (resample = true)"
     assert np.abs(on_grid.q - q[:len(on_grid.t)]).max() < 1e-4  # within the jitter (µs) times the velocity
+
+
+def test_the_reference_scanner_on_arbitrary_text() -> None:
+    """Whatever a [signals] text holds, the scanner gives a rewritten text or one DataError; valid references
+    joined by operators come back as variables, each reference read as written."""
+    from hypothesis import given, settings, strategies as st
+
+    alphabet = st.sampled_from(list("/._[]()*+-' \"0123456789abcxyz_") + ["/joint_states", ".position", "[q1]", "**"])
+
+    @settings(max_examples=300, deadline=None)
+    @given(st.lists(alphabet, max_size=30).map("".join))
+    def anything(text: str) -> None:
+        try:
+            rewritten, requests = bags.rewrite({"q_a": text}, {}, "run.toml")
+        except DataError as error:
+            assert "\n" not in str(error) and str(error).startswith("run.toml: [signals] q_a: ")
+            return
+        assert all(r.reference.text in text for r in requests)
+
+    anything()
+    names = st.from_regex(r"[a-z_][a-z0-9_]{0,6}", fullmatch=True)
+    reference = st.builds(lambda topic, field, index: f"/{topic}.{field}" + ("" if index is None else f"[{index}]"),
+                          names, names, st.one_of(st.none(), st.integers(0, 99), names))
+
+    @settings(max_examples=200, deadline=None)
+    @given(st.lists(reference, min_size=1, max_size=4), st.lists(st.sampled_from([" + ", "*", " / ", "-", "**"]),
+                                                                 min_size=3, max_size=3))
+    def joined(references: list[str], operators: list[str]) -> None:
+        text = references[0] + "".join(op + ref for op, ref in zip(operators, references[1:]))
+        rewritten, requests = bags.rewrite({"q_a": text}, {}, "run.toml")
+        assert [r.reference.text for r in requests] == list(dict.fromkeys(references))
+        assert "/" not in rewritten["q_a"].replace(" / ", "")
+
+    joined()
