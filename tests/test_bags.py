@@ -337,6 +337,20 @@ def test_a_campaign_reads_bags_and_bag_folders(arm, tmp_path: Path, capsys) -> N
         ("logs/arm_2024-03-01.mcap", "ok"), ("logs/arm_2024-03-02", "ok"), ("logs/arm_2024-03-03", "ok")]
     fv = [float(r["value:Fv1"]) for r in rows]  # the forces 1 % and 2 % larger: every coefficient with them
     assert fv[1] == pytest.approx(1.01 * fv[0], rel=1e-9) and fv[2] == pytest.approx(1.02 * fv[0], rel=1e-9)
+    import json
+    import shutil
+
+    def run() -> dict:
+        capsys.readouterr()
+        assert cli.main(["-q", "campaign", str(campaign), "--out", str(out), "--workers", "0", "--json"]) == 0
+        return json.loads(capsys.readouterr().out)
+
+    again = run()
+    assert (again["computed"], again["cached"]) == (0, 3)  # a folder's results are kept by its files' bytes
+    shutil.rmtree(logs / "arm_2024-03-02")
+    bw.write("sqlite3", logs / "arm_2024-03-02", arm_topics(t, q, tau * 1.05, ref))
+    changed = run()
+    assert (changed["computed"], changed["cached"]) == (1, 2)
 
 
 def test_excite_compares_with_a_bag(arm, tmp_path: Path, capsys) -> None:
