@@ -521,3 +521,10 @@ def test_the_reference_scanner_on_arbitrary_text() -> None:
         assert "/" not in rewritten["q_a"].replace(" / ", "")
 
     joined()
+
+
+def test_a_rate_far_above_the_topics_is_refused(arm, tmp_path: Path) -> None:
+    bag = small_arm_bag(arm, tmp_path, seconds=0.2)
+    message = refusal(experiment(tmp_path, bag, ARM_SIGNALS + "[alignment]\nrate = 1e9\n"), arm.robot)
+    assert "[alignment] rate: 1e+09 Hz over the 0.2 s the topics share makes 200000001 samples, more than 10 times " \
+           "the 201 messages of the busiest topic" in message

@@ -64,6 +64,13 @@ MAX_GAP_SECONDS = 0.1
 MAX_GAP_PERIODS = 10
 """Default longest gap bridged: 0.1 s, or 10 of the topic's periods when that is longer (a slow topic)."""
 
+MAX_UPSAMPLING = 10
+"""A time base at ``[alignment] rate`` may hold at most this many samples per message of the busiest topic (or a
+million): more invents data, and a rate in the wrong unit would ask for terabytes."""
+INITIAL_ROWS = 1 << 22
+"""Messages a topic's arrays are sized for at most before the first is read (4 Mi: 70 minutes at 1 kHz); past it
+they double as messages come, so a count the file misstates allocates nothing it does not hold."""
+
 NAME_FIELDS = ("name", "names", "joint_names")
 """Fields holding the names a ``[name]`` index is looked up in (JointState's ``name``, a controller state's
 ``joint_names``): the nearest of the message levels that hold the array, innermost first."""
@@ -772,7 +779,8 @@ def _stream(bag: _Bag, by_topic: dict[str, list[tuple[Request, _Accessor]]], sta
     cache: dict[tuple[str, int], tuple[list[str], int]] = {}
     for name, requests in by_topic.items():
         topic = bag.topics[name]
-        series[name] = _Series(topic.count or 1024, len(requests))
+        # sized from the bag's count, up to INITIAL_ROWS (a count is the file's word: the arrays grow past it)
+        series[name] = _Series(min(topic.count or 1024, INITIAL_ROWS), len(requests))
         header[name] = stamp == "header" and _has_header(typestore, topic.msgtype)
         stamps[name] = "log"
         decoders[name] = topic.msgtype
@@ -877,6 +885,12 @@ def align(series: dict[str, _Series], by_topic: dict[str, list[tuple[Request, _A
     if rate is not None:
         step = 1e9 / rate
         count = int(math.floor((end - start) / step + 1e-9)) + 1
+        busiest = max(len(p[0]) for p in prepared.values())
+        if count > max(MAX_UPSAMPLING * busiest, 1_000_000):
+            raise DataError(source, "[alignment] rate", f"{rate:g} Hz over the {(end - start) / 1e9:.6g} s the topics "
+                                                        f"share makes {count} samples, more than {MAX_UPSAMPLING} times "
+                                                        f"the {busiest} messages of the busiest topic (allowed: a rate "
+                                                        "near the topics', in Hz)")
         grid = start + np.round(np.arange(count) * step).astype(np.int64)
         base = f"a uniform grid at [alignment] rate = {rate:g} Hz"
     else:
