@@ -79,7 +79,7 @@ def _message(typestore: Any, msgtype: str, fields: dict[str, Any]) -> Any:
             elif element[0] == 1:
                 dtype = {"float64": np.float64, "float32": np.float32, "int32": np.int32, "uint32": np.uint32,
                          "int64": np.int64, "uint8": np.uint8, "int8": np.int8}.get(element[1][0], np.float64)
-                values[name] = np.asarray(given if given is not None else [], dtype=dtype)
+                values[name] = np.ascontiguousarray(given if given is not None else [], dtype=dtype)
             else:
                 values[name] = [_message(typestore, element[1], g) for g in (given or [])]
         else:

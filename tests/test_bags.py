@@ -528,3 +528,38 @@ def test_a_rate_far_above_the_topics_is_refused(arm, tmp_path: Path) -> None:
     message = refusal(experiment(tmp_path, bag, ARM_SIGNALS + "[alignment]\nrate = 1e9\n"), arm.robot)
     assert "[alignment] rate: 1e+09 Hz over the 0.2 s the topics share makes 200000001 samples, more than 10 times " \
            "the 201 messages of the busiest topic" in message
+
+
+URDF = '''<?xml version="1.0"?>
+<robot name="two">
+ <link name="base_link"/>
+ <link name="upper"><inertial><origin xyz="0.2 0 0"/><mass value="2"/>
+   <inertia ixx="0.01" iyy="0.05" izz="0.05" ixy="0" ixz="0" iyz="0"/></inertial></link>
+ <link name="fore"><inertial><origin xyz="0.15 0 0"/><mass value="1"/>
+   <inertia ixx="0.005" iyy="0.02" izz="0.02" ixy="0" ixz="0" iyz="0"/></inertial></link>
+ <joint name="shoulder_pan_joint" type="revolute"><parent link="base_link"/><child link="upper"/>
+   <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="50" velocity="3"/></joint>
+ <joint name="elbow_joint" type="revolute"><parent link="upper"/><child link="fore"/><origin xyz="0.4 0 0"/>
+   <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="50" velocity="3"/></joint>
+</robot>
+'''
+
+
+def test_urdf_joint_names_map_unchanged(arm, tmp_path: Path) -> None:
+    """A URDF model's coordinates are its joints' names, which a JointState names too: q_<joint> =
+    "/joint_states.position[<joint>]", whatever the order of the names in the messages."""
+    (tmp_path / "two.urdf").write_text(URDF)
+    robot = symbolic.load(tmp_path / "two.urdf")
+    assert robot.generalized_coordinates == ("shoulder_pan_joint", "elbow_joint")
+    t, q, tau, ref = arm_log(arm, 0.5)
+    stamps = EPOCH + np.round(t * 1e9).astype(np.int64)
+    topic = bw.joint_states(stamps, ["elbow_joint", "shoulder_pan_joint"], q[:, ::-1], tau[:, ::-1])
+    for k, (_, fields) in enumerate(topic.messages):  # a publisher that reorders its joints now and then
+        if k % 7 == 0:
+            fields.update(name=["shoulder_pan_joint", "elbow_joint"], position=q[k], effort=tau[k])
+    bag = bw.write("sqlite3", tmp_path / "run", [topic])
+    body = "[signals]\n" + "".join(f'q_{c} = "/joint_states.position[{c}]"\ntau_{c} = "/joint_states.effort[{c}]"\n'
+                                   for c in robot.generalized_coordinates)
+    loaded = load(experiment(tmp_path, bag, body), robot.generalized_coordinates, model=robot)
+    np.testing.assert_array_equal(loaded.q, q)
+    np.testing.assert_array_equal(loaded.tau, tau)
