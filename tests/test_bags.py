@@ -427,13 +427,13 @@ def test_an_mcap_file_is_streamed_chunk_by_chunk(arm, tmp_path: Path, monkeypatc
     """A bag larger than memory is never read whole: when a message is handed over, the MCAP reader has
     decompressed only the chunks up to it (here 4 KiB chunks: 42 of them)."""
     bw.need("mcap", "mcap_ros2", "rosbags")
-    import mcap.reader
+    import mcap.stream_reader
 
     t, q, tau, ref = arm_log(arm, 1.0)
     bag = bw.write_mcap(tmp_path / "arm.mcap", arm_topics(t, q, tau, ref), chunk_size=4096)
     chunks = []
-    original = mcap.reader.breakup_chunk
-    monkeypatch.setattr(mcap.reader, "breakup_chunk", lambda *a, **k: chunks.append(1) or original(*a, **k))
+    original = mcap.stream_reader.breakup_chunk
+    monkeypatch.setattr(mcap.stream_reader, "breakup_chunk", lambda *a, **k: chunks.append(1) or original(*a, **k))
     reader = bags.open_bag(bag)
     try:
         seen = [len(chunks) for _ in reader.messages(list(reader.topics))]

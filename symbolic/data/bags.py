@@ -305,11 +305,29 @@ class _Mcap(_Bag):
         self.typestore = _typestore(definitions, {t.msgtype for t in self.topics.values()})
 
     def messages(self, topics: list[str]) -> Iterator[tuple[str, int, Any]]:
+        """The chunks that hold the topics, in file order, one at a time (their messages are sorted later, by
+        topic). ``McapReader.iter_messages`` would either decompress every chunk before the first message (in file
+        order) or order the messages of all chunks by a heap of Python comparisons (in log-time order, three
+        times slower); without chunk indexes it is used, in log-time order."""
+        from mcap.data_stream import ReadDataStream
+        from mcap.records import Chunk, Message
+        from mcap.stream_reader import breakup_chunk
+
+        summary = self._reader.get_summary()
+        wanted = {cid: channel.topic for cid, channel in summary.channels.items() if channel.topic in topics}
         try:
-            # in log-time order: the reader then decompresses a chunk only when its messages come next (in file
-            # order it would decompress every chunk before yielding the first message: the whole file in memory)
-            for _, channel, message in self._reader.iter_messages(topics=topics, log_time_order=True):
-                yield channel.topic, message.log_time, message.data
+            if not summary.chunk_indexes:
+                for _, channel, message in self._reader.iter_messages(topics=topics, log_time_order=True):
+                    yield channel.topic, message.log_time, message.data
+                return
+            for index in sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset):
+                if index.message_index_offsets and not wanted.keys() & index.message_index_offsets.keys():
+                    continue  # a chunk of other topics only (the index lists the channels of its messages)
+                self._file.seek(index.chunk_start_offset + 1 + 8)  # past the record's opcode and length
+                chunk = Chunk.read(ReadDataStream(self._file))
+                for record in breakup_chunk(chunk, validate_crc=True):
+                    if isinstance(record, Message) and record.channel_id in wanted:
+                        yield wanted[record.channel_id], record.log_time, record.data
         except self._errors as error:
             raise DataError(str(self.path), "file", f"cannot read its messages: {_why(error)} (truncated or damaged? "
                                                     "allowed: a complete MCAP file)") from None
@@ -618,13 +636,14 @@ class _Series:
         self.times = np.empty(max(self.capacity, 16), dtype=np.int64)
         self.values = np.empty((max(self.capacity, 16), self.width))
 
-    def append(self, stamp: int, row: list[float]) -> None:
+    def append(self, stamp: int) -> np.ndarray:
+        """A new row at time ``stamp``: its values, to fill."""
         if self.size == len(self.times):
             self.times = np.concatenate([self.times, np.empty(len(self.times), dtype=np.int64)])
             self.values = np.concatenate([self.values, np.empty((len(self.values), self.width))])
         self.times[self.size] = stamp
-        self.values[self.size] = row
         self.size += 1
+        return self.values[self.size - 1]
 
 
 @dataclass
@@ -768,6 +787,43 @@ class _Progress:
             log.info("%s: read %d messages, %.1f s", self.path.name, self.count, time.perf_counter() - self.start)
 
 
+@dataclass
+class _Group:
+    """The references of one topic that read one array (JointState's ``position``: several joints) or one number:
+    the array is reached once per message and indexed at the references' positions at once."""
+
+    steps: tuple[tuple[str, int | None], ...]  # to the array (its own position left out), or to the number
+    columns: list[int]  # the references' columns in the topic's values
+    requests: list[Request]
+    positions: list[int] = field(default_factory=list)  # a position per reference (position indices)
+    names: list[str] = field(default_factory=list)  # a name per reference (name indices)
+    names_level: int = 0
+    names_field: str = ""
+    array: bool = True
+
+
+def _groups(requests: list[tuple[Request, _Accessor]]) -> list[_Group]:
+    """The references of a topic grouped by the array they index (:class:`_Group`)."""
+    groups: dict[tuple, _Group] = {}
+    for column, (request, accessor) in enumerate(requests):
+        last_field, last_index = accessor.steps[-1]
+        array = accessor.name is not None or last_index is not None
+        if not array:
+            groups[("number", column)] = _Group(accessor.steps, [column], [request], array=False)
+            continue
+        steps = accessor.steps[:-1] + ((last_field, None),)
+        named = accessor.name is not None
+        group = groups.setdefault((steps, named), _Group(steps, [], [], names_level=accessor.names_level,
+                                                         names_field=accessor.names_field))
+        group.columns.append(column)
+        group.requests.append(request)
+        if named:
+            group.names.append(accessor.name)
+        else:
+            group.positions.append(last_index)
+    return list(groups.values())
+
+
 def _stream(bag: _Bag, by_topic: dict[str, list[tuple[Request, _Accessor]]], stamp: str, path: Path,
             source: str) -> tuple[dict[str, _Series], dict[str, str]]:
     """Read the messages of the topics once, message by message, keeping each one's time and the numbers."""
@@ -776,7 +832,8 @@ def _stream(bag: _Bag, by_topic: dict[str, list[tuple[Request, _Accessor]]], sta
     decoders: dict[str, Any] = {}
     stamps: dict[str, str] = {}
     header: dict[str, bool] = {}
-    cache: dict[tuple[str, int], tuple[list[str], int]] = {}
+    groups: dict[str, list[_Group]] = {}
+    cache: dict[int, tuple[list[str], np.ndarray]] = {}
     for name, requests in by_topic.items():
         topic = bag.topics[name]
         # sized from the bag's count, up to INITIAL_ROWS (a count is the file's word: the arrays grow past it)
@@ -784,74 +841,90 @@ def _stream(bag: _Bag, by_topic: dict[str, list[tuple[Request, _Accessor]]], sta
         header[name] = stamp == "header" and _has_header(typestore, topic.msgtype)
         stamps[name] = "log"
         decoders[name] = topic.msgtype
+        groups[name] = _groups(requests)
     total = sum(bag.topics[t].count or 0 for t in by_topic) or None
     progress = _Progress(path, total)
     deserialize = typestore.deserialize_cdr
     for topic_name, log_time, data in bag.messages(list(by_topic)):
-        requests = by_topic[topic_name]
+        held = series[topic_name]
         try:
             message = deserialize(data, decoders[topic_name])
         except Exception as error:  # noqa: BLE001 - the bytes do not decode as the declared type
-            raise DataError(str(path), topic_name, f"message {series[topic_name].size + 1} does not decode as "
+            raise DataError(str(path), topic_name, f"message {held.size + 1} does not decode as "
                                                    f"{decoders[topic_name]}: {_why(error)} (allowed: CDR messages of "
                                                    "the topic's type)") from None
         when = log_time
         if header[topic_name]:  # the header stamp, unless the topic's first message leaves it unset (0)
             s = message.header.stamp
             given = int(s.sec) * 1_000_000_000 + int(s.nanosec)
-            if series[topic_name].size == 0:
+            if held.size == 0:
                 stamps[topic_name] = "header" if given else "log"
             if stamps[topic_name] == "header":
                 if not given:
-                    raise DataError(str(path), topic_name, f"message {series[topic_name].size + 1} has no header stamp "
+                    raise DataError(str(path), topic_name, f"message {held.size + 1} has no header stamp "
                                                            "(0) where the ones before have one: the topic's times "
                                                            "would mix two clocks (allowed: stamps throughout, or "
                                                            "[alignment] stamp = \"log\", the log time)")
                 when = given
-        row = []
-        for k, (request, accessor) in enumerate(requests):
-            row.append(_value(message, accessor, request, topic_name, series[topic_name].size, cache, k, source))
-        series[topic_name].append(when, row)
+        row = held.append(when)
+        for group in groups[topic_name]:
+            _read_group(message, group, row, topic_name, held.size, cache, source)
         progress.tick()
     progress.done()
     return series, stamps
 
 
-def _value(message: Any, accessor: _Accessor, request: Request, topic: str, number: int,
-           cache: dict, k: int, source: str) -> float:
-    """The number ``request`` references in a decoded ``message`` (the ``number``-th of ``topic``); a name index
-    is looked up in the message's names (the last names and position kept in ``cache``, by topic and ``k``)."""
+def _read_group(message: Any, group: _Group, row: np.ndarray, topic: str, number: int, cache: dict,
+                source: str) -> None:
+    """The numbers ``group`` references in a decoded ``message`` (the ``number``-th of ``topic``) into ``row``; a
+    name is looked up in the message's names (the last names and positions kept in ``cache``, by group)."""
     obj = message
     levels = [message]
-    for fieldname, index in accessor.steps:
+    for fieldname, index in group.steps:
         obj = getattr(obj, fieldname)
         if index is not None:
             if index >= len(obj):
-                raise DataError(source, request.key, f"{request.reference.text}: message {number + 1} of "
-                                                                f"{topic} has {len(obj)} value(s) in "
-                                                                f"{fieldname}: no position {index} (allowed: 0 to "
-                                                                f"{len(obj) - 1})")
+                request = group.requests[0]
+                raise DataError(source, request.key, f"{request.reference.text}: message {number} of {topic} has "
+                                                     f"{len(obj)} value(s) in {fieldname}: no position {index} (allowed: "
+                                                     f"0 to {len(obj) - 1})")
             obj = obj[index]
         levels.append(obj)
-    if accessor.name is not None:
-        names = getattr(levels[accessor.names_level], accessor.names_field)
-        known = cache.get((topic, k))
+    if not group.array:
+        row[group.columns[0]] = obj
+        return
+    if group.names:
+        names = getattr(levels[group.names_level], group.names_field)
+        known = cache.get(id(group))
         if known is not None and known[0] == names:
-            position = known[1]
+            positions = known[1]
         else:
-            if accessor.name not in names:
-                raise DataError(source, request.key, f"joint {accessor.name!r} is not among the names of "
-                                                                f"{topic} (its {accessor.names_field}: {listing(names)})"
-                                                                f"{suggestion(accessor.name, names)}; give a joint the "
-                                                                "topic names (the URDF's joint names) or a position, [0]")
-            position = list(names).index(accessor.name)
-            cache[(topic, k)] = (list(names), position)
-        if position >= len(obj):
-            raise DataError(source, request.key, f"{request.reference.text}: message {number + 1} of {topic} "
-                                                            f"names {len(names)} joints but has {len(obj)} value(s) in "
-                                                            f"{accessor.steps[-1][0]} (allowed: one per name)")
-        obj = obj[position]
-    return float(obj)
+            for name, request in zip(group.names, group.requests):
+                if name not in names:
+                    raise DataError(source, request.key, f"joint {name!r} is not among the names of {topic} (its "
+                                                         f"{group.names_field}: {listing(names)})"
+                                                         f"{suggestion(name, names)}; give a joint the topic names "
+                                                         "(the URDF's joint names) or a position, [0]")
+            positions = np.array([list(names).index(name) for name in group.names])
+            cache[id(group)] = (list(names), positions)
+        if len(obj) < len(names):
+            request = group.requests[int(np.argmax(positions >= len(obj)))] if np.any(positions >= len(obj)) else None
+            if request is not None:
+                raise DataError(source, request.key, f"{request.reference.text}: message {number} of {topic} names "
+                                                     f"{len(names)} joints but has {len(obj)} value(s) in "
+                                                     f"{group.steps[-1][0]} (allowed: one per name)")
+    else:
+        positions = group.positions
+        if max(positions) >= len(obj):
+            k = int(np.argmax(np.asarray(positions) >= len(obj)))
+            request = group.requests[k]
+            raise DataError(source, request.key, f"{request.reference.text}: message {number} of {topic} has "
+                                                 f"{len(obj)} value(s) in {group.steps[-1][0]}: no position "
+                                                 f"{positions[k]} (allowed: 0 to {len(obj) - 1})")
+    if isinstance(obj, np.ndarray):
+        row[group.columns] = obj[positions]
+    else:
+        row[group.columns] = [obj[p] for p in positions]
 
 
 def align(series: dict[str, _Series], by_topic: dict[str, list[tuple[Request, _Accessor]]], stamps: dict[str, str],
