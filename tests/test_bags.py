@@ -563,3 +563,22 @@ def test_urdf_joint_names_map_unchanged(arm, tmp_path: Path) -> None:
     loaded = load(experiment(tmp_path, bag, body), robot.generalized_coordinates, model=robot)
     np.testing.assert_array_equal(loaded.q, q)
     np.testing.assert_array_equal(loaded.tau, tau)
+
+
+def test_an_mcap_channel_that_is_not_ros2_cdr_is_named(arm, tmp_path: Path) -> None:
+    bw.need("mcap", "rosbags")
+    from mcap.writer import Writer
+
+    path = tmp_path / "json.mcap"
+    with path.open("wb") as f:
+        writer = Writer(f)
+        writer.start(profile="", library="test")
+        schema = writer.register_schema("Position", "jsonschema", b'{"type": "object"}')
+        channel = writer.register_channel("/joint_states", "json", schema)
+        for k in range(10):
+            writer.add_message(channel, k * 1_000_000, f'{{"position": [{k}]}}'.encode(), k * 1_000_000)
+        writer.finish()
+    spec = experiment(tmp_path, path, ARM_SIGNALS)
+    assert refusal(spec, arm.robot) == (f"{spec}: [signals] q_q1: topic /joint_states (Position) cannot be read: its "
+                                        "messages are encoded as 'json' (allowed: ROS 2 messages, CDR-encoded, with a "
+                                        "ros2msg or ros2idl schema)")

@@ -309,14 +309,17 @@ class _Mcap(_Bag):
         topic). ``McapReader.iter_messages`` would either decompress every chunk before the first message (in file
         order) or order the messages of all chunks by a heap of Python comparisons (in log-time order, three
         times slower); without chunk indexes it is used, in log-time order."""
-        from mcap.data_stream import ReadDataStream
-        from mcap.records import Chunk, Message
-        from mcap.stream_reader import breakup_chunk
+        try:  # the records' own readers (modules of the mcap package beside its reader)
+            from mcap.data_stream import ReadDataStream
+            from mcap.records import Chunk, Message
+            from mcap.stream_reader import breakup_chunk
+        except ImportError:  # another layout of the package: its reader, in log-time order
+            ReadDataStream = None  # noqa: N806
 
         summary = self._reader.get_summary()
         wanted = {cid: channel.topic for cid, channel in summary.channels.items() if channel.topic in topics}
         try:
-            if not summary.chunk_indexes:
+            if not summary.chunk_indexes or ReadDataStream is None:
                 for _, channel, message in self._reader.iter_messages(topics=topics, log_time_order=True):
                     yield channel.topic, message.log_time, message.data
                 return
