@@ -582,3 +582,17 @@ def test_an_mcap_channel_that_is_not_ros2_cdr_is_named(arm, tmp_path: Path) -> N
     assert refusal(spec, arm.robot) == (f"{spec}: [signals] q_q1: topic /joint_states (Position) cannot be read: its "
                                         "messages are encoded as 'json' (allowed: ROS 2 messages, CDR-encoded, with a "
                                         "ros2msg or ros2idl schema)")
+
+
+def test_a_gap_in_the_commands_is_held_and_reported(arm, tmp_path: Path) -> None:
+    t, q, tau, ref = arm_log(arm, 1.0)
+    topics = arm_topics(t, q, tau, ref)
+    del topics[1].messages[100:110]  # 10 commands (20 ms at 500 Hz) lost
+    bag = bw.write("mcap", tmp_path / "arm", topics)
+    with pytest.warns(symbolic.ModelWarning, match=r"/arm/command: 1 gap\(s\) in the messages, 10 message\(s\) missing "
+                                                   r"at 500 Hz; the longest 22 ms at t = 0.198 s, bridged by holding "
+                                                   r"the last message"):
+        loaded = load(experiment(tmp_path, bag), model=arm.robot)
+    assert loaded.alignment.base == "the stamps of /joint_states"  # the clock has no gap
+    np.testing.assert_array_equal(loaded.ref[198:220, 0], np.full(22, ref[99, 0]))  # held across the gap
+    assert loaded.ref[220, 0] == ref[110, 0]
