@@ -274,6 +274,10 @@ def test_expressions_of_topics_and_the_declared_methods(arm, tmp_path: Path) -> 
     np.testing.assert_allclose(loaded.ref[:, 0], np.interp(loaded.t + 1e-3, commands, ref[:, 0]), rtol=0, atol=1e-15)
     assert {r.topic: r.methods for r in loaded.alignment.topics} == {
         "/joint_states": ("linear",), "/arm/command": ("hold", "linear"), "/currents": ("linear",)}
+    dropped = {r.topic: (r.before, r.after, r.repeated) for r in loaded.alignment.topics}
+    assert dropped == {"/joint_states": (1, 0, 0), "/arm/command": (0, 0, 0), "/currents": (0, 0, 0)}
+    assert any("/joint_states (sensor_msgs/msg/JointState): 1001 messages at 1000 Hz (header time), linear; no gap; "
+               "dropped 1 before the time base" in line for line in loaded.alignment.lines())
 
 
 def test_a_bag_without_an_experiment_lists_its_topics(arm, tmp_path: Path) -> None:

@@ -1020,10 +1020,14 @@ def align(series: dict[str, _Series], by_topic: dict[str, list[tuple[Request, _A
             column = values[:, [r for r, _ in by_topic[name]].index(request)]
             vectors[request.variable] = _hold(times, column, grid) if request.method == "hold" else \
                 _linear(times, column, grid)
+        # messages outside the time base are dropped, but for the one just before its start (held, or the first
+        # end of an interpolation) and, for an interpolated topic, the one just after its end
         before = int(np.count_nonzero(times < grid[0]))
         after = int(np.count_nonzero(times > grid[-1]))
-        if holds.get(name) and before and not np.any(times == grid[0]):  # the held command at the start: used
+        if before and by_topic[name] and not np.any(times == grid[0]):
             before -= 1
+        if after and "linear" in methods and not np.any(times == grid[-1]):
+            after -= 1
         regular = steps[steps <= GAP_FACTOR * period]  # the rate between gaps
         mean_rate = 1e9 * len(regular) / float(np.sum(regular)) if len(regular) else 1e9 / period
         reports.append(TopicReport(name, bag.topics[name].msgtype, len(times) + repeated, mean_rate, stamps[name],
