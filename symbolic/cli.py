@@ -668,7 +668,8 @@ def parser() -> argparse.ArgumentParser:
     a.set_defaults(func=cmd_analyze)
     i = sub.add_parser("identify", help="identify the model's parameters from measured data (IDIM-LS)")
     i.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
-    i.add_argument("data", help="data file (CSV, .npz, .mat with canonical columns) or experiment file (.toml)")
+    i.add_argument("data", help="data file (CSV, .npz, .mat with canonical columns; a ROS 2 bag or MCAP file mapped by --experiment) "
+                   "or experiment file (.toml)")
     i.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")
     i.add_argument("--validate", metavar="DATA2", help="cross-test data or experiment file")
     i.add_argument("--method", choices=["wls", "ols", "didim"], default="wls",
@@ -729,7 +730,8 @@ def parser() -> argparse.ArgumentParser:
     w.add_argument("--list-effects", action=_ListEffects, help="list the effect catalogue (key, term, parameters with "
                    "their units, what each refines and excludes) and exit")
     w.add_argument("model", help="model file (.toml or .urdf) or built-in robot name")
-    w.add_argument("data", help="data file (CSV, .npz, .mat with canonical columns) or experiment file (.toml)")
+    w.add_argument("data", help="data file (CSV, .npz, .mat with canonical columns; a ROS 2 bag or MCAP file mapped by --experiment) "
+                   "or experiment file (.toml)")
     w.add_argument("--experiment", metavar="FILE", help="experiment file mapping DATA's variables onto the canonical signals")
     w.add_argument("--validate", metavar="DATA2", help="held-out data or experiment file (default: the last fifth of DATA)")
     w.add_argument("--out", metavar="DIR", required=True, help="folder for report.md, the figures and <model>_patched.toml")

@@ -9,6 +9,10 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable
 
+PROGRESS_EVERY = 2.0
+"""Seconds between two progress lines of long work (logging INFO: stderr under the command line, silenced by -q):
+no wait longer than this passes without a line (a campaign's logs, a bag's messages)."""
+
 SHOWN = 60
 """Characters of a long piece of user text shown in a message (see :func:`shorten`)."""
 

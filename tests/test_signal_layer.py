@@ -86,8 +86,8 @@ REFUSED = [
     ("[sensors]\nq_q = { gain = 1e-33 }\n", "[sensors] q_q: gain 1e-33 and bias 0 make the model's signal 7.78837e+30 "
      "at sample 0 (t = 0 s) (allowed: finite numbers of magnitude at most 1e+30)"),
     ("[sensor]\nq_q = { delay = 1 }\n", "sensor: unknown key (allowed: data, model, description, rate, resample, "
-     "columns, signals, constants, window, controller, identification, sensors, drive, excitation); did you mean "
-     "'sensors'?"),
+     "columns, signals, constants, window, controller, identification, sensors, drive, excitation, alignment); "
+     "did you mean 'sensors'?"),
 ]
 
 

@@ -2,7 +2,8 @@
 
 :func:`load` reads a **data file** with the canonical columns (``t`` and, per coordinate ``c``, ``q_c``,
 ``tau_c`` or the drive signal ``u_c``, optionally ``qd_c``, ``qdd_c``, ``ref_c``; CSV, NumPy ``.npz`` or
-MATLAB ``.mat`` v5) or an **experiment file** (``.toml``, :mod:`symbolic.data.experiment`) into an
+MATLAB ``.mat`` v5) or an **experiment file** (``.toml``, :mod:`symbolic.data.experiment`; it may map the topics
+of a ROS 2 bag or MCAP file, :mod:`symbolic.data.bags`) into an
 :class:`Experiment` (:class:`Measurements` with the experiment's model, treatment settings, controller and
 validation set), every table checked once; :func:`write` writes the canonical columns back. Each problem is
 a one-line :class:`DataError` naming the file, the column or key, what is wrong and what is allowed.

@@ -48,7 +48,7 @@ DATA_PATH_VARIABLE = "SYMBOLIC_DATA_PATH"
 when it is not found at the path the experiment file gives."""
 
 TOP_KEYS = ("data", "model", "description", "rate", "resample", "columns", "signals", "constants", "window",
-            "controller", "identification", "sensors", "drive", "excitation")
+            "controller", "identification", "sensors", "drive", "excitation", "alignment")
 
 WINDOW_KEYS = ("start", "stop")
 
@@ -78,6 +78,9 @@ class Experiment(Measurements):
     signal_layer
         The ``[sensors]`` and ``[drive]`` tables (:mod:`symbolic.data.signal_layer`), already applied to the
         numbers; their free values and the signals as logged.
+    alignment
+        For a bag (:mod:`symbolic.data.bags`): how its topics were aligned onto one time base (the base, each
+        topic's rate, gaps and dropped messages); ``None`` for other data files.
     """
 
     model: str | None = None
@@ -87,6 +90,7 @@ class Experiment(Measurements):
     window: tuple[float | None, float | None] | None = None
     drive_gains: Mapping[str, float] = field(default_factory=dict)
     signal_layer: SignalLayer = field(default_factory=SignalLayer)
+    alignment: Any = field(default=None, repr=False)
 
     def slice(self, start: int, stop: int) -> Experiment:
         """Samples ``start:stop``, the signal layer's logs cut alike."""
@@ -197,26 +201,39 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
     spec = files.read_toml(path, "experiment")
     check_keys(spec, TOP_KEYS, source)
     if data is not None:
-        if not data.is_file():
+        if not files.exists(data):
             raise DataError(str(data), "file", "data file not found")
         data_file = data.resolve()
     else:
         data_file = resolve_data(_string(spec, "data", source, required=True), path)
-    table = files.read(data_file, _columns(spec, source), source)
-    constants = _constants(spec.get("constants", {}), table, source)
     signals_spec = _table(spec, "signals", source)
+    written = dict(signals_spec)
     rate = _rate(spec, signals_spec, source)
-    if "signals" in spec:
-        evaluated = _signals(signals_spec, table, constants, source)
+    resample_key = spec.get("resample", False)
+    if not isinstance(resample_key, bool):
+        raise DataError(source, "resample", f"expected true or false, got {resample_key!r}")
+    alignment = None
+    if files.mapped(data_file):  # a bag: [signals] references topics, read and aligned by its reader
+        if "rate" in spec:
+            raise DataError(source, "rate", f"{data_file.name} is a bag, whose messages carry their time: give the time "
+                                            "base's rate as [alignment] rate")
+        table, signals_spec, alignment = files.read_mapped(data_file, files.kind(data_file), _columns(spec, source),
+                                                           source, signals_spec, spec.get("alignment"),
+                                                           resample or resample_key)
+    else:
+        if "alignment" in spec:
+            raise DataError(source, "[alignment]", f"aligns the topics of a bag (.mcap, .db3, a rosbag2 folder); "
+                                                   f"{data_file.name} is a data file with one time: leave it out")
+        table = files.read(data_file, _columns(spec, source), source)
+    constants = _constants(spec.get("constants", {}), table, source)
+    if "signals" in spec or alignment is not None:
+        evaluated = _signals(signals_spec, table, constants, source, written)
         origin = Source(source, lambda name: f"[signals] {name}", noun="signal", container="[signals]")
     else:  # canonical columns need no mapping: each is its own signal, as in a data file read directly
         evaluated = _canonical(table, data_file, source)
         origin = Source(str(data_file), lambda name: f"column '{name}'")
     if "t" not in evaluated and rate is None:
         raise DataError(source, "[signals]", "no time: give t = \"<time variable>\" or rate = <Hz>")
-    resample_key = spec.get("resample", False)
-    if not isinstance(resample_key, bool):
-        raise DataError(source, "resample", f"expected true or false, got {resample_key!r}")
     settings = Settings.from_table(_table(spec, "identification", source) if "identification" in spec else None,
                                    source)
     named = _model(spec, path)
@@ -247,7 +264,7 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
         controller = parse(controller_table, measurements.coordinates, used.parameters(controller_table), source,
                            coordinates or _coordinates_of(model), measurements.columns(), measurements.samples)
     return Experiment.of(measurements, model=named, settings=settings, controller=controller, window=window,
-                         drive_gains=used.used(), signal_layer=layer)
+                         drive_gains=used.used(), signal_layer=layer, alignment=alignment)
 
 
 def _coordinates_of(model: Robot | None) -> tuple[str, ...] | None:
@@ -335,10 +352,12 @@ def _refuse_unusable(table: files.Table, path: Path) -> None:
 
 
 def _signals(spec: Mapping[str, Any], table: files.Table, constants: Mapping[str, float],
-             source: str) -> dict[str, np.ndarray]:
-    """The ``[signals]``, evaluated; a ``tau_<c>`` written as a number is that number at every sample."""
-    evaluated = {name: _evaluate(name, text, table, constants, source) for name, text in spec.items()
-                 if not (name == "rate" and isfinite_number(text))}
+             source: str, written: Mapping[str, Any] | None = None) -> dict[str, np.ndarray]:
+    """The ``[signals]``, evaluated; a ``tau_<c>`` written as a number is that number at every sample.
+    ``written``: the expressions as the file writes them, for messages (a bag's are rewritten over variables)."""
+    written = written or {}
+    evaluated = {name: _evaluate(name, text, table, constants, source, written.get(name, text))
+                 for name, text in spec.items() if not (name == "rate" and isfinite_number(text))}
     lengths = [len(v) for v in evaluated.values() if isinstance(v, np.ndarray)]
     if not lengths:
         raise DataError(source, "[signals]", "no signal of the file (give t, q_<c>, ... as variables of the data file)")
@@ -385,7 +404,7 @@ def resolve_data(name: str, experiment: Path) -> Path:
     search = [Path(d) for d in os.environ.get(DATA_PATH_VARIABLE, "").split(os.pathsep) if d]
     candidates += [d / given.name for d in search]
     for candidate in candidates:
-        if candidate.is_file():
+        if files.exists(candidate):
             return candidate.resolve()
     where = f"{DATA_PATH_VARIABLE}: {os.pathsep.join(map(str, search))}" if search else f"{DATA_PATH_VARIABLE} unset"
     raise DataError(
@@ -472,21 +491,25 @@ def _constants(spec: Any, table: files.Table, source: str) -> dict[str, float]:
     return constants
 
 
-def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, float], source: str) -> np.ndarray | float:
+def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, float], source: str,
+              written: Any = None) -> np.ndarray | float:
     """The values of signal ``name`` = expression ``text`` of the file's variables and the constants; a
-    number for a ``tau_<c>`` written as a number (broadcast to every sample by :func:`_signals`)."""
+    number for a ``tau_<c>`` written as a number (broadcast to every sample by :func:`_signals`). ``written``:
+    the expression as the file writes it, for messages."""
     key = f"[signals] {name}"
+    written = text if written is None else written
     if not name.isidentifier() or name in RESERVED_NAMES:
         raise DataError(source, key, "a signal name must be an identifier (t, q_<c>, tau_<c>, ... or an extra name) "
                                      f"other than {', '.join(sorted(RESERVED_NAMES))} (expressions reserve them)")
     if isinstance(text, str):
-        _check_names(text, table, constants, source, key)
+        _check_names(text, table, constants, source, key, written)
     usable = [*table.vectors, *table.scalars, *constants]
     symbols = {v: sp.Symbol(v) for v in usable if v.isidentifier() and v not in RESERVED_NAMES}
     try:
         expression = parse_expression(text, symbols, source, key)
     except ModelError as error:
-        raise DataError(error.source, error.key, error.problem) from None
+        problem = error.problem.replace(repr(text), repr(written)) if written != text else error.problem
+        raise DataError(error.source, error.key, problem) from None
     used = sorted(expression.free_symbols, key=lambda s: s.name)
     values = []
     for s in used:
@@ -494,11 +517,11 @@ def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, 
     lengths = {s.name: len(v) for s, v in zip(used, values) if isinstance(v, np.ndarray)}
     if len(set(lengths.values())) > 1:
         detail = ", ".join(f"{v} has {n} samples" for v, n in lengths.items())
-        raise DataError(source, key, f"length mismatch between the variables of {text!r}: {detail}")
+        raise DataError(source, key, f"length mismatch between the variables of {written!r}: {detail}")
     if not used and (split_name(name) or ("",))[0] == "tau":
         return float(expression)  # a number: tau_<c> = "0", a coordinate without an actuator
     if not lengths:
-        raise DataError(source, key, f"{text!r} uses no signal of the file (a signal varies with the samples; "
+        raise DataError(source, key, f"{written!r} uses no signal of the file (a signal varies with the samples; "
                                      "only a generalized force tau_<c> may be a number, e.g. \"0\" without an actuator)")
     function = sp.lambdify(used, expression, modules="numpy", dummify=True)
     # NumPy numbers throughout: a scalar of 1e300 squared is inf (refused with the sample by the checks of
@@ -508,16 +531,18 @@ def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, 
         try:
             result = np.asarray(function(*arguments), dtype=float)
         except (OverflowError, ZeroDivisionError, ValueError) as exc:
-            raise DataError(source, key, f"cannot compute {shorten(str(text))}: {exc}") from None
+            raise DataError(source, key, f"cannot compute {shorten(str(written))}: {exc}") from None
     return np.broadcast_to(result, (next(iter(lengths.values())),)).copy()
 
 
-def _check_names(text: str, table: files.Table, constants: Mapping[str, float], source: str, key: str) -> None:
+def _check_names(text: str, table: files.Table, constants: Mapping[str, float], source: str, key: str,
+                 written: str | None = None) -> None:
     """Refuse names that are neither variables of the file nor constants, listing what there is, and
     a reserved name (``pi``, ``sin``) that is also a variable of the file: neither reading is chosen."""
+    shown = text if written is None else written
     for name in reserved_uses(text):
         if name in table.vectors or name in table.scalars or name in table.unusable:
-            raise DataError(source, key, f"{name!r} in {text!r} is ambiguous: {Path(table.source).name} has a variable "
+            raise DataError(source, key, f"{name!r} in {shown!r} is ambiguous: {Path(table.source).name} has a variable "
                                          f"{name!r} and expressions read {name!r} as {reserved_meaning(name)}; rename "
                                          "the variable (in columns = [...] for a CSV file without a header line, "
                                          "else in the file)")
@@ -525,11 +550,11 @@ def _check_names(text: str, table: files.Table, constants: Mapping[str, float], 
         if name in table.unusable:
             raise DataError(source, key, f"variable {name!r} of {Path(table.source).name} is {table.unusable[name]}")
         if name not in table.vectors and name not in table.scalars and name not in constants:
-            variables = ", ".join([*table.vectors, *table.scalars]) or "none"
+            variables = ", ".join([*map(table.shown, table.vectors), *table.scalars]) or "none"
             raise DataError(
                 source,
                 key,
-                f"unknown variable {name!r} in {text!r} (variables of {Path(table.source).name}: {variables}; "
+                f"unknown variable {name!r} in {shown!r} (variables of {Path(table.source).name}: {variables}; "
                 f"[constants]: {', '.join(constants) or 'none'})",
             )
 

@@ -1,5 +1,6 @@
 """Reading and writing data files: CSV (with a header line, or without one when the experiment names the
-columns), NumPy ``.npz``, MATLAB ``.mat`` (v5).
+columns), NumPy ``.npz``, MATLAB ``.mat`` (v5), and ROS 2 bags and MCAP files (:mod:`symbolic.data.bags`, whose
+topics an experiment maps).
 
 A file is read into a :class:`Table`: its vectors (one value per sample), its scalars (MATLAB's
 1×1 variables such as ``gtau``, usable as constants) and the variables that are neither (kept by
@@ -25,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from symbolic.data import bags
 from symbolic.data.errors import DataError
 from symbolic.errors import SHOWN, listing, one_line, shorten
 from symbolic.writing import replacing
@@ -43,10 +45,16 @@ class Table:
     vectors: dict[str, np.ndarray] = field(default_factory=dict)
     scalars: dict[str, float] = field(default_factory=dict)
     unusable: dict[str, str] = field(default_factory=dict)
+    labels: dict[str, str] = field(default_factory=dict)
+    """How a message names a variable when it is not its name (a bag's topic reference, by its variable)."""
 
     def names(self) -> list[str]:
         """Every variable name of the file (vectors, scalars, unusable)."""
         return [*self.vectors, *self.scalars, *self.unusable]
+
+    def shown(self, name: str) -> str:
+        """``name`` as the user wrote it (:attr:`labels`)."""
+        return self.labels.get(name, name)
 
 
 def excerpt(text: str) -> str:
@@ -67,6 +75,12 @@ def kind(path: Path) -> str:
         If neither the suffix nor the content tells.
     """
     suffix = path.suffix.lower()
+    if path.is_dir():
+        for name, reader in READERS.items():
+            if reader.folder and (path / reader.folder).is_file():
+                return name
+        raise DataError(str(path), "file", "a folder, not a data file (allowed: a rosbag2 folder, which holds "
+                                           f"{bags.METADATA}, or a data file)")
     for name, reader in READERS.items():
         if suffix in reader.suffixes:
             return name
@@ -89,18 +103,35 @@ def _head(path: Path) -> bytes:
         raise DataError(str(path), "file", f"cannot read: {exc.strerror}") from None
 
 
-def read(path: Path, columns: Sequence[str] | None = None, named_by: str = "<python>") -> Table:
-    """Read a data file (``.csv``, ``.npz``, ``.mat``) into a :class:`Table`.
+def exists(path: Path) -> bool:
+    """Whether ``path`` is a data file or a data folder (a rosbag2 bag)."""
+    return path.is_file() or bags.is_bag(path)
+
+
+def mapped(path: Path) -> bool:
+    """Whether ``path`` is read through an experiment's mapping (:attr:`Reader.mapped`: a bag)."""
+    which = kind(path)
+    return which in READERS and READERS[which].mapped
+
+
+def read(path: Path, columns: Sequence[str] | None = None, named_by: str = "<python>",
+         signals: Mapping[str, Any] | None = None, options: Any = None, resample: bool = False) -> Table:
+    """Read a data file (``.csv``, ``.npz``, ``.mat``, a bag) into a :class:`Table`.
 
     ``columns`` names the columns of a CSV file without a header line (an experiment's ``columns``
     key; ``named_by`` is that experiment file, for messages); other files name their variables themselves.
+    A reader that is :attr:`Reader.mapped` (bags) reads what the experiment's ``signals`` reference, aligned as
+    its ``options`` (``[alignment]``) say: :func:`read_mapped`.
     """
     which = kind(path)
     if which not in READERS:
         suffixes = ", ".join(x for r in READERS.values() for x in r.suffixes)
         raise DataError(str(path), "file", f"expected a data file ({suffixes}), got an experiment file")
-    if not path.is_file():
+    if not exists(path):
         raise DataError(str(path), "file", "no such data file")
+    if READERS[which].mapped:
+        source = str(path) if named_by == "<python>" else named_by
+        return read_mapped(path, which, columns, source, signals, options, resample)[0]
     if columns is not None:
         if which != "csv":
             raise DataError(named_by, "columns", f"names the columns of a CSV file without a header line; "
@@ -459,22 +490,41 @@ def _classify(table: Table, name: str, value: object) -> None:
         table.unusable[name] = f"of shape {array.shape} (a signal is a vector, a constant a 1×1 scalar)"
 
 
+def read_mapped(path: Path, which: str, columns: Sequence[str] | None, named_by: str,
+                signals: Mapping[str, Any] | None, options: Any, resample: bool) -> tuple[Table, dict[str, Any], Any]:
+    """A mapped reader's table (``t`` and one variable per reference), the ``[signals]`` rewritten over its
+    variables, and its report (a bag's :class:`~symbolic.data.bags.Alignment`)."""
+    if columns is not None:
+        raise DataError(named_by, "columns", f"names the columns of a CSV file without a header line; {path.name} "
+                                             "is a bag, whose topics [signals] maps (leave out columns)")
+    result = READERS[which].read(path, signals, options, named_by, resample)
+    return Table(str(path), result.vectors, labels=result.labels), result.signals, result.alignment
+
+
 @dataclass(frozen=True)
 class Reader:
     """A data-file format: the suffixes that name it, the first bytes that identify a file without one, the
     function that reads it into a :class:`Table`, and how error messages describe it. A new format is one reader
-    function and one entry of :data:`READERS`."""
+    function and one entry of :data:`READERS`.
+
+    ``folder``: a folder holding a file of this name is of this format (rosbag2). ``mapped``: the reader needs
+    the experiment's ``[signals]`` (a bag's topics are no columns): ``read(path, signals, options, source,
+    resample)`` returns the variables, the rewritten signals and a report (:func:`read_mapped`)."""
 
     suffixes: tuple[str, ...]
     magic: bytes | None
     read: Any
     described: str
+    folder: str | None = None
+    mapped: bool = False
 
 
 READERS: dict[str, Reader] = {
     "csv": Reader((".csv",), None, read_csv, ".csv with a header line"),
     "npz": Reader((".npz",), ZIP_MAGIC, read_npz, ".npz"),
     "mat": Reader((".mat",), MAT_MAGIC, read_mat, ".mat v5"),
+    "bag": Reader((".mcap", ".db3"), bags.MCAP_MAGIC, bags.read, "ROS 2 bags (a rosbag2 folder, .db3, .mcap)",
+                  folder=bags.METADATA, mapped=True),
 }
 """Every data-file format the package reads, by name (:func:`kind`, :func:`read`)."""
 

@@ -24,7 +24,7 @@ from typing import Any
 
 from symbolic import robots
 from symbolic.data.errors import DataError
-from symbolic.data.files import read_toml
+from symbolic.data.files import exists, read_toml
 from symbolic.data.keys import check_keys
 from symbolic.data.settings import Settings
 from symbolic.description.modelfile import loads
@@ -346,13 +346,13 @@ def _link(value: Any, source: str, where: str) -> str | None:
     return value
 
 
-def _existing(name: Any, campaign: Path, where: str, expected: str, found: str) -> Path:
+def _existing(name: Any, campaign: Path, where: str, expected: str, found: str, data: bool = False) -> Path:
     """The file ``name`` names (relative to the campaign file), refused unless a name of an existing file:
-    "expected {expected} name" or "{found} '...' not found"."""
+    "expected {expected} name" or "{found} '...' not found". ``data``: a log, which may also be a rosbag2 folder."""
     if not isinstance(name, str) or not name.strip():
         raise DataError(str(campaign), where, f"expected {expected} name, got {shown(name)}")
     path = _relative(name, campaign)
-    if not path.is_file():
+    if not (exists(path) if data else path.is_file()):
         raise DataError(str(campaign), where, f"{found} {str(path)!r} not found (a path relative to the campaign file)")
     return path
 
@@ -487,7 +487,7 @@ def _listed_logs(value: Any, campaign: Path, where: str) -> list[Log]:
     for k, entry in enumerate(value):
         check_keys(entry, LOG_KEYS, source, f"{where} #{k + 1}")
         moment = entry.get("time")
-        path = _existing(entry.get("file"), campaign, f"{where} #{k + 1} file", "a log file", "log")
+        path = _existing(entry.get("file"), campaign, f"{where} #{k + 1} file", "a log file", "log", data=True)
         if isinstance(moment, dt.datetime):
             moment = _utc(moment)
         elif isinstance(moment, dt.date):
@@ -504,7 +504,7 @@ def _globbed_logs(pattern: Any, campaign: Path, where: str, reader) -> list[Log]
     if not isinstance(pattern, str) or not pattern.strip():
         raise DataError(source, where, f"expected a glob of log files, e.g. \"logs/r01_*.csv\", got {shown(pattern)}")
     full = str(_relative(pattern, campaign))
-    paths = sorted(Path(p) for p in glob.glob(full, recursive=True) if Path(p).is_file())
+    paths = sorted(Path(p) for p in glob.glob(full, recursive=True) if exists(Path(p)))  # files, rosbag2 folders
     if not paths:
         raise DataError(source, where, f"{pattern!r} matches no file (a glob relative to the campaign file: "
                                        f"looked for {full})")

@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from symbolic.cache import stamp
-from symbolic.errors import ClusterError, one_line, shorten
+from symbolic.errors import PROGRESS_EVERY, ClusterError, one_line, shorten
 from symbolic.fleet.campaign import Campaign
 from symbolic.fleet.drift import Drift, drifts, series_of
 from symbolic.fleet.outliers import Outlier, outliers
@@ -57,8 +57,6 @@ SCHEMES = ("tcp", "tls", "ws", "wss")
 ADDRESS = re.compile(r"(?:(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+)"
                      r"(?::(?P<port>[0-9]{1,5}))?")
 """``[scheme://]host[:port]``: a host name, an IPv4 address or an IPv6 address in brackets."""
-PROGRESS_EVERY = 2.0
-"""Seconds between two progress lines."""
 
 
 @dataclass(frozen=True, eq=False)

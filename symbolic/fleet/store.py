@@ -62,17 +62,23 @@ class Store:
             self._digests = {}
 
     def file_digest(self, path: Path) -> str:
-        """SHA-256 of ``path``'s bytes, remembered by (resolved path, size, modification time)."""
-        info = path.stat()
+        """SHA-256 of ``path``'s bytes, remembered by (resolved path, size, modification time); of a folder (a
+        rosbag2 bag), of its files' names and bytes in name order, remembered by their total size and latest time."""
+        members = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+        infos = [m.stat() for m in members]
+        size, modified = sum(i.st_size for i in infos), max((i.st_mtime_ns for i in infos), default=0)
         name = str(path.resolve())
         known = self._digests.get(name)
-        if isinstance(known, list) and known[:2] == [info.st_size, info.st_mtime_ns]:
+        if isinstance(known, list) and known[:2] == [size, modified]:
             return str(known[2])
         sha = hashlib.sha256()
-        with open(path, "rb") as handle:
-            for block in iter(lambda: handle.read(1 << 20), b""):
-                sha.update(block)
-        self._digests[name] = [info.st_size, info.st_mtime_ns, sha.hexdigest()]
+        for member in members:
+            if path.is_dir():
+                sha.update(f"{member.relative_to(path).as_posix()}\0{member.stat().st_size}\0".encode())
+            with open(member, "rb") as handle:
+                for block in iter(lambda: handle.read(1 << 20), b""):
+                    sha.update(block)
+        self._digests[name] = [size, modified, sha.hexdigest()]
         self._changed = True
         return sha.hexdigest()
 

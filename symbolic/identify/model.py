@@ -85,6 +85,8 @@ class ModelIdentification:
     undetermined: tuple[str, ...] = ()
     """Model-file parameters the data do not determine alone (:func:`undetermined_parameters`): left out of
     ``parameters``, or, with ``consistent=True``, given with σ = ∞."""
+    alignment: Any = None
+    """A bag's alignment (:class:`symbolic.data.bags.Alignment`: time base, rates, gaps, dropped messages)."""
 
     def figures(self, folder: str | Path) -> tuple[Path, ...]:
         """PNG figures of measured vs predicted τ and the residual per coordinate (and of the cross-test).
@@ -122,7 +124,7 @@ class ModelIdentification:
             "validation_relative_error": None if self.validation is None else self.validation.relative_error,
             "consistent": None if self.consistent is None else self.consistent.to_dict(),
             "undetermined": list(self.undetermined),
-        }
+        } | ({} if self.alignment is None else {"alignment": self.alignment.to_dict()})
 
     def undetermined_note(self) -> str | None:
         """One line naming the parameters the data do not determine alone and what to do, or ``None``."""
@@ -267,7 +269,7 @@ def identify_model(
         parameters = direct_parameters(model, reg, base, ident, fixed)
     return ModelIdentification(model, base, ident, parameters, checked, observation,
                                {s.name: float(model.parameters[s]) for s in model.parameter_symbols if s in fixed},
-                               fitted, undetermined_parameters(model, reg, fixed, parameters))
+                               fitted, undetermined_parameters(model, reg, fixed, parameters), loaded.alignment)
 
 
 def undetermined_parameters(model: DynamicModel, reg: Regressor, fixed: frozenset[sp.Symbol],
