@@ -250,6 +250,10 @@ def _check_targets(args: argparse.Namespace) -> None:
         out = Path(args.out)
         if not str(args.out).strip() or out.is_dir():
             raise ExportError(f"--out {args.out!r}: name the model file to write (e.g. --out identified.toml)")
+    if getattr(args, "html", None) is not None:
+        if not str(args.html).strip() or Path(args.html).is_dir():
+            raise ExportError(f"--html {args.html!r}: name the HTML file to write (e.g. --html report.html)")
+        _check_html(args)
 
 
 def _identify_output_error(args: argparse.Namespace, model) -> int:
@@ -258,9 +262,9 @@ def _identify_output_error(args: argparse.Namespace, model) -> int:
     from symbolic.description.modelfile import with_loadable_values
     from symbolic.identify.output_error import output_error
 
-    if args.figures or args.validate or args.out and Path(args.out).suffix.lower() in (".urdf", ".xml"):
-        raise ModelError(args.model, "--method didim", "--figures, --validate and a URDF or MJCF --out are not available "
-                                                       "with the output error yet (allowed: --out FILE.toml, --json)")
+    if args.figures or args.validate or args.html or args.out and Path(args.out).suffix.lower() in (".urdf", ".xml"):
+        raise ModelError(args.model, "--method didim", "--figures, --validate, --html and a URDF or MJCF --out are not "
+                                                       "available with the output error yet (allowed: --out FILE.toml, --json)")
     fit = output_error(model, args.data, experiment=args.experiment, signals=args.signals,
                        weights=(args.force_weight, args.position_weight), fix=fix_names(args.fix),
                        consistent=args.consistent, max_iterations=args.max_iterations)
@@ -321,11 +325,16 @@ def cmd_identify(args: argparse.Namespace) -> int:
             figures = [str(path) for path in result.figures(args.figures)]
         except MatplotlibMissing as missing:
             print(f"warning: {missing}", file=sys.stderr)
+    out = result.to_dict()
+    out["patched_model"] = args.out
+    out["kept"] = kept
+    out["figures"] = figures
+    if args.html:  # the page is built from the dictionary --json prints (symbolic.htmlpage, "One source")
+        from symbolic.identify.html_report import render
+
+        write_text_atomically(Path(args.html), render(result, out, data=Path(args.data).name))
+        figures.append(str(args.html))
     if args.json:
-        out = result.to_dict()
-        out["patched_model"] = args.out
-        out["kept"] = kept
-        out["figures"] = figures
         print(strict_json(out))
     else:
         print(result.table())
@@ -628,6 +637,18 @@ def cmd_first_peak(args: argparse.Namespace) -> int:
     return 0
 
 
+HTML_HELP = ("also DIR/report.html: one self-contained page (tables and interactive figures; needs plotly: "
+             "pip install 'symbolic[html]')")
+
+
+def _check_html(args: argparse.Namespace) -> None:
+    """``--html``: plotly must be importable, checked before the work (the error names the install command)."""
+    if getattr(args, "html", None):
+        from symbolic.htmlpage import require
+
+        require()
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="symbolic", description=__doc__.splitlines()[0])
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
@@ -681,6 +702,8 @@ def parser() -> argparse.ArgumentParser:
                    "model file cannot hold, e.g. a negative mass, is not written and the reason is printed; "
                    "FILE.urdf: as URDF; FILE.xml: as MuJoCo's MJCF)")
     i.add_argument("--figures", metavar="DIR", help="PNG figures: measured vs predicted force and the residual per coordinate")
+    i.add_argument("--html", metavar="FILE.html", help="one self-contained HTML report: the tables above and interactive "
+                   "figures (needs plotly: pip install 'symbolic[html]')")
     i.add_argument("--json", action="store_true", help="machine-readable result")
     i.set_defaults(func=cmd_identify)
     s = sub.add_parser("simulate", help="simulate a model against a measured log with the machine's controller")
@@ -688,6 +711,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("experiment", help="experiment file (.toml, with [controller]) or data file")
     s.add_argument("--out", help="folder for simulated.csv and the figures")
     s.add_argument("--json", action="store_true", help="model, settings and relative errors (%%) as JSON")
+    s.add_argument("--html", action="store_true", help="with --out: " + HTML_HELP)
     s.add_argument("--method", default="rk4", help="rk4 (fixed step, default) or a solve_ivp method: Radau, BDF, LSODA")
     s.add_argument("--substeps", type=int, help="RK4 sub-steps per sample (default: from the spectral radius)")
     s.add_argument("--friction-velocity", type=float, default=1e-4,
@@ -714,6 +738,7 @@ def parser() -> argparse.ArgumentParser:
                        f"{example}, or one value for every coordinate")
     e.add_argument("--rate", type=float, help="sample rate of the log to be recorded (Hz)")
     e.add_argument("--no-figures", action="store_true", help="write no PNG figures")
+    e.add_argument("--html", action="store_true", help=HTML_HELP)
     e.add_argument("--json", action="store_true", help="machine-readable result")
     e.set_defaults(func=cmd_excite)
     w = sub.add_parser("diagnose", help="find the effects the model misses in measured data and patch the model file",
@@ -738,6 +763,7 @@ def parser() -> argparse.ArgumentParser:
     w.add_argument("--group", metavar="NAME=C1,C2", action="append",
                    help="a named group of coordinates on which each effect is also tried as one grouped hypothesis "
                         "(besides every coordinate; repeatable)")
+    w.add_argument("--html", action="store_true", help=HTML_HELP)
     w.add_argument("--json", action="store_true", help="machine-readable result")
     w.set_defaults(func=cmd_diagnose)
     c = sub.add_parser("campaign", help="identify, diagnose or simulate every log of a fleet on Dask; drift, outliers, events")
@@ -752,6 +778,8 @@ def parser() -> argparse.ArgumentParser:
                    "processors; 0: one log at a time in this process, without Dask); with --scheduler, the workers "
                    "to wait for")
     c.add_argument("--json", action="store_true", help="machine-readable summary (errors, drift, outliers, events)")
+    c.add_argument("--html", action="store_true", help=HTML_HELP.replace("one self-contained page", "the campaign's page, "
+                   "linking one page per robot (robot_<id>.html)"))
     c.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS, help="no progress on stderr")
     c.set_defaults(func=cmd_campaign)
     r = sub.add_parser("reproduce", help="recompute every checkable number of the seed documents and compare")
