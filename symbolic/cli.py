@@ -358,6 +358,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     except export.ExportError as error:
         print(f"error: --out: {error}", file=sys.stderr)
         return 2
+    if args.html and not args.out:
+        print("error: --html: name the folder of the report with --out DIR (report.html is written there)", file=sys.stderr)
+        return 2
+    _check_html(args)
     model = derive(resolve(args.model, args))
     measurements = data.load(args.experiment, model=model.robot)
     simulation = simulate(model, measurements, method=args.method, substeps=args.substeps,
@@ -372,8 +376,17 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                           units=coordinate_units(model.robot))
         except MatplotlibMissing as missing:
             notes.append(str(missing))
+    document = {**simulation.to_dict(comparison), "files": [str(f) for f in files], "notes": notes}
+    if args.html:  # the page is built from the dictionary --json prints (symbolic.htmlpage, "One source")
+        from symbolic.simulation.html_report import NAME, render
+
+        page = Path(args.out) / NAME
+        write_text_atomically(page, render(comparison, document, f"{model.robot.name}, {Path(args.experiment).name}",
+                                           coordinate_units(model.robot), notes))
+        files.append(page)
+        document["files"].append(str(page))
     if args.json:
-        print(strict_json({**simulation.to_dict(comparison), "files": [str(f) for f in files], "notes": notes}))
+        print(strict_json(document))
         return 0
     print(simulation.summary())
     print(comparison.summary())
