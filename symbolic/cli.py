@@ -457,11 +457,12 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from symbolic import export
 
     export.check_output_directory(args.out)  # before the analysis: a mistyped --out is reported at once
+    _check_html(args)
     model = derive(resolve(args.model, args))
     search = SearchSettings(groups=groups) if groups else None
     result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects,
                       simulate=args.simulate or None, fix=fix_names(args.fix), search=search,
-                      response=args.response)
+                      response=args.response, html=args.html)
     if args.json:
         print(strict_json(result.to_dict()))
         return 0
@@ -503,7 +504,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
             print(f"the data: the logged force behaves as a command held over each sample; declared "
                   f"(held_force = true in [identification]) the held-out gap would be {g['held_force']:.4g} % "
                   f"instead of {g['as_logged']:.4g} % before any effect (report.md)")
-    print(f"wrote {args.out}/report.md" + (f" and {result.patched_path}" if result.patched_path else ""))
+    print(f"wrote {args.out}/report.md" + (f", {args.out}/report.html" if args.html else "")
+          + (f" and {result.patched_path}" if result.patched_path else ""))
     return 0
 
 
