@@ -406,6 +406,7 @@ def cmd_excite(args: argparse.Namespace) -> int:
     except export.ExportError as error:
         print(f"error: --out: {error}", file=sys.stderr)
         return 2
+    _check_html(args)
     model = derive(resolve(args.model, args))
     names = model.robot.generalized_coordinates
     limits = {kind: excite.option_values(kind, getattr(args, kind), names)
@@ -415,7 +416,7 @@ def cmd_excite(args: argparse.Namespace) -> int:
     result = excite.excite(model, declared, args.duration, limits=limits, noise=noise, rate=args.rate,
                            harmonics=args.harmonics, criterion=args.criterion, starts=args.starts, seed=args.seed,
                            compare=args.compare)
-    paths, notes = excite.write(result, args.out, figures=not args.no_figures)
+    paths, notes = excite.write(result, args.out, figures=not args.no_figures, html=args.html)
     if args.json:
         print(strict_json({**result.to_dict(), "files": [str(p) for p in paths], "notes": notes}))
         return 0
