@@ -580,19 +580,22 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     except export.ExportError as error:
         print(f"error: --out: {error}", file=sys.stderr)
         return 2
+    _check_html(args)
     from symbolic import fleet
     from symbolic.fleet.report import summary
 
     campaign = fleet.load(args.campaign)
     outcome = fleet.run(campaign, args.out, scheduler=args.scheduler, workers=args.workers,
-                        connect_timeout=args.connect_timeout)
+                        connect_timeout=args.connect_timeout, html=args.html)
     if args.json:
         print(strict_json(outcome.to_dict()))
         return 0
     for line in summary(outcome):
         print(line)
-    print(f"wrote {Path(args.out) / 'results.csv'}, {Path(args.out) / 'report.md'} and "
-          f"{len(outcome.files) - 2} figure(s)")
+    pages = [f for f in outcome.files if f.suffix == ".html"]
+    print(f"wrote {Path(args.out) / 'results.csv'}, {Path(args.out) / 'report.md'}"
+          + (f", {len(pages)} HTML page(s) ({Path(args.out) / 'report.html'} and one per robot)" if pages else "")
+          + f" and {len(outcome.files) - 2 - len(pages)} figure(s)")
     for note in outcome.notes:
         print(note)
     return 0
