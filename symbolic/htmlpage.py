@@ -7,7 +7,8 @@ before their work, so a missing plotly costs nothing.
 * **One source.** A page is built from the dictionary the command prints with ``--json`` (the object
   report.md is written from), never from numbers computed again. That dictionary is embedded whole
   (``<script type="application/json" id="symbolic-result">``, shown in the page's last section) less the
-  keys that describe the run rather than the result (:data:`VOLATILE`: run times, cache counts); every
+  keys that describe the run rather than the result (:data:`VOLATILE`: run times, cache counts), its keys
+  sorted (a result read back from a cache comes with its keys in another order); every
   number a table shows is a :class:`Cell` carrying its JSON path and exact value
   (``data-path='["gap_before","estimation"]' data-value="12.5"``), so a test parses the page and compares
   each with ``--json``. The figures draw the result's signals (measured, simulated, residuals), which the
@@ -244,7 +245,7 @@ class Page:
 
             script = ("<script type=\"text/javascript\">window.PlotlyConfig = {MathJaxConfig: 'local'};</script>\n"
                       f"<script type=\"text/javascript\">{get_plotlyjs()}</script>\n")
-        data = json.dumps(self.result, indent=1, ensure_ascii=False, allow_nan=False).replace("</", "<\\/")
+        data = json.dumps(self.result, indent=1, ensure_ascii=False, allow_nan=False, sort_keys=True).replace("</", "<\\/")
         return (
             "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
             f"<meta http-equiv=\"Content-Security-Policy\" content=\"{CSP}\">\n"
