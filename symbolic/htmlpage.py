@@ -48,6 +48,8 @@ VOLATILE = frozenset({"timings", "seconds", "cpu_seconds", "computed", "cached",
 describe the run, not the result, and would make two runs' pages differ."""
 SIGNIFICANT = 6
 RESULT_ID = "symbolic-result"
+REPORT = "report.html"
+"""The page's name in an output folder (beside report.md)."""
 CSP = ("default-src 'none'; script-src 'unsafe-inline' 'unsafe-eval'; style-src 'unsafe-inline'; "
        "img-src data:; font-src data:")
 STYLE = """
@@ -270,20 +272,13 @@ def _cell(c: Any) -> str:
     return f"<td>{html.escape('' if c is None else str(c))}</td>"
 
 
-def welch(r: Any, rate: float) -> tuple[np.ndarray, np.ndarray]:
-    """Welch power spectral density of ``r`` (segments of up to 256 samples, as the diagnosis's spectra)."""
-    import scipy.signal
 
-    r = np.asarray(r, dtype=float)
-    segment = int(min(256, max(16, len(r) // 4)))
-    return scipy.signal.welch(r, fs=rate, nperseg=min(segment, len(r)), detrend="constant")
-
-
-def spectrum_traces(residuals: Mapping[str, Any], rate: float) -> list[dict[str, Any]]:
-    """One line per named residual: its Welch PSD where positive (a log axis has no zero)."""
+def spectrum_traces(spectra: Mapping[str, tuple[Any, Any]]) -> list[dict[str, Any]]:
+    """One line per named ``(frequency, psd)`` (:func:`symbolic.data.filters.spectrum`), where the PSD is positive
+    (a log axis has no zero)."""
     out = []
-    for name, r in residuals.items():
-        f, psd = welch(r, rate)
+    for name, (f, psd) in spectra.items():
+        f, psd = np.asarray(f, dtype=float), np.asarray(psd, dtype=float)
         shown = psd > 0
         out.append(line(f[shown], psd[shown], name if shown.any() else f"{name}: zero residual (nothing to draw)"))
     return out

@@ -22,7 +22,7 @@ from symbolic.fleet.events import describe
 from symbolic.htmlpage import Page, line, number, points
 from symbolic.writing import safe_stem
 
-NAME = "report.html"
+NAME = htmlpage.REPORT
 
 
 def page_name(robot: str) -> str:

@@ -18,7 +18,7 @@ from symbolic import htmlpage
 from symbolic.description.units import coordinate_units
 from symbolic.htmlpage import Page, bars, line, number
 
-NAME = "report.html"
+NAME = htmlpage.REPORT
 CRITERIA = {"d": "D-optimality, −log det M", "a": "A-optimality, log tr M⁻¹", "condition": "log cond"}
 
 

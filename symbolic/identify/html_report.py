@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from symbolic import htmlpage
+from symbolic.data.filters import spectrum
 from symbolic.description.units import coordinate_units
 from symbolic.htmlpage import Page, line, number, points
 
@@ -81,5 +82,5 @@ def _figures(page: Page, result: Any) -> None:
                     page.figure(f"Residual against the {signal} of {c} ({what})",
                                 [points(values[:, j], residual, "measured − predicted")],
                                 x=u.label(signal, f"{signal} of {c}"), y=u.label("force", "residual"), height=360)
-            page.figure(f"Residual spectrum on {c} (Welch, {what})", htmlpage.spectrum_traces({"residual": residual}, rate),
+            page.figure(f"Residual spectrum on {c} (Welch, {what})", htmlpage.spectrum_traces({"residual": spectrum(residual, rate)}),
                         x="frequency (Hz)", y="PSD of the residual" + (f" (({u.force})²/Hz)" if u.force else ""), log_y=True)

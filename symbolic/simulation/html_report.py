@@ -15,11 +15,12 @@ from typing import Any
 import numpy as np
 
 from symbolic import htmlpage
+from symbolic.data.filters import spectrum
 from symbolic.description.units import CoordinateUnits, units_for
 from symbolic.htmlpage import Page, band, line, number, points
 from symbolic.simulation.comparison import SIGNALS, Comparison
 
-NAME = "report.html"
+NAME = htmlpage.REPORT
 
 
 def render(comparison: Comparison, document: Mapping[str, Any], title: str = "",
@@ -76,6 +77,6 @@ def render(comparison: Comparison, document: Mapping[str, Any], title: str = "",
                                                             "the model's error shows in the acceleration.")
         differences = {f"{s} difference": comparison.measured[s][kept, j] - comparison.simulated[s][kept, j]
                        for s in ("position", shown)}
-        page.figure(f"Spectra of the differences on {c} (Welch)", htmlpage.spectrum_traces(differences, rate),
+        page.figure(f"Spectra of the differences on {c} (Welch)", htmlpage.spectrum_traces({k: spectrum(v, rate) for k, v in differences.items()}),
                     x="frequency (Hz)", y="PSD ((unit)²/Hz)", log_y=True, height=360)
     return page.render()

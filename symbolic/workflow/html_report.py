@@ -20,9 +20,9 @@ from symbolic import htmlpage
 from symbolic.description.units import coordinate_units
 from symbolic.htmlpage import Page, line, number, points
 from symbolic.workflow.result import Diagnosis
-from symbolic.workflow.where import spectrum
+from symbolic.data.filters import spectrum
 
-NAME = "report.html"
+NAME = htmlpage.REPORT
 BEFORE, AFTER = "nominal model (re-identified)", "patched model"
 
 
@@ -102,11 +102,7 @@ def _figures(page: Page, d: Diagnosis) -> None:
             page.figure(f"Residual on {c} against its {signal}",
                         [points(values[:, j], before[:, j], BEFORE), points(values[:, j], after[:, j], AFTER)],
                         x=u.label(signal, f"{signal} of {c}"), y=residual, height=380)
-        traces = []
-        for name, res in ((BEFORE, before[:, j]), (AFTER, after[:, j])):
-            f, psd = spectrum(res, rate)
-            shown = psd > 0
-            traces.append(line(f[shown], psd[shown], name if shown.any() else f"{name}: zero residual (nothing to draw)"))
+        traces = htmlpage.spectrum_traces({BEFORE: spectrum(before[:, j], rate), AFTER: spectrum(after[:, j], rate)})
         peaks = [p["frequency_hz"] for p in d.where_before["coordinates"][c]["spectrum"]["peaks"]]
         page.figure(f"Residual spectrum on {c} (Welch)", traces, x="frequency (Hz)",
                     y="PSD of the residual" + (f" (({u.force})²/Hz)" if u.force else ""), log_y=True, height=380,
