@@ -101,17 +101,21 @@ class Cell:
     text: str
     path: tuple[str | int, ...]
     value: float | int | None
+    scale: float = 1.0
+    """The text shows ``value × scale`` (100: a fraction shown in %)."""
 
 
-def number(result: Mapping[str, Any], *path: str | int, digits: int = 4, unit: str = "", signed: bool = False) -> Cell:
-    """The number at ``path`` of ``result`` as a :class:`Cell` (``digits`` significant; ``—`` for ``None``)."""
+def number(result: Mapping[str, Any], *path: str | int, digits: int = 4, unit: str = "", signed: bool = False,
+           scale: float = 1.0) -> Cell:
+    """The number at ``path`` of ``result`` as a :class:`Cell` (``digits`` significant; ``—`` for ``None``);
+    ``scale``: the text shows the value times it (100 with ``unit="%"``: a fraction in percent)."""
     value = lookup(result, path)
     if value is None:
-        return Cell("—", tuple(path), None)
+        return Cell("—", tuple(path), None, scale)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise TypeError(f"{list(path)} is not a number: {value!r}")
-    text = f"{value:{'+' if signed else ''}.{digits}g}" + (f" {unit}" if unit else "")
-    return Cell(text, tuple(path), value)
+    text = f"{value * scale:{'+' if signed else ''}.{digits}g}" + (f" {unit}" if unit else "")
+    return Cell(text, tuple(path), value, scale)
 
 
 def rounded(values: Any) -> list[float | None]:
@@ -214,9 +218,10 @@ class Page:
 
     def figure(self, title: str, traces: Sequence[Mapping[str, Any]], *, x: str, y: str, log_y: bool = False,
                height: int = 420, shapes: Sequence[Mapping[str, Any]] = (), caption: str = "",
-               categories: bool = False) -> None:
+               categories: bool = False, y2: str | None = None) -> None:
         """An interactive figure (zoom, pan, hover), drawn from ``traces`` (:func:`line`, :func:`points`,
-        :func:`bars`); the caption says how long signals were reduced."""
+        :func:`bars`); the caption says how long signals were reduced. ``y2``: the title of a second y axis, on
+        the right, for the traces with ``"yaxis": "y2"`` (a difference much smaller than the signals)."""
         import plotly.graph_objects as go
 
         self.figures += 1
@@ -233,6 +238,9 @@ class Page:
                   "xaxis": {"title": {"text": html.escape(x)}, **({"type": "category"} if categories else {})},
                   "yaxis": {"title": {"text": html.escape(y)}, **({"type": "log"} if log_y else {})},
                   "legend": {"orientation": "h", "y": -0.2}, "hovermode": "closest", "shapes": list(shapes)}
+        if y2 is not None:
+            layout["yaxis2"] = {"title": {"text": html.escape(y2)}, "overlaying": "y", "side": "right", "showgrid": False}
+            layout["margin"]["r"] = 70
         figure = go.Figure(data=data, layout=layout)
         div = figure.to_html(full_html=False, include_plotlyjs=False, div_id=f"figure-{self.figures}",
                              config={"displaylogo": False, "responsive": True}, default_height=f"{height}px")
@@ -268,7 +276,8 @@ def _cell(c: Any) -> str:
     if isinstance(c, Cell):
         value = "null" if c.value is None else repr(c.value)
         path = html.escape(json.dumps(list(c.path), ensure_ascii=False), quote=True)
-        return f'<td class="n" data-path="{path}" data-value="{value}">{html.escape(c.text)}</td>'
+        scale = "" if c.scale == 1.0 else f' data-scale="{c.scale!r}"'
+        return f'<td class="n" data-path="{path}" data-value="{value}"{scale}>{html.escape(c.text)}</td>'
     return f"<td>{html.escape('' if c is None else str(c))}</td>"
 
 

@@ -109,10 +109,10 @@ class Cells(HTMLParser):
 
     def __init__(self) -> None:
         super().__init__()
-        self.cells: list[tuple[list, object, str]] = []
+        self.cells: list[tuple[list, object, float, str]] = []
         self.links: list[str] = []
         self.embedded = ""
-        self._cell: tuple[list, object] | None = None
+        self._cell: tuple[list, object, float] | None = None
         self._text: list[str] = []
         self._json = False
 
@@ -120,7 +120,8 @@ class Cells(HTMLParser):
         a = dict(attrs)
         self.links += [a[k] for k in ("src", "href") if a.get(k) is not None]
         if tag == "td" and "data-path" in a:
-            self._cell, self._text = (json.loads(a["data-path"]), json.loads(a["data-value"])), []
+            self._cell, self._text = (json.loads(a["data-path"]), json.loads(a["data-value"]),
+                                      float(a.get("data-scale", 1.0))), []
         self._json = tag == "script" and a.get("id") == htmlpage.RESULT_ID
 
     def handle_data(self, data: str) -> None:
@@ -179,7 +180,7 @@ def test_the_numbers_are_the_json_s(name: str, reports) -> None:
             expected = htmlpage.stable(printed)
             assert {k: v for k, v in embedded.items() if k != "rows"} == expected
         assert cells.cells, page
-        for path, value, text in cells.cells:
+        for path, value, scale, text in cells.cells:
             assert htmlpage.lookup(embedded, path) == value, (page.name, path)
             if path[0] == "rows":
                 assert value == pytest.approx(csv_value(rows, embedded["rows"][path[1]], path[2:]), rel=0, abs=0), path
@@ -188,7 +189,8 @@ def test_the_numbers_are_the_json_s(name: str, reports) -> None:
             else:  # a robot's page: its drifts and outliers are the campaign's
                 assert embedded[path[0]][path[1]] in htmlpage.stable(printed)[path[0]], (page.name, path)
             shown = re.sub(r"[^0-9eE.+−-]", "", text.split(" ")[0]).replace("−", "-")
-            assert value is None and text == "—" or float(shown) == pytest.approx(value, rel=1e-2, abs=1e-12), (path, text)
+            assert value is None and text == "—" or float(shown) == pytest.approx(value * scale, rel=1e-2, abs=1e-12), \
+                (path, text)
             checked += 1
     assert checked >= 10
 
@@ -196,14 +198,14 @@ def test_the_numbers_are_the_json_s(name: str, reports) -> None:
 def test_the_tables_hold_the_named_quantities(reports) -> None:
     """The gap table, the named effects and the parameters with σ are where a reader looks for them."""
     _, diagnosis = reports["diagnose"]
-    cells = {tuple(p): v for p, v, _ in parse(reports["diagnose"][0] / "report.html").cells}
+    cells = {tuple(p): v for p, v, _, _ in parse(reports["diagnose"][0] / "report.html").cells}
     assert ("gap_before", "estimation") in cells and ("gap_after", "validation") in cells
     assert diagnosis["found"], "the synthetic log's Coulomb friction is found"
     for k, f in enumerate(diagnosis["found"]):
         for role in f["parameters"]:
             assert ("found", k, "parameters", role) in cells and ("found", k, "evidence", "sigma", role) in cells
     _, identified = reports["identify"]
-    cells = {tuple(p) for p, _, _ in parse(reports["identify"][0] / "report.html").cells}
+    cells = {tuple(p) for p, _, _, _ in parse(reports["identify"][0] / "report.html").cells}
     for name in identified["parameters"]:
         assert {("parameters", name, "value"), ("parameters", name, "sigma")} <= cells
 

@@ -96,7 +96,7 @@ def _drift(page: Page, r: Mapping[str, Any], index: list[int]) -> None:
         return
     page.table(["robot", "parameter", "kind", "relative change", "change", "level before", "p-value", "logs"],
                [[r["drift"][k]["robot"], r["drift"][k]["parameter"], r["drift"][k]["kind"],
-                 number(r, "drift", k, "relative_change", digits=3, signed=True), number(r, "drift", k, "change", digits=4),
+                 number(r, "drift", k, "relative_change", digits=3, signed=True, scale=100, unit="%"), number(r, "drift", k, "change", digits=4),
                  number(r, "drift", k, "level_before", digits=5), number(r, "drift", k, "p_value", digits=2),
                  number(r, "drift", k, "logs")] for k in index])
 
@@ -109,7 +109,7 @@ def _outliers(page: Page, r: Mapping[str, Any], index: list[int]) -> None:
     page.table(["robot", "parameter", "level", "σ", "siblings' mean", "relative difference", "p-value"],
                [[r["outliers"][k]["robot"], r["outliers"][k]["parameter"], number(r, "outliers", k, "level", digits=5),
                  number(r, "outliers", k, "sigma", digits=2), number(r, "outliers", k, "siblings_mean", digits=5),
-                 number(r, "outliers", k, "relative_difference", digits=3, signed=True),
+                 number(r, "outliers", k, "relative_difference", digits=3, signed=True, scale=100, unit="%"),
                  number(r, "outliers", k, "p_value", digits=2)] for k in index])
 
 

@@ -75,8 +75,9 @@ def _figures(page: Page, result: Any) -> None:
             page.figure(f"Measured and predicted τ on {c} ({what})",
                         [line(obs.t, obs.tau[:, j], f"measured τ_{c}"),
                          line(obs.t, predicted[:, j], f"predicted τ_{c} (W·β̂)", dash="dash"),
-                         line(obs.t, residual, "residual: measured − predicted", width=0.8, color="black")],
-                        x="t (s)", y=u.label("force", f"generalized force on {c}"))
+                         {**line(obs.t, residual, "residual: measured − predicted (right axis)", width=0.8,
+                                 color="black"), "yaxis": "y2"}],
+                        x="t (s)", y=u.label("force", f"generalized force on {c}"), y2=u.label("force", "residual"))
             if obs.qd is not None:
                 for signal, values in (("velocity", obs.qd), ("position", obs.q)):
                     page.figure(f"Residual against the {signal} of {c} ({what})",

@@ -60,8 +60,9 @@ def render(comparison: Comparison, document: Mapping[str, Any], title: str = "",
             worst = r["worst_window"][c][s]
             page.figure(f"{s} of {c}: measured and simulated", [
                 line(t, measured, "measured"), line(t, simulated, "simulated", dash="dash"),
-                line(t, measured - simulated, "measured − simulated", width=0.8, color="black")],
-                x="t (s)", y=u.label(s, f"{s} of {c}"), height=360,
+                {**line(t, measured - simulated, "measured − simulated (right axis)", width=0.8, color="black"),
+                 "yaxis": "y2"}],
+                x="t (s)", y=u.label(s, f"{s} of {c}"), y2=u.label(s, "measured − simulated"), height=360,
                 shapes=[*border, band(worst["start"], worst["stop"], "worst window")],
                 caption=f"Shaded red: the worst {r['window']:g} s window; grey: the border not compared.")
         # in a loop the force differs; replayed open loop (no [controller]) it is the log's, and the model's error

@@ -71,7 +71,7 @@ def render(d: Diagnosis, document: Mapping[str, Any] | None = None) -> str:
                      "removed" if c["status"] == "removed" else number(r, "parameter_changes", k, "value", digits=6),
                      number(r, "parameter_changes", k, "sigma", digits=3) if c.get("sigma") is not None else "—",
                      "—" if c.get("relative_change") is None else
-                     number(r, "parameter_changes", k, "relative_change", digits=3, signed=True),
+                     number(r, "parameter_changes", k, "relative_change", digits=3, signed=True, scale=100, unit="%"),
                      c["status"] + (" (correction)" if c.get("correction") else "")] for k, c in enumerate(changes)])
     if r["corrections"]:
         page.items(c["summary"] for c in r["corrections"])
