@@ -721,7 +721,7 @@ def parser() -> argparse.ArgumentParser:
                    "model file cannot hold, e.g. a negative mass, is not written and the reason is printed; "
                    "FILE.urdf: as URDF; FILE.xml: as MuJoCo's MJCF)")
     i.add_argument("--figures", metavar="DIR", help="PNG figures: measured vs predicted force and the residual per coordinate")
-    i.add_argument("--html", metavar="FILE.html", help="one self-contained HTML report: the tables above and interactive "
+    i.add_argument("--html", metavar="FILE.html", help="one self-contained HTML report: the fit, the parameters with σ and interactive "
                    "figures (needs plotly: pip install 'symbolic[html]')")
     i.add_argument("--json", action="store_true", help="machine-readable result")
     i.set_defaults(func=cmd_identify)

@@ -31,8 +31,8 @@ def render(d: Diagnosis, document: Mapping[str, Any] | None = None) -> str:
     htmlpage.require()
     page = Page(f"Diagnosis: {d.model.name}", document if document is not None else d.to_dict(), "symbolic diagnose")
     r = page.result
-    page.paragraph(f"Gaps ‖τ − τ_model‖/‖τ‖ in %, on the {r['path']} path ({r['gap_detail']['signals']}); held-out "
-                   f"data: {r['held_out']}.")
+    page.paragraph(f"Gaps ‖x − x_model‖/‖x‖ in %, on the {r['path']} path; signals compared: {r['gap_detail']['signals']}"
+                   f"; held-out data: {r['held_out']}.")
     page.heading("The gap")
     page.table(["data", "before (nominal model, re-identified)", "after (patched model)"],
                [[role, number(r, "gap_before", role, unit="%"), number(r, "gap_after", role, unit="%")]
@@ -40,10 +40,11 @@ def render(d: Diagnosis, document: Mapping[str, Any] | None = None) -> str:
     detail = r["gap_detail"]
     rows = []
     for role in detail["before"]:
-        for c in detail["before"][role]["force"]:
-            rows.append([c, role, number(r, "gap_detail", "before", role, "force", c, unit="%"),
-                         number(r, "gap_detail", "after", role, "force", c, unit="%")])
-    page.table(["coordinate", "data", "force gap before", "after"], rows)
+        for signal in ("force", "position", "velocity"):  # position and velocity on the simulated path only
+            for c in detail["before"][role].get(signal) or {}:
+                rows.append([c, role, signal, number(r, "gap_detail", "before", role, signal, c, unit="%"),
+                             number(r, "gap_detail", "after", role, signal, c, unit="%")])
+    page.table(["coordinate", "data", "signal", "gap before", "after"], rows)
     verdict = r["verdict"]
     page.paragraph(f"Verdict before: {verdict['before']}; after: {verdict['after']}.")
     page.heading("Effects found")
