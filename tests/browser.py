@@ -4,7 +4,9 @@
 errors and warnings, uncaught errors and rejected promises, Content-Security-Policy violations, and after load
 every resource the page requested and, per plotly figure, its drawn ``svg.main-svg`` and traces) with
 ``chromium --headless --dump-dom`` and returns what the recorder wrote into the dumped DOM. The page's own
-Content-Security-Policy (``default-src 'none'``) makes any request outside the file a violation, recorded.
+Content-Security-Policy (``default-src 'none'``) makes any request outside the file a violation, recorded; the
+browser runs without network besides (no host resolves, every connection goes to a closed proxy port), so a page
+that needed one would miss it.
 Tests skip, saying how to install it, where no Chromium is found.
 """
 
@@ -59,7 +61,8 @@ def _run(arguments: list[str], timeout: float = 90) -> subprocess.CompletedProce
     home = Path(os.environ.get("TMPDIR", "/tmp"))
     command = [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--no-default-browser-check",
                "--disable-extensions", "--disable-background-networking", "--disable-sync", "--mute-audio",
-               "--hide-scrollbars", *arguments]
+               "--hide-scrollbars", "--host-resolver-rules=MAP * ~NOTFOUND", "--proxy-server=127.0.0.1:9",
+               "--proxy-bypass-list=<-loopback>", *arguments]  # no network: every host unknown, every request refused
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout, env={**os.environ, "HOME": str(home)})
 
 

@@ -285,3 +285,21 @@ def test_chromium_draws_every_figure_without_error_or_request(name: str, reports
         assert expected and len(seen["figures"]) == expected, page.name
         for figure in seen["figures"]:
             assert figure["svg"] >= 1 and figure["traces"] >= 1 and figure["height"] > 100, (page.name, figure)
+
+
+def test_the_browser_check_sees_an_error_and_a_request(tmp_path: Path) -> None:
+    """The check itself: a page that logs an error, throws, and asks for a script elsewhere is caught."""
+    browser.chromium()
+    page = tmp_path / "bad.html"
+    page.write_text("<!DOCTYPE html><html><head><meta charset=\"utf-8\">"
+                    f"<meta http-equiv=\"Content-Security-Policy\" content=\"{htmlpage.CSP}\"></head><body>"
+                    "<div class=\"plotly-graph-div\" id=\"figure-1\"></div>"
+                    "<script src=\"https://example.com/plotly.js\"></script>"
+                    "<script>console.error('drawn badly'); undefinedFunction();</script></body></html>")
+    seen = browser.check(page, tmp_path)
+    text = "\n".join(seen["log"])
+    assert "console.error: drawn badly" in text and "undefinedFunction" in text, text
+    assert "csp: script-src-elem https://example.com/plotly.js" in text, text  # the page's policy refused it
+    assert seen["resources"] == ["https://example.com/plotly.js"]  # and the recorder saw it asked for
+    assert seen["figures"] == [{"id": "figure-1", "svg": 0, "traces": 0, "points": 0, "width": seen["figures"][0]["width"],
+                                "height": 0}]
