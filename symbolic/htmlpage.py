@@ -50,7 +50,7 @@ SIGNIFICANT = 6
 RESULT_ID = "symbolic-result"
 REPORT = "report.html"
 """The page's name in an output folder (beside report.md)."""
-CSP = ("default-src 'none'; script-src 'unsafe-inline' 'unsafe-eval'; style-src 'unsafe-inline'; "
+CSP = ("default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
        "img-src data:; font-src data:")
 STYLE = """
 body { font-family: system-ui, sans-serif; margin: 1.5em auto; max-width: 1100px; padding: 0 1em; color: #222; }
