@@ -253,6 +253,8 @@ def _check_targets(args: argparse.Namespace) -> None:
     if getattr(args, "html", None) is not None:
         if not str(args.html).strip() or Path(args.html).is_dir():
             raise ExportError(f"--html {args.html!r}: name the HTML file to write (e.g. --html report.html)")
+        if not Path(args.html).resolve().parent.is_dir():
+            raise ExportError(f"--html {args.html!r}: its folder {Path(args.html).parent} does not exist")
         _check_html(args)
 
 

@@ -303,3 +303,10 @@ def test_the_browser_check_sees_an_error_and_a_request(tmp_path: Path) -> None:
     assert seen["resources"] == ["https://example.com/plotly.js"]  # and the recorder saw it asked for
     assert seen["figures"] == [{"id": "figure-1", "svg": 0, "traces": 0, "points": 0, "width": seen["figures"][0]["width"],
                                 "height": 0}]
+
+
+def test_identify_html_names_a_file_in_an_existing_folder(inputs: Path, tmp_path: Path, capsys) -> None:
+    """Checked before the work: a folder, or a file in a folder that does not exist, is one line, exit 2."""
+    for target, says in ((tmp_path, "name the HTML file"), (tmp_path / "missing" / "r.html", "does not exist")):
+        assert cli.main(["-q", "identify", str(inputs / "cart.toml"), str(inputs / "nothing.csv"), "--html", str(target)]) == 2
+        assert says in capsys.readouterr().err
