@@ -250,6 +250,12 @@ def _check_targets(args: argparse.Namespace) -> None:
         out = Path(args.out)
         if not str(args.out).strip() or out.is_dir():
             raise ExportError(f"--out {args.out!r}: name the model file to write (e.g. --out identified.toml)")
+    if getattr(args, "html", None) is not None:
+        if not str(args.html).strip() or Path(args.html).is_dir():
+            raise ExportError(f"--html {args.html!r}: name the HTML file to write (e.g. --html report.html)")
+        if not Path(args.html).resolve().parent.is_dir():
+            raise ExportError(f"--html {args.html!r}: its folder {Path(args.html).parent} does not exist")
+        _check_html(args)
 
 
 def _identify_output_error(args: argparse.Namespace, model) -> int:
@@ -258,9 +264,9 @@ def _identify_output_error(args: argparse.Namespace, model) -> int:
     from symbolic.description.modelfile import with_loadable_values
     from symbolic.identify.output_error import output_error
 
-    if args.figures or args.validate or args.out and Path(args.out).suffix.lower() in (".urdf", ".xml"):
-        raise ModelError(args.model, "--method didim", "--figures, --validate and a URDF or MJCF --out are not available "
-                                                       "with the output error yet (allowed: --out FILE.toml, --json)")
+    if args.figures or args.validate or args.html or args.out and Path(args.out).suffix.lower() in (".urdf", ".xml"):
+        raise ModelError(args.model, "--method didim", "--figures, --validate, --html and a URDF or MJCF --out are not "
+                                                       "available with the output error yet (allowed: --out FILE.toml, --json)")
     fit = output_error(model, args.data, experiment=args.experiment, signals=args.signals,
                        weights=(args.force_weight, args.position_weight), fix=fix_names(args.fix),
                        consistent=args.consistent, max_iterations=args.max_iterations)
@@ -321,11 +327,16 @@ def cmd_identify(args: argparse.Namespace) -> int:
             figures = [str(path) for path in result.figures(args.figures)]
         except MatplotlibMissing as missing:
             print(f"warning: {missing}", file=sys.stderr)
+    out = result.to_dict()
+    out["patched_model"] = args.out
+    out["kept"] = kept
+    out["figures"] = figures
+    if args.html:  # the page is built from the dictionary --json prints (symbolic.htmlpage, "One source")
+        from symbolic.identify.html_report import render
+
+        write_text_atomically(Path(args.html), render(result, out, data=Path(args.data).name))
+        figures.append(str(args.html))
     if args.json:
-        out = result.to_dict()
-        out["patched_model"] = args.out
-        out["kept"] = kept
-        out["figures"] = figures
         print(strict_json(out))
     else:
         print(result.table())
@@ -349,6 +360,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     except export.ExportError as error:
         print(f"error: --out: {error}", file=sys.stderr)
         return 2
+    if args.html and not args.out:
+        print("error: --html: name the folder of the report with --out DIR (report.html is written there)", file=sys.stderr)
+        return 2
+    _check_html(args)
     model = derive(resolve(args.model, args))
     measurements = data.load(args.experiment, model=model.robot)
     simulation = simulate(model, measurements, method=args.method, substeps=args.substeps,
@@ -363,8 +378,17 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                           units=coordinate_units(model.robot))
         except MatplotlibMissing as missing:
             notes.append(str(missing))
+    document = {**simulation.to_dict(comparison), "files": [str(f) for f in files], "notes": notes}
+    if args.html:  # the page is built from the dictionary --json prints (symbolic.htmlpage, "One source")
+        from symbolic.simulation.html_report import NAME, render
+
+        page = Path(args.out) / NAME
+        write_text_atomically(page, render(comparison, document, f"{model.robot.name}, {Path(args.experiment).name}",
+                                           coordinate_units(model.robot), notes))
+        files.append(page)
+        document["files"].append(str(page))
     if args.json:
-        print(strict_json({**simulation.to_dict(comparison), "files": [str(f) for f in files], "notes": notes}))
+        print(strict_json(document))
         return 0
     print(simulation.summary())
     print(comparison.summary())
@@ -384,6 +408,7 @@ def cmd_excite(args: argparse.Namespace) -> int:
     except export.ExportError as error:
         print(f"error: --out: {error}", file=sys.stderr)
         return 2
+    _check_html(args)
     model = derive(resolve(args.model, args))
     names = model.robot.generalized_coordinates
     limits = {kind: excite.option_values(kind, getattr(args, kind), names)
@@ -393,7 +418,7 @@ def cmd_excite(args: argparse.Namespace) -> int:
     result = excite.excite(model, declared, args.duration, limits=limits, noise=noise, rate=args.rate,
                            harmonics=args.harmonics, criterion=args.criterion, starts=args.starts, seed=args.seed,
                            compare=args.compare)
-    paths, notes = excite.write(result, args.out, figures=not args.no_figures)
+    paths, notes = excite.write(result, args.out, figures=not args.no_figures, html=args.html)
     if args.json:
         print(strict_json({**result.to_dict(), "files": [str(p) for p in paths], "notes": notes}))
         return 0
@@ -435,17 +460,21 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from symbolic import export
 
     export.check_output_directory(args.out)  # before the analysis: a mistyped --out is reported at once
+    _check_html(args)
     model = derive(resolve(args.model, args))
     search = SearchSettings(groups=groups) if groups else None
     result = diagnose(model, args.data, experiment=args.experiment, validation=args.validate, out=args.out, effects=effects,
                       simulate=args.simulate or None, fix=fix_names(args.fix), search=search,
-                      response=args.response)
+                      response=args.response, html=args.html)
     if args.json:
         print(strict_json(result.to_dict()))
         return 0
     if getattr(result, "judged_on", None) == "response":  # coordinates the data do not measure
         for line in result.summary():
             print(line)
+        for note in result.notes:
+            if note.startswith("--html"):
+                print(f"note: {note}")
         if args.out:
             written = [str(Path(args.out) / "report.md")] + ([str(result.patched_path)] if result.patched_path else [])
             print(f"wrote {' and '.join(written)}")
@@ -488,7 +517,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
             print(f"the data: the logged force behaves as a command held over each sample; declared "
                   f"(held_force = true in [identification]) the held-out gap would be {g['held_force']:.4g} % "
                   f"instead of {g['as_logged']:.4g} % before any effect (report.md)")
-    print(f"wrote {args.out}/report.md" + (f" and {result.patched_path}" if result.patched_path else ""))
+    print(f"wrote {args.out}/report.md" + (f", {args.out}/report.html" if args.html else "")
+          + (f" and {result.patched_path}" if result.patched_path else ""))
     return 0
 
 
@@ -562,19 +592,22 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     except export.ExportError as error:
         print(f"error: --out: {error}", file=sys.stderr)
         return 2
+    _check_html(args)
     from symbolic import fleet
     from symbolic.fleet.report import summary
 
     campaign = fleet.load(args.campaign)
     outcome = fleet.run(campaign, args.out, scheduler=args.scheduler, workers=args.workers,
-                        connect_timeout=args.connect_timeout)
+                        connect_timeout=args.connect_timeout, html=args.html)
     if args.json:
         print(strict_json(outcome.to_dict()))
         return 0
     for line in summary(outcome):
         print(line)
-    print(f"wrote {Path(args.out) / 'results.csv'}, {Path(args.out) / 'report.md'} and "
-          f"{len(outcome.files) - 2} figure(s)")
+    pages = [f for f in outcome.files if f.suffix == ".html"]
+    print(f"wrote {Path(args.out) / 'results.csv'}, {Path(args.out) / 'report.md'}"
+          + (f", {len(pages)} HTML page(s) ({Path(args.out) / 'report.html'} and one per robot)" if pages else "")
+          + f" and {len(outcome.files) - 2 - len(pages)} figure(s)")
     for note in outcome.notes:
         print(note)
     return 0
@@ -635,6 +668,18 @@ def cmd_first_peak(args: argparse.Namespace) -> int:
     return 0
 
 
+HTML_HELP = ("also DIR/report.html: one self-contained page (tables and interactive figures; needs plotly: "
+             "pip install 'symbolic[html]')")
+
+
+def _check_html(args: argparse.Namespace) -> None:
+    """``--html``: plotly must be importable, checked before the work (the error names the install command)."""
+    if getattr(args, "html", None):
+        from symbolic.htmlpage import require
+
+        require()
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="symbolic", description=__doc__.splitlines()[0])
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
@@ -689,6 +734,8 @@ def parser() -> argparse.ArgumentParser:
                    "model file cannot hold, e.g. a negative mass, is not written and the reason is printed; "
                    "FILE.urdf: as URDF; FILE.xml: as MuJoCo's MJCF)")
     i.add_argument("--figures", metavar="DIR", help="PNG figures: measured vs predicted force and the residual per coordinate")
+    i.add_argument("--html", metavar="FILE.html", help="one self-contained HTML report: the fit, the parameters with σ and interactive "
+                   "figures (needs plotly: pip install 'symbolic[html]')")
     i.add_argument("--json", action="store_true", help="machine-readable result")
     i.set_defaults(func=cmd_identify)
     s = sub.add_parser("simulate", help="simulate a model against a measured log with the machine's controller")
@@ -696,6 +743,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("experiment", help="experiment file (.toml, with [controller]) or data file")
     s.add_argument("--out", help="folder for simulated.csv and the figures")
     s.add_argument("--json", action="store_true", help="model, settings and relative errors (%%) as JSON")
+    s.add_argument("--html", action="store_true", help="with --out: " + HTML_HELP)
     s.add_argument("--method", default="rk4", help="rk4 (fixed step, default) or a solve_ivp method: Radau, BDF, LSODA")
     s.add_argument("--substeps", type=int, help="RK4 sub-steps per sample (default: from the spectral radius)")
     s.add_argument("--friction-velocity", type=float, default=1e-4,
@@ -722,6 +770,7 @@ def parser() -> argparse.ArgumentParser:
                        f"{example}, or one value for every coordinate")
     e.add_argument("--rate", type=float, help="sample rate of the log to be recorded (Hz)")
     e.add_argument("--no-figures", action="store_true", help="write no PNG figures")
+    e.add_argument("--html", action="store_true", help=HTML_HELP)
     e.add_argument("--json", action="store_true", help="machine-readable result")
     e.set_defaults(func=cmd_excite)
     w = sub.add_parser("diagnose", help="find the effects the model misses in measured data and patch the model file",
@@ -747,6 +796,7 @@ def parser() -> argparse.ArgumentParser:
     w.add_argument("--group", metavar="NAME=C1,C2", action="append",
                    help="a named group of coordinates on which each effect is also tried as one grouped hypothesis "
                         "(besides every coordinate; repeatable)")
+    w.add_argument("--html", action="store_true", help=HTML_HELP)
     w.add_argument("--json", action="store_true", help="machine-readable result")
     w.set_defaults(func=cmd_diagnose)
     c = sub.add_parser("campaign", help="identify, diagnose or simulate every log of a fleet on Dask; drift, outliers, events")
@@ -761,6 +811,8 @@ def parser() -> argparse.ArgumentParser:
                    "processors; 0: one log at a time in this process, without Dask); with --scheduler, the workers "
                    "to wait for")
     c.add_argument("--json", action="store_true", help="machine-readable summary (errors, drift, outliers, events)")
+    c.add_argument("--html", action="store_true", help=HTML_HELP.replace("one self-contained page", "the campaign's page, "
+                   "linking one page per robot (robot_<id>.html)"))
     c.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS, help="no progress on stderr")
     c.set_defaults(func=cmd_campaign)
     r = sub.add_parser("reproduce", help="recompute every checkable number of the seed documents and compare")

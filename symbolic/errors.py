@@ -142,5 +142,9 @@ class MatplotlibMissing(SymbolicError, RuntimeError):
     """Figures were asked for and matplotlib is not installed (``pip install 'symbolic[plot]'``)."""
 
 
+class PlotlyMissing(SymbolicError, RuntimeError):
+    """An HTML report (``--html``) was asked for and plotly is not installed (``pip install 'symbolic[html]'``)."""
+
+
 class ModelWarning(UserWarning):
     """A model is usable but physically suspicious (e.g. an inertia violating the triangle inequality)."""

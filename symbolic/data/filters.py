@@ -59,6 +59,15 @@ def lowpass(x: np.ndarray, cutoff: float, rate: float, order: int = 4, axis: int
     return _filtfilt(_butterworth(order, cutoff / nyquist), np.asarray(x, dtype=float), 3 * order, axis)
 
 
+def spectrum(r: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray]:
+    """Welch power spectral density of ``r`` (segments of up to 256 samples): the residual spectra of the
+    diagnosis and of the HTML reports."""
+    import scipy.signal
+
+    segment = int(min(256, max(16, len(r) // 4)))
+    return scipy.signal.welch(r, fs=rate, nperseg=min(segment, len(r)), detrend="constant")
+
+
 def central_difference(x: np.ndarray, step: float, axis: int = 0) -> np.ndarray:
     """Derivative of ``x`` sampled every ``step`` seconds by central differences.
 

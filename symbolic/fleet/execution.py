@@ -125,16 +125,21 @@ def plan(campaign: Campaign, store: Store) -> tuple[list[dict[str, Any]], list[J
 
 
 def run(campaign: Campaign, out: str | os.PathLike, *, scheduler: str | None = None, workers: int | None = None,
-        figures: bool = True, connect_timeout: float = CONNECT_TIMEOUT) -> Outcome:
+        figures: bool = True, connect_timeout: float = CONNECT_TIMEOUT, html: bool = False) -> Outcome:
     """Run ``campaign`` and write its results into ``out`` (module docstring).
 
     Nothing is written before the cluster is reached: a scheduler address that is refused leaves ``out`` as
-    it was. ``connect_timeout`` bounds the wait for the scheduler at ``scheduler`` (s)."""
+    it was. ``connect_timeout`` bounds the wait for the scheduler at ``scheduler`` (s). ``html``: report.html and
+    a page per robot too (:mod:`symbolic.fleet.html_report`; needs plotly, checked before the work)."""
     from symbolic.export import write_files
     from symbolic.fleet import report
 
     if scheduler:
         scheduler = check_scheduler(scheduler)
+    if html:
+        from symbolic.htmlpage import require
+
+        require()
     store = Store(out)
     rows, jobs = plan(campaign, store)
     results: dict[str, dict[str, Any]] = {}
@@ -155,7 +160,7 @@ def run(campaign: Campaign, out: str | os.PathLike, *, scheduler: str | None = N
     models = {r.id: r.model_digest for r in campaign.robots}
     different = outliers(found_series, tested, models, campaign.analysis)
     outcome = Outcome(campaign, tuple(rows), tuple(tested), tuple(different), len(jobs) - cached, cached)
-    files, notes = report.render(outcome, figures=figures)
+    files, notes = report.render(outcome, figures=figures, html=html)
     files["results.csv"] = table(rows).encode("utf-8")
     written = write_files(files, out)
     return Outcome(campaign, tuple(rows), tuple(tested), tuple(different), outcome.computed, cached, tuple(written),

@@ -9,6 +9,7 @@ names relative to the campaign file), so the same campaign gives the same report
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import math
 from collections.abc import Mapping
@@ -91,8 +92,9 @@ def _labels(outcome) -> dict[str, dict[str, str]]:
     return {r.id: labels(r.robot) for r in outcome.campaign.robots}
 
 
-def render(outcome, figures: bool = True) -> tuple[dict[str, bytes], list[str]]:
-    """``report.md`` and the figures as bytes by file name, and notes (module docstring)."""
+def render(outcome, figures: bool = True, html: bool = False) -> tuple[dict[str, bytes], list[str]]:
+    """``report.md`` and the figures as bytes by file name, and notes (module docstring); ``html``: report.html and
+    a page per robot too (:mod:`symbolic.fleet.html_report`)."""
     pictures: dict[str, bytes] = {}
     notes: list[str] = []
     if figures:
@@ -100,7 +102,12 @@ def render(outcome, figures: bool = True) -> tuple[dict[str, bytes], list[str]]:
             pictures = draw(outcome)
         except MatplotlibMissing as missing:
             notes.append(str(missing))
-    return {"report.md": markdown(outcome, pictures, notes).encode("utf-8"), **pictures}, notes
+    pages: dict[str, bytes] = {}
+    if html:
+        from symbolic.fleet import html_report
+
+        pages = html_report.render(dataclasses.replace(outcome, notes=tuple(notes)))
+    return {"report.md": markdown(outcome, pictures, notes).encode("utf-8"), **pictures, **pages}, notes
 
 
 def figure_name(d: Drift) -> str:

@@ -163,8 +163,9 @@ def predict_log(model: DynamicModel, path: str | Path | Measurements, noise: Noi
 # -- the files -----------------------------------------------------------------------------------------------
 
 
-def output_files(result: Excitation, figures: bool = True) -> tuple[dict[str, bytes], list[str]]:
-    """{name: bytes} of the output folder, and notes (a figure skipped without matplotlib)."""
+def output_files(result: Excitation, figures: bool = True, html: bool = False) -> tuple[dict[str, bytes], list[str]]:
+    """{name: bytes} of the output folder, and notes (a figure skipped without matplotlib); ``html``: report.html
+    too (:mod:`symbolic.identify.excitation_html`, from the dictionary ``--json`` prints)."""
     out = {TRAJECTORY: trajectory_csv(result).encode(), EXPERIMENT: experiment_text(result).encode(),
            JSON: (json.dumps(_finite(result.to_dict()), indent=2, allow_nan=False) + "\n").encode()}
     notes: list[str] = []
@@ -178,6 +179,10 @@ def output_files(result: Excitation, figures: bool = True) -> tuple[dict[str, by
         except MatplotlibMissing as missing:
             notes.append(str(missing))
     out[REPORT] = report(result, drawn, notes).encode()
+    if html:
+        from symbolic.identify import excitation_html
+
+        out[excitation_html.NAME] = excitation_html.render(result, {**result.to_dict(), "notes": notes}).encode()
     return out, notes
 
 
@@ -333,11 +338,11 @@ def draw(result: Excitation) -> tuple[bytes, bytes]:
     return references, png_bytes(fig, dpi=90)
 
 
-def write(result: Excitation, out: str | Path, figures: bool = True) -> tuple[list[Path], list[str]]:
+def write(result: Excitation, out: str | Path, figures: bool = True, html: bool = False) -> tuple[list[Path], list[str]]:
     """Write the output folder as one set (docs/contracts.md, "Output folders"): paths and notes."""
     from symbolic.export import write_files
 
-    contents, notes = output_files(result, figures)
+    contents, notes = output_files(result, figures, html)
     return write_files(contents, out), notes
 
 

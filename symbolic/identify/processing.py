@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Callable
 import dataclasses
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -53,6 +53,9 @@ class Observation:
         The decimated regressor, ``samples × N × P``.
     processing
         The treatment applied.
+    q, qd
+        The treated positions and velocities at the kept samples (``samples × N``; for the figures of an HTML
+        report, ``None`` where not kept).
     """
 
     coordinates: tuple[str, ...]
@@ -60,6 +63,8 @@ class Observation:
     tau: np.ndarray
     regressor: np.ndarray
     processing: Processing
+    q: np.ndarray | None = field(default=None, repr=False)
+    qd: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def y(self) -> np.ndarray:
@@ -83,7 +88,8 @@ class Observation:
         keep = np.ones(len(self.t), dtype=bool)
         for start, stop in intervals:
             keep &= ~((self.t >= start) & (self.t <= stop))
-        return dataclasses.replace(self, t=self.t[keep], tau=self.tau[keep], regressor=self.regressor[keep])
+        return dataclasses.replace(self, t=self.t[keep], tau=self.tau[keep], regressor=self.regressor[keep],
+                                   q=None if self.q is None else self.q[keep], qd=None if self.qd is None else self.qd[keep])
 
 
 def observe(measurements: Measurements, regressor: RegressorFunction, parameters: int, settings: Settings | None = None) -> Observation:
@@ -113,4 +119,6 @@ def observe(measurements: Measurements, regressor: RegressorFunction, parameters
         tau=p.reduce(p.forces(measurements.tau)),
         regressor=p.reduce(Y),
         processing=p,
+        q=p.reduce(treated.q),
+        qd=p.reduce(treated.qd),
     )

@@ -77,6 +77,7 @@ def diagnose(
     figures: bool = True,
     fix: Sequence[str] = (),
     response: bool | None = None,
+    html: bool = False,
 ) -> Diagnosis | ResponseDiagnosis:
     """Find where ``model`` and ``data`` disagree, name the missing effects, patch the model file.
 
@@ -119,9 +120,15 @@ def diagnose(
         On the simulated path with the experiment's ``[controller]``: search the effects judged on the response
         too (:mod:`symbolic.workflow.response`); ``None`` (default): whenever ``simulate`` is ``True`` (the
         experiment's own loop, not a caller's simulator); ``False``: never (``diagnose --simulate --no-response``).
+    html
+        Write ``report.html`` into ``out`` too (:mod:`symbolic.workflow.html_report`; needs plotly, checked first).
     """
     clock, cpu = time.perf_counter(), _cpu_time()
     refused = response is False  # a model the data do not fully measure has nothing else to be judged on
+    if html:  # before the work: the error names the install command
+        from symbolic.htmlpage import require
+
+        require()
     if response is None:  # the response is the experiment's own loop's: not a caller's simulator
         response = simulate is True
     model = _derived(model)
@@ -135,8 +142,12 @@ def diagnose(
             raise
         # a coordinate the data do not measure (an elastic joint's link behind its motor encoder): only the
         # response can judge such a model (symbolic.workflow.unmeasured)
-        return diagnose_on_response(model, data, experiment=experiment, validation=validation, out=out,
-                                    search=search, effects=effects, figures=figures, fix=fix)
+        result = diagnose_on_response(model, data, experiment=experiment, validation=validation, out=out,
+                                      search=search, effects=effects, figures=figures, fix=fix)
+        if html:
+            result = dataclasses.replace(result, notes=(*result.notes, "--html: no HTML page is written for a "
+                                                        "diagnosis judged on the response alone yet (report.md is)"))
+        return result
     checked = patched_held_force(diagnosis, settings, search, fix)
     if checked is not None and checked["removed_share"] >= (search or SearchSettings()).min_gain:
         # the patched model's residual shows a held command: the whole diagnosis again on the force so treated,
@@ -154,7 +165,7 @@ def diagnose(
             _with_patched(f, checked) for f in diagnosis.data_findings))
     if out is not None:
         clock, cpu = time.perf_counter(), _cpu_time()
-        diagnosis = _write(diagnosis, Path(out), figures)
+        diagnosis = _write(diagnosis, Path(out), figures, html)
         diagnosis = dataclasses.replace(diagnosis, seconds={**diagnosis.seconds, "report": time.perf_counter() - clock},
                                         cpu_seconds={**diagnosis.cpu_seconds, "report": _cpu_time() - cpu})
     return diagnosis
@@ -849,8 +860,8 @@ def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Searc
     return Found(c.effect.identifier, c.coordinate, roles, sigmas, dict(parameters), evidence, c.effect.variant)
 
 
-def _write(diagnosis: Diagnosis, folder: Path, figures: bool) -> Diagnosis:
-    """Write the patched model, the figures and report.md into ``folder``, all or nothing."""
+def _write(diagnosis: Diagnosis, folder: Path, figures: bool, html: bool = False) -> Diagnosis:
+    """Write the patched model, the figures, report.md (and report.html) into ``folder``, all or nothing."""
 
     from symbolic.export import ExportError, write_files
 
@@ -865,6 +876,10 @@ def _write(diagnosis: Diagnosis, folder: Path, figures: bool) -> Diagnosis:
             notes.append(str(missing))
     diagnosis = dataclasses.replace(diagnosis, figures=tuple(folder / name for name in pictures), notes=tuple(notes))
     files = {"report.md": markdown(diagnosis).encode("utf-8"), **pictures}
+    if html:  # from the dictionary --json prints (symbolic.htmlpage, "One source")
+        from symbolic.workflow import html_report
+
+        files[html_report.NAME] = html_report.render(diagnosis, diagnosis.to_dict()).encode("utf-8")
     if diagnosis.patched_text is not None and diagnosis.patched_path is not None:
         files[diagnosis.patched_path.name] = diagnosis.patched_text.encode("utf-8")
     try:

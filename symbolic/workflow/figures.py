@@ -51,10 +51,27 @@ def figures(d: Diagnosis) -> dict[str, Any]:
         out[f"residual_{c}.png"] = _residual(Figure(figsize=(9, 6)), est, before[:, j], after[:, j], j, c, u)
         peaks = [p["frequency_hz"] for p in d.where_before["coordinates"][c]["spectrum"]["peaks"]]
         out[f"spectrum_{c}.png"] = _spectrum(Figure(figsize=(9, 4)), before[:, j], after[:, j], rate, peaks, c, u)
+    for k, effect in enumerate(effect_curves(d), start=1):
+        figure = Figure(figsize=(9, 4.5))
+        _effect(figure, d, effect["accepted"], effect["found"], effect["points"], effect["curve"], effect["refined"],
+                units[effect["coordinate"]])
+        out[f"effect_{k}_{effect['accepted'].effect.name}_{effect['coordinate']}.png"] = figure
+    for e in d.elasticity:
+        if e.named and e.deflection is not None:
+            out[f"transmission_{e.coordinate}.png"] = _transmission(Figure(figsize=(9, 4.5)), e, units[e.coordinate])
+    return out
+
+
+def effect_curves(d: Diagnosis) -> list[dict[str, Any]]:
+    """Per accepted effect (in the order found): ``accepted``, ``found``, ``coordinate``, ``axis``, ``x`` (the state
+    it is drawn against), ``points`` (final residual + the fitted term, and the model's refined term) and ``curve``
+    (the fitted law, or the treated term), ``refined`` (module docstring). The PNG and the HTML report draw these."""
+    est = d.sets["estimation"]
     design = d.search.final
     final = est.tau - design.predicted("estimation")
     finals = d.search.final_effects() if d.search.accepted else []
     start = len(d.search.terms.free_names)
+    out = []
     for k, (a, found) in enumerate(zip(d.search.accepted, d.found), start=1):
         width = a.columns["estimation"].shape[2]
         values = design.identification.values[start:start + width]
@@ -69,12 +86,10 @@ def figures(d: Diagnosis) -> dict[str, Any]:
             term = term + reference * est.reduce(column)[:, j]
             law = a.effect.reference_column(est.q, est.qd, est.qdd, j)
             curve = None if curve is None else curve + reference * law[:, j]
-        figure = Figure(figsize=(9, 4.5))
-        _effect(figure, d, a, found, final[:, j] + term, term if curve is None else curve, refined, units[c])
-        out[f"effect_{k}_{a.effect.name}_{c}.png"] = figure
-    for e in d.elasticity:
-        if e.named and e.deflection is not None:
-            out[f"transmission_{e.coordinate}.png"] = _transmission(Figure(figsize=(9, 4.5)), e, units[e.coordinate])
+        axis = a.effect.axis
+        x = np.asarray(est.t) if axis == "time" else {"position": est.q, "velocity": est.qd, "acceleration": est.qdd}[axis][:, j]
+        out.append({"accepted": a, "found": found, "coordinate": c, "axis": axis, "x": x, "points": final[:, j] + term,
+                    "curve": term if curve is None else curve, "refined": refined})
     return out
 
 

@@ -17,6 +17,7 @@ import numpy as np
 import scipy.signal
 import scipy.stats
 
+from symbolic.data.filters import spectrum  # noqa: F401  (here since the search and the figures import it from here)
 from symbolic.workflow.dataset import DataSet
 from symbolic.workflow.statistics import ALPHA, autocorrelation_time, ljung_box
 
@@ -46,12 +47,6 @@ def _binned(state: np.ndarray, r: np.ndarray, tau: float) -> dict[str, Any]:
     else:
         p = float(scipy.stats.f.sf((eta / (groups - 1)) / ((1 - eta) / dof), groups - 1, dof))
     return {"edges": edges.tolist(), "means": means.tolist(), "eta_squared": eta, "p_value": p}
-
-
-def spectrum(r: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray]:
-    """Welch power spectral density of ``r`` (segments of up to 256 samples)."""
-    segment = int(min(256, max(16, len(r) // 4)))
-    return scipy.signal.welch(r, fs=rate, nperseg=min(segment, len(r)), detrend="constant")
 
 
 def peaks(frequency: np.ndarray, psd: np.ndarray, count: int = 3) -> list[dict[str, float]]:
