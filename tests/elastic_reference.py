@@ -80,55 +80,16 @@ def model_text(**values: float) -> str:
     return MODEL.format(**{**TRUTH, **values})
 
 
-ELASTIC_MODEL = '''# The geared joint with its transmission elastic: q the motor (link units), q_flex the link's angle minus the motor's.
-name = "geared_joint"
-coordinates = ["q", "q_flex"]
-gravity = ["0", "-9.81", "0"]
-
-[parameters]
-Jl = {Jl!r}
-m = {m!r}
-c = {c!r}
-Fv = {Fv!r}
-Fc = {Fc!r}
-Ia = {Jm!r}
-k = {k!r}
-d = {d!r}
-
-[[frame]]
-name = "link"
-parent = "base"
-dh = {{ theta = "q + q_flex", d = "0", a = "0", alpha = "0" }}
-
-[[body]]
-name = "link"
-frame = "link"
-mass = "m"
-com = ["c", "0", "0"]
-inertia = {{ xx = "0", yy = "Jl - m*c**2", zz = "Jl - m*c**2" }}
-
-[[drive]]
-coordinate = "q"
-ratio = 1
-rotor_inertia = "Ia"
-
-[[friction]]
-coordinate = "q"
-viscous = "Fv"
-coulomb = "Fc"
-
-[[force]]
-name = "transmission"
-coordinate = "q_flex"
-expression = "-k*q_flex - d*qd_q_flex"
-'''
 
 
 def elastic_model_text(**values: float) -> str:
-    """The joint's model file as a user writes it when the transmission is known to be elastic: two coordinates,
-    the motor ``q`` and the link's deflection from it ``q_flex`` (Spong's model, the file's values the truth's
-    unless given)."""
-    return ELASTIC_MODEL.format(**{**TRUTH, **values})
+    """The joint's model file as a user writes it when the transmission is known to be elastic: :data:`MODEL` with
+    two coordinates, the motor ``q`` and the link's deflection from it ``q_flex`` (Spong's model), a spring k and a
+    damper d between them (the file's values the truth's unless given)."""
+    p = {**TRUTH, **values}
+    text = model_text(**values).replace('coordinates = ["q"]', 'coordinates = ["q", "q_flex"]')
+    text = text.replace('theta = "q"', 'theta = "q + q_flex"').replace("Fc = ", f"k = {p['k']!r}\nd = {p['d']!r}\nFc = ", 1)
+    return text + '\n[[force]]\nname = "transmission"\ncoordinate = "q_flex"\nexpression = "-k*q_flex - d*qd_q_flex"\n'
 
 
 def motor_encoder_only(experiment: Path) -> Path:

@@ -50,7 +50,7 @@ from symbolic.workflow.records import SearchSettings, variant_of
 from symbolic.workflow.search import CurrentModel, Search
 from symbolic.workflow.unmeasured import ResponseDiagnosis, diagnose_on_response, unmeasured_coordinates
 from symbolic.workflow.terms import NominalFit, coordinate_gaps, final_nominal, fit_nominal, model_terms, relative_gap
-from symbolic.workflow.report import markdown
+from symbolic.workflow.report import markdown, write_folder
 from symbolic.workflow.result import Diagnosis, Fit, Found, SimulatedSignals, Simulator, _plain
 from symbolic.workflow.where import localise
 
@@ -863,8 +863,6 @@ def _found(a, final: dict[str, Any], parameters: dict[str, float], search: Searc
 def _write(diagnosis: Diagnosis, folder: Path, figures: bool, html: bool = False) -> Diagnosis:
     """Write the patched model, the figures, report.md (and report.html) into ``folder``, all or nothing."""
 
-    from symbolic.export import ExportError, write_files
-
     pictures: dict[str, bytes] = {}
     notes = list(diagnosis.notes)
     if figures:
@@ -880,10 +878,5 @@ def _write(diagnosis: Diagnosis, folder: Path, figures: bool, html: bool = False
         from symbolic.workflow import html_report
 
         files[html_report.NAME] = html_report.render(diagnosis, diagnosis.to_dict()).encode("utf-8")
-    if diagnosis.patched_text is not None and diagnosis.patched_path is not None:
-        files[diagnosis.patched_path.name] = diagnosis.patched_text.encode("utf-8")
-    try:
-        write_files(files, folder)
-    except ExportError as error:
-        raise ModelError(str(folder), "--out", str(error)) from None
+    write_folder(folder, files, diagnosis.patched_text, diagnosis.patched_path)
     return diagnosis

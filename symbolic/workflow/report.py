@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from symbolic.data.times import time_windows
+from symbolic.errors import ModelError
 from symbolic.workflow.effects import NOT_SUPPORTED, joint_elasticity
 from symbolic.workflow.result import Diagnosis
 from symbolic.workflow.records import Candidate, Grouped, Judged
@@ -338,3 +340,16 @@ def response_markdown(d: Any) -> str:
     if d.notes:
         lines += ["## Notes", ""] + [f"- {n}." if not n.endswith(".") else f"- {n}" for n in d.notes] + [""]
     return "\n".join(lines)
+
+
+def write_folder(folder: Path, files: dict[str, bytes], patched_text: str | None, patched_path: Path | None) -> None:
+    """``files`` and the patched model, where there is one, into ``folder``: all or nothing
+    (:func:`symbolic.export.write_files`); a folder that cannot take them is the ``--out`` error."""
+    from symbolic.export import ExportError, write_files
+
+    if patched_text is not None and patched_path is not None:
+        files = {**files, patched_path.name: patched_text.encode("utf-8")}
+    try:
+        write_files(files, folder)
+    except ExportError as error:
+        raise ModelError(str(folder), "--out", str(error)) from None

@@ -233,8 +233,7 @@ def _errors(model: DynamicModel, estimation: Measurements, held: Measurements, h
 def _write(result: ResponseDiagnosis, folder: Path, figures: bool,
            runs: tuple[Measurements, Measurements, int, Mapping[Any, float], DynamicModel]) -> ResponseDiagnosis:
     """report.md, the figures and the patched model into ``folder``, all or nothing."""
-    from symbolic.export import ExportError, write_files
-    from symbolic.workflow.report import response_markdown
+    from symbolic.workflow.report import response_markdown, write_folder
 
     pictures: dict[str, bytes] = {}
     notes = list(result.notes)
@@ -246,12 +245,7 @@ def _write(result: ResponseDiagnosis, folder: Path, figures: bool,
             notes.append(str(missing))
     result = replace(result, figures=tuple(folder / name for name in pictures), notes=tuple(notes))
     files = {"report.md": response_markdown(result).encode("utf-8"), **pictures}
-    if result.patched_text is not None and result.patched_path is not None:
-        files[result.patched_path.name] = result.patched_text.encode("utf-8")
-    try:
-        write_files(files, folder)
-    except ExportError as error:
-        raise ModelError(str(folder), "--out", str(error)) from None
+    write_folder(folder, files, result.patched_text, result.patched_path)
     return result
 
 
