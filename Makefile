@@ -26,7 +26,7 @@ check-generated: generate
 	@test -z "$$(git status --porcelain --untracked-files=all -- generated/)" || (git status --short -- generated/; echo "generated/ has untracked files: run 'make generate' and commit" >&2; exit 1)
 
 bench:
-	$(PYTHON) -m pip install --quiet -e '.[bench,fleet]'
+	$(PYTHON) -m pip install --quiet -e '.[bench,fleet,bags]'
 	$(PYTHON) bench/derivation.py --out bench/results/derivation.md
 	$(PYTHON) bench/runtime.py --out bench/results/runtime.md
 	$(PYTHON) bench/export.py --out bench/results/export.md
@@ -42,8 +42,10 @@ bench:
 	$(PYTHON) bench/output_error.py --out bench/results/output_error.md
 	$(PYTHON) bench/response.py --out bench/results/response.md
 	$(PYTHON) bench/joint_elasticity.py --out bench/results/joint_elasticity.md
+	$(PYTHON) bench/unmeasured.py --out bench/results/unmeasured.md
 	$(PYTHON) bench/fleet.py --out bench/results/fleet.md
 	$(PYTHON) bench/float_accuracy.py --out bench/results/float_accuracy.md
+	$(PYTHON) bench/bag_load.py --out bench/results/bag_load.md
 	$(PYTHON) bench/quotes.py
 
 clean:
