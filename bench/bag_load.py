@@ -107,6 +107,7 @@ def main() -> None:
     parser.add_argument("--file", type=Path)
     parser.add_argument("--keep", action="store_true")
     parser.add_argument("--measure", type=Path, help=argparse.SUPPRESS)
+    parser.add_argument("--out", type=Path, default=ROOT / "bench" / "results" / "bag_load.md")
     args = parser.parse_args()
     if args.measure:
         print(json.dumps(measure(args.measure)))
@@ -148,8 +149,7 @@ def main() -> None:
         "(arrays sized from the file's message counts), never the file: the peak is that, the aligned signals and "
         "the checks' copies.",
     ]
-    out = ROOT / "bench" / "results" / "bag_load.md"
-    out.write_text("\n".join(lines) + "\n")
+    args.out.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     if args.file is None and not args.keep:
         path.unlink()

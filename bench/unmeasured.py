@@ -67,7 +67,7 @@ def _nulls(quick: bool) -> list[tuple[str, dict, dict]]:
         for stiffness in (400.0, 1500.0):
             for counts in (2**17 * truth.GEAR, 2**14 * truth.GEAR):
                 cases.append(("joint", {"k": stiffness}, dict(seed=seed, stiffness=stiffness, motor_counts=counts)))
-    cases += [("arm", {}, dict(seed=seed)) for seed in range(2)]
+    cases.append(("arm", {}, dict(seed=0)))  # the arm's search takes minutes: one case
     return cases[:2] + cases[-1:] if quick else cases
 
 
