@@ -23,6 +23,7 @@ EXPRESSIONS = [
     sp.sin(x) ** 2 + sp.cos(y) ** 3 / x,
     (x + y) ** 2 / (x - y) ** 2,
     x ** sp.Rational(3, 2) / y,
+    sp.E * x + sp.pi / y,  # constants as literals: M_E and M_PI are POSIX, not C99
 ]
 
 

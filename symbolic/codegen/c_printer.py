@@ -150,6 +150,10 @@ class CPrinter(C99CodePrinter):
         # M_PI is POSIX, not C99 (-std=c99 -pedantic does not define it): the double nearest π, as a literal
         return self.literal(sp.Rational(sp.pi.evalf(60))) if self.single else repr(float(sp.pi))
 
+    def _print_Exp1(self, expr: sp.Expr) -> str:
+        # M_E is POSIX, not C99, as M_PI: the double nearest e, as a literal
+        return self.literal(sp.Rational(sp.E.evalf(60))) if self.single else repr(float(sp.E))
+
     def _print_Pow(self, expr: sp.Pow) -> str:
         base, exp = expr.base, expr.exp
         if exp.is_Integer and 1 < int(exp) <= 4:
