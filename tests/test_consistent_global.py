@@ -155,6 +155,24 @@ def check_certified(result, *, independent: float | None = None) -> None:
         assert eig[0] >= -1e-12 * eig[-1], eig
 
 
+def test_pseudo_rows_are_the_second_moments_of_point_masses() -> None:
+    """svec(J) of conic.pseudo_rows against J = Σ m·[r; 1]·[r; 1]ᵀ of point masses (the definition, not the
+    code's formula), for a body placed at indices 3…12 of a longer x; and back through _standard_of_pseudo."""
+    from symbolic.identify.pseudo_inertia import standard_parameters
+
+    rng = np.random.default_rng(11)
+    masses, points = rng.uniform(0.1, 1.0, 5), rng.normal(0, 0.3, (5, 3)) + [0.2, -0.1, 0.05]
+    J = sum(m * np.outer(np.append(r, 1), np.append(r, 1)) for m, r in zip(masses, points))
+    m = masses.sum()
+    c = masses @ points / m
+    Ic = sum(mi * ((r - c) @ (r - c) * np.eye(3) - np.outer(r - c, r - c)) for mi, r in zip(masses, points))
+    block = tuple(range(3, 13))
+    x = rng.normal(size=15)
+    x[list(block)] = standard_parameters(m, c, Ic)
+    np.testing.assert_allclose(conic.pseudo_matrix(x, block), J, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(conic._standard_of_pseudo(J, block, 15)[list(block)], x[list(block)], rtol=1e-12, atol=1e-14)
+
+
 def test_noise_free_data_give_the_truth(arm) -> None:
     """A consistent truth (the nominal bodies, changed) without noise: the fit's base parameters are the
     truth's to 1e-8 in the metric of the fit, the certificate's optimum is ~0 above the rows' own residual."""

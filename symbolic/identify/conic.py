@@ -3,7 +3,7 @@
 In the standard parameters of each body — [XX XY XZ YY YZ ZZ MX MY MZ M] about its frame, which the
 regressor's θ is affine in — physical consistency is a linear matrix inequality (Wensing, Kim & Slotine,
 "Linear matrix inequalities for physically consistent inertial parameter identification: a statistical
-perspective on the mass distribution", IEEE RA-L 2(3), 2017, arXiv:1701.04395: the pseudo-inertia of a body
+perspective on the mass distribution", IEEE RA-L 3(1), 2018, arXiv:1701.04395: the pseudo-inertia of a body
 is positive semidefinite exactly when some mass distribution has its ten parameters; their equation numbers
 are not quoted here, not having been checked against the published text):
 
@@ -37,7 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from symbolic.identify.pseudo_inertia import AXES, INERTIA_KEYS, standard_parameters
+from symbolic.identify.pseudo_inertia import (AXES, INERTIA_KEYS, body_of_standard, inertia_entries, inertia_matrix,
+                                              standard_parameters)
 
 Problem = Any
 """A :class:`symbolic.identify.consistent.Problem` (not imported: that module calls this one)."""
@@ -102,10 +103,7 @@ def _body_values(body: BodyPlan, p: np.ndarray) -> tuple[float, np.ndarray, np.n
     def value(slot):
         return float(p[slot]) if isinstance(slot, int) else float(slot)
 
-    Ic = np.zeros((3, 3))
-    for key, slot in zip(INERTIA_KEYS, body.inertia):
-        i, j = AXES[key]
-        Ic[i, j] = Ic[j, i] = value(slot)
+    Ic = inertia_matrix([value(slot) for slot in body.inertia])
     return value(body.mass), np.array([value(s) for s in body.com]), Ic
 
 
@@ -115,10 +113,12 @@ def parameters_of(prob: Problem, x: np.ndarray, p_start: np.ndarray) -> np.ndarr
     ``p_start`` (any serves: h = 0)."""
     p = np.array(p_start, float)
     for k, body in enumerate(prob.bodies):
-        XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = x[10 * k:10 * k + 10]
-        c = np.array([MX, MY, MZ]) / M if M > 0 else _body_values(body, p_start)[1]
-        IO = np.array([[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]])
-        Ic = IO - max(M, 0.0) * (c @ c * np.eye(3) - np.outer(c, c))
+        standard = x[10 * k:10 * k + 10]
+        M = float(standard[9])
+        if M > 0:
+            _, c, Ic = body_of_standard(standard)
+        else:  # no mass: I_c = I_O, and any centre of mass
+            c, Ic = _body_values(body, p_start)[1], inertia_matrix(standard[:6])
         if isinstance(body.mass, int):
             p[body.mass] = M
         for axis in body.free_com:
@@ -250,11 +250,7 @@ def pseudo_rows(block: tuple[int, ...], n: int) -> np.ndarray:
 
 def pseudo_matrix(x: np.ndarray, block: tuple[int, ...]) -> np.ndarray:
     """J of (10) at x for one body."""
-    v = pseudo_rows(block, len(x)) @ x
-    J = np.zeros((4, 4))
-    for value, (i, j) in zip(v, PSD_ORDER):
-        J[i, j] = J[j, i] = value / (1.0 if i == j else SQRT2)
-    return J
+    return _matrix(pseudo_rows(block, len(x)) @ x)
 
 
 @dataclass(frozen=True)
@@ -571,7 +567,7 @@ def _standard_of_pseudo(J: np.ndarray, block: tuple[int, ...], n: int) -> np.nda
     sigma = J[:3, :3]
     IO = np.trace(sigma) * np.eye(3) - sigma
     out = np.zeros(n)
-    out[list(block)] = [IO[0, 0], IO[0, 1], IO[0, 2], IO[1, 1], IO[1, 2], IO[2, 2], *J[:3, 3], J[3, 3]]
+    out[list(block)] = [*inertia_entries(IO), *J[:3, 3], J[3, 3]]
     return out
 
 
