@@ -336,3 +336,27 @@ def test_an_unreadable_compare_log_is_refused_before_the_design(files, capsys) -
                  "--compare", str(files / "missing.csv"), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "missing.csv" in err and len(err.strip().splitlines()) == 1 and not out.exists()
+
+
+def test_noise_must_be_finite() -> None:
+    """A force noise or resolution of inf is no noise level (σ = inf makes every weight 0): refused with the key."""
+    from symbolic.data.errors import DataError
+    from symbolic.data.excitation import parse
+
+    for key in ("force_noise", "resolution"):
+        with pytest.raises(DataError, match=rf"exp.toml.*\[excitation\] {key}.q1.*a finite number >= 0, got inf"):
+            parse({key: {"q1": float("inf")}}, ("q1", "q2"), "exp.toml")
+    assert parse({"torque": float("inf")}, ("q1", "q2"), "exp.toml").values["torque"] == {"q1": np.inf, "q2": np.inf}
+
+
+def test_a_one_sided_position_limit_is_verified(arm) -> None:
+    """position = [lower, inf]: a reference going below the lower bound has a ratio above 1 (it was 0: the
+    verification saw no limit), one above it a ratio at most 1."""
+    limits = ex.resolve_limits(arm, ("test", {**LIMITS, "position": {"q1": (0.0, np.inf), "q2": (-np.inf, 0.5)}}))
+    regressor = ex.casadi_regressor(arm)
+    t = np.linspace(0.0, 2.0, 50, endpoint=False)
+    a = np.array([[0.3, -0.3], [0.2, -0.2]])
+    inside = ex.FourierTrajectory(limits.coordinates, 2.0, np.array([1.0, -1.0]), a, np.zeros((2, 2)))
+    outside = ex.FourierTrajectory(limits.coordinates, 2.0, np.array([0.01, 0.49]), a, np.zeros((2, 2)))
+    assert ex.violation(regressor, inside, limits, t)["position"].max() <= 1.0
+    assert np.all(ex.violation(regressor, outside, limits, t)["position"] > 1.0)

@@ -82,8 +82,9 @@ def _value(v: Any, kind: str, where: str, source: str) -> Any:
                 and v[0] < v[1]):
             raise DataError(source, where, f"expected [lower, upper] with lower < upper, got {v!r}")
         return (float(v[0]), float(v[1]))
-    smallest = 0.0 if kind in NOISE else None
-    if not (_number(v) and not math.isnan(v) and (v >= 0 if smallest == 0.0 else v > 0)):
-        allowed = "a number >= 0" if smallest == 0.0 else "a bound > 0 (inf: none)"
-        raise DataError(source, where, f"expected {allowed}, got {v!r}")
+    if kind in NOISE:  # a noise level: 0 (none) or more, never inf (σ = inf would weigh every sample 0)
+        if not (_number(v) and math.isfinite(v) and v >= 0):
+            raise DataError(source, where, f"expected a finite number >= 0, got {v!r}")
+    elif not (_number(v) and not math.isnan(v) and v > 0):  # a limit: inf declares none
+        raise DataError(source, where, f"expected a bound > 0 (inf: none), got {v!r}")
     return float(v)

@@ -18,7 +18,7 @@ import numpy as np
 from symbolic.data import Experiment, Measurements
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.errors import IdentificationError
-from symbolic.identify.excitation import FourierTrajectory, Limits
+from symbolic.identify.excitation import FourierTrajectory, Limits, reference_samples
 
 MARGIN = 0.95
 """The suggested torque limit of a refused design: the declared one scaled by limit/peak and this margin."""
@@ -70,9 +70,7 @@ def check_in_loop(model: DynamicModel, trajectory: FourierTrajectory, rate: floa
     from symbolic.simulation import simulate
     from symbolic.simulation.controller import drive_gains
 
-    count = int(round(trajectory.period * rate)) + 1
-    t = np.arange(count) / rate
-    q, qd, _ = trajectory.evaluate(t)
+    t, q, qd, _ = reference_samples(trajectory, rate)
     names = trajectory.coordinates
     log = Measurements.from_arrays(t, names, q, np.zeros_like(q), ref=q,
                                    extras={f"refd_{c}": qd[:, i] for i, c in enumerate(names)})

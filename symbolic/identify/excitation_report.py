@@ -24,8 +24,9 @@ from symbolic.data.keys import check_keys
 from symbolic.data.settings import Settings
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.identify.least_squares import percent
-from symbolic.identify.excitation import (HARMONICS, STARTS, Design, FourierTrajectory, check_options, design,
-                                          resolve_limits)
+from symbolic.identify.excitation import (FINER, HARMONICS, STARTS, Design, FourierTrajectory, check_options,
+                                          design, reference_samples, resolve_limits)
+from symbolic.identify.excitation_criteria import DESCRIPTIONS
 from symbolic.identify.excitation_loop import LoopCheck, check_in_loop, refusal
 from symbolic.identify.excitation_noise import Noise, Prediction, equivalent_noise, predict, resolve_noise, treatment
 
@@ -91,13 +92,6 @@ class Excitation:
                 "compare": None if self.compare is None else self.compare.to_dict(),
                 "loop": None if self.loop is None else self.loop.to_dict(),
                 "collision_avoidance": "not checked: the design keeps each coordinate within its limits only"}
-
-
-def reference_samples(trajectory: FourierTrajectory, rate: float) -> tuple[np.ndarray, ...]:
-    """t (0 … T at ``rate``), q, q̇, q̈ of ``trajectory``."""
-    count = int(round(trajectory.period * rate)) + 1
-    t = np.arange(count) / rate
-    return (t, *trajectory.evaluate(t))
 
 
 def excite(model: DynamicModel, declared: Declared, duration: float, *, limits: Mapping[str, Mapping[str, Any]] | None = None,
@@ -257,9 +251,9 @@ def report(result: Excitation, figures: Sequence[str], notes: Sequence[str]) -> 
     lines = [f"# Excitation design: {result.model.name}", "",
              f"Period T = {traj.period:g} s, {traj.harmonics} harmonics per coordinate (Swevers et al. 1997 Fourier "
              f"series, at rest at t = 0 and T), criterion `{d.criterion}` "
-             f"({ {'d': 'D-optimality, −log det M', 'a': 'A-optimality, log tr M⁻¹', 'condition': 'log cond'}[d.criterion] }): "
+             f"({DESCRIPTIONS[d.criterion]}): "
              f"{d.value:.6g} after the solve, {d.start_value:.6g} at the best start; {len(d.starts)} start(s), "
-             f"{d.grid_points} grid points, verified on {10 * d.grid_points}; {d.seconds:.1f} s.",
+             f"{d.grid_points} grid points, verified on {FINER * d.grid_points}; {d.seconds:.1f} s.",
              "", "Collision avoidance is not checked: each coordinate stays within its own limits only.", "",
              "## Limits and the design's peak (ratio to the limit on the verification grid)", "",
              "| coordinate | position | velocity | acceleration | torque |", "|---|---|---|---|---|"]
