@@ -394,3 +394,14 @@ def test_limits_of_a_joint_variable_written_as_an_expression_bound_the_coordinat
     q1 = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "q1")
     assert m.jnt_limited[q1] and list(m.jnt_range[q1]) == [-2.5, 3.5]
     assert worst_relative_error(robot, m) < TOLERANCE
+
+
+def test_an_unvalidated_robot_is_validated_before_its_text_is_read() -> None:
+    """A Robot built in Python with a string the safe parser refuses (a call): mjcf validates it (ModelError
+    naming the key) instead of handing the text to sympify, which would evaluate it."""
+    panda = symbolic.robots.load("panda")
+    frames = (dataclasses.replace(panda.frames[0], d="Symbol('x')"), *panda.frames[1:])
+    robot = dataclasses.replace(panda, frames=frames, validated=False)
+    with pytest.raises(symbolic.ModelError):
+        mjcf(robot)
+    assert mjcf(dataclasses.replace(panda, validated=False)) == mjcf(panda)

@@ -46,6 +46,7 @@ import numpy as np
 import sympy as sp
 
 from symbolic.description.robot import BASE, TIME, Directional, Frame, Robot
+from symbolic.description.validation import validate
 from symbolic.errors import ExportError, ModelWarning, suggestion
 
 DIGITS = 40
@@ -470,6 +471,7 @@ def mjcf(robot: Robot, values: Mapping[str, float] | None = None) -> str:
     added to the joint-space inertia, damping a passive force, friction loss a constraint); Janot, Gautier and
     Brunot (2019) (15) for the friction law f = Fv·q̇ + Fc·sign(q̇) + offset whose terms are written.
     """
+    robot = validate(robot)  # expressions parsed by the safe parser, never sympify's evaluation of text
     names = [p.name for p in robot.parameters]
     unknown = sorted(set(values or {}) - set(names))
     if unknown:
