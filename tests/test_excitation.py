@@ -360,3 +360,12 @@ def test_a_one_sided_position_limit_is_verified(arm) -> None:
     outside = ex.FourierTrajectory(limits.coordinates, 2.0, np.array([0.01, 0.49]), a, np.zeros((2, 2)))
     assert ex.violation(regressor, inside, limits, t)["position"].max() <= 1.0
     assert np.all(ex.violation(regressor, outside, limits, t)["position"] > 1.0)
+
+
+def test_the_experiments_own_rate_is_checked(files) -> None:
+    """Without [excitation] rate, the experiment's top-level rate is used, checked as the loader checks it."""
+    (files / "rate.toml").write_text('rate = "fast"\n' + EXPERIMENT.replace("rate = 200.0\n", ""))
+    with pytest.raises(symbolic.data.DataError, match=r"rate.toml.*rate.*expected a sampling rate in Hz"):
+        read_declarations(files / "rate.toml", ("q1", "q2"))
+    (files / "rate.toml").write_text("rate = 500.0\n" + EXPERIMENT.replace("rate = 200.0\n", ""))
+    assert read_declarations(files / "rate.toml", ("q1", "q2")).table.rate == 500.0

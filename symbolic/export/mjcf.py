@@ -362,10 +362,11 @@ class _Writer:
         element.set("name", f.name)
         element.set("pos", _numbers(place.position))
         element.set("quat", _numbers(quaternion(place.rotation)))
-        inertial = self.inertial(f.name, moving=place.kind is not None and not self.carried(f), rotates=rotates)
+        moving_alone = place.kind is not None and not self.carried(f)  # a joint moves it, no welded frame's mass
+        inertial = self.inertial(f.name, moving=moving_alone, rotates=rotates)
         if inertial is not None:
             element.append(inertial)
-        elif place.kind is not None and not self.carried(f):
+        elif moving_alone:
             raise self.fail(f"[[frame]] {f.name!r}", f"no body: MuJoCo requires a mass and inertia above {MJMINVAL} on "
                                                      "a body a joint moves (or on a body welded to it)")
         if place.kind is not None:

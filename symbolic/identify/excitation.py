@@ -699,7 +699,7 @@ def design(model: DynamicModel, limits: Limits, duration: float, *, weights: Seq
 
 def check_options(duration: float, harmonics: int, criterion: str, starts: int) -> None:
     """One line per option that cannot be used."""
-    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+    if isinstance(duration, bool) or not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
         raise IdentificationError(f"--duration: the reference's period T must be a time > 0 s, got {duration!r}")
     if isinstance(harmonics, bool) or not isinstance(harmonics, int) or harmonics < 2:
         raise IdentificationError(f"--harmonics: at least 2 harmonics are needed (at rest at t = 0 and T, one "

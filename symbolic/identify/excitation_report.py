@@ -19,7 +19,7 @@ from symbolic.data import Measurements
 from symbolic.data import files as data_files
 from symbolic.data.errors import DataError
 from symbolic.data.excitation import ExcitationTable, parse
-from symbolic.data.experiment import TOP_KEYS
+from symbolic.data.experiment import TOP_KEYS, sample_rate
 from symbolic.data.keys import check_keys
 from symbolic.data.settings import Settings
 from symbolic.derivation.dynamics import DynamicModel
@@ -61,9 +61,9 @@ def read_declarations(path: str | Path | None, coordinates: Sequence[str]) -> De
     table = parse(spec.get("excitation", {}), coordinates, source)
     identification = spec.get("identification")
     settings = Settings.from_table(identification, source) if identification is not None else Settings()
-    rate = table.rate if table.rate is not None else spec.get("rate")
-    if table.rate is None and rate is not None:
-        table = ExcitationTable(table.values, float(rate))
+    if table.rate is None:  # the experiment's own rate, checked as the experiment loader checks it
+        rate = sample_rate(spec, {}, source)
+        table = table if rate is None else ExcitationTable(table.values, rate)
     return Declared(source, table, settings, spec.get("controller"))
 
 
