@@ -369,3 +369,13 @@ def test_the_experiments_own_rate_is_checked(files) -> None:
         read_declarations(files / "rate.toml", ("q1", "q2"))
     (files / "rate.toml").write_text("rate = 500.0\n" + EXPERIMENT.replace("rate = 200.0\n", ""))
     assert read_declarations(files / "rate.toml", ("q1", "q2")).table.rate == 500.0
+
+
+def test_velocity_and_acceleration_are_the_derivatives_of_the_position() -> None:
+    """basis's q̇ and q̈ against central differences of its q (the module's formulas are not reused)."""
+    trajectory = ex.FourierTrajectory.from_free(("a", "b"), 2.5, 4, np.random.default_rng(6).standard_normal(14))
+    t, h = np.linspace(0.1, 2.4, 37), 1e-5
+    q, qd, qdd = trajectory.evaluate(t)
+    (q_minus, qd_minus, _), (q_plus, qd_plus, _) = trajectory.evaluate(t - h), trajectory.evaluate(t + h)
+    np.testing.assert_allclose((q_plus - q_minus) / (2 * h), qd, rtol=1e-7, atol=1e-7)
+    np.testing.assert_allclose((qd_plus - qd_minus) / (2 * h), qdd, rtol=1e-7, atol=1e-6)
