@@ -199,7 +199,7 @@ class _Writer:
     def exact(self, expr: sp.Expr | str | float, key: str) -> sp.Expr:
         """``expr`` at the parameter values (each the exact binary value of its double), kept exact; an error naming
         ``key`` if that is not a finite real number."""
-        x = sp.sympify(sp.sympify(expr).xreplace(self.values))
+        x = sp.sympify(expr).xreplace(self.values)  # a validated robot's Expr, or a number
         x = x.xreplace({f: sp.Rational(f) for f in x.atoms(sp.Float)})  # a literal 1.5708 as its double, exactly
         if x.free_symbols:
             raise self.fail(key, f"{x} depends on {sorted(map(str, x.free_symbols))}")

@@ -578,10 +578,11 @@ def random_start(rng: np.random.Generator, problem: Problem, fill: float = 0.6) 
 
 @dataclass(frozen=True, eq=False)
 class Start:
-    """One random start: the criterion at the start and after the solve, IPOPT's status, the worst ratio to a
-    limit on the verification grid, and whether the result was kept."""
+    """One random start: the criterion at the start and after the solve, IPOPT's status, and the worst ratio to a
+    limit on the verification grid (a start is a candidate for the design when it is at most 1 + :data:`TOLERANCE`)."""
 
-    seed_index: int
+    index: int
+    """Which start (0, 1, …): the starts are drawn in turn from one generator seeded by ``seed``."""
     start_value: float
     value: float
     status: str
@@ -629,7 +630,7 @@ class Design:
                 "grid_points": self.grid_points, "seconds": self.seconds,
                 "worst_ratio_to_limit": {k: dict(zip(self.limits.coordinates, map(float, v)))
                                          for k, v in self.worst.items()},
-                "starts": [{"start": s.seed_index, "start_value": s.start_value, "value": s.value, "status": s.status,
+                "starts": [{"start": s.index, "start_value": s.start_value, "value": s.value, "status": s.status,
                             "worst_ratio": s.worst, "worst_kind": s.worst_kind, "seconds": s.seconds}
                            for s in self.starts],
                 "limits": self.limits.to_dict(), "trajectory": self.trajectory.to_dict()}
