@@ -18,7 +18,7 @@ import numpy as np
 from symbolic.data import Measurements
 from symbolic.data import files as data_files
 from symbolic.data.errors import DataError
-from symbolic.data.excitation import ExcitationTable, parse
+from symbolic.data.excitation import ExcitationTable, checked_value, parse
 from symbolic.data.experiment import TOP_KEYS, sample_rate
 from symbolic.data.keys import check_keys
 from symbolic.data.settings import Settings
@@ -375,8 +375,6 @@ def option_values(kind: str, text: str | None, coordinates: Sequence[str]) -> di
 
 
 def _option_value(kind: str, text: str, option: str) -> Any:
-    from symbolic.data.excitation import _value
-
     try:
         if kind == "position":
             lower, sep, upper = text.partition(":")
@@ -388,7 +386,7 @@ def _option_value(kind: str, text: str, option: str) -> Any:
     except ValueError:
         expected = "LOWER:UPPER" if kind == "position" else "a number"
         raise DataError(option, "value", f"expected {expected}, got {text!r}") from None
-    return _value(value, kind, "value", option)
+    return checked_value(value, kind, "value", option)
 
 
 def summary(result: Excitation) -> str:
