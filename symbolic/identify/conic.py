@@ -182,15 +182,30 @@ def _constraints(prob: Problem, n: int):
     return E, np.array([v for _, v in eq], float), G, np.array([v for _, v in ineq], float), dropped
 
 
+MASS, FIRST_MOMENTS = 9, (6, 7, 8)
+"""Where M and MX, MY, MZ are among a body's ten standard parameters."""
+
+
 def _body_constraints(prob: Problem, body: BodyPlan, at: int, n: int, eq: list, ineq: list, dropped: list) -> None:
-    """A body's rows of E·x = e and G·x ≤ g (x[at:at+10] = XX XY XZ YY YZ ZZ MX MY MZ M)."""
+    """A body's rows of E·x = e and G·x ≤ g (x[at:at+10] = XX XY XZ YY YZ ZZ MX MY MZ M), appended to ``eq`` and
+    ``ineq`` as (row, right-hand side); what (11) cannot hold is named in ``dropped``."""
     def unit(*pairs: tuple[int, float]) -> np.ndarray:
         row = np.zeros(n)
         for i, v in pairs:
             row[at + i] += v
         return row
 
-    M, H = 9, (6, 7, 8)
+    _mass_and_com_rows(prob, body, unit, eq, ineq)
+    if not body.free_inertia:
+        _constant_inertia_rows(prob, body, unit, eq, dropped)
+    else:
+        _zero_product_rows(body, unit, eq, dropped)
+
+
+def _mass_and_com_rows(prob: Problem, body: BodyPlan, unit, eq: list, ineq: list) -> None:
+    """The mass: its value, or its bounds (``prob.lower``/``upper`` hold α = ½·log m); each centre-of-mass
+    coordinate: h = c·m for a constant c, l·m ≤ h ≤ u·m for bounds l, u (linear: m ≥ 0)."""
+    M, H = MASS, FIRST_MOMENTS
     k = body.offset
     if isinstance(body.mass, int):
         low, high = np.exp(2 * prob.lower[k]), np.exp(2 * prob.upper[k])
@@ -211,24 +226,31 @@ def _body_constraints(prob: Problem, body: BodyPlan, at: int, n: int, eq: list, 
         if np.isfinite(high):
             ineq.append((unit((H[axis], 1.0), (M, -high)), 0.0))
         k += 1
-    constant_com = [isinstance(s, float) for s in body.com]
-    if not body.free_inertia:  # a constant inertia: I_O = I_c + m·(cᵀc·1 − c·cᵀ), affine in m where c is constant
-        if not all(constant_com):
-            dropped.append(f"{body.name}: constant inertia about a free centre of mass")
-            return
-        c = np.array(body.com, float)
-        _, _, Ic = _body_values(body, np.zeros(len(prob.free)))
-        shift = c @ c * np.eye(3) - np.outer(c, c)
-        for index, key in enumerate(INERTIA_KEYS):
-            i, j = AXES[key]
-            eq.append((unit((index, 1.0), (M, -shift[i, j])), Ic[i, j]))
+
+
+def _constant_inertia_rows(prob: Problem, body: BodyPlan, unit, eq: list, dropped: list) -> None:
+    """A constant inertia I_c: I_O = I_c + m·(cᵀc·1 − c·cᵀ), affine in m where c is constant (else dropped)."""
+    if not all(isinstance(s, float) for s in body.com):
+        dropped.append(f"{body.name}: constant inertia about a free centre of mass")
         return
+    c = np.array(body.com, float)
+    _, _, Ic = _body_values(body, np.zeros(len(prob.free)))
+    shift = c @ c * np.eye(3) - np.outer(c, c)
+    for index, key in enumerate(INERTIA_KEYS):
+        i, j = AXES[key]
+        eq.append((unit((index, 1.0), (MASS, -shift[i, j])), Ic[i, j]))
+
+
+def _zero_product_rows(body: BodyPlan, unit, eq: list, dropped: list) -> None:
+    """A product of inertia written as 0: I_c,ij = 0, i.e. I_O,ij = −m·c_i·c_j = −c_i·h_j, linear where c_i (or
+    c_j) is constant (else dropped)."""
+    constant_com = [isinstance(s, float) for s in body.com]
     for key in ("xy", "xz", "yz"):
         if isinstance(body.inertia[INERTIA_KEYS.index(key)], int):
             continue
-        i, j = AXES[key]  # I_c,ij = 0: I_O,ij = −m·c_i·c_j = −c_i·h_j with c_i constant
+        i, j = AXES[key]
         if constant_com[i] or constant_com[j]:
-            ci, hj = (body.com[i], H[j]) if constant_com[i] else (body.com[j], H[i])
+            ci, hj = (body.com[i], FIRST_MOMENTS[j]) if constant_com[i] else (body.com[j], FIRST_MOMENTS[i])
             eq.append((unit((INERTIA_KEYS.index(key), 1.0), (hj, ci)), 0.0))
         else:
             dropped.append(f"{body.name}: I{key} = 0 about a free centre of mass")
