@@ -284,7 +284,10 @@ def _load(model: DynamicModel, precision: str) -> ctypes.CDLL:
     """The model's C of ``precision`` as one translation unit, compiled (cached) and loaded."""
     files = render_c(c_context(model, precision), "the single-precision C's accuracy measured (symbolic.codegen.c_accuracy)", [])
     stem = c_file_stem(model, precision)
-    text = files[f"{stem}.c"].replace(f'#include "{stem}.h"\n', files[f"{stem}.h"], 1)
+    include = f'#include "{stem}.h"\n'
+    if include not in files[f"{stem}.c"]:  # a template change would otherwise surface as "no C compiler"
+        raise RuntimeError(f"{stem}.c does not include {stem}.h: the one translation unit cannot be formed")
+    text = files[f"{stem}.c"].replace(include, files[f"{stem}.h"], 1)
     library = compiled.load_library(text, f"{model.name}_{precision}", ctypes.CDLL)
     if library is None:
         raise ExportError("--precision float: the float C's error against the double C is measured by compiling both, "
