@@ -379,3 +379,15 @@ def test_velocity_and_acceleration_are_the_derivatives_of_the_position() -> None
     (q_minus, qd_minus, _), (q_plus, qd_plus, _) = trajectory.evaluate(t - h), trajectory.evaluate(t + h)
     np.testing.assert_allclose((q_plus - q_minus) / (2 * h), qd, rtol=1e-7, atol=1e-7)
     np.testing.assert_allclose((qd_plus - qd_minus) / (2 * h), qdd, rtol=1e-7, atol=1e-6)
+
+
+def test_the_loop_table_is_a_markdown_table_saying_why_a_coordinate_refuses() -> None:
+    """Every row has the header's number of cells (a "|τ|" in the header split it into two), and the last
+    column tells saturation from a force over its limit."""
+    from symbolic.identify.excitation_loop import LoopCheck
+
+    check = LoopCheck(("q1", "q2", "q3"), np.ones(3), np.ones(3), np.array([5.0, 20.0, 1.0]), np.full(3, 10.0),
+                      np.array([True, False, False]), "pd", np.array([5.0, np.inf, np.inf]))
+    rows = [line for line in check.table() if line.startswith("|")]
+    assert len({line.count("|") for line in rows}) == 1
+    assert [line.rsplit("|", 2)[1].strip() for line in rows[2:]] == ["saturated", "over the limit", "no"]

@@ -56,11 +56,16 @@ class LoopCheck:
 
     def table(self) -> list[str]:
         lines = [f"In the loop ({self.controller}), the model at its nominal values:", "",
-                 "| coordinate | tracking error max | RMS | peak |τ| | limit | saturated |", "|---|---|---|---|---|---|"]
+                 # ‖τ‖, not |τ|: a "|" would split the Markdown table's cell
+                 "| coordinate | tracking error max | RMS | peak ‖τ‖ | limit | refused |", "|---|---|---|---|---|---|"]
         lines += [f"| {c} | {self.tracking_max[i]:.4g} | {self.tracking_rms[i]:.4g} | {self.peak_torque[i]:.4g} | "
-                  f"{self.torque_limit[i]:g} | {'yes' if self.saturated[i] or self.over[i] else 'no'} |"
-                  for i, c in enumerate(self.coordinates)]
+                  f"{self.torque_limit[i]:g} | {self._verdict(i)} |" for i, c in enumerate(self.coordinates)]
         return lines
+
+    def _verdict(self, i: int) -> str:
+        """Why coordinate ``i`` refuses the design (the controller's output saturated, the force over its limit)."""
+        reasons = [why for why, holds in (("saturated", self.saturated[i]), ("over the limit", self.over[i])) if holds]
+        return ", ".join(reasons) or "no"
 
 
 def check_in_loop(model: DynamicModel, trajectory: FourierTrajectory, rate: float, limits: Limits,
