@@ -65,6 +65,7 @@ def conditioning(model: symbolic.DynamicModel) -> tuple[float, float]:
 
 
 def row(label: str, robot: symbolic.Robot) -> str:
+    """The table's row of one robot: D, g, τ and forward dynamics, the conditioning, the other functions above NOTED."""
     model = symbolic.derive(robot)
     accuracy = float_accuracy(model)
     errors = {e.name: e for e in accuracy.errors}
