@@ -48,12 +48,7 @@ def models() -> list[tuple[str, symbolic.Robot]]:
 
 def cell(error: FunctionError) -> str:
     """``3.2e-07``; above NOTED with ‖f_double‖ at that state (no ``|``: it would split the Markdown table)."""
-    if error.states == 0:
-        return "not measured"
-    if error.worst is None:
-        return "0 (zero)"
-    where = error.where()
-    return f"{error.worst:.1e}" + (f" (‖f_double‖ {where})" if where else "")
+    return error.figure("‖f_double‖")
 
 
 def conditioning(model: symbolic.DynamicModel) -> tuple[float, float]:
@@ -70,6 +65,7 @@ def conditioning(model: symbolic.DynamicModel) -> tuple[float, float]:
 
 
 def row(label: str, robot: symbolic.Robot) -> str:
+    """The table's row of one robot: D, g, τ and forward dynamics, the conditioning, the other functions above NOTED."""
     model = symbolic.derive(robot)
     accuracy = float_accuracy(model)
     errors = {e.name: e for e in accuracy.errors}
@@ -98,7 +94,7 @@ def main() -> None:
         "D q̈ = τ − bias: its error grows with the condition number of D and with the cancellation in τ − bias, "
         "both given over the same states (double, from the numeric model).",
         "",
-        "| robot | D | g | τ | q̈ (forward dynamics) | max cond(D) | max ‖τ‖/‖D q̈‖ | other functions above 1e-05 |",
+        f"| robot | D | g | τ | q̈ (forward dynamics) | max cond(D) | max ‖τ‖/‖D q̈‖ | other functions above {NOTED:g} |",
         "|---|---|---|---|---|---|---|---|",
         *rows,
         "",

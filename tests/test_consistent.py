@@ -120,14 +120,20 @@ def bodies(values: dict[str, float]) -> list[np.ndarray]:
 
 # -- the body's parameters -------------------------------------------------------------------------------
 
-def test_pseudo_inertia_of_point_masses_is_its_definition() -> None:
-    rng = np.random.default_rng(4)
-    masses, points = rng.uniform(0.1, 1.0, 7), rng.normal(0, 0.2, (7, 3)) + [0.1, -0.05, 0.3]
+def point_masses(seed: int, count: int, spread: float, offset) -> tuple[np.ndarray, float, np.ndarray, np.ndarray]:
+    """Random point masses as a body, from their definition: J = Σ m·[r; 1]·[r; 1]ᵀ, the total mass, the centre
+    of mass and the inertia about it."""
+    rng = np.random.default_rng(seed)
+    masses, points = rng.uniform(0.1, 1.0, count), rng.normal(0, spread, (count, 3)) + offset
     J = sum(m * np.outer(np.append(r, 1), np.append(r, 1)) for m, r in zip(masses, points))
     m = masses.sum()
     c = masses @ points / m
-    rel = points - c
-    Ic = sum(mi * (r @ r * np.eye(3) - np.outer(r, r)) for mi, r in zip(masses, rel))
+    Ic = sum(mi * ((r - c) @ (r - c) * np.eye(3) - np.outer(r - c, r - c)) for mi, r in zip(masses, points))
+    return J, m, c, Ic
+
+
+def test_pseudo_inertia_of_point_masses_is_its_definition() -> None:
+    J, m, c, Ic = point_masses(4, 7, 0.2, [0.1, -0.05, 0.3])
     np.testing.assert_allclose(pseudo_inertia(m, c, Ic), J, rtol=1e-12, atol=1e-14)
     back = body_of_standard(standard_parameters(m, c, Ic))
     np.testing.assert_allclose(back[0], m, rtol=1e-14)

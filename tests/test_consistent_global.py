@@ -31,7 +31,7 @@ from symbolic.identify.pseudo_inertia import pseudo_inertia
 from symbolic.identify.known import fixed_symbols, parameter_bounds
 from symbolic.identify.model import geometric_parameters, identify_model, model_base
 from symbolic.numeric.base_parameters import theta_values
-from test_consistent import arm_text, data, with_values
+from test_consistent import arm_text, data, point_masses, with_values
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -153,6 +153,19 @@ def check_certified(result, *, independent: float | None = None) -> None:
     for J in written_pseudo_inertias(result):
         eig = np.linalg.eigvalsh(J)
         assert eig[0] >= -1e-12 * eig[-1], eig
+
+
+def test_pseudo_rows_are_the_second_moments_of_point_masses() -> None:
+    """svec(J) of conic.pseudo_rows against J = Σ m·[r; 1]·[r; 1]ᵀ of point masses (the definition, not the
+    code's formula), for a body placed at indices 3…12 of a longer x; and back through _standard_of_pseudo."""
+    from symbolic.identify.pseudo_inertia import standard_parameters
+
+    J, m, c, Ic = point_masses(11, 5, 0.3, [0.2, -0.1, 0.05])
+    block = tuple(range(3, 13))
+    x = np.random.default_rng(12).normal(size=15)
+    x[list(block)] = standard_parameters(m, c, Ic)
+    np.testing.assert_allclose(conic.pseudo_matrix(x, block), J, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(conic._standard_of_pseudo(J, block, 15)[list(block)], x[list(block)], rtol=1e-12, atol=1e-14)
 
 
 def test_noise_free_data_give_the_truth(arm) -> None:

@@ -336,3 +336,58 @@ def test_an_unreadable_compare_log_is_refused_before_the_design(files, capsys) -
                  "--compare", str(files / "missing.csv"), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "missing.csv" in err and len(err.strip().splitlines()) == 1 and not out.exists()
+
+
+def test_noise_must_be_finite() -> None:
+    """A force noise or resolution of inf is no noise level (σ = inf makes every weight 0): refused with the key."""
+    from symbolic.data.errors import DataError
+    from symbolic.data.excitation import parse
+
+    for key in ("force_noise", "resolution"):
+        with pytest.raises(DataError, match=rf"exp.toml.*\[excitation\] {key}.q1.*a finite number >= 0, got inf"):
+            parse({key: {"q1": float("inf")}}, ("q1", "q2"), "exp.toml")
+    assert parse({"torque": float("inf")}, ("q1", "q2"), "exp.toml").values["torque"] == {"q1": np.inf, "q2": np.inf}
+
+
+def test_a_one_sided_position_limit_is_verified(arm) -> None:
+    """position = [lower, inf]: a reference going below the lower bound has a ratio above 1 (it was 0: the
+    verification saw no limit), one above it a ratio at most 1."""
+    limits = ex.resolve_limits(arm, ("test", {**LIMITS, "position": {"q1": (0.0, np.inf), "q2": (-np.inf, 0.5)}}))
+    regressor = ex.casadi_regressor(arm)
+    t = np.linspace(0.0, 2.0, 50, endpoint=False)
+    a = np.array([[0.3, -0.3], [0.2, -0.2]])
+    inside = ex.FourierTrajectory(limits.coordinates, 2.0, np.array([1.0, -1.0]), a, np.zeros((2, 2)))
+    outside = ex.FourierTrajectory(limits.coordinates, 2.0, np.array([0.01, 0.49]), a, np.zeros((2, 2)))
+    assert ex.violation(regressor, inside, limits, t)["position"].max() <= 1.0
+    assert np.all(ex.violation(regressor, outside, limits, t)["position"] > 1.0)
+
+
+def test_the_experiments_own_rate_is_checked(files) -> None:
+    """Without [excitation] rate, the experiment's top-level rate is used, checked as the loader checks it."""
+    (files / "rate.toml").write_text('rate = "fast"\n' + EXPERIMENT.replace("rate = 200.0\n", ""))
+    with pytest.raises(symbolic.data.DataError, match=r"rate.toml.*rate.*expected a sampling rate in Hz"):
+        read_declarations(files / "rate.toml", ("q1", "q2"))
+    (files / "rate.toml").write_text("rate = 500.0\n" + EXPERIMENT.replace("rate = 200.0\n", ""))
+    assert read_declarations(files / "rate.toml", ("q1", "q2")).table.rate == 500.0
+
+
+def test_velocity_and_acceleration_are_the_derivatives_of_the_position() -> None:
+    """basis's q̇ and q̈ against central differences of its q (the module's formulas are not reused)."""
+    trajectory = ex.FourierTrajectory.from_free(("a", "b"), 2.5, 4, np.random.default_rng(6).standard_normal(14))
+    t, h = np.linspace(0.1, 2.4, 37), 1e-5
+    q, qd, qdd = trajectory.evaluate(t)
+    (q_minus, qd_minus, _), (q_plus, qd_plus, _) = trajectory.evaluate(t - h), trajectory.evaluate(t + h)
+    np.testing.assert_allclose((q_plus - q_minus) / (2 * h), qd, rtol=1e-7, atol=1e-7)
+    np.testing.assert_allclose((qd_plus - qd_minus) / (2 * h), qdd, rtol=1e-7, atol=1e-6)
+
+
+def test_the_loop_table_is_a_markdown_table_saying_why_a_coordinate_refuses() -> None:
+    """Every row has the header's number of cells (a "|τ|" in the header split it into two), and the last
+    column tells saturation from a force over its limit."""
+    from symbolic.identify.excitation_loop import LoopCheck
+
+    check = LoopCheck(("q1", "q2", "q3"), np.ones(3), np.ones(3), np.array([5.0, 20.0, 1.0]), np.full(3, 10.0),
+                      np.array([True, False, False]), "pd", np.array([5.0, np.inf, np.inf]))
+    rows = [line for line in check.table() if line.startswith("|")]
+    assert len({line.count("|") for line in rows}) == 1
+    assert [line.rsplit("|", 2)[1].strip() for line in rows[2:]] == ["saturated", "over the limit", "no"]

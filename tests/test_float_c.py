@@ -310,3 +310,13 @@ def test_float_c_compiles_with_the_strict_flags(robot: str, tmp_path: Path) -> N
     errors = header.split("parameters the nominal values:")[1].split(" *\n")[0]
     print(f"\n{robot}: " + " ".join(line.strip(" *") for line in errors.splitlines()))
     assert stated(header, "inertia") <= 1e-5  # D is a sum of positive-definite terms: no cancellation to fear
+
+
+def test_stated_error_of_a_function_zero_at_most_states() -> None:
+    """A worst error above NOTED where ‖f_double‖ is zero at most states (median 0): stated, not a division by 0."""
+    from symbolic.codegen.c_accuracy import FunctionError
+
+    error = FunctionError("stiffness", 3e-3, 10, scale_at_worst=2.0, median_scale=0.0)
+    assert error.text() == "stiffness 3.0e-03 (where ||f_double|| is 2.0e+00, its median 0)"
+    assert FunctionError("inertia", 3e-3, 10, 0.5, 1000.0).text() == "inertia 3.0e-03 (where ||f_double|| is 1/2000 of its median)"
+    assert FunctionError("gravity", 0.0, 10, 0.0, 0.0).figure("‖f_double‖") == "0"

@@ -381,3 +381,27 @@ def test_quaternion_is_mujocos_for_any_rotation() -> None:
         expected = -expected if expected[0] < 0 else expected
         q = quaternion(R)
         assert np.abs(q - expected).max() < 1e-15 or (q[0] == 0 and np.abs(q + expected).max() < 1e-15), (R, q, expected)
+
+
+def test_limits_of_a_joint_variable_written_as_an_expression_bound_the_coordinate(tmp_path: Path) -> None:
+    """``coordinate = "0.5 - q1"`` with limit [-3, 3] on the joint variable θ = 0.5 − q1: MuJoCo's qpos is q1,
+    so its range is [0.5 − 3, 0.5 + 3] (it was [-3, 3], the limit of θ written as one of q1)."""
+    from models import general_frames
+
+    text = general_frames().replace('coordinate = "q1"', 'coordinate = "0.5 - q1"', 1)
+    robot = quiet(symbolic.loads, text, "general.toml")
+    m = load(robot, tmp_path)
+    q1 = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "q1")
+    assert m.jnt_limited[q1] and list(m.jnt_range[q1]) == [-2.5, 3.5]
+    assert worst_relative_error(robot, m) < TOLERANCE
+
+
+def test_an_unvalidated_robot_is_validated_before_its_text_is_read() -> None:
+    """A Robot built in Python with a string the safe parser refuses (a call): mjcf validates it (ModelError
+    naming the key) instead of handing the text to sympify, which would evaluate it."""
+    panda = symbolic.robots.load("panda")
+    frames = (dataclasses.replace(panda.frames[0], d="Symbol('x')"), *panda.frames[1:])
+    robot = dataclasses.replace(panda, frames=frames, validated=False)
+    with pytest.raises(symbolic.ModelError):
+        mjcf(robot)
+    assert mjcf(dataclasses.replace(panda, validated=False)) == mjcf(panda)

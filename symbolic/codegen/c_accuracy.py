@@ -86,12 +86,19 @@ class FunctionError:
         """``inertia 3.1e-07`` (two significant digits), ``stiffness 0 (zero)``; above :data:`NOTED`, where."""
         if self.states == 0:
             return f"{self.name} not measured ({UNMEASURED})"
+        return f"{self.name} {self.figure()}"
+
+    def figure(self, where: str = "where ||f_double|| is") -> str:
+        """The worst error alone: ``3.1e-07``, ``0 (zero)`` (f_double zero everywhere), ``0``, ``not measured``;
+        above :data:`NOTED` followed by ``(<where> <:meth:`where`>)``."""
+        if self.states == 0:
+            return "not measured"
         if self.worst is None:
-            return f"{self.name} 0 (zero)"
+            return "0 (zero)"
         if self.worst == 0:
-            return f"{self.name} 0"
-        where = self.where()
-        return f"{self.name} {self.worst:.1e}" + (f" (where ||f_double|| is {where})" if where else "")
+            return "0"
+        place = self.where()
+        return f"{self.worst:.1e}" + (f" ({where} {place})" if place else "")
 
     def where(self) -> str:
         """Above :data:`NOTED`, the size of ‖f_double‖ at the worst state against its median; else empty."""
@@ -99,6 +106,8 @@ class FunctionError:
             return ""
         if self.scale_at_worst == 0:
             return f"0, its median {self.median_scale:.1e}"
+        if self.median_scale == 0:  # zero at most states: no ratio to give
+            return f"{self.scale_at_worst:.1e}, its median 0"
         ratio = self.scale_at_worst / self.median_scale
         return f"1/{_rounded(1 / ratio)} of its median" if ratio < 1 else f"{_rounded(ratio)} times its median"
 
@@ -275,7 +284,10 @@ def _load(model: DynamicModel, precision: str) -> ctypes.CDLL:
     """The model's C of ``precision`` as one translation unit, compiled (cached) and loaded."""
     files = render_c(c_context(model, precision), "the single-precision C's accuracy measured (symbolic.codegen.c_accuracy)", [])
     stem = c_file_stem(model, precision)
-    text = files[f"{stem}.c"].replace(f'#include "{stem}.h"\n', files[f"{stem}.h"], 1)
+    include = f'#include "{stem}.h"\n'
+    if include not in files[f"{stem}.c"]:  # a template change would otherwise surface as "no C compiler"
+        raise RuntimeError(f"{stem}.c does not include {stem}.h: the one translation unit cannot be formed")
+    text = files[f"{stem}.c"].replace(include, files[f"{stem}.h"], 1)
     library = compiled.load_library(text, f"{model.name}_{precision}", ctypes.CDLL)
     if library is None:
         raise ExportError("--precision float: the float C's error against the double C is measured by compiling both, "

@@ -66,24 +66,33 @@ def _number(x: Any) -> bool:
 
 def _per_coordinate(entry: Any, kind: str, coordinates: Sequence[str], source: str) -> dict[str, Any]:
     if not isinstance(entry, Mapping):
-        return {c: _value(entry, kind, f"[excitation] {kind}", source) for c in coordinates}
+        return {c: checked_value(entry, kind, f"[excitation] {kind}", source) for c in coordinates}
     out = {}
     for c, v in entry.items():
         if c not in coordinates:
             raise DataError(source, f"[excitation] {kind}.{c}", f"unknown coordinate (the model's: "
                                                                  f"{', '.join(coordinates)}){suggestion(c, coordinates)}")
-        out[c] = _value(v, kind, f"[excitation] {kind}.{c}", source)
+        out[c] = checked_value(v, kind, f"[excitation] {kind}.{c}", source)
     return out
 
 
-def _value(v: Any, kind: str, where: str, source: str) -> Any:
+def checked_value(v: Any, kind: str, where: str, source: str) -> Any:
+    """One entry of ``kind``: a position's ``(lower, upper)``, a limit > 0 (inf: none) or a noise level ≥ 0 (finite),
+    as floats; also the check of the command line's values (``where``/``source``: the option).
+
+    Raises
+    ------
+    DataError
+        Naming ``source`` and ``where``, what is allowed and what was given.
+    """
     if kind == "position":
         if not (isinstance(v, (list, tuple)) and len(v) == 2 and all(_number(x) and not math.isnan(x) for x in v)
                 and v[0] < v[1]):
             raise DataError(source, where, f"expected [lower, upper] with lower < upper, got {v!r}")
         return (float(v[0]), float(v[1]))
-    smallest = 0.0 if kind in NOISE else None
-    if not (_number(v) and not math.isnan(v) and (v >= 0 if smallest == 0.0 else v > 0)):
-        allowed = "a number >= 0" if smallest == 0.0 else "a bound > 0 (inf: none)"
-        raise DataError(source, where, f"expected {allowed}, got {v!r}")
+    if kind in NOISE:  # a noise level: 0 (none) or more, never inf (σ = inf would weigh every sample 0)
+        if not (_number(v) and math.isfinite(v) and v >= 0):
+            raise DataError(source, where, f"expected a finite number >= 0, got {v!r}")
+    elif not (_number(v) and not math.isnan(v) and v > 0):  # a limit: inf declares none
+        raise DataError(source, where, f"expected a bound > 0 (inf: none), got {v!r}")
     return float(v)

@@ -208,7 +208,7 @@ def _read_experiment(path: Path, coordinates: tuple[str, ...] | None, model: Rob
         data_file = resolve_data(_string(spec, "data", source, required=True), path)
     signals_spec = _table(spec, "signals", source)
     written = dict(signals_spec)
-    rate = _rate(spec, signals_spec, source)
+    rate = sample_rate(spec, signals_spec, source)
     resample_key = spec.get("resample", False)
     if not isinstance(resample_key, bool):
         raise DataError(source, "resample", f"expected true or false, got {resample_key!r}")
@@ -455,7 +455,14 @@ def _model(spec: Mapping[str, Any], path: Path) -> str | None:
     return str(resolved)
 
 
-def _rate(spec: Mapping[str, Any], signals: Mapping[str, Any], source: str) -> float | None:
+def sample_rate(spec: Mapping[str, Any], signals: Mapping[str, Any], source: str) -> float | None:
+    """The experiment's ``rate`` (or its ``[signals] rate``), checked; ``None`` when neither is given.
+
+    Raises
+    ------
+    DataError
+        Both given (or a rate beside a time signal), or a rate that is not a number within the allowed range.
+    """
     given = [(key, value) for key, value in (("rate", spec.get("rate")), ("[signals] rate", signals.get("rate")))
              if value is not None and (key == "rate" or isfinite_number(value))]
     if not given:

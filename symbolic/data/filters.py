@@ -29,6 +29,9 @@ DECIMATION_ORDER = 8
 DECIMATION_RIPPLE = 0.05
 """Pass-band ripple in dB of that filter."""
 
+DECIMATION_CUTOFF = 0.8
+"""The decimation filter's cut-off as a fraction of the new Nyquist frequency (the band the decimated rows keep)."""
+
 
 def lowpass(x: np.ndarray, cutoff: float, rate: float, order: int = 4, axis: int = 0) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``x`` sampled at ``rate``.
@@ -120,7 +123,7 @@ def _butterworth(order: int, cutoff: float) -> np.ndarray:
 @functools.lru_cache(maxsize=32)
 def _chebyshev(factor: int) -> np.ndarray:
     """Sections of :func:`decimate`'s filter, ``scipy.signal.cheby1(8, 0.05, 0.8/factor, output="sos")``."""
-    return _chebyshev_sections(DECIMATION_ORDER, DECIMATION_RIPPLE, 0.8 / factor)
+    return _chebyshev_sections(DECIMATION_ORDER, DECIMATION_RIPPLE, DECIMATION_CUTOFF / factor)
 
 
 def _chebyshev_sections(order: int, ripple: float, cutoff: float) -> np.ndarray:

@@ -5,7 +5,8 @@ The values are the model's parameters (nominal, or identified ones passed as ``v
 ``<inertial>`` combining the bodies it carries (total mass, centre of mass, full inertia about it in the
 frame's axes, Huygens–Steiner, as the URDF exporter combines them) and the joint of the coordinate that moves it:
 
-* a general frame (URDF joint): a ``hinge`` or ``slide`` about or along ±axis at the body's origin;
+* a general frame (URDF joint): a ``hinge`` or ``slide`` about or along ±axis at the body's origin, its
+  ``range`` the joint's ``limit`` on θ = ±q + offset as bounds of q (MuJoCo's qpos);
 * a modified-DH frame ``Rx(α)·Tx(a)·Rz(θ)·Tz(d)``: placed at ``Rx(α)·Tx(a)·Rz(θ₀)·Tz(d₀)``, joint about or along
   ±z at its origin;
 * a standard-DH frame ``Rz(θ)·Tz(d)·Tx(a)·Rx(α)``: placed at ``Rz(θ₀)·Tz(d₀)·Tx(a)·Rx(α)``, joint about or along
@@ -45,7 +46,8 @@ import numpy as np
 import sympy as sp
 
 from symbolic.description.robot import BASE, TIME, Directional, Frame, Robot
-from symbolic.errors import ExportError, ModelWarning
+from symbolic.description.validation import validate
+from symbolic.errors import ExportError, ModelWarning, suggestion
 
 DIGITS = 40
 """Decimal digits of the computation of every written number (each rounded once to the nearest double)."""
@@ -69,6 +71,7 @@ class Placement:
     axis: np.ndarray | None = None
     anchor: np.ndarray | None = None
     limits: Mapping[str, float] | None = None
+    """The coordinate's ``lower`` and ``upper`` (MuJoCo's joint range), when the joint declares both."""
 
 
 def _number(x) -> str:
@@ -169,6 +172,15 @@ def _combined(masses: list, coms: list[np.ndarray], tensors: list[np.ndarray]) -
     return total, centre, inertia
 
 
+def _coordinate_range(limits: Mapping[str, float] | None, sign: int, offset: mpmath.mpf) -> dict[str, mpmath.mpf]:
+    """The joint's ``lower``/``upper`` (bounds of its variable θ = sign·q + offset) as bounds of the coordinate q,
+    MuJoCo's qpos: q = sign·(θ − offset); empty without both."""
+    if not limits or "lower" not in limits or "upper" not in limits:
+        return {}
+    ends = sorted(sign * (mpmath.mpf(limits[k]) - offset) for k in ("lower", "upper"))
+    return {"lower": ends[0], "upper": ends[1]}
+
+
 class _Writer:
     """One export: the robot, its parameter values, and what is left out (warned) or noted (comments only)."""
 
@@ -187,7 +199,7 @@ class _Writer:
     def exact(self, expr: sp.Expr | str | float, key: str) -> sp.Expr:
         """``expr`` at the parameter values (each the exact binary value of its double), kept exact; an error naming
         ``key`` if that is not a finite real number."""
-        x = sp.sympify(sp.sympify(expr).xreplace(self.values))
+        x = sp.sympify(expr).xreplace(self.values)  # a validated robot's Expr, or a number
         x = x.xreplace({f: sp.Rational(f) for f in x.atoms(sp.Float)})  # a literal 1.5708 as its double, exactly
         if x.free_symbols:
             raise self.fail(key, f"{x} depends on {sorted(map(str, x.free_symbols))}")
@@ -258,7 +270,7 @@ class _Writer:
             xyz = xyz + R @ axis * _mp(offset)
         elif offset != 0:
             R = R @ _axis_rotation(axis, offset)
-        limits = j.limits if j.type != "continuous" else None
+        limits = _coordinate_range(j.limits, sign, _mp(offset)) if j.type != "continuous" else None
         return Placement(R, xyz, "slide" if prismatic else "hinge", coordinate, sign * axis, _vector([0, 0, 0]), limits)
 
     # -- elements ----------------------------------------------------------------------------------
@@ -350,10 +362,11 @@ class _Writer:
         element.set("name", f.name)
         element.set("pos", _numbers(place.position))
         element.set("quat", _numbers(quaternion(place.rotation)))
-        inertial = self.inertial(f.name, moving=place.kind is not None and not self.carried(f), rotates=rotates)
+        moving_alone = place.kind is not None and not self.carried(f)  # a joint moves it, no welded frame's mass
+        inertial = self.inertial(f.name, moving=moving_alone, rotates=rotates)
         if inertial is not None:
             element.append(inertial)
-        elif place.kind is not None and not self.carried(f):
+        elif moving_alone:
             raise self.fail(f"[[frame]] {f.name!r}", f"no body: MuJoCo requires a mass and inertia above {MJMINVAL} on "
                                                      "a body a joint moves (or on a body welded to it)")
         if place.kind is not None:
@@ -459,9 +472,12 @@ def mjcf(robot: Robot, values: Mapping[str, float] | None = None) -> str:
     added to the joint-space inertia, damping a passive force, friction loss a constraint); Janot, Gautier and
     Brunot (2019) (15) for the friction law f = Fv·q̇ + Fc·sign(q̇) + offset whose terms are written.
     """
-    unknown = set(values or {}) - {p.name for p in robot.parameters}
+    robot = validate(robot)  # expressions parsed by the safe parser, never sympify's evaluation of text
+    names = [p.name for p in robot.parameters]
+    unknown = sorted(set(values or {}) - set(names))
     if unknown:
-        raise ExportError(f"{robot.source}: unknown parameter(s) {sorted(unknown)}")
+        raise ExportError(f"{robot.source}: unknown parameter(s) {unknown}: values are given by the names of the model "
+                          f"file's [parameters]{suggestion(unknown[0], names)}")
     infinite = sorted(name for name, value in (values or {}).items() if not math.isfinite(float(value)))
     if infinite:
         raise ExportError(f"{robot.source}: parameter value(s) not finite: {', '.join(infinite)}")

@@ -3,7 +3,7 @@
 In the standard parameters of each body — [XX XY XZ YY YZ ZZ MX MY MZ M] about its frame, which the
 regressor's θ is affine in — physical consistency is a linear matrix inequality (Wensing, Kim & Slotine,
 "Linear matrix inequalities for physically consistent inertial parameter identification: a statistical
-perspective on the mass distribution", IEEE RA-L 2(3), 2017, arXiv:1701.04395: the pseudo-inertia of a body
+perspective on the mass distribution", IEEE RA-L 3(1), 2018, arXiv:1701.04395: the pseudo-inertia of a body
 is positive semidefinite exactly when some mass distribution has its ten parameters; their equation numbers
 are not quoted here, not having been checked against the published text):
 
@@ -37,7 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from symbolic.identify.pseudo_inertia import AXES, INERTIA_KEYS, standard_parameters
+from symbolic.identify.pseudo_inertia import (AXES, INERTIA_KEYS, body_of_standard, inertia_entries, inertia_matrix,
+                                              standard_parameters)
 
 Problem = Any
 """A :class:`symbolic.identify.consistent.Problem` (not imported: that module calls this one)."""
@@ -102,10 +103,7 @@ def _body_values(body: BodyPlan, p: np.ndarray) -> tuple[float, np.ndarray, np.n
     def value(slot):
         return float(p[slot]) if isinstance(slot, int) else float(slot)
 
-    Ic = np.zeros((3, 3))
-    for key, slot in zip(INERTIA_KEYS, body.inertia):
-        i, j = AXES[key]
-        Ic[i, j] = Ic[j, i] = value(slot)
+    Ic = inertia_matrix([value(slot) for slot in body.inertia])
     return value(body.mass), np.array([value(s) for s in body.com]), Ic
 
 
@@ -115,10 +113,12 @@ def parameters_of(prob: Problem, x: np.ndarray, p_start: np.ndarray) -> np.ndarr
     ``p_start`` (any serves: h = 0)."""
     p = np.array(p_start, float)
     for k, body in enumerate(prob.bodies):
-        XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = x[10 * k:10 * k + 10]
-        c = np.array([MX, MY, MZ]) / M if M > 0 else _body_values(body, p_start)[1]
-        IO = np.array([[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]])
-        Ic = IO - max(M, 0.0) * (c @ c * np.eye(3) - np.outer(c, c))
+        standard = x[10 * k:10 * k + 10]
+        M = float(standard[9])
+        if M > 0:
+            _, c, Ic = body_of_standard(standard)
+        else:  # no mass: I_c = I_O, and any centre of mass
+            c, Ic = _body_values(body, p_start)[1], inertia_matrix(standard[:6])
         if isinstance(body.mass, int):
             p[body.mass] = M
         for axis in body.free_com:
@@ -182,15 +182,30 @@ def _constraints(prob: Problem, n: int):
     return E, np.array([v for _, v in eq], float), G, np.array([v for _, v in ineq], float), dropped
 
 
+MASS, FIRST_MOMENTS = 9, (6, 7, 8)
+"""Where M and MX, MY, MZ are among a body's ten standard parameters."""
+
+
 def _body_constraints(prob: Problem, body: BodyPlan, at: int, n: int, eq: list, ineq: list, dropped: list) -> None:
-    """A body's rows of E·x = e and G·x ≤ g (x[at:at+10] = XX XY XZ YY YZ ZZ MX MY MZ M)."""
+    """A body's rows of E·x = e and G·x ≤ g (x[at:at+10] = XX XY XZ YY YZ ZZ MX MY MZ M), appended to ``eq`` and
+    ``ineq`` as (row, right-hand side); what (11) cannot hold is named in ``dropped``."""
     def unit(*pairs: tuple[int, float]) -> np.ndarray:
         row = np.zeros(n)
         for i, v in pairs:
             row[at + i] += v
         return row
 
-    M, H = 9, (6, 7, 8)
+    _mass_and_com_rows(prob, body, unit, eq, ineq)
+    if not body.free_inertia:
+        _constant_inertia_rows(prob, body, unit, eq, dropped)
+    else:
+        _zero_product_rows(body, unit, eq, dropped)
+
+
+def _mass_and_com_rows(prob: Problem, body: BodyPlan, unit, eq: list, ineq: list) -> None:
+    """The mass: its value, or its bounds (``prob.lower``/``upper`` hold α = ½·log m); each centre-of-mass
+    coordinate: h = c·m for a constant c, l·m ≤ h ≤ u·m for bounds l, u (linear: m ≥ 0)."""
+    M, H = MASS, FIRST_MOMENTS
     k = body.offset
     if isinstance(body.mass, int):
         low, high = np.exp(2 * prob.lower[k]), np.exp(2 * prob.upper[k])
@@ -211,24 +226,31 @@ def _body_constraints(prob: Problem, body: BodyPlan, at: int, n: int, eq: list, 
         if np.isfinite(high):
             ineq.append((unit((H[axis], 1.0), (M, -high)), 0.0))
         k += 1
-    constant_com = [isinstance(s, float) for s in body.com]
-    if not body.free_inertia:  # a constant inertia: I_O = I_c + m·(cᵀc·1 − c·cᵀ), affine in m where c is constant
-        if not all(constant_com):
-            dropped.append(f"{body.name}: constant inertia about a free centre of mass")
-            return
-        c = np.array(body.com, float)
-        _, _, Ic = _body_values(body, np.zeros(len(prob.free)))
-        shift = c @ c * np.eye(3) - np.outer(c, c)
-        for index, key in enumerate(INERTIA_KEYS):
-            i, j = AXES[key]
-            eq.append((unit((index, 1.0), (M, -shift[i, j])), Ic[i, j]))
+
+
+def _constant_inertia_rows(prob: Problem, body: BodyPlan, unit, eq: list, dropped: list) -> None:
+    """A constant inertia I_c: I_O = I_c + m·(cᵀc·1 − c·cᵀ), affine in m where c is constant (else dropped)."""
+    if not all(isinstance(s, float) for s in body.com):
+        dropped.append(f"{body.name}: constant inertia about a free centre of mass")
         return
+    c = np.array(body.com, float)
+    _, _, Ic = _body_values(body, np.zeros(len(prob.free)))
+    shift = c @ c * np.eye(3) - np.outer(c, c)
+    for index, key in enumerate(INERTIA_KEYS):
+        i, j = AXES[key]
+        eq.append((unit((index, 1.0), (MASS, -shift[i, j])), Ic[i, j]))
+
+
+def _zero_product_rows(body: BodyPlan, unit, eq: list, dropped: list) -> None:
+    """A product of inertia written as 0: I_c,ij = 0, i.e. I_O,ij = −m·c_i·c_j = −c_i·h_j, linear where c_i (or
+    c_j) is constant (else dropped)."""
+    constant_com = [isinstance(s, float) for s in body.com]
     for key in ("xy", "xz", "yz"):
         if isinstance(body.inertia[INERTIA_KEYS.index(key)], int):
             continue
-        i, j = AXES[key]  # I_c,ij = 0: I_O,ij = −m·c_i·c_j = −c_i·h_j with c_i constant
+        i, j = AXES[key]
         if constant_com[i] or constant_com[j]:
-            ci, hj = (body.com[i], H[j]) if constant_com[i] else (body.com[j], H[i])
+            ci, hj = (body.com[i], FIRST_MOMENTS[j]) if constant_com[i] else (body.com[j], FIRST_MOMENTS[i])
             eq.append((unit((INERTIA_KEYS.index(key), 1.0), (hj, ci)), 0.0))
         else:
             dropped.append(f"{body.name}: I{key} = 0 about a free centre of mass")
@@ -250,11 +272,7 @@ def pseudo_rows(block: tuple[int, ...], n: int) -> np.ndarray:
 
 def pseudo_matrix(x: np.ndarray, block: tuple[int, ...]) -> np.ndarray:
     """J of (10) at x for one body."""
-    v = pseudo_rows(block, len(x)) @ x
-    J = np.zeros((4, 4))
-    for value, (i, j) in zip(v, PSD_ORDER):
-        J[i, j] = J[j, i] = value / (1.0 if i == j else SQRT2)
-    return J
+    return _matrix(pseudo_rows(block, len(x)) @ x)
 
 
 @dataclass(frozen=True)
@@ -571,7 +589,7 @@ def _standard_of_pseudo(J: np.ndarray, block: tuple[int, ...], n: int) -> np.nda
     sigma = J[:3, :3]
     IO = np.trace(sigma) * np.eye(3) - sigma
     out = np.zeros(n)
-    out[list(block)] = [IO[0, 0], IO[0, 1], IO[0, 2], IO[1, 1], IO[1, 2], IO[2, 2], *J[:3, 3], J[3, 3]]
+    out[list(block)] = [*inertia_entries(IO), *J[:3, 3], J[3, 3]]
     return out
 
 

@@ -212,6 +212,13 @@ class FourierTrajectory:
                                 for i, c in enumerate(self.coordinates)}}
 
 
+def reference_samples(trajectory: FourierTrajectory, rate: float) -> tuple[np.ndarray, ...]:
+    """t (0 … T at ``rate``, both ends included), q, q̇, q̈ of ``trajectory``: the reference as a log records it."""
+    count = int(round(trajectory.period * rate)) + 1
+    t = np.arange(count) / rate
+    return (t, *trajectory.evaluate(t))
+
+
 # -- the regressor in CasADi ---------------------------------------------------------------------------------
 
 
@@ -502,16 +509,37 @@ def violation(regressor: CasadiRegressor, trajectory: FourierTrajectory, limits:
               t: np.ndarray) -> dict[str, np.ndarray]:
     """Per kind, per coordinate: the largest ratio of the excursion to its limit on the times ``t`` (≤ 1: inside).
 
-    Position: the excursion from the middle of [lower, upper] over the half range."""
+    Position: :func:`position_ratio`."""
     q, qd, qdd = trajectory.evaluate(t)
     tau = torques(regressor, q, qd, qdd)
-    middle, half = 0.5 * (limits.lower + limits.upper), 0.5 * (limits.upper - limits.lower)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = {"position": np.abs(q - np.where(np.isfinite(middle), middle, 0.0)).max(axis=0) / half,
+        ratio = {"position": position_ratio(q, limits.lower, limits.upper),
                  "velocity": np.abs(qd).max(axis=0) / limits.velocity,
                  "acceleration": np.abs(qdd).max(axis=0) / limits.acceleration,
                  "torque": np.abs(tau).max(axis=0) / limits.torque}
     return {k: np.nan_to_num(v, nan=0.0) for k, v in ratio.items()}
+
+
+def position_ratio(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Per coordinate (columns of ``q``), how far the positions go towards their bounds, 1 at a bound.
+
+    Both bounds finite: the largest |q − middle| over the half range. One bound (the other ±inf): with g the
+    least distance of q to it (negative beyond it) and s = max q − min q the excursion, s/(g + s) for g ≥ 0 and
+    1 − g/s beyond it (∞ for a constant q beyond it). No bound: 0."""
+    q = np.asarray(q, float)
+    out = np.zeros(q.shape[1])
+    for i, (low, high) in enumerate(zip(lower, upper)):
+        column = q[:, i]
+        if np.isfinite(low) and np.isfinite(high):
+            out[i] = np.abs(column - 0.5 * (low + high)).max() / (0.5 * (high - low))
+        elif np.isfinite(low) or np.isfinite(high):
+            gap = float((column - low).min() if np.isfinite(low) else (high - column).min())
+            span = float(np.ptp(column))
+            if gap >= 0:
+                out[i] = span / (gap + span) if gap + span > 0 else 1.0
+            else:
+                out[i] = 1.0 - gap / span if span > 0 else math.inf
+    return out
 
 
 def random_start(rng: np.random.Generator, problem: Problem, fill: float = 0.6) -> np.ndarray:
@@ -550,10 +578,11 @@ def random_start(rng: np.random.Generator, problem: Problem, fill: float = 0.6) 
 
 @dataclass(frozen=True, eq=False)
 class Start:
-    """One random start: the criterion at the start and after the solve, IPOPT's status, the worst ratio to a
-    limit on the verification grid, and whether the result was kept."""
+    """One random start: the criterion at the start and after the solve, IPOPT's status, and the worst ratio to a
+    limit on the verification grid (a start is a candidate for the design when it is at most 1 + :data:`TOLERANCE`)."""
 
-    seed_index: int
+    index: int
+    """Which start (0, 1, …): the starts are drawn in turn from one generator seeded by ``seed``."""
     start_value: float
     value: float
     status: str
@@ -601,7 +630,7 @@ class Design:
                 "grid_points": self.grid_points, "seconds": self.seconds,
                 "worst_ratio_to_limit": {k: dict(zip(self.limits.coordinates, map(float, v)))
                                          for k, v in self.worst.items()},
-                "starts": [{"start": s.seed_index, "start_value": s.start_value, "value": s.value, "status": s.status,
+                "starts": [{"start": s.index, "start_value": s.start_value, "value": s.value, "status": s.status,
                             "worst_ratio": s.worst, "worst_kind": s.worst_kind, "seconds": s.seconds}
                            for s in self.starts],
                 "limits": self.limits.to_dict(), "trajectory": self.trajectory.to_dict()}
@@ -671,7 +700,7 @@ def design(model: DynamicModel, limits: Limits, duration: float, *, weights: Seq
 
 def check_options(duration: float, harmonics: int, criterion: str, starts: int) -> None:
     """One line per option that cannot be used."""
-    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+    if isinstance(duration, bool) or not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
         raise IdentificationError(f"--duration: the reference's period T must be a time > 0 s, got {duration!r}")
     if isinstance(harmonics, bool) or not isinstance(harmonics, int) or harmonics < 2:
         raise IdentificationError(f"--harmonics: at least 2 harmonics are needed (at rest at t = 0 and T, one "

@@ -53,6 +53,9 @@ def condition(M: np.ndarray) -> tuple[float, np.ndarray]:  # noqa: N803
 CRITERIA: dict[str, Criterion] = {"d": d_optimal, "a": a_optimal, "condition": condition}
 """Criterion name → function (module docstring); the names ``symbolic excite --criterion`` accepts."""
 
+DESCRIPTIONS = {"d": "D-optimality, −log det M", "a": "A-optimality, log tr M⁻¹", "condition": "log cond"}
+"""Criterion name → what it minimises, in the reports' words."""
+
 
 def positive_definite(M: np.ndarray) -> bool:  # noqa: N803
     """Whether M is numerically positive definite (a criterion is defined)."""

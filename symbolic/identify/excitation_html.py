@@ -17,9 +17,9 @@ import numpy as np
 from symbolic import htmlpage
 from symbolic.description.units import coordinate_units
 from symbolic.htmlpage import Page, bars, line, number
+from symbolic.identify.excitation_criteria import DESCRIPTIONS
 
 NAME = htmlpage.REPORT
-CRITERIA = {"d": "D-optimality, −log det M", "a": "A-optimality, log tr M⁻¹", "condition": "log cond"}
 
 
 def render(result: Any, document: Mapping[str, Any]) -> str:
@@ -30,7 +30,7 @@ def render(result: Any, document: Mapping[str, Any]) -> str:
     r = page.result
     d = r["design"]
     page.paragraph(f"Fourier series (Swevers et al. 1997), at rest at t = 0 and T; criterion {d['criterion']} "
-                   f"({CRITERIA.get(d['criterion'], d['criterion'])}). Collision avoidance: {r['collision_avoidance']}.")
+                   f"({DESCRIPTIONS.get(d['criterion'], d['criterion'])}). Collision avoidance: {r['collision_avoidance']}.")
     page.table(["quantity", "value"], [
         ["period T (s)", number(r, "design", "trajectory", "period")],
         ["harmonics per coordinate", number(r, "design", "trajectory", "harmonics")],

@@ -18,7 +18,7 @@ import numpy as np
 from symbolic.data import Experiment, Measurements
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.errors import IdentificationError
-from symbolic.identify.excitation import FourierTrajectory, Limits
+from symbolic.identify.excitation import FourierTrajectory, Limits, reference_samples
 
 MARGIN = 0.95
 """The suggested torque limit of a refused design: the declared one scaled by limit/peak and this margin."""
@@ -56,11 +56,16 @@ class LoopCheck:
 
     def table(self) -> list[str]:
         lines = [f"In the loop ({self.controller}), the model at its nominal values:", "",
-                 "| coordinate | tracking error max | RMS | peak |τ| | limit | saturated |", "|---|---|---|---|---|---|"]
+                 # ‖τ‖, not |τ|: a "|" would split the Markdown table's cell
+                 "| coordinate | tracking error max | RMS | peak ‖τ‖ | limit | refused |", "|---|---|---|---|---|---|"]
         lines += [f"| {c} | {self.tracking_max[i]:.4g} | {self.tracking_rms[i]:.4g} | {self.peak_torque[i]:.4g} | "
-                  f"{self.torque_limit[i]:g} | {'yes' if self.saturated[i] or self.over[i] else 'no'} |"
-                  for i, c in enumerate(self.coordinates)]
+                  f"{self.torque_limit[i]:g} | {self._verdict(i)} |" for i, c in enumerate(self.coordinates)]
         return lines
+
+    def _verdict(self, i: int) -> str:
+        """Why coordinate ``i`` refuses the design (the controller's output saturated, the force over its limit)."""
+        reasons = [why for why, holds in (("saturated", self.saturated[i]), ("over the limit", self.over[i])) if holds]
+        return ", ".join(reasons) or "no"
 
 
 def check_in_loop(model: DynamicModel, trajectory: FourierTrajectory, rate: float, limits: Limits,
@@ -70,9 +75,7 @@ def check_in_loop(model: DynamicModel, trajectory: FourierTrajectory, rate: floa
     from symbolic.simulation import simulate
     from symbolic.simulation.controller import drive_gains
 
-    count = int(round(trajectory.period * rate)) + 1
-    t = np.arange(count) / rate
-    q, qd, _ = trajectory.evaluate(t)
+    t, q, qd, _ = reference_samples(trajectory, rate)
     names = trajectory.coordinates
     log = Measurements.from_arrays(t, names, q, np.zeros_like(q), ref=q,
                                    extras={f"refd_{c}": qd[:, i] for i, c in enumerate(names)})

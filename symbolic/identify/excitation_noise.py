@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from symbolic.data.filters import DECIMATION_CUTOFF
 from symbolic.data.settings import Processing, Settings
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.errors import IdentificationError
@@ -80,7 +81,7 @@ def resolve_noise(model: DynamicModel, rate: float | None, *sources: tuple[str, 
 def decimation_edge(processing: Processing) -> float:
     """f_b: the upper edge of the band the decimated system keeps (Hz)."""
     nyquist = processing.rate / 2.0
-    return nyquist if processing.decimation <= 1 else 0.8 * nyquist / processing.decimation
+    return nyquist if processing.decimation <= 1 else DECIMATION_CUTOFF * nyquist / processing.decimation
 
 
 def acceleration_noise(resolution: np.ndarray, processing: Processing, points: int = 4001) -> np.ndarray:

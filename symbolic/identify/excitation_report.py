@@ -18,14 +18,15 @@ import numpy as np
 from symbolic.data import Measurements
 from symbolic.data import files as data_files
 from symbolic.data.errors import DataError
-from symbolic.data.excitation import ExcitationTable, parse
-from symbolic.data.experiment import TOP_KEYS
+from symbolic.data.excitation import ExcitationTable, checked_value, parse
+from symbolic.data.experiment import TOP_KEYS, sample_rate
 from symbolic.data.keys import check_keys
 from symbolic.data.settings import Settings
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.identify.least_squares import percent
-from symbolic.identify.excitation import (HARMONICS, STARTS, Design, FourierTrajectory, check_options, design,
-                                          resolve_limits)
+from symbolic.identify.excitation import (FINER, HARMONICS, STARTS, Design, FourierTrajectory, check_options,
+                                          design, reference_samples, resolve_limits)
+from symbolic.identify.excitation_criteria import DESCRIPTIONS
 from symbolic.identify.excitation_loop import LoopCheck, check_in_loop, refusal
 from symbolic.identify.excitation_noise import Noise, Prediction, equivalent_noise, predict, resolve_noise, treatment
 
@@ -60,9 +61,9 @@ def read_declarations(path: str | Path | None, coordinates: Sequence[str]) -> De
     table = parse(spec.get("excitation", {}), coordinates, source)
     identification = spec.get("identification")
     settings = Settings.from_table(identification, source) if identification is not None else Settings()
-    rate = table.rate if table.rate is not None else spec.get("rate")
-    if table.rate is None and rate is not None:
-        table = ExcitationTable(table.values, float(rate))
+    if table.rate is None:  # the experiment's own rate, checked as the experiment loader checks it
+        rate = sample_rate(spec, {}, source)
+        table = table if rate is None else ExcitationTable(table.values, rate)
     return Declared(source, table, settings, spec.get("controller"))
 
 
@@ -91,13 +92,6 @@ class Excitation:
                 "compare": None if self.compare is None else self.compare.to_dict(),
                 "loop": None if self.loop is None else self.loop.to_dict(),
                 "collision_avoidance": "not checked: the design keeps each coordinate within its limits only"}
-
-
-def reference_samples(trajectory: FourierTrajectory, rate: float) -> tuple[np.ndarray, ...]:
-    """t (0 … T at ``rate``), q, q̇, q̈ of ``trajectory``."""
-    count = int(round(trajectory.period * rate)) + 1
-    t = np.arange(count) / rate
-    return (t, *trajectory.evaluate(t))
 
 
 def excite(model: DynamicModel, declared: Declared, duration: float, *, limits: Mapping[str, Mapping[str, Any]] | None = None,
@@ -257,9 +251,9 @@ def report(result: Excitation, figures: Sequence[str], notes: Sequence[str]) -> 
     lines = [f"# Excitation design: {result.model.name}", "",
              f"Period T = {traj.period:g} s, {traj.harmonics} harmonics per coordinate (Swevers et al. 1997 Fourier "
              f"series, at rest at t = 0 and T), criterion `{d.criterion}` "
-             f"({ {'d': 'D-optimality, −log det M', 'a': 'A-optimality, log tr M⁻¹', 'condition': 'log cond'}[d.criterion] }): "
+             f"({DESCRIPTIONS[d.criterion]}): "
              f"{d.value:.6g} after the solve, {d.start_value:.6g} at the best start; {len(d.starts)} start(s), "
-             f"{d.grid_points} grid points, verified on {10 * d.grid_points}; {d.seconds:.1f} s.",
+             f"{d.grid_points} grid points, verified on {FINER * d.grid_points}; {d.seconds:.1f} s.",
              "", "Collision avoidance is not checked: each coordinate stays within its own limits only.", "",
              "## Limits and the design's peak (ratio to the limit on the verification grid)", "",
              "| coordinate | position | velocity | acceleration | torque |", "|---|---|---|---|---|"]
@@ -381,8 +375,6 @@ def option_values(kind: str, text: str | None, coordinates: Sequence[str]) -> di
 
 
 def _option_value(kind: str, text: str, option: str) -> Any:
-    from symbolic.data.excitation import _value
-
     try:
         if kind == "position":
             lower, sep, upper = text.partition(":")
@@ -394,7 +386,7 @@ def _option_value(kind: str, text: str, option: str) -> Any:
     except ValueError:
         expected = "LOWER:UPPER" if kind == "position" else "a number"
         raise DataError(option, "value", f"expected {expected}, got {text!r}") from None
-    return _value(value, kind, "value", option)
+    return checked_value(value, kind, "value", option)
 
 
 def summary(result: Excitation) -> str:

@@ -38,13 +38,25 @@ def standard_parameters(mass: float, com: Sequence[float], inertia: np.ndarray) 
     c = np.asarray(com, float)
     IO = np.asarray(inertia, float) + mass * (c @ c * np.eye(3) - np.outer(c, c))
     h = mass * c
-    return np.array([IO[0, 0], IO[0, 1], IO[0, 2], IO[1, 1], IO[1, 2], IO[2, 2], *h, mass])
+    return np.array([*inertia_entries(IO), *h, mass])
+
+
+def inertia_matrix(entries: Sequence[float]) -> np.ndarray:
+    """The symmetric 3×3 inertia of its six entries in the order of :data:`INERTIA_KEYS` (XX XY XZ YY YZ ZZ)."""
+    xx, xy, xz, yy, yz, zz = map(float, entries)
+    return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+
+
+def inertia_entries(inertia: np.ndarray) -> list[float]:
+    """The six entries of a symmetric 3×3 inertia in the order of :data:`INERTIA_KEYS` (the inverse of
+    :func:`inertia_matrix`)."""
+    return [float(inertia[AXES[key]]) for key in INERTIA_KEYS]
 
 
 def pseudo_of_standard(theta: Sequence[float]) -> np.ndarray:
     """J of (4) from the ten standard parameters (XX … M)."""
-    xx, xy, xz, yy, yz, zz, mx, my, mz, m = map(float, theta)
-    IO = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    mx, my, mz, m = map(float, theta[6:10])
+    IO = inertia_matrix(theta[:6])
     J = np.empty((4, 4))
     J[:3, :3] = 0.5 * np.trace(IO) * np.eye(3) - IO
     J[:3, 3] = J[3, :3] = (mx, my, mz)
@@ -55,7 +67,6 @@ def pseudo_of_standard(theta: Sequence[float]) -> np.ndarray:
 def body_of_standard(theta: Sequence[float]) -> tuple[float, np.ndarray, np.ndarray]:
     """(mass, centre of mass, inertia about the centre of mass) from the ten standard parameters (m ≠ 0):
     c = h/m, I_c = I_O − m(cᵀc·1 − c·cᵀ)."""
-    xx, xy, xz, yy, yz, zz, mx, my, mz, m = map(float, theta)
-    c = np.array([mx, my, mz]) / m
-    IO = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
-    return m, c, IO - m * (c @ c * np.eye(3) - np.outer(c, c))
+    m = float(theta[9])
+    c = np.asarray(theta[6:9], float) / m
+    return m, c, inertia_matrix(theta[:6]) - m * (c @ c * np.eye(3) - np.outer(c, c))
