@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from symbolic.description.joint_limits import coordinate_limits
 from symbolic.codegen import compiled
 from symbolic.codegen.c_source import c_context, c_file_stem, render_c
 from symbolic.codegen.exported import function_specs, solved_specs
@@ -159,33 +160,16 @@ def state_ranges(model: DynamicModel) -> tuple[np.ndarray, np.ndarray, np.ndarra
     tuple
         ``(lower, upper, velocity)``, arrays of length N.
     """
-    joints = _joints(model)
+    declared = coordinate_limits(model.robot)
     lower, upper, velocity = np.empty(model.n), np.empty(model.n), np.full(model.n, VELOCITY)
-    for k, (symbol, name) in enumerate(zip(model.coordinates, model.robot.generalized_coordinates)):
-        kind, limits = joints.get(symbol, ("modal" if k >= len(model.robot.coordinates) else "revolute", {}))
+    for k, name in enumerate(model.robot.generalized_coordinates):
+        limits = declared.get(name)
+        kind = limits.kind if limits is not None else ("modal" if k >= len(model.robot.coordinates) else "revolute")
         default = {"prismatic": PRISMATIC, "modal": MODAL}.get(kind, math.pi)
-        lower[k], upper[k] = limits.get("lower", -default), limits.get("upper", default)
-        velocity[k] = limits.get("velocity", VELOCITY) or VELOCITY  # a URDF's velocity 0 means "not given"
+        given = limits is not None and limits.lower is not None
+        lower[k], upper[k] = (limits.lower, limits.upper) if given else (-default, default)
+        velocity[k] = limits.velocity if limits is not None and limits.velocity else VELOCITY  # URDF's 0: not given
     return lower, upper, velocity
-
-
-def _joints(model: DynamicModel) -> dict:
-    """Coordinate symbol → (``"revolute"`` or ``"prismatic"``, the joint's limits) of the frame it moves."""
-    found = {}
-    for frame in model.robot.frames:
-        joint = frame.joint
-        if joint is not None and joint.type == "fixed":
-            continue
-        prismatic = joint.type == "prismatic" if joint is not None else False
-        for kind, value in (("prismatic", frame.d), ("revolute", frame.theta)):
-            if joint is not None and (kind == "prismatic") != prismatic:
-                continue
-            for symbol in getattr(value, "free_symbols", ()):
-                # a joint's limits bound its variable: the coordinate's own only where the variable is the
-                # coordinate itself (θ = −q + offset moves q over another range)
-                limits = dict(joint.limits) if joint is not None and value == symbol else {}
-                found.setdefault(symbol, (kind, limits))
-    return found
 
 
 def sample_states(model: DynamicModel, count: int = STATES, seed: int = SEED) -> dict[str, np.ndarray]:

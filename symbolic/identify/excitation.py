@@ -38,6 +38,7 @@ import casadi as ca
 import numpy as np
 import sympy as sp
 
+from symbolic.description.joint_limits import coordinate_limits
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.errors import IdentificationError
 from symbolic.identify.excitation_criteria import CRITERIA, positive_definite
@@ -96,24 +97,17 @@ class Limits:
 
 def model_file_limits(model: DynamicModel) -> dict[str, dict[str, Any]]:
     """The limits a model file declares: ``joint.limit`` of its general (URDF) frames, URDF ``<limit>``
-    included — lower/upper → position, velocity → velocity, effort → torque — for the frames whose joint
-    variable is one generalized coordinate. DH frames declare none."""
+    included — lower/upper → position, velocity → velocity, effort → torque — as bounds of the coordinates
+    (:func:`symbolic.description.joint_limits.coordinate_limits`: a joint variable ±q + offset). DH frames
+    declare none."""
     found: dict[str, dict[str, Any]] = {k: {} for k in KINDS}
-    names = set(model.robot.generalized_coordinates)
-    for frame in model.robot.frames:
-        joint = frame.joint
-        if joint is None or not joint.limits or joint.type == "fixed":
-            continue
-        variable = str(frame.d if joint.type == "prismatic" else frame.theta)
-        if variable not in names:
-            continue
-        limits = joint.limits
-        if "lower" in limits and "upper" in limits and joint.type != "continuous":
-            found["position"][variable] = (float(limits["lower"]), float(limits["upper"]))
-        if "velocity" in limits:
-            found["velocity"][variable] = float(limits["velocity"])
-        if "effort" in limits:
-            found["torque"][variable] = float(limits["effort"])
+    for c, limits in coordinate_limits(model.robot).items():
+        if limits.lower is not None:
+            found["position"][c] = (limits.lower, limits.upper)
+        if limits.velocity is not None:
+            found["velocity"][c] = limits.velocity
+        if limits.effort is not None:
+            found["torque"][c] = limits.effort
     return found
 
 
