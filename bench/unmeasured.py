@@ -64,10 +64,12 @@ def _wrong(quick: bool, arm: bool) -> list[tuple[str, str, float, dict, dict]]:
 def _nulls(quick: bool, arm: bool) -> list[tuple[str, dict, dict]]:
     """(kind, file values, options): the file right."""
     cases = []
-    for seed in range(2):
+    for seed in range(5):
         for stiffness in (400.0, 1500.0):
             for counts in (2**17 * truth.GEAR, 2**14 * truth.GEAR):
-                cases.append(("joint", {"k": stiffness}, dict(seed=seed, stiffness=stiffness, motor_counts=counts)))
+                for noise in (0.02, 0.05):
+                    cases.append(("joint", {"k": stiffness}, dict(seed=seed, stiffness=stiffness, motor_counts=counts,
+                                                                  force_noise=noise)))
     arms = [("arm", {}, dict(seed=0))] if arm else []  # the arm's search takes many minutes
     return cases[:2] + arms if quick else cases + arms
 

@@ -26,7 +26,8 @@ DOTTED = re.compile(r"`(symbolic(?:\.[A-Za-z_]\w*)+)(?:\(\))?`")
 FILE_PATH = re.compile(r"(?<![\w/.])(?<!# )((?:symbolic|tests|bench|templates)/[\w/]+\.(?:py|j2|toml))\b")
 OTHER_LIBRARIES = ("numpy", "scipy", "sympy", "casadi", "jinja2", "dask", "distributed", "matplotlib", "pinocchio",
                    "tomllib", "tomlkit", "defusedxml", "ctypes", "concurrent", "multiprocessing", "os", "pathlib", "subprocess",
-                   "warnings", "threading", "hashlib", "dataclasses", "typing", "collections", "functools")
+                   "warnings", "threading", "hashlib", "dataclasses", "typing", "collections", "functools", "mcap", "rosbags",
+                   "plotly")
 
 
 def module_names() -> list[str]:

@@ -137,13 +137,18 @@ def diagnose(
                  simulate=simulate, fix=fix, response=response)
     try:
         diagnosis = _diagnose(model, data, settings=settings, started=(clock, cpu), **given)
-    except DataError:
+    except DataError as error:
         if refused or not _lacks_coordinates(model, data, experiment, validation):
             raise
         # a coordinate the data do not measure (an elastic joint's link behind its motor encoder): only the
         # response can judge such a model (symbolic.workflow.unmeasured)
-        result = diagnose_on_response(model, data, experiment=experiment, validation=validation, out=out,
-                                      search=search, effects=effects, figures=figures, fix=fix)
+        try:
+            result = diagnose_on_response(model, data, experiment=experiment, validation=validation, out=out,
+                                          search=search, effects=effects, figures=figures, fix=fix)
+        except DataError as unfit:
+            if unfit.key != "[controller] coordinates":
+                raise
+            raise error from None  # a loop of other coordinates: the data do not fit the model at all
         if html:
             result = dataclasses.replace(result, notes=(*result.notes, "--html: no HTML page is written for a "
                                                         "diagnosis judged on the response alone yet (report.md is)"))

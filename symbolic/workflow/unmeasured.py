@@ -144,6 +144,11 @@ def diagnose_on_response(
                         f"model {model.name}'s coordinates {', '.join(unmeasured)} are not in the data (no q_<c> "
                         "signal): such a model can only be judged on its response, simulated in the loop the machine "
                         "ran; declare it as the experiment's [controller] (docs/data.md), or log those coordinates")
+    foreign = [c for c in measurements.controller.coordinates if c not in measurements.coordinates]
+    if foreign:
+        raise DataError(source, "[controller] coordinates",
+                        f"{', '.join(foreign)} of the loop are not measured coordinates of model {model.name} (measured: "
+                        f"{', '.join(measurements.coordinates)}): the response cannot be simulated in that loop")
     estimation, held, held_from, held_out = _sets(measurements)
     chosen = list(RESPONSE_EFFECTS.values()) if effects is None else [e for e in effects if isinstance(e, ResponseEffect)]
     min_gain = (search or SearchSettings()).min_gain
