@@ -4,7 +4,7 @@
 
 1. keys each log by content (:func:`symbolic.fleet.store.job_key`) and takes the results the cache
    already holds (a rerun after an interruption, or with new logs, computes only what is new);
-2. submits the others to Dask, one task per log (:func:`symbolic.fleet.tasks.run_log`): without a
+2. submits the others to Dask, one or more logs per task (:func:`batches`, :func:`symbolic.fleet.tasks.run_batch`): without a
    scheduler address on a local cluster of worker processes on this machine (``workers`` of them, one
    thread each; default: the processors, at most one per log), else on the existing cluster at that
    address; each result is written to the cache as it arrives, and progress goes to the ``symbolic``
@@ -24,6 +24,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import datetime as dt
+import hashlib
 import logging
 import os
 import re
@@ -42,7 +43,7 @@ from symbolic.fleet.campaign import Campaign
 from symbolic.fleet.drift import Drift, drifts, series_of
 from symbolic.fleet.outliers import Outlier, outliers
 from symbolic.fleet.store import Store, job_key, table
-from symbolic.fleet.tasks import Job, run_log
+from symbolic.fleet.tasks import Job, run_batch, run_log
 
 log = logging.getLogger("symbolic")
 
@@ -59,6 +60,11 @@ ADDRESS = re.compile(r"(?:(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*)://)?(?P<host>\[[0-
 """``[scheme://]host[:port]``: a host name, an IPv4 address or an IPv6 address in brackets."""
 PROGRESS_EVERY = 2.0
 """Seconds between two progress lines."""
+BATCHING = 2
+"""A task takes 1/(BATCHING · workers) of the bytes of the logs not yet given to a task (:func:`batches`)."""
+MOST_PER_TASK = 16
+"""Logs in one task at most: an interrupted campaign loses at most the tasks running (their results arrive whole)."""
+
 
 
 @dataclass(frozen=True, eq=False)
@@ -213,22 +219,57 @@ def execute(jobs: Sequence[Job], store: Store, *, scheduler: str | None = None, 
 
 def _on_cluster(jobs: Sequence[Job], keep, scheduler: str | None, workers: int | None,
                 connect_timeout: float = CONNECT_TIMEOUT, reached=lambda: None) -> None:
-    """Each job one Dask task; ``reached()`` once the cluster is there, ``keep(job, result)`` as each result arrives."""
+    """The jobs as Dask tasks of one or more logs each (:func:`batches`); ``reached()`` once the cluster is
+    there, ``keep(job, result)`` for each log as its task's results arrive."""
     try:
         from dask.distributed import as_completed
     except ImportError:
         raise ClusterError(INSTALL) from None
     with _client(scheduler, workers, len(jobs), connect_timeout) as client:
         reached()
-        futures = client.map(run_log, jobs, key=[f"symbolic-log-{job.key}" for job in jobs], pure=False)
-        by_key = {future.key: job for future, job in zip(futures, jobs)}
+        groups = batches(jobs, max(1, len(client.scheduler_info()["workers"])))
+        keys = [f"symbolic-logs-{hashlib.sha256(' '.join(j.key for j in g).encode()).hexdigest()}" for g in groups]
+        futures = client.map(run_batch, groups, key=keys, pure=False)
+        by_key = {future.key: group for future, group in zip(futures, groups)}
         pending = as_completed(futures)
         del futures  # as_completed holds each until it is taken and released: results do not pile up on the cluster
         for future in pending:
-            job = by_key[future.key]
-            result = _result(future, job)
+            group = by_key.pop(future.key)
+            results = _results(future, group)
             future.release()
-            keep(job, result)
+            for job, result in zip(group, results):
+                keep(job, result)
+
+
+def batches(jobs: Sequence[Job], workers: int) -> list[list[Job]]:
+    """The jobs, largest first, cut into Dask tasks by guided self-scheduling on the logs' bytes.
+
+    Each task takes ``1/(BATCHING · workers)`` of the bytes not yet given to a task, at least one log and at
+    most :data:`MOST_PER_TASK`: a campaign of many short logs is a few tasks per worker at first (the scheduler's
+    round trip, the client's and scheduler's CPU time per task paid once for several logs:
+    bench/results/fleet.md), and single logs at the end, so that the workers finish together. A log's bytes
+    stand for its work (the logs of a campaign share their task and, mostly, their format).
+
+    >>> from symbolic.fleet.tasks import Job
+    >>> [len(b) for b in batches([Job(str(k), "r", "x", "/nonexistent", "", "", "", None) for k in range(36)], 2)]
+    [9, 6, 5, 4, 3, 2, 1, 1, 1, 1, 1, 1, 1]
+    """
+    ordered = sorted(jobs, key=_size, reverse=True)
+    sizes = [max(_size(job), 1) for job in ordered]
+    left = float(sum(sizes))
+    out: list[list[Job]] = []
+    k = 0
+    while k < len(ordered):
+        share = left / (BATCHING * workers)
+        group, taken = [ordered[k]], sizes[k]
+        k += 1
+        while k < len(ordered) and len(group) < MOST_PER_TASK and taken + sizes[k] <= share:
+            group.append(ordered[k])
+            taken += sizes[k]
+            k += 1
+        left -= taken
+        out.append(group)
+    return out
 
 
 def _size(job: Job) -> int:
@@ -239,13 +280,20 @@ def _size(job: Job) -> int:
         return 0
 
 
-def _result(future, job: Job) -> dict[str, Any]:
-    """The task's result, or an error row when the cluster lost it (a worker died, a task was cancelled)."""
+def _results(future, group: Sequence[Job]) -> list[dict[str, Any]]:
+    """The task's result of each log, or an error row for each when the cluster lost the task (a worker died,
+    a task was cancelled)."""
     try:
-        result = future.result()
-    except Exception as error:  # noqa: BLE001 - the cluster's failure, not the log's: a row, not cached
-        return {"key": job.key, "status": "error", "cacheable": False,
-                "error": one_line(f"{job.log}: the cluster could not run this log: {type(error).__name__}: {error}")}
+        results = future.result()
+    except Exception as error:  # noqa: BLE001 - the cluster's failure, not the logs': rows, not cached
+        return [{"key": job.key, "status": "error", "cacheable": False,
+                 "error": one_line(f"{job.log}: the cluster could not run this log: {type(error).__name__}: {error}")}
+                for job in group]
+    return [_checked(result, job) for result, job in zip(results, group)]
+
+
+def _checked(result: dict[str, Any], job: Job) -> dict[str, Any]:
+    """``result``, or an error row when the worker runs another symbolic than the client (another stamp)."""
     if result.get("stamp") != stamp():
         theirs = result.get("stamp", {})
         return {**result, "status": "error", "cacheable": False,

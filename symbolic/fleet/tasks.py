@@ -213,3 +213,8 @@ def _simulate(model: DynamicModel, experiment: Experiment, task: Task) -> dict[s
 
 
 _RUNNERS = {"identify": _identify, "diagnose": _diagnose, "simulate": _simulate}
+
+
+def run_batch(jobs: list[Job]) -> list[dict[str, Any]]:
+    """:func:`run_log` of each job in turn: one Dask task for several short logs."""
+    return [run_log(job) for job in jobs]
