@@ -10,8 +10,8 @@
    address; each result is written to the cache as it arrives, and progress goes to the ``symbolic``
    logger (stderr in the command line, silenced by ``-q``);
 3. assembles one row per log — robot, log, time, the parameters with σ, the gap, the effects, the events,
-   the run time, or the error — and tests drift (:mod:`.drift`), outliers (:mod:`.outliers`) and lists
-   the events (:mod:`.events`);
+   the run time, or the error — and tests drift (:mod:`.drift`), outliers (:mod:`.outliers`) and judges
+   each log's bursts against its siblings' logs (:mod:`.siblings`): the events, and the model's misfits;
 4. writes ``results.csv``, ``report.md`` and the figures into the folder as one set
    (:func:`symbolic.export.write_files`: files of others and sub-folders are never touched; the cache
    is the sub-folder ``cache/``).
@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import datetime as dt
 import hashlib
 import logging
@@ -80,6 +81,8 @@ class Outcome:
     cached: int
     files: tuple[Path, ...] = ()
     notes: tuple[str, ...] = ()
+    misfits: tuple[dict[str, Any], ...] = ()
+    """The systematic misfits of the models (:mod:`symbolic.fleet.siblings`)."""
 
     @property
     def errors(self) -> list[dict[str, Any]]:
@@ -102,6 +105,7 @@ class Outcome:
             "drift": [d.to_dict() for d in self.drifts if d.flagged],
             "outliers": [o.to_dict() for o in self.outliers if o.flagged],
             "events": self.events,
+            "misfits": list(self.misfits),
             "tested": {"series": len(self.drifts), "outlier_tests": len(self.outliers)},
             "files": [str(p) for p in self.files],
             "notes": list(self.notes),
@@ -162,12 +166,29 @@ def run(campaign: Campaign, out: str | os.PathLike, *, scheduler: str | None = N
     tested = drifts(found_series, campaign.analysis)
     models = {r.id: r.model_digest for r in campaign.robots}
     different = outliers(found_series, tested, models, campaign.analysis)
-    outcome = Outcome(campaign, tuple(rows), tuple(tested), tuple(different), len(jobs) - cached, cached)
+    misfits = judge_bursts(rows, campaign)
+    outcome = Outcome(campaign, tuple(rows), tuple(tested), tuple(different), len(jobs) - cached, cached,
+                      misfits=tuple(misfits))
     files, notes = report.render(outcome, figures=figures)
     files["results.csv"] = table(rows).encode("utf-8")
     written = write_files(files, out)
-    return Outcome(campaign, tuple(rows), tuple(tested), tuple(different), outcome.computed, cached, tuple(written),
-                   tuple(notes))
+    return dataclasses.replace(outcome, files=tuple(written), notes=tuple(notes))
+
+
+def judge_bursts(rows: list[dict[str, Any]], campaign: Campaign) -> list[dict[str, Any]]:
+    """Each row's events as its siblings judge them (:mod:`symbolic.fleet.siblings`), in place, its bursts and
+    profile then dropped; the systematic misfits, each named by its model."""
+    from symbolic.fleet.siblings import judge
+
+    robots = {r.id: (r.model_digest, r.task.events) for r in campaign.robots}
+    judged, misfits = judge(rows, robots, campaign.analysis.alpha)
+    for row, events in zip(rows, judged):
+        if events is not None:
+            row["events"] = events
+        row.pop("bursts", None)
+        row.pop("profile", None)
+    names = {r.id: r.robot.name for r in campaign.robots}
+    return [{"model": names[m["robots"][0]], **m} for m in misfits]
 
 
 def assemble(rows: Sequence[dict[str, Any]], results: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:

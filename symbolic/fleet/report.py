@@ -73,6 +73,20 @@ def outlier_line(o, label: str | None) -> str:
             f"its {o.count} siblings' {o.siblings:.5g} (spread {o.spread:.2g}; p = {o.p_value:.2g})")
 
 
+def misfit_line(m: dict[str, Any]) -> str:
+    """``arm, q2 at 0.130 s of the cycle (q_q1 = 0.3, ...): 36 of 36 logs of 6 robots, RMS 6.1× ...``."""
+    where = f" at {m['cycle_time']:.3f} s of the cycle" if m.get("cycle_time") is not None else ""
+    state = ", ".join(f"{k} = {v:.3g}" for k, v in m["state"].items())
+    robots = len(m["robots"])
+    return (f"{m['model']}, {', '.join(m['coordinates'])}{where}" + (f" (state {state})" if state else "")
+            + f": {m['logs']} of {m['of']} logs of {robots} robot{'s' if robots != 1 else ''}, RMS {m['ratio']:.3g}× "
+            f"the log's residual (median; {m['ratio_range'][0]:.3g}–{m['ratio_range'][1]:.3g}), peak {m['peak']:.4g}")
+
+
+DIAGNOSE = ("a misfit of the model at that phase, not an event: `symbolic diagnose` on one of those logs names what "
+            "the model lacks (docs/workflow.md)")
+
+
 def summary(outcome) -> list[str]:
     """The lines ``symbolic campaign`` prints."""
     every = _labels(outcome)
@@ -81,9 +95,11 @@ def summary(outcome) -> list[str]:
     lines += [f"drift: {drift_line(d, every[d.series.robot].get(d.series.parameter))}" for d in outcome.drifts if d.flagged]
     lines += [f"outlier: {outlier_line(o, every[o.robot].get(o.parameter))}" for o in outcome.outliers if o.flagged]
     lines += [f"event: {e['robot']} {e['log']}: {describe(e)}" for e in outcome.events]
+    lines += [f"misfit: {misfit_line(m)} ({DIAGNOSE})" for m in outcome.misfits]
     lines += [f"error: {r['robot']}: {r['error']}" for r in outcome.errors]
-    if not any(d.flagged for d in outcome.drifts) and not any(o.flagged for o in outcome.outliers) and not outcome.events:
-        lines.append("no drift, no outlier, no event")
+    if not any(d.flagged for d in outcome.drifts) and not any(o.flagged for o in outcome.outliers) and \
+            not outcome.events and not outcome.misfits:
+        lines.append("no drift, no outlier, no event, no misfit")
     return lines
 
 
@@ -135,13 +151,20 @@ def markdown(outcome, pictures: Mapping[str, bytes], notes: list[str]) -> str:
         [f"* {outlier_line(o, every[o.robot].get(o.parameter))}" for o in different]
     out += ["", "## Events", ""]
     if not events:
-        out += ["No residual bursts."]
+        out += ["No residual burst that differs from the siblings' logs at its phase."]
     else:
         out += ["| robot | log | log time | window (s) | coordinates | peak | RMS / log's residual |", "|---|---|---|---|---|---|---|"]
         for e in events:
             c = max(e["size"], key=lambda k: e["size"][k]["ratio"])
             out.append(f"| {e['robot']} | {e['log']} | {_date(e['time'])} | {e['start']:.3f}–{e['end']:.3f} | "
                        f"{', '.join(e['coordinates'])} | {e['size'][c]['peak']:.4g} on {c} | {e['ratio']:.3g} |")
+    out += ["", "## Systematic misfits of the model", ""]
+    if not outcome.misfits:
+        out += ["No burst is shared by the siblings' logs."]
+    else:
+        out += ["Bursts that the logs of the same model show at the same phase of the cycle (or state): each is "
+                f"reported once here, not as events; {DIAGNOSE}.", ""]
+        out += [f"* {misfit_line(m)}; e.g. {', '.join(m['examples'])}" for m in outcome.misfits]
     out += ["", "## Logs that could not be processed", ""]
     out += ["None."] if not outcome.errors else [f"* {r['robot']}: {r['error']}" for r in outcome.errors]
     out += ["", "## Fleet", "", *fleet_table(outcome), ""]
