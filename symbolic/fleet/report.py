@@ -22,6 +22,9 @@ from symbolic.fleet.drift import Drift
 from symbolic.fleet.events import describe
 from symbolic.writing import safe_stem
 
+MARGINS = {"left": 0.14, "right": 0.97, "bottom": 0.13, "top": 0.91}
+"""The figures' margins (fractions of 7 × 4 in), fixed: Matplotlib's tight_layout measured every text twice and took
+40 % of the report's time, which a campaign of short logs waits for (bench/results/fleet.md)."""
 ROLES = {"viscous": "viscous friction", "coulomb": "Coulomb friction", "offset": "force offset"}
 
 
@@ -217,7 +220,7 @@ def draw(outcome) -> dict[str, bytes]:
         ax.set_ylabel(s.parameter)
         ax.set_title(f"{s.robot}: {named(s.parameter, every[s.robot].get(s.parameter))}", fontsize=10)
         ax.legend(loc="best")
-        fig.tight_layout()
+        fig.subplots_adjust(**MARGINS)
         out[figure_name(d)] = png_bytes(fig, dpi=90)
     fig = Figure(figsize=(7, 4))
     ax = fig.add_subplot(1, 1, 1)
@@ -231,6 +234,6 @@ def draw(outcome) -> dict[str, bytes]:
     ax.set_ylabel("gap ‖τ − τ_model‖/‖τ‖ (%)")
     if ax.lines and len(outcome.campaign.robots) <= 12:
         ax.legend(loc="best", fontsize=7)
-    fig.tight_layout()
+    fig.subplots_adjust(**MARGINS)
     out["fleet_gap.png"] = png_bytes(fig, dpi=90)
     return out
