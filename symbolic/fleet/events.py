@@ -3,7 +3,9 @@
 
 :func:`bursts` finds them in the residual τ_meas − τ_model of the model identified on the log itself (so that
 a slow drift of the robot does not enter) and returns plain dicts, JSON-ready; :func:`describe` puts one in a
-line.
+line. :func:`examine` gives every burst (:func:`candidates`, those that recur within the log marked) and the
+residual's :func:`profile`, from which the campaign judges each burst against the siblings' logs
+(:mod:`symbolic.fleet.siblings`).
 """
 
 from __future__ import annotations
@@ -209,8 +211,8 @@ def _pack(a: np.ndarray) -> str:
 
 
 def unpack(text: str, bins: int) -> np.ndarray:
-    """A :func:`profile`'s array as float, ``bins`` rows."""
-    return np.frombuffer(base64.b64decode(text), dtype="<f2").astype(float).reshape(bins, -1)
+    """A :func:`profile`'s array as float32 (half the memory of float64 for a campaign's profiles), ``bins`` rows."""
+    return np.frombuffer(base64.b64decode(text), dtype="<f2").astype(np.float32).reshape(bins, -1)
 
 
 def _mark_recurring(found: list[dict[str, Any]], t: np.ndarray, x: np.ndarray) -> bool:
