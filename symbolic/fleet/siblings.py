@@ -27,7 +27,8 @@ Input: the campaign's rows, each with the bursts of its log and the profile of i
   probability at most α. A burst without a reference (no sibling log of the model comes near it) keeps the
   log's own verdict (docs/fleet.md, "Events").
 * **Misfits.** The bursts that are not events — like their siblings, or recurring within their log — are
-  grouped (a shared coordinate, and the same cycle time within a window in logs that share a cycle, or
+  grouped, each with the first of a group at its phase (a shared coordinate, and the same cycle time within a
+  window in logs that share a cycle, or
   states within RECUR standard deviations): each group is one misfit of the model, with where (the time in
   the cycle, the state), how large (the bursts' RMS ratios) and how many logs and robots show it.
 """
@@ -101,7 +102,8 @@ def judge(rows: Sequence[dict[str, Any]], robots: Mapping[str, tuple[str, Events
         misfits (dicts: :func:`misfit`).
     """
     logs = _logs(rows, robots)
-    tested = {(i, k): _compare(logs, i, burst) for i, log in logs.items()
+    timelines = _timelines(logs)
+    tested = {(i, k): _compare(logs, timelines, i, burst) for i, log in logs.items()
               for k, burst in enumerate(rows[i]["bursts"]) if not burst.get("recurs")}
     tests = sum(len(v) for v in tested.values() if v is not None)
     threshold = alpha / max(1, tests)
@@ -161,13 +163,14 @@ def _scale(logs: Mapping[int, Log]) -> None:
             m.states[...] = (m.states - centre) / spread
 
 
-def _compare(logs: Mapping[int, Log], i: int, burst: dict[str, Any]) -> dict[str, dict[str, Verdict]] | None:
+def _compare(logs: Mapping[int, Log], timelines: Mapping[tuple, Sequence[Log]], i: int,
+             burst: dict[str, Any]) -> dict[str, dict[str, Verdict]] | None:
     """Per coordinate of ``burst`` in log ``i``, its comparison with each reference that has enough logs at
     its phase; None when no reference has."""
     log = logs[i]
     span = _bins(log, burst)
     coordinates = log.group[1]
-    own, fleet = _references(logs, log)
+    own, fleet = _references(timelines, log)
     out: dict[str, dict[str, Verdict]] = {}
     for name in burst["coordinates"]:
         j = coordinates.index(name)
@@ -208,14 +211,49 @@ def _bins(log: Log, burst: dict[str, Any]) -> slice:
     return slice(min(max(first, 0), bins - 1), min(max(last, 0), bins - 1) + 1)
 
 
-def _references(logs: Mapping[int, Log], log: Log) -> tuple[list[Log], list[Log]]:
+def _references(timelines: Mapping[tuple, Sequence[Log]], log: Log) -> tuple[list[Log], list[Log]]:
     """The robot's other logs and the other robots' logs of the same group, each the :data:`REFERENCE` nearest
     in time."""
-    siblings = [o for o in logs.values() if o.group == log.group and o.index != log.index]
-    siblings.sort(key=lambda o: (abs(o.days - log.days), o.index))
-    own = [o for o in siblings if o.robot == log.robot][:REFERENCE]
-    fleet = [o for o in siblings if o.robot != log.robot][:REFERENCE]
-    return own, fleet
+    timeline = timelines[log.group]
+    return (_nearest(timeline, log, lambda o: o.robot == log.robot),
+            _nearest(timeline, log, lambda o: o.robot != log.robot))
+
+
+def _timelines(logs: Mapping[int, Log]) -> dict[tuple, list[Log]]:
+    """Each group's logs in time order."""
+    out: dict[tuple, list[Log]] = {}
+    for log in sorted(logs.values(), key=lambda o: (o.days, o.index)):
+        out.setdefault(log.group, []).append(log)
+    return out
+
+
+def _nearest(timeline: Sequence[Log], log: Log, keep) -> list[Log]:
+    """The :data:`REFERENCE` logs of ``timeline`` (time order) nearest in time to ``log`` that ``keep`` accepts,
+    ``log`` itself left out: two pointers walking out from its place."""
+    at = _place(timeline, log.days)
+    before, after, out = at - 1, at, []
+    while len(out) < REFERENCE and (before >= 0 or after < len(timeline)):
+        earlier = timeline[before] if before >= 0 else None
+        later = timeline[after] if after < len(timeline) else None
+        if later is None or (earlier is not None and log.days - earlier.days <= later.days - log.days):
+            chosen, before = earlier, before - 1
+        else:
+            chosen, after = later, after + 1
+        if chosen.index != log.index and keep(chosen):
+            out.append(chosen)
+    return out
+
+
+def _place(timeline: Sequence[Log], days: float) -> int:
+    """The first position of ``timeline`` not before ``days``."""
+    low, high = 0, len(timeline)
+    while low < high:
+        middle = (low + high) // 2
+        if timeline[middle].days < days:
+            low = middle + 1
+        else:
+            high = middle
+    return low
 
 
 def shares_cycle(a: Log, b: Log) -> bool:
@@ -246,23 +284,17 @@ def _level_at(log: Log, span: slice, other: Log, j: int) -> float | None:
 
 
 def _groups(logs: Mapping[int, Log], bursts: Sequence[tuple[int, dict[str, Any]]]) -> list[list[tuple[int, dict]]]:
-    """The bursts that are not events, grouped by phase (module docstring): the connected sets of "same phase"."""
-    parent = list(range(len(bursts)))
-
-    def root(k: int) -> int:
-        while parent[k] != k:
-            parent[k] = parent[parent[k]]
-            k = parent[k]
-        return k
-
-    for a in range(len(bursts)):
-        for b in range(a + 1, len(bursts)):
-            if _same_phase(logs, bursts[a], bursts[b]):
-                parent[root(a)] = root(b)
-    groups: dict[int, list[tuple[int, dict]]] = {}
-    for k, item in enumerate(bursts):
-        groups.setdefault(root(k), []).append(item)
-    return sorted(groups.values(), key=lambda g: (-len({i for i, _ in g}), min(i for i, _ in g)))
+    """The bursts that are not events, grouped by phase (module docstring): each joins the first group whose
+    first burst is at its phase, else starts one (a misfit's group is one: a pass over the bursts per group)."""
+    groups: list[list[tuple[int, dict]]] = []
+    for item in bursts:
+        for group in groups:
+            if _same_phase(logs, group[0], item):
+                group.append(item)
+                break
+        else:
+            groups.append([item])
+    return sorted(groups, key=lambda g: (-len({i for i, _ in g}), min(i for i, _ in g)))
 
 
 def _same_phase(logs: Mapping[int, Log], a: tuple[int, dict], b: tuple[int, dict]) -> bool:
