@@ -108,3 +108,17 @@ def test_a_fleet_with_nothing_shared_and_no_event_reports_nothing(tmp_path: Path
     outcome, own = run(tmp_path, misfit=False, event=False, drift=False)
     assert own == 0 and not outcome.events and not outcome.misfits
     assert not [d for d in outcome.drifts if d.flagged] and not [o for o in outcome.outliers if o.flagged]
+
+
+def test_a_task_the_cluster_lost_is_an_error_row_for_each_of_its_logs() -> None:
+    from symbolic.fleet.execution import _results
+    from symbolic.fleet.tasks import Job
+
+    class Lost:
+        def result(self):
+            raise OSError("worker died")
+
+    group = [Job(str(k), "r", f"logs/{k}.csv", "/nonexistent", "", "", "", None) for k in range(3)]
+    rows = _results(Lost(), group)
+    assert [r["key"] for r in rows] == ["0", "1", "2"] and all(not r["cacheable"] for r in rows)
+    assert rows[1]["error"] == "logs/1.csv: the cluster could not run this log: OSError: worker died"

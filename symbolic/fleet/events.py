@@ -163,7 +163,21 @@ def _candidates(seen: Scan, coordinates: Sequence[str], settings: Events,
 
 def examine(t: np.ndarray, residual: np.ndarray, coordinates: Sequence[str], settings: Events,
             states: np.ndarray) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
-    """A log's :func:`candidates` and its :func:`profile`, from one :func:`scan`."""
+    """A log's :func:`candidates` and its :func:`profile`, from one :func:`scan`.
+
+    Parameters
+    ----------
+    t, residual, coordinates, settings
+        As :func:`candidates`'.
+    states
+        Positions and velocities at the samples (``samples × 2N``: q then q̇).
+
+    Returns
+    -------
+    tuple
+        The bursts (:func:`candidates`), and the profile with the coordinates' names (``coordinates``), or None
+        when the residual cannot be scanned.
+    """
     seen = scan(t, residual, settings)
     if seen is None:
         return [], None

@@ -287,6 +287,18 @@ def batches(jobs: Sequence[Job], workers: int) -> list[list[Job]]:
     bench/results/fleet.md), and single logs at the end, so that the workers finish together. A log's bytes
     stand for its work (the logs of a campaign share their task and, mostly, their format).
 
+    Parameters
+    ----------
+    jobs
+        The logs to compute.
+    workers
+        The cluster's workers.
+
+    Returns
+    -------
+    list of list of Job
+        The tasks, in the order they are submitted (the largest first).
+
     >>> from symbolic.fleet.tasks import Job
     >>> [len(b) for b in batches([Job(str(k), "r", "x", "/nonexistent", "", "", "", None) for k in range(36)], 2)]
     [9, 6, 5, 4, 3, 2, 1, 1, 1, 1, 1, 1, 1]

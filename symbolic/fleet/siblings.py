@@ -189,6 +189,18 @@ def verdict(x: float, levels: np.ndarray) -> Verdict:
     """The one-sided prediction-interval test of the level ``x`` against the siblings' ``levels`` (ratios;
     module docstring).
 
+    Parameters
+    ----------
+    x
+        The burst's level ρ (windowed RMS ratio) in its log.
+    levels
+        The reference logs' levels at the same phase.
+
+    Returns
+    -------
+    Verdict
+        The number of reference logs, their median level, and p.
+
     >>> round(verdict(40.0, np.array([1.0, 1.1, 0.9, 1.2, 1.05])).p_value, 6) < 1e-4
     True
     >>> verdict(1.1, np.array([1.0, 1.1, 0.9, 1.2, 1.05])).p_value > 0.3
