@@ -156,17 +156,20 @@ def markdown(outcome, pictures: Mapping[str, bytes], notes: list[str]) -> str:
     if not events:
         out += ["No residual burst that differs from the siblings' logs at its phase."]
     else:
-        out += ["| robot | log | log time | window (s) | coordinates | peak | RMS / log's residual |", "|---|---|---|---|---|---|---|"]
+        out += ["| robot | log | log time | window (s) | coordinates | peak | RMS / log's residual | the siblings there |",
+                "|---|---|---|---|---|---|---|---|"]
         for e in events:
             c = max(e["size"], key=lambda k: e["size"][k]["ratio"])
             out.append(f"| {e['robot']} | {e['log']} | {_date(e['time'])} | {e['start']:.3f}–{e['end']:.3f} | "
-                       f"{', '.join(e['coordinates'])} | {e['size'][c]['peak']:.4g} on {c} | {e['ratio']:.3g} |")
+                       f"{', '.join(e['coordinates'])} | {e['size'][c]['peak']:.4g} on {c} | {e['ratio']:.3g} | "
+                       f"{siblings_cell(e, c)} |")
     out += ["", "## Systematic misfits of the model", ""]
     if not outcome.misfits:
         out += ["No burst is shared by the siblings' logs."]
     else:
-        out += ["Bursts that the logs of the same model show at the same phase of the cycle (or state): each is "
-                f"reported once here, not as events; {DIAGNOSE}.", ""]
+        out += ["Bursts that the logs of a model share at the same phase of the cycle (or state), each reported once "
+                "here rather than as events in every log: the model lacks something there; `symbolic diagnose` on one "
+                "of those logs names what (docs/workflow.md).", ""]
         out += [f"* {misfit_line(m)}; e.g. {', '.join(m['examples'])}" for m in outcome.misfits]
     out += ["", "## Logs that could not be processed", ""]
     out += ["None."] if not outcome.errors else [f"* {r['robot']}: {r['error']}" for r in outcome.errors]
@@ -175,6 +178,16 @@ def markdown(outcome, pictures: Mapping[str, bytes], notes: list[str]) -> str:
         out += ["![the gap of every log](fleet_gap.png)", ""]
     out += notes
     return "\n".join(out).rstrip() + "\n"
+
+
+def siblings_cell(event: dict[str, Any], coordinate: str) -> str:
+    """``own 5 logs 1.6×, p = 4e-06; fleet 30 logs 1.5×, p = 5e-19`` (their level at the event's phase, as a
+    windowed RMS ratio), or why the log's own verdict stands."""
+    judged = (event.get("siblings") or {}).get(coordinate)
+    if not judged:
+        return "none to compare: the log's own verdict"
+    return "; ".join(f"{name} {v['logs']} logs {v['median_ratio']:.2g}×, p = {v['p_value']:.1g}"
+                     for name, v in judged.items())
 
 
 def fleet_table(outcome) -> list[str]:
