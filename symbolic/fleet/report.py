@@ -86,8 +86,8 @@ def misfit_line(m: dict[str, Any]) -> str:
             f"the log's residual (median; {m['ratio_range'][0]:.3g}–{m['ratio_range'][1]:.3g}), peak {m['peak']:.4g}")
 
 
-DIAGNOSE = ("a misfit of the model at that phase, not an event: `symbolic diagnose` on one of those logs names what "
-            "the model lacks (docs/workflow.md)")
+DIAGNOSE = ("a misfit of the model at that phase, not an event: `symbolic diagnose MODEL LOG --validate LOG2` on two "
+            "of those logs names what the model lacks (docs/workflow.md)")
 
 
 def summary(outcome) -> list[str]:
@@ -168,8 +168,9 @@ def markdown(outcome, pictures: Mapping[str, bytes], notes: list[str]) -> str:
         out += ["No burst is shared by the siblings' logs."]
     else:
         out += ["Bursts that the logs of a model share at the same phase of the cycle (or state), each reported once "
-                "here rather than as events in every log: the model lacks something there; `symbolic diagnose` on one "
-                "of those logs names what (docs/workflow.md).", ""]
+                "here rather than as events in every log: the model lacks something there. `symbolic diagnose MODEL LOG "
+                "--validate LOG2` on two of those logs names what (docs/workflow.md; the misfit's phase must be in the "
+                "held-out data, which by default is the log's last fifth).", ""]
         out += [f"* {misfit_line(m)}; e.g. {', '.join(m['examples'])}" for m in outcome.misfits]
     out += ["", "## Logs that could not be processed", ""]
     out += ["None."] if not outcome.errors else [f"* {r['robot']}: {r['error']}" for r in outcome.errors]
