@@ -103,7 +103,7 @@ def judge(rows: Sequence[dict[str, Any]], robots: Mapping[str, tuple[str, Events
     """
     logs = _logs(rows, robots)
     timelines = _timelines(logs)
-    tested = {(i, k): _compare(logs, timelines, i, burst) for i, log in logs.items()
+    tested = {(i, k): _compare(logs, timelines, i, burst) for i in logs
               for k, burst in enumerate(rows[i]["bursts"]) if not burst.get("recurs")}
     tests = sum(len(v) for v in tested.values() if v is not None)
     threshold = alpha / max(1, tests)
