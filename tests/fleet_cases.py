@@ -16,6 +16,11 @@ in the tests only; the code that searches the fleet sees the model file and the 
 Three ways of reading a log's time are used: from the file name (r01–r04), a column of UNIX seconds
 (r05), a ``[[robot.log]]`` list (r06).
 
+:func:`cycle_fleet` is another fleet, for the events judged against the siblings (tests/test_fleet_siblings.py):
+the six robots log one 20 s test cycle every day, their forces from the hand-written two-link equations of
+tests/reference_integrator.py, with a friction rise near rest on q2 that the model lacks (shared by every log),
+a collision in one log and the two drifts above.
+
 Run as a script, ``python3 tests/fleet_cases.py DIR`` writes the fleet into DIR (the README's campaign example).
 """
 
@@ -251,10 +256,10 @@ def offset(name: str, index: int) -> float:
 def cycle_fleet(folder: Path, *, misfit: bool = True, event: bool = True, drift: bool = True,
                 shifted: bool = False, kind: str = "identify") -> Path:
     """Six robots of the arm (their manufacturing spread, no heavier tool), six daily logs each of the same test
-    cycle (:func:`cycle_trajectory`, 18-bit encoders); with ``misfit`` the machines' Stribeck friction on q2 (:data:`STRIBECK`), with ``event`` r04's
-    collision, with ``drift`` r02's and r03's drifts (:data:`CYCLE_TRUTH`); ``shifted``: each log starts at
-    another point of the cycle (:func:`offset`), so that the logs share no cycle time, only states. Returns the
-    campaign file."""
+    cycle (:func:`cycle_trajectory`, 18-bit encoders); with ``misfit`` the machines' Stribeck friction on q2
+    (:data:`STRIBECK`), with ``event`` r04's collision, with ``drift`` r02's and r03's drifts
+    (:data:`CYCLE_TRUTH`); ``shifted``: each log starts at another point of the cycle (:func:`offset`), so
+    that the logs share no cycle time, only states. Returns the campaign file."""
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "arm.toml").write_text(arm(), encoding="utf-8")
     (folder / "logs").mkdir(exist_ok=True)

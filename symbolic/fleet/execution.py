@@ -1,13 +1,13 @@
-"""A campaign on Dask: every log one task, results kept as they arrive, then what the fleet tells (docs/fleet.md).
+"""A campaign on Dask: the logs as tasks, results kept as they arrive, then what the fleet tells (docs/fleet.md).
 
 :func:`run` takes a checked :class:`~symbolic.fleet.campaign.Campaign` and an output folder and
 
 1. keys each log by content (:func:`symbolic.fleet.store.job_key`) and takes the results the cache
    already holds (a rerun after an interruption, or with new logs, computes only what is new);
-2. submits the others to Dask, one or more logs per task (:func:`batches`, :func:`symbolic.fleet.tasks.run_batch`): without a
-   scheduler address on a local cluster of worker processes on this machine (``workers`` of them, one
-   thread each; default: the processors, at most one per log), else on the existing cluster at that
-   address; each result is written to the cache as it arrives, and progress goes to the ``symbolic``
+2. submits the others to Dask, one or more logs per task (:func:`batches`,
+   :func:`symbolic.fleet.tasks.run_batch`): without a scheduler address on a local cluster of worker
+   processes on this machine (``workers`` of them, one thread each; default: the processors, at most one
+   per log), else on the existing cluster at that address; each result is written to the cache as it arrives, and progress goes to the ``symbolic``
    logger (stderr in the command line, silenced by ``-q``);
 3. assembles one row per log — robot, log, time, the parameters with σ, the gap, the effects, the events,
    the run time, or the error — and tests drift (:mod:`.drift`), outliers (:mod:`.outliers`) and judges
