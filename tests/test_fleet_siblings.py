@@ -25,7 +25,7 @@ import fleet_cases
 TRUTH = fleet_cases.CYCLE_TRUTH
 
 
-def run(folder: Path, monkeypatch=None, **kinds):
+def run(folder: Path, **kinds) -> tuple:
     """The campaign of a cycle fleet, and the number of events the logs' own verdicts gave (before the siblings)."""
     path = fleet_cases.cycle_fleet(folder, **kinds)
     own: list[int] = []
