@@ -122,3 +122,23 @@ def test_a_task_the_cluster_lost_is_an_error_row_for_each_of_its_logs() -> None:
     rows = _results(Lost(), group)
     assert [r["key"] for r in rows] == ["0", "1", "2"] and all(not r["cacheable"] for r in rows)
     assert rows[1]["error"] == "logs/1.csv: the cluster could not run this log: OSError: worker died"
+
+
+def test_a_simulate_campaign_judges_the_simulations_residual(tmp_path: Path) -> None:
+    # five robots of the axis under PD (tests/reference_integrator.py's exact stick/slip loop), one log each:
+    # the model (the machines' values) in the log's controller; a quiet fleet, every log judged, nothing found
+    from models import axis
+    from reference_integrator import write_axis_experiment
+
+    (tmp_path / "axis.toml").write_text(axis())
+    lines = ['[task]', 'kind = "simulate"', '']
+    for k in range(5):
+        experiment = write_axis_experiment(tmp_path / f"r{k}", counts=2**16, seconds=2.0, force_noise=0.01, seed=k)
+        lines += ["[[robot]]", f'id = "r{k}"', 'model = "axis.toml"', "[[robot.log]]",
+                  f'file = "{experiment.relative_to(tmp_path).as_posix()}"', "time = 2024-03-04T08:00:00Z", ""]
+    (tmp_path / "fleet.toml").write_text("\n".join(lines))
+    outcome = fleet.run(fleet.load(tmp_path / "fleet.toml"), tmp_path / "out", workers=0, figures=False)
+    assert not outcome.errors and all(r["task"] == "simulate" for r in outcome.rows)
+    assert not outcome.events and not outcome.misfits
+    kept = [json.loads(p.read_text()) for p in (tmp_path / "out" / "cache").glob("*/*.json")]
+    assert len(kept) == 5 and all(k["profile"]["bins"] > 10 and k["profile"]["coordinates"] == ["q"] for k in kept)
