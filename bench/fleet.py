@@ -49,10 +49,14 @@ ROUNDS = 2
 """Rounds of (one at a time, campaign), interleaved; the medians are reported."""
 SECONDS = 120.0
 """Length of each log of the speed-up's first campaign (about 1 s of diagnosis per log) and of the trim test."""
-LONGER = (360.0,)
-"""Lengths of the logs of further speed-up campaigns: diagnoses of a few seconds, the task size the issue names."""
+LONGER: tuple[float, ...] = ()
+"""Lengths of the logs of further speed-up campaigns (``--seconds 120 360``: diagnoses of a few seconds)."""
 SHORT = 1000
 """Short logs of the memory part (10 robots)."""
+SMALL_SECONDS = 100.0
+"""Length of the logs of the small-task campaign: about 0.1 s of identification each (issue 38 §4)."""
+SMALL_ROUNDS = 3
+"""Rounds of the small-task campaign (1 worker, 2 workers; batched, one log per task), interleaved."""
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
@@ -136,7 +140,7 @@ def speed_up(folder: Path, seconds: float) -> dict:
 
     figure_class()  # the report's imports (Matplotlib), before either side is timed: both run in this process
     serial_times, campaign_times, starts, serial_cpu, worker_cpu, client_cpu, cold_times = [], [], [], [], [], [], []
-    workers_cpu, whole_times, whole_cpu = [], [], []
+    workers_cpu, whole_times, whole_cpu, one_worker = [], [], [], []
     for round_ in range(ROUNDS):  # interleaved: the machine is shared, its load moves between the phases
         started, used = time.perf_counter(), time.process_time()
         serial = [run_log(job) for job in jobs]
@@ -165,6 +169,13 @@ def speed_up(folder: Path, seconds: float) -> dict:
         finally:
             client.close()
             local.close()
+        local, client, _ = cluster(1)
+        try:
+            client.run(warm, jobs[0])
+            one_worker.append(campaign_on(local, client, campaign, folder / f"out1w_{round_}"))
+        finally:
+            client.close()
+            local.close()
     one_at_a_time, campaign_2, start_2 = (float(np.median(x)) for x in (serial_times, campaign_times, starts))
     local, client, start_1 = cluster(1)
     try:
@@ -185,9 +196,67 @@ def speed_up(folder: Path, seconds: float) -> dict:
             "client_cpu": float(np.median(client_cpu)), "cold": cold_times[0],
             "workers_cpu": float(np.median(workers_cpu)),
             "whole": float(np.median(whole_times)), "whole_cpu": float(np.median(whole_cpu)),
-            "whole_rounds": whole_times,
+            "whole_rounds": whole_times, "one_worker": one_worker,
             "computed": outcome.computed, "campaign_errors": len(outcome.errors),
             "overhead_errors": sum(r["status"] != "ok" for r in results.values())}
+
+
+def campaign_on(local, client, campaign, out: Path) -> tuple[float, float, float, float]:
+    """Wall time of the whole campaign on the warm cluster ``local``, the busier worker's CPU time, all workers'
+    CPU time, and this process's (the client's, hosting the scheduler) CPU time."""
+    from symbolic import fleet
+
+    used, own = cpu(client), time.process_time()
+    started = time.perf_counter()
+    fleet.run(campaign, out, scheduler=local.scheduler_address)
+    wall = time.perf_counter() - started
+    after = cpu(client)
+    spent = [after[w] - used[w] for w in after]
+    return wall, max(spent), sum(spent), time.process_time() - own
+
+
+def small_tasks(folder: Path) -> dict:
+    """36 logs of about 0.1 s of identification each: the whole campaign on 1 warm worker against 2, with the
+    logs batched per task (symbolic.fleet.execution.batches) and one log per task, :data:`SMALL_ROUNDS` rounds
+    interleaved."""
+    import fleet_cases
+    from symbolic import fleet
+    from symbolic.fleet import execution
+    from symbolic.fleet.execution import plan
+    from symbolic.fleet.store import Store
+    from symbolic.fleet.tasks import run_log
+
+    folder = folder / "small"
+    path = fleet_cases.fleet(folder / "logs", logs=6, robots=6, seconds=SMALL_SECONDS, kind="identify")
+    campaign = fleet.load(path)
+    _, jobs = plan(campaign, Store(folder / "serial"))
+    run_log(jobs[0])
+    started = time.perf_counter()
+    serial = [run_log(job) for job in jobs]
+    tasks_alone = time.perf_counter() - started
+    clusters = {n: cluster(n) for n in (1, 2)}
+    runs: dict[tuple[str, int], list[tuple[float, float, float, float]]] = {}
+    try:
+        for local, client, _ in clusters.values():
+            client.run(warm, jobs[0])
+        k = 0
+        for _ in range(SMALL_ROUNDS):
+            for label, most in (("batched", execution.MOST_PER_TASK), ("one per task", 1)):
+                kept, execution.MOST_PER_TASK = execution.MOST_PER_TASK, most
+                try:
+                    for n, (local, client, _) in clusters.items():
+                        k += 1
+                        runs.setdefault((label, n), []).append(campaign_on(local, client, campaign, folder / f"out{k}"))
+                finally:
+                    execution.MOST_PER_TASK = kept
+        groups = {n: len(execution.batches(jobs, n)) for n in (1, 2)}
+    finally:
+        for local, client, _ in clusters.values():
+            client.close()
+            local.close()
+    return {"logs": len(jobs), "seconds": SMALL_SECONDS, "task_mean": tasks_alone / len(jobs),
+            "tasks_alone": tasks_alone, "errors": sum(r["status"] != "ok" for r in serial), "runs": runs,
+            "batches": groups}
 
 
 def short_logs(folder: Path) -> dict:
@@ -216,6 +285,8 @@ def short_logs(folder: Path) -> dict:
 
 def speed_section(a: dict) -> list[str]:
     """The Markdown of one speed-up campaign."""
+    one = float(np.median([r[0] for r in a["one_worker"]]))
+    one_cpu = float(np.median([r[2] + r[3] for r in a["one_worker"]]))
     return [
         f"## Speed-up: {a['logs']} logs of {a['seconds']:g} s, task diagnose",
         "",
@@ -225,7 +296,9 @@ def speed_section(a: dict) -> list[str]:
         f"the same analysis, report and figures; median of {len(a['rounds'])} rounds) | {a['whole']:.1f} |",
         f"| its tasks alone (run_log in turn; median of {len(a['rounds'])} rounds) | {a['one_at_a_time']:.1f} "
         f"(mean task {a['task_mean']:.2f} s) |",
+        f"| campaign on 1 warm local worker (median of {len(a['one_worker'])} rounds) | {one:.1f} |",
         f"| campaign on 2 warm local workers (plan, tasks, analysis, report, figures) | {a['campaign_2']:.1f} |",
+        f"| **2 workers over 1, wall time** | **{one / a['campaign_2']:.2f}×** |",
         f"| the same on 2 cold workers (each imports and reads the model during the campaign) | {a['cold']:.1f} |",
         f"| starting the 2-worker local cluster | {a['start_2']:.1f} |",
         f"| **speed-up of the campaign, wall time** (the same files written) | **{a['whole'] / a['campaign_2']:.2f}×** "
@@ -241,14 +314,42 @@ def speed_section(a: dict) -> list[str]:
         f"campaign the two workers {a['workers_cpu']:.1f} s together, the busier {a['worker_cpu']:.1f} s, and the client (planning, analysis, report, figures) "
         f"{a['client_cpu']:.1f} s. On two idle cores the campaign would take about the busier worker's time plus the "
         f"client's: **{a['whole_cpu'] / (a['worker_cpu'] + a['client_cpu']):.2f}×** faster than the whole campaign "
-        f"one at a time ({a['serial_cpu'] / (a['worker_cpu'] + a['client_cpu']):.2f}× its tasks alone).",
+        f"one at a time ({a['serial_cpu'] / (a['worker_cpu'] + a['client_cpu']):.2f}× its tasks alone), and "
+        f"**{one_cpu / (a['worker_cpu'] + a['client_cpu']):.2f}×** faster than on 1 worker (its worker and client "
+        f"{one_cpu:.1f} s).",
         "",
         f"Error rows: {a['errors']} one at a time, {a['campaign_errors']} in the campaign, {a['overhead_errors']} on 1 worker.",
         "",
     ]
 
 
-def markdown(speeds: list[dict], b: dict, c: dict) -> str:
+def small_section(a: dict) -> list[str]:
+    """The Markdown of the small-task campaign (issue 38 §4: 2 workers at least 1.7× faster than 1)."""
+    def median(label: str, n: int, k: int) -> float:
+        return float(np.median([r[k] for r in a["runs"][(label, n)]]))
+
+    def idle(label: str, n: int) -> float:  # on idle cores: the busier worker's CPU time plus the client's
+        return float(np.median([r[1] + r[3] for r in a["runs"][(label, n)]]))
+
+    lines = [f"## Small tasks: {a['logs']} logs of {a['seconds']:g} s, task identify (mean task "
+             f"{a['task_mean']:.3f} s)", "",
+             f"The whole campaign (plan, tasks, analysis, report, figures) on 1 and on 2 warm local workers, median of "
+             f"{len(a['runs'][('batched', 1)])} interleaved rounds; the tasks alone, in turn in this process: "
+             f"{a['tasks_alone']:.2f} s. Batched: {a['batches'][1]} tasks on 1 worker, {a['batches'][2]} on 2 "
+             "(symbolic.fleet.execution.batches); one per task: as before this change.", "",
+             "| tasks | 1 worker (s) | 2 workers (s) | **2 over 1, wall** | on idle cores (CPU: busier worker + client), "
+             "2 over 1 | client CPU, 1 / 2 workers (s) |", "|---|---|---|---|---|---|"]
+    for label in ("batched", "one per task"):
+        w1, w2 = median(label, 1, 0), median(label, 2, 0)
+        lines.append(f"| {label} | {w1:.2f} | {w2:.2f} | **{w1 / w2:.2f}×** | {idle(label, 1) / idle(label, 2):.2f}× | "
+                     f"{median(label, 1, 3):.2f} / {median(label, 2, 3):.2f} |")
+    lines += ["", "Rounds (1 worker, 2 workers), s: " + "; ".join(
+        f"{label}: " + ", ".join(f"({x[0]:.2f}, {y[0]:.2f})" for x, y in zip(a["runs"][(label, 1)], a["runs"][(label, 2)]))
+        for label in ("batched", "one per task")) + ".", "", f"Error rows: {a['errors']} (the fleet's bad file).", ""]
+    return lines
+
+
+def markdown(speeds: list[dict], b: dict, c: dict, small: dict | None = None) -> str:
     load = os.getloadavg()
     return "\n".join([
         "# Fleet benchmark (bench/fleet.py)",
@@ -258,6 +359,7 @@ def markdown(speeds: list[dict], b: dict, c: dict) -> str:
         f"Python {platform.python_version()}. "
         "Regenerate: `python bench/fleet.py --out bench/results/fleet.md`.",
         "",
+        *(small_section(small) if small else []),
         *[line for a in speeds for line in speed_section(a)],
         "## Scheduler overhead: the same tasks on 1 worker",
         "",
@@ -293,6 +395,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", help="write the results as Markdown here")
     parser.add_argument("--skip-short", action="store_true", help="leave out the 1 000 short logs")
+    parser.add_argument("--skip-small", action="store_true", help="leave out the 36 small tasks")
+    parser.add_argument("--only-small", action="store_true", help="only the 36 small tasks (a quick look)")
     parser.add_argument("--seconds", type=float, nargs="+", default=[SECONDS, *LONGER],
                         help="lengths of the speed-up campaigns' logs (the first also for the trim test)")
     parser.add_argument("--short", type=int, default=1000, help="number of short logs, a multiple of 10 (smoke runs)")
@@ -300,6 +404,11 @@ def main() -> None:
     (SECONDS, *LONGER), SHORT = args.seconds, args.short
     with tempfile.TemporaryDirectory(prefix="symbolic-bench-fleet-") as tmp:
         os.environ["SYMBOLIC_CACHE_DIR"] = str(Path(tmp) / "derivations")
+        small = small_tasks(Path(tmp)) if not args.skip_small else None
+        print(small, flush=True)
+        if args.only_small:
+            print("\n".join(small_section(small)))
+            return
         speeds = [speed_up(Path(tmp), seconds) for seconds in (SECONDS, *LONGER)]
         print(speeds, flush=True)
         c = trim_cost(Path(tmp))
@@ -307,7 +416,7 @@ def main() -> None:
         b = short_logs(Path(tmp)) if not args.skip_short else {"logs": 0, "wall": 0, "rate": 0, "after_100": [],
                                                                "after_all": [], "errors": 0}
         print(b, flush=True)
-    text = markdown(speeds, b, c)
+    text = markdown(speeds, b, c, small)
     print(text)
     if args.out:
         Path(args.out).write_text(text, encoding="utf-8")

@@ -16,6 +16,11 @@ in the tests only; the code that searches the fleet sees the model file and the 
 Three ways of reading a log's time are used: from the file name (r01–r04), a column of UNIX seconds
 (r05), a ``[[robot.log]]`` list (r06).
 
+:func:`cycle_fleet` is another fleet, for the events judged against the siblings (tests/test_fleet_siblings.py):
+the six robots log one 20 s test cycle every day, their forces from the hand-written two-link equations of
+tests/reference_integrator.py, with a friction rise near rest on q2 that the model lacks (shared by every log),
+a collision in one log and the two drifts above.
+
 Run as a script, ``python3 tests/fleet_cases.py DIR`` writes the fleet into DIR (the README's campaign example).
 """
 
@@ -71,18 +76,19 @@ def trajectory(t: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray, np.nda
     return q, qd, qdd
 
 
-def robot_parameters(name: str) -> dict[str, float]:
-    """The robot's own values: the nominal ones with its manufacturing spread, and r05's heavier tool."""
+def robot_parameters(name: str, outlier: bool = True) -> dict[str, float]:
+    """The robot's own values: the nominal ones with its manufacturing spread, and r05's heavier tool (unless
+    not ``outlier``)."""
     rng = np.random.default_rng(number(name) + 100)
     values = {k: v * (1 + SPREAD * rng.uniform(-1, 1)) for k, v in NOMINAL.items()}
-    if name == TRUTH["outlier"][0]:
+    if outlier and name == TRUTH["outlier"][0]:
         values[TRUTH["outlier"][1]] *= TRUTH["outlier"][2]
     return values
 
 
-def log_parameters(name: str, index: int) -> dict[str, float]:
+def log_parameters(name: str, index: int, outlier: bool = True) -> dict[str, float]:
     """The values of robot ``name`` at its log ``index``: drift applied."""
-    values = robot_parameters(name)
+    values = robot_parameters(name, outlier)
     for (robot, parameter), (kind, size) in TRUTH["drift"].items():
         if robot != name:
             continue
@@ -171,6 +177,107 @@ def campaign_file(folder: Path, listed, names, kind: str) -> Path:
         text += ["[[robot]]", 'id = "r06"', 'model = "arm.toml"', ""]
     for file, moment in listed:
         text += ["[[robot.log]]", f'file = "{file}"', f"time = {moment:%Y-%m-%dT%H:%M:%SZ}", ""]
+    path = folder / "fleet.toml"
+    path.write_text("\n".join(text), encoding="utf-8")
+    return path
+
+
+# --- a fleet running one test cycle: a misfit the siblings share, one collision (docs/fleet.md, "Events") -------
+
+CYCLE = 20.0
+"""Seconds of the test cycle every log of :func:`cycle_fleet` records from its start (one period)."""
+CYCLE_SEED = 58
+"""The cycle's trajectory (:func:`trajectory` with a 0.05 Hz fundamental): q2 reverses four times, three of them
+fast (|q̈2| ≥ 0.6 rad/s²) and once slowly, near 16.0 s (|q̈2| ≈ 0.06 rad/s²)."""
+STRIBECK = {"Fs2": 0.55, "vs2": 0.005}
+"""The machines' friction on q2 near rest: f = Fv2·q̇ + sgn(q̇)·(Fc2 + (Fs2 − Fc2)·exp(−(q̇/vs2)²)), which the model
+(Fv2·q̇ + Fc2·sgn(q̇)) lacks: a misfit where q̇2 stays small — the slow reversal — in every log."""
+CYCLE_TRUTH = {
+    "misfit": ("q2", "the slow reversal of q2"),
+    "event": ("r04", 2, 7.0, 7.15),  # robot, log index, start, end (s): a collision on both joints
+    "drift": {("r02", "Fc2"): ("trend", 0.40), ("r03", "Fv1"): ("step", 0.30)},
+}
+
+
+def cycle_trajectory(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q, q̇, q̈ of the test cycle: five harmonics of 0.05 Hz, speeds up to about 1.5 rad/s."""
+    rng = np.random.default_rng(CYCLE_SEED)
+    wf = 2 * np.pi / CYCLE
+    k = np.arange(1, 6)
+    a, b = rng.normal(0, 1, (2, 5)), rng.normal(0, 1, (2, 5))
+    scale = 2.0 / np.sum(np.hypot(a, b) / (wf * k), axis=1, keepdims=True)
+    a, b = a * scale, b * scale
+    phase = np.outer(t, k * wf)
+    q = np.sin(phase) @ (a / (wf * k)).T - np.cos(phase) @ (b / (wf * k)).T
+    qd = np.cos(phase) @ a.T + np.sin(phase) @ b.T
+    qdd = -(np.sin(phase) * k * wf) @ a.T + (np.cos(phase) * k * wf) @ b.T
+    return q, qd, qdd
+
+
+def slow_reversal() -> float:
+    """The time (s) in the cycle of q2's slowest reversal: where the shared misfit is."""
+    t = np.arange(0.0, CYCLE, 1.0 / RATE)
+    _, qd, qdd = cycle_trajectory(t)
+    crossings = np.flatnonzero(np.sign(qd[1:, 1]) != np.sign(qd[:-1, 1]))
+    return float(t[crossings[np.argmin(np.abs(qdd[crossings, 1]))]])
+
+
+def cycle_force(name: str, index: int, t: np.ndarray, *, misfit: bool, event: bool, drift: bool,
+                offset: float = 0.0) -> np.ndarray:
+    """τ of robot ``name``'s log ``index`` along the cycle, from the hand-written two-link equations of
+    tests/reference_integrator.py (not symbolic's), the robot's friction (with the Stribeck rise on q2 when
+    ``misfit``), the collision (at the log's times), and 1 % white noise; the log starts ``offset`` s into the
+    cycle."""
+    from reference_integrator import ARM, arm_terms
+
+    values = log_parameters(name, index, outlier=False) if drift else robot_parameters(name, outlier=False)
+    p = {**ARM, **values}
+    q, qd, qdd = cycle_trajectory(t + offset)
+    tau = np.array([arm_terms(a, b, p)[0] @ c + arm_terms(a, b, p)[1] for a, b, c in zip(q, qd, qdd)])
+    fc = np.array([values["Fc1"], values["Fc2"]])
+    coulomb = np.outer(np.ones(len(t)), fc)
+    if misfit:
+        rise = (STRIBECK["Fs2"] - NOMINAL["Fc2"]) * np.exp(-(qd[:, 1] / STRIBECK["vs2"]) ** 2)
+        coulomb[:, 1] += rise
+    tau += np.array([values["Fv1"], values["Fv2"]]) * qd + coulomb * np.sign(qd)
+    robot, which, start, end = CYCLE_TRUTH["event"]
+    if event and (name, index) == (robot, which):
+        inside = (t >= start) & (t <= end)
+        tau[inside] += np.outer(np.sin(np.pi * (t[inside] - start) / (end - start)), 0.3 * np.abs(tau).max(axis=0))
+    rng = np.random.default_rng(5000 + 1000 * number(name) + index)
+    return tau + rng.normal(0, 1, tau.shape) * NOISE * np.sqrt(np.mean(tau**2, axis=0))
+
+
+def offset(name: str, index: int) -> float:
+    """Where in the cycle log ``index`` of robot ``name`` starts in a shifted fleet (s): 0 to 17 s, distinct."""
+    return float((7 * (number(name) * LOGS + index)) % 36) * 0.5
+
+
+def cycle_fleet(folder: Path, *, misfit: bool = True, event: bool = True, drift: bool = True,
+                shifted: bool = False, kind: str = "identify") -> Path:
+    """Six robots of the arm (their manufacturing spread, no heavier tool), six daily logs each of the same test
+    cycle (:func:`cycle_trajectory`, 18-bit encoders); with ``misfit`` the machines' Stribeck friction on q2
+    (:data:`STRIBECK`), with ``event`` r04's collision, with ``drift`` r02's and r03's drifts
+    (:data:`CYCLE_TRUTH`); ``shifted``: each log starts at another point of the cycle (:func:`offset`), so
+    that the logs share no cycle time, only states. Returns the campaign file."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "arm.toml").write_text(arm(), encoding="utf-8")
+    (folder / "logs").mkdir(exist_ok=True)
+    t = np.arange(0.0, CYCLE, 1.0 / RATE)
+    names = list(ROBOTS)
+    for name in names:
+        for index in range(LOGS):
+            moment = START + index * dt.timedelta(days=1)
+            start = offset(name, index) if shifted else 0.0
+            q, _, _ = cycle_trajectory(t + start)
+            tau = cycle_force(name, index, t, misfit=misfit, event=event, drift=drift, offset=start)
+            columns = {"t": t, "q_q1": np.round(q[:, 0] / RESOLUTION) * RESOLUTION,
+                       "q_q2": np.round(q[:, 1] / RESOLUTION) * RESOLUTION, "tau_q1": tau[:, 0], "tau_q2": tau[:, 1]}
+            write_csv(folder / "logs" / f"{name}_{moment:%Y-%m-%d}.csv", columns)
+    text = ['name = "test cycle"', "", "[task]", f'kind = "{kind}"', "", "[task.identification]", "bandwidth = 4.0", ""]
+    for name in names:
+        text += ["[[robot]]", f'id = "{name}"', 'model = "arm.toml"', f'logs = "logs/{name}_*.csv"',
+                 r'time = { from = "name", pattern = "_(\\d{4}-\\d{2}-\\d{2})", format = "%Y-%m-%d" }', ""]
     path = folder / "fleet.toml"
     path.write_text("\n".join(text), encoding="utf-8")
     return path

@@ -275,6 +275,7 @@ def test_the_local_cluster_reports_the_truth_and_nothing_else(local) -> None:
     # m2 enters the base parameters of the inertia and first moments (ZZR1 = ZZ1 − 0.16(M1 + M2), MXR2 = MX2 + 0.3·M2, ...)
     assert {o.parameter for o in different} <= {"ZZR1", "MXR1", "ZZR2", "MXR2"} and len(different) >= 2
     (event,) = outcome.events
+    assert not outcome.misfits  # the model is the machines' law: nothing shared by the siblings' logs
     robot, index, start, end = truth["event"]
     moment = fleet_cases.START + index * fleet_cases.WEEK
     assert event["robot"] == robot and event["log"] == f"logs/{robot}_{moment:%Y-%m-%d}.csv"

@@ -3,13 +3,17 @@
 
 :func:`bursts` finds them in the residual τ_meas − τ_model of the model identified on the log itself (so that
 a slow drift of the robot does not enter) and returns plain dicts, JSON-ready; :func:`describe` puts one in a
-line.
+line. :func:`examine` gives every burst (:func:`candidates`, those that recur within the log marked) and the
+residual's :func:`profile`, from which the campaign judges each burst against the siblings' logs
+(:mod:`symbolic.fleet.siblings`).
 """
 
 from __future__ import annotations
 
+import base64
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -46,7 +50,14 @@ def windowed(r2: np.ndarray, m: int) -> np.ndarray:
 
 def bursts(t: np.ndarray, residual: np.ndarray, coordinates: Sequence[str], settings: Events,
            states: np.ndarray | None = None) -> list[dict[str, Any]]:
-    """The events of one log, in time order; bursts that recur at one state are left out.
+    """The events of one log by its own evidence, in time order: :func:`candidates` without the bursts that
+    recur at one state (the campaign then judges each against the siblings' logs: :mod:`.siblings`)."""
+    return [e for e in candidates(t, residual, coordinates, settings, states) if not e.get("recurs")]
+
+
+def candidates(t: np.ndarray, residual: np.ndarray, coordinates: Sequence[str], settings: Events,
+               states: np.ndarray | None = None) -> list[dict[str, Any]]:
+    """The bursts of one log, in time order, those that recur at one state marked ``"recurs": True``.
 
     The rule, per coordinate j with residual r_j (robust to isolated spikes — a Coulomb step at a velocity
     reversal, one bad sample — and to the burst itself):
@@ -68,7 +79,7 @@ def bursts(t: np.ndarray, residual: np.ndarray, coordinates: Sequence[str], sett
     at their peaks are within :data:`RECUR` standard deviations of each other in every position and velocity
     are the model's misfit of that state (a coarse encoder's quantisation near a velocity reversal, a
     friction law the model lacks: docs/workflow.md names those), which a periodic excitation repeats every
-    period, while a collision happens once; both are dropped (:func:`_mark_recurring`).
+    period, while a collision happens once; both are marked (:func:`_mark_recurring`).
 
     The size of an event, per coordinate that triggered: the peak r_j (force units) and its time, the RMS of
     r_j over the event, and ``ratio`` = that RMS / s_j.
@@ -85,38 +96,141 @@ def bursts(t: np.ndarray, residual: np.ndarray, coordinates: Sequence[str], sett
         Window length (s) and size ratio.
     states
         Positions and velocities at the same samples (``samples × 2N``, any order), or None (no recurrence test).
+
+    Returns
+    -------
+    list of dict
+        Per burst: ``start``, ``end``, ``peak_time`` (s, the log's time), ``coordinates``, ``ratio``, ``size``
+        (per coordinate), ``state`` (the states at the peak, or None) and ``recurs``.
     """
+    seen = scan(t, residual, settings)
+    return [] if seen is None else _candidates(seen, coordinates, settings, states)
+
+
+@dataclass(frozen=True)
+class Scan:
+    """One log's residual examined (:func:`scan`): the samples' times, the residual, the window (samples), each
+    coordinate's robust level s_j, the squared ratios r_j²/median(r_j²) and their windowed median E_j."""
+
+    t: np.ndarray
+    r: np.ndarray
+    m: int
+    level: np.ndarray
+    ratio2: np.ndarray
+    energy: np.ndarray
+
+
+def scan(t: np.ndarray, residual: np.ndarray, settings: Events) -> Scan | None:
+    """The windowed levels of a log's residual (:func:`candidates`' rule), or None when it has fewer than 3
+    samples or no coordinate with a residual."""
     from scipy.stats import binom, chi2
 
     t = np.asarray(t, float)
     r = np.asarray(residual, float).reshape(len(t), -1)
     if len(t) < 3:
-        return []
+        return None
     dt = float(np.median(np.diff(t)))
     m = max(2, int(round(settings.window / dt)))
     level = robust_level(r)
     usable = level > 0
+    if not usable.any():
+        return None
     trials = max(1.0, len(t) / m) * int(usable.sum())
     p0 = chi2.sf(MEDIAN_CHI2_1 * settings.ratio**2, 1)
-    if not usable.any():
-        return []
     while binom.sf(math.ceil(m / 2) - 1, m, p0) >= WINDOW_P / trials and m < len(t):
         m += 1  # a window of a few samples cannot tell a burst from noise: the shortest that can
     typical = np.ones_like(level)
     typical[usable] = level[usable] ** 2 * MEDIAN_CHI2_1  # median(r²)
     ratio2 = np.where(usable, r**2 / typical, 0.0)
-    hot = windowed(ratio2, m) >= settings.ratio**2
+    return Scan(t, r, m, level, ratio2, windowed(ratio2, m))
+
+
+def _candidates(seen: Scan, coordinates: Sequence[str], settings: Events,
+                states: np.ndarray | None) -> list[dict[str, Any]]:
+    t, m = seen.t, seen.m
+    hot = seen.energy >= settings.ratio**2
     rows = np.flatnonzero(hot.any(axis=1))
-    found = [_event(t, r, level, ratio2, hot, run, m, settings, coordinates) for run in _runs(rows, m)]
-    if states is not None:
-        found = [e for e in found if not e.get("recurs")] if _mark_recurring(found, t, states) else found
+    found = [_event(t, seen.r, seen.level, seen.ratio2, hot, run, m, settings, coordinates) for run in _runs(rows, m)]
+    x = None if states is None else np.asarray(states, float).reshape(len(t), -1)
+    for event in found:
+        event["recurs"] = False
+        event["state"] = None if x is None else [float(v) for v in x[int(np.argmin(np.abs(t - event["peak_time"])))]]
+    if x is not None:
+        _mark_recurring(found, t, x)
     found.sort(key=lambda e: -e["ratio"])
     return sorted(found[:MOST], key=lambda e: e["start"])
 
 
-def _mark_recurring(found: list[dict[str, Any]], t: np.ndarray, states: np.ndarray) -> bool:
+def examine(t: np.ndarray, residual: np.ndarray, coordinates: Sequence[str], settings: Events,
+            states: np.ndarray) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
+    """A log's :func:`candidates` and its :func:`profile`, from one :func:`scan`.
+
+    Parameters
+    ----------
+    t, residual, coordinates, settings
+        As :func:`candidates`'.
+    states
+        Positions and velocities at the samples (``samples × 2N``: q then q̇).
+
+    Returns
+    -------
+    tuple
+        The bursts (:func:`candidates`), and the profile with the coordinates' names (``coordinates``), or None
+        when the residual cannot be scanned.
+    """
+    seen = scan(t, residual, settings)
+    if seen is None:
+        return [], None
+    return _candidates(seen, coordinates, settings, states), {**profile(seen, states), "coordinates": list(coordinates)}
+
+
+def profile(seen: Scan, states: np.ndarray) -> dict[str, Any]:
+    """The log's residual level and state along its time, in bins of half a window, for the campaign's judgement
+    against the siblings (:mod:`symbolic.fleet.siblings`).
+
+    Per bin: ρ_j = sqrt(max of E_j over the bin), the windowed RMS ratio of coordinate j (a burst is where
+    ρ_j ≥ ``ratio``), and the states (q, q̇) at the bin's middle sample. Stored compactly: ρ as float16 (clipped
+    at 60 000), the states as float16 z-scores with their mean and standard deviation (a resolution of about
+    10⁻³ of a standard deviation), each array in base64: about 5 KB for 20 s of a two-coordinate log.
+
+    Parameters
+    ----------
+    seen
+        The scan of the log's residual.
+    states
+        Positions and velocities at the samples (``samples × 2N``).
+
+    Returns
+    -------
+    dict
+        ``t0`` (the log's first time), ``bin`` (s), ``bins``, ``levels`` and ``states`` (base64), ``mean`` and
+        ``spread`` of the states.
+    """
+    width = max(1, seen.m // 2)
+    n = len(seen.t)
+    starts = np.arange(0, n, width)
+    rho = np.sqrt(np.maximum.reduceat(seen.energy, starts, axis=0))
+    x = np.asarray(states, float).reshape(n, -1)
+    middle = np.minimum(starts + width // 2, n - 1)
+    mean, spread = x.mean(axis=0), x.std(axis=0)
+    z = (x[middle] - mean) / np.where(spread > 0, spread, 1.0)
+    dt = float(np.median(np.diff(seen.t)))
+    return {"t0": float(seen.t[0]), "bin": width * dt, "bins": len(starts),
+            "levels": _pack(np.minimum(rho, 6e4)), "states": _pack(np.clip(z, -6e4, 6e4)),
+            "mean": [float(v) for v in mean], "spread": [float(v) for v in spread]}
+
+
+def _pack(a: np.ndarray) -> str:
+    return base64.b64encode(np.ascontiguousarray(a, dtype="<f2").tobytes()).decode("ascii")
+
+
+def unpack(text: str, bins: int) -> np.ndarray:
+    """A :func:`profile`'s array as float32 (half the memory of float64 for a campaign's profiles), ``bins`` rows."""
+    return np.frombuffer(base64.b64decode(text), dtype="<f2").astype(np.float32).reshape(bins, -1)
+
+
+def _mark_recurring(found: list[dict[str, Any]], t: np.ndarray, x: np.ndarray) -> bool:
     """Mark (``"recurs": True``) the bursts whose state at the peak another burst on a shared coordinate has."""
-    x = np.asarray(states, float).reshape(len(t), -1)
     spread = x.std(axis=0)
     z = (x - x.mean(axis=0)) / np.where(spread > 0, spread, 1.0)
     at = [z[int(np.argmin(np.abs(t - e["peak_time"])))] for e in found]

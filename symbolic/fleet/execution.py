@@ -1,17 +1,17 @@
-"""A campaign on Dask: every log one task, results kept as they arrive, then what the fleet tells (docs/fleet.md).
+"""A campaign on Dask: the logs as tasks, results kept as they arrive, then what the fleet tells (docs/fleet.md).
 
 :func:`run` takes a checked :class:`~symbolic.fleet.campaign.Campaign` and an output folder and
 
 1. keys each log by content (:func:`symbolic.fleet.store.job_key`) and takes the results the cache
    already holds (a rerun after an interruption, or with new logs, computes only what is new);
-2. submits the others to Dask, one task per log (:func:`symbolic.fleet.tasks.run_log`): without a
-   scheduler address on a local cluster of worker processes on this machine (``workers`` of them, one
-   thread each; default: the processors, at most one per log), else on the existing cluster at that
-   address; each result is written to the cache as it arrives, and progress goes to the ``symbolic``
+2. submits the others to Dask, one or more logs per task (:func:`batches`,
+   :func:`symbolic.fleet.tasks.run_batch`): without a scheduler address on a local cluster of worker
+   processes on this machine (``workers`` of them, one thread each; default: the processors, at most one
+   per log), else on the existing cluster at that address; each result is written to the cache as it arrives, and progress goes to the ``symbolic``
    logger (stderr in the command line, silenced by ``-q``);
 3. assembles one row per log — robot, log, time, the parameters with σ, the gap, the effects, the events,
-   the run time, or the error — and tests drift (:mod:`.drift`), outliers (:mod:`.outliers`) and lists
-   the events (:mod:`.events`);
+   the run time, or the error — and tests drift (:mod:`.drift`), outliers (:mod:`.outliers`) and judges
+   each log's bursts against its siblings' logs (:mod:`.siblings`): the events, and the model's misfits;
 4. writes ``results.csv``, ``report.md`` and the figures into the folder as one set
    (:func:`symbolic.export.write_files`: files of others and sub-folders are never touched; the cache
    is the sub-folder ``cache/``).
@@ -23,7 +23,9 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import datetime as dt
+import hashlib
 import logging
 import os
 import re
@@ -42,7 +44,7 @@ from symbolic.fleet.campaign import Campaign
 from symbolic.fleet.drift import Drift, drifts, series_of
 from symbolic.fleet.outliers import Outlier, outliers
 from symbolic.fleet.store import Store, job_key, table
-from symbolic.fleet.tasks import Job, run_log
+from symbolic.fleet.tasks import Job, run_batch, run_log
 
 log = logging.getLogger("symbolic")
 
@@ -57,6 +59,10 @@ SCHEMES = ("tcp", "tls", "ws", "wss")
 ADDRESS = re.compile(r"(?:(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+)"
                      r"(?::(?P<port>[0-9]{1,5}))?")
 """``[scheme://]host[:port]``: a host name, an IPv4 address or an IPv6 address in brackets."""
+BATCHING = 2
+"""A task takes 1/(BATCHING · workers) of the bytes of the logs not yet given to a task (:func:`batches`)."""
+MOST_PER_TASK = 16
+"""Logs in one task at most: an interrupted campaign loses at most the tasks running (their results arrive whole)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,6 +78,8 @@ class Outcome:
     cached: int
     files: tuple[Path, ...] = ()
     notes: tuple[str, ...] = ()
+    misfits: tuple[dict[str, Any], ...] = ()
+    """The systematic misfits of the models (:mod:`symbolic.fleet.siblings`)."""
 
     @property
     def errors(self) -> list[dict[str, Any]]:
@@ -94,6 +102,7 @@ class Outcome:
             "drift": [d.to_dict() for d in self.drifts if d.flagged],
             "outliers": [o.to_dict() for o in self.outliers if o.flagged],
             "events": self.events,
+            "misfits": list(self.misfits),
             "tested": {"series": len(self.drifts), "outlier_tests": len(self.outliers)},
             "files": [str(p) for p in self.files],
             "notes": list(self.notes),
@@ -104,24 +113,40 @@ def plan(campaign: Campaign, store: Store) -> tuple[list[dict[str, Any]], list[J
     """One row per log (robot, log, time when known before reading it, task, key) and the jobs of the logs
     that can be run (a log whose file name gives no time is an error row at once)."""
     rows, jobs = [], []
-    for robot in campaign.robots:
-        for entry in robot.logs:
-            row = {"robot": robot.id, "log": entry.name, "time": entry.time.isoformat() if entry.time else None,
-                   "task": robot.task.kind, "model": robot.model_digest}
-            problem = entry.refused or entry.time_problem  # a refused log is not even hashed
-            if problem:
-                rows.append({**row, "key": None, "status": "error", "error": f"{entry.name}: {problem}"})
-                continue
-            try:
-                key = job_key(store, robot, entry)
-            except OSError as error:  # unreadable log: a row, not a stopped campaign
-                rows.append({**row, "key": None, "status": "error", "error": one_line(f"{entry.name}: {error.strerror}")})
-                continue
-            rows.append({**row, "key": key})
-            jobs.append(Job(key, robot.id, entry.name, str(entry.path), robot.model_source, robot.model_text,
-                            robot.model_digest, robot.task, None if robot.experiment is None else str(robot.experiment),
-                            robot.time_column, robot.chain))
+    pairs = [(robot, entry) for robot in campaign.robots for entry in robot.logs]
+    keys = _keys(store, [(r, e) for r, e in pairs if not (e.refused or e.time_problem)])
+    for robot, entry in pairs:
+        row = {"robot": robot.id, "log": entry.name, "time": entry.time.isoformat() if entry.time else None,
+               "task": robot.task.kind, "model": robot.model_digest}
+        problem = entry.refused or entry.time_problem  # a refused log is not even hashed
+        if problem:
+            rows.append({**row, "key": None, "status": "error", "error": f"{entry.name}: {problem}"})
+            continue
+        key = keys[id(entry)]
+        if isinstance(key, OSError):  # unreadable log: a row, not a stopped campaign
+            rows.append({**row, "key": None, "status": "error", "error": one_line(f"{entry.name}: {key.strerror}")})
+            continue
+        rows.append({**row, "key": key})
+        jobs.append(Job(key, robot.id, entry.name, str(entry.path), robot.model_source, robot.model_text,
+                        robot.model_digest, robot.task, None if robot.experiment is None else str(robot.experiment),
+                        robot.time_column, robot.chain))
     return rows, jobs
+
+
+def _keys(store: Store, pairs: Sequence[tuple[Any, Any]]) -> dict[int, str | OSError]:
+    """The cache key of each (robot, log), or the OSError reading it, by ``id`` of the log; the logs hashed by
+    threads, one per processor (SHA-256 lets go of the GIL: a campaign's first run reads every log's bytes before
+    its tasks start, 80 MB for 36 logs of 100 s)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def key(pair: tuple[Any, Any]) -> str | OSError:
+        try:
+            return job_key(store, *pair)
+        except OSError as error:
+            return error
+
+    with ThreadPoolExecutor(max_workers=max(1, min(os.cpu_count() or 1, len(pairs)))) as pool:
+        return {id(entry): found for (_, entry), found in zip(pairs, pool.map(key, pairs))}
 
 
 def run(campaign: Campaign, out: str | os.PathLike, *, scheduler: str | None = None, workers: int | None = None,
@@ -159,12 +184,29 @@ def run(campaign: Campaign, out: str | os.PathLike, *, scheduler: str | None = N
     tested = drifts(found_series, campaign.analysis)
     models = {r.id: r.model_digest for r in campaign.robots}
     different = outliers(found_series, tested, models, campaign.analysis)
-    outcome = Outcome(campaign, tuple(rows), tuple(tested), tuple(different), len(jobs) - cached, cached)
+    misfits = judge_bursts(rows, campaign)
+    outcome = Outcome(campaign, tuple(rows), tuple(tested), tuple(different), len(jobs) - cached, cached,
+                      misfits=tuple(misfits))
     files, notes = report.render(outcome, figures=figures, html=html)
     files["results.csv"] = table(rows).encode("utf-8")
     written = write_files(files, out)
-    return Outcome(campaign, tuple(rows), tuple(tested), tuple(different), outcome.computed, cached, tuple(written),
-                   tuple(notes))
+    return dataclasses.replace(outcome, files=tuple(written), notes=tuple(notes))
+
+
+def judge_bursts(rows: list[dict[str, Any]], campaign: Campaign) -> list[dict[str, Any]]:
+    """Each row's events as its siblings judge them (:mod:`symbolic.fleet.siblings`), in place, its bursts and
+    profile then dropped; the systematic misfits, each named by its model."""
+    from symbolic.fleet.siblings import judge
+
+    robots = {r.id: (r.model_digest, r.task.events) for r in campaign.robots}
+    judged, misfits = judge(rows, robots, campaign.analysis.alpha)
+    for row, events in zip(rows, judged):
+        if events is not None:
+            row["events"] = events
+        row.pop("bursts", None)
+        row.pop("profile", None)
+    names = {r.id: r.robot.name for r in campaign.robots}
+    return [{"model": names[m["robots"][0]], **m} for m in misfits]
 
 
 def assemble(rows: Sequence[dict[str, Any]], results: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
@@ -216,22 +258,69 @@ def execute(jobs: Sequence[Job], store: Store, *, scheduler: str | None = None, 
 
 def _on_cluster(jobs: Sequence[Job], keep, scheduler: str | None, workers: int | None,
                 connect_timeout: float = CONNECT_TIMEOUT, reached=lambda: None) -> None:
-    """Each job one Dask task; ``reached()`` once the cluster is there, ``keep(job, result)`` as each result arrives."""
+    """The jobs as Dask tasks of one or more logs each (:func:`batches`); ``reached()`` once the cluster is
+    there, ``keep(job, result)`` for each log as its task's results arrive."""
     try:
         from dask.distributed import as_completed
     except ImportError:
         raise ClusterError(INSTALL) from None
     with _client(scheduler, workers, len(jobs), connect_timeout) as client:
         reached()
-        futures = client.map(run_log, jobs, key=[f"symbolic-log-{job.key}" for job in jobs], pure=False)
-        by_key = {future.key: job for future, job in zip(futures, jobs)}
+        groups = batches(jobs, max(1, len(client.scheduler_info()["workers"])))
+        keys = [f"symbolic-logs-{hashlib.sha256(' '.join(j.key for j in g).encode()).hexdigest()}" for g in groups]
+        futures = client.map(run_batch, groups, key=keys, pure=False)
+        by_key = {future.key: group for future, group in zip(futures, groups)}
         pending = as_completed(futures)
         del futures  # as_completed holds each until it is taken and released: results do not pile up on the cluster
         for future in pending:
-            job = by_key[future.key]
-            result = _result(future, job)
+            group = by_key.pop(future.key)
+            results = _results(future, group)
             future.release()
-            keep(job, result)
+            for job, result in zip(group, results):
+                keep(job, result)
+
+
+def batches(jobs: Sequence[Job], workers: int) -> list[list[Job]]:
+    """The jobs, largest first, cut into Dask tasks by guided self-scheduling on the logs' bytes.
+
+    Each task takes ``1/(BATCHING · workers)`` of the bytes not yet given to a task, at least one log and at
+    most :data:`MOST_PER_TASK`: a campaign of many short logs is a few tasks per worker at first (the scheduler's
+    round trip, the client's and scheduler's CPU time per task paid once for several logs:
+    bench/results/fleet.md), and single logs at the end, so that the workers finish together. A log's bytes
+    stand for its work (the logs of a campaign share their task and, mostly, their format).
+
+    Parameters
+    ----------
+    jobs
+        The logs to compute.
+    workers
+        The cluster's workers.
+
+    Returns
+    -------
+    list of list of Job
+        The tasks, in the order they are submitted (the largest first).
+
+    >>> from symbolic.fleet.tasks import Job
+    >>> [len(b) for b in batches([Job(str(k), "r", "x", "/nonexistent", "", "", "", None) for k in range(36)], 2)]
+    [9, 6, 5, 4, 3, 2, 1, 1, 1, 1, 1, 1, 1]
+    """
+    ordered = sorted(jobs, key=_size, reverse=True)
+    sizes = [max(_size(job), 1) for job in ordered]
+    left = float(sum(sizes))
+    out: list[list[Job]] = []
+    k = 0
+    while k < len(ordered):
+        share = left / (BATCHING * workers)
+        group, taken = [ordered[k]], sizes[k]
+        k += 1
+        while k < len(ordered) and len(group) < MOST_PER_TASK and taken + sizes[k] <= share:
+            group.append(ordered[k])
+            taken += sizes[k]
+            k += 1
+        left -= taken
+        out.append(group)
+    return out
 
 
 def _size(job: Job) -> int:
@@ -242,13 +331,20 @@ def _size(job: Job) -> int:
         return 0
 
 
-def _result(future, job: Job) -> dict[str, Any]:
-    """The task's result, or an error row when the cluster lost it (a worker died, a task was cancelled)."""
+def _results(future, group: Sequence[Job]) -> list[dict[str, Any]]:
+    """The task's result of each log, or an error row for each when the cluster lost the task (a worker died,
+    a task was cancelled)."""
     try:
-        result = future.result()
-    except Exception as error:  # noqa: BLE001 - the cluster's failure, not the log's: a row, not cached
-        return {"key": job.key, "status": "error", "cacheable": False,
-                "error": one_line(f"{job.log}: the cluster could not run this log: {type(error).__name__}: {error}")}
+        results = future.result()
+    except Exception as error:  # noqa: BLE001 - the cluster's failure, not the logs': rows, not cached
+        return [{"key": job.key, "status": "error", "cacheable": False,
+                 "error": one_line(f"{job.log}: the cluster could not run this log: {type(error).__name__}: {error}")}
+                for job in group]
+    return [_checked(result, job) for result, job in zip(results, group)]
+
+
+def _checked(result: dict[str, Any], job: Job) -> dict[str, Any]:
+    """``result``, or an error row when the worker runs another symbolic than the client (another stamp)."""
     if result.get("stamp") != stamp():
         theirs = result.get("stamp", {})
         return {**result, "status": "error", "cacheable": False,

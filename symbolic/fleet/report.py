@@ -23,6 +23,9 @@ from symbolic.fleet.drift import Drift
 from symbolic.fleet.events import describe
 from symbolic.writing import safe_stem
 
+MARGINS = {"left": 0.14, "right": 0.97, "bottom": 0.13, "top": 0.91}
+"""The figures' margins (fractions of 7 × 4 in), fixed: Matplotlib's tight_layout measured every text twice and took
+40 % of the report's time, which a campaign of short logs waits for (bench/results/fleet.md)."""
 ROLES = {"viscous": "viscous friction", "coulomb": "Coulomb friction", "offset": "force offset"}
 
 
@@ -74,6 +77,20 @@ def outlier_line(o, label: str | None) -> str:
             f"its {o.count} siblings' {o.siblings:.5g} (spread {o.spread:.2g}; p = {o.p_value:.2g})")
 
 
+def misfit_line(m: dict[str, Any]) -> str:
+    """``arm, q2 at 0.130 s of the cycle (q_q1 = 0.3, ...): 36 of 36 logs of 6 robots, RMS 6.1× ...``."""
+    where = f" at {m['cycle_time']:.3f} s of the cycle" if m.get("cycle_time") is not None else ""
+    state = ", ".join(f"{k} = {v:.3g}" for k, v in m["state"].items())
+    robots = len(m["robots"])
+    return (f"{m['model']}, {', '.join(m['coordinates'])}{where}" + (f" (state {state})" if state else "")
+            + f": {m['logs']} of {m['of']} logs of {robots} robot{'s' if robots != 1 else ''}, RMS {m['ratio']:.3g}× "
+            f"the log's residual (median; {m['ratio_range'][0]:.3g}–{m['ratio_range'][1]:.3g}), peak {m['peak']:.4g}")
+
+
+DIAGNOSE = ("a misfit of the model at that phase, not an event: `symbolic diagnose MODEL LOG --validate LOG2` on two "
+            "of those logs names what the model lacks (docs/workflow.md)")
+
+
 def summary(outcome) -> list[str]:
     """The lines ``symbolic campaign`` prints."""
     every = _labels(outcome)
@@ -82,9 +99,11 @@ def summary(outcome) -> list[str]:
     lines += [f"drift: {drift_line(d, every[d.series.robot].get(d.series.parameter))}" for d in outcome.drifts if d.flagged]
     lines += [f"outlier: {outlier_line(o, every[o.robot].get(o.parameter))}" for o in outcome.outliers if o.flagged]
     lines += [f"event: {e['robot']} {e['log']}: {describe(e)}" for e in outcome.events]
+    lines += [f"misfit: {misfit_line(m)} ({DIAGNOSE})" for m in outcome.misfits]
     lines += [f"error: {r['robot']}: {r['error']}" for r in outcome.errors]
-    if not any(d.flagged for d in outcome.drifts) and not any(o.flagged for o in outcome.outliers) and not outcome.events:
-        lines.append("no drift, no outlier, no event")
+    if not any(d.flagged for d in outcome.drifts) and not any(o.flagged for o in outcome.outliers) and \
+            not outcome.events and not outcome.misfits:
+        lines.append("no drift, no outlier, no event, no misfit")
     return lines
 
 
@@ -142,13 +161,24 @@ def markdown(outcome, pictures: Mapping[str, bytes], notes: list[str]) -> str:
         [f"* {outlier_line(o, every[o.robot].get(o.parameter))}" for o in different]
     out += ["", "## Events", ""]
     if not events:
-        out += ["No residual bursts."]
+        out += ["No residual burst that differs from the siblings' logs at its phase."]
     else:
-        out += ["| robot | log | log time | window (s) | coordinates | peak | RMS / log's residual |", "|---|---|---|---|---|---|---|"]
+        out += ["| robot | log | log time | window (s) | coordinates | peak | RMS / log's residual | the siblings there |",
+                "|---|---|---|---|---|---|---|---|"]
         for e in events:
             c = max(e["size"], key=lambda k: e["size"][k]["ratio"])
             out.append(f"| {e['robot']} | {e['log']} | {_date(e['time'])} | {e['start']:.3f}–{e['end']:.3f} | "
-                       f"{', '.join(e['coordinates'])} | {e['size'][c]['peak']:.4g} on {c} | {e['ratio']:.3g} |")
+                       f"{', '.join(e['coordinates'])} | {e['size'][c]['peak']:.4g} on {c} | {e['ratio']:.3g} | "
+                       f"{siblings_cell(e, c)} |")
+    out += ["", "## Systematic misfits of the model", ""]
+    if not outcome.misfits:
+        out += ["No burst is shared by the siblings' logs."]
+    else:
+        out += ["Bursts that the logs of a model share at the same phase of the cycle (or state), each reported once "
+                "here rather than as events in every log: the model lacks something there. `symbolic diagnose MODEL LOG "
+                "--validate LOG2` on two of those logs names what (docs/workflow.md; the misfit's phase must be in the "
+                "held-out data, which by default is the log's last fifth).", ""]
+        out += [f"* {misfit_line(m)}; e.g. {', '.join(m['examples'])}" for m in outcome.misfits]
     out += ["", "## Logs that could not be processed", ""]
     out += ["None."] if not outcome.errors else [f"* {r['robot']}: {r['error']}" for r in outcome.errors]
     out += ["", "## Fleet", "", *fleet_table(outcome), ""]
@@ -156,6 +186,16 @@ def markdown(outcome, pictures: Mapping[str, bytes], notes: list[str]) -> str:
         out += ["![the gap of every log](fleet_gap.png)", ""]
     out += notes
     return "\n".join(out).rstrip() + "\n"
+
+
+def siblings_cell(event: dict[str, Any], coordinate: str) -> str:
+    """``own 5 logs 1.6×, p = 4e-06; fleet 30 logs 1.5×, p = 5e-19`` (their level at the event's phase, as a
+    windowed RMS ratio), or why the log's own verdict stands."""
+    judged = (event.get("siblings") or {}).get(coordinate)
+    if not judged:
+        return "none to compare: the log's own verdict"
+    return "; ".join(f"{name} {v['logs']} logs {v['median_ratio']:.2g}×, p = {v['p_value']:.1g}"
+                     for name, v in judged.items())
 
 
 def fleet_table(outcome) -> list[str]:
@@ -201,7 +241,7 @@ def draw(outcome) -> dict[str, bytes]:
         ax.set_ylabel(s.parameter)
         ax.set_title(f"{s.robot}: {named(s.parameter, every[s.robot].get(s.parameter))}", fontsize=10)
         ax.legend(loc="best")
-        fig.tight_layout()
+        fig.subplots_adjust(**MARGINS)
         out[figure_name(d)] = png_bytes(fig, dpi=90)
     fig = Figure(figsize=(7, 4))
     ax = fig.add_subplot(1, 1, 1)
@@ -215,6 +255,6 @@ def draw(outcome) -> dict[str, bytes]:
     ax.set_ylabel("gap ‖τ − τ_model‖/‖τ‖ (%)")
     if ax.lines and len(outcome.campaign.robots) <= 12:
         ax.legend(loc="best", fontsize=7)
-    fig.tight_layout()
+    fig.subplots_adjust(**MARGINS)
     out["fleet_gap.png"] = png_bytes(fig, dpi=90)
     return out

@@ -2,7 +2,8 @@
 
 Input: a :class:`Job` (plain data: the robot's model file text and path, the log, the task). Output: a
 JSON-ready dict, the computed part of a results row: the parameters with σ, the gap, the named effects,
-the events, the run time; or the error of a log that could not be processed (``status = "error"``),
+the residual's bursts and its profile (which the campaign judges against the siblings' logs:
+:mod:`symbolic.fleet.siblings`), the run time; or the error of a log that could not be processed (``status = "error"``),
 never an exception, so that one bad log never stops a campaign.
 
 It calls the package's library functions — :func:`symbolic.identify.model.identify_model`,
@@ -33,7 +34,7 @@ from symbolic.derivation.dynamics import DynamicModel, derive
 from symbolic.description.robot import digest
 from symbolic.errors import ModelWarning, SymbolicError, listing, one_line
 from symbolic.fleet.campaign import NOT_READ, Task, read_model
-from symbolic.fleet.events import bursts
+from symbolic.fleet.events import examine
 
 MODELS_KEPT = 8
 """Derived models a worker keeps (least recently used dropped first): a campaign rarely mixes more models."""
@@ -145,12 +146,13 @@ def _identify(model: DynamicModel, experiment: Experiment, task: Task) -> dict[s
     residual = full.observation.tau - full.predicted
     treated = states(experiment, every)
     motion = np.hstack([full.observation.processing.reduce(treated.q), full.observation.processing.reduce(treated.qd)])
-    events = bursts(full.observation.t, residual, full.observation.coordinates, task.events, motion)
+    found, shape = examine(full.observation.t, residual, full.observation.coordinates, task.events, motion)
+    events = [e for e in found if not e["recurs"]]  # the log's own verdict; the campaign's is the siblings' (.siblings)
     if events:
         result = identify_model(model, experiment, exclude=excluded(events, result.identification.processing,
                                                                       task.events.window), **options)
-    return {"gap": result.identification.relative_error, "parameters": _parameters(result), "events": events,
-            "samples": experiment.samples, "duration": float(experiment.t[-1] - experiment.t[0])}
+    return {"gap": result.identification.relative_error, "parameters": _parameters(result), "bursts": found,
+            "profile": shape, "samples": experiment.samples, "duration": float(experiment.t[-1] - experiment.t[0])}
 
 
 def excluded(events: list[dict[str, Any]], processing, window: float) -> list[tuple[float, float]]:
@@ -206,10 +208,15 @@ def _simulate(model: DynamicModel, experiment: Experiment, task: Task) -> dict[s
     norm = float(np.linalg.norm(experiment.tau))
     q = np.asarray(experiment.q, float)
     motion = np.hstack([q, np.gradient(q, np.asarray(experiment.t, float), axis=0)])
+    found, shape = examine(experiment.t, residual, experiment.coordinates, task.events, motion)
     return {"gap": 100.0 * float(np.linalg.norm(residual)) / norm if norm > 0 else float("nan"),
-            "simulation": {c: dict(e) for c, e in errors.items()}, "parameters": [],
-            "events": bursts(experiment.t, residual, experiment.coordinates, task.events, motion),
-            "samples": experiment.samples, "duration": float(experiment.t[-1] - experiment.t[0])}
+            "simulation": {c: dict(e) for c, e in errors.items()}, "parameters": [], "bursts": found,
+            "profile": shape, "samples": experiment.samples, "duration": float(experiment.t[-1] - experiment.t[0])}
 
 
 _RUNNERS = {"identify": _identify, "diagnose": _diagnose, "simulate": _simulate}
+
+
+def run_batch(jobs: list[Job]) -> list[dict[str, Any]]:
+    """:func:`run_log` of each job in turn: one Dask task for several short logs."""
+    return [run_log(job) for job in jobs]
