@@ -3,7 +3,7 @@
 Expressions are translated into ``casadi.SX`` by evaluating the same straight-line program as the
 C code (SymPy's lambdify with CasADi's functions as the numeric module), so both targets share one
 source. Inputs are named q, qd, qdd, tau, p; outputs as in the C ABI. Forward dynamics solves
-D q̈ = τ − h − g − k − f; the linearisation A = ∂ẋ/∂x, B = ∂ẋ/∂τ (x = [q; q̇], Madill 3.9.4) is
+D q̈ = τ − h − g − k − f; its derivatives are −D⁻¹∂τ/∂(q, q̇) at that q̈ and D⁻¹ (as in the C); the linearisation A = ∂ẋ/∂x, B = ∂ẋ/∂τ (x = [q; q̇], Madill 3.9.4) is
 CasADi's exact algorithmic derivative of that.
 """
 
@@ -53,7 +53,8 @@ class _CasadiPrinter(PythonCodePrinter):
         return f"sign({self._print(expr.args[0])})"
 
 
-def _to_sx(model: DynamicModel, spec: FunctionSpec, inputs: dict[str, ca.SX]) -> ca.SX:
+def _to_sx(model: DynamicModel, spec: FunctionSpec, inputs: dict[str, ca.SX]) -> list[ca.SX]:
+    """The output arrays of ``spec`` (:attr:`FunctionSpec.arrays`) as CasADi matrices, from its program."""
     symbols = input_symbols(model)
     program = programs(model)[spec.name]
     args = [list(symbols[a]) for a in spec.inputs]
@@ -61,10 +62,19 @@ def _to_sx(model: DynamicModel, spec: FunctionSpec, inputs: dict[str, ca.SX]) ->
     fn = sp.lambdify(args, flat, modules=[CASADI_MODULE], printer=_CasadiPrinter(),
                      cse=lambda exprs: (list(program.statements), exprs))
     values = fn(*[[inputs[a][i] for i in range(inputs[a].shape[0])] for a in spec.inputs])
-    out = ca.SX(spec.rows, spec.cols)
-    for k, v in enumerate(values):
-        out[k // spec.cols, k % spec.cols] = v
+    out, k = [], 0
+    for _, rows, cols in spec.arrays:
+        matrix = ca.SX(rows, cols)
+        for i in range(rows * cols):
+            matrix[i // cols, i % cols] = values[k + i]
+        out.append(matrix)
+        k += rows * cols
     return out
+
+
+def cholesky_solve_columns(D: ca.SX, B: ca.SX) -> ca.SX:
+    """D⁻¹B, column by column with :func:`cholesky_solve` (one factorisation's arithmetic as in the generated C)."""
+    return ca.horzcat(*[cholesky_solve(D, B[:, c]) for c in range(B.shape[1])])
 
 
 def cholesky_solve(D: ca.SX, b: ca.SX) -> ca.SX:
@@ -154,15 +164,19 @@ def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
     out: dict[str, ca.Function] = {}
     values: dict[str, ca.SX] = {}
     for spec in function_specs(model):
-        values[spec.name] = _to_sx(model, spec, inputs)
+        arrays = _to_sx(model, spec, inputs)
+        values[spec.name] = arrays[0]
         args = [inputs[a] for a in spec.inputs]
-        out[spec.name] = ca.Function(spec.name, args, [values[spec.name]], list(spec.inputs), [spec.output])
+        out[spec.name] = ca.Function(spec.name, args, arrays, list(spec.inputs), [a for a, _, _ in spec.arrays])
     q, qd, tau, p = inputs["q"], inputs["qd"], inputs["tau"], inputs["p"]
     bias = ca.substitute(values["inverse_dynamics"], inputs["qdd"], ca.SX.zeros(n))
     qdd = cholesky_solve(values["inertia"], tau - bias)
     names = list(timed(model, "q", "qd", "tau", "p"))  # with t before p for a time-varying model
     args = [inputs[a] for a in names]
     out["forward_dynamics"] = ca.Function("forward_dynamics", args, [qdd], names, ["qdd"])
+    derivatives = _forward_dynamics_derivatives(model, out["inverse_dynamics_derivatives"], inputs, values["inertia"], qdd)
+    out["forward_dynamics_derivatives"] = ca.Function("forward_dynamics_derivatives", args, derivatives, names,
+                                                      ["dqdd_dq", "dqdd_dqd", "dqdd_dtau"])
     x = ca.vertcat(q, qd)
     xdot = ca.vertcat(qd, qdd)
     out["A"] = ca.Function("A", args, [ca.jacobian(xdot, x)], names, ["A"])
@@ -174,6 +188,17 @@ def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
         out["operational_inertia"] = ca.Function("operational_inertia", [q, p], [lam], ["q", "p"], ["Lambda"])
         out["apparent_mass"] = ca.Function("apparent_mass", [q, u, p], [mass], ["q", "u", "p"], ["m"])
     return out
+
+
+def _forward_dynamics_derivatives(model: DynamicModel, id_derivatives: ca.Function, inputs: dict[str, ca.SX], inertia: ca.SX,
+                                  qdd: ca.SX) -> list[ca.SX]:
+    """[∂q̈/∂q, ∂q̈/∂q̇, ∂q̈/∂τ] = [−D⁻¹ ∂τ/∂q, −D⁻¹ ∂τ/∂q̇, D⁻¹], the inverse dynamics derivatives taken at the
+    q̈ of forward dynamics (the generated C's arithmetic; docs/contracts.md, "Derivatives")."""
+    names = timed(model, "q", "qd", "qdd", "p")
+    dtau_dq, dtau_dqd = id_derivatives(*[qdd if a == "qdd" else inputs[a] for a in names])
+    n = model.n
+    return [cholesky_solve_columns(inertia, -dtau_dq), cholesky_solve_columns(inertia, -dtau_dqd),
+            cholesky_solve_columns(inertia, ca.SX.eye(n))]
 
 
 def program_to_sx(sub, outputs: sp.Matrix, groups: list, values: list, module: dict | None = None) -> ca.SX:
