@@ -92,6 +92,18 @@ void emps_inverse_dynamics(const double *q, const double *qd, const double *qdd,
     tau[0] = v2;
 }
 
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+ * Inputs: q[1] (q), qd[1] (q), qdd[1] (q), p[5] (see emps_parameter_names); outputs dtau_dq[1], dtau_dqd[1]
+ * 0 operations. */
+void emps_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    (void)q;
+    (void)qd;
+    (void)qdd;
+    dtau_dq[0] = 0.0;
+    dtau_dqd[0] = p[1];
+}
+
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
  * Inputs: q[1] (q), qd[1] (q), qdd[1] (q), p[5] (see emps_parameter_names); output Y[13]
  * 1 operations. */
@@ -161,33 +173,123 @@ static int emps_cholesky(double *D)
     return 0;
 }
 
-int emps_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* X = D^-1 X in place for the Cholesky factor of emps_cholesky (L in the lower triangle of L): X is
+ * N*cols row-major (cols right-hand sides), solved row by row, L y = x then L^T x = y. */
+static void emps_solve(double *X, int cols, const double *L)
 {
-    double D[1 * 1];
-    double b[1];
+    int i, k, c;
+    for (i = 0; i < 1; ++i) { /* L Y = X */
+        for (k = 0; k < i; ++k) {
+            const double l = L[i * 1 + k];
+            for (c = 0; c < cols; ++c) {
+                X[i * cols + c] -= l * X[k * cols + c];
+            }
+        }
+        for (c = 0; c < cols; ++c) {
+            X[i * cols + c] /= L[i * 1 + i];
+        }
+    }
+    for (i = 1 - 1; i >= 0; --i) { /* L^T X = Y */
+        for (k = i + 1; k < 1; ++k) {
+            const double l = L[k * 1 + i];
+            for (c = 0; c < cols; ++c) {
+                X[i * cols + c] -= l * X[k * cols + c];
+            }
+        }
+        for (c = 0; c < cols; ++c) {
+            X[i * cols + c] /= L[i * 1 + i];
+        }
+    }
+}
+
+/* qdd = D^-1 (tau - bias) with D(q) = L L^T factored in D (lower triangle). Returns 0, or 1 when D is not
+ * positive definite. */
+static int emps_accelerations(const double *q, const double *qd, const double *tau, const double *p, double *D, double *qdd)
+{
     const double zero[1] = { 0.0 };
-    int i, k;
+    int i;
     emps_inertia(q, p, D);
-    emps_inverse_dynamics(q, qd, zero, p, b);
+    emps_inverse_dynamics(q, qd, zero, p, qdd);
     for (i = 0; i < 1; ++i) {
-        b[i] = tau[i] - b[i];
+        qdd[i] = tau[i] - qdd[i];
     }
     if (emps_cholesky(D) != 0) {
         return 1;
     }
-    for (i = 0; i < 1; ++i) { /* L y = b */
-        double t = b[i];
-        for (k = 0; k < i; ++k) {
-            t -= D[i * 1 + k] * qdd[k];
-        }
-        qdd[i] = t / D[i * 1 + i];
+    emps_solve(qdd, 1, D);
+    return 0;
+}
+
+int emps_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[1 * 1];
+    return emps_accelerations(q, qd, tau, p, D, qdd);
+}
+
+/* dqdd_dq = -D^-1 dtau_dq and dqdd_dqd = -D^-1 dtau_dqd, the inverse dynamics derivatives taken at the qdd of
+ * forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau); with dqdd_dtau not NULL
+ * also dqdd_dtau = D^-1. One Cholesky factor of D serves all. Returns 0, or 1 when D is not positive definite. */
+static int emps_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+{
+    double L[1 * 1];
+    double qdd[1];
+    int i;
+    if (emps_accelerations(q, qd, tau, p, L, qdd) != 0) {
+        return 1;
     }
-    for (i = 1 - 1; i >= 0; --i) { /* L^T qdd = y */
-        double t = qdd[i];
-        for (k = i + 1; k < 1; ++k) {
-            t -= D[k * 1 + i] * qdd[k];
-        }
-        qdd[i] = t / D[i * 1 + i];
+    emps_inverse_dynamics_derivatives(q, qd, qdd, p, dqdd_dq, dqdd_dqd);
+    for (i = 0; i < 1 * 1; ++i) {
+        dqdd_dq[i] = -dqdd_dq[i];
+        dqdd_dqd[i] = -dqdd_dqd[i];
     }
+    emps_solve(dqdd_dq, 1, L);
+    emps_solve(dqdd_dqd, 1, L);
+    if (dqdd_dtau) {
+        for (i = 0; i < 1 * 1; ++i) {
+            dqdd_dtau[i] = (i % (1 + 1) == 0) ? 1.0 : 0.0;
+        }
+        emps_solve(dqdd_dtau, 1, L);
+    }
+    return 0;
+}
+
+int emps_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+{
+    return emps_fd_derivatives(q, qd, tau, p, dqdd_dq, dqdd_dqd, dqdd_dtau);
+}
+
+int emps_A(const double *q, const double *qd, const double *tau, const double *p, double *A)
+{
+    double dq[1 * 1], dqd[1 * 1];
+    int i, j;
+    if (emps_fd_derivatives(q, qd, tau, p, dq, dqd, 0) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 1; ++i) {
+        for (j = 0; j < 1; ++j) {
+            A[i * 2 + j] = 0.0;
+            A[i * 2 + 1 + j] = (i == j) ? 1.0 : 0.0;
+            A[(1 + i) * 2 + j] = dq[i * 1 + j];
+            A[(1 + i) * 2 + 1 + j] = dqd[i * 1 + j];
+        }
+    }
+    return 0;
+}
+
+int emps_B(const double *q, const double *qd, const double *tau, const double *p, double *B)
+{
+    double L[1 * 1];
+    int i;
+    (void)qd;
+    (void)tau;
+    emps_inertia(q, p, L);
+    if (emps_cholesky(L) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 1 * 1; ++i) {
+        B[i] = 0.0;
+        B[1 + i] = (i % (1 + 1) == 0) ? 1.0 : 0.0;
+    }
+    emps_solve(B + 1, 1, L);
     return 0;
 }
