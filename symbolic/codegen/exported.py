@@ -95,7 +95,8 @@ SOLVED_INPUT_SIZES = {"u": 3}
 
 
 def solved_specs(model: DynamicModel) -> list[SolvedSpec]:
-    """forward_dynamics; and at a declared end effector its operational (apparent) inertia and mass (Janot (18)).
+    """forward_dynamics, its derivatives (docs/contracts.md, "Derivatives of the dynamics", (2)), the state-space A and
+    B; and at a declared end effector its operational (apparent) inertia and mass (Janot (18)).
 
     See :mod:`symbolic.numeric.operational` for the definitions and docs/contracts.md for the C signatures.
     """
@@ -132,8 +133,8 @@ def solved_specs(model: DynamicModel) -> list[SolvedSpec]:
 
 
 def function_specs(model: DynamicModel) -> list[FunctionSpec]:
-    """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, applied, inverse_dynamics, and
-    end_effector_jacobian (models with an end effector) and the regressor.
+    """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, applied, inverse_dynamics,
+    inverse_dynamics_derivatives, and end_effector_jacobian (models with an end effector) and the regressor.
 
     Every output is a part of the one composition in :func:`symbolic.derivation.derive`; nothing is
     assembled here.
