@@ -19,6 +19,8 @@ Pinocchio's C++ build takes 1-2 minutes per robot and configuration (two at a ti
 from __future__ import annotations
 
 import argparse
+import contextlib
+import hashlib
 import json
 import os
 import platform
@@ -231,8 +233,14 @@ def compile_benchmark(name: str, flags: list[str], rounds: int, calls: int, work
     obj = work / f"{tag}.o"
     subprocess.run(["gcc", "-std=c99", *flags, "-c", str(gen / f"{name}.c"), "-o", str(obj)], check=True)
     exe = work / f"bench_{tag}"
-    subprocess.run(["g++", "-std=c++17", *flags, *PIN_DEFINES, "-w", f"-I{pre / 'include'}", f"-I{eigen_include()}",
-                    f"-I{gen}", str(source), str(obj), "-o", str(exe), f"-L{pre / 'lib'}", "-lpinocchio_default",
+    command = ["g++", "-std=c++17", *flags, *PIN_DEFINES, "-w", f"-I{pre / 'include'}", f"-I{eigen_include()}", f"-I{gen}"]
+    cpp_object = work / f"bench_{tag}.cpp.o"
+    key = hashlib.sha256("\0".join([*command, source.read_text(), (gen / f"{name}.h").read_text()]).encode()).hexdigest()
+    key_file = work / f"bench_{tag}.cpp.key"
+    if not (cpp_object.is_file() and key_file.is_file() and key_file.read_text() == key):  # --work keeps it between runs
+        subprocess.run([*command, "-c", str(source), "-o", str(cpp_object)], check=True)
+        key_file.write_text(key)
+    subprocess.run([*command, str(cpp_object), str(obj), "-o", str(exe), f"-L{pre / 'lib'}", "-lpinocchio_default",
                     f"-Wl,-rpath,{pre / 'lib'}"], check=True)
     return exe, {"robot": robot}
 
@@ -267,6 +275,8 @@ def main() -> int:
     parser.add_argument("--calls", type=int, default=400)
     parser.add_argument("--robots", default="puma560,panda")
     parser.add_argument("--configurations", default=",".join(CONFIGURATIONS))
+    parser.add_argument("--work", help="keep the build here and reuse Pinocchio's compiled side while its source, flags and "
+                                       "our header are unchanged (a re-run after a change of our C then takes seconds to build)")
     args = parser.parse_args()
     robots = args.robots.split(",")
     configurations = args.configurations.split(",")
@@ -286,7 +296,10 @@ def main() -> int:
         "On a shared virtual machine the ratios move by up to ±30 % from run to run (compare several runs before concluding).",
         "",
     ]
-    with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+    if args.work:
+        Path(args.work).mkdir(parents=True, exist_ok=True)
+    folder = contextlib.nullcontext(args.work) if args.work else tempfile.TemporaryDirectory()
+    with folder as tmp, ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
         print(f"compiling {len(robots) * len(configurations)} benchmarks against Pinocchio (1-2 minutes each)...", flush=True)
         jobs = {(name, config): pool.submit(compile_benchmark, name, CONFIGURATIONS[config], args.rounds, args.calls, Path(tmp))
                 for config in configurations for name in robots}

@@ -72,29 +72,16 @@ def _to_sx(model: DynamicModel, spec: FunctionSpec, inputs: dict[str, ca.SX]) ->
     return out
 
 
-def cholesky_solve_columns(D: ca.SX, B: ca.SX) -> ca.SX:
-    """D⁻¹B, column by column with :func:`cholesky_solve` (one factorisation's arithmetic as in the generated C)."""
-    return ca.horzcat(*[cholesky_solve(D, B[:, c]) for c in range(B.shape[1])])
-
-
 def cholesky_solve(D: ca.SX, b: ca.SX) -> ca.SX:
     """D⁻¹b by the same fixed-size Cholesky factorisation as the generated C (better conditioned than
     CasADi's default symbolic QR for SX, and the two targets then agree to rounding)."""
-    n = D.shape[0]
+    return cholesky_solve_columns(D, b)
+
+
+def cholesky_solve_columns(D: ca.SX, B: ca.SX) -> ca.SX:
+    """D⁻¹B for every column of B with one Cholesky factor D = L Lᵀ (L y = b, then Lᵀ x = y; the generated C's order)."""
     L = _lower_factor(D)
-    y = [None] * n
-    for i in range(n):
-        t = b[i]
-        for k in range(i):
-            t = t - L[i][k] * y[k]
-        y[i] = t / L[i][i]
-    x = [None] * n
-    for i in reversed(range(n)):
-        t = y[i]
-        for k in range(i + 1, n):
-            t = t - L[k][i] * x[k]
-        x[i] = t / L[i][i]
-    return ca.vertcat(*x)
+    return ca.horzcat(*[ca.vertcat(*_back_substitution(L, _forward_substitution(L, B[:, c]))) for c in range(B.shape[1])])
 
 
 def _lower_factor(D: ca.SX) -> list[list]:
@@ -123,6 +110,18 @@ def _forward_substitution(L: list[list], b: ca.SX) -> list:
             t = t - L[i][k] * y[k]
         y.append(t / L[i][i])
     return y
+
+
+def _back_substitution(L: list[list], y: list) -> list:
+    """L⁻ᵀy for the factor of :func:`_lower_factor`."""
+    n = len(L)
+    x = [None] * n
+    for i in reversed(range(n)):
+        t = y[i]
+        for k in range(i + 1, n):
+            t = t - L[k][i] * x[k]
+        x[i] = t / L[i][i]
+    return x
 
 
 def handle_functions(inertia: ca.SX, jacobian: ca.SX, u: ca.SX) -> tuple[ca.SX, ca.SX]:
@@ -197,8 +196,8 @@ def _forward_dynamics_derivatives(model: DynamicModel, id_derivatives: ca.Functi
     names = timed(model, "q", "qd", "qdd", "p")
     dtau_dq, dtau_dqd = id_derivatives(*[qdd if a == "qdd" else inputs[a] for a in names])
     n = model.n
-    return [cholesky_solve_columns(inertia, -dtau_dq), cholesky_solve_columns(inertia, -dtau_dqd),
-            cholesky_solve_columns(inertia, ca.SX.eye(n))]
+    solved = cholesky_solve_columns(inertia, ca.horzcat(-dtau_dq, -dtau_dqd, ca.SX.eye(n)))  # one factor for all
+    return [solved[:, :n], solved[:, n:2 * n], solved[:, 2 * n:]]
 
 
 def program_to_sx(sub, outputs: sp.Matrix, groups: list, values: list, module: dict | None = None) -> ca.SX:
