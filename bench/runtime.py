@@ -235,7 +235,8 @@ def compile_benchmark(name: str, flags: list[str], rounds: int, calls: int, work
     exe = work / f"bench_{tag}"
     command = ["g++", "-std=c++17", *flags, *PIN_DEFINES, "-w", f"-I{pre / 'include'}", f"-I{eigen_include()}", f"-I{gen}"]
     cpp_object = work / f"bench_{tag}.cpp.o"
-    key = hashlib.sha256("\0".join([*command, source.read_text(), (gen / f"{name}.h").read_text()]).encode()).hexdigest()
+    declarations = re.sub(r"/\*.*?\*/", "", (gen / f"{name}.h").read_text(), flags=re.S)  # the header but its comments
+    key = hashlib.sha256("\0".join([*command, source.read_text(), declarations]).encode()).hexdigest()
     key_file = work / f"bench_{tag}.cpp.key"
     if not (cpp_object.is_file() and key_file.is_file() and key_file.read_text() == key):  # --work keeps it between runs
         subprocess.run([*command, "-c", str(source), "-o", str(cpp_object)], check=True)

@@ -1758,31 +1758,52 @@ static int fivebar_cholesky(double *D)
     return 0;
 }
 
-/* X = D^-1 X in place for the Cholesky factor of fivebar_cholesky (L in the lower triangle of L): X is
- * N*cols row-major (cols right-hand sides), solved row by row, L y = x then L^T x = y. */
-static void fivebar_solve(double *X, int cols, const double *L)
+/* x = D^-1 x in place for the Cholesky factor of fivebar_cholesky (L in the lower triangle of L):
+ * L y = x, then L^T x = y. */
+static void fivebar_solve(const double *L, double *x)
 {
-    int i, k, c;
-    for (i = 0; i < 3; ++i) { /* L Y = X */
+    int i, k;
+    for (i = 0; i < 3; ++i) { /* L y = x */
         for (k = 0; k < i; ++k) {
-            const double l = L[i * 3 + k];
-            for (c = 0; c < cols; ++c) {
-                X[i * cols + c] -= l * X[k * cols + c];
-            }
+            x[i] -= L[i * 3 + k] * x[k];
         }
-        for (c = 0; c < cols; ++c) {
-            X[i * cols + c] /= L[i * 3 + i];
+        x[i] /= L[i * 3 + i];
+    }
+    for (i = 3 - 1; i >= 0; --i) { /* L^T x = y */
+        for (k = i + 1; k < 3; ++k) {
+            x[i] -= L[k * 3 + i] * x[k];
+        }
+        x[i] /= L[i * 3 + i];
+    }
+}
+
+/* Minv = D^-1 = R^T R with R = L^-1 (lower triangular, by forward substitution from the Cholesky factor L of
+ * fivebar_cholesky), N*N row-major and symmetric: about N^3/3 multiplications, half those of solving D X = I. */
+static void fivebar_inverse(const double *L, double *Minv)
+{
+    double R[3 * 3], r[3];
+    int i, j, k;
+    for (i = 0; i < 3; ++i) {
+        r[i] = 1.0 / L[i * 3 + i];
+    }
+    for (j = 0; j < 3; ++j) { /* column j of R: L R = I */
+        R[j * 3 + j] = r[j];
+        for (i = j + 1; i < 3; ++i) {
+            double t = 0.0;
+            for (k = j; k < i; ++k) {
+                t -= L[i * 3 + k] * R[k * 3 + j];
+            }
+            R[i * 3 + j] = t * r[i];
         }
     }
-    for (i = 3 - 1; i >= 0; --i) { /* L^T X = Y */
-        for (k = i + 1; k < 3; ++k) {
-            const double l = L[k * 3 + i];
-            for (c = 0; c < cols; ++c) {
-                X[i * cols + c] -= l * X[k * cols + c];
+    for (i = 0; i < 3; ++i) { /* Minv[i][j] = sum over k >= max(i, j) of R[k][i] R[k][j] */
+        for (j = i; j < 3; ++j) {
+            double t = 0.0;
+            for (k = j; k < 3; ++k) {
+                t += R[k * 3 + i] * R[k * 3 + j];
             }
-        }
-        for (c = 0; c < cols; ++c) {
-            X[i * cols + c] /= L[i * 3 + i];
+            Minv[i * 3 + j] = t;
+            Minv[j * 3 + i] = t;
         }
     }
 }
@@ -1801,7 +1822,7 @@ static int fivebar_accelerations(const double *q, const double *qd, const double
     if (fivebar_cholesky(D) != 0) {
         return 1;
     }
-    fivebar_solve(qdd, 1, D);
+    fivebar_solve(D, qdd);
     return 0;
 }
 
@@ -1811,30 +1832,38 @@ int fivebar_forward_dynamics(const double *q, const double *qd, const double *ta
     return fivebar_accelerations(q, qd, tau, p, D, qdd);
 }
 
-/* dqdd_dq = -D^-1 dtau_dq and dqdd_dqd = -D^-1 dtau_dqd, the inverse dynamics derivatives taken at the qdd of
- * forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau); with dqdd_dtau not NULL
- * also dqdd_dtau = D^-1. One Cholesky factor of D serves all. Returns 0, or 1 when D is not positive definite. */
-static int fivebar_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+/* P = -M X for N*N row-major matrices (M = D^-1 symmetric): each row of P a combination of the rows of X,
+ * the inner loop over the N columns (no dependency between rows, unlike a triangular solve). */
+static void fivebar_negated_product(const double *M, const double *X, double *P)
 {
-    double L[3 * 3];
+    int i, k, c;
+    for (i = 0; i < 3 * 3; ++i) {
+        P[i] = 0.0;
+    }
+    for (i = 0; i < 3; ++i) {
+        for (k = 0; k < 3; ++k) {
+            const double m = M[i * 3 + k];
+            for (c = 0; c < 3; ++c) {
+                P[i * 3 + c] -= m * X[k * 3 + c];
+            }
+        }
+    }
+}
+
+/* Minv = D^-1, then dqdd_dq = -Minv dtau_dq and dqdd_dqd = -Minv dtau_dqd, the inverse dynamics derivatives taken
+ * at the qdd of forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau). One Cholesky factor
+ * of D gives qdd and Minv. Returns 0, or 1 when D is not positive definite. */
+static int fivebar_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *Minv)
+{
+    double L[3 * 3], dtau_dq[3 * 3], dtau_dqd[3 * 3];
     double qdd[3];
-    int i;
     if (fivebar_accelerations(q, qd, tau, p, L, qdd) != 0) {
         return 1;
     }
-    fivebar_inverse_dynamics_derivatives(q, qd, qdd, p, dqdd_dq, dqdd_dqd);
-    for (i = 0; i < 3 * 3; ++i) {
-        dqdd_dq[i] = -dqdd_dq[i];
-        dqdd_dqd[i] = -dqdd_dqd[i];
-    }
-    fivebar_solve(dqdd_dq, 3, L);
-    fivebar_solve(dqdd_dqd, 3, L);
-    if (dqdd_dtau) {
-        for (i = 0; i < 3 * 3; ++i) {
-            dqdd_dtau[i] = (i % (3 + 1) == 0) ? 1.0 : 0.0;
-        }
-        fivebar_solve(dqdd_dtau, 3, L);
-    }
+    fivebar_inverse_dynamics_derivatives(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    fivebar_inverse(L, Minv);
+    fivebar_negated_product(Minv, dtau_dq, dqdd_dq);
+    fivebar_negated_product(Minv, dtau_dqd, dqdd_dqd);
     return 0;
 }
 
@@ -1845,9 +1874,9 @@ int fivebar_forward_dynamics_derivatives(const double *q, const double *qd, cons
 
 int fivebar_A(const double *q, const double *qd, const double *tau, const double *p, double *A)
 {
-    double dq[3 * 3], dqd[3 * 3];
+    double dq[3 * 3], dqd[3 * 3], Minv[3 * 3];
     int i, j;
-    if (fivebar_fd_derivatives(q, qd, tau, p, dq, dqd, 0) != 0) {
+    if (fivebar_fd_derivatives(q, qd, tau, p, dq, dqd, Minv) != 0) {
         return 1;
     }
     for (i = 0; i < 3; ++i) {
@@ -1873,9 +1902,8 @@ int fivebar_B(const double *q, const double *qd, const double *tau, const double
     }
     for (i = 0; i < 3 * 3; ++i) {
         B[i] = 0.0;
-        B[9 + i] = (i % (3 + 1) == 0) ? 1.0 : 0.0;
     }
-    fivebar_solve(B + 9, 3, L);
+    fivebar_inverse(L, B + 9);
     return 0;
 }
 

@@ -43,6 +43,12 @@ extern "C" {
  *
  * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
  *
+ * Matrices are row-major: entry (i, j) of an R*C output M is M[i*C + j]. A derivative dy_dx is the Jacobian
+ * with rows y and columns x: dy_dx[i*N + j] = d y_i / d x_j. Derivatives (tau = ID(q, qd, qdd), qdd = FD(q, qd, tau)):
+ *   inverse_dynamics_derivatives: dtau_dq, dtau_dqd (d tau / d qdd is D(q), from inertia);
+ *   forward_dynamics_derivatives: dqdd_dq = -D^-1 dtau_dq, dqdd_dqd = -D^-1 dtau_dqd (taken at qdd = FD(q, qd, tau)),
+ *   dqdd_dtau = D^-1; A (2N*2N) and B (2N*N) of the state space xdot = (qd, qdd), x = (q, qd), u = tau.
+ *
  * Standard parameters theta (regressor column): tau = regressor(q, qd, qdd, p) * standard_parameters(p).
  *   [0] XX_0p
  *   [1] XY_0p

@@ -490,31 +490,52 @@ static int madill_beam_cholesky(double *D)
     return 0;
 }
 
-/* X = D^-1 X in place for the Cholesky factor of madill_beam_cholesky (L in the lower triangle of L): X is
- * N*cols row-major (cols right-hand sides), solved row by row, L y = x then L^T x = y. */
-static void madill_beam_solve(double *X, int cols, const double *L)
+/* x = D^-1 x in place for the Cholesky factor of madill_beam_cholesky (L in the lower triangle of L):
+ * L y = x, then L^T x = y. */
+static void madill_beam_solve(const double *L, double *x)
 {
-    int i, k, c;
-    for (i = 0; i < 5; ++i) { /* L Y = X */
+    int i, k;
+    for (i = 0; i < 5; ++i) { /* L y = x */
         for (k = 0; k < i; ++k) {
-            const double l = L[i * 5 + k];
-            for (c = 0; c < cols; ++c) {
-                X[i * cols + c] -= l * X[k * cols + c];
-            }
+            x[i] -= L[i * 5 + k] * x[k];
         }
-        for (c = 0; c < cols; ++c) {
-            X[i * cols + c] /= L[i * 5 + i];
+        x[i] /= L[i * 5 + i];
+    }
+    for (i = 5 - 1; i >= 0; --i) { /* L^T x = y */
+        for (k = i + 1; k < 5; ++k) {
+            x[i] -= L[k * 5 + i] * x[k];
+        }
+        x[i] /= L[i * 5 + i];
+    }
+}
+
+/* Minv = D^-1 = R^T R with R = L^-1 (lower triangular, by forward substitution from the Cholesky factor L of
+ * madill_beam_cholesky), N*N row-major and symmetric: about N^3/3 multiplications, half those of solving D X = I. */
+static void madill_beam_inverse(const double *L, double *Minv)
+{
+    double R[5 * 5], r[5];
+    int i, j, k;
+    for (i = 0; i < 5; ++i) {
+        r[i] = 1.0 / L[i * 5 + i];
+    }
+    for (j = 0; j < 5; ++j) { /* column j of R: L R = I */
+        R[j * 5 + j] = r[j];
+        for (i = j + 1; i < 5; ++i) {
+            double t = 0.0;
+            for (k = j; k < i; ++k) {
+                t -= L[i * 5 + k] * R[k * 5 + j];
+            }
+            R[i * 5 + j] = t * r[i];
         }
     }
-    for (i = 5 - 1; i >= 0; --i) { /* L^T X = Y */
-        for (k = i + 1; k < 5; ++k) {
-            const double l = L[k * 5 + i];
-            for (c = 0; c < cols; ++c) {
-                X[i * cols + c] -= l * X[k * cols + c];
+    for (i = 0; i < 5; ++i) { /* Minv[i][j] = sum over k >= max(i, j) of R[k][i] R[k][j] */
+        for (j = i; j < 5; ++j) {
+            double t = 0.0;
+            for (k = j; k < 5; ++k) {
+                t += R[k * 5 + i] * R[k * 5 + j];
             }
-        }
-        for (c = 0; c < cols; ++c) {
-            X[i * cols + c] /= L[i * 5 + i];
+            Minv[i * 5 + j] = t;
+            Minv[j * 5 + i] = t;
         }
     }
 }
@@ -533,7 +554,7 @@ static int madill_beam_accelerations(const double *q, const double *qd, const do
     if (madill_beam_cholesky(D) != 0) {
         return 1;
     }
-    madill_beam_solve(qdd, 1, D);
+    madill_beam_solve(D, qdd);
     return 0;
 }
 
@@ -543,30 +564,38 @@ int madill_beam_forward_dynamics(const double *q, const double *qd, const double
     return madill_beam_accelerations(q, qd, tau, p, D, qdd);
 }
 
-/* dqdd_dq = -D^-1 dtau_dq and dqdd_dqd = -D^-1 dtau_dqd, the inverse dynamics derivatives taken at the qdd of
- * forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau); with dqdd_dtau not NULL
- * also dqdd_dtau = D^-1. One Cholesky factor of D serves all. Returns 0, or 1 when D is not positive definite. */
-static int madill_beam_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+/* P = -M X for N*N row-major matrices (M = D^-1 symmetric): each row of P a combination of the rows of X,
+ * the inner loop over the N columns (no dependency between rows, unlike a triangular solve). */
+static void madill_beam_negated_product(const double *M, const double *X, double *P)
 {
-    double L[5 * 5];
+    int i, k, c;
+    for (i = 0; i < 5 * 5; ++i) {
+        P[i] = 0.0;
+    }
+    for (i = 0; i < 5; ++i) {
+        for (k = 0; k < 5; ++k) {
+            const double m = M[i * 5 + k];
+            for (c = 0; c < 5; ++c) {
+                P[i * 5 + c] -= m * X[k * 5 + c];
+            }
+        }
+    }
+}
+
+/* Minv = D^-1, then dqdd_dq = -Minv dtau_dq and dqdd_dqd = -Minv dtau_dqd, the inverse dynamics derivatives taken
+ * at the qdd of forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau). One Cholesky factor
+ * of D gives qdd and Minv. Returns 0, or 1 when D is not positive definite. */
+static int madill_beam_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *Minv)
+{
+    double L[5 * 5], dtau_dq[5 * 5], dtau_dqd[5 * 5];
     double qdd[5];
-    int i;
     if (madill_beam_accelerations(q, qd, tau, p, L, qdd) != 0) {
         return 1;
     }
-    madill_beam_inverse_dynamics_derivatives(q, qd, qdd, p, dqdd_dq, dqdd_dqd);
-    for (i = 0; i < 5 * 5; ++i) {
-        dqdd_dq[i] = -dqdd_dq[i];
-        dqdd_dqd[i] = -dqdd_dqd[i];
-    }
-    madill_beam_solve(dqdd_dq, 5, L);
-    madill_beam_solve(dqdd_dqd, 5, L);
-    if (dqdd_dtau) {
-        for (i = 0; i < 5 * 5; ++i) {
-            dqdd_dtau[i] = (i % (5 + 1) == 0) ? 1.0 : 0.0;
-        }
-        madill_beam_solve(dqdd_dtau, 5, L);
-    }
+    madill_beam_inverse_dynamics_derivatives(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    madill_beam_inverse(L, Minv);
+    madill_beam_negated_product(Minv, dtau_dq, dqdd_dq);
+    madill_beam_negated_product(Minv, dtau_dqd, dqdd_dqd);
     return 0;
 }
 
@@ -577,9 +606,9 @@ int madill_beam_forward_dynamics_derivatives(const double *q, const double *qd, 
 
 int madill_beam_A(const double *q, const double *qd, const double *tau, const double *p, double *A)
 {
-    double dq[5 * 5], dqd[5 * 5];
+    double dq[5 * 5], dqd[5 * 5], Minv[5 * 5];
     int i, j;
-    if (madill_beam_fd_derivatives(q, qd, tau, p, dq, dqd, 0) != 0) {
+    if (madill_beam_fd_derivatives(q, qd, tau, p, dq, dqd, Minv) != 0) {
         return 1;
     }
     for (i = 0; i < 5; ++i) {
@@ -605,8 +634,7 @@ int madill_beam_B(const double *q, const double *qd, const double *tau, const do
     }
     for (i = 0; i < 5 * 5; ++i) {
         B[i] = 0.0;
-        B[25 + i] = (i % (5 + 1) == 0) ? 1.0 : 0.0;
     }
-    madill_beam_solve(B + 25, 5, L);
+    madill_beam_inverse(L, B + 25);
     return 0;
 }

@@ -1181,31 +1181,52 @@ static int omni_cholesky(double *D)
     return 0;
 }
 
-/* X = D^-1 X in place for the Cholesky factor of omni_cholesky (L in the lower triangle of L): X is
- * N*cols row-major (cols right-hand sides), solved row by row, L y = x then L^T x = y. */
-static void omni_solve(double *X, int cols, const double *L)
+/* x = D^-1 x in place for the Cholesky factor of omni_cholesky (L in the lower triangle of L):
+ * L y = x, then L^T x = y. */
+static void omni_solve(const double *L, double *x)
 {
-    int i, k, c;
-    for (i = 0; i < 3; ++i) { /* L Y = X */
+    int i, k;
+    for (i = 0; i < 3; ++i) { /* L y = x */
         for (k = 0; k < i; ++k) {
-            const double l = L[i * 3 + k];
-            for (c = 0; c < cols; ++c) {
-                X[i * cols + c] -= l * X[k * cols + c];
-            }
+            x[i] -= L[i * 3 + k] * x[k];
         }
-        for (c = 0; c < cols; ++c) {
-            X[i * cols + c] /= L[i * 3 + i];
+        x[i] /= L[i * 3 + i];
+    }
+    for (i = 3 - 1; i >= 0; --i) { /* L^T x = y */
+        for (k = i + 1; k < 3; ++k) {
+            x[i] -= L[k * 3 + i] * x[k];
+        }
+        x[i] /= L[i * 3 + i];
+    }
+}
+
+/* Minv = D^-1 = R^T R with R = L^-1 (lower triangular, by forward substitution from the Cholesky factor L of
+ * omni_cholesky), N*N row-major and symmetric: about N^3/3 multiplications, half those of solving D X = I. */
+static void omni_inverse(const double *L, double *Minv)
+{
+    double R[3 * 3], r[3];
+    int i, j, k;
+    for (i = 0; i < 3; ++i) {
+        r[i] = 1.0 / L[i * 3 + i];
+    }
+    for (j = 0; j < 3; ++j) { /* column j of R: L R = I */
+        R[j * 3 + j] = r[j];
+        for (i = j + 1; i < 3; ++i) {
+            double t = 0.0;
+            for (k = j; k < i; ++k) {
+                t -= L[i * 3 + k] * R[k * 3 + j];
+            }
+            R[i * 3 + j] = t * r[i];
         }
     }
-    for (i = 3 - 1; i >= 0; --i) { /* L^T X = Y */
-        for (k = i + 1; k < 3; ++k) {
-            const double l = L[k * 3 + i];
-            for (c = 0; c < cols; ++c) {
-                X[i * cols + c] -= l * X[k * cols + c];
+    for (i = 0; i < 3; ++i) { /* Minv[i][j] = sum over k >= max(i, j) of R[k][i] R[k][j] */
+        for (j = i; j < 3; ++j) {
+            double t = 0.0;
+            for (k = j; k < 3; ++k) {
+                t += R[k * 3 + i] * R[k * 3 + j];
             }
-        }
-        for (c = 0; c < cols; ++c) {
-            X[i * cols + c] /= L[i * 3 + i];
+            Minv[i * 3 + j] = t;
+            Minv[j * 3 + i] = t;
         }
     }
 }
@@ -1224,7 +1245,7 @@ static int omni_accelerations(const double *q, const double *qd, const double *t
     if (omni_cholesky(D) != 0) {
         return 1;
     }
-    omni_solve(qdd, 1, D);
+    omni_solve(D, qdd);
     return 0;
 }
 
@@ -1234,30 +1255,38 @@ int omni_forward_dynamics(const double *q, const double *qd, const double *tau, 
     return omni_accelerations(q, qd, tau, p, D, qdd);
 }
 
-/* dqdd_dq = -D^-1 dtau_dq and dqdd_dqd = -D^-1 dtau_dqd, the inverse dynamics derivatives taken at the qdd of
- * forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau); with dqdd_dtau not NULL
- * also dqdd_dtau = D^-1. One Cholesky factor of D serves all. Returns 0, or 1 when D is not positive definite. */
-static int omni_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+/* P = -M X for N*N row-major matrices (M = D^-1 symmetric): each row of P a combination of the rows of X,
+ * the inner loop over the N columns (no dependency between rows, unlike a triangular solve). */
+static void omni_negated_product(const double *M, const double *X, double *P)
 {
-    double L[3 * 3];
+    int i, k, c;
+    for (i = 0; i < 3 * 3; ++i) {
+        P[i] = 0.0;
+    }
+    for (i = 0; i < 3; ++i) {
+        for (k = 0; k < 3; ++k) {
+            const double m = M[i * 3 + k];
+            for (c = 0; c < 3; ++c) {
+                P[i * 3 + c] -= m * X[k * 3 + c];
+            }
+        }
+    }
+}
+
+/* Minv = D^-1, then dqdd_dq = -Minv dtau_dq and dqdd_dqd = -Minv dtau_dqd, the inverse dynamics derivatives taken
+ * at the qdd of forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau). One Cholesky factor
+ * of D gives qdd and Minv. Returns 0, or 1 when D is not positive definite. */
+static int omni_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *Minv)
+{
+    double L[3 * 3], dtau_dq[3 * 3], dtau_dqd[3 * 3];
     double qdd[3];
-    int i;
     if (omni_accelerations(q, qd, tau, p, L, qdd) != 0) {
         return 1;
     }
-    omni_inverse_dynamics_derivatives(q, qd, qdd, p, dqdd_dq, dqdd_dqd);
-    for (i = 0; i < 3 * 3; ++i) {
-        dqdd_dq[i] = -dqdd_dq[i];
-        dqdd_dqd[i] = -dqdd_dqd[i];
-    }
-    omni_solve(dqdd_dq, 3, L);
-    omni_solve(dqdd_dqd, 3, L);
-    if (dqdd_dtau) {
-        for (i = 0; i < 3 * 3; ++i) {
-            dqdd_dtau[i] = (i % (3 + 1) == 0) ? 1.0 : 0.0;
-        }
-        omni_solve(dqdd_dtau, 3, L);
-    }
+    omni_inverse_dynamics_derivatives(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    omni_inverse(L, Minv);
+    omni_negated_product(Minv, dtau_dq, dqdd_dq);
+    omni_negated_product(Minv, dtau_dqd, dqdd_dqd);
     return 0;
 }
 
@@ -1268,9 +1297,9 @@ int omni_forward_dynamics_derivatives(const double *q, const double *qd, const d
 
 int omni_A(const double *q, const double *qd, const double *tau, const double *p, double *A)
 {
-    double dq[3 * 3], dqd[3 * 3];
+    double dq[3 * 3], dqd[3 * 3], Minv[3 * 3];
     int i, j;
-    if (omni_fd_derivatives(q, qd, tau, p, dq, dqd, 0) != 0) {
+    if (omni_fd_derivatives(q, qd, tau, p, dq, dqd, Minv) != 0) {
         return 1;
     }
     for (i = 0; i < 3; ++i) {
@@ -1296,9 +1325,8 @@ int omni_B(const double *q, const double *qd, const double *tau, const double *p
     }
     for (i = 0; i < 3 * 3; ++i) {
         B[i] = 0.0;
-        B[9 + i] = (i % (3 + 1) == 0) ? 1.0 : 0.0;
     }
-    omni_solve(B + 9, 3, L);
+    omni_inverse(L, B + 9);
     return 0;
 }
 
