@@ -3,8 +3,8 @@
 Expressions are translated into ``casadi.SX`` by evaluating the same straight-line program as the
 C code (SymPy's lambdify with CasADi's functions as the numeric module), so both targets share one
 source. Inputs are named q, qd, qdd, tau, p; outputs as in the C ABI. Forward dynamics solves
-D q̈ = τ − h − g − k − f; its derivatives are −D⁻¹∂τ/∂(q, q̇) at that q̈ and D⁻¹ (as in the C); the linearisation A = ∂ẋ/∂x, B = ∂ẋ/∂τ (x = [q; q̇], Madill 3.9.4) is
-CasADi's exact algorithmic derivative of that.
+D q̈ = τ − h − g − k − f; its derivatives are −D⁻¹∂τ/∂(q, q̇) at that q̈ and D⁻¹ (as in the C); the
+linearisation A = ∂ẋ/∂x, B = ∂ẋ/∂τ (x = [q; q̇], Madill 3.9.4) is CasADi's exact algorithmic derivative of that.
 """
 
 from __future__ import annotations
@@ -192,7 +192,8 @@ def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
 def _forward_dynamics_derivatives(model: DynamicModel, id_derivatives: ca.Function, inputs: dict[str, ca.SX], inertia: ca.SX,
                                   qdd: ca.SX) -> list[ca.SX]:
     """[∂q̈/∂q, ∂q̈/∂q̇, ∂q̈/∂τ] = [−D⁻¹ ∂τ/∂q, −D⁻¹ ∂τ/∂q̇, D⁻¹], the inverse dynamics derivatives taken at the
-    q̈ of forward dynamics (the generated C's arithmetic; docs/contracts.md, "Derivatives")."""
+    q̈ of forward dynamics (docs/contracts.md, "Derivatives of the dynamics", (2)): the C's equations, solved here
+    with one Cholesky factor and triangular solves (the C multiplies by D⁻¹ = RᵀR instead; equal to rounding)."""
     names = timed(model, "q", "qd", "qdd", "p")
     dtau_dq, dtau_dqd = id_derivatives(*[qdd if a == "qdd" else inputs[a] for a in names])
     n = model.n
