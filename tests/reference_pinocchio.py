@@ -99,6 +99,16 @@ class Reference:
     def coriolis_matrix(self, q, qd) -> np.ndarray:
         return pin.computeCoriolisMatrix(self.model, self.data, np.asarray(q, float), np.asarray(qd, float)).copy()
 
+    def rnea_derivatives(self, q, qd, qdd) -> tuple[np.ndarray, np.ndarray]:
+        """∂τ/∂q, ∂τ/∂q̇ by ``computeRNEADerivatives`` (Carpentier & Mansard, RSS 2018)."""
+        dq, dqd, _ = pin.computeRNEADerivatives(self.model, self.data, *(np.asarray(x, float) for x in (q, qd, qdd)))
+        return dq.copy(), dqd.copy()
+
+    def aba_derivatives(self, q, qd, tau) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """∂q̈/∂q, ∂q̈/∂q̇, ∂q̈/∂τ = D⁻¹ by ``computeABADerivatives`` (D⁻¹ symmetrised from its upper triangle)."""
+        dq, dqd, minv = pin.computeABADerivatives(self.model, self.data, *(np.asarray(x, float) for x in (q, qd, tau)))
+        return dq.copy(), dqd.copy(), np.triu(minv) + np.triu(minv, 1).T
+
 
 class UrdfReference:
     """Pinocchio's answers for a URDF file (``buildModelFromUrdf``, mimic joints as mimics), in the order
@@ -153,6 +163,21 @@ class UrdfReference:
 
     def coriolis_vector(self, q, qd) -> np.ndarray:
         return self.rnea(q, qd, np.zeros(len(q))) - self.gravity(q)
+
+    def rnea_derivatives(self, q, qd, qdd) -> tuple[np.ndarray, np.ndarray]:
+        """∂τ/∂q, ∂τ/∂q̇ by ``computeRNEADerivatives``, rows and columns in symbolic's order (joints with one
+        velocity: the tangent of a continuous joint is its angle)."""
+        dq, dqd, _ = pin.computeRNEADerivatives(self.model, self.data, self.configuration(q), self.tangent(qd), self.tangent(qdd))
+        block = np.ix_(self.index, self.index)
+        return dq[block].copy(), dqd[block].copy()
+
+    def aba_derivatives(self, q, qd, tau) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """∂q̈/∂q, ∂q̈/∂q̇, ∂q̈/∂τ = D⁻¹ by ``computeABADerivatives`` (a model without mimic joints: every velocity
+        is one of symbolic's), in symbolic's order; D⁻¹ symmetrised from its upper triangle."""
+        assert self.model.nv == len(self.index), "ABA derivatives of a model whose velocities are all symbolic's"
+        dq, dqd, minv = pin.computeABADerivatives(self.model, self.data, self.configuration(q), self.tangent(qd), self.tangent(tau))
+        block = np.ix_(self.index, self.index)
+        return dq[block].copy(), dqd[block].copy(), (np.triu(minv) + np.triu(minv, 1).T)[block]
 
     def regressor(self, q, qd, qdd) -> np.ndarray:
         """Pinocchio's joint-torque regressor: 10 columns per joint body (m, m·c, I about the joint origin:

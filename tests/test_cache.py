@@ -68,7 +68,7 @@ def test_a_cache_hit_gives_the_same_products_and_byte_identical_c(folder: Path, 
     export.render(first, ["c"], command="test")
     base_module.model_base_parameters(first)
     assert [p.name.split("-")[0] for p in entries(folder)] == ["base_parameters", "batched_programs", "derivation",
-                                                                "programs", "regressor"]
+                                                                "inverse_dynamics_derivatives", "programs", "regressor"]
 
     monkeypatch.setattr(dynamics, "_derive", fail)
     monkeypatch.setattr(dynamics, "regressor", fail)

@@ -199,6 +199,10 @@ def test_c_and_casadi_take_the_time(model, tmp_path: Path) -> None:
         expected = num.forward_dynamics(q, qd, tau, p, t=t[0])
         for ours in (lib._call("forward_dynamics", [q, qd, tau, t, p], 2), np.array(fns["forward_dynamics"](q, qd, tau, t, p)).ravel()):
             assert np.linalg.norm(ours - expected) <= 1e-10 * np.linalg.norm(qdd)
+        A, B = num.linearize(np.r_[q, qd], tau, p, t=t[0])  # the derivative functions take t before p too
+        for function, expected, size in (("A", A, 16), ("B", B, 8)):
+            ours = lib._call(function, [q, qd, tau, t, p], size).reshape(expected.shape)
+            assert np.linalg.norm(ours - expected) <= 1e-9 * np.linalg.norm(expected), function
 
 
 # -- the simulator ---------------------------------------------------------------------------------------------

@@ -92,6 +92,18 @@ void emps_inverse_dynamics(const double *q, const double *qd, const double *qdd,
     tau[0] = v2;
 }
 
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+ * Inputs: q[1] (q), qd[1] (q), qdd[1] (q), p[5] (see emps_parameter_names); outputs dtau_dq[1], dtau_dqd[1]
+ * 0 operations. */
+void emps_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    (void)q;
+    (void)qd;
+    (void)qdd;
+    dtau_dq[0] = 0.0;
+    dtau_dqd[0] = p[1];
+}
+
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
  * Inputs: q[1] (q), qd[1] (q), qdd[1] (q), p[5] (see emps_parameter_names); output Y[13]
  * 1 operations. */
@@ -161,33 +173,151 @@ static int emps_cholesky(double *D)
     return 0;
 }
 
-int emps_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* x = D^-1 x in place for the Cholesky factor of emps_cholesky (L in the lower triangle of L):
+ * L y = x, then L^T x = y. */
+static void emps_solve(const double *L, double *x)
 {
-    double D[1 * 1];
-    double b[1];
-    const double zero[1] = { 0.0 };
     int i, k;
-    emps_inertia(q, p, D);
-    emps_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 1; ++i) { /* L y = x */
+        for (k = 0; k < i; ++k) {
+            x[i] -= L[i * 1 + k] * x[k];
+        }
+        x[i] /= L[i * 1 + i];
+    }
+    for (i = 1 - 1; i >= 0; --i) { /* L^T x = y */
+        for (k = i + 1; k < 1; ++k) {
+            x[i] -= L[k * 1 + i] * x[k];
+        }
+        x[i] /= L[i * 1 + i];
+    }
+}
+
+/* Minv = D^-1 = R^T R with R = L^-1 (lower triangular, by forward substitution from the Cholesky factor L of
+ * emps_cholesky), N*N row-major and symmetric: about N^3/3 multiplications, half those of solving D X = I. */
+static void emps_inverse(const double *L, double *Minv)
+{
+    double R[1 * 1], r[1];
+    int i, j, k;
     for (i = 0; i < 1; ++i) {
-        b[i] = tau[i] - b[i];
+        r[i] = 1.0 / L[i * 1 + i];
+    }
+    for (j = 0; j < 1; ++j) { /* column j of R: L R = I */
+        R[j * 1 + j] = r[j];
+        for (i = j + 1; i < 1; ++i) {
+            double t = 0.0;
+            for (k = j; k < i; ++k) {
+                t -= L[i * 1 + k] * R[k * 1 + j];
+            }
+            R[i * 1 + j] = t * r[i];
+        }
+    }
+    for (i = 0; i < 1; ++i) { /* Minv[i][j] = sum over k >= max(i, j) of R[k][i] R[k][j] */
+        for (j = i; j < 1; ++j) {
+            double t = 0.0;
+            for (k = j; k < 1; ++k) {
+                t += R[k * 1 + i] * R[k * 1 + j];
+            }
+            Minv[i * 1 + j] = t;
+            Minv[j * 1 + i] = t;
+        }
+    }
+}
+
+/* qdd = D^-1 (tau - bias) with D(q) = L L^T factored in D (lower triangle). Returns 0, or 1 when D is not
+ * positive definite. */
+static int emps_accelerations(const double *q, const double *qd, const double *tau, const double *p, double *D, double *qdd)
+{
+    const double zero[1] = { 0.0 };
+    int i;
+    emps_inertia(q, p, D);
+    emps_inverse_dynamics(q, qd, zero, p, qdd);
+    for (i = 0; i < 1; ++i) {
+        qdd[i] = tau[i] - qdd[i];
     }
     if (emps_cholesky(D) != 0) {
         return 1;
     }
-    for (i = 0; i < 1; ++i) { /* L y = b */
-        double t = b[i];
-        for (k = 0; k < i; ++k) {
-            t -= D[i * 1 + k] * qdd[k];
-        }
-        qdd[i] = t / D[i * 1 + i];
+    emps_solve(D, qdd);
+    return 0;
+}
+
+int emps_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[1 * 1];
+    return emps_accelerations(q, qd, tau, p, D, qdd);
+}
+
+/* P = -M X for N*N row-major matrices (M = D^-1 symmetric): each row of P a combination of the rows of X,
+ * the inner loop over the N columns (no dependency between rows, unlike a triangular solve). */
+static void emps_negated_product(const double *M, const double *X, double *P)
+{
+    int i, k, c;
+    for (i = 0; i < 1 * 1; ++i) {
+        P[i] = 0.0;
     }
-    for (i = 1 - 1; i >= 0; --i) { /* L^T qdd = y */
-        double t = qdd[i];
-        for (k = i + 1; k < 1; ++k) {
-            t -= D[k * 1 + i] * qdd[k];
+    for (i = 0; i < 1; ++i) {
+        for (k = 0; k < 1; ++k) {
+            const double m = M[i * 1 + k];
+            for (c = 0; c < 1; ++c) {
+                P[i * 1 + c] -= m * X[k * 1 + c];
+            }
         }
-        qdd[i] = t / D[i * 1 + i];
     }
+}
+
+/* Minv = D^-1, then dqdd_dq = -Minv dtau_dq and dqdd_dqd = -Minv dtau_dqd, the inverse dynamics derivatives taken
+ * at the qdd of forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau). One Cholesky factor
+ * of D gives qdd and Minv. Returns 0, or 1 when D is not positive definite. */
+static int emps_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *Minv)
+{
+    double L[1 * 1], dtau_dq[1 * 1], dtau_dqd[1 * 1];
+    double qdd[1];
+    if (emps_accelerations(q, qd, tau, p, L, qdd) != 0) {
+        return 1;
+    }
+    emps_inverse_dynamics_derivatives(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    emps_inverse(L, Minv);
+    emps_negated_product(Minv, dtau_dq, dqdd_dq);
+    emps_negated_product(Minv, dtau_dqd, dqdd_dqd);
+    return 0;
+}
+
+int emps_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+{
+    return emps_fd_derivatives(q, qd, tau, p, dqdd_dq, dqdd_dqd, dqdd_dtau);
+}
+
+int emps_A(const double *q, const double *qd, const double *tau, const double *p, double *A)
+{
+    double dq[1 * 1], dqd[1 * 1], Minv[1 * 1];
+    int i, j;
+    if (emps_fd_derivatives(q, qd, tau, p, dq, dqd, Minv) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 1; ++i) {
+        for (j = 0; j < 1; ++j) {
+            A[i * 2 + j] = 0.0;
+            A[i * 2 + 1 + j] = (i == j) ? 1.0 : 0.0;
+            A[(1 + i) * 2 + j] = dq[i * 1 + j];
+            A[(1 + i) * 2 + 1 + j] = dqd[i * 1 + j];
+        }
+    }
+    return 0;
+}
+
+int emps_B(const double *q, const double *qd, const double *tau, const double *p, double *B)
+{
+    double L[1 * 1];
+    int i;
+    (void)qd;
+    (void)tau;
+    emps_inertia(q, p, L);
+    if (emps_cholesky(L) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 1 * 1; ++i) {
+        B[i] = 0.0;
+    }
+    emps_inverse(L, B + 1);
     return 0;
 }

@@ -21,6 +21,12 @@ extern "C" {
  *
  * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
  *
+ * Matrices are row-major: entry (i, j) of an R*C output M is M[i*C + j]. A derivative dy_dx is the Jacobian
+ * with rows y and columns x: dy_dx[i*N + j] = d y_i / d x_j. Derivatives (tau = ID(q, qd, qdd), qdd = FD(q, qd, tau)):
+ *   inverse_dynamics_derivatives: dtau_dq, dtau_dqd (d tau / d qdd is D(q), from inertia);
+ *   forward_dynamics_derivatives: dqdd_dq = -D^-1 dtau_dq, dqdd_dqd = -D^-1 dtau_dqd (taken at qdd = FD(q, qd, tau)),
+ *   dqdd_dtau = D^-1; A (2N*2N) and B (2N*N) of the state space xdot = (qd, qdd), x = (q, qd), u = tau.
+ *
  * Standard parameters theta (regressor column): tau = regressor(q, qd, qdd, p) * standard_parameters(p).
  *   [0] XX_carriage
  *   [1] XY_carriage
@@ -83,6 +89,10 @@ void emps_applied(const double *q, const double *qd, const double *p, double *Q)
  * 7 operations. */
 void emps_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+ * 0 operations. */
+void emps_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd);
+
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
  * 1 operations. */
 void emps_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y);
@@ -94,6 +104,15 @@ void emps_standard_parameters(const double *p, double *theta);
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */
 int emps_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd);
+/* Derivatives of forward dynamics, each N*N row-major (dqdd_dq[i*N + j] = d qdd_i / d q_j): dqdd_dq = -D^-1 dtau_dq, dqdd_dqd = -D^-1 dtau_dqd, dqdd_dtau = D^-1, the inverse dynamics derivatives taken at the qdd of forward dynamics (one Cholesky factor of D(q))
+ * Returns 0 on success, 1 when D(q) is not positive definite (the outputs are then left unspecified). */
+int emps_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau);
+/* State matrix A = d xdot / d x of xdot = (qd, qdd), x = (q, qd): 2N*2N row-major, [[0, I], [dqdd_dq, dqdd_dqd]] (Madill 3.9.4)
+ * Returns 0 on success, 1 when D(q) is not positive definite (A is then left unspecified). */
+int emps_A(const double *q, const double *qd, const double *tau, const double *p, double *A);
+/* Input matrix B = d xdot / d tau: 2N*N row-major, [[0], [D^-1]] (Madill 3.9.4)
+ * Returns 0 on success, 1 when D(q) is not positive definite (B is then left unspecified). */
+int emps_B(const double *q, const double *qd, const double *tau, const double *p, double *B);
 
 #ifdef __cplusplus
 }

@@ -11,7 +11,7 @@ import os
 import casadi
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "regressor", "standard_parameters", "forward_dynamics", "A", "B", )
+FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "inverse_dynamics_derivatives", "regressor", "standard_parameters", "forward_dynamics", "forward_dynamics_derivatives", "A", "B", )
 COORDINATES = ("q", )
 PARAMETERS = ("M", "Fv", "Fc", "offset", "gtau", )
 PARAMETER_DEFAULTS = [95.1089, 203.5034, 20.3935, -3.1648, 35.15, ]

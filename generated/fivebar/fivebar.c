@@ -710,6 +710,438 @@ void fivebar_inverse_dynamics(const double *q, const double *qd, const double *q
     tau[2] = v130;
 }
 
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+ * Inputs: q[3] (q0, q1, q2), qd[3] (q0, q1, q2), qdd[3] (q0, q1, q2), p[18] (see fivebar_parameter_names); outputs dtau_dq[9], dtau_dqd[9]
+ * 793 operations; sine and cosine of 2 angles in one fivebar_sincos call. */
+void fivebar_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    double sn[2], cs[2];
+    fivebar_sincos(2, q + 1, sn, cs);
+    const double v0 = q[1] - q[2];
+    const double v1 = cs[1]*qd[0];
+    const double v2 = p[6]*v1;
+    const double v3 = qd[2]*v1;
+    const double v4 = sn[1]*qd[0];
+    const double v5 = qd[2]*v4;
+    const double v6 = 2.0*p[6];
+    const double v7 = p[14]*v1;
+    const double v8 = p[2]*v1;
+    const double v9 = v1*v8;
+    const double v10 = sn[1]*p[0];
+    const double v11 = cs[1]*p[0] + v4*v8;
+    const double v12 = 2.0*p[2];
+    const double v13 = p[7]*qd[2];
+    const double v14 = cos(v0);
+    const double v15 = sin(v0);
+    const double v16 = v1*v14 - v15*v4;
+    const double v17 = p[7]*v16;
+    const double v18 = -v10 + v9;
+    const double v19 = p[2]*(qd[2]*qd[2]) + v18;
+    const double v20 = p[2]*qdd[2] + v11;
+    const double v21 = v14*v19 - v15*v20;
+    const double v22 = v16*v17 + v21;
+    const double v23 = v14*v20 + v15*v19;
+    const double v24 = v1*v15 + v14*v4;
+    const double v25 = v17*v24 + v23;
+    const double v26 = qd[1] - qd[2];
+    const double v27 = qd[2] + v26;
+    const double v28 = v24*v26;
+    const double v29 = (v26*v26);
+    const double v30 = 2.0*v13;
+    const double v31 = 2.0*p[7];
+    const double v32 = p[15]*v16;
+    const double v33 = cs[0]*qd[0];
+    const double v34 = p[5]*v33;
+    const double v35 = qd[1]*v33;
+    const double v36 = sn[0]*qd[0];
+    const double v37 = qd[1]*v36;
+    const double v38 = 2.0*p[5];
+    const double v39 = p[13]*v33;
+    const double v40 = p[1]*v33;
+    const double v41 = v33*v40;
+    const double v42 = sn[0]*p[0];
+    const double v43 = cs[0]*p[0] + v36*v40;
+    const double v44 = 2.0*p[1];
+    const double v45 = p[8]*qd[1];
+    const double v46 = v14*v33 + v15*v36;
+    const double v47 = p[8]*v46;
+    const double v48 = v41 - v42;
+    const double v49 = p[1]*(qd[1]*qd[1]) + v48;
+    const double v50 = p[1]*qdd[1] + v43;
+    const double v51 = v14*v49 + v15*v50;
+    const double v52 = -v46*v47 + v51;
+    const double v53 = -v14*v50 + v15*v49;
+    const double v54 = v14*v36 - v15*v33;
+    const double v55 = v47*v54 + v53;
+    const double v56 = -qd[1] + v26;
+    const double v57 = v26*v54;
+    const double v58 = 2.0*v45;
+    const double v59 = 2.0*p[8];
+    const double v60 = p[16]*v46;
+    const double v61 = p[16]*v56;
+    const double v62 = v46*v61;
+    const double v63 = v54*v61;
+    const double v64 = -v56*v60 + v62;
+    const double v65 = cs[0]*qdd[0];
+    const double v66 = p[1]*v65;
+    const double v67 = v37*v44 - v66;
+    const double v68 = sn[0]*qdd[0];
+    const double v69 = v35 + v68;
+    const double v70 = v37 - v65;
+    const double v71 = v14*v70 - v15*v69;
+    const double v72 = p[8]*v71 + v45*v54 - v67;
+    const double v73 = v57*v59 - v72;
+    const double v74 = p[12]*v73;
+    const double v75 = v57 - v71;
+    const double v76 = p[16]*v75 + v63;
+    const double v77 = p[8]*v74 + v76;
+    const double v78 = v14*v64 - v15*v77;
+    const double v79 = v14*v77 + v15*v64;
+    const double v80 = p[13]*qd[1];
+    const double v81 = v33*v80;
+    const double v82 = v36*v80;
+    const double v83 = p[15]*v27;
+    const double v84 = v16*v83;
+    const double v85 = v24*v83;
+    const double v86 = -v27*v32 + v84;
+    const double v87 = cs[1]*qdd[0];
+    const double v88 = p[2]*v87;
+    const double v89 = v12*v5 - v88;
+    const double v90 = sn[1]*qdd[0];
+    const double v91 = v3 + v90;
+    const double v92 = v5 - v87;
+    const double v93 = v14*v92 + v15*v91;
+    const double v94 = p[7]*v93 + v13*v24 + v89;
+    const double v95 = v28*v31 + v94;
+    const double v96 = p[11]*v95;
+    const double v97 = v28 + v93;
+    const double v98 = p[15]*v97 + v85;
+    const double v99 = p[7]*v96 + v98;
+    const double v100 = v14*v86 + v15*v99;
+    const double v101 = v14*v99;
+    const double v102 = v15*v86;
+    const double v103 = v101 - v102;
+    const double v104 = p[14]*qd[2];
+    const double v105 = v1*v104;
+    const double v106 = v104*v4;
+    const double v107 = p[13]*v36;
+    const double v108 = p[15]*v24;
+    const double v109 = 2.0*v26;
+    const double v110 = p[16]*v54;
+    const double v111 = p[14]*v4;
+    const double v112 = p[7]*v24;
+    const double v113 = p[5]*v36;
+    const double v114 = p[1]*v36;
+    const double v115 = v114*v33 + v43;
+    const double v116 = v114*v36 - v41 + v42;
+    const double v117 = -v115*v15 + v116*v14 + v51;
+    const double v118 = p[12]*v117;
+    const double v119 = p[8]*v118;
+    const double v120 = -qd[1]*v45 + v52;
+    const double v121 = -p[8]*v29 + v120 + v26*v58;
+    const double v122 = p[12]*v121;
+    const double v123 = qdd[1] - qdd[2];
+    const double v124 = p[8]*qdd[1] + v55;
+    const double v125 = p[8]*v123 - v124;
+    const double v126 = p[12]*v125;
+    const double v127 = -v122*v14 + v126*v15;
+    const double v128 = -v112*v24 + v22;
+    const double v129 = p[11]*v128;
+    const double v130 = p[7]*v129;
+    const double v131 = v108*v24 - v16*v32;
+    const double v132 = v119 - v130 + v131;
+    const double v133 = p[2]*v4;
+    const double v134 = p[8]*v54;
+    const double v135 = v134*v54 + v52;
+    const double v136 = p[12]*v135;
+    const double v137 = v110*v54 - v46*v60;
+    const double v138 = p[8]*v136 + v137;
+    const double v139 = v1*v133 + v11;
+    const double v140 = v10 + v133*v4 - v9;
+    const double v141 = v139*v15 + v14*v140 + v21;
+    const double v142 = p[11]*v141;
+    const double v143 = p[7]*v142;
+    const double v144 = v138 - v143;
+    const double v145 = qd[2]*v13 + v22;
+    const double v146 = p[7]*v29 + v145 + v26*v30;
+    const double v147 = p[11]*v146;
+    const double v148 = p[7]*qdd[2] + v25;
+    const double v149 = p[7]*v123 + v148;
+    const double v150 = p[11]*v149;
+    const double v151 = v14*v147 + v15*v150;
+    const double v152 = p[6]*v4;
+    const double v153 = sn[0]*qd[1];
+    const double v154 = -cs[0]*v15 + sn[0]*v14;
+    const double v155 = v154*v26;
+    const double v156 = sn[1]*qd[2];
+    const double v157 = cs[1]*v15 + sn[1]*v14;
+    const double v158 = v157*v26;
+    const double v159 = 2.0*v134;
+    const double v160 = 2.0*v112;
+    const double v161 = cs[0]*p[1];
+    const double v162 = cs[0]*v40 + v161*v33;
+    const double v163 = sn[0]*v40 + v161*v36;
+    const double v164 = cs[0]*v14 + sn[0]*v15;
+    const double v165 = p[8]*v164;
+    const double v166 = -v14*v163 + v15*v162 + v154*v47 + v165*v54;
+    const double v167 = p[12]*v166;
+    const double v168 = p[8]*v167;
+    const double v169 = p[16]*v164;
+    const double v170 = v154*v60 + v169*v54;
+    const double v171 = v168 + v170;
+    const double v172 = cs[1]*p[2];
+    const double v173 = cs[1]*v8 + v1*v172;
+    const double v174 = sn[1]*v8 + v172*v4;
+    const double v175 = cs[1]*v14 - sn[1]*v15;
+    const double v176 = p[7]*v175;
+    const double v177 = v14*v174 + v15*v173 + v157*v17 + v176*v24;
+    const double v178 = p[11]*v177;
+    const double v179 = p[7]*v178;
+    const double v180 = p[15]*v175;
+    const double v181 = v157*v32 + v180*v24;
+    const double v182 = v179 + v181;
+    const double v183 = qd[1]*v44;
+    const double v184 = v15*v183;
+    const double v185 = p[12]*v184;
+    const double v186 = p[8]*v185;
+    const double v187 = qd[2]*v12;
+    const double v188 = v15*v187;
+    const double v189 = p[11]*v188;
+    const double v190 = p[7]*v189;
+    const double v191 = cs[1]*p[6];
+    const double v192 = cs[0]*p[5];
+    const double v193 = p[6]*v87;
+    const double v194 = -v193 + v5*v6;
+    const double v195 = p[10]*v194;
+    const double v196 = v14*v91 - v15*v92;
+    const double v197 = v16*v26 + v196;
+    const double v198 = p[5]*v65;
+    const double v199 = -v198 + v37*v38;
+    const double v200 = p[9]*v199;
+    const double v201 = v14*v69 + v15*v70;
+    const double v202 = -v201 + v26*v46;
+    const double v203 = p[1]*v74 - v79;
+    const double v204 = -qd[1]*v39 + v81;
+    const double v205 = p[13]*v70 + v82;
+    const double v206 = p[5]*v200 + v205;
+    const double v207 = p[2]*v96 + v103;
+    const double v208 = -qd[2]*v7 + v105;
+    const double v209 = p[14]*v92 + v106;
+    const double v210 = p[6]*v195 + v209;
+    const double v211 = p[1]*v68;
+    const double v212 = v211 + v35*v44;
+    const double v213 = p[12]*v212;
+    const double v214 = p[8]*v213;
+    const double v215 = v15*v214 + v79;
+    const double v216 = v14*v214 + v78;
+    const double v217 = p[1]*v213 - v216;
+    const double v218 = cs[0]*v217 + cs[0]*v78 - sn[0]*v203 - sn[0]*v215;
+    const double v219 = -qd[1]*v107 + v82;
+    const double v220 = p[5]*v68;
+    const double v221 = 2.0*qd[1]*v34 + v220;
+    const double v222 = p[9]*v221;
+    const double v223 = p[13]*v69 + v81;
+    const double v224 = p[5]*v222 + v223;
+    const double v225 = cs[0]*v204 - cs[0]*v224 + sn[0]*v206 - sn[0]*v219;
+    const double v226 = -v108*v27 + v85;
+    const double v227 = p[7]*v196 + v13*v16;
+    const double v228 = v109*v17 + v227;
+    const double v229 = p[11]*v228;
+    const double v230 = p[15]*v197 + v84;
+    const double v231 = p[7]*v229 + v230;
+    const double v232 = v103 - v14*v226 + v15*v231;
+    const double v233 = v100 - v14*v231 - v15*v226;
+    const double v234 = p[2]*v229 - v233;
+    const double v235 = cs[1]*v234 - sn[1]*v232;
+    const double v236 = v218 - v225 + v235;
+    const double v237 = -v110*v56 + v63;
+    const double v238 = p[8]*v201 + v45*v46;
+    const double v239 = v109*v47 - v238;
+    const double v240 = p[12]*v239;
+    const double v241 = p[16]*v202 + v62;
+    const double v242 = p[8]*v240 + v241;
+    const double v243 = -v14*v237 - v15*v242 + v79;
+    const double v244 = -v14*v242 + v15*v237 + v78;
+    const double v245 = p[1]*v240 + v244;
+    const double v246 = cs[0]*v245 + sn[0]*v243;
+    const double v247 = p[2]*v90;
+    const double v248 = v12*v3 + v247;
+    const double v249 = p[11]*v248;
+    const double v250 = p[7]*v249;
+    const double v251 = -v101 + v102 + v15*v250;
+    const double v252 = v100 + v14*v250;
+    const double v253 = p[2]*v249 + v252;
+    const double v254 = cs[1]*v100 - cs[1]*v253 + sn[1]*v207 + sn[1]*v251;
+    const double v255 = -qd[2]*v111 + v106;
+    const double v256 = p[6]*v90;
+    const double v257 = 2.0*qd[2]*v2 + v256;
+    const double v258 = p[10]*v257;
+    const double v259 = p[14]*v91 + v105;
+    const double v260 = p[6]*v258 + v259;
+    const double v261 = cs[1]*v208 - cs[1]*v260 + sn[1]*v210 - sn[1]*v255;
+    const double v262 = -v246 + v254 + v261;
+    const double v263 = v113*v36 - v33*v34 + v42;
+    const double v264 = p[9]*v263;
+    const double v265 = v115*v14 + v116*v15 + v53;
+    const double v266 = p[12]*v265;
+    const double v267 = v118*v14 + v127 + v15*v266;
+    const double v268 = v107*v36 - v33*v39;
+    const double v269 = p[1]*v267 + p[5]*v264 - v119 + v132 + v268;
+    const double v270 = v134*v46 + v55;
+    const double v271 = p[12]*v270;
+    const double v272 = v127 + v136*v14 + v15*v271;
+    const double v273 = p[1]*v272 - v138 + v144;
+    const double v274 = v130 - v131;
+    const double v275 = v112*v16 + v25;
+    const double v276 = p[11]*v275;
+    const double v277 = -v129*v14 - v15*v276 + v151;
+    const double v278 = -p[2]*v277 + v132 + v274;
+    const double v279 = -v1*v2 + v10 + v152*v4;
+    const double v280 = p[10]*v279;
+    const double v281 = -v139*v14 + v140*v15 + v23;
+    const double v282 = p[11]*v281;
+    const double v283 = -v14*v142 - v15*v282 + v151;
+    const double v284 = -v1*v7 + v111*v4;
+    const double v285 = -p[2]*v283 + p[6]*v280 + v143 + v144 + v284;
+    const double v286 = -v164*v61 + v169*v56;
+    const double v287 = v153*v44;
+    const double v288 = cs[0]*qd[1];
+    const double v289 = v14*v153 - v15*v288;
+    const double v290 = p[8]*v289 + v154*v45 - v287;
+    const double v291 = v155*v59 - v290;
+    const double v292 = p[12]*v291;
+    const double v293 = v155 - v289;
+    const double v294 = p[16]*v293 + v154*v61;
+    const double v295 = p[8]*v292 + v294;
+    const double v296 = v14*v286 + v15*v295;
+    const double v297 = v14*v295 - v15*v286;
+    const double v298 = p[1]*v292 - v297;
+    const double v299 = cs[0]*v298 - sn[0]*v296;
+    const double v300 = p[13]*cs[0];
+    const double v301 = cs[0]*v80 - qd[1]*v300;
+    const double v302 = v153*v38;
+    const double v303 = p[9]*v302;
+    const double v304 = p[13]*v153 + sn[0]*v80;
+    const double v305 = p[5]*v303 + v304;
+    const double v306 = cs[0]*v305 - sn[0]*v301;
+    const double v307 = v175*v83 - v180*v27;
+    const double v308 = v12*v156;
+    const double v309 = cs[1]*qd[2];
+    const double v310 = v14*v156 + v15*v309;
+    const double v311 = p[7]*v310 + v13*v157 + v308;
+    const double v312 = v158*v31 + v311;
+    const double v313 = p[11]*v312;
+    const double v314 = v158 + v310;
+    const double v315 = p[15]*v314 + v157*v83;
+    const double v316 = p[7]*v313 + v315;
+    const double v317 = v14*v307 + v15*v316;
+    const double v318 = v14*v316 - v15*v307;
+    const double v319 = p[2]*v313 + v318;
+    const double v320 = cs[1]*v319 - sn[1]*v317;
+    const double v321 = p[14]*cs[1];
+    const double v322 = cs[1]*v104 - qd[2]*v321;
+    const double v323 = v156*v6;
+    const double v324 = p[10]*v323;
+    const double v325 = p[14]*v156 + sn[1]*v104;
+    const double v326 = p[6]*v324 + v325;
+    const double v327 = cs[1]*v326 - sn[1]*v322;
+    const double v328 = v299 + v306 + v320 + v327;
+    const double v329 = 2.0*v114;
+    const double v330 = v159 - v329;
+    const double v331 = v159 - v330;
+    const double v332 = p[12]*v331;
+    const double v333 = p[8]*v332;
+    const double v334 = v15*v333;
+    const double v335 = v14*v333;
+    const double v336 = p[1]*v332 - v335;
+    const double v337 = cs[0]*v336 - sn[0]*v334;
+    const double v338 = 2.0*v113;
+    const double v339 = p[9]*v338;
+    const double v340 = 2.0*v107;
+    const double v341 = p[5]*v339 + v340;
+    const double v342 = cs[0]*v341;
+    const double v343 = p[11]*v160;
+    const double v344 = 2.0*v108;
+    const double v345 = p[7]*v343 + v344;
+    const double v346 = v15*v345;
+    const double v347 = v14*v345;
+    const double v348 = p[2]*v343 + v347;
+    const double v349 = cs[1]*v348 - sn[1]*v346;
+    const double v350 = v337 + v342 + v349;
+    const double v351 = p[12]*v159;
+    const double v352 = 2.0*v110;
+    const double v353 = p[8]*v351 + v352;
+    const double v354 = -v15*v353;
+    const double v355 = v14*v353;
+    const double v356 = p[1]*v351 - v355;
+    const double v357 = cs[0]*v356 + sn[0]*v354;
+    const double v358 = 2.0*v133;
+    const double v359 = v160 + v358;
+    const double v360 = v160 - v359;
+    const double v361 = p[11]*v360;
+    const double v362 = p[7]*v361;
+    const double v363 = v15*v362;
+    const double v364 = v14*v362;
+    const double v365 = p[2]*v361 + v364;
+    const double v366 = cs[1]*v365 - sn[1]*v363;
+    const double v367 = 2.0*v152;
+    const double v368 = p[10]*v367;
+    const double v369 = 2.0*v111;
+    const double v370 = p[6]*v368 + v369;
+    const double v371 = cs[1]*v370;
+    const double v372 = v357 + v366 - v371;
+    const double v373 = sn[0]*v34 + v192*v36;
+    const double v374 = p[9]*v373;
+    const double v375 = v14*v162 + v15*v163 - v164*v47 - v165*v46;
+    const double v376 = p[12]*v375;
+    const double v377 = v14*v167 - v15*v376;
+    const double v378 = sn[0]*v39 + v300*v36;
+    const double v379 = -p[1]*v377 + p[5]*v374 - v168 - v170 + v171 + v182 + v378;
+    const double v380 = -v14*v183 + 2.0*v45;
+    const double v381 = v380 - v58;
+    const double v382 = p[12]*v381;
+    const double v383 = v14*v185 + v15*v382;
+    const double v384 = p[1]*v383;
+    const double v385 = v56*v59;
+    const double v386 = p[12]*v385;
+    const double v387 = v15*v386;
+    const double v388 = p[1]*v387 + v190;
+    const double v389 = sn[1]*v2 + v191*v4;
+    const double v390 = p[10]*v389;
+    const double v391 = v14*v173 - v15*v174 + v16*v176 + v17*v175;
+    const double v392 = p[11]*v391;
+    const double v393 = v14*v178 - v15*v392;
+    const double v394 = sn[1]*v7 + v321*v4;
+    const double v395 = p[2]*v393 + p[6]*v390 + v171 - v179 - v181 + v182 + v394;
+    const double v396 = v27*v31;
+    const double v397 = p[11]*v396;
+    const double v398 = v15*v397;
+    const double v399 = -p[2]*v398 + v186;
+    const double v400 = 2.0*v13 + v14*v187;
+    const double v401 = -v30 + v400;
+    const double v402 = p[11]*v401;
+    const double v403 = v14*v189 - v15*v402;
+    const double v404 = p[2]*v403;
+    dtau_dq[0] = 0.0;
+    dtau_dq[1] = -v236;
+    dtau_dq[2] = v262;
+    dtau_dq[3] = 0.0;
+    dtau_dq[4] = -v269;
+    dtau_dq[5] = v273;
+    dtau_dq[6] = 0.0;
+    dtau_dq[7] = v278;
+    dtau_dq[8] = -v285;
+    dtau_dqd[0] = -v328;
+    dtau_dqd[1] = -v350;
+    dtau_dqd[2] = v372;
+    dtau_dqd[3] = v379;
+    dtau_dqd[4] = -v384;
+    dtau_dqd[5] = v388;
+    dtau_dqd[6] = v395;
+    dtau_dqd[7] = v399;
+    dtau_dqd[8] = v404;
+}
+
 /* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
  * Inputs: q[3] (q0, q1, q2), p[18] (see fivebar_parameter_names); output J[9]
  * 58 operations; sine and cosine of 2 angles in one fivebar_sincos call. */
@@ -1326,34 +1758,152 @@ static int fivebar_cholesky(double *D)
     return 0;
 }
 
-int fivebar_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* x = D^-1 x in place for the Cholesky factor of fivebar_cholesky (L in the lower triangle of L):
+ * L y = x, then L^T x = y. */
+static void fivebar_solve(const double *L, double *x)
 {
-    double D[3 * 3];
-    double b[3];
-    const double zero[3] = { 0.0 };
     int i, k;
-    fivebar_inertia(q, p, D);
-    fivebar_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 3; ++i) { /* L y = x */
+        for (k = 0; k < i; ++k) {
+            x[i] -= L[i * 3 + k] * x[k];
+        }
+        x[i] /= L[i * 3 + i];
+    }
+    for (i = 3 - 1; i >= 0; --i) { /* L^T x = y */
+        for (k = i + 1; k < 3; ++k) {
+            x[i] -= L[k * 3 + i] * x[k];
+        }
+        x[i] /= L[i * 3 + i];
+    }
+}
+
+/* Minv = D^-1 = R^T R with R = L^-1 (lower triangular, by forward substitution from the Cholesky factor L of
+ * fivebar_cholesky), N*N row-major and symmetric: about N^3/3 multiplications, half those of solving D X = I. */
+static void fivebar_inverse(const double *L, double *Minv)
+{
+    double R[3 * 3], r[3];
+    int i, j, k;
     for (i = 0; i < 3; ++i) {
-        b[i] = tau[i] - b[i];
+        r[i] = 1.0 / L[i * 3 + i];
+    }
+    for (j = 0; j < 3; ++j) { /* column j of R: L R = I */
+        R[j * 3 + j] = r[j];
+        for (i = j + 1; i < 3; ++i) {
+            double t = 0.0;
+            for (k = j; k < i; ++k) {
+                t -= L[i * 3 + k] * R[k * 3 + j];
+            }
+            R[i * 3 + j] = t * r[i];
+        }
+    }
+    for (i = 0; i < 3; ++i) { /* Minv[i][j] = sum over k >= max(i, j) of R[k][i] R[k][j] */
+        for (j = i; j < 3; ++j) {
+            double t = 0.0;
+            for (k = j; k < 3; ++k) {
+                t += R[k * 3 + i] * R[k * 3 + j];
+            }
+            Minv[i * 3 + j] = t;
+            Minv[j * 3 + i] = t;
+        }
+    }
+}
+
+/* qdd = D^-1 (tau - bias) with D(q) = L L^T factored in D (lower triangle). Returns 0, or 1 when D is not
+ * positive definite. */
+static int fivebar_accelerations(const double *q, const double *qd, const double *tau, const double *p, double *D, double *qdd)
+{
+    const double zero[3] = { 0.0 };
+    int i;
+    fivebar_inertia(q, p, D);
+    fivebar_inverse_dynamics(q, qd, zero, p, qdd);
+    for (i = 0; i < 3; ++i) {
+        qdd[i] = tau[i] - qdd[i];
     }
     if (fivebar_cholesky(D) != 0) {
         return 1;
     }
-    for (i = 0; i < 3; ++i) { /* L y = b */
-        double t = b[i];
-        for (k = 0; k < i; ++k) {
-            t -= D[i * 3 + k] * qdd[k];
-        }
-        qdd[i] = t / D[i * 3 + i];
+    fivebar_solve(D, qdd);
+    return 0;
+}
+
+int fivebar_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[3 * 3];
+    return fivebar_accelerations(q, qd, tau, p, D, qdd);
+}
+
+/* P = -M X for N*N row-major matrices (M = D^-1 symmetric): each row of P a combination of the rows of X,
+ * the inner loop over the N columns (no dependency between rows, unlike a triangular solve). */
+static void fivebar_negated_product(const double *M, const double *X, double *P)
+{
+    int i, k, c;
+    for (i = 0; i < 3 * 3; ++i) {
+        P[i] = 0.0;
     }
-    for (i = 3 - 1; i >= 0; --i) { /* L^T qdd = y */
-        double t = qdd[i];
-        for (k = i + 1; k < 3; ++k) {
-            t -= D[k * 3 + i] * qdd[k];
+    for (i = 0; i < 3; ++i) {
+        for (k = 0; k < 3; ++k) {
+            const double m = M[i * 3 + k];
+            for (c = 0; c < 3; ++c) {
+                P[i * 3 + c] -= m * X[k * 3 + c];
+            }
         }
-        qdd[i] = t / D[i * 3 + i];
     }
+}
+
+/* Minv = D^-1, then dqdd_dq = -Minv dtau_dq and dqdd_dqd = -Minv dtau_dqd, the inverse dynamics derivatives taken
+ * at the qdd of forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau). One Cholesky factor
+ * of D gives qdd and Minv. Returns 0, or 1 when D is not positive definite. */
+static int fivebar_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *Minv)
+{
+    double L[3 * 3], dtau_dq[3 * 3], dtau_dqd[3 * 3];
+    double qdd[3];
+    if (fivebar_accelerations(q, qd, tau, p, L, qdd) != 0) {
+        return 1;
+    }
+    fivebar_inverse_dynamics_derivatives(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    fivebar_inverse(L, Minv);
+    fivebar_negated_product(Minv, dtau_dq, dqdd_dq);
+    fivebar_negated_product(Minv, dtau_dqd, dqdd_dqd);
+    return 0;
+}
+
+int fivebar_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+{
+    return fivebar_fd_derivatives(q, qd, tau, p, dqdd_dq, dqdd_dqd, dqdd_dtau);
+}
+
+int fivebar_A(const double *q, const double *qd, const double *tau, const double *p, double *A)
+{
+    double dq[3 * 3], dqd[3 * 3], Minv[3 * 3];
+    int i, j;
+    if (fivebar_fd_derivatives(q, qd, tau, p, dq, dqd, Minv) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 3; ++i) {
+        for (j = 0; j < 3; ++j) {
+            A[i * 6 + j] = 0.0;
+            A[i * 6 + 3 + j] = (i == j) ? 1.0 : 0.0;
+            A[(3 + i) * 6 + j] = dq[i * 3 + j];
+            A[(3 + i) * 6 + 3 + j] = dqd[i * 3 + j];
+        }
+    }
+    return 0;
+}
+
+int fivebar_B(const double *q, const double *qd, const double *tau, const double *p, double *B)
+{
+    double L[3 * 3];
+    int i;
+    (void)qd;
+    (void)tau;
+    fivebar_inertia(q, p, L);
+    if (fivebar_cholesky(L) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 3 * 3; ++i) {
+        B[i] = 0.0;
+    }
+    fivebar_inverse(L, B + 9);
     return 0;
 }
 

@@ -36,6 +36,12 @@ extern "C" {
  *
  * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
  *
+ * Matrices are row-major: entry (i, j) of an R*C output M is M[i*C + j]. A derivative dy_dx is the Jacobian
+ * with rows y and columns x: dy_dx[i*N + j] = d y_i / d x_j. Derivatives (tau = ID(q, qd, qdd), qdd = FD(q, qd, tau)):
+ *   inverse_dynamics_derivatives: dtau_dq, dtau_dqd (d tau / d qdd is D(q), from inertia);
+ *   forward_dynamics_derivatives: dqdd_dq = -D^-1 dtau_dq, dqdd_dqd = -D^-1 dtau_dqd (taken at qdd = FD(q, qd, tau)),
+ *   dqdd_dtau = D^-1; A (2N*2N) and B (2N*N) of the state space xdot = (qd, qdd), x = (q, qd), u = tau.
+ *
  * Standard parameters theta (regressor column): tau = regressor(q, qd, qdd, p) * standard_parameters(p).
  *   [0] XX_0p
  *   [1] XY_0p
@@ -148,6 +154,10 @@ void fivebar_applied(const double *q, const double *qd, const double *p, double 
  * 278 operations, sine and cosine of 2 angles. */
 void fivebar_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+ * 793 operations, sine and cosine of 2 angles. */
+void fivebar_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd);
+
 /* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
  * 58 operations, sine and cosine of 2 angles. */
 void fivebar_end_effector_jacobian(const double *q, const double *p, double *J);
@@ -163,6 +173,15 @@ void fivebar_standard_parameters(const double *p, double *theta);
 /* Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.
  * Returns 0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified). */
 int fivebar_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd);
+/* Derivatives of forward dynamics, each N*N row-major (dqdd_dq[i*N + j] = d qdd_i / d q_j): dqdd_dq = -D^-1 dtau_dq, dqdd_dqd = -D^-1 dtau_dqd, dqdd_dtau = D^-1, the inverse dynamics derivatives taken at the qdd of forward dynamics (one Cholesky factor of D(q))
+ * Returns 0 on success, 1 when D(q) is not positive definite (the outputs are then left unspecified). */
+int fivebar_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau);
+/* State matrix A = d xdot / d x of xdot = (qd, qdd), x = (q, qd): 2N*2N row-major, [[0, I], [dqdd_dq, dqdd_dqd]] (Madill 3.9.4)
+ * Returns 0 on success, 1 when D(q) is not positive definite (A is then left unspecified). */
+int fivebar_A(const double *q, const double *qd, const double *tau, const double *p, double *A);
+/* Input matrix B = d xdot / d tau: 2N*N row-major, [[0], [D^-1]] (Madill 3.9.4)
+ * Returns 0 on success, 1 when D(q) is not positive definite (B is then left unspecified). */
+int fivebar_B(const double *q, const double *qd, const double *tau, const double *p, double *B);
 /* Operational-space (apparent) inertia Lambda = (J D^-1 J^T)^-1 at the end effector, 3*3 row-major, kg (linear part; Janot's M_op = J^-T D J^-1 for a square J)
  * Returns 0 on success, 1 when D(q) is not positive definite, 2 when J D^-1 J^T is singular (a Cholesky pivot not above 1e-12 times its trace: J of rank below 3); Lambda is then left unspecified. */
 int fivebar_operational_inertia(const double *q, const double *p, double *Lambda);

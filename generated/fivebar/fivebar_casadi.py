@@ -11,7 +11,7 @@ import os
 import casadi
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "end_effector_jacobian", "regressor", "standard_parameters", "forward_dynamics", "A", "B", "operational_inertia", "apparent_mass", )
+FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "inverse_dynamics_derivatives", "end_effector_jacobian", "regressor", "standard_parameters", "forward_dynamics", "forward_dynamics_derivatives", "A", "B", "operational_inertia", "apparent_mass", )
 COORDINATES = ("q0", "q1", "q2", )
 PARAMETERS = ("g", "l1", "l2", "l4", "l5", "l_c1", "l_c2", "l_c3", "l_cr", "m1", "m2", "m3", "m_r", "I1", "I2", "I3", "I_r", "J0", )
 PARAMETER_DEFAULTS = [9.81, 0.3, 0.06, 0.06, 0.433, -0.185, 0.03, 0.3375, 0.162, 1.5, 0.15, 0.6, 0.25, 0.035, 0.0179, 0.0218, 0.0052, 0.676, ]

@@ -1510,6 +1510,680 @@ void fivebar_flexible_inverse_dynamics(const double *q, const double *qd, const 
     tau[6] = v401;
 }
 
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+ * Inputs: q[7] (q0, q1, q2, link5_nu1, link5_nu2, link5_eta1, link5_eta2), qd[7] (q0, q1, q2, link5_nu1, link5_nu2, link5_eta1, link5_eta2), qdd[7] (q0, q1, q2, link5_nu1, link5_nu2, link5_eta1, link5_eta2), p[21] (see fivebar_flexible_parameter_names); outputs dtau_dq[49], dtau_dqd[49]
+ * 1496 operations; sine and cosine of 2 angles in one fivebar_flexible_sincos call. */
+void fivebar_flexible_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    double sn[2], cs[2];
+    fivebar_flexible_sincos(2, q + 1, sn, cs);
+    const double v0 = q[1] - q[2];
+    const double v1 = cos(v0);
+    const double v2 = p[1]*v1;
+    const double v3 = sin(v0);
+    const double v4 = cs[0]*v1 + sn[0]*v3;
+    const double v5 = p[3]*v4;
+    const double v6 = (p[8]*p[8]);
+    const double v7 = p[8]*p[12];
+    const double v8 = (v1*v1) - (v3*v3);
+    const double v9 = v1*v3;
+    const double v10 = (p[1]*p[1]);
+    const double v11 = v1*v7;
+    const double v12 = p[1]*v11;
+    const double v13 = 2.0*v12;
+    const double v14 = 2.0*v12;
+    const double v15 = p[12]*v10 - v14;
+    const double v16 = v3*v7;
+    const double v17 = p[1]*v16;
+    const double v18 = (cs[0]*cs[0]) - (sn[0]*sn[0]);
+    const double v19 = cs[0]*sn[0];
+    const double v20 = (p[5]*p[5]);
+    const double v21 = (p[7]*p[7]);
+    const double v22 = p[7]*p[11];
+    const double v23 = (p[2]*p[2]);
+    const double v24 = v1*v22;
+    const double v25 = p[2]*v24;
+    const double v26 = -2.0*v25;
+    const double v27 = 2.0*v25;
+    const double v28 = p[11]*v23 + v27;
+    const double v29 = v22*v3;
+    const double v30 = p[2]*v29;
+    const double v31 = (cs[1]*cs[1]) - (sn[1]*sn[1]);
+    const double v32 = cs[1]*sn[1];
+    const double v33 = (p[6]*p[6]);
+    const double v34 = 2.0*v17;
+    const double v35 = 2.0*v19;
+    const double v36 = p[16] + p[12]*v6;
+    const double v37 = -0.5*v36;
+    const double v38 = 4.0*v9;
+    const double v39 = v37*v38;
+    const double v40 = 2.0*v17 - v34 + v39;
+    const double v41 = v34 + v39;
+    const double v42 = (0.5)*v40 + (0.5)*v41;
+    const double v43 = 2.0*v8;
+    const double v44 = v37*v43;
+    const double v45 = v12 + v44;
+    const double v46 = v18*v42 - v35*v45;
+    const double v47 = v40 - v41;
+    const double v48 = (0.5)*v47;
+    const double v49 = 2.0*v30;
+    const double v50 = 2.0*v32;
+    const double v51 = p[15] + p[11]*v21;
+    const double v52 = -0.5*v51;
+    const double v53 = v43*v52;
+    const double v54 = v25 - v53;
+    const double v55 = v38*v52;
+    const double v56 = -2.0*v30 + v49 + v55;
+    const double v57 = -v49 + v55;
+    const double v58 = (0.5)*v56 + (0.5)*v57;
+    const double v59 = v31*v58 - v50*v54;
+    const double v60 = v56 - v57;
+    const double v61 = (0.5)*v60;
+    const double v62 = 2.0*p[20];
+    const double v63 = p[4]*v62;
+    const double v64 = p[4]*p[18];
+    const double v65 = 2.0*v64;
+    const double v66 = (p[4]*p[4]);
+    const double v67 = p[18]*v66;
+    const double v68 = sqrt(p[4]);
+    const double v69 = -cs[0]*v3 + sn[0]*v1;
+    const double v70 = v68*v69;
+    const double v71 = q[3]*p[18];
+    const double v72 = 1.5659835120792516*v71;
+    const double v73 = q[4]*p[18];
+    const double v74 = 0.8678717902214386*v73;
+    const double v75 = 1.0/(v68);
+    const double v76 = 4.0*p[20];
+    const double v77 = v75*v76;
+    const double v78 = q[3]*v77;
+    const double v79 = q[4]*v77;
+    const double v80 = cs[0]*p[1];
+    const double v81 = -v5 + v80;
+    const double v82 = -v4*v63 - v4*v67 + v62*v81 + v65*v81 + v69*v78 - v69*v79 + v70*v72 + v70*v74;
+    const double v83 = v2*v4;
+    const double v84 = p[1]*v3;
+    const double v85 = -v69*v84 + v83;
+    const double v86 = q[5]*p[18];
+    const double v87 = 0.7829917560396258*v68;
+    const double v88 = v86*v87;
+    const double v89 = q[6]*p[18];
+    const double v90 = 0.4339358951107193*v68;
+    const double v91 = v89*v90;
+    const double v92 = v62*v75;
+    const double v93 = q[5]*v92;
+    const double v94 = q[6]*v92;
+    const double v95 = v88 + v91 + v93 - v94;
+    const double v96 = p[18]*v68;
+    const double v97 = 0.7829917560396258*v96;
+    const double v98 = v92 + v97;
+    const double v99 = 0.4339358951107193*v96;
+    const double v100 = -v92 + v99;
+    const double v101 = p[20] + v64;
+    const double v102 = 2.0*v101;
+    const double v103 = (0.5)*p[3]*v62 + (0.5)*p[3]*v65 + (0.5)*v63 + (0.5)*v67;
+    const double v104 = q[3]*v92 - q[4]*v92 + v71*v87 + v73*v90;
+    const double v105 = v84*v98;
+    const double v106 = v100*v84;
+    const double v107 = p[3]*v69;
+    const double v108 = p[20]*v81;
+    const double v109 = 6.0*p[4]*v108;
+    const double v110 = p[20]*v66;
+    const double v111 = 6.0*v4;
+    const double v112 = v110*v111;
+    const double v113 = (p[4]*p[4]*p[4])*p[18];
+    const double v114 = 2.0*v113*v4;
+    const double v115 = (q[5]*q[5]);
+    const double v116 = p[18]*v115;
+    const double v117 = v111*v116;
+    const double v118 = (q[6]*q[6]);
+    const double v119 = p[18]*v118;
+    const double v120 = v111*v119;
+    const double v121 = 3.0*v67*v81;
+    const double v122 = pow(p[4], 1.5);
+    const double v123 = v122*v69;
+    const double v124 = 3.4129544622594645*v123*v71;
+    const double v125 = 0.5446007213183218*v123*v73;
+    const double v126 = 12.0*p[20];
+    const double v127 = v126*v70;
+    const double v128 = q[3]*v127;
+    const double v129 = q[4]*v127;
+    const double v130 = 1.0/(p[4]);
+    const double v131 = p[20]*v130;
+    const double v132 = q[5]*q[6];
+    const double v133 = 48.0*v132;
+    const double v134 = v131*v133*v4;
+    const double v135 = 24.0*v131;
+    const double v136 = v135*v4;
+    const double v137 = v115*v136;
+    const double v138 = v118*v136;
+    const double v139 = (0.3333333333333333)*v69;
+    const double v140 = 2.0*v69;
+    const double v141 = (q[3]*q[3]);
+    const double v142 = p[18]*v141;
+    const double v143 = (q[4]*q[4]);
+    const double v144 = p[18]*v143;
+    const double v145 = v4*v71;
+    const double v146 = v122*v145;
+    const double v147 = v4*v73;
+    const double v148 = v122*v147;
+    const double v149 = v68*v72;
+    const double v150 = v68*v74;
+    const double v151 = q[3]*v76;
+    const double v152 = v4*v68;
+    const double v153 = q[4]*v76;
+    const double v154 = v77*v81;
+    const double v155 = v131*v69;
+    const double v156 = 16.0*v155;
+    const double v157 = q[3]*q[4];
+    const double v158 = 8.0*v131;
+    const double v159 = v158*v69;
+    const double v160 = -p[3] + v2;
+    const double v161 = p[3] + v160;
+    const double v162 = -v161*v4 + v83;
+    const double v163 = v130*v76;
+    const double v164 = q[5]*v163;
+    const double v165 = q[6]*v163;
+    const double v166 = q[3]*v164 - q[3]*v165 + q[3]*v86 - q[4]*v164 + q[4]*v165 + q[4]*v89;
+    const double v167 = v62*v68;
+    const double v168 = p[3]*v88 + p[3]*v91 + p[3]*v93 - p[3]*v94 + q[5]*v167 - q[6]*v167 + 0.5688257437099108*v122*v86 + 0.09076678688638697*v122*v89;
+    const double v169 = v164 - v165 + v86;
+    const double v170 = v169*v4;
+    const double v171 = -v164 + v165 + v89;
+    const double v172 = v171*v4;
+    const double v173 = v62 + 0.5688257437099108*v64;
+    const double v174 = q[3]*v163;
+    const double v175 = q[4]*v163;
+    const double v176 = v174 - v175 + v71;
+    const double v177 = -v62 + 0.09076678688638697*v64;
+    const double v178 = -v174 + v175 + v73;
+    const double v179 = q[4]*v159;
+    const double v180 = q[3]*v159;
+    const double v181 = v152*v76;
+    const double v182 = 1.5659835120792516*v96;
+    const double v183 = p[18]*v122;
+    const double v184 = v183*v4;
+    const double v185 = v154 - v181 + v182*v81 - 1.1376514874198216*v184;
+    const double v186 = p[18] + v163;
+    const double v187 = 0.8678717902214386*v96;
+    const double v188 = -v154 + v181 - 0.18153357377277393*v184 + v187*v81;
+    const double v189 = (v69*v69);
+    const double v190 = (v4*v4);
+    const double v191 = v164*v189;
+    const double v192 = v165*v189;
+    const double v193 = v164*v190;
+    const double v194 = v165*v190;
+    const double v195 = v4*v84;
+    const double v196 = v161*v69;
+    const double v197 = v195*v92;
+    const double v198 = v196*v92;
+    const double v199 = 0.5688257437099108*v183;
+    const double v200 = v62*v70;
+    const double v201 = v107*v92;
+    const double v202 = v174*v4;
+    const double v203 = v175*v4;
+    const double v204 = 0.09076678688638697*v183;
+    const double v205 = 4.0*v19;
+    const double v206 = v205*v42;
+    const double v207 = 2.0*v18;
+    const double v208 = v207*v45;
+    const double v209 = 4.0*v8;
+    const double v210 = v209*v37;
+    const double v211 = v13 - v14 + v210;
+    const double v212 = v14 + v210;
+    const double v213 = (0.5)*v211 + (0.5)*v212;
+    const double v214 = 8.0*v9;
+    const double v215 = v214*v37;
+    const double v216 = v17 + v215;
+    const double v217 = v18*v213 + v216*v35;
+    const double v218 = v211 - v212;
+    const double v219 = (0.5)*v218;
+    const double v220 = v214*v52;
+    const double v221 = -v220 + v30;
+    const double v222 = v209*v52;
+    const double v223 = v222 + v26 + v27;
+    const double v224 = -v222 + v27;
+    const double v225 = (0.5)*v223 - 0.5*v224;
+    const double v226 = v221*v50 + v225*v31;
+    const double v227 = v223 + v224;
+    const double v228 = (0.5)*v227;
+    const double v229 = 2.0*v31;
+    const double v230 = v229*v54;
+    const double v231 = 4.0*v32;
+    const double v232 = v231*v58;
+    const double v233 = p[4]*(v62 + v64);
+    const double v234 = v233*v69;
+    const double v235 = v149 + v150 + v78 - v79;
+    const double v236 = v102*v107 + v234 + v235*v4;
+    const double v237 = sn[0]*p[1];
+    const double v238 = v236*v237;
+    const double v239 = v182 + v77;
+    const double v240 = v237*v69;
+    const double v241 = v187 - v77;
+    const double v242 = qd[0]*qd[1];
+    const double v243 = qd[3]*qd[0];
+    const double v244 = qd[4]*qd[0];
+    const double v245 = (qd[1]*qd[1]);
+    const double v246 = qd[0]*qd[2];
+    const double v247 = qd[1]*qd[2];
+    const double v248 = 2.0*qd[1];
+    const double v249 = 1.1376514874198216*v64;
+    const double v250 = 0.18153357377277393*v64;
+    const double v251 = 3.0*q[3]*v249 + 3.0*q[4]*v250 + 3.0*v151 - 3.0*v153;
+    const double v252 = 3.0*v107;
+    const double v253 = 6.0*v69;
+    const double v254 = v68*v81;
+    const double v255 = v126*v152;
+    const double v256 = 12.0*v108*v75;
+    const double v257 = v135*v69;
+    const double v258 = 12.0*v131;
+    const double v259 = v189*v68;
+    const double v260 = v107*v69;
+    const double v261 = 4.0*v69;
+    const double v262 = q[4]*v156;
+    const double v263 = q[3]*v156;
+    const double v264 = v176*v69;
+    const double v265 = p[3]*v92;
+    const double v266 = v178*v69;
+    const double v267 = v162*v98;
+    const double v268 = qd[5]*v267;
+    const double v269 = v100*v162;
+    const double v270 = qd[6]*v269;
+    const double v271 = (qd[2]*qd[2]);
+    const double v272 = qd[5]*qd[0];
+    const double v273 = qd[6]*qd[0];
+    const double v274 = 2.0*qd[2];
+    const double v275 = qd[3]*v274;
+    const double v276 = qd[4]*v274;
+    const double v277 = qd[5]*v274;
+    const double v278 = qd[6]*v274;
+    const double v279 = v186*v4;
+    const double v280 = 2.0*v25;
+    const double v281 = v27 - v280;
+    const double v282 = (0.5)*v281;
+    const double v283 = sn[0]*p[0];
+    const double v284 = v11*v283;
+    const double v285 = sn[1]*p[0];
+    const double v286 = cs[1]*p[0];
+    const double v287 = v1*v285 + v286*v3;
+    const double v288 = v22*v287;
+    const double v289 = -v103*v84 + v104*v2;
+    const double v290 = -v17 + v289 + v30;
+    const double v291 = qdd[2]*v290;
+    const double v292 = 2.0*v17;
+    const double v293 = v102*v84*(-v161 + v2);
+    const double v294 = v292 + v293 - v34;
+    const double v295 = qdd[1]*v294;
+    const double v296 = qdd[3]*v105;
+    const double v297 = qdd[4]*v106;
+    const double v298 = 2.0*v272;
+    const double v299 = 2.0*v273;
+    const double v300 = v2*v98;
+    const double v301 = v275*v300;
+    const double v302 = v100*v2;
+    const double v303 = v276*v302;
+    const double v304 = (qd[0]*qd[0]);
+    const double v305 = (0.5)*v304;
+    const double v306 = -v103*v2 - v104*v84;
+    const double v307 = -v12 + v25 + v306;
+    const double v308 = -v282 + v307;
+    const double v309 = v271*v308;
+    const double v310 = 2.0*v12;
+    const double v311 = -2.0*v2*(p[20]*v161 - v101*v2 + v161*v64);
+    const double v312 = -v14 + v310 + v311;
+    const double v313 = (0.5)*v312;
+    const double v314 = qd[1]*v313*(-qd[1] + 2.0*qd[2]);
+    const double v315 = cs[0]*p[0];
+    const double v316 = v1*v283 - v3*v315;
+    const double v317 = v316*v7;
+    const double v318 = v239*v240;
+    const double v319 = v305*v318;
+    const double v320 = v240*v241;
+    const double v321 = v305*v320;
+    const double v322 = v24*v285;
+    const double v323 = 2.0*v30;
+    const double v324 = -v323 + v49;
+    const double v325 = -v307 + v313;
+    const double v326 = qdd[1]*v290 - qdd[2]*v324 - qd[2]*v282*(-qd[2] + v248) - v245*v325;
+    const double v327 = p[0]*v69;
+    const double v328 = 2.0*v186;
+    const double v329 = qd[2]*v328;
+    const double v330 = v163*v4;
+    const double v331 = v299*v330;
+    const double v332 = qd[2]*v158;
+    const double v333 = v239*v260 + v259*(v249 + v76) + v4*(v185 + v261*v71 - v262 + v263);
+    const double v334 = v305*v333;
+    const double v335 = v245*v300;
+    const double v336 = v298*v330;
+    const double v337 = v241*v260 + v259*(v250 - v76) + v4*(v188 + v261*v73 + v262 - v263);
+    const double v338 = v305*v337;
+    const double v339 = v245*v302;
+    const double v340 = v242*v267;
+    const double v341 = v242*v269;
+    const double v342 = qdd[1]*v105 + v335;
+    const double v343 = p[19]/(p[4]*p[4]*p[4]*p[4]);
+    const double v344 = 2.0*v186*v189;
+    const double v345 = (0.5)*v271*v328 + v305*v344;
+    const double v346 = v186*v69;
+    const double v347 = qdd[0]*v346;
+    const double v348 = qd[0]*v274;
+    const double v349 = v163*v69;
+    const double v350 = qdd[0]*v349;
+    const double v351 = qdd[1]*v106 + v339;
+    const double v352 = qd[0]*v248;
+    const double v353 = 2.0*v279;
+    const double v354 = 2.0*v330;
+    const double v355 = 2.0*p[18]*v189 + 2.0*p[18]*v190 + 2.0*v163*v189 + 2.0*v163*v190;
+    const double v356 = v305*v355;
+    const double v357 = v162*v95;
+    const double v358 = qd[2]*v357;
+    const double v359 = 2.0*v9;
+    const double v360 = v359*v37;
+    const double v361 = v17 + v360;
+    const double v362 = v37*v8;
+    const double v363 = (0.5)*v36 + v362;
+    const double v364 = -p[12]*v10 + v13 + v15 + v363;
+    const double v365 = v36 - v363;
+    const double v366 = v15 + v365;
+    const double v367 = (0.5)*v364 - 0.5*v366;
+    const double v368 = v205*v367 - v207*v361 + v46;
+    const double v369 = v368 + v48;
+    const double v370 = -v369 + v47;
+    const double v371 = p[13] + p[9]*v20;
+    const double v372 = -0.5*v371;
+    const double v373 = v205*v372;
+    const double v374 = v59 + v61;
+    const double v375 = -v374 + v60;
+    const double v376 = v370 - v373 + v375;
+    const double v377 = v237*v82;
+    const double v378 = v376 + v377;
+    const double v379 = qd[0]*v378;
+    const double v380 = 2.0*qd[5];
+    const double v381 = 2.0*qd[6];
+    const double v382 = 2.0*qd[3];
+    const double v383 = 2.0*qd[4];
+    const double v384 = v46 + v48;
+    const double v385 = -v384 + v47;
+    const double v386 = v359*v52;
+    const double v387 = v30 - v386;
+    const double v388 = v52*v8;
+    const double v389 = v388 + (0.5)*v51;
+    const double v390 = -p[11]*v23 + v26 + v28 + v389;
+    const double v391 = -v389 + v51;
+    const double v392 = v28 + v391;
+    const double v393 = (0.5)*v390 - 0.5*v392;
+    const double v394 = v229*v387 - v231*v393 + v59;
+    const double v395 = v394 + v61;
+    const double v396 = -v395 + v60;
+    const double v397 = p[14] + p[10]*v33;
+    const double v398 = -0.5*v397;
+    const double v399 = v231*v398;
+    const double v400 = v385 + v396 + v399;
+    const double v401 = v107*v82 - v139*(-v109 + v112 + v114 + v117 + v120 - v121 - v124 - v125 - v128 + v129 - v134 + v137 + v138) + v4*(q[3]*v154 - q[4]*v154 + v115*v159 + v116*v140 + v118*v159 + v119*v140 - v132*v156 + v140*v142 + v140*v144 + v141*v159 + v143*v159 - 1.1376514874198216*v146 - 0.18153357377277393*v148 + v149*v81 + v150*v81 - v151*v152 + v152*v153 - v156*v157);
+    const double v402 = v400 + v401;
+    const double v403 = qd[0]*v402 + qd[1]*v357;
+    const double v404 = v69*(v140*v71 - v179 + v180 + v185);
+    const double v405 = qd[0]*v404;
+    const double v406 = v69*(v140*v73 + v179 - v180 + v188);
+    const double v407 = qd[0]*v406;
+    const double v408 = 2.0*v189*v86 + 2.0*v190*v86 + 2.0*v191 - 2.0*v192 + 2.0*v193 - 2.0*v194;
+    const double v409 = qd[0]*v408;
+    const double v410 = 2.0*v189*v89 + 2.0*v190*v89 - 2.0*v191 + 2.0*v192 - 2.0*v193 + 2.0*v194;
+    const double v411 = qd[0]*v410;
+    const double v412 = -qd[0]*v357;
+    const double v413 = 2.0*qd[0];
+    const double v414 = qd[2]*v324;
+    const double v415 = p[3]*v1;
+    const double v416 = p[3]*v3;
+    const double v417 = v85*v95;
+    const double v418 = v237*v98;
+    const double v419 = v100*v237;
+    const double v420 = v166*v69 - v168*v4;
+    const double v421 = v107*v98 + v173*v70 + v176*v4;
+    const double v422 = v100*v107 + v177*v70 + v178*v4;
+    const double v423 = 2.0*v176;
+    const double v424 = 2.0*v178;
+    const double v425 = v195*v97 + v196*v97 + v197 + v198;
+    const double v426 = v107*v97 + v145 + v199*v69 + v200 + v201 + v202 - v203;
+    const double v427 = v195*v99 + v196*v99 - v197 - v198;
+    const double v428 = v107*v99 + v147 - v200 - v201 - v202 + v203 + v204*v69;
+    const double v429 = (0.5)*v418 - 0.5*v425;
+    const double v430 = (0.5)*v419 - 0.5*v427;
+    const double v431 = (0.5)*v421 - 0.5*v426;
+    const double v432 = (0.5)*v422 - 0.5*v428;
+    const double v433 = (0.5)*v418 + (0.5)*v425;
+    const double v434 = (0.5)*v419 + (0.5)*v427;
+    const double v435 = v290 - 0.5*v324;
+    const double v436 = (0.5)*v421 + (0.5)*v426;
+    const double v437 = (0.5)*v422 + (0.5)*v428;
+    const double v438 = -v290 + (0.5)*v294;
+    const double v439 = 4.0*v18;
+    const double v440 = 8.0*v19;
+    const double v441 = -2.0*v206 - 2.0*v208 + v217 + v361*v440 + v367*v439;
+    const double v442 = v219 + v441;
+    const double v443 = v218 - v442;
+    const double v444 = v372*v439;
+    const double v445 = v226 + v228;
+    const double v446 = v227 - v445;
+    const double v447 = v443 - v444 + v446;
+    const double v448 = -v102*(v237*v237) + v80*v82;
+    const double v449 = v447 + v448;
+    const double v450 = -v95*(v195 + v2*v69);
+    const double v451 = -v206 - v208 + v217;
+    const double v452 = v219 + v451;
+    const double v453 = v218 - v452;
+    const double v454 = v226 + v230 + v232;
+    const double v455 = v228 + v454;
+    const double v456 = v227 - v455;
+    const double v457 = v453 + v456;
+    const double v458 = -v238 + v457;
+    const double v459 = v80*v98;
+    const double v460 = v85*v98;
+    const double v461 = (0.5)*v459 - 0.5*v460;
+    const double v462 = v100*v80;
+    const double v463 = v100*v85;
+    const double v464 = (0.5)*v462 - 0.5*v463;
+    const double v465 = -qdd[5]*v418 - qd[5]*v248*v461 - qdd[6]*v419 - qd[6]*v248*v464 + qdd[0]*v378 + qdd[1]*v417 + v242*v449 + v243*v318 + v244*v320 + v245*v450 - v246*v458;
+    const double v466 = -v238 + v457;
+    const double v467 = v217 + v219;
+    const double v468 = v218 - v467;
+    const double v469 = 4.0*v31;
+    const double v470 = 8.0*v32;
+    const double v471 = v226 + 2.0*v230 + 2.0*v232 + v387*v470 + v393*v469;
+    const double v472 = v228 + v471;
+    const double v473 = v227 - v472;
+    const double v474 = v398*v469;
+    const double v475 = v468 + v473 - v474;
+    const double v476 = v107*v236 - v139*(-q[3]*v255 + q[3]*v256 + q[4]*v255 - q[4]*v256 + v115*v257 + v116*v253 + v118*v257 + v119*v253 - v133*v155 - v140*(3.0*v110 + v113 + v115*v258 + 3.0*v116 + v118*v258 + 3.0*v119 - v132*v135) + v141*v257 + v142*v253 + v143*v257 + v144*v253 - 3.4129544622594645*v146 - 0.5446007213183218*v148 - v152*v251 - 48.0*v155*v157 - v233*v252 + 4.697950536237754*v254*v71 + 2.6036153706643157*v254*v73) + (0.3333333333333333)*v4*(v109 + v111*(v115*v163 + v116 + v118*v163 + v119 - v132*v158 + v141*v163 + v142 + v143*v163 + v144 - v157*v158) - v112 - v114 - v117 - v120 + v121 + v124 + v125 + v128 - v129 + v134 - v137 - v138 + v235*v252 + v251*v70) + v5*v82;
+    const double v477 = v475 - v476;
+    const double v478 = -v69*(v161*v88 + v161*v91 + v161*v93 - v161*v94 - v2*v95);
+    const double v479 = -v166*v4 - v168*v69;
+    const double v480 = v169*v69;
+    const double v481 = v171*v69;
+    const double v482 = v152*v173 - v264 + v5*v98;
+    const double v483 = v264 - v4*(p[3]*v97 + v167 + v199 + v265);
+    const double v484 = (0.5)*v482 + (0.5)*v483;
+    const double v485 = v100*v5 + v152*v177 - v266;
+    const double v486 = v266 - v4*(p[3]*v99 - v167 + v204 - v265);
+    const double v487 = (0.5)*v485 + (0.5)*v486;
+    const double v488 = -qdd[5]*v421 - qdd[6]*v422 + qdd[3]*v170 + qdd[4]*v172 + qdd[0]*v402 + qdd[1]*v357 + qd[1]*v268 + qd[1]*v270 - qdd[2]*v420 + v242*v466 + v243*v333 + v244*v337 - v246*v477 - v247*v478 + v271*v479 - v275*v480 - v276*v481 - v277*v484 - v278*v487;
+    const double v489 = v158*v189;
+    const double v490 = -qdd[5]*v346 + qdd[6]*v349 + qdd[0]*v404 + qdd[2]*v170 - v242*v318 + v243*v344 - v244*v489 + v246*v333 - v271*v480;
+    const double v491 = -qdd[5]*v349 + qdd[6]*v346 - qdd[0]*v406 - qdd[2]*v172 + v242*v320 + v243*v489 - v244*v344 - v246*v337 + v271*v481;
+    const double v492 = v158*(v189 + v190);
+    const double v493 = -qdd[3]*v346 + qdd[4]*v349 - qdd[0]*v408 + qdd[1]*v425 - qdd[2]*v426 + v245*v460 - v247*v267 + v271*v483 - v272*v355 + v273*v492 - v275*v279 + v276*v330;
+    const double v494 = qdd[3]*v349 - qdd[4]*v346 - qdd[0]*v410 + qdd[1]*v427 - qdd[2]*v428 + v245*v463 - v247*v269 + v271*v486 + v272*v492 - v273*v355 + v275*v330 - v276*v279;
+    const double v495 = (0.5)*v459 + (0.5)*v460;
+    const double v496 = (0.5)*v462 + (0.5)*v463;
+    const double v497 = v283*(p[1]*p[12] + p[5]*p[9] - v11) + v284 + v288;
+    const double v498 = -p[0]*v101*v237;
+    const double v499 = qdd[0]*v417 + v291 - v295 - v296 - v297 + v298*v495 + v299*v496 + v301 + v303 - v305*v449 - v309 + v314 + v497 - v498;
+    const double v500 = v16*v315 - v284 + v317;
+    const double v501 = -qdd[0]*v357 - qd[0]*v268 - qd[0]*v270 + v246*v478 - v291 + v295 + v296 + v297 - v301 - v303 + v305*v466 + v309 - v314 + v500;
+    const double v502 = -qdd[2]*v105 + v271*v300 + v319;
+    const double v503 = -qdd[2]*v106 + v271*v302 + v321;
+    const double v504 = qdd[0]*v425 - v246*v267;
+    const double v505 = qdd[0]*v427 - v246*v269;
+    const double v506 = v286*v29 - v288 + v322;
+    const double v507 = v305*v458 + v326 + v506;
+    const double v508 = (0.5)*v482 - 0.5*v483;
+    const double v509 = (0.5)*v485 - 0.5*v486;
+    const double v510 = -v285*(p[2]*p[11] + p[6]*p[10] + v24) + v317 + v322;
+    const double v511 = cs[0]*v416 - sn[0]*v415;
+    const double v512 = p[0]*(-v101*v511 + v104*v4 + (0.5)*v234);
+    const double v513 = -qdd[0]*v420 + v242*v478 + v298*v508 + v299*v509 + v305*v477 + v326 + v510 + v512;
+    const double v514 = v327*v98;
+    const double v515 = qd[3]*v329 - qd[4]*v332 + qdd[0]*v170 - qdd[1]*v105 + qdd[2]*v423 + v279*v298 - v331 - v334 - v335 + v514;
+    const double v516 = v100*v327;
+    const double v517 = -qd[3]*v332 + qd[4]*v329 + qdd[0]*v172 - qdd[1]*v106 + qdd[2]*v424 + v279*v299 - v336 - v338 - v339 + v516;
+    const double v518 = qdd[0]*v426 - v340;
+    const double v519 = qdd[0]*v428 - v341;
+    const double v520 = v319 + v342;
+    const double v521 = -qdd[0]*v170 - v279*v298 + v331 + v334 + v342 - v514;
+    const double v522 = 12.362363368326191*v343;
+    const double v523 = v345 - v522;
+    const double v524 = (0.5)*v158*v271 + (0.5)*v304*v489;
+    const double v525 = v321 + v351;
+    const double v526 = -qdd[0]*v172 - v279*v299 + v336 + v338 + v351 - v516;
+    const double v527 = 485.51881851337106*v343;
+    const double v528 = v345 - v527;
+    const double v529 = qdd[0]*v418 + v352*v495;
+    const double v530 = qdd[0]*v421 + v243*v353 - v244*v354 + v340 + v348*v508;
+    const double v531 = v279*v348 + v347;
+    const double v532 = v330*v348 + v350;
+    const double v533 = v356 - v522;
+    const double v534 = v305*v492;
+    const double v535 = qdd[0]*v419 + v352*v496;
+    const double v536 = qdd[0]*v422 - v243*v354 + v244*v353 + v341 + v348*v509;
+    const double v537 = v356 - v527;
+    const double v538 = qd[5]*v408 + qd[6]*v410 + qd[3]*v404 + qd[4]*v406 - qd[1]*v378 + qd[2]*v402;
+    const double v539 = -v248*v417 + v358 - v379 + v380*v429 + v381*v430;
+    const double v540 = v170*v382 + v172*v383 - v274*v420 - v380*v431 - v381*v432 + v403;
+    const double v541 = v170*v274 + v405;
+    const double v542 = v172*v274 + v407;
+    const double v543 = v248*v429 - v274*v431 + v409;
+    const double v544 = v248*v430 - v274*v432 + v411;
+    const double v545 = v358 + v379 - v380*v433 - v381*v434;
+    const double v546 = v294*(qd[1] - qd[2]);
+    const double v547 = qd[1]*v294 + v105*v382 + v106*v383 - v274*v435 + v412;
+    const double v548 = v105*v274;
+    const double v549 = v106*v274;
+    const double v550 = v413*v433;
+    const double v551 = v413*v434;
+    const double v552 = -v380*v436 - v381*v437 + v403;
+    const double v553 = v248*v438 + v412 + v414;
+    const double v554 = qd[3]*v423 + qd[4]*v424 + qd[1]*v324 - v414;
+    const double v555 = qd[2]*v423;
+    const double v556 = qd[2]*v424;
+    const double v557 = v413*v436;
+    const double v558 = v413*v437;
+    const double v559 = -v346*v380 + v349*v381 + v405;
+    const double v560 = 2.0*qd[1]*v105;
+    const double v561 = v346*v413;
+    const double v562 = v349*v413;
+    const double v563 = v346*v381 - v349*v380 - v407;
+    const double v564 = 2.0*qd[1]*v106;
+    const double v565 = -v248*v433 + v274*v436 + v346*v382 - v349*v383 + v409;
+    const double v566 = -v248*v434 + v274*v437 + v346*v383 - v349*v382 + v411;
+    dtau_dq[0] = 0.0;
+    dtau_dq[1] = -v465;
+    dtau_dq[2] = v488;
+    dtau_dq[3] = v490;
+    dtau_dq[4] = -v491;
+    dtau_dq[5] = -v493;
+    dtau_dq[6] = -v494;
+    dtau_dq[7] = 0.0;
+    dtau_dq[8] = -v499;
+    dtau_dq[9] = -v501;
+    dtau_dq[10] = v502;
+    dtau_dq[11] = v503;
+    dtau_dq[12] = -v504;
+    dtau_dq[13] = -v505;
+    dtau_dq[14] = 0.0;
+    dtau_dq[15] = -v507;
+    dtau_dq[16] = v513;
+    dtau_dq[17] = v515;
+    dtau_dq[18] = v517;
+    dtau_dq[19] = v518;
+    dtau_dq[20] = v519;
+    dtau_dq[21] = 0.0;
+    dtau_dq[22] = v520;
+    dtau_dq[23] = -v521;
+    dtau_dq[24] = -v523;
+    dtau_dq[25] = v524;
+    dtau_dq[26] = v347;
+    dtau_dq[27] = -v350;
+    dtau_dq[28] = 0.0;
+    dtau_dq[29] = v525;
+    dtau_dq[30] = -v526;
+    dtau_dq[31] = v524;
+    dtau_dq[32] = -v528;
+    dtau_dq[33] = -v350;
+    dtau_dq[34] = v347;
+    dtau_dq[35] = 0.0;
+    dtau_dq[36] = v529;
+    dtau_dq[37] = -v530;
+    dtau_dq[38] = -v531;
+    dtau_dq[39] = v532;
+    dtau_dq[40] = -v533;
+    dtau_dq[41] = v534;
+    dtau_dq[42] = 0.0;
+    dtau_dq[43] = v535;
+    dtau_dq[44] = -v536;
+    dtau_dq[45] = v532;
+    dtau_dq[46] = -v531;
+    dtau_dq[47] = v534;
+    dtau_dq[48] = -v537;
+    dtau_dqd[0] = v538;
+    dtau_dqd[1] = v539;
+    dtau_dqd[2] = v540;
+    dtau_dqd[3] = v541;
+    dtau_dqd[4] = v542;
+    dtau_dqd[5] = v543;
+    dtau_dqd[6] = v544;
+    dtau_dqd[7] = v545;
+    dtau_dqd[8] = v546;
+    dtau_dqd[9] = -v547;
+    dtau_dqd[10] = -v548;
+    dtau_dqd[11] = -v549;
+    dtau_dqd[12] = -v550;
+    dtau_dqd[13] = -v551;
+    dtau_dqd[14] = -v552;
+    dtau_dqd[15] = v553;
+    dtau_dqd[16] = v554;
+    dtau_dqd[17] = v555;
+    dtau_dqd[18] = v556;
+    dtau_dqd[19] = v557;
+    dtau_dqd[20] = v558;
+    dtau_dqd[21] = -v559;
+    dtau_dqd[22] = v560;
+    dtau_dqd[23] = -v555;
+    dtau_dqd[24] = 0.0;
+    dtau_dqd[25] = 0.0;
+    dtau_dqd[26] = v561;
+    dtau_dqd[27] = -v562;
+    dtau_dqd[28] = v563;
+    dtau_dqd[29] = v564;
+    dtau_dqd[30] = -v556;
+    dtau_dqd[31] = 0.0;
+    dtau_dqd[32] = 0.0;
+    dtau_dqd[33] = -v562;
+    dtau_dqd[34] = v561;
+    dtau_dqd[35] = -v565;
+    dtau_dqd[36] = v550;
+    dtau_dqd[37] = -v557;
+    dtau_dqd[38] = -v561;
+    dtau_dqd[39] = v562;
+    dtau_dqd[40] = 0.0;
+    dtau_dqd[41] = 0.0;
+    dtau_dqd[42] = -v566;
+    dtau_dqd[43] = v551;
+    dtau_dqd[44] = -v558;
+    dtau_dqd[45] = v562;
+    dtau_dqd[46] = -v561;
+    dtau_dqd[47] = 0.0;
+    dtau_dqd[48] = 0.0;
+}
+
 /* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
  * Inputs: q[7] (q0, q1, q2, link5_nu1, link5_nu2, link5_eta1, link5_eta2), p[21] (see fivebar_flexible_parameter_names); output J[21]
  * 58 operations; sine and cosine of 2 angles in one fivebar_flexible_sincos call. */
@@ -2624,34 +3298,152 @@ static int fivebar_flexible_cholesky(double *D)
     return 0;
 }
 
-int fivebar_flexible_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* x = D^-1 x in place for the Cholesky factor of fivebar_flexible_cholesky (L in the lower triangle of L):
+ * L y = x, then L^T x = y. */
+static void fivebar_flexible_solve(const double *L, double *x)
 {
-    double D[7 * 7];
-    double b[7];
-    const double zero[7] = { 0.0 };
     int i, k;
-    fivebar_flexible_inertia(q, p, D);
-    fivebar_flexible_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 7; ++i) { /* L y = x */
+        for (k = 0; k < i; ++k) {
+            x[i] -= L[i * 7 + k] * x[k];
+        }
+        x[i] /= L[i * 7 + i];
+    }
+    for (i = 7 - 1; i >= 0; --i) { /* L^T x = y */
+        for (k = i + 1; k < 7; ++k) {
+            x[i] -= L[k * 7 + i] * x[k];
+        }
+        x[i] /= L[i * 7 + i];
+    }
+}
+
+/* Minv = D^-1 = R^T R with R = L^-1 (lower triangular, by forward substitution from the Cholesky factor L of
+ * fivebar_flexible_cholesky), N*N row-major and symmetric: about N^3/3 multiplications, half those of solving D X = I. */
+static void fivebar_flexible_inverse(const double *L, double *Minv)
+{
+    double R[7 * 7], r[7];
+    int i, j, k;
     for (i = 0; i < 7; ++i) {
-        b[i] = tau[i] - b[i];
+        r[i] = 1.0 / L[i * 7 + i];
+    }
+    for (j = 0; j < 7; ++j) { /* column j of R: L R = I */
+        R[j * 7 + j] = r[j];
+        for (i = j + 1; i < 7; ++i) {
+            double t = 0.0;
+            for (k = j; k < i; ++k) {
+                t -= L[i * 7 + k] * R[k * 7 + j];
+            }
+            R[i * 7 + j] = t * r[i];
+        }
+    }
+    for (i = 0; i < 7; ++i) { /* Minv[i][j] = sum over k >= max(i, j) of R[k][i] R[k][j] */
+        for (j = i; j < 7; ++j) {
+            double t = 0.0;
+            for (k = j; k < 7; ++k) {
+                t += R[k * 7 + i] * R[k * 7 + j];
+            }
+            Minv[i * 7 + j] = t;
+            Minv[j * 7 + i] = t;
+        }
+    }
+}
+
+/* qdd = D^-1 (tau - bias) with D(q) = L L^T factored in D (lower triangle). Returns 0, or 1 when D is not
+ * positive definite. */
+static int fivebar_flexible_accelerations(const double *q, const double *qd, const double *tau, const double *p, double *D, double *qdd)
+{
+    const double zero[7] = { 0.0 };
+    int i;
+    fivebar_flexible_inertia(q, p, D);
+    fivebar_flexible_inverse_dynamics(q, qd, zero, p, qdd);
+    for (i = 0; i < 7; ++i) {
+        qdd[i] = tau[i] - qdd[i];
     }
     if (fivebar_flexible_cholesky(D) != 0) {
         return 1;
     }
-    for (i = 0; i < 7; ++i) { /* L y = b */
-        double t = b[i];
-        for (k = 0; k < i; ++k) {
-            t -= D[i * 7 + k] * qdd[k];
-        }
-        qdd[i] = t / D[i * 7 + i];
+    fivebar_flexible_solve(D, qdd);
+    return 0;
+}
+
+int fivebar_flexible_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[7 * 7];
+    return fivebar_flexible_accelerations(q, qd, tau, p, D, qdd);
+}
+
+/* P = -M X for N*N row-major matrices (M = D^-1 symmetric): each row of P a combination of the rows of X,
+ * the inner loop over the N columns (no dependency between rows, unlike a triangular solve). */
+static void fivebar_flexible_negated_product(const double *M, const double *X, double *P)
+{
+    int i, k, c;
+    for (i = 0; i < 7 * 7; ++i) {
+        P[i] = 0.0;
     }
-    for (i = 7 - 1; i >= 0; --i) { /* L^T qdd = y */
-        double t = qdd[i];
-        for (k = i + 1; k < 7; ++k) {
-            t -= D[k * 7 + i] * qdd[k];
+    for (i = 0; i < 7; ++i) {
+        for (k = 0; k < 7; ++k) {
+            const double m = M[i * 7 + k];
+            for (c = 0; c < 7; ++c) {
+                P[i * 7 + c] -= m * X[k * 7 + c];
+            }
         }
-        qdd[i] = t / D[i * 7 + i];
     }
+}
+
+/* Minv = D^-1, then dqdd_dq = -Minv dtau_dq and dqdd_dqd = -Minv dtau_dqd, the inverse dynamics derivatives taken
+ * at the qdd of forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau). One Cholesky factor
+ * of D gives qdd and Minv. Returns 0, or 1 when D is not positive definite. */
+static int fivebar_flexible_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *Minv)
+{
+    double L[7 * 7], dtau_dq[7 * 7], dtau_dqd[7 * 7];
+    double qdd[7];
+    if (fivebar_flexible_accelerations(q, qd, tau, p, L, qdd) != 0) {
+        return 1;
+    }
+    fivebar_flexible_inverse_dynamics_derivatives(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    fivebar_flexible_inverse(L, Minv);
+    fivebar_flexible_negated_product(Minv, dtau_dq, dqdd_dq);
+    fivebar_flexible_negated_product(Minv, dtau_dqd, dqdd_dqd);
+    return 0;
+}
+
+int fivebar_flexible_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+{
+    return fivebar_flexible_fd_derivatives(q, qd, tau, p, dqdd_dq, dqdd_dqd, dqdd_dtau);
+}
+
+int fivebar_flexible_A(const double *q, const double *qd, const double *tau, const double *p, double *A)
+{
+    double dq[7 * 7], dqd[7 * 7], Minv[7 * 7];
+    int i, j;
+    if (fivebar_flexible_fd_derivatives(q, qd, tau, p, dq, dqd, Minv) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 7; ++i) {
+        for (j = 0; j < 7; ++j) {
+            A[i * 14 + j] = 0.0;
+            A[i * 14 + 7 + j] = (i == j) ? 1.0 : 0.0;
+            A[(7 + i) * 14 + j] = dq[i * 7 + j];
+            A[(7 + i) * 14 + 7 + j] = dqd[i * 7 + j];
+        }
+    }
+    return 0;
+}
+
+int fivebar_flexible_B(const double *q, const double *qd, const double *tau, const double *p, double *B)
+{
+    double L[7 * 7];
+    int i;
+    (void)qd;
+    (void)tau;
+    fivebar_flexible_inertia(q, p, L);
+    if (fivebar_flexible_cholesky(L) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 7 * 7; ++i) {
+        B[i] = 0.0;
+    }
+    fivebar_flexible_inverse(L, B + 49);
     return 0;
 }
 

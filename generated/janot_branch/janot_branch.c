@@ -895,6 +895,649 @@ void janot_branch_inverse_dynamics(const double *q, const double *qd, const doub
     tau[2] = v184;
 }
 
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+ * Inputs: q[3] (q1, q2, q5), qd[3] (q1, q2, q5), qdd[3] (q1, q2, q5), p[48] (see janot_branch_parameter_names); outputs dtau_dq[9], dtau_dqd[9]
+ * 1374 operations; sine and cosine of 3 angles in one janot_branch_sincos call. */
+void janot_branch_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    double sn[3], cs[3];
+    janot_branch_sincos(3, q, sn, cs);
+    const double v0 = q[1] - q[2];
+    const double v1 = cs[1]*qd[0];
+    const double v2 = qd[1]*v1;
+    const double v3 = sn[1]*qd[0];
+    const double v4 = qd[1]*v3;
+    const double v5 = (v1*v1);
+    const double v6 = v1*v3;
+    const double v7 = qd[1]*p[20];
+    const double v8 = cos(v0);
+    const double v9 = sin(v0);
+    const double v10 = cs[0]*p[0];
+    const double v11 = cs[1]*v10;
+    const double v12 = (qd[1]*qd[1]);
+    const double v13 = v12 + v5;
+    const double v14 = -p[1]*v13 + v11;
+    const double v15 = sn[1]*v10;
+    const double v16 = qdd[1] + v6;
+    const double v17 = -p[1]*v16 + v15;
+    const double v18 = v14*v8 + v17*v9;
+    const double v19 = v14*v9 - v17*v8;
+    const double v20 = -v1*v9 + v3*v8;
+    const double v21 = (v20*v20);
+    const double v22 = v1*v8 + v3*v9;
+    const double v23 = (v22*v22);
+    const double v24 = v20*v22;
+    const double v25 = v22*p[24];
+    const double v26 = v20*p[24];
+    const double v27 = qd[1] - qd[2];
+    const double v28 = -qd[1] + v27;
+    const double v29 = (v28*v28);
+    const double v30 = v23 + v29;
+    const double v31 = -p[2]*v30 + v18;
+    const double v32 = qdd[1] - qdd[2];
+    const double v33 = -qdd[1] + v32;
+    const double v34 = -v24 + v33;
+    const double v35 = -p[2]*v34 + v19;
+    const double v36 = cs[2]*v35 + sn[2]*v31;
+    const double v37 = -cs[2]*v31 + sn[2]*v35;
+    const double v38 = cs[2]*qd[0];
+    const double v39 = qd[2]*v38;
+    const double v40 = sn[2]*qd[0];
+    const double v41 = qd[2]*v40;
+    const double v42 = (v38*v38);
+    const double v43 = v38*v40;
+    const double v44 = cs[2]*v10;
+    const double v45 = (qd[2]*qd[2]);
+    const double v46 = v42 + v45;
+    const double v47 = -p[3]*v46 + v44;
+    const double v48 = sn[2]*v10;
+    const double v49 = qdd[2] + v43;
+    const double v50 = -p[3]*v49 + v48;
+    const double v51 = v47*v8 - v50*v9;
+    const double v52 = v47*v9 + v50*v8;
+    const double v53 = -v38*v8 + v40*v9;
+    const double v54 = (v53*v53);
+    const double v55 = v38*v9 + v40*v8;
+    const double v56 = v53*v55;
+    const double v57 = qd[2] + v27;
+    const double v58 = v57*p[31];
+    const double v59 = v53*v58;
+    const double v60 = v55*v58;
+    const double v61 = sn[2]*qdd[0];
+    const double v62 = v39 + v61;
+    const double v63 = cs[2]*qdd[0];
+    const double v64 = v41 - v63;
+    const double v65 = v62*v8 - v64*v9;
+    const double v66 = v27*v53 - v65;
+    const double v67 = v53*p[32];
+    const double v68 = -v57*v67 + v59 + v66*p[33];
+    const double v69 = v62*v9 + v64*v8;
+    const double v70 = v27*v55 + v69;
+    const double v71 = sn[0]*p[0];
+    const double v72 = v41 + v64;
+    const double v73 = p[3]*v72 + v71;
+    const double v74 = v55*v57;
+    const double v75 = v70 + v74;
+    const double v76 = p[15]*v75 + v73;
+    const double v77 = p[9]*v76;
+    const double v78 = v55*p[33];
+    const double v79 = p[15]*v77 - v57*v78 + v60 + v70*p[32];
+    const double v80 = v68*v9 + v79*v8;
+    const double v81 = v68*v8;
+    const double v82 = v79*v9;
+    const double v83 = qd[2]*p[28];
+    const double v84 = v38*v83;
+    const double v85 = v40*v83;
+    const double v86 = -cs[2]*v20 + sn[2]*v22;
+    const double v87 = (v86*v86);
+    const double v88 = qd[2] + v28;
+    const double v89 = (v88*v88);
+    const double v90 = v87 + v89;
+    const double v91 = -p[13]*v90 + v36;
+    const double v92 = p[7]*v91;
+    const double v93 = qdd[2] + v33;
+    const double v94 = cs[2]*v22 + sn[2]*v20;
+    const double v95 = v86*v94;
+    const double v96 = v93 - v95;
+    const double v97 = -p[13]*v96 + v37;
+    const double v98 = p[7]*v97;
+    const double v99 = -cs[2]*v98 + sn[2]*v92;
+    const double v100 = cs[2]*v92 + sn[2]*v98;
+    const double v101 = sn[1]*qdd[0];
+    const double v102 = v101 + v2;
+    const double v103 = cs[1]*qdd[0];
+    const double v104 = -v103 + v4;
+    const double v105 = v102*v8 + v104*v9;
+    const double v106 = -v105 + v22*v27;
+    const double v107 = v102*v9 - v104*v8;
+    const double v108 = v107 + v20*v27;
+    const double v109 = -cs[2]*v108 + sn[2]*v106;
+    const double v110 = qd[2]*v86 + v109;
+    const double v111 = v86*p[26];
+    const double v112 = v88*p[27];
+    const double v113 = v110*p[25] - v111*v88 + v112*v86;
+    const double v114 = cs[2]*v106 + sn[2]*v108;
+    const double v115 = qd[2]*v94 + v114;
+    const double v116 = v104 + v4;
+    const double v117 = p[1]*v116 + v71;
+    const double v118 = v20*v28;
+    const double v119 = v108 + v118;
+    const double v120 = -p[2]*v119 + v117;
+    const double v121 = v88*v94;
+    const double v122 = v115 + v121;
+    const double v123 = -p[13]*v122 + v120;
+    const double v124 = p[7]*v123;
+    const double v125 = v94*p[25];
+    const double v126 = -p[13]*v124 + v112*v94 + v115*p[26] - v125*v88;
+    const double v127 = cs[2]*v113 - sn[2]*v126;
+    const double v128 = cs[2]*v126 + sn[2]*v113;
+    const double v129 = v28*p[23];
+    const double v130 = v129*v22;
+    const double v131 = v108*p[24];
+    const double v132 = v129*v20;
+    const double v133 = v106*p[24];
+    const double v134 = v22*v28;
+    const double v135 = v106 + v134;
+    const double v136 = p[11]*v119 + p[12]*v135 - v117;
+    const double v137 = p[6]*v136;
+    const double v138 = v22*p[22] + v26;
+    const double v139 = p[12]*v137 + v106*p[21] + v128 + v130 - v131 - v138*v28;
+    const double v140 = v20*p[21] + v25;
+    const double v141 = p[2]*v124 + v127;
+    const double v142 = p[11]*v137 + v108*p[22] + v132 - v133 - v140*v28 - v141;
+    const double v143 = v139*v9 + v142*v8;
+    const double v144 = v139*v8;
+    const double v145 = v142*v9;
+    const double v146 = v144 - v145;
+    const double v147 = -qd[1]*p[19] + v3*p[20];
+    const double v148 = v1*v147;
+    const double v149 = v147*v3;
+    const double v150 = v55*p[32];
+    const double v151 = v53*p[33];
+    const double v152 = -v81 + v82;
+    const double v153 = v3*p[18];
+    const double v154 = v1*p[17];
+    const double v155 = v40*p[30];
+    const double v156 = v38*p[29];
+    const double v157 = v20*p[22] - v25;
+    const double v158 = v22*p[21];
+    const double v159 = cs[2]*v71;
+    const double v160 = sn[2]*v71;
+    const double v161 = v159*v9 + v160*v8;
+    const double v162 = p[9]*v161;
+    const double v163 = p[15]*v162;
+    const double v164 = cs[1]*v71;
+    const double v165 = sn[1]*v71;
+    const double v166 = v164*v8 + v165*v9;
+    const double v167 = p[6]*v166;
+    const double v168 = v164*v9 - v165*v8;
+    const double v169 = p[6]*v168;
+    const double v170 = -cs[2]*v166 + sn[2]*v168;
+    const double v171 = p[7]*v170;
+    const double v172 = p[13]*v171;
+    const double v173 = cs[2]*v168 + sn[2]*v166;
+    const double v174 = p[7]*v173;
+    const double v175 = cs[2]*v174 + sn[2]*v171;
+    const double v176 = p[2]*v175 + v172;
+    const double v177 = p[11]*v169 - p[12]*v167 + v176;
+    const double v178 = v163 + v177;
+    const double v179 = v24 + v33;
+    const double v180 = -p[11]*v30 + p[12]*v179 + v18;
+    const double v181 = p[6]*v180;
+    const double v182 = v181 + v99;
+    const double v183 = v21 + v29;
+    const double v184 = p[11]*v34 + p[12]*v183 - v19;
+    const double v185 = p[6]*v184;
+    const double v186 = -v100 + v185;
+    const double v187 = -v182*v8 + v186*v9;
+    const double v188 = -v54 + (v55*v55);
+    const double v189 = p[15]*v188 + v51;
+    const double v190 = p[9]*v189;
+    const double v191 = p[15]*v190 + v150*v55 + v151*v53 - v53*v67 - v55*v78;
+    const double v192 = 2.0*v6;
+    const double v193 = -p[1]*v192 + v15;
+    const double v194 = (v3*v3) - v5;
+    const double v195 = p[1]*v194 + v11;
+    const double v196 = v19 + v193*v8 - v195*v9;
+    const double v197 = p[6]*v196;
+    const double v198 = v18 - v193*v9 - v195*v8;
+    const double v199 = p[6]*v198;
+    const double v200 = cs[2]*v196 + sn[2]*v198;
+    const double v201 = p[7]*v200;
+    const double v202 = p[13]*v201;
+    const double v203 = -cs[2]*v198 + sn[2]*v196;
+    const double v204 = p[7]*v203;
+    const double v205 = -cs[2]*v204 + sn[2]*v201;
+    const double v206 = p[2]*v205 + v202;
+    const double v207 = p[11]*v199 + p[12]*v197 + v206;
+    const double v208 = v191 + v207;
+    const double v209 = 2.0*v43;
+    const double v210 = -p[3]*v209 + v48;
+    const double v211 = (v40*v40) - v42;
+    const double v212 = p[3]*v211 + v44;
+    const double v213 = v210*v9 - v212*v8 + v51;
+    const double v214 = p[9]*v213;
+    const double v215 = p[15]*v214;
+    const double v216 = -v158 + v26;
+    const double v217 = 2.0*v24;
+    const double v218 = v21 - v23;
+    const double v219 = p[11]*v217 - p[12]*v218 + v19;
+    const double v220 = p[6]*v219;
+    const double v221 = p[11]*v218 + p[12]*v217 + v18;
+    const double v222 = p[6]*v221;
+    const double v223 = p[2]*v217 + v19;
+    const double v224 = p[2]*v218 + v18;
+    const double v225 = -cs[2]*v223 - sn[2]*v224 + v36;
+    const double v226 = p[7]*v225;
+    const double v227 = p[13]*v226;
+    const double v228 = cs[2]*v224 - sn[2]*v223 + v37;
+    const double v229 = p[7]*v228;
+    const double v230 = cs[2]*v229 - sn[2]*v226 + v99;
+    const double v231 = -p[2]*v230 + v227;
+    const double v232 = -p[11]*v222 - p[12]*v220 + v138*v22 + v140*v20 - v157*v20 + v216*v22 + v231;
+    const double v233 = v215 - v232;
+    const double v234 = (v57*v57);
+    const double v235 = v234 + v54;
+    const double v236 = -p[15]*v235 + v51;
+    const double v237 = p[9]*v236;
+    const double v238 = qdd[2] + v32;
+    const double v239 = v238 - v56;
+    const double v240 = -p[15]*v239 + v52;
+    const double v241 = p[9]*v240;
+    const double v242 = v237*v8 + v241*v9;
+    const double v243 = sn[2]*qd[2];
+    const double v244 = 2.0*v243;
+    const double v245 = sn[1]*qd[1];
+    const double v246 = 2.0*v245;
+    const double v247 = 2.0*p[15];
+    const double v248 = 2.0*v3;
+    const double v249 = 2.0*v40;
+    const double v250 = 2.0*v20;
+    const double v251 = 2.0*v28;
+    const double v252 = cs[1]*v9 - sn[1]*v8;
+    const double v253 = cs[1]*v8 + sn[1]*v9;
+    const double v254 = -cs[2]*v253 + sn[2]*v252;
+    const double v255 = cs[2]*v252 + sn[2]*v253;
+    const double v256 = cs[2]*v9 + sn[2]*v8;
+    const double v257 = -cs[2]*v8 + sn[2]*v9;
+    const double v258 = sn[1]*p[20];
+    const double v259 = v102 + v2;
+    const double v260 = p[10]*v116 + v71;
+    const double v261 = p[5]*v260;
+    const double v262 = v3*p[17] - v7;
+    const double v263 = v1*p[18];
+    const double v264 = v39 + v62;
+    const double v265 = p[14]*v72 + v71;
+    const double v266 = p[8]*v265;
+    const double v267 = v40*p[29];
+    const double v268 = v38*p[30];
+    const double v269 = v53*v57;
+    const double v270 = v269 + v66;
+    const double v271 = p[3]*v77 + v80;
+    const double v272 = v81 - v82;
+    const double v273 = -qd[2]*v268 - v272 + v62*p[29] + v84;
+    const double v274 = p[14]*v266 - qd[2]*v267 + v271 + v64*p[30] + v85;
+    const double v275 = -v124 + v137;
+    const double v276 = p[1]*v275 + v143;
+    const double v277 = qdd[1]*p[20] + qd[1]*v263 - v102*p[17] + v146 + v148;
+    const double v278 = -p[10]*v261 + qd[1]*v262 - v104*p[18] + v149 + v276;
+    const double v279 = p[9]*v10;
+    const double v280 = p[15]*v279;
+    const double v281 = v280*v9;
+    const double v282 = p[8]*v10;
+    const double v283 = p[3]*v279 + v280*v8;
+    const double v284 = p[14]*v282 + v283;
+    const double v285 = -cs[2]*v284 + sn[2]*v281;
+    const double v286 = p[6]*v10;
+    const double v287 = p[7]*v10;
+    const double v288 = p[13]*v287;
+    const double v289 = cs[2]*v288;
+    const double v290 = p[12]*v286 + v289;
+    const double v291 = sn[2]*v288 + p[2]*v287;
+    const double v292 = p[11]*v286 + v291;
+    const double v293 = v290*v8 - v292*v9;
+    const double v294 = p[5]*v10;
+    const double v295 = v286 + v287;
+    const double v296 = p[1]*v295 + v290*v9 + v292*v8;
+    const double v297 = p[10]*v294 + v296;
+    const double v298 = cs[1]*v297 - sn[1]*v293;
+    const double v299 = v285 - v298;
+    const double v300 = -v150*v57 + v60 + v70*p[33];
+    const double v301 = p[15]*v270;
+    const double v302 = p[9]*v301;
+    const double v303 = p[15]*v302 - v151*v57 + v59 + v66*p[32];
+    const double v304 = -v300*v8 - v303*v9 + v80;
+    const double v305 = p[3]*v302 + v152 - v300*v9 + v303*v8;
+    const double v306 = cs[2]*v305 + sn[2]*v304;
+    const double v307 = v1*p[20];
+    const double v308 = p[1]*v259;
+    const double v309 = p[6]*v308;
+    const double v310 = p[7]*v308;
+    const double v311 = p[13]*v310;
+    const double v312 = cs[2]*v311;
+    const double v313 = p[12]*v309 + v312;
+    const double v314 = sn[2]*v311 + p[2]*v310;
+    const double v315 = p[11]*v309 + v314;
+    const double v316 = v143 + v313*v8 - v315*v9;
+    const double v317 = qd[1]*v153 - v1*v307 - v104*p[17] + v149 + v316;
+    const double v318 = p[10]*v259;
+    const double v319 = p[5]*v318;
+    const double v320 = v309 + v310;
+    const double v321 = p[1]*v320 - v144 + v145 + v313*v9 + v315*v8;
+    const double v322 = -p[10]*v319 + qd[1]*v154 - v102*p[18] + v148 + v3*v307 - v321;
+    const double v323 = cs[1]*v277 - cs[1]*v322 + sn[1]*v278 - sn[1]*v317;
+    const double v324 = v306 - v323;
+    const double v325 = p[3]*v264;
+    const double v326 = p[9]*v325;
+    const double v327 = p[15]*v326;
+    const double v328 = -v327*v9 + v80;
+    const double v329 = -qd[2]*v155 + v328 + v64*p[29] + v85;
+    const double v330 = p[14]*v264;
+    const double v331 = p[8]*v330;
+    const double v332 = p[3]*v326 + v152 + v327*v8;
+    const double v333 = p[14]*v331 - qd[2]*v156 + v332 + v62*p[30] + v84;
+    const double v334 = cs[2]*v273 - cs[2]*v333 + sn[2]*v274 - sn[2]*v329;
+    const double v335 = -p[11]*v135 + p[12]*v119;
+    const double v336 = p[6]*v335;
+    const double v337 = p[2]*v135;
+    const double v338 = p[7]*v337;
+    const double v339 = p[13]*v338;
+    const double v340 = cs[2]*v339 + v127;
+    const double v341 = p[12]*v336 + v108*p[21] + v132 + v133 - v157*v28 - v340;
+    const double v342 = sn[2]*v339 + p[2]*v338 + v128;
+    const double v343 = -p[11]*v336 + v106*p[22] + v130 + v131 + v216*v28 + v342;
+    const double v344 = v143 - v341*v8 - v343*v9;
+    const double v345 = v336 - v338;
+    const double v346 = p[1]*v345 + v146 + v341*v9 - v343*v8;
+    const double v347 = cs[1]*v346 + sn[1]*v344;
+    const double v348 = v334 - v347;
+    const double v349 = p[5]*v165;
+    const double v350 = -cs[2]*v171 + sn[2]*v174;
+    const double v351 = v167 + v350;
+    const double v352 = v169 + v175;
+    const double v353 = v351*v9 - v352*v8;
+    const double v354 = -p[1]*v353 + v177;
+    const double v355 = p[10]*v349 - v354;
+    const double v356 = v178 + v355;
+    const double v357 = p[10]*v194 + v11;
+    const double v358 = p[5]*v357;
+    const double v359 = cs[2]*v201 + sn[2]*v204;
+    const double v360 = v197 + v359;
+    const double v361 = v199 + v205;
+    const double v362 = v187 + v360*v9 + v361*v8;
+    const double v363 = p[1]*v362 + v207;
+    const double v364 = -p[10]*v358 - v1*v154 + v1*v263 + v104*p[20] - v153*v3 + v262*v3 + v363;
+    const double v365 = v208 - v364;
+    const double v366 = -cs[2]*v226 - sn[2]*v229 + v100;
+    const double v367 = v220 + v366;
+    const double v368 = v222 + v230;
+    const double v369 = v187 + v367*v9 + v368*v8;
+    const double v370 = -p[1]*v369 + v232;
+    const double v371 = v233 + v370;
+    const double v372 = p[8]*v160;
+    const double v373 = v159*v8 - v160*v9;
+    const double v374 = p[9]*v373;
+    const double v375 = v162*v8 - v374*v9;
+    const double v376 = p[3]*v375 + v163;
+    const double v377 = p[14]*v372 + v376;
+    const double v378 = -v172 + v178 - v377;
+    const double v379 = 2.0*v56;
+    const double v380 = p[15]*v379 + v52;
+    const double v381 = p[9]*v380;
+    const double v382 = -v190*v8 + v242 - v381*v9;
+    const double v383 = -p[3]*v382 + v191;
+    const double v384 = -v202 + v208 - v383;
+    const double v385 = p[14]*v211 + v44;
+    const double v386 = p[8]*v385;
+    const double v387 = -v210*v8 - v212*v9 + v52;
+    const double v388 = p[9]*v387;
+    const double v389 = -v214*v8 + v242 - v388*v9;
+    const double v390 = -p[3]*v389 + v215;
+    const double v391 = -p[14]*v386 - v155*v40 - v156*v38 + v267*v40 + v268*v38 + v390;
+    const double v392 = v227 + v233 - v391;
+    const double v393 = cs[2]*qd[2];
+    const double v394 = cs[2]*p[30];
+    const double v395 = -v243*v9 + v393*v8;
+    const double v396 = v257*v27 - v395;
+    const double v397 = v257*p[32];
+    const double v398 = v257*v58 + v396*p[33] - v397*v57;
+    const double v399 = v243*v8 + v393*v9;
+    const double v400 = v256*v27 + v399;
+    const double v401 = p[3]*v244;
+    const double v402 = v256*v57;
+    const double v403 = v400 + v402;
+    const double v404 = p[15]*v403 + v401;
+    const double v405 = p[9]*v404;
+    const double v406 = v256*p[33];
+    const double v407 = p[15]*v405 + v256*v58 + v400*p[32] - v406*v57;
+    const double v408 = v398*v8 - v407*v9;
+    const double v409 = cs[2]*v83 - qd[2]*v394 + v393*p[29] - v408;
+    const double v410 = p[14]*v244;
+    const double v411 = p[8]*v410;
+    const double v412 = sn[2]*p[29];
+    const double v413 = p[3]*v405 + v398*v9 + v407*v8;
+    const double v414 = sn[2]*v83 + p[14]*v411 - qd[2]*v412 + v243*p[30] + v413;
+    const double v415 = -cs[2]*v414 + sn[2]*v409;
+    const double v416 = cs[1]*qd[1];
+    const double v417 = cs[1]*p[18];
+    const double v418 = v245*v9 + v416*v8;
+    const double v419 = v253*v27 - v418;
+    const double v420 = v245*v8 - v416*v9;
+    const double v421 = v252*v27 + v420;
+    const double v422 = p[1]*v246;
+    const double v423 = v252*v28;
+    const double v424 = v421 + v423;
+    const double v425 = v253*v28;
+    const double v426 = v419 + v425;
+    const double v427 = p[11]*v424 - p[12]*v426 + v422;
+    const double v428 = p[6]*v427;
+    const double v429 = v252*p[24] - v253*p[22];
+    const double v430 = cs[2]*v421 + sn[2]*v419;
+    const double v431 = qd[2]*v255 + v430;
+    const double v432 = v255*p[26];
+    const double v433 = v112*v255 + v431*p[25] - v432*v88;
+    const double v434 = -cs[2]*v419 + sn[2]*v421;
+    const double v435 = qd[2]*v254 + v434;
+    const double v436 = p[2]*v424 + v422;
+    const double v437 = v254*v88;
+    const double v438 = v435 + v437;
+    const double v439 = p[13]*v438 + v436;
+    const double v440 = p[7]*v439;
+    const double v441 = v254*p[25];
+    const double v442 = p[13]*v440 + v112*v254 + v435*p[26] - v441*v88;
+    const double v443 = -cs[2]*v442 + sn[2]*v433;
+    const double v444 = -p[12]*v428 + v129*v253 + v28*v429 + v419*p[21] + v421*p[24] + v443;
+    const double v445 = v252*p[21] - v253*p[24];
+    const double v446 = cs[2]*v433 + sn[2]*v442 + p[2]*v440;
+    const double v447 = p[11]*v428 + v129*v252 - v28*v445 + v419*p[24] + v421*p[22] + v446;
+    const double v448 = v444*v8 + v447*v9;
+    const double v449 = cs[1]*v147 + qd[1]*v417 + v1*v258 - v416*p[17] + v448;
+    const double v450 = p[10]*v246;
+    const double v451 = p[5]*v450;
+    const double v452 = sn[1]*p[17];
+    const double v453 = v428 + v440;
+    const double v454 = p[1]*v453 - v444*v9 + v447*v8;
+    const double v455 = sn[1]*v147 - p[10]*v451 + qd[1]*v452 - v245*p[18] + v258*v3 - v454;
+    const double v456 = cs[1]*v455 - sn[1]*v449;
+    const double v457 = v415 + v456;
+    const double v458 = p[34] + v457;
+    const double v459 = v151 + v53*p[31] - v67;
+    const double v460 = v247*v55;
+    const double v461 = p[9]*v460;
+    const double v462 = p[15]*v461 + v150 + v55*p[31] - v78;
+    const double v463 = v459*v8 - v462*v9;
+    const double v464 = p[3]*v461 + v459*v9 + v462*v8;
+    const double v465 = cs[2]*v464 + sn[2]*v463;
+    const double v466 = p[1]*v248;
+    const double v467 = p[6]*v466;
+    const double v468 = p[7]*v466;
+    const double v469 = p[13]*v468;
+    const double v470 = cs[2]*v469;
+    const double v471 = p[12]*v467 + v470;
+    const double v472 = sn[2]*v469 + p[2]*v468;
+    const double v473 = p[11]*v467 + v472;
+    const double v474 = v471*v8 - v473*v9;
+    const double v475 = v1*p[19] + v154 - v263 + v474;
+    const double v476 = p[10]*v248;
+    const double v477 = p[5]*v476;
+    const double v478 = v467 + v468;
+    const double v479 = p[1]*v478 + v471*v9 + v473*v8;
+    const double v480 = p[10]*v477 + v153 - v262 + v3*p[19] + v479 + v7;
+    const double v481 = cs[1]*v480 - sn[1]*v475;
+    const double v482 = v465 + v481;
+    const double v483 = p[3]*v249;
+    const double v484 = p[9]*v483;
+    const double v485 = p[15]*v484;
+    const double v486 = v485*v9;
+    const double v487 = v156 - v268 + v38*p[28] + v486;
+    const double v488 = p[14]*v249;
+    const double v489 = p[8]*v488;
+    const double v490 = p[3]*v484 + v485*v8;
+    const double v491 = p[14]*v489 + v155 - v267 + v40*p[28] + v490;
+    const double v492 = -cs[2]*v491 + sn[2]*v487;
+    const double v493 = 2.0*p[11]*v20 + 2.0*p[12]*v22;
+    const double v494 = p[6]*v493;
+    const double v495 = p[2]*v250;
+    const double v496 = p[7]*v495;
+    const double v497 = p[13]*v496;
+    const double v498 = cs[2]*v497;
+    const double v499 = p[12]*v494 - v138 + v158 + v22*p[23] - v26 + v498;
+    const double v500 = sn[2]*v497 + p[2]*v496;
+    const double v501 = p[11]*v494 - v140 + v157 + v20*p[23] + v500;
+    const double v502 = v499*v8 - v501*v9;
+    const double v503 = v494 + v496;
+    const double v504 = p[1]*v503 + v499*v9 + v501*v8;
+    const double v505 = cs[1]*v504 - sn[1]*v502;
+    const double v506 = v492 - v505;
+    const double v507 = 2.0*cs[2]*v38;
+    const double v508 = p[3]*v507;
+    const double v509 = cs[2]*v40 + sn[2]*v38;
+    const double v510 = p[3]*v509;
+    const double v511 = v508*v9 + v510*v8;
+    const double v512 = v256*v53 + v257*v55;
+    const double v513 = -p[15]*v512 + v511;
+    const double v514 = p[9]*v513;
+    const double v515 = p[15]*v514 - v256*v67 + v257*v78 - v397*v55 + v406*v53;
+    const double v516 = 2.0*cs[1]*v1;
+    const double v517 = p[1]*v516;
+    const double v518 = cs[1]*v3 + sn[1]*v1;
+    const double v519 = p[1]*v518;
+    const double v520 = v517*v8 + v519*v9;
+    const double v521 = 2.0*v22*v253;
+    const double v522 = -v20*v253 + v22*v252;
+    const double v523 = p[11]*v521 + p[12]*v522 + v520;
+    const double v524 = p[6]*v523;
+    const double v525 = -v517*v9 + v519*v8;
+    const double v526 = v250*v252;
+    const double v527 = -p[11]*v522 + p[12]*v526 + v525;
+    const double v528 = p[6]*v527;
+    const double v529 = p[2]*v521 + v520;
+    const double v530 = p[2]*v522 - v525;
+    const double v531 = -cs[2]*v529 + sn[2]*v530;
+    const double v532 = v254*v86 - v255*v94;
+    const double v533 = p[13]*v532 + v531;
+    const double v534 = p[7]*v533;
+    const double v535 = p[13]*v534 + v111*v254 + v125*v255 - v432*v94 - v441*v86;
+    const double v536 = cs[2]*v530 + sn[2]*v529;
+    const double v537 = 2.0*v255*v86;
+    const double v538 = p[13]*v537 + v536;
+    const double v539 = p[7]*v538;
+    const double v540 = cs[2]*v539 + sn[2]*v534;
+    const double v541 = p[2]*v540 + v535;
+    const double v542 = -p[11]*v528 - p[12]*v524 + v138*v252 + v140*v253 + v20*v429 - v22*v445 + v541;
+    const double v543 = p[10]*v518;
+    const double v544 = p[5]*v543;
+    const double v545 = -cs[2]*v534 + sn[2]*v539;
+    const double v546 = v524 + v545;
+    const double v547 = v528 - v540;
+    const double v548 = v546*v9 + v547*v8;
+    const double v549 = -p[1]*v548 + v542;
+    const double v550 = cs[1]*v262 - sn[1]*v263 - p[10]*v544 + v1*v452 - v3*v417 + v416*p[20] + v549;
+    const double v551 = v515 + v542 - v550;
+    const double v552 = 2.0*p[1]*qd[1];
+    const double v553 = v552*v8;
+    const double v554 = p[6]*v553;
+    const double v555 = v552*v9;
+    const double v556 = p[6]*v555;
+    const double v557 = -cs[2]*v553 + sn[2]*v555;
+    const double v558 = p[7]*v557;
+    const double v559 = p[13]*v558;
+    const double v560 = cs[2]*v555 + sn[2]*v553;
+    const double v561 = p[7]*v560;
+    const double v562 = cs[2]*v561 + sn[2]*v558;
+    const double v563 = p[2]*v562 + v559;
+    const double v564 = p[11]*v556 - p[12]*v554 + v563;
+    const double v565 = -cs[2]*v558 + sn[2]*v561;
+    const double v566 = v554 + v565;
+    const double v567 = v556 + v562;
+    const double v568 = -v566*v9 + v567*v8;
+    const double v569 = p[1]*v568 + v564;
+    const double v570 = p[36] + p[43];
+    const double v571 = v564 - v569 + v570;
+    const double v572 = 2.0*p[3]*qd[2];
+    const double v573 = v572*v9;
+    const double v574 = p[9]*v573;
+    const double v575 = p[15]*v574;
+    const double v576 = p[11]*v251;
+    const double v577 = p[6]*v576;
+    const double v578 = p[12]*v251;
+    const double v579 = p[6]*v578;
+    const double v580 = p[2]*v251;
+    const double v581 = cs[2]*v580;
+    const double v582 = p[7]*v581;
+    const double v583 = p[13]*v582;
+    const double v584 = sn[2]*v580;
+    const double v585 = p[7]*v584;
+    const double v586 = -cs[2]*v585 + sn[2]*v582;
+    const double v587 = p[2]*v586 + v583;
+    const double v588 = -p[11]*v579 + p[12]*v577 + v587;
+    const double v589 = cs[2]*v582 + sn[2]*v585;
+    const double v590 = v577 + v589;
+    const double v591 = v579 - v586;
+    const double v592 = v590*v9 - v591*v8;
+    const double v593 = p[1]*v592 + v588;
+    const double v594 = -p[43] + v575 + v588 - v593;
+    const double v595 = p[14]*v509;
+    const double v596 = p[8]*v595;
+    const double v597 = v508*v8 - v510*v9;
+    const double v598 = 2.0*v257*v53;
+    const double v599 = p[15]*v598 + v597;
+    const double v600 = p[9]*v599;
+    const double v601 = -v514*v8 + v600*v9;
+    const double v602 = p[3]*v601 - v515;
+    const double v603 = -cs[2]*v267 + sn[2]*v268 + p[14]*v596 - v38*v412 + v394*v40 - v602;
+    const double v604 = -v515 + v535 - v542 + v603;
+    const double v605 = v247*v57;
+    const double v606 = p[9]*v605;
+    const double v607 = v606*v9;
+    const double v608 = p[3]*v607;
+    const double v609 = p[43] - v559 + v564 + v608;
+    const double v610 = v572*v8;
+    const double v611 = p[9]*v610;
+    const double v612 = v574*v8 - v611*v9;
+    const double v613 = p[3]*v612 + v575;
+    const double v614 = p[43] + p[40];
+    const double v615 = -v575 + v583 - v588 + v613 + v614;
+    dtau_dq[0] = v299;
+    dtau_dq[1] = v324;
+    dtau_dq[2] = v348;
+    dtau_dq[3] = v356;
+    dtau_dq[4] = -v365;
+    dtau_dq[5] = v371;
+    dtau_dq[6] = -v378;
+    dtau_dq[7] = v384;
+    dtau_dq[8] = -v392;
+    dtau_dqd[0] = v458;
+    dtau_dqd[1] = -v482;
+    dtau_dqd[2] = v506;
+    dtau_dqd[3] = v551;
+    dtau_dqd[4] = v571;
+    dtau_dqd[5] = v594;
+    dtau_dqd[6] = v604;
+    dtau_dqd[7] = -v609;
+    dtau_dqd[8] = v615;
+}
+
 /* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
  * Inputs: q[3] (q1, q2, q5), p[48] (see janot_branch_parameter_names); output J[9]
  * 88 operations; sine and cosine of 3 angles in one janot_branch_sincos call. */
@@ -1651,34 +2294,152 @@ static int janot_branch_cholesky(double *D)
     return 0;
 }
 
-int janot_branch_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* x = D^-1 x in place for the Cholesky factor of janot_branch_cholesky (L in the lower triangle of L):
+ * L y = x, then L^T x = y. */
+static void janot_branch_solve(const double *L, double *x)
 {
-    double D[3 * 3];
-    double b[3];
-    const double zero[3] = { 0.0 };
     int i, k;
-    janot_branch_inertia(q, p, D);
-    janot_branch_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 3; ++i) { /* L y = x */
+        for (k = 0; k < i; ++k) {
+            x[i] -= L[i * 3 + k] * x[k];
+        }
+        x[i] /= L[i * 3 + i];
+    }
+    for (i = 3 - 1; i >= 0; --i) { /* L^T x = y */
+        for (k = i + 1; k < 3; ++k) {
+            x[i] -= L[k * 3 + i] * x[k];
+        }
+        x[i] /= L[i * 3 + i];
+    }
+}
+
+/* Minv = D^-1 = R^T R with R = L^-1 (lower triangular, by forward substitution from the Cholesky factor L of
+ * janot_branch_cholesky), N*N row-major and symmetric: about N^3/3 multiplications, half those of solving D X = I. */
+static void janot_branch_inverse(const double *L, double *Minv)
+{
+    double R[3 * 3], r[3];
+    int i, j, k;
     for (i = 0; i < 3; ++i) {
-        b[i] = tau[i] - b[i];
+        r[i] = 1.0 / L[i * 3 + i];
+    }
+    for (j = 0; j < 3; ++j) { /* column j of R: L R = I */
+        R[j * 3 + j] = r[j];
+        for (i = j + 1; i < 3; ++i) {
+            double t = 0.0;
+            for (k = j; k < i; ++k) {
+                t -= L[i * 3 + k] * R[k * 3 + j];
+            }
+            R[i * 3 + j] = t * r[i];
+        }
+    }
+    for (i = 0; i < 3; ++i) { /* Minv[i][j] = sum over k >= max(i, j) of R[k][i] R[k][j] */
+        for (j = i; j < 3; ++j) {
+            double t = 0.0;
+            for (k = j; k < 3; ++k) {
+                t += R[k * 3 + i] * R[k * 3 + j];
+            }
+            Minv[i * 3 + j] = t;
+            Minv[j * 3 + i] = t;
+        }
+    }
+}
+
+/* qdd = D^-1 (tau - bias) with D(q) = L L^T factored in D (lower triangle). Returns 0, or 1 when D is not
+ * positive definite. */
+static int janot_branch_accelerations(const double *q, const double *qd, const double *tau, const double *p, double *D, double *qdd)
+{
+    const double zero[3] = { 0.0 };
+    int i;
+    janot_branch_inertia(q, p, D);
+    janot_branch_inverse_dynamics(q, qd, zero, p, qdd);
+    for (i = 0; i < 3; ++i) {
+        qdd[i] = tau[i] - qdd[i];
     }
     if (janot_branch_cholesky(D) != 0) {
         return 1;
     }
-    for (i = 0; i < 3; ++i) { /* L y = b */
-        double t = b[i];
-        for (k = 0; k < i; ++k) {
-            t -= D[i * 3 + k] * qdd[k];
-        }
-        qdd[i] = t / D[i * 3 + i];
+    janot_branch_solve(D, qdd);
+    return 0;
+}
+
+int janot_branch_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[3 * 3];
+    return janot_branch_accelerations(q, qd, tau, p, D, qdd);
+}
+
+/* P = -M X for N*N row-major matrices (M = D^-1 symmetric): each row of P a combination of the rows of X,
+ * the inner loop over the N columns (no dependency between rows, unlike a triangular solve). */
+static void janot_branch_negated_product(const double *M, const double *X, double *P)
+{
+    int i, k, c;
+    for (i = 0; i < 3 * 3; ++i) {
+        P[i] = 0.0;
     }
-    for (i = 3 - 1; i >= 0; --i) { /* L^T qdd = y */
-        double t = qdd[i];
-        for (k = i + 1; k < 3; ++k) {
-            t -= D[k * 3 + i] * qdd[k];
+    for (i = 0; i < 3; ++i) {
+        for (k = 0; k < 3; ++k) {
+            const double m = M[i * 3 + k];
+            for (c = 0; c < 3; ++c) {
+                P[i * 3 + c] -= m * X[k * 3 + c];
+            }
         }
-        qdd[i] = t / D[i * 3 + i];
     }
+}
+
+/* Minv = D^-1, then dqdd_dq = -Minv dtau_dq and dqdd_dqd = -Minv dtau_dqd, the inverse dynamics derivatives taken
+ * at the qdd of forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau). One Cholesky factor
+ * of D gives qdd and Minv. Returns 0, or 1 when D is not positive definite. */
+static int janot_branch_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *Minv)
+{
+    double L[3 * 3], dtau_dq[3 * 3], dtau_dqd[3 * 3];
+    double qdd[3];
+    if (janot_branch_accelerations(q, qd, tau, p, L, qdd) != 0) {
+        return 1;
+    }
+    janot_branch_inverse_dynamics_derivatives(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    janot_branch_inverse(L, Minv);
+    janot_branch_negated_product(Minv, dtau_dq, dqdd_dq);
+    janot_branch_negated_product(Minv, dtau_dqd, dqdd_dqd);
+    return 0;
+}
+
+int janot_branch_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+{
+    return janot_branch_fd_derivatives(q, qd, tau, p, dqdd_dq, dqdd_dqd, dqdd_dtau);
+}
+
+int janot_branch_A(const double *q, const double *qd, const double *tau, const double *p, double *A)
+{
+    double dq[3 * 3], dqd[3 * 3], Minv[3 * 3];
+    int i, j;
+    if (janot_branch_fd_derivatives(q, qd, tau, p, dq, dqd, Minv) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 3; ++i) {
+        for (j = 0; j < 3; ++j) {
+            A[i * 6 + j] = 0.0;
+            A[i * 6 + 3 + j] = (i == j) ? 1.0 : 0.0;
+            A[(3 + i) * 6 + j] = dq[i * 3 + j];
+            A[(3 + i) * 6 + 3 + j] = dqd[i * 3 + j];
+        }
+    }
+    return 0;
+}
+
+int janot_branch_B(const double *q, const double *qd, const double *tau, const double *p, double *B)
+{
+    double L[3 * 3];
+    int i;
+    (void)qd;
+    (void)tau;
+    janot_branch_inertia(q, p, L);
+    if (janot_branch_cholesky(L) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 3 * 3; ++i) {
+        B[i] = 0.0;
+    }
+    janot_branch_inverse(L, B + 9);
     return 0;
 }
 

@@ -11,7 +11,7 @@ import os
 import casadi
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "end_effector_jacobian", "regressor", "standard_parameters", "forward_dynamics", "A", "B", "operational_inertia", "apparent_mass", )
+FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "inverse_dynamics_derivatives", "end_effector_jacobian", "regressor", "standard_parameters", "forward_dynamics", "forward_dynamics_derivatives", "A", "B", "operational_inertia", "apparent_mass", )
 COORDINATES = ("q1", "q2", "q5", )
 PARAMETERS = ("g", "d3", "d4", "d6", "m1", "m2", "m3", "m4", "m5", "m6", "mx2", "mx3", "my3", "mx4", "mx5", "mx6", "zz1", "xx2", "yy2", "zz2", "xz2", "xx3", "yy3", "zz3", "xy3", "xx4", "yy4", "zz4", "zz5", "xx5", "yy5", "zz6", "yy6", "xx6", "fv1", "fc1", "fv2", "fc2", "off1", "off2", "fv5", "fc5", "off5", "fv3r", "fc3r", "ia1", "ia2", "ia5", )
 PARAMETER_DEFAULTS = [9.81, 0.2, 0.2, 0.05, 1.2, 0.3, 0.25, 0.15, 0.6, 0.05, 0.1, 0.08, 0.01, 0.06, -0.04, 0.1, 0.004, 0.0002, 0.0011, 0.0011, 5e-05, 0.00015, 0.0009, 0.00095, -3e-05, 8e-05, 0.0005, 0.0005, 0.0006, 0.0003, 0.0004, 5e-05, 5e-05, 2e-06, 0.023, 0.1179, 0.032, 0.124, 0.0, 0.02, 0.031, 0.1152, 0.03, 0.0, 0.0, 0.0002, 0.0002, 0.0002, ]

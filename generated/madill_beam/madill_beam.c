@@ -237,6 +237,96 @@ void madill_beam_inverse_dynamics(const double *q, const double *qd, const doubl
     tau[4] = v41;
 }
 
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+ * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qdd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); outputs dtau_dq[25], dtau_dqd[25]
+ * 76 operations. */
+void madill_beam_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    const double v0 = p[5]/p[2];
+    const double v1 = 4.0*v0;
+    const double v2 = q[2]*v1;
+    const double v3 = q[1]*v1;
+    const double v4 = q[3]*v1;
+    const double v5 = -v2 + v3 + v4;
+    const double v6 = 2.0*p[3] + 2.0*v1;
+    const double v7 = qd[0]*v6;
+    const double v8 = 8.0*v0;
+    const double v9 = qd[0]*v8;
+    const double v10 = qd[3]*v9;
+    const double v11 = -qd[2]*v9;
+    const double v12 = qd[1]*v9;
+    const double v13 = p[4]/(p[2]*p[2]*p[2]*p[2]);
+    const double v14 = (0.5)*(qd[0]*qd[0]);
+    const double v15 = v14*v6;
+    const double v16 = 2.0*q[1]*p[3] + 2.0*v5;
+    const double v17 = 2.0*q[2]*p[3] + 2.0*v2 - 2.0*v3 - 2.0*v4;
+    const double v18 = 2.0*q[3]*p[3] + 2.0*v5;
+    const double v19 = qd[1]*v7 + qdd[0]*v16 + v10 + v11;
+    const double v20 = qd[2]*v7 + qdd[0]*v17 - v10 - v12;
+    const double v21 = qd[3]*v7 + qdd[0]*v18 + v11 + v12;
+    const double v22 = 12.362363368326191*v13;
+    const double v23 = v15 - v22;
+    const double v24 = v14*v8;
+    const double v25 = 485.51881851337106*v13;
+    const double v26 = v15 - v25;
+    const double v27 = 3806.546266391451*v13;
+    const double v28 = v15 - v27;
+    const double v29 = qd[1]*v16 + qd[2]*v17 + qd[3]*v18;
+    const double v30 = qd[0]*v16;
+    const double v31 = qd[0]*v17;
+    const double v32 = qd[0]*v18;
+    dtau_dq[0] = 0.0;
+    dtau_dq[1] = v19;
+    dtau_dq[2] = v20;
+    dtau_dq[3] = v21;
+    dtau_dq[4] = 0.0;
+    dtau_dq[5] = 0.0;
+    dtau_dq[6] = -v23;
+    dtau_dq[7] = v24;
+    dtau_dq[8] = -v24;
+    dtau_dq[9] = 0.0;
+    dtau_dq[10] = 0.0;
+    dtau_dq[11] = v24;
+    dtau_dq[12] = -v26;
+    dtau_dq[13] = v24;
+    dtau_dq[14] = 0.0;
+    dtau_dq[15] = 0.0;
+    dtau_dq[16] = -v24;
+    dtau_dq[17] = v24;
+    dtau_dq[18] = -v28;
+    dtau_dq[19] = 0.0;
+    dtau_dq[20] = 0.0;
+    dtau_dq[21] = 0.0;
+    dtau_dq[22] = 0.0;
+    dtau_dq[23] = 0.0;
+    dtau_dq[24] = v22;
+    dtau_dqd[0] = v29;
+    dtau_dqd[1] = v30;
+    dtau_dqd[2] = v31;
+    dtau_dqd[3] = v32;
+    dtau_dqd[4] = 0.0;
+    dtau_dqd[5] = -v30;
+    dtau_dqd[6] = 0.0;
+    dtau_dqd[7] = 0.0;
+    dtau_dqd[8] = 0.0;
+    dtau_dqd[9] = 0.0;
+    dtau_dqd[10] = -v31;
+    dtau_dqd[11] = 0.0;
+    dtau_dqd[12] = 0.0;
+    dtau_dqd[13] = 0.0;
+    dtau_dqd[14] = 0.0;
+    dtau_dqd[15] = -v32;
+    dtau_dqd[16] = 0.0;
+    dtau_dqd[17] = 0.0;
+    dtau_dqd[18] = 0.0;
+    dtau_dqd[19] = 0.0;
+    dtau_dqd[20] = 0.0;
+    dtau_dqd[21] = 0.0;
+    dtau_dqd[22] = 0.0;
+    dtau_dqd[23] = 0.0;
+    dtau_dqd[24] = 0.0;
+}
+
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
  * Inputs: q[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), qdd[5] (q0, beam_nu1, beam_nu2, beam_nu3, beam_eta1), p[6] (see madill_beam_parameter_names); output Y[70]
  * 116 operations. */
@@ -400,33 +490,151 @@ static int madill_beam_cholesky(double *D)
     return 0;
 }
 
-int madill_beam_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* x = D^-1 x in place for the Cholesky factor of madill_beam_cholesky (L in the lower triangle of L):
+ * L y = x, then L^T x = y. */
+static void madill_beam_solve(const double *L, double *x)
 {
-    double D[5 * 5];
-    double b[5];
-    const double zero[5] = { 0.0 };
     int i, k;
-    madill_beam_inertia(q, p, D);
-    madill_beam_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 5; ++i) { /* L y = x */
+        for (k = 0; k < i; ++k) {
+            x[i] -= L[i * 5 + k] * x[k];
+        }
+        x[i] /= L[i * 5 + i];
+    }
+    for (i = 5 - 1; i >= 0; --i) { /* L^T x = y */
+        for (k = i + 1; k < 5; ++k) {
+            x[i] -= L[k * 5 + i] * x[k];
+        }
+        x[i] /= L[i * 5 + i];
+    }
+}
+
+/* Minv = D^-1 = R^T R with R = L^-1 (lower triangular, by forward substitution from the Cholesky factor L of
+ * madill_beam_cholesky), N*N row-major and symmetric: about N^3/3 multiplications, half those of solving D X = I. */
+static void madill_beam_inverse(const double *L, double *Minv)
+{
+    double R[5 * 5], r[5];
+    int i, j, k;
     for (i = 0; i < 5; ++i) {
-        b[i] = tau[i] - b[i];
+        r[i] = 1.0 / L[i * 5 + i];
+    }
+    for (j = 0; j < 5; ++j) { /* column j of R: L R = I */
+        R[j * 5 + j] = r[j];
+        for (i = j + 1; i < 5; ++i) {
+            double t = 0.0;
+            for (k = j; k < i; ++k) {
+                t -= L[i * 5 + k] * R[k * 5 + j];
+            }
+            R[i * 5 + j] = t * r[i];
+        }
+    }
+    for (i = 0; i < 5; ++i) { /* Minv[i][j] = sum over k >= max(i, j) of R[k][i] R[k][j] */
+        for (j = i; j < 5; ++j) {
+            double t = 0.0;
+            for (k = j; k < 5; ++k) {
+                t += R[k * 5 + i] * R[k * 5 + j];
+            }
+            Minv[i * 5 + j] = t;
+            Minv[j * 5 + i] = t;
+        }
+    }
+}
+
+/* qdd = D^-1 (tau - bias) with D(q) = L L^T factored in D (lower triangle). Returns 0, or 1 when D is not
+ * positive definite. */
+static int madill_beam_accelerations(const double *q, const double *qd, const double *tau, const double *p, double *D, double *qdd)
+{
+    const double zero[5] = { 0.0 };
+    int i;
+    madill_beam_inertia(q, p, D);
+    madill_beam_inverse_dynamics(q, qd, zero, p, qdd);
+    for (i = 0; i < 5; ++i) {
+        qdd[i] = tau[i] - qdd[i];
     }
     if (madill_beam_cholesky(D) != 0) {
         return 1;
     }
-    for (i = 0; i < 5; ++i) { /* L y = b */
-        double t = b[i];
-        for (k = 0; k < i; ++k) {
-            t -= D[i * 5 + k] * qdd[k];
-        }
-        qdd[i] = t / D[i * 5 + i];
+    madill_beam_solve(D, qdd);
+    return 0;
+}
+
+int madill_beam_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[5 * 5];
+    return madill_beam_accelerations(q, qd, tau, p, D, qdd);
+}
+
+/* P = -M X for N*N row-major matrices (M = D^-1 symmetric): each row of P a combination of the rows of X,
+ * the inner loop over the N columns (no dependency between rows, unlike a triangular solve). */
+static void madill_beam_negated_product(const double *M, const double *X, double *P)
+{
+    int i, k, c;
+    for (i = 0; i < 5 * 5; ++i) {
+        P[i] = 0.0;
     }
-    for (i = 5 - 1; i >= 0; --i) { /* L^T qdd = y */
-        double t = qdd[i];
-        for (k = i + 1; k < 5; ++k) {
-            t -= D[k * 5 + i] * qdd[k];
+    for (i = 0; i < 5; ++i) {
+        for (k = 0; k < 5; ++k) {
+            const double m = M[i * 5 + k];
+            for (c = 0; c < 5; ++c) {
+                P[i * 5 + c] -= m * X[k * 5 + c];
+            }
         }
-        qdd[i] = t / D[i * 5 + i];
     }
+}
+
+/* Minv = D^-1, then dqdd_dq = -Minv dtau_dq and dqdd_dqd = -Minv dtau_dqd, the inverse dynamics derivatives taken
+ * at the qdd of forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau). One Cholesky factor
+ * of D gives qdd and Minv. Returns 0, or 1 when D is not positive definite. */
+static int madill_beam_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *Minv)
+{
+    double L[5 * 5], dtau_dq[5 * 5], dtau_dqd[5 * 5];
+    double qdd[5];
+    if (madill_beam_accelerations(q, qd, tau, p, L, qdd) != 0) {
+        return 1;
+    }
+    madill_beam_inverse_dynamics_derivatives(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    madill_beam_inverse(L, Minv);
+    madill_beam_negated_product(Minv, dtau_dq, dqdd_dq);
+    madill_beam_negated_product(Minv, dtau_dqd, dqdd_dqd);
+    return 0;
+}
+
+int madill_beam_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+{
+    return madill_beam_fd_derivatives(q, qd, tau, p, dqdd_dq, dqdd_dqd, dqdd_dtau);
+}
+
+int madill_beam_A(const double *q, const double *qd, const double *tau, const double *p, double *A)
+{
+    double dq[5 * 5], dqd[5 * 5], Minv[5 * 5];
+    int i, j;
+    if (madill_beam_fd_derivatives(q, qd, tau, p, dq, dqd, Minv) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 5; ++i) {
+        for (j = 0; j < 5; ++j) {
+            A[i * 10 + j] = 0.0;
+            A[i * 10 + 5 + j] = (i == j) ? 1.0 : 0.0;
+            A[(5 + i) * 10 + j] = dq[i * 5 + j];
+            A[(5 + i) * 10 + 5 + j] = dqd[i * 5 + j];
+        }
+    }
+    return 0;
+}
+
+int madill_beam_B(const double *q, const double *qd, const double *tau, const double *p, double *B)
+{
+    double L[5 * 5];
+    int i;
+    (void)qd;
+    (void)tau;
+    madill_beam_inertia(q, p, L);
+    if (madill_beam_cholesky(L) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 5 * 5; ++i) {
+        B[i] = 0.0;
+    }
+    madill_beam_inverse(L, B + 25);
     return 0;
 }

@@ -11,7 +11,7 @@ import os
 import casadi
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "regressor", "standard_parameters", "forward_dynamics", "A", "B", )
+FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "inverse_dynamics_derivatives", "regressor", "standard_parameters", "forward_dynamics", "forward_dynamics_derivatives", "A", "B", )
 COORDINATES = ("q0", "beam_nu1", "beam_nu2", "beam_nu3", "beam_eta1", )
 PARAMETERS = ("g", "J0", "L", "rho", "EI", "M_p", )
 PARAMETER_DEFAULTS = [9.81, 0.677, 0.449, 0.163, 88.32, 0.043, ]

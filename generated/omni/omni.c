@@ -544,6 +544,261 @@ void omni_inverse_dynamics(const double *q, const double *qd, const double *qdd,
     tau[2] = v60;
 }
 
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+ * Inputs: q[3] (theta, gamma1, gamma2), qd[3] (theta, gamma1, gamma2), qdd[3] (theta, gamma1, gamma2), p[7] (see omni_parameter_names); outputs dtau_dq[9], dtau_dqd[9]
+ * 500 operations; sine and cosine of 1 angles in one omni_sincos call. */
+void omni_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    double sn[1], cs[1];
+    omni_sincos(1, q + 1, sn, cs);
+    const double v0 = p[1]*cs[0];
+    const double v1 = 2.0*q[1] + q[2] + p[6];
+    const double v2 = cos(v1);
+    const double v3 = sin(v1);
+    const double v4 = (0.08333333333333333)*(p[2]*p[2])*p[4];
+    const double v5 = (0.08333333333333333)*(p[1]*p[1])*p[3];
+    const double v6 = cs[0]*qd[0];
+    const double v7 = p[1]*v6;
+    const double v8 = cs[0]*qdd[0];
+    const double v9 = p[1]*v8;
+    const double v10 = qd[1]*v6;
+    const double v11 = sn[0]*qd[0];
+    const double v12 = qd[1]*v11;
+    const double v13 = p[1]*v12;
+    const double v14 = v6*v7;
+    const double v15 = sn[0]*p[0];
+    const double v16 = cs[0]*p[0] + v11*v7;
+    const double v17 = 2.0*qd[1];
+    const double v18 = v11*v2 - v3*v6;
+    const double v19 = v11*v3;
+    const double v20 = v2*v6;
+    const double v21 = sn[0]*qdd[0];
+    const double v22 = v10 + v21;
+    const double v23 = v2*v22;
+    const double v24 = v12 - v8;
+    const double v25 = v24*v3;
+    const double v26 = (0.5)*p[2];
+    const double v27 = qd[1]*v26;
+    const double v28 = v14 - v15;
+    const double v29 = p[1]*(qd[1]*qd[1]) + v28;
+    const double v30 = p[1]*qdd[1] + v16;
+    const double v31 = v19 + v20;
+    const double v32 = v26*v31;
+    const double v33 = v2*v29 + v3*v30 - v31*v32;
+    const double v34 = v18*v32 - v2*v30 + v29*v3;
+    const double v35 = qd[2] + v17;
+    const double v36 = -qd[1] + v35;
+    const double v37 = v31*v35;
+    const double v38 = v18*v35;
+    const double v39 = p[2]*v35;
+    const double v40 = v36*v4;
+    const double v41 = v31*v40;
+    const double v42 = v18*v40;
+    const double v43 = v31*v4;
+    const double v44 = -v36*v43 + v41;
+    const double v45 = 2.0*v13 - v9;
+    const double v46 = v2*v24 - v22*v3;
+    const double v47 = v18*v27 + v26*v46 - v45;
+    const double v48 = p[2]*v38 - v47;
+    const double v49 = p[4]*v48;
+    const double v50 = v38 - v46;
+    const double v51 = v4*v50 + v42;
+    const double v52 = v26*v49 + v51;
+    const double v53 = v2*v44 - v3*v52;
+    const double v54 = v2*v52 + v3*v44;
+    const double v55 = qd[1]*v5;
+    const double v56 = v55*v6;
+    const double v57 = v11*v55;
+    const double v58 = (0.5)*p[1];
+    const double v59 = p[1]*v21;
+    const double v60 = p[1]*v10;
+    const double v61 = 2.0*v3;
+    const double v62 = 2.0*v2;
+    const double v63 = v11*v61 - v19 - v20 + v6*v62;
+    const double v64 = v35*v63;
+    const double v65 = p[1]*v11;
+    const double v66 = v16 + v6*v65;
+    const double v67 = v11*v65 - v14 + v15;
+    const double v68 = -v11*v62 + v18 + v6*v61;
+    const double v69 = v26*v68;
+    const double v70 = -v18*v69 + v2*v67 + v29*v62 - v3*v66 + v30*v61 - v32*v63;
+    const double v71 = p[4]*v70;
+    const double v72 = p[2]*v71;
+    const double v73 = p[2]*v18;
+    const double v74 = (0.5)*v73;
+    const double v75 = v18*v74 + v33;
+    const double v76 = p[4]*v75;
+    const double v77 = p[2]*v76;
+    const double v78 = p[1]*v17;
+    const double v79 = sn[0]*qd[1];
+    const double v80 = -cs[0]*v3 + sn[0]*v2;
+    const double v81 = v35*v80;
+    const double v82 = v31*v4 - v43;
+    const double v83 = v2*v82;
+    const double v84 = v3*v82;
+    const double v85 = cs[0]*v7 + v0*v6;
+    const double v86 = sn[0]*v7 + v0*v11;
+    const double v87 = cs[0]*v2 + sn[0]*v3;
+    const double v88 = v26*v87;
+    const double v89 = v18*v88 - v2*v86 + v3*v85 + v32*v80;
+    const double v90 = p[4]*v89;
+    const double v91 = p[2]*v90;
+    const double v92 = v3*v78;
+    const double v93 = p[4]*v92;
+    const double v94 = p[2]*v93;
+    const double v95 = (0.5)*v0;
+    const double v96 = (0.5)*v7;
+    const double v97 = (0.5)*v9;
+    const double v98 = v13 - v97;
+    const double v99 = p[3]*v98;
+    const double v100 = v5*v6;
+    const double v101 = 2.0*qdd[1] + qdd[2];
+    const double v102 = v23 + v25;
+    const double v103 = -qd[1]*v27 + v33;
+    const double v104 = qdd[1]*v26 + v34;
+    const double v105 = -v102 + v37;
+    const double v106 = qd[1]*v39 + v103 - v26*(v35*v35);
+    const double v107 = v101*v26 - v104;
+    const double v108 = p[4]*v106;
+    const double v109 = p[4]*v107;
+    const double v110 = p[1]*v49 - v54;
+    const double v111 = -qd[1]*v100 + v56;
+    const double v112 = v24*v5 + v57;
+    const double v113 = v112 + v58*v99;
+    const double v114 = v4*v68;
+    const double v115 = v114*v36 - v40*v68;
+    const double v116 = v59 + 2.0*v60;
+    const double v117 = v22*v62 - v23 + v24*v61 - v25;
+    const double v118 = v116 + v117*v26 + v27*v63;
+    const double v119 = p[2]*v64 - v118;
+    const double v120 = p[4]*v119;
+    const double v121 = -v117 + v64;
+    const double v122 = v121*v4 + v40*v63;
+    const double v123 = v120*v26 + v122;
+    const double v124 = -v115*v2 - v123*v3 + v44*v61 + v52*v62;
+    const double v125 = -v115*v3 + v123*v2 - v44*v62 + v52*v61;
+    const double v126 = p[1]*v120 - v125;
+    const double v127 = cs[0]*v126 - cs[0]*v53 + sn[0]*v110 + sn[0]*v124;
+    const double v128 = v11*v5;
+    const double v129 = -qd[1]*v128 + v57;
+    const double v130 = (0.5)*v59;
+    const double v131 = v130 + v60;
+    const double v132 = p[3]*v131;
+    const double v133 = v22*v5 + v56;
+    const double v134 = v132*v58 + v133;
+    const double v135 = cs[0]*v111 - cs[0]*v134 + sn[0]*v113 - sn[0]*v129;
+    const double v136 = v127 + v135;
+    const double v137 = v18*v4;
+    const double v138 = -v137*v36 + v42;
+    const double v139 = v102*v26 + v27*v31;
+    const double v140 = p[2]*v37 - v139;
+    const double v141 = p[4]*v140;
+    const double v142 = v105*v4 + v41;
+    const double v143 = v141*v26 + v142;
+    const double v144 = -v138*v2 - v143*v3 + v54;
+    const double v145 = v138*v3 - v143*v2 + v53;
+    const double v146 = p[1]*v141 + v145;
+    const double v147 = cs[0]*v146 + sn[0]*v144;
+    const double v148 = (0.5)*v65;
+    const double v149 = v11*v148 + v15 - v6*v96;
+    const double v150 = p[3]*v149;
+    const double v151 = v114*v18 + v43*v63;
+    const double v152 = -v151 + (0.5)*v72;
+    const double v153 = v2*v66 + v29*v61 + v3*v67 - v30*v62 - v31*v69 - v32*v68;
+    const double v154 = p[4]*v153;
+    const double v155 = -v108*v62 + v109*v61 + v154*v3 + v2*v71;
+    const double v156 = -v100*v6 + v11*v128;
+    const double v157 = p[1]*v155 + v150*v58 - 2.0*v151 - v152 + v156 + v72;
+    const double v158 = v137*v18 - v31*v43;
+    const double v159 = v158 + (0.5)*v77;
+    const double v160 = v31*v74 + v34;
+    const double v161 = p[4]*v160;
+    const double v162 = -v108*v2 + v109*v3 + v161*v3 + v2*v76;
+    const double v163 = p[1]*v162 + 2.0*v158 - v159 + v77;
+    const double v164 = v4*v87;
+    const double v165 = v164*v36 - v40*v87;
+    const double v166 = sn[0]*v78;
+    const double v167 = cs[0]*qd[1];
+    const double v168 = -v167*v3 + v2*v79;
+    const double v169 = -v166 + v168*v26 + v27*v80;
+    const double v170 = p[2]*v81 - v169;
+    const double v171 = p[4]*v170;
+    const double v172 = -v168 + v81;
+    const double v173 = v172*v4 + v40*v80;
+    const double v174 = v171*v26 + v173;
+    const double v175 = v165*v2 + v174*v3;
+    const double v176 = -v165*v3 + v174*v2;
+    const double v177 = p[1]*v171 - v176;
+    const double v178 = cs[0]*v177 - sn[0]*v175;
+    const double v179 = cs[0]*v5;
+    const double v180 = cs[0]*v55 - qd[1]*v179;
+    const double v181 = p[1]*v79;
+    const double v182 = p[3]*v181;
+    const double v183 = sn[0]*v55 + v5*v79;
+    const double v184 = v182*v58 + v183;
+    const double v185 = cs[0]*v184 - sn[0]*v180;
+    const double v186 = v178 + v185;
+    const double v187 = 2.0*v65;
+    const double v188 = -v187 + v73;
+    const double v189 = -v188 + 2.0*v73;
+    const double v190 = p[4]*v189;
+    const double v191 = 2.0*v18*v4;
+    const double v192 = v190*v26 + v191;
+    const double v193 = -v192*v3 + v83;
+    const double v194 = v192*v2 + v84;
+    const double v195 = p[1]*v190 - v194;
+    const double v196 = cs[0]*v195 + sn[0]*v193;
+    const double v197 = -v100 + v5*v6;
+    const double v198 = p[3]*v65;
+    const double v199 = 2.0*v11*v5;
+    const double v200 = v198*v58 + v199;
+    const double v201 = cs[0]*v200 - sn[0]*v197;
+    const double v202 = v196 + v201;
+    const double v203 = p[4]*v73;
+    const double v204 = v191 + v203*v26;
+    const double v205 = -v204*v3 + v83;
+    const double v206 = v2*v204 + v84;
+    const double v207 = p[1]*v203 - v206;
+    const double v208 = cs[0]*v207 + sn[0]*v205;
+    const double v209 = sn[0]*v96 + v11*v95;
+    const double v210 = p[3]*v209;
+    const double v211 = v164*v18 + v43*v80;
+    const double v212 = v211 + (0.5)*v91;
+    const double v213 = v2*v85 + v3*v86 - v31*v88 - v32*v87;
+    const double v214 = p[4]*v213;
+    const double v215 = v2*v90 - v214*v3;
+    const double v216 = sn[0]*v100 + v11*v179;
+    const double v217 = -p[1]*v215 + v210*v58 - 2.0*v211 + v212 + v216 - v91;
+    const double v218 = (0.5)*v94;
+    const double v219 = -v2*v78 + 2.0*v27;
+    const double v220 = -p[2]*v17 + v219 + v39;
+    const double v221 = p[4]*v220;
+    const double v222 = v2*v93 + v221*v3;
+    const double v223 = p[1]*v222 - v218 + v94;
+    const double v224 = p[2]*v36;
+    const double v225 = p[4]*v224;
+    const double v226 = v225*v3;
+    const double v227 = p[1]*v226;
+    dtau_dq[0] = 0.0;
+    dtau_dq[1] = v136;
+    dtau_dq[2] = v147;
+    dtau_dq[3] = 0.0;
+    dtau_dq[4] = -v157;
+    dtau_dq[5] = -v163;
+    dtau_dq[6] = 0.0;
+    dtau_dq[7] = -v152;
+    dtau_dq[8] = -v159;
+    dtau_dqd[0] = -v186;
+    dtau_dqd[1] = -v202;
+    dtau_dqd[2] = -v208;
+    dtau_dqd[3] = v217;
+    dtau_dqd[4] = -v223;
+    dtau_dqd[5] = -v227;
+    dtau_dqd[6] = -v212;
+    dtau_dqd[7] = -v218;
+    dtau_dqd[8] = 0.0;
+}
+
 /* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
  * Inputs: q[3] (theta, gamma1, gamma2), p[7] (see omni_parameter_names); output J[9]
  * 58 operations; sine and cosine of 2 angles in one omni_sincos call. */
@@ -926,34 +1181,152 @@ static int omni_cholesky(double *D)
     return 0;
 }
 
-int omni_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* x = D^-1 x in place for the Cholesky factor of omni_cholesky (L in the lower triangle of L):
+ * L y = x, then L^T x = y. */
+static void omni_solve(const double *L, double *x)
 {
-    double D[3 * 3];
-    double b[3];
-    const double zero[3] = { 0.0 };
     int i, k;
-    omni_inertia(q, p, D);
-    omni_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 3; ++i) { /* L y = x */
+        for (k = 0; k < i; ++k) {
+            x[i] -= L[i * 3 + k] * x[k];
+        }
+        x[i] /= L[i * 3 + i];
+    }
+    for (i = 3 - 1; i >= 0; --i) { /* L^T x = y */
+        for (k = i + 1; k < 3; ++k) {
+            x[i] -= L[k * 3 + i] * x[k];
+        }
+        x[i] /= L[i * 3 + i];
+    }
+}
+
+/* Minv = D^-1 = R^T R with R = L^-1 (lower triangular, by forward substitution from the Cholesky factor L of
+ * omni_cholesky), N*N row-major and symmetric: about N^3/3 multiplications, half those of solving D X = I. */
+static void omni_inverse(const double *L, double *Minv)
+{
+    double R[3 * 3], r[3];
+    int i, j, k;
     for (i = 0; i < 3; ++i) {
-        b[i] = tau[i] - b[i];
+        r[i] = 1.0 / L[i * 3 + i];
+    }
+    for (j = 0; j < 3; ++j) { /* column j of R: L R = I */
+        R[j * 3 + j] = r[j];
+        for (i = j + 1; i < 3; ++i) {
+            double t = 0.0;
+            for (k = j; k < i; ++k) {
+                t -= L[i * 3 + k] * R[k * 3 + j];
+            }
+            R[i * 3 + j] = t * r[i];
+        }
+    }
+    for (i = 0; i < 3; ++i) { /* Minv[i][j] = sum over k >= max(i, j) of R[k][i] R[k][j] */
+        for (j = i; j < 3; ++j) {
+            double t = 0.0;
+            for (k = j; k < 3; ++k) {
+                t += R[k * 3 + i] * R[k * 3 + j];
+            }
+            Minv[i * 3 + j] = t;
+            Minv[j * 3 + i] = t;
+        }
+    }
+}
+
+/* qdd = D^-1 (tau - bias) with D(q) = L L^T factored in D (lower triangle). Returns 0, or 1 when D is not
+ * positive definite. */
+static int omni_accelerations(const double *q, const double *qd, const double *tau, const double *p, double *D, double *qdd)
+{
+    const double zero[3] = { 0.0 };
+    int i;
+    omni_inertia(q, p, D);
+    omni_inverse_dynamics(q, qd, zero, p, qdd);
+    for (i = 0; i < 3; ++i) {
+        qdd[i] = tau[i] - qdd[i];
     }
     if (omni_cholesky(D) != 0) {
         return 1;
     }
-    for (i = 0; i < 3; ++i) { /* L y = b */
-        double t = b[i];
-        for (k = 0; k < i; ++k) {
-            t -= D[i * 3 + k] * qdd[k];
-        }
-        qdd[i] = t / D[i * 3 + i];
+    omni_solve(D, qdd);
+    return 0;
+}
+
+int omni_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[3 * 3];
+    return omni_accelerations(q, qd, tau, p, D, qdd);
+}
+
+/* P = -M X for N*N row-major matrices (M = D^-1 symmetric): each row of P a combination of the rows of X,
+ * the inner loop over the N columns (no dependency between rows, unlike a triangular solve). */
+static void omni_negated_product(const double *M, const double *X, double *P)
+{
+    int i, k, c;
+    for (i = 0; i < 3 * 3; ++i) {
+        P[i] = 0.0;
     }
-    for (i = 3 - 1; i >= 0; --i) { /* L^T qdd = y */
-        double t = qdd[i];
-        for (k = i + 1; k < 3; ++k) {
-            t -= D[k * 3 + i] * qdd[k];
+    for (i = 0; i < 3; ++i) {
+        for (k = 0; k < 3; ++k) {
+            const double m = M[i * 3 + k];
+            for (c = 0; c < 3; ++c) {
+                P[i * 3 + c] -= m * X[k * 3 + c];
+            }
         }
-        qdd[i] = t / D[i * 3 + i];
     }
+}
+
+/* Minv = D^-1, then dqdd_dq = -Minv dtau_dq and dqdd_dqd = -Minv dtau_dqd, the inverse dynamics derivatives taken
+ * at the qdd of forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau). One Cholesky factor
+ * of D gives qdd and Minv. Returns 0, or 1 when D is not positive definite. */
+static int omni_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *Minv)
+{
+    double L[3 * 3], dtau_dq[3 * 3], dtau_dqd[3 * 3];
+    double qdd[3];
+    if (omni_accelerations(q, qd, tau, p, L, qdd) != 0) {
+        return 1;
+    }
+    omni_inverse_dynamics_derivatives(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    omni_inverse(L, Minv);
+    omni_negated_product(Minv, dtau_dq, dqdd_dq);
+    omni_negated_product(Minv, dtau_dqd, dqdd_dqd);
+    return 0;
+}
+
+int omni_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+{
+    return omni_fd_derivatives(q, qd, tau, p, dqdd_dq, dqdd_dqd, dqdd_dtau);
+}
+
+int omni_A(const double *q, const double *qd, const double *tau, const double *p, double *A)
+{
+    double dq[3 * 3], dqd[3 * 3], Minv[3 * 3];
+    int i, j;
+    if (omni_fd_derivatives(q, qd, tau, p, dq, dqd, Minv) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 3; ++i) {
+        for (j = 0; j < 3; ++j) {
+            A[i * 6 + j] = 0.0;
+            A[i * 6 + 3 + j] = (i == j) ? 1.0 : 0.0;
+            A[(3 + i) * 6 + j] = dq[i * 3 + j];
+            A[(3 + i) * 6 + 3 + j] = dqd[i * 3 + j];
+        }
+    }
+    return 0;
+}
+
+int omni_B(const double *q, const double *qd, const double *tau, const double *p, double *B)
+{
+    double L[3 * 3];
+    int i;
+    (void)qd;
+    (void)tau;
+    omni_inertia(q, p, L);
+    if (omni_cholesky(L) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 3 * 3; ++i) {
+        B[i] = 0.0;
+    }
+    omni_inverse(L, B + 9);
     return 0;
 }
 

@@ -11,7 +11,7 @@ import os
 import casadi
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "end_effector_jacobian", "regressor", "standard_parameters", "forward_dynamics", "A", "B", "operational_inertia", "apparent_mass", )
+FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "inverse_dynamics_derivatives", "end_effector_jacobian", "regressor", "standard_parameters", "forward_dynamics", "forward_dynamics_derivatives", "A", "B", "operational_inertia", "apparent_mass", )
 COORDINATES = ("theta", "gamma1", "gamma2", )
 PARAMETERS = ("g", "L1", "L2", "m1", "m2", "I_base", "gamma_offs", )
 PARAMETER_DEFAULTS = [9.81, 0.135, 0.135, 0.035, 0.03, 0.00012, 0.0, ]

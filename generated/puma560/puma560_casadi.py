@@ -11,7 +11,7 @@ import os
 import casadi
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "end_effector_jacobian", "regressor", "standard_parameters", "forward_dynamics", "A", "B", "operational_inertia", "apparent_mass", )
+FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "inverse_dynamics_derivatives", "end_effector_jacobian", "regressor", "standard_parameters", "forward_dynamics", "forward_dynamics_derivatives", "A", "B", "operational_inertia", "apparent_mass", )
 COORDINATES = ("q1", "q2", "q3", "q4", "q5", "q6", )
 PARAMETERS = ("g", "a2", "a3", "d3", "d4", "m1", "m2", "m3", "m4", "m5", "m6", "rx2", "ry2", "rz2", "rx3", "ry3", "rz3", "ry4", "rz6", "Ixx1", "Iyy1", "Izz1", "Ixx2", "Iyy2", "Izz2", "Ixx3", "Iyy3", "Izz3", "Ixx4", "Iyy4", "Izz4", "Ixx5", "Iyy5", "Izz5", "Ixx6", "Iyy6", "Izz6", )
 PARAMETER_DEFAULTS = [9.81, 0.4318, 0.0203, 0.15005, 0.4318, 0.0, 17.4, 4.8, 0.82, 0.34, 0.09, -0.3638, 0.006, 0.2275, -0.0203, -0.0141, 0.07, 0.019, 0.032, 0.0, 0.35, 0.0, 0.13, 0.524, 0.539, 0.066, 0.086, 0.0125, 0.0018, 0.0013, 0.0018, 0.0003, 0.0004, 0.0003, 0.00015, 0.00015, 4e-05, ]

@@ -203,6 +203,82 @@ void single_flexible_link_inverse_dynamics(const double *q, const double *qd, co
     tau[4] = v26;
 }
 
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+ * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qdd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); outputs dtau_dq[25], dtau_dqd[25]
+ * 30 operations. */
+void single_flexible_link_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    const double v0 = 2.0*p[3];
+    const double v1 = qd[0]*v0;
+    const double v2 = 1.0/((p[2]*p[2]*p[2]*p[2]));
+    const double v3 = p[4]*v2;
+    const double v4 = -(qd[0]*qd[0])*p[3];
+    const double v5 = p[5]*v2;
+    const double v6 = q[1]*v0;
+    const double v7 = q[2]*v0;
+    const double v8 = qd[1]*v1 + qdd[0]*v6;
+    const double v9 = qd[2]*v1 + qdd[0]*v7;
+    const double v10 = 12.362363368326191*v3;
+    const double v11 = v10 + v4;
+    const double v12 = 485.51881851337106*v3;
+    const double v13 = v12 + v4;
+    const double v14 = 12.362363368326191*v5;
+    const double v15 = 485.51881851337106*v5;
+    const double v16 = qd[1]*v6 + qd[2]*v7;
+    const double v17 = qd[0]*v6;
+    const double v18 = qd[0]*v7;
+    dtau_dq[0] = 0.0;
+    dtau_dq[1] = v8;
+    dtau_dq[2] = v9;
+    dtau_dq[3] = 0.0;
+    dtau_dq[4] = 0.0;
+    dtau_dq[5] = 0.0;
+    dtau_dq[6] = v11;
+    dtau_dq[7] = 0.0;
+    dtau_dq[8] = 0.0;
+    dtau_dq[9] = 0.0;
+    dtau_dq[10] = 0.0;
+    dtau_dq[11] = 0.0;
+    dtau_dq[12] = v13;
+    dtau_dq[13] = 0.0;
+    dtau_dq[14] = 0.0;
+    dtau_dq[15] = 0.0;
+    dtau_dq[16] = 0.0;
+    dtau_dq[17] = 0.0;
+    dtau_dq[18] = v14;
+    dtau_dq[19] = 0.0;
+    dtau_dq[20] = 0.0;
+    dtau_dq[21] = 0.0;
+    dtau_dq[22] = 0.0;
+    dtau_dq[23] = 0.0;
+    dtau_dq[24] = v15;
+    dtau_dqd[0] = v16;
+    dtau_dqd[1] = v17;
+    dtau_dqd[2] = v18;
+    dtau_dqd[3] = 0.0;
+    dtau_dqd[4] = 0.0;
+    dtau_dqd[5] = -v17;
+    dtau_dqd[6] = 0.0;
+    dtau_dqd[7] = 0.0;
+    dtau_dqd[8] = 0.0;
+    dtau_dqd[9] = 0.0;
+    dtau_dqd[10] = -v18;
+    dtau_dqd[11] = 0.0;
+    dtau_dqd[12] = 0.0;
+    dtau_dqd[13] = 0.0;
+    dtau_dqd[14] = 0.0;
+    dtau_dqd[15] = 0.0;
+    dtau_dqd[16] = 0.0;
+    dtau_dqd[17] = 0.0;
+    dtau_dqd[18] = 0.0;
+    dtau_dqd[19] = 0.0;
+    dtau_dqd[20] = 0.0;
+    dtau_dqd[21] = 0.0;
+    dtau_dqd[22] = 0.0;
+    dtau_dqd[23] = 0.0;
+    dtau_dqd[24] = 0.0;
+}
+
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qdd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); output Y[65]
  * 46 operations. */
@@ -343,33 +419,151 @@ static int single_flexible_link_cholesky(double *D)
     return 0;
 }
 
-int single_flexible_link_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* x = D^-1 x in place for the Cholesky factor of single_flexible_link_cholesky (L in the lower triangle of L):
+ * L y = x, then L^T x = y. */
+static void single_flexible_link_solve(const double *L, double *x)
 {
-    double D[5 * 5];
-    double b[5];
-    const double zero[5] = { 0.0 };
     int i, k;
-    single_flexible_link_inertia(q, p, D);
-    single_flexible_link_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 5; ++i) { /* L y = x */
+        for (k = 0; k < i; ++k) {
+            x[i] -= L[i * 5 + k] * x[k];
+        }
+        x[i] /= L[i * 5 + i];
+    }
+    for (i = 5 - 1; i >= 0; --i) { /* L^T x = y */
+        for (k = i + 1; k < 5; ++k) {
+            x[i] -= L[k * 5 + i] * x[k];
+        }
+        x[i] /= L[i * 5 + i];
+    }
+}
+
+/* Minv = D^-1 = R^T R with R = L^-1 (lower triangular, by forward substitution from the Cholesky factor L of
+ * single_flexible_link_cholesky), N*N row-major and symmetric: about N^3/3 multiplications, half those of solving D X = I. */
+static void single_flexible_link_inverse(const double *L, double *Minv)
+{
+    double R[5 * 5], r[5];
+    int i, j, k;
     for (i = 0; i < 5; ++i) {
-        b[i] = tau[i] - b[i];
+        r[i] = 1.0 / L[i * 5 + i];
+    }
+    for (j = 0; j < 5; ++j) { /* column j of R: L R = I */
+        R[j * 5 + j] = r[j];
+        for (i = j + 1; i < 5; ++i) {
+            double t = 0.0;
+            for (k = j; k < i; ++k) {
+                t -= L[i * 5 + k] * R[k * 5 + j];
+            }
+            R[i * 5 + j] = t * r[i];
+        }
+    }
+    for (i = 0; i < 5; ++i) { /* Minv[i][j] = sum over k >= max(i, j) of R[k][i] R[k][j] */
+        for (j = i; j < 5; ++j) {
+            double t = 0.0;
+            for (k = j; k < 5; ++k) {
+                t += R[k * 5 + i] * R[k * 5 + j];
+            }
+            Minv[i * 5 + j] = t;
+            Minv[j * 5 + i] = t;
+        }
+    }
+}
+
+/* qdd = D^-1 (tau - bias) with D(q) = L L^T factored in D (lower triangle). Returns 0, or 1 when D is not
+ * positive definite. */
+static int single_flexible_link_accelerations(const double *q, const double *qd, const double *tau, const double *p, double *D, double *qdd)
+{
+    const double zero[5] = { 0.0 };
+    int i;
+    single_flexible_link_inertia(q, p, D);
+    single_flexible_link_inverse_dynamics(q, qd, zero, p, qdd);
+    for (i = 0; i < 5; ++i) {
+        qdd[i] = tau[i] - qdd[i];
     }
     if (single_flexible_link_cholesky(D) != 0) {
         return 1;
     }
-    for (i = 0; i < 5; ++i) { /* L y = b */
-        double t = b[i];
-        for (k = 0; k < i; ++k) {
-            t -= D[i * 5 + k] * qdd[k];
-        }
-        qdd[i] = t / D[i * 5 + i];
+    single_flexible_link_solve(D, qdd);
+    return 0;
+}
+
+int single_flexible_link_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[5 * 5];
+    return single_flexible_link_accelerations(q, qd, tau, p, D, qdd);
+}
+
+/* P = -M X for N*N row-major matrices (M = D^-1 symmetric): each row of P a combination of the rows of X,
+ * the inner loop over the N columns (no dependency between rows, unlike a triangular solve). */
+static void single_flexible_link_negated_product(const double *M, const double *X, double *P)
+{
+    int i, k, c;
+    for (i = 0; i < 5 * 5; ++i) {
+        P[i] = 0.0;
     }
-    for (i = 5 - 1; i >= 0; --i) { /* L^T qdd = y */
-        double t = qdd[i];
-        for (k = i + 1; k < 5; ++k) {
-            t -= D[k * 5 + i] * qdd[k];
+    for (i = 0; i < 5; ++i) {
+        for (k = 0; k < 5; ++k) {
+            const double m = M[i * 5 + k];
+            for (c = 0; c < 5; ++c) {
+                P[i * 5 + c] -= m * X[k * 5 + c];
+            }
         }
-        qdd[i] = t / D[i * 5 + i];
     }
+}
+
+/* Minv = D^-1, then dqdd_dq = -Minv dtau_dq and dqdd_dqd = -Minv dtau_dqd, the inverse dynamics derivatives taken
+ * at the qdd of forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau). One Cholesky factor
+ * of D gives qdd and Minv. Returns 0, or 1 when D is not positive definite. */
+static int single_flexible_link_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *Minv)
+{
+    double L[5 * 5], dtau_dq[5 * 5], dtau_dqd[5 * 5];
+    double qdd[5];
+    if (single_flexible_link_accelerations(q, qd, tau, p, L, qdd) != 0) {
+        return 1;
+    }
+    single_flexible_link_inverse_dynamics_derivatives(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    single_flexible_link_inverse(L, Minv);
+    single_flexible_link_negated_product(Minv, dtau_dq, dqdd_dq);
+    single_flexible_link_negated_product(Minv, dtau_dqd, dqdd_dqd);
+    return 0;
+}
+
+int single_flexible_link_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+{
+    return single_flexible_link_fd_derivatives(q, qd, tau, p, dqdd_dq, dqdd_dqd, dqdd_dtau);
+}
+
+int single_flexible_link_A(const double *q, const double *qd, const double *tau, const double *p, double *A)
+{
+    double dq[5 * 5], dqd[5 * 5], Minv[5 * 5];
+    int i, j;
+    if (single_flexible_link_fd_derivatives(q, qd, tau, p, dq, dqd, Minv) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 5; ++i) {
+        for (j = 0; j < 5; ++j) {
+            A[i * 10 + j] = 0.0;
+            A[i * 10 + 5 + j] = (i == j) ? 1.0 : 0.0;
+            A[(5 + i) * 10 + j] = dq[i * 5 + j];
+            A[(5 + i) * 10 + 5 + j] = dqd[i * 5 + j];
+        }
+    }
+    return 0;
+}
+
+int single_flexible_link_B(const double *q, const double *qd, const double *tau, const double *p, double *B)
+{
+    double L[5 * 5];
+    int i;
+    (void)qd;
+    (void)tau;
+    single_flexible_link_inertia(q, p, L);
+    if (single_flexible_link_cholesky(L) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 5 * 5; ++i) {
+        B[i] = 0.0;
+    }
+    single_flexible_link_inverse(L, B + 25);
     return 0;
 }

@@ -11,7 +11,7 @@ import os
 import casadi
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "regressor", "standard_parameters", "forward_dynamics", "A", "B", )
+FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "inverse_dynamics_derivatives", "regressor", "standard_parameters", "forward_dynamics", "forward_dynamics_derivatives", "A", "B", )
 COORDINATES = ("q0", "link_nu1", "link_nu2", "link_eta1", "link_eta2", )
 PARAMETERS = ("g", "I_h", "l", "rho", "EIv", "EIw", )
 PARAMETER_DEFAULTS = [9.81, 0.677, 0.449, 0.163, 88.32, 88.32, ]

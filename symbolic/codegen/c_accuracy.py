@@ -200,16 +200,18 @@ class _Library:
         self.scalar = ctypes.c_float if dtype is np.float32 else ctypes.c_double
         self.p = np.ctypeslib.as_array((self.scalar * max(n_p, 1)).in_dll(library, f"{name}_parameter_defaults")).copy()
 
-    def call(self, function: str, inputs: list[np.ndarray], size: int, solved: bool = False) -> tuple[np.ndarray, int]:
-        """``NAME_function(inputs..., out)``: the output (float64) and the status a solved function returns
-        (0 for the others, which return nothing)."""
+    def call(self, function: str, inputs: list[np.ndarray], size: int | tuple[int, ...], solved: bool = False
+             ) -> tuple[np.ndarray, int]:
+        """``NAME_function(inputs..., out...)``: the outputs (float64; several output arrays, of the sizes in the
+        tuple ``size``, one after the other) and the status a solved function returns (0 for the others)."""
+        sizes = (size,) if isinstance(size, int) else size
         pointer = ctypes.POINTER(self.scalar)
         arrays = [np.ascontiguousarray(a, dtype=self.dtype) for a in inputs]
-        out = np.zeros(max(size, 1), dtype=self.dtype)
+        outs = [np.zeros(max(k, 1), dtype=self.dtype) for k in sizes]
         c_function = getattr(self.library, f"{self.name}_{function}")
         c_function.restype = ctypes.c_int if solved else None
-        status = c_function(*[a.ctypes.data_as(pointer) for a in arrays], out.ctypes.data_as(pointer))
-        return out[:size].astype(np.float64), status or 0
+        status = c_function(*[a.ctypes.data_as(pointer) for a in arrays], *[o.ctypes.data_as(pointer) for o in outs])
+        return np.concatenate([o[:k] for o, k in zip(outs, sizes)]).astype(np.float64), status or 0
 
 
 def measure_float_accuracy(model: DynamicModel, count: int = STATES, seed: int = SEED) -> FloatAccuracy:
@@ -234,10 +236,10 @@ def measure_float_accuracy(model: DynamicModel, count: int = STATES, seed: int =
     return FloatAccuracy(count, seed, errors)
 
 
-def _functions(model: DynamicModel) -> list[tuple[str, tuple[str, ...], int, bool]]:
-    """(name, inputs, output size, returns a status) of every generated function, in the header's order."""
-    out = [(s.name, s.inputs, s.rows * s.cols, False) for s in function_specs(model)]
-    return out + [(s.name, s.inputs, s.rows * s.cols, True) for s in solved_specs(model)]
+def _functions(model: DynamicModel) -> list[tuple[str, tuple[str, ...], tuple[int, ...], bool]]:
+    """(name, inputs, output sizes, returns a status) of every generated function, in the header's order."""
+    out = [(s.name, s.inputs, tuple(r * c for _, r, c in s.arrays), False) for s in function_specs(model)]
+    return out + [(s.name, s.inputs, tuple(r * c for _, r, c in s.arrays), True) for s in solved_specs(model)]
 
 
 def _inputs(names: tuple[str, ...], states: dict, k: int, p: np.ndarray) -> list[np.ndarray]:
@@ -245,7 +247,7 @@ def _inputs(names: tuple[str, ...], states: dict, k: int, p: np.ndarray) -> list
     return [p if a == "p" else states[a][k] for a in names]
 
 
-def _function_error(function: tuple[str, tuple[str, ...], int, bool], states: dict, double: _Library, single: _Library,
+def _function_error(function: tuple[str, tuple[str, ...], tuple[int, ...], bool], states: dict, double: _Library, single: _Library,
                     count: int) -> FunctionError:
     """The worst relative error of one function over the states (module docstring)."""
     name, names, size, solved = function

@@ -82,19 +82,20 @@ def _build_context(model: DynamicModel, precision: str) -> dict:
             used |= e.free_symbols
         unused = [a for a in spec.inputs if not used & set(symbols[a])]
         if not program.outputs:  # nothing to write (a massless model's regressor and theta): no unused parameter
-            unused.append(spec.output)
+            unused += [array for array, _, _ in spec.arrays]
         functions.append(
             {
                 "name": spec.name,
                 "doc": spec.doc,
-                "signature": ", ".join(f"const {real} *{a}" for a in spec.inputs) + f", {real} *{spec.output}",
-                "layout": ", ".join(_layout(a, model) for a in spec.inputs) + f"; output {spec.output}[{spec.rows * spec.cols}]",
+                "signature": _signature(spec.inputs, spec.arrays, real),
+                "layout": ", ".join(_layout(a, model) for a in spec.inputs)
+                + f"; output{'s' if len(spec.arrays) > 1 else ''} " + ", ".join(f"{a}[{r * c}]" for a, r, c in spec.arrays),
                 "operations": built[spec.name].operations,
                 "angles": [printer.doprint(a) for a in batched.angles],
                 "angle_run": _input_run(batched.angles, places),
                 "unused": unused,
                 "statements": [{"name": str(s), "value": printer.doprint(e)} for s, e in program.statements],
-                "outputs": [{"name": f"{spec.output}[{i}]", "value": printer.doprint(e)} for i, e in enumerate(program.outputs)],
+                "outputs": [{"name": name, "value": printer.doprint(e)} for name, e in zip(_output_slots(spec.arrays), program.outputs)],
             }
         )
     stem = c_file_stem(model, precision)
@@ -126,8 +127,7 @@ def _build_context(model: DynamicModel, precision: str) -> dict:
         ],
         "functions": functions,
         "solved": [
-            {"name": f.name, "doc": f.doc, "status": f.status,
-             "signature": ", ".join(f"const {real} *{a}" for a in f.inputs) + f", {real} *{f.output}"}
+            {"name": f.name, "doc": f.doc, "status": f.status, "signature": _signature(f.inputs, f.arrays, real)}
             for f in solved_specs(model)
         ],
         "end_effector": model.robot.end_effector is not None,
@@ -142,6 +142,16 @@ _CONTEXTS: dict[str, Product[dict]] = {
     precision: Product(f"C text ({precision})", functools.partial(_build_context, precision=precision))
     for precision in PRECISIONS
 }
+
+
+def _signature(inputs: tuple[str, ...], arrays: tuple[tuple[str, int, int], ...], real: str) -> str:
+    """``const double *q, ..., double *out1, double *out2``: the inputs, then every output array."""
+    return ", ".join([f"const {real} *{a}" for a in inputs] + [f"{real} *{name}" for name, _, _ in arrays])
+
+
+def _output_slots(arrays: tuple[tuple[str, int, int], ...]) -> list[str]:
+    """``["D[0]", ..., "D[8]"]``: the C lvalue of each flat output, the arrays one after the other."""
+    return [f"{name}[{i}]" for name, rows, cols in arrays for i in range(rows * cols)]
 
 
 def _input_run(angles: tuple[sp.Expr, ...], places: dict[sp.Symbol, tuple[str, int]]) -> str | None:

@@ -3,8 +3,8 @@
 Expressions are translated into ``casadi.SX`` by evaluating the same straight-line program as the
 C code (SymPy's lambdify with CasADi's functions as the numeric module), so both targets share one
 source. Inputs are named q, qd, qdd, tau, p; outputs as in the C ABI. Forward dynamics solves
-D q̈ = τ − h − g − k − f; the linearisation A = ∂ẋ/∂x, B = ∂ẋ/∂τ (x = [q; q̇], Madill 3.9.4) is
-CasADi's exact algorithmic derivative of that.
+D q̈ = τ − h − g − k − f; its derivatives are −D⁻¹∂τ/∂(q, q̇) at that q̈ and D⁻¹ (as in the C); the
+linearisation A = ∂ẋ/∂x, B = ∂ẋ/∂τ (x = [q; q̇], Madill 3.9.4) is CasADi's exact algorithmic derivative of that.
 """
 
 from __future__ import annotations
@@ -53,7 +53,8 @@ class _CasadiPrinter(PythonCodePrinter):
         return f"sign({self._print(expr.args[0])})"
 
 
-def _to_sx(model: DynamicModel, spec: FunctionSpec, inputs: dict[str, ca.SX]) -> ca.SX:
+def _to_sx(model: DynamicModel, spec: FunctionSpec, inputs: dict[str, ca.SX]) -> list[ca.SX]:
+    """The output arrays of ``spec`` (:attr:`FunctionSpec.arrays`) as CasADi matrices, from its program."""
     symbols = input_symbols(model)
     program = programs(model)[spec.name]
     args = [list(symbols[a]) for a in spec.inputs]
@@ -61,30 +62,26 @@ def _to_sx(model: DynamicModel, spec: FunctionSpec, inputs: dict[str, ca.SX]) ->
     fn = sp.lambdify(args, flat, modules=[CASADI_MODULE], printer=_CasadiPrinter(),
                      cse=lambda exprs: (list(program.statements), exprs))
     values = fn(*[[inputs[a][i] for i in range(inputs[a].shape[0])] for a in spec.inputs])
-    out = ca.SX(spec.rows, spec.cols)
-    for k, v in enumerate(values):
-        out[k // spec.cols, k % spec.cols] = v
+    out, k = [], 0
+    for _, rows, cols in spec.arrays:
+        matrix = ca.SX(rows, cols)
+        for i in range(rows * cols):
+            matrix[i // cols, i % cols] = values[k + i]
+        out.append(matrix)
+        k += rows * cols
     return out
 
 
 def cholesky_solve(D: ca.SX, b: ca.SX) -> ca.SX:
     """D⁻¹b by the same fixed-size Cholesky factorisation as the generated C (better conditioned than
     CasADi's default symbolic QR for SX, and the two targets then agree to rounding)."""
-    n = D.shape[0]
+    return cholesky_solve_columns(D, b)
+
+
+def cholesky_solve_columns(D: ca.SX, B: ca.SX) -> ca.SX:
+    """D⁻¹B for every column of B with one Cholesky factor D = L Lᵀ (L y = b, then Lᵀ x = y; the generated C's order)."""
     L = _lower_factor(D)
-    y = [None] * n
-    for i in range(n):
-        t = b[i]
-        for k in range(i):
-            t = t - L[i][k] * y[k]
-        y[i] = t / L[i][i]
-    x = [None] * n
-    for i in reversed(range(n)):
-        t = y[i]
-        for k in range(i + 1, n):
-            t = t - L[k][i] * x[k]
-        x[i] = t / L[i][i]
-    return ca.vertcat(*x)
+    return ca.horzcat(*[ca.vertcat(*_back_substitution(L, _forward_substitution(L, B[:, c]))) for c in range(B.shape[1])])
 
 
 def _lower_factor(D: ca.SX) -> list[list]:
@@ -113,6 +110,18 @@ def _forward_substitution(L: list[list], b: ca.SX) -> list:
             t = t - L[i][k] * y[k]
         y.append(t / L[i][i])
     return y
+
+
+def _back_substitution(L: list[list], y: list) -> list:
+    """L⁻ᵀy for the factor of :func:`_lower_factor`."""
+    n = len(L)
+    x = [None] * n
+    for i in reversed(range(n)):
+        t = y[i]
+        for k in range(i + 1, n):
+            t = t - L[k][i] * x[k]
+        x[i] = t / L[i][i]
+    return x
 
 
 def handle_functions(inertia: ca.SX, jacobian: ca.SX, u: ca.SX) -> tuple[ca.SX, ca.SX]:
@@ -154,15 +163,19 @@ def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
     out: dict[str, ca.Function] = {}
     values: dict[str, ca.SX] = {}
     for spec in function_specs(model):
-        values[spec.name] = _to_sx(model, spec, inputs)
+        arrays = _to_sx(model, spec, inputs)
+        values[spec.name] = arrays[0]
         args = [inputs[a] for a in spec.inputs]
-        out[spec.name] = ca.Function(spec.name, args, [values[spec.name]], list(spec.inputs), [spec.output])
+        out[spec.name] = ca.Function(spec.name, args, arrays, list(spec.inputs), [a for a, _, _ in spec.arrays])
     q, qd, tau, p = inputs["q"], inputs["qd"], inputs["tau"], inputs["p"]
     bias = ca.substitute(values["inverse_dynamics"], inputs["qdd"], ca.SX.zeros(n))
     qdd = cholesky_solve(values["inertia"], tau - bias)
     names = list(timed(model, "q", "qd", "tau", "p"))  # with t before p for a time-varying model
     args = [inputs[a] for a in names]
     out["forward_dynamics"] = ca.Function("forward_dynamics", args, [qdd], names, ["qdd"])
+    derivatives = _forward_dynamics_derivatives(model, out["inverse_dynamics_derivatives"], inputs, values["inertia"], qdd)
+    out["forward_dynamics_derivatives"] = ca.Function("forward_dynamics_derivatives", args, derivatives, names,
+                                                      ["dqdd_dq", "dqdd_dqd", "dqdd_dtau"])
     x = ca.vertcat(q, qd)
     xdot = ca.vertcat(qd, qdd)
     out["A"] = ca.Function("A", args, [ca.jacobian(xdot, x)], names, ["A"])
@@ -174,6 +187,18 @@ def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
         out["operational_inertia"] = ca.Function("operational_inertia", [q, p], [lam], ["q", "p"], ["Lambda"])
         out["apparent_mass"] = ca.Function("apparent_mass", [q, u, p], [mass], ["q", "u", "p"], ["m"])
     return out
+
+
+def _forward_dynamics_derivatives(model: DynamicModel, id_derivatives: ca.Function, inputs: dict[str, ca.SX], inertia: ca.SX,
+                                  qdd: ca.SX) -> list[ca.SX]:
+    """[∂q̈/∂q, ∂q̈/∂q̇, ∂q̈/∂τ] = [−D⁻¹ ∂τ/∂q, −D⁻¹ ∂τ/∂q̇, D⁻¹], the inverse dynamics derivatives taken at the
+    q̈ of forward dynamics (docs/contracts.md, "Derivatives of the dynamics", (2)): the C's equations, solved here
+    with one Cholesky factor and triangular solves (the C multiplies by D⁻¹ = RᵀR instead; equal to rounding)."""
+    names = timed(model, "q", "qd", "qdd", "p")
+    dtau_dq, dtau_dqd = id_derivatives(*[qdd if a == "qdd" else inputs[a] for a in names])
+    n = model.n
+    solved = cholesky_solve_columns(inertia, ca.horzcat(-dtau_dq, -dtau_dqd, ca.SX.eye(n)))  # one factor for all
+    return [solved[:, :n], solved[:, n:2 * n], solved[:, 2 * n:]]
 
 
 def program_to_sx(sub, outputs: sp.Matrix, groups: list, values: list, module: dict | None = None) -> ca.SX:

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from symbolic.derivation.derivatives import InverseDynamicsDerivatives, inverse_dynamics_derivatives
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.derivation.products import Product
 from symbolic.derivation.regressor import Regressor
@@ -35,9 +36,15 @@ class FunctionSpec:
     output: str
     rows: int
     cols: int
-    expressions: tuple[sp.Expr, ...]  # row-major
+    expressions: tuple[sp.Expr, ...]  # row-major; the outputs of ``arrays`` one after the other
     doc: str
     sub: Subexpressions | None = None  # the intermediates the expressions use (default: the model's)
+    more_outputs: tuple[tuple[str, int, int], ...] = ()  # further output arrays (name, rows, cols), after ``output``
+
+    @property
+    def arrays(self) -> tuple[tuple[str, int, int], ...]:
+        """Every output array as (name, rows, cols), in argument order: ``output`` first."""
+        return ((self.output, self.rows, self.cols), *self.more_outputs)
 
 
 def input_symbols(model: DynamicModel) -> dict[str, tuple[sp.Symbol, ...]]:
@@ -75,6 +82,12 @@ class SolvedSpec:
     cols: int
     doc: str
     status: str
+    more_outputs: tuple[tuple[str, int, int], ...] = ()  # further output arrays (name, rows, cols), after ``output``
+
+    @property
+    def arrays(self) -> tuple[tuple[str, int, int], ...]:
+        """Every output array as (name, rows, cols), in argument order: ``output`` first."""
+        return ((self.output, self.rows, self.cols), *self.more_outputs)
 
 
 SOLVED_INPUT_SIZES = {"u": 3}
@@ -82,14 +95,27 @@ SOLVED_INPUT_SIZES = {"u": 3}
 
 
 def solved_specs(model: DynamicModel) -> list[SolvedSpec]:
-    """forward_dynamics; and at a declared end effector its operational (apparent) inertia and mass (Janot (18)).
+    """forward_dynamics, its derivatives (docs/contracts.md, "Derivatives of the dynamics", (2)), the state-space A and
+    B; and at a declared end effector its operational (apparent) inertia and mass (Janot (18)).
 
     See :mod:`symbolic.numeric.operational` for the definitions and docs/contracts.md for the C signatures.
     """
     n = model.n
-    specs = [SolvedSpec("forward_dynamics", timed(model, "q", "qd", "tau", "p"), "qdd", n, 1,
+    state = timed(model, "q", "qd", "tau", "p")
+    singular = "0 on success, 1 when D(q) is not positive definite ({} then left unspecified)"
+    specs = [SolvedSpec("forward_dynamics", state, "qdd", n, 1,
                         "Forward dynamics qdd = D(q)^-1 (tau - coriolis - gravity - stiffness - friction + applied), by Cholesky.",
-                        "0 on success, 1 when D(q) is not positive definite (qdd is then left unspecified)")]
+                        singular.format("qdd is")),
+             SolvedSpec("forward_dynamics_derivatives", state, "dqdd_dq", n, n,
+                        "Derivatives of forward dynamics, each N*N row-major (dqdd_dq[i*N + j] = d qdd_i / d q_j): "
+                        "dqdd_dq = -D^-1 dtau_dq, dqdd_dqd = -D^-1 dtau_dqd, dqdd_dtau = D^-1, the inverse dynamics "
+                        "derivatives taken at the qdd of forward dynamics (one Cholesky factor of D(q))",
+                        singular.format("the outputs are"), (("dqdd_dqd", n, n), ("dqdd_dtau", n, n))),
+             SolvedSpec("A", state, "A", 2 * n, 2 * n,
+                        "State matrix A = d xdot / d x of xdot = (qd, qdd), x = (q, qd): 2N*2N row-major, "
+                        "[[0, I], [dqdd_dq, dqdd_dqd]] (Madill 3.9.4)", singular.format("A is")),
+             SolvedSpec("B", state, "B", 2 * n, n,
+                        "Input matrix B = d xdot / d tau: 2N*N row-major, [[0], [D^-1]] (Madill 3.9.4)", singular.format("B is"))]
     if model.robot.end_effector is not None:
         specs += [
             SolvedSpec("operational_inertia", ("q", "p"), "Lambda", 3, 3,
@@ -107,8 +133,8 @@ def solved_specs(model: DynamicModel) -> list[SolvedSpec]:
 
 
 def function_specs(model: DynamicModel) -> list[FunctionSpec]:
-    """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, applied, inverse_dynamics, and
-    end_effector_jacobian (models with an end effector) and the regressor.
+    """inertia, coriolis, coriolis_matrix, gravity, stiffness, friction, applied, inverse_dynamics,
+    inverse_dynamics_derivatives, and end_effector_jacobian (models with an end effector) and the regressor.
 
     Every output is a part of the one composition in :func:`symbolic.derivation.derive`; nothing is
     assembled here.
@@ -128,7 +154,19 @@ def function_specs(model: DynamicModel) -> list[FunctionSpec]:
                      "Q(q, qd): generalized forces of the [[force]] entries, exerted on the system (zero without them)"),
         FunctionSpec("inverse_dynamics", timed(model, "q", "qd", "qdd", "p"), "tau", n, 1, tuple(r.tau),
                      "tau = D(q) qdd + coriolis + gravity + stiffness + friction - applied (recursive Newton-Euler)"),
+        _derivative_spec(model),
     ] + _jacobian_specs(model) + _regressor_specs(model)
+
+
+def _derivative_spec(model: DynamicModel) -> FunctionSpec:
+    """inverse_dynamics_derivatives: ∂τ/∂q and ∂τ/∂q̇ in the intermediates of τ (:mod:`symbolic.derivation.derivatives`)."""
+    n = model.n
+    derivatives = model.products.get(DERIVATIVES)
+    return FunctionSpec("inverse_dynamics_derivatives", timed(model, "q", "qd", "qdd", "p"), "dtau_dq", n, n,
+                        derivatives.dq + derivatives.dqd,
+                        "Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, "
+                        "dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; "
+                        "d tau / d qdd = D(q))", derivatives.sub, (("dtau_dqd", n, n),))
 
 
 def _jacobian_specs(model: DynamicModel) -> list[FunctionSpec]:
@@ -169,6 +207,8 @@ def _build_batched(model: DynamicModel) -> dict[str, BatchedTrig]:
     return {name: batch_trig(p, set(order), order=order) for name, p in programs(model).items()}
 
 
+DERIVATIVES: Product[InverseDynamicsDerivatives] = Product("inverse dynamics derivatives", inverse_dynamics_derivatives,
+                                                            persist=True)
 PROGRAMS: Product[dict[str, Program]] = Product("programs", _build_programs, persist=True)
 BATCHED_PROGRAMS: Product[dict[str, BatchedTrig]] = Product("batched programs", _build_batched, persist=True)
 

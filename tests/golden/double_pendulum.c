@@ -299,6 +299,64 @@ void double_pendulum_inverse_dynamics(const double *q, const double *qd, const d
     tau[1] = v12;
 }
 
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+ * Inputs: q[2] (q1, q2), qd[2] (q1, q2), qdd[2] (q1, q2), p[5] (see double_pendulum_parameter_names); outputs dtau_dq[4], dtau_dqd[4]
+ * 87 operations; sine and cosine of 2 angles in one double_pendulum_sincos call. */
+void double_pendulum_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    double sn[2], cs[2];
+    double_pendulum_sincos(2, q, sn, cs);
+    const double v0 = p[2]*qd[0];
+    const double v1 = sn[0]*p[0];
+    const double v2 = -p[1]*(qd[0]*qd[0]) + v1;
+    const double v3 = cs[0]*p[0];
+    const double v4 = p[1]*qdd[0] + v3;
+    const double v5 = cs[1]*v2 + sn[1]*v4;
+    const double v6 = cs[1]*v4 - sn[1]*v2;
+    const double v7 = 2.0*p[2];
+    const double v8 = cs[1]*v1 + sn[1]*v3;
+    const double v9 = -cs[1]*v3 + sn[1]*v1;
+    const double v10 = -qd[0]*v0 + v5;
+    const double v11 = p[2]*qdd[0] + v6;
+    const double v12 = p[2]*(qd[1]*qd[1]) + 2.0*qd[1]*v0 - v10;
+    const double v13 = p[2]*qdd[1] + v11;
+    const double v14 = p[4]*v12;
+    const double v15 = p[4]*v13;
+    const double v16 = p[4]*v8;
+    const double v17 = p[2]*v16;
+    const double v18 = p[3]*v1;
+    const double v19 = p[4]*v9;
+    const double v20 = cs[1]*v16 + sn[1]*v19;
+    const double v21 = v18 + v20;
+    const double v22 = p[1]*v21 + v17;
+    const double v23 = p[4]*v5;
+    const double v24 = p[2]*v23;
+    const double v25 = p[4]*v6;
+    const double v26 = cs[1]*v14 + cs[1]*v23 + sn[1]*v15 - sn[1]*v25;
+    const double v27 = p[1]*v26 + v24;
+    const double v28 = 2.0*p[1]*qd[0];
+    const double v29 = sn[1]*v28;
+    const double v30 = p[4]*v29;
+    const double v31 = p[2]*v30;
+    const double v32 = cs[1]*v28 + 2.0*v0;
+    const double v33 = qd[1]*v7 + v32;
+    const double v34 = p[4]*v33;
+    const double v35 = cs[1]*v30 - sn[1]*v34;
+    const double v36 = p[1]*v35 + v31;
+    const double v37 = v7*(qd[0] + qd[1]);
+    const double v38 = p[4]*v37;
+    const double v39 = sn[1]*v38;
+    const double v40 = p[1]*v39;
+    dtau_dq[0] = -v22;
+    dtau_dq[1] = -v27;
+    dtau_dq[2] = -v17;
+    dtau_dq[3] = -v24;
+    dtau_dqd[0] = v36;
+    dtau_dqd[1] = -v40;
+    dtau_dqd[2] = v31;
+    dtau_dqd[3] = 0.0;
+}
+
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
  * Inputs: q[2] (q1, q2), qd[2] (q1, q2), qdd[2] (q1, q2), p[5] (see double_pendulum_parameter_names); output Y[40]
  * 58 operations; sine and cosine of 2 angles in one double_pendulum_sincos call. */
@@ -427,33 +485,151 @@ static int double_pendulum_cholesky(double *D)
     return 0;
 }
 
-int double_pendulum_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+/* x = D^-1 x in place for the Cholesky factor of double_pendulum_cholesky (L in the lower triangle of L):
+ * L y = x, then L^T x = y. */
+static void double_pendulum_solve(const double *L, double *x)
 {
-    double D[2 * 2];
-    double b[2];
-    const double zero[2] = { 0.0 };
     int i, k;
-    double_pendulum_inertia(q, p, D);
-    double_pendulum_inverse_dynamics(q, qd, zero, p, b);
+    for (i = 0; i < 2; ++i) { /* L y = x */
+        for (k = 0; k < i; ++k) {
+            x[i] -= L[i * 2 + k] * x[k];
+        }
+        x[i] /= L[i * 2 + i];
+    }
+    for (i = 2 - 1; i >= 0; --i) { /* L^T x = y */
+        for (k = i + 1; k < 2; ++k) {
+            x[i] -= L[k * 2 + i] * x[k];
+        }
+        x[i] /= L[i * 2 + i];
+    }
+}
+
+/* Minv = D^-1 = R^T R with R = L^-1 (lower triangular, by forward substitution from the Cholesky factor L of
+ * double_pendulum_cholesky), N*N row-major and symmetric: about N^3/3 multiplications, half those of solving D X = I. */
+static void double_pendulum_inverse(const double *L, double *Minv)
+{
+    double R[2 * 2], r[2];
+    int i, j, k;
     for (i = 0; i < 2; ++i) {
-        b[i] = tau[i] - b[i];
+        r[i] = 1.0 / L[i * 2 + i];
+    }
+    for (j = 0; j < 2; ++j) { /* column j of R: L R = I */
+        R[j * 2 + j] = r[j];
+        for (i = j + 1; i < 2; ++i) {
+            double t = 0.0;
+            for (k = j; k < i; ++k) {
+                t -= L[i * 2 + k] * R[k * 2 + j];
+            }
+            R[i * 2 + j] = t * r[i];
+        }
+    }
+    for (i = 0; i < 2; ++i) { /* Minv[i][j] = sum over k >= max(i, j) of R[k][i] R[k][j] */
+        for (j = i; j < 2; ++j) {
+            double t = 0.0;
+            for (k = j; k < 2; ++k) {
+                t += R[k * 2 + i] * R[k * 2 + j];
+            }
+            Minv[i * 2 + j] = t;
+            Minv[j * 2 + i] = t;
+        }
+    }
+}
+
+/* qdd = D^-1 (tau - bias) with D(q) = L L^T factored in D (lower triangle). Returns 0, or 1 when D is not
+ * positive definite. */
+static int double_pendulum_accelerations(const double *q, const double *qd, const double *tau, const double *p, double *D, double *qdd)
+{
+    const double zero[2] = { 0.0 };
+    int i;
+    double_pendulum_inertia(q, p, D);
+    double_pendulum_inverse_dynamics(q, qd, zero, p, qdd);
+    for (i = 0; i < 2; ++i) {
+        qdd[i] = tau[i] - qdd[i];
     }
     if (double_pendulum_cholesky(D) != 0) {
         return 1;
     }
-    for (i = 0; i < 2; ++i) { /* L y = b */
-        double t = b[i];
-        for (k = 0; k < i; ++k) {
-            t -= D[i * 2 + k] * qdd[k];
-        }
-        qdd[i] = t / D[i * 2 + i];
+    double_pendulum_solve(D, qdd);
+    return 0;
+}
+
+int double_pendulum_forward_dynamics(const double *q, const double *qd, const double *tau, const double *p, double *qdd)
+{
+    double D[2 * 2];
+    return double_pendulum_accelerations(q, qd, tau, p, D, qdd);
+}
+
+/* P = -M X for N*N row-major matrices (M = D^-1 symmetric): each row of P a combination of the rows of X,
+ * the inner loop over the N columns (no dependency between rows, unlike a triangular solve). */
+static void double_pendulum_negated_product(const double *M, const double *X, double *P)
+{
+    int i, k, c;
+    for (i = 0; i < 2 * 2; ++i) {
+        P[i] = 0.0;
     }
-    for (i = 2 - 1; i >= 0; --i) { /* L^T qdd = y */
-        double t = qdd[i];
-        for (k = i + 1; k < 2; ++k) {
-            t -= D[k * 2 + i] * qdd[k];
+    for (i = 0; i < 2; ++i) {
+        for (k = 0; k < 2; ++k) {
+            const double m = M[i * 2 + k];
+            for (c = 0; c < 2; ++c) {
+                P[i * 2 + c] -= m * X[k * 2 + c];
+            }
         }
-        qdd[i] = t / D[i * 2 + i];
     }
+}
+
+/* Minv = D^-1, then dqdd_dq = -Minv dtau_dq and dqdd_dqd = -Minv dtau_dqd, the inverse dynamics derivatives taken
+ * at the qdd of forward dynamics (differentiating D(q) qdd + bias(q, qd) = tau at constant tau). One Cholesky factor
+ * of D gives qdd and Minv. Returns 0, or 1 when D is not positive definite. */
+static int double_pendulum_fd_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *Minv)
+{
+    double L[2 * 2], dtau_dq[2 * 2], dtau_dqd[2 * 2];
+    double qdd[2];
+    if (double_pendulum_accelerations(q, qd, tau, p, L, qdd) != 0) {
+        return 1;
+    }
+    double_pendulum_inverse_dynamics_derivatives(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    double_pendulum_inverse(L, Minv);
+    double_pendulum_negated_product(Minv, dtau_dq, dqdd_dq);
+    double_pendulum_negated_product(Minv, dtau_dqd, dqdd_dqd);
+    return 0;
+}
+
+int double_pendulum_forward_dynamics_derivatives(const double *q, const double *qd, const double *tau, const double *p, double *dqdd_dq, double *dqdd_dqd, double *dqdd_dtau)
+{
+    return double_pendulum_fd_derivatives(q, qd, tau, p, dqdd_dq, dqdd_dqd, dqdd_dtau);
+}
+
+int double_pendulum_A(const double *q, const double *qd, const double *tau, const double *p, double *A)
+{
+    double dq[2 * 2], dqd[2 * 2], Minv[2 * 2];
+    int i, j;
+    if (double_pendulum_fd_derivatives(q, qd, tau, p, dq, dqd, Minv) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 2; ++i) {
+        for (j = 0; j < 2; ++j) {
+            A[i * 4 + j] = 0.0;
+            A[i * 4 + 2 + j] = (i == j) ? 1.0 : 0.0;
+            A[(2 + i) * 4 + j] = dq[i * 2 + j];
+            A[(2 + i) * 4 + 2 + j] = dqd[i * 2 + j];
+        }
+    }
+    return 0;
+}
+
+int double_pendulum_B(const double *q, const double *qd, const double *tau, const double *p, double *B)
+{
+    double L[2 * 2];
+    int i;
+    (void)qd;
+    (void)tau;
+    double_pendulum_inertia(q, p, L);
+    if (double_pendulum_cholesky(L) != 0) {
+        return 1;
+    }
+    for (i = 0; i < 2 * 2; ++i) {
+        B[i] = 0.0;
+    }
+    double_pendulum_inverse(L, B + 4);
     return 0;
 }

@@ -11,7 +11,7 @@ import os
 import casadi
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "regressor", "standard_parameters", "forward_dynamics", "A", "B", )
+FUNCTIONS = ("inertia", "coriolis", "coriolis_matrix", "gravity", "stiffness", "friction", "applied", "inverse_dynamics", "inverse_dynamics_derivatives", "regressor", "standard_parameters", "forward_dynamics", "forward_dynamics_derivatives", "A", "B", )
 COORDINATES = ("q1", "q2", )
 PARAMETERS = ("g", "l1", "l2", "m1", "m2", )
 PARAMETER_DEFAULTS = [9.81, 0.5, 0.4, 1.0, 0.8, ]

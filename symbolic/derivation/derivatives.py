@@ -1,0 +1,63 @@
+"""∂τ/∂q and ∂τ/∂q̇ of the inverse dynamics, in intermediate symbols (docs/contracts.md, "Derivatives").
+
+τ(q, q̇, q̈) is a straight-line program: each intermediate xₖ = φₖ(x₁ … xₖ₋₁, q, q̇, q̈) of the recursive
+Newton–Euler pass (and of friction, the drives and the applied forces) is a short expression in earlier ones
+(docs/architecture.md, "Intermediate symbols"). Its derivatives are taken by the chain rule through those
+definitions, forward mode:
+
+    ∂xₖ/∂v = ∂φₖ/∂v + Σₘ ∂φₖ/∂xₘ · ∂xₘ/∂v,    v ∈ {q₁ … q_N, q̇₁ … q̇_N},          (1)
+
+each ∂xₘ/∂v registered as an intermediate in turn (memoized, zero where xₘ does not depend on v), so the
+derivatives are again a straight-line program in the same intermediates as τ: a generated function computes
+τ's intermediates once and the derivatives from them. Differentiating the expanded closed form of τ instead
+would first build that form (tens of thousands of operations for a 7-axis arm) and then differentiate every
+term of it. ∂τ/∂q̈ = D(q) needs no derivative. The derivative of sign(v) is taken as zero (its value away
+from v = 0), as everywhere in the derivation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from symbolic.derivation.dynamics import DynamicModel
+from symbolic.derivation.subexpressions import Subexpressions
+
+
+@dataclass(frozen=True)
+class InverseDynamicsDerivatives:
+    """∂τ/∂q and ∂τ/∂q̇ as N×N row-major tuples, entry [i·N + j] = ∂τᵢ/∂x_j, in the intermediates of ``sub``.
+
+    Attributes
+    ----------
+    sub : a copy of the model's intermediates extended by the derivatives of (1) (the model's own are untouched)
+    dq : ∂τᵢ/∂q_j, row-major
+    dqd : ∂τᵢ/∂q̇_j, row-major
+    """
+
+    sub: Subexpressions
+    dq: tuple[sp.Expr, ...]
+    dqd: tuple[sp.Expr, ...]
+
+
+def inverse_dynamics_derivatives(model: DynamicModel) -> InverseDynamicsDerivatives:
+    """∂τ/∂q and ∂τ/∂q̇ of ``model.reduced.tau`` by the chain rule (1) through its intermediates.
+
+    Parameters
+    ----------
+    model : the derived model
+
+    Returns
+    -------
+    InverseDynamicsDerivatives
+        The two Jacobians, row-major, in a copy of ``model.sub`` extended by the derivatives.
+    """
+    sub = model.sub.copy()
+    tau = list(model.reduced.tau)
+    return InverseDynamicsDerivatives(sub, _jacobian(sub, tau, model.coordinates), _jacobian(sub, tau, model.velocities))
+
+
+def _jacobian(sub: Subexpressions, outputs: list[sp.Expr], variables: tuple[sp.Symbol, ...]) -> tuple[sp.Expr, ...]:
+    """[∂outputᵢ/∂variable_j] row-major, each entry a short expression in intermediates (registered in ``sub``)."""
+    return tuple(sub.diff(y, v) for y in outputs for v in variables)
