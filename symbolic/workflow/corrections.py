@@ -29,6 +29,7 @@ import math
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -39,7 +40,7 @@ from symbolic.data import DataError
 from symbolic.data.treatment import Processing, Settings
 from symbolic.description.modelfile import loads, with_parameter_values
 from symbolic.description.robot import Directional, Robot, coordinate_symbol, velocity_symbol
-from symbolic.errors import ModelError
+from symbolic.errors import ModelError, ModelWarning
 from symbolic.identify.known import beta_bounds, parameter_bounds, polynomial_lower_bound
 from symbolic.identify.least_squares import Identification, RankDeficient
 from symbolic.identify.model import geometric_parameters
@@ -550,3 +551,14 @@ def modes_sentence(found: Mapping[str, Any]) -> str:
     pairs = [f"{b['frequency_hz']:.3g} Hz → {a['frequency_hz']:.3g} Hz" for b, a in zip(before, after)
              if abs(a["frequency_hz"] - b["frequency_hz"]) > 0.01 * max(b["frequency_hz"], 1e-12)]
     return ", ".join(pairs) if pairs else "unchanged within 1 %"
+
+
+def check_loads(text: str, target: Path, source: Path) -> None:
+    """Refuse to go on with a patched model file that :func:`symbolic.load` would refuse: it is never written."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ModelWarning)
+            loads(text, str(target))
+    except ModelError as error:
+        raise ModelError(str(source), "patch", f"the patched model with its re-identified values does not load "
+                                               f"({error}); nothing is written; this is a bug of the workflow") from None

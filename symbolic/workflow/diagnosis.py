@@ -23,7 +23,6 @@ import dataclasses
 import logging
 import os
 import time
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,13 +32,13 @@ import numpy as np
 
 from symbolic.data import Controller, DataError, Experiment, Measurements, load
 from symbolic.derivation.dynamics import DynamicModel, derive
-from symbolic.errors import ModelError, ModelWarning, SimulationError
+from symbolic.errors import ModelError, SimulationError
 from symbolic.identify.known import fixed_symbols
 from symbolic.identify.least_squares import IdentificationError
 from symbolic.data.treatment import Settings, settings_for
 from symbolic.description.modelfile import loads
 from symbolic.description.robot import Robot
-from symbolic.workflow.corrections import FinalFit, physical_values, review
+from symbolic.workflow.corrections import FinalFit, check_loads, physical_values, review
 from symbolic.workflow.dataset import DataSet, load_sets, with_held_force
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
 from symbolic.workflow.effects import joint_elasticity
@@ -307,7 +306,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
                                                   f"re-identified by symbolic diagnose on {data_name}", model.robot)
         notes += [f"{k['parameter']} is kept at the model file's value: the fitted {k['value']:.6g} is not physical "
                   f"({k['reason']})" for k in kept]
-        _check_loads(patched_text, target, source)
+        check_loads(patched_text, target, source)
         patched_path = target if out is not None else None
         measured_model = derive(loads(patched_text, str(target))) if added else patched
         if simulate and elastic and not unmeasured:
@@ -458,7 +457,7 @@ def _with_response_values(text: str, values: Mapping[str, float], target: Path, 
     held (IDIM-LS re-identifies the others, as for every patched model)."""
     text, _, _ = physical_values(text, values, str(target), f"corrected by the output error of symbolic diagnose "
                                                             f"on {data_name}", model.robot)
-    _check_loads(text, target, source)
+    check_loads(text, target, source)
     patched = derive(loads(text, str(target)))
     kept = [n for n in fix if n in {p.name for p in patched.robot.parameters}]
     after, _ = _fit_or_inverse(patched, sets, simulate, [*kept, *values], caveats)
@@ -749,17 +748,6 @@ def _before_corrections(model: DynamicModel, sets: dict[str, DataSet], simulate:
         after = _fit(after.model, sets, None, [n for n in fix if n in {p.name for p in after.model.robot.parameters}])
         simulate = None
     return held_before, localise(sets["estimation"], held_before.predicted["estimation"]), simulate, after
-
-
-def _check_loads(text: str, target: Path, source: Path) -> None:
-    """Refuse to go on with a patched model file that :func:`symbolic.load` would refuse: it is never written."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", ModelWarning)
-            loads(text, str(target))
-    except ModelError as error:
-        raise ModelError(str(source), "patch", f"the patched model with its re-identified values does not load "
-                                               f"({error}); nothing is written; this is a bug of the workflow") from None
 
 
 NOTHING_TO_REIDENTIFY = ("every value of the model is written inline (no [parameters] entry moves its terms): "

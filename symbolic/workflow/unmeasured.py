@@ -32,9 +32,9 @@ import numpy as np
 from symbolic.data import DataError, Measurements, load, signal_layer
 from symbolic.derivation.dynamics import DynamicModel, derive
 from symbolic.description.modelfile import loads
-from symbolic.errors import ModelError, ModelWarning
+from symbolic.errors import ModelWarning
 from symbolic.identify.output_error import simulated, simulation_errors
-from symbolic.workflow.corrections import modes_at, modes_sentence, physical_values
+from symbolic.workflow.corrections import check_loads, modes_at, modes_sentence, physical_values
 from symbolic.workflow.dataset import HOLDOUT_FRACTION, split
 from symbolic.workflow.effects.on_response import RESPONSE_EFFECTS, ResponseEffect
 from symbolic.workflow.records import SearchSettings
@@ -213,13 +213,10 @@ def _patched(model: DynamicModel, response: ResponseSearch, out: str | Path | No
                                     model.robot)
     notes += [f"{k['parameter']} is kept at the model file's value: the fitted {k['value']:.6g} is not physical "
               f"({k['reason']})" for k in kept]
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", ModelWarning)
-            patched = derive(loads(text, str(target)))
-    except ModelError as error:
-        raise ModelError(str(path), "patch", f"the patched model does not load ({error}); nothing is written; this "
-                                             "is a bug of the workflow") from None
+    check_loads(text, target, path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelWarning)
+        patched = derive(loads(text, str(target)))
     return text, target if out is not None else None, patched, kept
 
 
