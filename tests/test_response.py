@@ -68,6 +68,37 @@ def test_a_force_logged_late_is_named_as_a_delay(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
+def test_an_equation_error_stand_in_for_a_delay_is_dropped(tmp_path: Path) -> None:
+    """Joint 2's force logged 3 samples late: the equation error names a stand-in on joint 2 first (an inertia,
+    or an offset); once the response names the delay, the stand-in, refitted with it, no longer lowers the
+    held-out simulation error and is not written (symbolic.workflow.stand_ins). The force is declared as
+    logged, so the diagnosis runs once and the review's note is the one to read."""
+    result = _diagnose(tmp_path, "arm", log_delay=(0, 3), force_noise=0.05, seed=1,
+                       layer="[identification]\nheld_force = false\n")
+    assert list(_named(result)) == ["delay(q2)"]
+    assert abs(_named(result)["delay(q2)"]["delay"] - 3.0) < 1.0
+    assert result.to_dict()["found"] == []
+    dropped = [n for n in result.notes if "a stand-in for them, not written" in n]
+    assert len(dropped) >= 1 and all("on q2" in n for n in dropped)
+    patched = (tmp_path / "out" / "arm_patched.toml").read_text(encoding="utf-8")
+    assert "symbolic diagnose: " not in patched  # no effect written (its comments read "symbolic diagnose: <label>")
+    assert patched.count("[[friction]]") == 2 and "rotor_inertia" not in patched
+
+
+@pytest.mark.slow
+def test_a_true_finding_beside_a_delay_is_kept(tmp_path: Path) -> None:
+    """The model file lacks joint 1's viscous friction (truth 0.8) and joint 2's force is logged 3 samples
+    late: the review keeps viscous(q1), which the delay does not explain, and the response names the delay."""
+    text = models.arm(parameters="Fv2 = 0.5\nFc1 = 0.6\nFc2 = 0.4\n", friction1='coulomb = "Fc1"')
+    result = _diagnose(tmp_path, "arm", text=text, log_delay=(0, 3), force_noise=0.05, seed=1)
+    assert list(_named(result)) == ["delay(q2)"]
+    found = [(f["effect"], f["coordinate"]) for f in result.to_dict()["found"]]
+    assert found == [("viscous", "q1")]
+    assert result.to_dict()["found"][0]["parameters"]["viscous"] == pytest.approx(0.8, rel=0.1)
+    assert not [n for n in result.notes if "a stand-in for them" in n]
+
+
+@pytest.mark.slow
 def test_one_joints_drive_gain_is_named_on_that_joint(tmp_path: Path) -> None:
     result = _diagnose(tmp_path, "arm", drive=((1.0, 0.0), (1.3, 0.0)), force_noise=0.05, seed=1)
     named = _named(result)

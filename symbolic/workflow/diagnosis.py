@@ -239,22 +239,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
     patched_text = patched_path = None
     written_elastic: list[dict[str, float]] = []
     if source.is_file() and source.suffix.lower() != ".urdf":  # a URDF has no TOML text to patch (note below)
-        editor = Editor(source.read_text(encoding="utf-8"), model.robot, str(source))
-        written, flexes = [], set()
-        for a, final in zip(accepted, finals):
-            c = a.candidate
-            editor.note(_evidence_comment(a, final, selection))
-            label = f"symbolic diagnose: {c.label()}"
-            written.append(c.effect.patch(editor, selection.context, c.j, final["roles"], final["coefficients_full"],
-                                          c.value, label))
-        for e in elastic:
-            editor.note(f"symbolic diagnose: joint_elasticity({e.coordinate}) from the motor-side and link-side "
-                        f"encoders: k = {e.values['stiffness']:.6g} ± {e.sigmas['stiffness']:.2g}, the deflection "
-                        f"removes {100 * e.gain:.3g} % of the motor side's held-out residual power")
-            values, flex = joint_elasticity.patch(editor, model.robot, e.coordinate, e.values, e.band,
-                                                  f"symbolic diagnose: joint_elasticity({e.coordinate})")
-            written_elastic.append(values)
-            flexes.add(flex)
+        editor, written, written_elastic, flexes = _edited(model, source, accepted, finals, selection, elastic)
         removed = editor.drop_unused()
         name = f"{model.name}_patched.toml"
         target = Path(out) / name if out is not None else Path(name)
@@ -353,12 +338,28 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
             response = _judge_response(derive(loads(patched_text, str(target))), sets, response_effects, fix,
                                        selection.settings.min_gain, notes, determined)
             lap("response")
+            stand_in = _stand_ins(patched_text, target, accepted, written, selection.context.coordinates, response,
+                                  sets, selection.settings.min_gain)
+            notes += stand_in.notes
+            if stand_in.dropped:  # the patch again without the stand-ins, at the values IDIM-LS gave the others
+                keep = [i for i in range(len(accepted)) if i not in stand_in.dropped]
+                accepted, finals = [accepted[i] for i in keep], [finals[i] for i in keep]
+                editor, written, written_elastic, _ = _edited(model, source, accepted, finals, selection, elastic)
+                editor.drop_unused()
+                response = stand_in.response
+                patched_text, own, kept = physical_values(editor.text(), own, str(target),
+                                                          f"re-identified by symbolic diagnose on {data_name}",
+                                                          model.robot)
+                again = derive(loads(patched_text, str(target)))
+                after = _fit_or_inverse(again, sets, simulate, [n for n in fix if n in again.parameter_vector.names],
+                                        caveats)[0]
             corrected = response.parameter_values() if response is not None else {}
             if corrected:
                 notes.append(f"the patched model holds the output error's values of {', '.join(sorted(corrected))} "
                              "(judged on the response), not IDIM-LS's; the gap after is measured with them")
                 patched_text, after = _with_response_values(patched_text, corrected, target, source, sets, simulate,
                                                             fix, caveats, model, data_name)
+            if corrected or stand_in.dropped:
                 reviewed = (*reviewed[:2], _modes_with(model, after.model, patched_text, estimation, notes))
     else:
         what = "TOML text to patch (a URDF model)" if source.suffix.lower() == ".urdf" else "file"
@@ -386,6 +387,45 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
                           caveats=tuple(caveats), cpu_seconds=cpu_seconds, response=response,
                           elasticity=tuple(elasticity))
     return diagnosis
+
+
+def _edited(model: DynamicModel, source: Path, accepted: Sequence[Any], finals: Sequence[dict[str, Any]],
+            selection: Search, elastic: Sequence[Any]) -> tuple[Editor, list[dict[str, float]],
+                                                                  list[dict[str, float]], set[str]]:
+    """The model file with the accepted effects and the named elastic joints written: (editor, the parameters
+    each effect wrote, each elastic joint's values, the deflection coordinates added)."""
+    editor = Editor(source.read_text(encoding="utf-8"), model.robot, str(source))
+    written, written_elastic, flexes = [], [], set()
+    for a, final in zip(accepted, finals):
+        c = a.candidate
+        editor.note(_evidence_comment(a, final, selection))
+        label = f"symbolic diagnose: {c.label()}"
+        written.append(c.effect.patch(editor, selection.context, c.j, final["roles"], final["coefficients_full"],
+                                      c.value, label))
+    for e in elastic:
+        editor.note(f"symbolic diagnose: joint_elasticity({e.coordinate}) from the motor-side and link-side "
+                    f"encoders: k = {e.values['stiffness']:.6g} ± {e.sigmas['stiffness']:.2g}, the deflection "
+                    f"removes {100 * e.gain:.3g} % of the motor side's held-out residual power")
+        values, flex = joint_elasticity.patch(editor, model.robot, e.coordinate, e.values, e.band,
+                                              f"symbolic diagnose: joint_elasticity({e.coordinate})")
+        written_elastic.append(values)
+        flexes.add(flex)
+    return editor, written, written_elastic, flexes
+
+
+def _stand_ins(text: str, target: Path, accepted: Sequence[Any], written: Sequence[dict[str, float]],
+               coordinates: Sequence[str], response: Any, sets: dict[str, DataSet], min_gain: float) -> Any:
+    """The equation error's findings judged again with the response's named values
+    (:mod:`symbolic.workflow.stand_ins`)."""
+    from symbolic.workflow.stand_ins import Finding, Review, review
+
+    if response is None:
+        return Review((), (), response)
+    findings = [Finding(a.candidate.label(), coordinates[a.candidate.j], a.candidate.effect.null_values(w))
+                for a, w in zip(accepted, written)]
+    held = sets["validation"]
+    record, start = (held.record.measurements, held.start) if held.record is not None else (held.measurements, 0)
+    return review(text, str(target), findings, response, sets["estimation"].measurements, record, start, min_gain)
 
 
 def _simulated_as_written(patched: DynamicModel, sets: dict[str, DataSet], simulate: Simulator, after: Fit,

@@ -238,6 +238,12 @@ class Effect:
         """Write the effect on coordinate ``j`` into the model file; return the parameters written."""
         raise NotImplementedError
 
+    def null_values(self, written: Mapping[str, float]) -> dict[str, float]:
+        """The values of the parameters :meth:`patch` wrote (``written``) at which the effect is absent: what
+        "nothing missing" means when its finding is judged again (:mod:`symbolic.workflow.stand_ins`). Default:
+        every one 0 (a coefficient, a mass, an added inertia)."""
+        return {name: 0.0 for name in written}
+
     def check_residual(self, roles: Roles, frequency: np.ndarray, psd: np.ndarray, share: float) -> str | None:
         """``None`` when the residual the effect is fitted to shows what it claims, else why not; ``frequency``
         and ``psd`` are the Welch spectrum of that residual on the effect's coordinate, ``share`` the part

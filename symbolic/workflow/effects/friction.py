@@ -194,6 +194,10 @@ class Stribeck(Effect):
             return f"static level {roles['static']:.4g} is not above the Coulomb level {reference:.4g}"
         return _nonnegative(roles, "static")
 
+    def null_values(self, written):
+        # absent at a static level equal to the Coulomb level, which is another effect's value: not written here
+        return {}
+
     def patch(self, editor, context, j, roles, c, value, comment):
         coordinate = context.coordinates[j]
         static = editor.parameter(coefficient_name(STRIBECK_STEM, coordinate), roles["static"], comment)
