@@ -57,6 +57,8 @@ def run(kind: str, **options) -> tuple[list[tuple[str, dict]], float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--cases-only", action="store_true",
+                        help="run the effects to name and the rig only; keep the null section of --out as it is")
     parser.add_argument("--out", type=Path, default=HERE / "results" / "response.md")
     args = parser.parse_args()
     nulls = [("axis", dict(seed=s, counts=c, force_noise=n)) for s in range(10) for c in (2**16, 2**20)
@@ -66,6 +68,10 @@ def main() -> None:
     lines = ["# The search judged on the response", "", "`python bench/response.py` (issue 34); truth from "
              "tests/reference_integrator.py.", "", "## Nothing missing", ""]
     false, total = 0, 0.0
+    if args.cases_only:
+        kept = args.out.read_text(encoding="utf-8").split("## Nothing missing\n", 1)[1].split("## Effects to name", 1)[0]
+        lines += [kept.strip(), "", "(This section is the last full run's: `--cases-only` ran the cases below again.)", ""]
+        nulls = []
     for kind, options in nulls:
         named, seconds = run(kind, **options)
         false += len(named)
@@ -73,9 +79,10 @@ def main() -> None:
         print(kind, options, named, f"{seconds:.1f} s", file=sys.stderr)
         if named:
             lines.append(f"* {kind} {options}: named {named}")
-    lines += [f"{len(nulls)} null cases ({sum(k == 'axis' for k, _ in nulls)} axis, "
-              f"{sum(k == 'arm' for k, _ in nulls)} arm): **{false} effect(s) named**; {total:.0f} s in all.", "",
-              "## Effects to name", "", "| case | truth | named |", "|---|---|---|"]
+    if not args.cases_only:
+        lines += [f"{len(nulls)} null cases ({sum(k == 'axis' for k, _ in nulls)} axis, "
+                  f"{sum(k == 'arm' for k, _ in nulls)} arm): **{false} effect(s) named**; {total:.0f} s in all.", ""]
+    lines += ["## Effects to name", "", "| case | truth | named |", "|---|---|---|"]
     cases = [("axis, force logged 3 samples late", "delay 3", "axis", dict(log_delay=3, force_noise=0.02, seed=1)),
              ("arm, joint 2's force logged 3 samples late", "delay 3 on q2", "arm",
               dict(log_delay=(0, 3), force_noise=0.05, seed=1)),

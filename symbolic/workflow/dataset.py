@@ -106,6 +106,18 @@ def split(measurements: Measurements, fraction: float = HOLDOUT_FRACTION) -> tup
     return time_slice(measurements, 0, cut), time_slice(measurements, cut, measurements.samples)
 
 
+def held_out_split(measurements: Measurements, how: str = "") -> tuple[Measurements, Measurements, str]:
+    """(the first part, the last :data:`HOLDOUT_FRACTION` in time, a sentence saying where it is and ``how`` it is
+    used) of a record without validation data; refused where either part would have fewer than 2 samples."""
+    first, last = split(measurements)
+    if min(first.samples, last.samples) < 2:
+        raise DataError(str(measurements.source), "samples",
+                        f"{measurements.samples} samples are too few to hold out the last "
+                        f"{100 * HOLDOUT_FRACTION:g} % and estimate on the rest; give a validation data set (--validate)")
+    return first, last, (f"the last {100 * HOLDOUT_FRACTION:g} % of the data in time "
+                         f"({last.t[0]:.6g} s to {last.t[-1]:.6g} s){how}, not used for estimation")
+
+
 def load_sets(
     model: Robot | tuple[str, ...],
     data: str | Path | Measurements,
@@ -127,14 +139,8 @@ def load_sets(
         if loaded is not None:
             check_forces(loaded)
     if measurements.validation is None:
-        first, last = split(measurements)
-        if min(first.samples, last.samples) < 2:
-            raise DataError(str(measurements.source), "samples",
-                            f"{measurements.samples} samples are too few to hold out the last "
-                            f"{100 * HOLDOUT_FRACTION:g} % and estimate on the rest; give a validation data set (--validate)")
+        first, last, held_out = held_out_split(measurements)
         start = first.samples
-        held_out = (f"the last {100 * HOLDOUT_FRACTION:g} % of the data in time "
-                    f"({last.t[0]:.6g} s to {last.t[-1]:.6g} s), not used for estimation")
         try:
             tail = dataclasses.replace(treat(last, "validation", settings), record=treat(measurements, "record", settings),
                                        start=start)

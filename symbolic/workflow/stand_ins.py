@@ -25,7 +25,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from symbolic.data import DataError, Measurements
-from symbolic.derivation.dynamics import DynamicModel, derive
+from symbolic.derivation.dynamics import derive
 from symbolic.description.modelfile import loads, with_parameter_values
 from symbolic.errors import IdentificationError, ModelError, SimulationError
 from symbolic.identify.output_error import OutputErrorFit, output_error, simulation_errors

@@ -35,7 +35,7 @@ from symbolic.description.modelfile import loads
 from symbolic.errors import ModelWarning
 from symbolic.identify.output_error import simulated, simulation_errors
 from symbolic.workflow.corrections import check_loads, modes_at, modes_sentence, physical_values
-from symbolic.workflow.dataset import HOLDOUT_FRACTION, split
+from symbolic.workflow.dataset import held_out_split
 from symbolic.workflow.effects.on_response import RESPONSE_EFFECTS, ResponseEffect
 from symbolic.workflow.records import SearchSettings
 from symbolic.workflow.response import ResponseSearch, search_response
@@ -186,14 +186,8 @@ def _sets(measurements: Measurements) -> tuple[Measurements, Measurements, int, 
     held = getattr(measurements, "validation", None)
     if held is not None:
         return replace(measurements, validation=None), held, 0, f"the validation data {held.source}"
-    first, last = split(measurements)
-    if min(first.samples, last.samples) < 2:
-        raise DataError(str(measurements.source), "samples",
-                        f"{measurements.samples} samples are too few to hold out the last {100 * HOLDOUT_FRACTION:g} %; "
-                        "give a validation data set (--validate)")
-    return first, measurements, first.samples, (f"the last {100 * HOLDOUT_FRACTION:g} % of the data in time "
-                                               f"({last.t[0]:.6g} s to {last.t[-1]:.6g} s), simulated from the "
-                                               "record's start, not used for estimation")
+    first, _, where = held_out_split(measurements, ", simulated from the record's start")
+    return first, measurements, first.samples, where
 
 
 def _patched(model: DynamicModel, response: ResponseSearch, out: str | Path | None, source: str,
