@@ -202,6 +202,10 @@ class Page:
         if texts:
             self.parts.append("<ul>" + "".join(f"<li>{html.escape(t)}</li>" for t in texts) + "</ul>")
 
+    def code(self, lines: Iterable[str]) -> None:
+        """Lines to copy as they are (an experiment file's lines), preformatted."""
+        self.parts.append("<pre>" + html.escape("\n".join(lines)) + "</pre>")
+
     def link(self, text: str, href: str, after: str = "") -> None:
         """A link to a sibling page of the same folder (relative: no request outside the report's files)."""
         if "://" in href or href.startswith("//"):
@@ -291,3 +295,38 @@ def spectrum_traces(spectra: Mapping[str, tuple[Any, Any]]) -> list[dict[str, An
         shown = psd > 0
         out.append(line(f[shown], psd[shown], name if shown.any() else f"{name}: zero residual (nothing to draw)"))
     return out
+
+
+def alignment(page: Page, r: Mapping[str, Any], key: str = "alignment") -> None:
+    """The alignment of the bags a command read (``r[key]``: one :meth:`symbolic.data.bags.Alignment.to_dict`, or
+    ``{data set: that}``; nothing when the data were no bag): the time base, and per topic its messages, rate,
+    gaps and dropped messages — the table report.md shows (:func:`symbolic.data.bags.markdown_lines`)."""
+    found = r.get(key)
+    if not found:
+        return
+    sets = [((key,), found)] if "topics" in found else [((key, role), a) for role, a in found.items() if a]
+    page.heading("The bag's topics aligned")
+    page.paragraph("Every topic put onto one time base over the interval all of them have messages (docs/data.md, "
+                   "\"Alignment\"): each topic's rate between gaps, each gap bridged, and the messages dropped.")
+    for at, a in sets:
+        role = f" ({at[1]} data)" if len(at) > 1 else ""
+        page.paragraph(f"{a.get('file', 'the bag')}{role}: t = 0 at {a['start_ns'] / 1e9:.9f} s of the bag's clock.")
+        page.table(["time base", "samples", "rate"],
+                   [[a["base"], number(r, *at, "samples", digits=12), number(r, *at, "rate", digits=6, unit="Hz")]])
+        page.table(["topic", "type", "messages", "rate", "time", "method", "dropped before the time base",
+                    "after it", "with a repeated stamp", "out of order (sorted)"],
+                   [[t["topic"], t["type"], number(r, *at, "topics", k, "messages", digits=12),
+                     number(r, *at, "topics", k, "rate", digits=6, unit="Hz"), t["stamps"], "/".join(t["methods"]),
+                     number(r, *at, "topics", k, "dropped", "before", digits=12),
+                     number(r, *at, "topics", k, "dropped", "after", digits=12),
+                     number(r, *at, "topics", k, "dropped", "repeated", digits=12),
+                     number(r, *at, "topics", k, "out_of_order", digits=12)] for k, t in enumerate(a["topics"])])
+        gaps = [[t["topic"], number(r, *at, "topics", k, "gaps", g, "t", digits=6, unit="s"),
+                 number(r, *at, "topics", k, "gaps", g, "length", digits=3, unit="s"),
+                 number(r, *at, "topics", k, "gaps", g, "missing", digits=12)]
+                for k, t in enumerate(a["topics"]) for g in range(len(t["gaps"]))]
+        if gaps:
+            page.paragraph("Gaps (steps longer than 1.5 median steps), each bridged by its topic's method:")
+            page.table(["topic", "at t", "length", "messages missing"], gaps)
+        else:
+            page.paragraph("No gap in any topic.")
