@@ -444,6 +444,13 @@ def test_the_response_alone_has_its_page(alone_case, tmp_path: Path) -> None:
     assert {("response", "corrections", 0, "value"), ("response", "corrections", 0, "sigma"),
             ("response", "corrections", 0, "idim_ls")} <= set(cells)
     assert ("modes", "before", 0, "frequency_hz") in cells and ("modes", "after", 0, "frequency_hz") in cells
+    tried = [(k, i, j) for k, round_ in enumerate(printed["response"]["rounds"]) for i, j in enumerate(round_)
+             if "verdict" in j]
+    assert tried, "the search tried candidates it did not name"
+    for k, i, j in tried:  # every candidate tried, its held-out gain and each value fitted
+        assert ("response", "rounds", k, i, "held_out_gain") in cells
+        for name, value in j["parameters"].items():
+            assert ("response", "rounds", k, i, "parameters", name) in cells or not isinstance(value, (int, float))
     report = (folder / "report.md").read_text(encoding="utf-8")
     assert f"{printed['after']['validation']['force']['q']:.4g}" in report
     figures = check_in_chromium(folder / "report.html", tmp_path)

@@ -103,7 +103,7 @@ def corrections(page: Page, r: Mapping[str, Any]) -> None:
     page.table(["parameter", "model file", "data", "σ", "change", "σ away", "held-out gap at the file's value",
                 "with the correction"],
                [[c["parameter"], number(r, "corrections", k, "nominal", digits=6), number(r, "corrections", k, "value", digits=6),
-                 number(r, "corrections", k, "sigma", digits=2),
+                 number(r, "corrections", k, "sigma", digits=3),
                  "—" if c.get("relative_change") is None else
                  number(r, "corrections", k, "relative_change", digits=3, signed=True, scale=100, unit="%"),
                  number(r, "corrections", k, "evidence", "sigmas", digits=3),
@@ -134,10 +134,10 @@ def elasticity(page: Page, r: Mapping[str, Any]) -> None:
                          number(r, *at, "held_out_error_percent", "motor_side", unit="%"),
                          number(r, *at, "held_out_error_percent", "elastic", unit="%"),
                          number(r, *at, "gain", digits=3, scale=100, unit="%"),
-                         number(r, *at, "values", "stiffness", digits=6), number(r, *at, "sigmas", "stiffness", digits=2),
-                         number(r, *at, "values", "damping", digits=6), number(r, *at, "sigmas", "damping", digits=2),
+                         number(r, *at, "values", "stiffness", digits=6), number(r, *at, "sigmas", "stiffness", digits=3),
+                         number(r, *at, "values", "damping", digits=6), number(r, *at, "sigmas", "damping", digits=3),
                          number(r, *at, "values", "motor_inertia", digits=6),
-                         number(r, *at, "sigmas", "motor_inertia", digits=2),
+                         number(r, *at, "sigmas", "motor_inertia", digits=3),
                          number(r, *at, "link_mode_hz", digits=3, unit="Hz"), verdict])
         page.table(["coordinate", "deflection rms", "held-out error: rigid row", "motor side without spring",
                     "with spring", "held-out gain", "k", "σ(k)", "d", "σ(d)", "J_m", "σ(J_m)", "link mode", "verdict"],
@@ -211,7 +211,7 @@ def response(page: Page, r: Mapping[str, Any], at: tuple[str, ...], subject: str
         page.paragraph("Corrected through the response (written into the patched model):")
         page.table(["parameter", "kind", start, "value", "σ", "change"],
                    [[c["parameter"], c["kind"], number(r, *at, "corrections", k, "idim_ls", digits=6),
-                     number(r, *at, "corrections", k, "value", digits=6), number(r, *at, "corrections", k, "sigma", digits=2),
+                     number(r, *at, "corrections", k, "value", digits=6), number(r, *at, "corrections", k, "sigma", digits=3),
                      "—" if c.get("relative_change") is None else
                      number(r, *at, "corrections", k, "relative_change", digits=3, signed=True, scale=100, unit="%")]
                     for k, c in enumerate(s["corrections"])])
@@ -226,11 +226,15 @@ def response(page: Page, r: Mapping[str, Any], at: tuple[str, ...], subject: str
     tried = [(k, i, j) for k, round_ in enumerate(s["rounds"]) for i, j in enumerate(round_) if j.get("verdict") is not None]
     if tried:
         page.paragraph("Tried and not named:")
-        page.table(["candidate", "fitted", "held-out gain", "why not named"],
-                   [[j["label"], ", ".join(f"{name} = {v:.4g}" for name, v in j["parameters"].items()
-                                           if isinstance(v, (int, float))) or "—",
-                     number(r, *at, "rounds", k, i, "held_out_gain", digits=3, scale=100, unit="%"), j["verdict"]]
-                    for k, i, j in tried])
+        rows: list[list[Any]] = []
+        for k, i, j in tried:
+            values = [n for n, v in j["parameters"].items() if isinstance(v, (int, float)) and not isinstance(v, bool)]
+            gain = number(r, *at, "rounds", k, i, "held_out_gain", digits=3, scale=100, unit="%")
+            for n_, name in enumerate(values or [None]):  # one row per fitted value: each number its own cell
+                rows.append([j["label"] if n_ == 0 else "", name or "—",
+                             "—" if name is None else number(r, *at, "rounds", k, i, "parameters", name, digits=4),
+                             gain if n_ == 0 else "", j["verdict"] if n_ == 0 else ""])
+        page.table(["candidate", "fitted", "value", "held-out gain", "why not named"], rows)
 
 
 def _judged_rows(r: Mapping[str, Any], at: tuple[Any, ...], judged: list[Mapping[str, Any]]) -> list[list[Any]]:
@@ -246,7 +250,7 @@ def _judged_rows(r: Mapping[str, Any], at: tuple[Any, ...], judged: list[Mapping
                              number(r, *at, k, "held_out_gain", digits=3, scale=100, unit="%") if first else ""])
                 first = False
         for name in j.get("sigmas") or {}:
-            rows.append(["", f"σ of {name}", number(r, *at, k, "sigmas", name, digits=2), ""])
+            rows.append(["", f"σ of {name}", number(r, *at, k, "sigmas", name, digits=3), ""])
     return rows
 
 
