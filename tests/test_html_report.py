@@ -506,3 +506,28 @@ def test_the_bags_alignment_is_on_every_page(name: str, bag_case, tmp_path: Path
         assert f"| `/joint_states` | {gap['t']:.6g} s | {gap['length']:.3g} s | 20 |" in text
         assert f"| `/joint_states` | sensor_msgs/msg/JointState | {report['topics'][joint]['messages']} |" in text
     check_in_chromium(page, tmp_path)
+
+
+def test_figure_data_are_float32_typed_arrays_without_the_template() -> None:
+    """Page size (issue 37): a figure's values are rounded to 6 digits and carried as base64 float32 typed arrays,
+    and plotly's template is not expanded into each figure; decoded, the values are the rounded ones."""
+    import base64
+
+    page = htmlpage.Page("t", {"a": 1}, "symbolic test")
+    t = np.linspace(0.0, 2.0, 1001)
+    y = np.sin(7 * t) * 123.456789
+    page.figure("f", [htmlpage.line(t, y, "y")], x="t", y="y")
+    text = page.render()
+    call = re.search(r'Plotly\.newPlot\(\s*"figure-1",\s*(\[.*?\]),\s*(\{.*\}),\s*\{"displaylogo"', text, re.S)
+    data, layout = json.loads(call.group(1)), json.loads(call.group(2))
+    for axis, values in (("x", t), ("y", y)):
+        packed = data[0][axis]
+        assert packed["dtype"] == "f4", packed
+        decoded = np.frombuffer(base64.b64decode(packed["bdata"]), dtype="<f4")
+        expected = np.array(htmlpage.rounded(values), dtype=np.float32)
+        assert np.array_equal(decoded, expected)
+        assert np.allclose(decoded, values, rtol=1e-5, atol=0)
+    assert len(json.dumps(layout.get("template", {}))) < 100, layout.get("template")
+    assert layout["plot_bgcolor"] == "white"
+    # about 5.3 characters a value (6.5 with the "/" plotly writes as \\u002f), not 9 or so as decimal text
+    assert len(call.group(1)) < 1001 * 2 * 7
