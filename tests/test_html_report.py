@@ -531,3 +531,23 @@ def test_figure_data_are_float32_typed_arrays_without_the_template() -> None:
     assert layout["plot_bgcolor"] == "white"
     # about 5.3 characters a value (6.5 with the "/" plotly writes as \\u002f), not 9 or so as decimal text
     assert len(call.group(1)) < 1001 * 2 * 7
+
+
+@pytest.mark.slow
+def test_one_encoder_elasticity_is_on_the_page(tmp_path: Path) -> None:
+    """The geared joint seen by its motor encoder alone (test_joint_elasticity's case, 3 s): joint_elasticity (one
+    encoder) is found, and its values with σ are in the page's joint elasticity section."""
+    import elastic_reference as truth
+
+    experiment = truth.write_joint_experiment(tmp_path, seconds=3.0)
+    experiment.write_text(experiment.read_text().replace('ql_q = "ql_q"\n', ""))
+    (tmp_path / "joint.toml").write_text(truth.model_text(), encoding="utf-8")
+    printed = run("diagnose", str(tmp_path / "joint.toml"), str(experiment), "--out", str(tmp_path / "out"), "--html")
+    (k,) = [k for k, f in enumerate(printed["found"]) if f.get("variant") == "one_encoder"]
+    page = tmp_path / "out" / "report.html"
+    cells = check_page(page, printed)
+    text = page.read_text(encoding="utf-8")
+    assert "<h3>One encoder</h3>" in text
+    for role in printed["found"][k]["parameters"]:
+        assert ("found", k, "parameters", role) in cells
+    check_in_chromium(page, tmp_path)

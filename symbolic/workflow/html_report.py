@@ -3,7 +3,10 @@
 
 The tables are read from the dictionary ``diagnose --json`` prints (``document``, :meth:`Diagnosis.to_dict`):
 the gaps before and after (headline and per coordinate), the named effects with their parameters and σ, the
-model file's values the patch changes. The figures draw what the PNGs draw, from the same arrays
+model file's values the patch changes, the corrections with their held-out gaps, the joint elasticity tests (two
+encoders; the one-encoder variant's values), the modes before and after, the search judged on the response, what
+the data's treatment explains, the bag's alignment — the sections of report.md, whose numbers are the same ones.
+:func:`render_response` is the page of a diagnosis judged on the response alone. The figures draw what the PNGs draw, from the same arrays
 (:func:`symbolic.workflow.figures.effect_curves`): per coordinate the residual before and after against time,
 velocity and position, and its Welch spectrum; per effect found, the partial residual against the state it
 depends on with the fitted term.
