@@ -379,6 +379,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         except MatplotlibMissing as missing:
             notes.append(str(missing))
     document = {**simulation.to_dict(comparison), "files": [str(f) for f in files], "notes": notes}
+    if getattr(measurements, "alignment", None) is not None:  # a bag: how its topics were aligned, as identify says
+        document["alignment"] = measurements.alignment.to_dict()
     if args.html:  # the page is built from the dictionary --json prints (symbolic.htmlpage, "One source")
         from symbolic.simulation.html_report import NAME, render
 
@@ -472,11 +474,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if getattr(result, "judged_on", None) == "response":  # coordinates the data do not measure
         for line in result.summary():
             print(line)
-        for note in result.notes:
-            if note.startswith("--html"):
-                print(f"note: {note}")
         if args.out:
-            written = [str(Path(args.out) / "report.md")] + ([str(result.patched_path)] if result.patched_path else [])
+            written = [str(Path(args.out) / "report.md")] + ([str(Path(args.out) / "report.html")] if args.html else []) \
+                + ([str(result.patched_path)] if result.patched_path else [])
             print(f"wrote {' and '.join(written)}")
         return 0
     gap = lambda fit: f"{fit.gap['estimation']:.4g} % (estimation), {fit.gap['validation']:.4g} % (held out)"  # noqa: E731

@@ -19,6 +19,9 @@ before their work, so a missing plotly costs nothing.
   between the pages of a campaign are relative (sibling files).
 * **Deterministic.** Fixed figure ids (``figure-1``, ``figure-2``, … in page order), no date, no run time,
   figure values rounded to 6 significant digits: the same result with the same plotly gives the same bytes.
+* **Small figures.** plotly.js (4.8 MB, the one bundle the plotly package ships) is most of a page; the figures'
+  values are carried as float32 typed arrays (:func:`packed`) and plotly's template is written out as its few
+  colours (:data:`LOOK`) instead of expanded into every figure.
 * **Long signals.** A line of more than :data:`MAX_POINTS` samples is drawn as the minimum and the maximum of
   each of ``MAX_POINTS/2`` runs of consecutive samples, in time order: the envelope, so peaks and bursts stay
   visible at any zoom (:func:`envelope`); a cloud of points (residual against velocity) keeps every k-th sample,
@@ -46,6 +49,12 @@ MAX_POINTS = 4000
 VOLATILE = frozenset({"timings", "seconds", "cpu_seconds", "computed", "cached", "files", "figures"})
 """Keys left out of the embedded result: how long the run took, what the cache held and the files written
 describe the run, not the result, and would make two runs' pages differ."""
+LOOK = {"template": "none", "plot_bgcolor": "white", "paper_bgcolor": "white", "font": {"color": "#2a3f5f"},
+        "colorway": ["#636efa", "#EF553B", "#00cc96", "#ab63fa", "#FFA15A", "#19d3f3", "#FF6692", "#B6E880"]}
+AXIS = {"gridcolor": "#EBF0F8", "linecolor": "#EBF0F8", "zerolinecolor": "#EBF0F8", "zerolinewidth": 2,
+        "automargin": True}
+"""The look of plotly's ``plotly_white`` template, written out: the template itself, which plotly.py expands
+into every figure's JSON (about 7 kB a figure), is left out (``"none"``)."""
 SIGNIFICANT = 6
 RESULT_ID = "symbolic-result"
 REPORT = "report.html"
@@ -124,6 +133,13 @@ def rounded(values: Any) -> list[float | None]:
     return [float(f"{v:.{SIGNIFICANT}g}") if math.isfinite(v) else None for v in array.tolist()]
 
 
+def packed(values: Any) -> np.ndarray:
+    """``values`` as the figures carry them: :func:`rounded` to :data:`SIGNIFICANT` digits, then float32 (NaN where
+    not finite), which plotly writes as a base64 typed array (``{"dtype": "f4", "bdata": ...}``): 5.3 characters
+    a value instead of about 10 as decimal text, and float32's 7 digits keep the 6 rounded to."""
+    return np.array([np.nan if v is None else v for v in rounded(values)], dtype=np.float32)
+
+
 def envelope(x: Any, y: Any, limit: int = MAX_POINTS) -> tuple[np.ndarray, np.ndarray, bool]:
     """``x, y`` with at most ``limit`` points: the minimum and maximum of each of ``limit/2`` runs of
     consecutive samples, in their order (module docstring); and whether it was reduced."""
@@ -153,7 +169,7 @@ def line(x: Any, y: Any, name: str, *, dash: str | None = None, width: float = 1
          limit: int = MAX_POINTS) -> dict[str, Any]:
     """A line trace (its envelope beyond ``limit`` samples)."""
     x, y, reduced = envelope(x, y, limit)
-    trace: dict[str, Any] = {"type": "scatter", "mode": "lines", "name": name, "x": rounded(x), "y": rounded(y),
+    trace: dict[str, Any] = {"type": "scatter", "mode": "lines", "name": name, "x": packed(x), "y": packed(y),
                              "line": {"width": width, **({"dash": dash} if dash else {}), **({"color": color} if color else {})}}
     return {**trace, "_reduced": "envelope"} if reduced else trace
 
@@ -163,15 +179,15 @@ def points(x: Any, y: Any, name: str, *, size: float = 3, color: str | None = No
     """A cloud of points (every k-th beyond ``limit``); ``error``: symmetric error bars (σ)."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     index = thinned(len(y), limit)
-    trace: dict[str, Any] = {"type": "scatter", "mode": "markers", "name": name, "x": rounded(x[index]),
-                             "y": rounded(y[index]), "marker": {"size": size, **({"color": color} if color else {})}}
+    trace: dict[str, Any] = {"type": "scatter", "mode": "markers", "name": name, "x": packed(x[index]),
+                             "y": packed(y[index]), "marker": {"size": size, **({"color": color} if color else {})}}
     if error is not None:
-        trace["error_y"] = {"type": "data", "array": rounded(np.asarray(error, dtype=float)[index]), "visible": True}
+        trace["error_y"] = {"type": "data", "array": packed(np.asarray(error, dtype=float)[index]), "visible": True}
     return {**trace, "_reduced": "thinned"} if len(index) < len(y) else trace
 
 
 def bars(x: Sequence[str], y: Any, name: str) -> dict[str, Any]:
-    return {"type": "bar", "name": name, "x": list(x), "y": rounded(y)}
+    return {"type": "bar", "name": name, "x": list(x), "y": packed(y)}
 
 
 def band(start: float, stop: float, label: str, color: str = "rgba(214,39,40,0.15)") -> dict[str, Any]:
@@ -201,6 +217,10 @@ class Page:
         texts = list(texts)
         if texts:
             self.parts.append("<ul>" + "".join(f"<li>{html.escape(t)}</li>" for t in texts) + "</ul>")
+
+    def code(self, lines: Iterable[str]) -> None:
+        """Lines to copy as they are (an experiment file's lines), preformatted."""
+        self.parts.append("<pre>" + html.escape("\n".join(lines)) + "</pre>")
 
     def link(self, text: str, href: str, after: str = "") -> None:
         """A link to a sibling page of the same folder (relative: no request outside the report's files)."""
@@ -233,13 +253,13 @@ class Page:
                          f"consecutive samples ({MAX_POINTS // 2} runs): the envelope, peaks kept.")
         if "thinned" in ways:
             notes.append(f"Clouds of more than {MAX_POINTS} points show every k-th sample, k = ⌈n/{MAX_POINTS}⌉.")
-        layout = {"title": {"text": html.escape(title), "font": {"size": 14}}, "height": height,
-                  "template": "plotly_white", "margin": {"l": 70, "r": 20, "t": 50, "b": 55},
-                  "xaxis": {"title": {"text": html.escape(x)}, **({"type": "category"} if categories else {})},
-                  "yaxis": {"title": {"text": html.escape(y)}, **({"type": "log"} if log_y else {})},
+        layout = {"title": {"text": html.escape(title), "font": {"size": 14}}, "height": height, **LOOK,
+                  "margin": {"l": 70, "r": 20, "t": 50, "b": 55},
+                  "xaxis": {**AXIS, "title": {"text": html.escape(x)}, **({"type": "category"} if categories else {})},
+                  "yaxis": {**AXIS, "title": {"text": html.escape(y)}, **({"type": "log"} if log_y else {})},
                   "legend": {"orientation": "h", "y": -0.2}, "hovermode": "closest", "shapes": list(shapes)}
         if y2 is not None:
-            layout["yaxis2"] = {"title": {"text": html.escape(y2)}, "overlaying": "y", "side": "right", "showgrid": False}
+            layout["yaxis2"] = {**AXIS, "title": {"text": html.escape(y2)}, "overlaying": "y", "side": "right", "showgrid": False}
             layout["margin"]["r"] = 70
         figure = go.Figure(data=data, layout=layout)
         div = figure.to_html(full_html=False, include_plotlyjs=False, div_id=f"figure-{self.figures}",
@@ -291,3 +311,38 @@ def spectrum_traces(spectra: Mapping[str, tuple[Any, Any]]) -> list[dict[str, An
         shown = psd > 0
         out.append(line(f[shown], psd[shown], name if shown.any() else f"{name}: zero residual (nothing to draw)"))
     return out
+
+
+def alignment(page: Page, r: Mapping[str, Any], key: str = "alignment") -> None:
+    """The alignment of the bags a command read (``r[key]``: one :meth:`symbolic.data.bags.Alignment.to_dict`, or
+    ``{data set: that}``; nothing when the data were no bag): the time base, and per topic its messages, rate,
+    gaps and dropped messages — the table report.md shows (:func:`symbolic.data.bags.markdown_lines`)."""
+    found = r.get(key)
+    if not found:
+        return
+    sets = [((key,), found)] if "topics" in found else [((key, role), a) for role, a in found.items() if a]
+    page.heading("The bag's topics aligned")
+    page.paragraph("Every topic put onto one time base over the interval all of them have messages (docs/data.md, "
+                   "\"Alignment\"): each topic's rate between gaps, each gap bridged, and the messages dropped.")
+    for at, a in sets:
+        role = f" ({at[1]} data)" if len(at) > 1 else ""
+        page.paragraph(f"{a.get('file', 'the bag')}{role}: t = 0 at {a['start_ns'] / 1e9:.9f} s of the bag's clock.")
+        page.table(["time base", "samples", "rate"],
+                   [[a["base"], number(r, *at, "samples", digits=12), number(r, *at, "rate", digits=6, unit="Hz")]])
+        page.table(["topic", "type", "messages", "rate", "time", "method", "dropped before the time base",
+                    "after it", "with a repeated stamp", "out of order (sorted)"],
+                   [[t["topic"], t["type"], number(r, *at, "topics", k, "messages", digits=12),
+                     number(r, *at, "topics", k, "rate", digits=6, unit="Hz"), t["stamps"], "/".join(t["methods"]),
+                     number(r, *at, "topics", k, "dropped", "before", digits=12),
+                     number(r, *at, "topics", k, "dropped", "after", digits=12),
+                     number(r, *at, "topics", k, "dropped", "repeated", digits=12),
+                     number(r, *at, "topics", k, "out_of_order", digits=12)] for k, t in enumerate(a["topics"])])
+        gaps = [[t["topic"], number(r, *at, "topics", k, "gaps", g, "t", digits=6, unit="s"),
+                 number(r, *at, "topics", k, "gaps", g, "length", digits=3, unit="s"),
+                 number(r, *at, "topics", k, "gaps", g, "missing", digits=12)]
+                for k, t in enumerate(a["topics"]) for g in range(len(t["gaps"]))]
+        if gaps:
+            page.paragraph("Gaps (steps longer than 1.5 median steps), each bridged by its topic's method:")
+            page.table(["topic", "at t", "length", "messages missing"], gaps)
+        else:
+            page.paragraph("No gap in any topic.")

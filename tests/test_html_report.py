@@ -310,3 +310,244 @@ def test_identify_html_names_a_file_in_an_existing_folder(inputs: Path, tmp_path
     for target, says in ((tmp_path, "name the HTML file"), (tmp_path / "missing" / "r.html", "does not exist")):
         assert cli.main(["-q", "identify", str(inputs / "cart.toml"), str(inputs / "nothing.csv"), "--html", str(target)]) == 2
         assert says in capsys.readouterr().err
+
+
+# -- the diagnose page's other sections, the response-alone page, a bag's alignment (issue 37's leftovers) --------
+#
+# Each case runs the command line once (module fixtures) with --json; its page is checked like the five above: every
+# number equals --json's, the embedded JSON is --json's less the run's times, Chromium draws every figure without an
+# error or a request. And report.md shows the same values: the test formats a few of the JSON's numbers as report.md
+# does and finds them there, so a page and a report that drifted apart fail.
+
+
+def check_page(page: Path, printed: dict) -> dict[tuple, object]:
+    """The numbers of ``page`` checked against ``printed`` (--json); ``{path: value}`` of its numeric cells."""
+    cells = parse(page)
+    assert json.loads(cells.embedded) == htmlpage.stable(printed)
+    for path, value, scale, text in cells.cells:
+        assert htmlpage.lookup(printed, path) == value, path
+        shown = re.sub(r"[^0-9eE.+−-]", "", text.split(" ")[0]).replace("−", "-")
+        assert value is None and text == "—" or float(shown) == pytest.approx(value * scale, rel=1e-2, abs=1e-12), \
+            (path, text)
+    return {tuple(p): v for p, v, _, _ in cells.cells}
+
+
+def check_in_chromium(page: Path, work: Path) -> int:
+    """``page`` opened in headless Chromium: no console error, no request, every figure drawn; how many figures."""
+    browser.chromium()
+    seen = browser.check(page, work)
+    assert seen["log"] == [] and seen["resources"] == [], seen
+    expected = len(re.findall(r'<div id="figure-\d+"', page.read_text(encoding="utf-8")))
+    assert len(seen["figures"]) == expected
+    for figure in seen["figures"]:
+        assert figure["svg"] >= 1 and figure["traces"] >= 1 and figure["height"] > 100, figure
+    return expected
+
+
+@pytest.fixture(scope="module")
+def response_case(tmp_path_factory) -> tuple[Path, dict]:
+    """diagnose --simulate on the axis whose force is logged 3 samples late (test_response's quick case): the search
+    judged on the response names delay(q)."""
+    from reference_integrator import write_axis_experiment
+
+    folder = tmp_path_factory.mktemp("html_response")
+    write_axis_experiment(folder, counts=2**16, seconds=2.0, force_noise=0.02, log_delay=3)
+    (folder / "axis.toml").write_text(models.axis(), encoding="utf-8")
+    return folder / "out", run("diagnose", str(folder / "axis.toml"), str(folder / "axis.experiment.toml"), "--simulate",
+                               "--effects", "viscous,delay", "--out", str(folder / "out"), "--html")
+
+
+def test_the_response_search_is_on_the_page(response_case, tmp_path: Path) -> None:
+    folder, printed = response_case
+    cells = check_page(folder / "report.html", printed)
+    response = printed["response"]
+    assert [n["label"] for n in response["named"]] == ["delay(q)"]
+    for role in ("estimation", "validation"):
+        for signal in ("force", "position"):
+            for side in ("before", "after"):
+                assert ("response", side, role, signal, "q") in cells
+    assert ("response", "named", 0, "parameters", "delay") in cells
+    assert ("response", "named", 0, "held_out_gain") in cells
+    (sigma,) = response["named"][0]["sigmas"]
+    assert ("response", "named", 0, "sigmas", sigma) in cells
+    page = (folder / "report.html").read_text(encoding="utf-8")
+    assert "tau_q = { delay = 2.97" in page  # the experiment lines to declare
+    report = (folder / "report.md").read_text(encoding="utf-8")
+    for side in ("before", "after"):  # report.md's table shows the numbers the page shows
+        assert f"{response[side]['validation']['force']['q']:.4g}" in report
+    assert check_in_chromium(folder / "report.html", tmp_path) >= 4
+
+
+@pytest.fixture(scope="module")
+def elastic_case(tmp_path_factory) -> tuple[Path, dict]:
+    """diagnose on the geared joint logged by both encoders (test_joint_elasticity's case, 3 s): the two-encoder
+    test names the joint's elasticity; the patched model has a mode the rigid one lacks."""
+    import elastic_reference as truth
+
+    folder = tmp_path_factory.mktemp("html_elastic")
+    experiment = truth.write_joint_experiment(folder, seconds=3.0)
+    (folder / "joint.toml").write_text(truth.model_text(), encoding="utf-8")
+    return folder / "out", run("diagnose", str(folder / "joint.toml"), str(experiment), "--out", str(folder / "out"),
+                               "--html")
+
+
+@pytest.mark.slow
+def test_joint_elasticity_and_the_modes_are_on_the_page(elastic_case, tmp_path: Path) -> None:
+    folder, printed = elastic_case
+    cells = check_page(folder / "report.html", printed)
+    (test,) = printed["joint_elasticity"]
+    assert test["named"]
+    for path in (("values", "stiffness"), ("sigmas", "stiffness"), ("values", "motor_inertia"),
+                 ("held_out_error_percent", "rigid"), ("held_out_error_percent", "elastic"), ("gain",), ("link_mode_hz",)):
+        assert ("joint_elasticity", 0, *path) in cells, path
+    modes = printed["modes"]
+    assert modes["after"] and ("modes", "after", 0, "frequency_hz") in cells and ("modes", "after", 0, "damping_ratio") in cells
+    for side in ("before", "after"):
+        for k in range(len(modes["closed_loop"][side])):
+            assert ("modes", "closed_loop", side, k, "frequency_hz") in cells
+    for k, finding in enumerate(printed["data_findings"]):  # the gaps with the force as logged and held
+        assert ("data_findings", k, "gap_validation", "as_logged") in cells
+        if finding.get("patched"):
+            assert ("data_findings", k, "patched", "gap_validation", "held_force") in cells
+    report = (folder / "report.md").read_text(encoding="utf-8")
+    assert f"{test['held_out_error_percent']['elastic']:.4g}" in report
+    assert f"{modes['after'][0]['frequency_hz']:.4g} Hz" in report
+    check_in_chromium(folder / "report.html", tmp_path)
+
+
+@pytest.fixture(scope="module")
+def alone_case(tmp_path_factory) -> tuple[Path, dict]:
+    """diagnose on the elastic joint's model (k 1.7× the truth's) with the motor encoder alone (test_unmeasured's
+    case, 1.5 s): judged on the response alone, correction(k) named."""
+    import elastic_reference as truth
+
+    folder = tmp_path_factory.mktemp("html_alone")
+    experiment = truth.motor_encoder_only(truth.write_joint_experiment(folder, seconds=1.5))
+    (folder / "elastic.toml").write_text(truth.elastic_model_text(k=1.7 * truth.TRUTH["k"]), encoding="utf-8")
+    return folder / "out", run("diagnose", str(folder / "elastic.toml"), str(experiment), "--out", str(folder / "out"),
+                               "--html")
+
+
+@pytest.mark.slow
+def test_the_response_alone_has_its_page(alone_case, tmp_path: Path) -> None:
+    folder, printed = alone_case
+    assert printed["judged_on"] == "response"
+    assert not any("no HTML page" in n for n in printed["notes"])
+    cells = check_page(folder / "report.html", printed)
+    for c in printed["measured"]:
+        for signal in printed["before"]["validation"]:
+            for side in ("before", "after"):
+                for role in ("estimation", "validation"):
+                    assert (side, role, signal, c) in cells
+    corrections = printed["response"]["corrections"]
+    assert [c["label"] for c in corrections] == ["correction(k)"]
+    assert {("response", "corrections", 0, "value"), ("response", "corrections", 0, "sigma"),
+            ("response", "corrections", 0, "idim_ls")} <= set(cells)
+    assert ("modes", "before", 0, "frequency_hz") in cells and ("modes", "after", 0, "frequency_hz") in cells
+    tried = [(k, i, j) for k, round_ in enumerate(printed["response"]["rounds"]) for i, j in enumerate(round_)
+             if "verdict" in j]
+    assert tried, "the search tried candidates it did not name"
+    for k, i, j in tried:  # every candidate tried, its held-out gain and each value fitted
+        assert ("response", "rounds", k, i, "held_out_gain") in cells
+        for name, value in j["parameters"].items():
+            assert ("response", "rounds", k, i, "parameters", name) in cells or not isinstance(value, (int, float))
+    report = (folder / "report.md").read_text(encoding="utf-8")
+    assert f"{printed['after']['validation']['force']['q']:.4g}" in report
+    figures = check_in_chromium(folder / "report.html", tmp_path)
+    assert figures == 3 * len(printed["measured"])  # position, force, the force error's spectrum
+
+
+def test_a_second_run_of_the_response_page_writes_the_same_bytes(response_case) -> None:
+    folder, _ = response_case
+    before = (folder / "report.html").read_bytes()
+    run("diagnose", str(folder.parent / "axis.toml"), str(folder.parent / "axis.experiment.toml"), "--simulate",
+        "--effects", "viscous,delay", "--out", str(folder), "--html")
+    assert (folder / "report.html").read_bytes() == before
+
+
+@pytest.fixture(scope="module")
+def bag_case(tmp_path_factory) -> tuple[Path, dict[str, dict]]:
+    """identify, simulate and diagnose of the two-link arm's MCAP bag with 20 joint states lost (test_bags's
+    case): {command: its --json}, the pages in the folder."""
+    pytest.importorskip("mcap", reason="the bag readers: pip install -e '.[bags]'")
+    import test_bags
+
+    folder = tmp_path_factory.mktemp("html_bag")
+    arm = symbolic.derive(symbolic.loads(models.arm(), "arm"))
+    bag = test_bags.small_arm_bag(arm, folder, drop=slice(400, 420), seconds=2.0)
+    spec = test_bags.experiment(folder, bag)
+    (folder / "arm.toml").write_text(models.arm(), encoding="utf-8")
+    model = str(folder / "arm.toml")
+    with pytest.warns(symbolic.ModelWarning):
+        printed = {"identify": run("identify", model, str(spec), "--html", str(folder / "identify.html")),
+                   "simulate": run("simulate", model, str(spec), "--out", str(folder / "simulate"), "--html"),
+                   "diagnose": run("diagnose", model, str(spec), "--out", str(folder / "diagnose"), "--html")}
+    return folder, printed
+
+
+@pytest.mark.parametrize("name", ["identify", "simulate", "diagnose"])
+def test_the_bags_alignment_is_on_every_page(name: str, bag_case, tmp_path: Path) -> None:
+    folder, printed = bag_case
+    page = folder / "identify.html" if name == "identify" else folder / name / "report.html"
+    cells = check_page(page, printed[name])
+    at = ("alignment", "estimation") if name == "diagnose" else ("alignment",)
+    report = htmlpage.lookup(printed[name], at)
+    joint = next(k for k, t in enumerate(report["topics"]) if t["topic"] == "/joint_states")
+    assert report["topics"][joint]["gaps"][0]["missing"] == 20
+    assert cells[(*at, "topics", joint, "gaps", 0, "missing")] == 20
+    assert {(*at, "samples"), (*at, "rate")} <= set(cells)
+    for k, t in enumerate(report["topics"]):
+        assert {(*at, "topics", k, "messages"), (*at, "topics", k, "rate"), (*at, "topics", k, "dropped", "before")} \
+            <= set(cells)
+    if name == "diagnose":  # report.md: the same table, from the same dictionary
+        text = (folder / name / "report.md").read_text(encoding="utf-8")
+        assert "### The bag's topics aligned" in text
+        gap = report["topics"][joint]["gaps"][0]
+        assert f"| `/joint_states` | {gap['t']:.6g} s | {gap['length']:.3g} s | 20 |" in text
+        assert f"| `/joint_states` | sensor_msgs/msg/JointState | {report['topics'][joint]['messages']} |" in text
+    check_in_chromium(page, tmp_path)
+
+
+def test_figure_data_are_float32_typed_arrays_without_the_template() -> None:
+    """Page size (issue 37): a figure's values are rounded to 6 digits and carried as base64 float32 typed arrays,
+    and plotly's template is not expanded into each figure; decoded, the values are the rounded ones."""
+    import base64
+
+    page = htmlpage.Page("t", {"a": 1}, "symbolic test")
+    t = np.linspace(0.0, 2.0, 1001)
+    y = np.sin(7 * t) * 123.456789
+    page.figure("f", [htmlpage.line(t, y, "y")], x="t", y="y")
+    text = page.render()
+    call = re.search(r'Plotly\.newPlot\(\s*"figure-1",\s*(\[.*?\]),\s*(\{.*\}),\s*\{"displaylogo"', text, re.S)
+    data, layout = json.loads(call.group(1)), json.loads(call.group(2))
+    for axis, values in (("x", t), ("y", y)):
+        packed = data[0][axis]
+        assert packed["dtype"] == "f4", packed
+        decoded = np.frombuffer(base64.b64decode(packed["bdata"]), dtype="<f4")
+        expected = np.array(htmlpage.rounded(values), dtype=np.float32)
+        assert np.array_equal(decoded, expected)
+        assert np.allclose(decoded, values, rtol=1e-5, atol=0)
+    assert len(json.dumps(layout.get("template", {}))) < 100, layout.get("template")
+    assert layout["plot_bgcolor"] == "white"
+    # about 5.3 characters a value (6.5 with the "/" plotly writes as \\u002f), not 9 or so as decimal text
+    assert len(call.group(1)) < 1001 * 2 * 7
+
+
+@pytest.mark.slow
+def test_one_encoder_elasticity_is_on_the_page(tmp_path: Path) -> None:
+    """The geared joint seen by its motor encoder alone (test_joint_elasticity's case, 3 s): joint_elasticity (one
+    encoder) is found, and its values with σ are in the page's joint elasticity section."""
+    import elastic_reference as truth
+
+    experiment = truth.write_joint_experiment(tmp_path, seconds=3.0)
+    experiment.write_text(experiment.read_text().replace('ql_q = "ql_q"\n', ""))
+    (tmp_path / "joint.toml").write_text(truth.model_text(), encoding="utf-8")
+    printed = run("diagnose", str(tmp_path / "joint.toml"), str(experiment), "--out", str(tmp_path / "out"), "--html")
+    (k,) = [k for k, f in enumerate(printed["found"]) if f.get("variant") == "one_encoder"]
+    page = tmp_path / "out" / "report.html"
+    cells = check_page(page, printed)
+    text = page.read_text(encoding="utf-8")
+    assert "<h3>One encoder</h3>" in text
+    for role in printed["found"][k]["parameters"]:
+        assert ("found", k, "parameters", role) in cells
+    check_in_chromium(page, tmp_path)

@@ -617,12 +617,53 @@ class Alignment:
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        return {"base": self.base, "rate": self.rate, "samples": self.samples, "start_ns": self.start_ns,
+        """The report as the commands' ``--json`` hold it (``"alignment"``), which report.md
+        (:func:`markdown_lines`) and the HTML page (:func:`symbolic.htmlpage.alignment`) are written from."""
+        return {"file": self.file, "base": self.base, "rate": self.rate, "samples": self.samples, "start_ns": self.start_ns,
                 "topics": [{"topic": r.topic, "type": r.msgtype, "messages": r.messages, "rate": r.rate,
                             "stamps": r.stamps, "methods": list(r.methods),
                             "gaps": [{"t": g[0], "length": g[1], "missing": g[2]} for g in r.gaps],
                             "dropped": {"before": r.before, "after": r.after, "repeated": r.repeated},
                             "out_of_order": r.out_of_order} for r in self.topics]}
+
+
+def markdown_lines(report: Mapping[str, Any], role: str = "") -> list[str]:
+    """report.md's section on one bag's alignment, from :meth:`Alignment.to_dict` (the JSON's ``"alignment"``, so
+    that report.md, the JSON and the HTML page show the same numbers): the time base, a table of the topics, and
+    each gap; ``role``: which data set it is (``"validation"``), said in the heading."""
+    table = lambda header, rows: (["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]  # noqa: E731
+                                  + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows])
+    lines = [f"### The bag's topics aligned{f' ({role} data)' if role else ''}", "",
+             f"`{Path(report['file']).name}`: time base {report['base']}, {report['samples']} samples at "
+             f"{report['rate']:.6g} Hz, t = 0 at {report['start_ns'] / 1e9:.9f} s of the bag's clock "
+             "(docs/data.md, \"Alignment\").", ""]
+    lines += table(["topic", "type", "messages", "rate", "time", "method", "dropped before the time base", "after it",
+                    "with a repeated stamp", "out of order (sorted)"],
+                   [[f"`{t['topic']}`", t["type"], t["messages"], f"{t['rate']:.6g} Hz", t["stamps"], "/".join(t["methods"]),
+                     t["dropped"]["before"], t["dropped"]["after"], t["dropped"]["repeated"], t["out_of_order"]]
+                    for t in report["topics"]])
+    gaps = [[f"`{t['topic']}`", f"{g['t']:.6g} s", f"{g['length']:.3g} s", g["missing"]]
+            for t in report["topics"] for g in t["gaps"]]
+    lines.append("")
+    if gaps:
+        lines += [f"Gaps (steps longer than {GAP_FACTOR:g} median steps), each bridged by its topic's method:", ""]
+        lines += table(["topic", "at t", "length", "messages missing"], gaps) + [""]
+    else:
+        lines += ["No gap in any topic.", ""]
+    return lines
+
+
+def alignments(*data: Any) -> dict[str, dict[str, Any]] | None:
+    """``{role: Alignment.to_dict()}`` of ``(role, measurements)`` pairs read from bags, each file once (the
+    held-out tail of the estimation bag is not reported twice); ``None`` when none was a bag."""
+    out: dict[str, dict[str, Any]] = {}
+    seen: set[str] = set()
+    for role, measurements in data:
+        found = getattr(measurements, "alignment", None)
+        if found is not None and found.file not in seen:
+            seen.add(found.file)
+            out[role] = found.to_dict()
+    return out or None
 
 
 @dataclass

@@ -54,6 +54,7 @@ def render(result: Any, document: Mapping[str, Any] | None = None, data: str = "
                                            if isinstance(v, (int, float)) and not isinstance(v, bool)])
     if r.get("kept"):
         page.items(f"not written: {name} keeps its value in the model file: {why}" for name, why in r["kept"].items())
+    htmlpage.alignment(page, r)  # the bag's topics, when the data are one
     _figures(page, result)
     return page.render()
 

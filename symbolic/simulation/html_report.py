@@ -46,6 +46,7 @@ def render(comparison: Comparison, document: Mapping[str, Any], title: str = "",
                          number(r, "worst_window", c, s, "rms", unit=u.unit(s))])
     page.table(["coordinate", "signal", "relative error (%)", "RMS", "worst window from (s)", "to (s)", "its RMS"], rows)
     page.items(notes)
+    htmlpage.alignment(page, r)  # the bag's topics, when the data are one
     page.heading("Figures")
     page.paragraph("Drag to zoom, double-click to zoom out, hover for values; click a legend entry to hide its curve.")
     t, kept = comparison.t, comparison.kept

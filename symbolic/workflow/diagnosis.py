@@ -143,14 +143,11 @@ def diagnose(
         # response can judge such a model (symbolic.workflow.unmeasured)
         try:
             result = diagnose_on_response(model, data, experiment=experiment, validation=validation, out=out,
-                                          search=search, effects=effects, figures=figures, fix=fix)
+                                          search=search, effects=effects, figures=figures, fix=fix, html=html)
         except DataError as unfit:
             if unfit.key != "[controller] coordinates":
                 raise
             raise error from None  # a loop of other coordinates: the data do not fit the model at all
-        if html:
-            result = dataclasses.replace(result, notes=(*result.notes, "--html: no HTML page is written for a "
-                                                        "diagnosis judged on the response alone yet (report.md is)"))
         return result
     checked = patched_held_force(diagnosis, settings, search, fix)
     if checked is not None and checked["removed_share"] >= (search or SearchSettings()).min_gain:

@@ -203,6 +203,14 @@ def response_lines(r: ResponseSearch, subject: str = "The patched model", start:
     return lines
 
 
+def alignment_lines(found: dict[str, Any] | None) -> list[str]:
+    """The alignment of each bag read (the JSON's ``"alignment"``, :func:`symbolic.data.bags.markdown_lines`)."""
+    from symbolic.data.bags import markdown_lines
+
+    return [] if not found else [line for role, a in found.items()
+                                 for line in markdown_lines(a, role if len(found) > 1 else "")]
+
+
 def markdown(d: Diagnosis) -> str:
     """The report (module docstring)."""
     est, val = d.sets["estimation"], d.sets["validation"]
@@ -211,8 +219,9 @@ def markdown(d: Diagnosis) -> str:
     lines = [f"# Diagnosis of `{d.model.name}`", "",
              f"Estimation data: {est.measurements.source} ({est.measurements.samples} samples at {p.rate:g} Hz; "
              f"{est.samples} kept after the border of {p.border[0]}+{p.border[1]} samples and decimation by {p.decimation}). "
-             f"Held out: {d.held_out}. τ_model is the {path}.", "",
-             "## Gap", "",
+             f"Held out: {d.held_out}. τ_model is the {path}.", ""]
+    lines += alignment_lines(d.alignment())
+    lines += ["## Gap", "",
              "‖τ_meas − τ_model‖/‖τ_meas‖ over all coordinates and samples, the nominal model's own parameters "
              "re-identified on the estimation data (numbers written inline in the model file stay fixed).", ""]
     rows = [["estimation", f"{d.before.gap['estimation']:.4g} %", f"{d.after.gap['estimation']:.4g} %"],
@@ -321,8 +330,9 @@ def response_markdown(d: Any) -> str:
     r = d.response
     lines = [f"# Diagnosis of `{d.model.name}`, judged on the response", "",
              f"The data measure {', '.join(f'`{c}`' for c in d.measured)} and not "
-             f"{', '.join(f'`{c}`' for c in d.unmeasured)}. Held out: {d.held_out}.", "",
-             "## Simulation errors", "",
+             f"{', '.join(f'`{c}`' for c in d.unmeasured)}. Held out: {d.held_out}.", ""]
+    lines += alignment_lines(d.alignment)
+    lines += ["## Simulation errors", "",
              "100·‖measured − simulated‖/‖measured − mean‖ (%), the model file as written and the patched model "
              "simulated again (with the signal values named declared).", ""]
     rows = [[signal, c] + [_g(d.before[role][signal][c]) + " → " + _g(d.after[role][signal][c])

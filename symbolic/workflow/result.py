@@ -117,6 +117,14 @@ class Diagnosis:
     """CPU time of each step, this process's and its finished children's (the search's forked half, a compiler):
     ``seconds`` is the wall time; on a shared machine only the CPU time repeats."""
 
+    def alignment(self) -> dict[str, dict[str, Any]] | None:
+        """How the bags read were aligned, by data set (:func:`symbolic.data.bags.alignments`); ``None`` when the
+        data are no bag. The JSON's ``"alignment"``, which report.md and the HTML page are written from."""
+        from symbolic.data.bags import alignments
+
+        return alignments(*((role, self.sets[role].measurements) for role in ("estimation", "validation")
+                            if role in self.sets))
+
     def to_dict(self) -> dict[str, Any]:
         """The JSON contract: model, found, gap_before, gap_after, gap_detail, patched_model (and more)."""
         def detail(fit: Fit) -> dict[str, Any]:
@@ -157,6 +165,7 @@ class Diagnosis:
             "modes": _plain(self.modes),
             "response": None if self.response is None else _plain(self.response.to_dict()),
             "joint_elasticity": [_plain(e.to_dict()) for e in self.elasticity],
+            "alignment": self.alignment(),
             "notes": list(self.notes),
             "figures": [str(p) for p in self.figures],
         }

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from symbolic.data import DataError, Measurements, load, signal_layer
+from symbolic.data.bags import alignments
 from symbolic.derivation.dynamics import DynamicModel, derive
 from symbolic.description.modelfile import loads
 from symbolic.errors import ModelWarning
@@ -67,6 +68,8 @@ class ResponseDiagnosis:
     notes: tuple[str, ...] = ()
     seconds: dict[str, float] = field(default_factory=dict)
     figures: tuple[Path, ...] = ()
+    alignment: dict[str, Any] | None = None
+    """How the bags read were aligned, by data set (:func:`symbolic.data.bags.alignments`); ``None`` for other data."""
     judged_on = "response"
 
     @property
@@ -83,7 +86,7 @@ class ResponseDiagnosis:
                 "experiment_lines": self.response.experiment_lines(), "response": self.response.to_dict(),
                 "patched_model": None if self.patched_path is None else str(self.patched_path),
                 "kept": list(self.kept), "modes": self.modes, "notes": list(self.notes), "seconds": self.seconds,
-                "figures": [str(p) for p in self.figures]}
+                "alignment": self.alignment, "figures": [str(p) for p in self.figures]}
 
     def summary(self) -> list[str]:
         """The lines ``symbolic diagnose`` prints."""
@@ -123,8 +126,10 @@ def diagnose_on_response(
     effects: Sequence[Any] | None = None,
     figures: bool = True,
     fix: Sequence[str] = (),
+    html: bool = False,
 ) -> ResponseDiagnosis:
-    """Diagnose ``model`` on the response alone (module docstring); the arguments are :func:`diagnose`'s.
+    """Diagnose ``model`` on the response alone (module docstring); the arguments are :func:`diagnose`'s
+    (``html``: ``report.html`` into ``out`` too, :func:`symbolic.workflow.html_report.render_response`).
 
     Raises
     ------
@@ -175,9 +180,11 @@ def diagnose_on_response(
             found_modes["summary"] = modes_sentence(found_modes)
     result = ResponseDiagnosis(model, unmeasured, tuple(estimation.coordinates), held_out, response,
                                dict(response.before), after, patched_text, patched_path, tuple(kept), found_modes,
-                               tuple(notes), seconds)
+                               tuple(notes), seconds,
+                               alignment=alignments(("estimation", measurements),
+                                                    ("validation", getattr(measurements, "validation", None))))
     if out is not None:
-        result = _write(result, Path(out), figures, (estimation, held, held_from, layer, after_model))
+        result = _write(result, Path(out), figures, (estimation, held, held_from, layer, after_model), html)
     return result
 
 
@@ -227,51 +234,71 @@ def _errors(model: DynamicModel, estimation: Measurements, held: Measurements, h
 
 
 def _write(result: ResponseDiagnosis, folder: Path, figures: bool,
-           runs: tuple[Measurements, Measurements, int, Mapping[Any, float], DynamicModel]) -> ResponseDiagnosis:
-    """report.md, the figures and the patched model into ``folder``, all or nothing."""
+           runs: tuple[Measurements, Measurements, int, Mapping[Any, float], DynamicModel],
+           html: bool = False) -> ResponseDiagnosis:
+    """report.md, the figures (and report.html) and the patched model into ``folder``, all or nothing."""
     from symbolic.workflow.report import response_markdown, write_folder
 
     pictures: dict[str, bytes] = {}
     notes = list(result.notes)
+    # the held-out simulations are run once, for the PNGs and the page alike
+    drawn = curves(result, *runs) if figures or html else None
     if figures:
         from symbolic.plotting import MatplotlibMissing
         try:
-            pictures = _figures(result, *runs)
+            pictures = _figures(drawn)
         except MatplotlibMissing as missing:
             notes.append(str(missing))
     result = replace(result, figures=tuple(folder / name for name in pictures), notes=tuple(notes))
     files = {"report.md": response_markdown(result).encode("utf-8"), **pictures}
+    if html:  # from the dictionary --json prints (symbolic.htmlpage, "One source")
+        from symbolic.workflow import html_report
+
+        files[html_report.NAME] = html_report.render_response(result, result.to_dict(), drawn).encode("utf-8")
     write_folder(folder, files, result.patched_text, result.patched_path)
     return result
 
 
-def _figures(result: ResponseDiagnosis, estimation: Measurements, held: Measurements, held_from: int,
-             layer: Mapping[Any, float], after_model: DynamicModel) -> dict[str, bytes]:
-    """Per measured coordinate, on the held-out data: ``response_<c>.png`` (measured and simulated position and
-    force, the model as written and patched) and ``response_spectrum_<c>.png`` (the force error's spectrum)."""
+def curves(result: ResponseDiagnosis, estimation: Measurements, held: Measurements, held_from: int,
+           layer: Mapping[Any, float], after_model: DynamicModel) -> dict[str, Any]:
+    """What the figures draw, on the held-out data (from ``held_from`` on): ``{"t", "rate", "coordinates": {c:
+    {"measured": {signal: x}, "simulated": {run: {signal: x}}}}}`` for the signals ``position`` and ``force`` and
+    the runs ``model file`` (as written) and ``patched`` (with the signal values named); ``force`` simulated is
+    the loop's controller output."""
+    source = str(held.source)
+    runs = {"model file": simulated(result.model, held)[:2],
+            "patched": simulated(after_model, _declared(held, layer, source))[:2]}
+    out: dict[str, Any] = {"t": np.asarray(held.t)[held_from:], "rate": 1.0 / float(held.sample_period),
+                           "coordinates": {}}
+    for k, c in enumerate(held.coordinates):
+        measured = {"position": np.asarray(held.q)[held_from:, k], "force": np.asarray(held.tau)[held_from:, k]}
+        simulated_ = {}
+        for label, (y, loop) in runs.items():
+            j = list(loop.names).index(c)
+            simulated_[label] = {"position": y[held_from:, j], "force": y[held_from:, j + 3 * len(loop.names)]}
+        out["coordinates"][c] = {"measured": measured, "simulated": simulated_}
+    return out
+
+
+def _figures(drawn: dict[str, Any]) -> dict[str, bytes]:
+    """Per measured coordinate, on the held-out data (:func:`curves`): ``response_<c>.png`` (measured and simulated
+    position and force, the model as written and patched) and ``response_spectrum_<c>.png`` (the force error's
+    spectrum)."""
     from symbolic.plotting import figure_class, png_bytes
     from symbolic.workflow.where import spectrum
     from symbolic.writing import safe_stem
 
     Figure = figure_class()
-    source = str(held.source)
-    runs = {"model file": simulated(result.model, held)[:2],
-            "patched": simulated(after_model, _declared(held, layer, source))[:2]}
-    t = np.asarray(held.t)[held_from:]
-    rate = 1.0 / float(held.sample_period)
+    t, rate = drawn["t"], drawn["rate"]
     out: dict[str, bytes] = {}
-    for k, c in enumerate(held.coordinates):
-        measured = {"position": np.asarray(held.q)[held_from:, k], "force": np.asarray(held.tau)[held_from:, k]}
+    for c, signals in drawn["coordinates"].items():
+        measured = signals["measured"]
         fig = Figure(figsize=(9, 6))
-        errors = {}
         for row, signal in enumerate(("position", "force")):
             ax = fig.add_subplot(2, 1, row + 1)
             # the measured signal drawn last (on top): the simulations it should cover are dashed
-            for label, (y, loop) in runs.items():
-                j = list(loop.names).index(c) + (3 * len(loop.names) if signal == "force" else 0)
-                ax.plot(t, y[held_from:, j], lw=1.0, ls="--", label=f"simulated, {label}")
-                if signal == "force":
-                    errors[label] = measured[signal] - y[held_from:, j]
+            for label, y in signals["simulated"].items():
+                ax.plot(t, y[signal], lw=1.0, ls="--", label=f"simulated, {label}")
             ax.plot(t, measured[signal], color="black", lw=0.7, label="measured (as logged)")
             ax.set_ylabel(f"{signal} of {c}")
             ax.legend(loc="upper right", fontsize=7)
@@ -283,8 +310,8 @@ def _figures(result: ResponseDiagnosis, estimation: Measurements, held: Measurem
         fig = Figure(figsize=(8, 4))
         ax = fig.add_subplot(1, 1, 1)
         ax.set_yscale("log")
-        for label, e in errors.items():
-            f, psd = spectrum(e, rate)
+        for label, y in signals["simulated"].items():
+            f, psd = spectrum(measured["force"] - y["force"], rate)
             shown = psd > 0
             ax.plot(f[shown], psd[shown], lw=0.8, label=f"measured − simulated, {label}")
         ax.set_xlabel("frequency (Hz)")
