@@ -510,6 +510,8 @@ def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, 
                                      f"other than {', '.join(sorted(RESERVED_NAMES))} (expressions reserve them)")
     if isinstance(text, str):
         _check_names(text, table, constants, source, key, written)
+        if text.strip() in table.vectors:  # a column as it is (most signals): no expression to compile
+            return np.array(table.vectors[text.strip()], dtype=float)
     usable = [*table.vectors, *table.scalars, *constants]
     symbols = {v: sp.Symbol(v) for v in usable if v.isidentifier() and v not in RESERVED_NAMES}
     try:
