@@ -2,9 +2,17 @@
 
 A generated function evaluates a list of output expressions written in intermediate symbols
 (:class:`symbolic.derivation.subexpressions.Subexpressions`). This module gathers the definitions they need,
-runs SymPy's common-subexpression elimination once over all of them (catching sharing the
-derivation did not see), and orders the statements so that each comes after what it uses.
-Local names are renumbered ``v0, v1, …`` in emission order, so the text is deterministic.
+runs a common-subexpression elimination once over all of them (catching sharing the derivation did not
+see), and orders the statements so that each comes after what it uses. Local names are renumbered
+``v0, v1, …`` in emission order, so the text is deterministic.
+
+Two eliminations (docs/architecture.md, "Programs of large models"): SymPy's ``cse`` with its ``"basic"``
+preprocessing (``factor_terms`` on every definition, and its search for common subsets of sums' and
+products' arguments), and, for programs larger than :data:`LARGE_PROGRAM`, only the repeated subtrees
+(SymPy's ``tree_cse`` without that preprocessing nor the subset search). The first finds 1–20 % more
+operations to share and costs 4–10 times as much; its cost grows faster than the program, so that a
+20-axis chain's programs would take minutes. The built-in robots' programs are all below the threshold:
+their generated code does not depend on the second path.
 """
 
 from __future__ import annotations
@@ -13,8 +21,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import sympy as sp
+from sympy.simplify.cse_main import tree_cse
 
 from symbolic.derivation.subexpressions import Subexpressions
+
+LARGE_PROGRAM = 2500
+"""Definitions and outputs above which a program is large (:func:`build_program`'s ``large``): only repeated
+subtrees are shared. The largest built-in program, the Panda's ``inverse_dynamics_derivatives``, has 2,200."""
 
 
 @dataclass(frozen=True)
@@ -30,13 +43,42 @@ class Program:
         return int(sum(sp.count_ops(e) for _, e in self.statements) + sum(sp.count_ops(e) for e in self.outputs))
 
 
-def build_program(sub: Subexpressions, outputs: Sequence[sp.Expr], local_prefix: str = "v") -> Program:
-    """Definitions needed by ``outputs``, CSE'd and scheduled, with locals renamed ``v0, v1, …``."""
+def program_size(sub: Subexpressions, outputs: Sequence[sp.Expr]) -> int:
+    """Definitions needed by ``outputs`` and the outputs: what :data:`LARGE_PROGRAM` is compared with."""
+    return len(sub.program([sp.sympify(e) for e in outputs])) + len(outputs)
+
+
+def build_program(sub: Subexpressions, outputs: Sequence[sp.Expr], local_prefix: str = "v",
+                  large: bool | None = None) -> Program:
+    """Definitions needed by ``outputs``, CSE'd and scheduled, with locals renamed ``v0, v1, …``.
+
+    Parameters
+    ----------
+    sub : the intermediates the outputs are written in
+    outputs : the expressions the program computes, in order
+    local_prefix : the prefix of the renumbered locals
+    large : share only repeated subtrees (SymPy's ``tree_cse``, no preprocessing) instead of SymPy's ``cse``
+        with its ``"basic"`` optimisations; by default when the program has more than :data:`LARGE_PROGRAM`
+        definitions and outputs. Either way the result depends only on the expressions (SymPy's canonical
+        argument order), not on hash seeds.
+
+    Returns
+    -------
+    Program
+        The statements in evaluation order and the outputs in the locals.
+    """
     outputs = [sp.sympify(e) for e in outputs]
     definitions = sub.program(outputs)
     exprs = [d for _, d in definitions] + outputs
     temporaries = sp.numbered_symbols("_cse", real=True)
-    replacements, reduced = sp.cse(exprs, symbols=temporaries, optimizations="basic")
+    if large is None:
+        large = len(exprs) > LARGE_PROGRAM
+    if large:
+        # order="none": the arguments are visited in SymPy's canonical order (Basic.compare, independent of
+        # hashes) without sorting every node again; the numbering of temporaries is then fixed by the expressions
+        replacements, reduced = tree_cse(exprs, temporaries, opt_subs={}, order="none")
+    else:
+        replacements, reduced = sp.cse(exprs, symbols=temporaries, optimizations="basic")
     statements: dict[sp.Symbol, sp.Expr] = dict(replacements)
     order: list[sp.Symbol] = [s for s, _ in replacements]
     for (symbol, _), expr in zip(definitions, reduced[: len(definitions)]):
