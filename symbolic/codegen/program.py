@@ -8,11 +8,13 @@ see), and orders the statements so that each comes after what it uses. Local nam
 
 Two eliminations (docs/architecture.md, "Programs of large models"): SymPy's ``cse`` with its ``"basic"``
 preprocessing (``factor_terms`` on every definition, and its search for common subsets of sums' and
-products' arguments), and, for programs larger than :data:`LARGE_PROGRAM`, only the repeated subtrees
-(SymPy's ``tree_cse`` without that preprocessing nor the subset search). The first finds 1–20 % more
-operations to share and costs 4–10 times as much; its cost grows faster than the program, so that a
-20-axis chain's programs would take minutes. The built-in robots' programs are all below the threshold:
-their generated code does not depend on the second path.
+products' arguments), and, for programs larger than :data:`LARGE_PROGRAM`, only the repeated subtrees, with
+sums and products rebuilt from their arguments as they stand (no new canonical ordering, which is most of
+the cost of rebuilding an expression in SymPy). The first finds 1–20 % more operations to share and costs
+4–10 times as much, growing faster than the program; a 20-axis chain's programs would take minutes. The
+printers order a sum's terms and a product's factors themselves, so the C text does not depend on the
+argument order. The built-in robots' programs are all below the threshold: their generated code does not
+depend on the second path.
 """
 
 from __future__ import annotations
@@ -21,7 +23,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import sympy as sp
-from sympy.simplify.cse_main import tree_cse
 
 from symbolic.derivation.subexpressions import Subexpressions
 
@@ -36,6 +37,7 @@ class Program:
 
     statements: tuple[tuple[sp.Symbol, sp.Expr], ...]
     outputs: tuple[sp.Expr, ...]
+    large: bool = False  # built by the large-program path: later substitutions rebuild without re-sorting too
 
     @property
     def operations(self) -> int:
@@ -57,10 +59,10 @@ def build_program(sub: Subexpressions, outputs: Sequence[sp.Expr], local_prefix:
     sub : the intermediates the outputs are written in
     outputs : the expressions the program computes, in order
     local_prefix : the prefix of the renumbered locals
-    large : share only repeated subtrees (SymPy's ``tree_cse``, no preprocessing) instead of SymPy's ``cse``
-        with its ``"basic"`` optimisations; by default when the program has more than :data:`LARGE_PROGRAM`
-        definitions and outputs. Either way the result depends only on the expressions (SymPy's canonical
-        argument order), not on hash seeds.
+    large : share only repeated subtrees (:func:`shared_subtrees`) instead of SymPy's ``cse`` with its
+        ``"basic"`` optimisations, and rename without re-sorting (:func:`replaced`); by default when the program
+        has more than :data:`LARGE_PROGRAM` definitions and outputs. Either way the result depends only on the
+        expressions (SymPy's canonical argument order), not on hash seeds.
 
     Returns
     -------
@@ -74,9 +76,7 @@ def build_program(sub: Subexpressions, outputs: Sequence[sp.Expr], local_prefix:
     if large is None:
         large = len(exprs) > LARGE_PROGRAM
     if large:
-        # order="none": the arguments are visited in SymPy's canonical order (Basic.compare, independent of
-        # hashes) without sorting every node again; the numbering of temporaries is then fixed by the expressions
-        replacements, reduced = tree_cse(exprs, temporaries, opt_subs={}, order="none")
+        replacements, reduced = shared_subtrees(exprs, temporaries)
     else:
         replacements, reduced = sp.cse(exprs, symbols=temporaries, optimizations="basic")
     statements: dict[sp.Symbol, sp.Expr] = dict(replacements)
@@ -98,8 +98,88 @@ def build_program(sub: Subexpressions, outputs: Sequence[sp.Expr], local_prefix:
     # the derivation's order where dependencies allow
     emitted = [s for s in _topological(statements, order) if s in needed]
     rename = {s: sp.Symbol(f"{local_prefix}{k}", real=True) for k, s in enumerate(emitted)}
-    final = tuple((rename[s], statements[s].xreplace(rename)) for s in emitted)
-    return Program(final, tuple(e.xreplace(rename) for e in reduced_outputs))
+    substitute = _substitution(large)
+    final = tuple((rename[s], substitute(statements[s], rename)) for s in emitted)
+    return Program(final, tuple(substitute(e, rename) for e in reduced_outputs), large)
+
+
+def shared_subtrees(exprs: Sequence[sp.Expr], symbols) -> tuple[list[tuple[sp.Symbol, sp.Expr]], list[sp.Expr]]:
+    """Every subtree that occurs more than once in ``exprs`` computed once, as a temporary from ``symbols``.
+
+    SymPy's ``tree_cse`` without ``opt_subs`` (its ``order="none"``: arguments in SymPy's canonical order,
+    which does not depend on hashes), except that sums and products are rebuilt by :func:`replaced`.
+
+    Parameters
+    ----------
+    exprs : the expressions
+    symbols : an iterator of fresh symbols, none of them in ``exprs``
+
+    Returns
+    -------
+    tuple
+        The (temporary, expression) pairs in evaluation order, and ``exprs`` written in them.
+    """
+    seen: set[sp.Basic] = set()
+    repeated: set[sp.Basic] = set()
+
+    def find(expr: sp.Basic) -> None:
+        if expr.is_Atom:
+            return
+        if expr in seen:
+            repeated.add(expr)  # its own subtrees were counted at its first occurrence
+            return
+        seen.add(expr)
+        for arg in expr.args:
+            find(arg)
+
+    for e in exprs:
+        find(e)
+    replacements: list[tuple[sp.Symbol, sp.Expr]] = []
+    done: dict[sp.Basic, sp.Expr] = {}
+
+    def rebuild(expr: sp.Basic) -> sp.Expr:
+        if expr.is_Atom:
+            return expr
+        if expr in done:
+            return done[expr]
+        args = [rebuild(a) for a in expr.args]
+        new = _unsorted(expr, args)
+        if expr in repeated:
+            symbol = next(symbols)
+            replacements.append((symbol, new))
+            new = symbol
+        done[expr] = new
+        return new
+
+    return replacements, [rebuild(e) for e in exprs]
+
+
+def replaced(expr: sp.Expr, mapping: dict) -> sp.Expr:
+    """``expr.xreplace(mapping)`` for a mapping to symbols (of symbols, or of sines and cosines), sums and
+    products rebuilt from their arguments as they stand (``evaluate=False``) instead of sorted again: such a
+    renaming changes no sum's or product's terms, only SymPy's canonical order of them, which the printers
+    impose themselves."""
+    found = mapping.get(expr)
+    if found is not None:
+        return found
+    if expr.is_Atom:
+        return expr
+    args = [replaced(a, mapping) for a in expr.args]
+    return _unsorted(expr, args)
+
+
+def _unsorted(expr: sp.Basic, args: list) -> sp.Basic:
+    """``expr`` with ``args``: itself when they are its own, a sum or product as given, other heads evaluated."""
+    if all(a is b for a, b in zip(args, expr.args)):
+        return expr
+    if expr.is_Add or expr.is_Mul:
+        return expr.func(*args, evaluate=False)
+    return expr.func(*args)
+
+
+def _substitution(large: bool):
+    """How a program's symbols are substituted: :func:`replaced` for a large program, else ``xreplace``."""
+    return replaced if large else (lambda expr, mapping: expr.xreplace(mapping))
 
 
 def _inline_aliases(statements: dict, order: list, outputs: list) -> tuple[dict, list, list]:
@@ -174,10 +254,12 @@ def batch_trig(
 
     statements: dict[sp.Symbol, sp.Expr] = {}
     order: list[sp.Symbol] = []
+    substitute = _substitution(program.large)
     for symbol, expr in program.statements:
-        statements[symbol] = expr.xreplace(table)
+        statements[symbol] = substitute(expr, table)
         order.append(symbol)
-    statements, order, outputs = _inline_aliases(statements, order, [e.xreplace(table) for e in program.outputs])
+    statements, order, outputs = _inline_aliases(statements, order, [substitute(e, table) for e in program.outputs])
     rename = {s: sp.Symbol(f"{local_prefix}{k}", real=True) for k, s in enumerate(order)}
-    final = tuple((rename[s], statements[s].xreplace(rename)) for s in order)
-    return BatchedTrig(tuple(angles), sines, cosines, Program(final, tuple(e.xreplace(rename) for e in outputs)))
+    final = tuple((rename[s], substitute(statements[s], rename)) for s in order)
+    return BatchedTrig(tuple(angles), sines, cosines,
+                       Program(final, tuple(substitute(e, rename) for e in outputs), program.large))
