@@ -22,7 +22,7 @@ import sympy as sp
 import symbolic
 import symbolic.export as export
 from symbolic.codegen.exported import function_specs, input_symbols
-from symbolic.codegen.program import LARGE_PROGRAM, build_program, program_size
+from symbolic.codegen.program import LARGE_PROGRAM, build_program, count_operations, program_size
 
 import models
 from c_library import CModel, compile_shared
@@ -52,6 +52,20 @@ def test_large_path_computes_what_the_full_elimination_computes():
         assert large.large and not full.large
         expected, found = _evaluate(full, arguments, values), _evaluate(large, arguments, values)
         assert np.allclose(found, expected, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(expected).max(initial=0))), spec.name
+
+
+def test_count_operations_is_sympys_count():
+    """The integer count printed in the C comments and the report equals ``sympy.count_ops`` statement by statement,
+    on both paths' programs."""
+    model = symbolic.derive(symbolic.loads(models.serial_chain(3, spatial=True), "spatial3"))
+    for spec in function_specs(model):
+        for large in (False, True):
+            program = build_program(spec.sub or model.sub, spec.expressions, large=large)
+            for expr in [e for _, e in program.statements] + list(program.outputs):
+                assert count_operations(expr) == sp.count_ops(expr), (spec.name, expr)
+    for expr in (sp.Integer(0), sp.Rational(-3, 4), sp.Symbol("x") / sp.Symbol("y") - sp.exp(sp.Symbol("z")) ** 2,
+                 -sp.Symbol("x") - sp.Symbol("y"), sp.Max(sp.Symbol("x"), 1, sp.Symbol("y"))):
+        assert count_operations(expr) == sp.count_ops(expr), expr
 
 
 def test_builtin_robots_stay_below_the_threshold():
