@@ -9,7 +9,6 @@ bench/derivation.py's ("Derivation at scale"), never asserted here.
 
 from __future__ import annotations
 
-import hashlib
 import os
 import subprocess
 import sys
