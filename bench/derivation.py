@@ -148,13 +148,22 @@ def scale_section(repeat: int, sizes: tuple[int, ...] = SCALE_SIZES) -> list[str
         for n, r in found:
             lines.append(f"| {kind} | {n} | {r['derive']:.2f} | {r['c']:.2f} | {r['rest']:.2f} | {r['total']:.2f} | "
                          f"{r['statements']} | {r['c_bytes'] / 1000:.0f} | {r['peak_mb']:.0f} |")
-    lines += ["", "Growth exponent k of t ∝ N^k (least squares on log t against log N, N = "
-              f"{', '.join(map(str, sizes))}):", ""]
+    lines += ["", "Growth exponent k of t ∝ N^k (least squares on log t against log N, over all the sizes "
+              f"({', '.join(map(str, sizes))}) and over the larger ones):", ""]
+    upper = [n for n in sizes if n >= 12]  # the small chains pay fixed costs and the full elimination: the slope flattens there
     for kind, found in rows.items():
-        ns = [n for n, _ in found]
-        fits = {key: growth_exponent(ns, [r[key] for _, r in found]) for key in ("derive", "c", "total")}
-        lines.append(f"* {kind}: derive N^{fits['derive']:.2f}, C N^{fits['c']:.2f}, total N^{fits['total']:.2f}")
-    lines.append("")
+        parts = []
+        for label, chosen in (("N = 2…20", sizes), (f"N = {upper[0]}…{upper[-1]}", upper)):
+            if len(chosen) < 2:
+                continue
+            picked = [(n, r) for n, r in found if n in chosen]
+            ns = [n for n, _ in picked]
+            fits = {key: growth_exponent(ns, [r[key] for _, r in picked]) for key in ("derive", "c", "total")}
+            parts.append(f"{label}: derive N^{fits['derive']:.2f}, C N^{fits['c']:.2f}, total N^{fits['total']:.2f}")
+        lines.append(f"* {kind}: " + "; ".join(parts))
+    lines += ["", "The programs of a chain above the threshold of docs/architecture.md (\"Programs of large models\") take the "
+              "cheaper elimination; the planar 12-link chain (2,413 definitions and outputs in its largest program) is just below it, "
+              "hence its C time above the 16-link chain's.", ""]
     if max(sizes) == 20:
         planar20, spatial20 = dict(rows["planar"])[20], dict(rows["spatial"])[20]
         verdict = lambda t: "met" if t <= SCALE_GOAL else "not met"  # noqa: E731
