@@ -694,3 +694,48 @@ def general_frames_urdf() -> str:
     """The robot of :func:`general_frames` as URDF (a fixed joint, friction and limits on the joints), for
     the URDF import's tests (tests/test_urdf.py)."""
     return GENERAL_FRAMES_URDF
+
+
+def serial_chain(n: int, spatial: bool = False, end_effector: bool = False) -> str:
+    """Text of an ``n``-link serial chain of revolute joints (standard DH), for the derivation at scale.
+
+    Planar (``spatial=False``): every axis along z (α = 0), link i of length l_i along x, its centre of mass
+    half-way, inertia I_i about z and y; gravity along −y, in the plane. Spatial: α alternating +π/2, −π/2,
+    offsets d_i and lengths a_i on every link, each body with a centre of mass off every axis and a full
+    inertia tensor (products of inertia included), gravity along −z: no simplification the derivation could
+    exploit. The values differ from link to link (so that nothing cancels by accident) and keep D(q)
+    well conditioned for any n. ``end_effector`` declares the last frame's origin the end effector.
+
+    bench/derivation.py times these chains for N = 2 … 20; tests/test_scale.py checks their C against Pinocchio.
+    """
+    if n < 1:
+        raise ValueError("a chain has at least one link")
+    kind = "spatial" if spatial else "planar"
+    text = (f'name = "{kind}{n}"\ndescription = "{kind} serial chain of {n} revolute links (standard DH)"\n'
+            f'convention = "standard"\ncoordinates = {json.dumps([f"q{i}" for i in range(1, n + 1)])}\n'
+            f'gravity = {json.dumps(["0", "0", "-g"] if spatial else ["0", "-g", "0"])}\n\n[parameters]\ng = 9.81\n')
+    for i in range(1, n + 1):
+        scale = 1.0 / (1.0 + 0.05 * i)  # links shorter and lighter outwards, as in an arm
+        values = {"a": 0.3 * scale, "m": 2.0 * scale, "I": 0.02 * scale}
+        if spatial:
+            values |= {"d": 0.05 + 0.01 * (i % 3), "rx": -0.1 * scale, "ry": 0.01 * (1 + i % 2), "rz": 0.02 * (1 + i % 3),
+                       "Ixx": 0.02 * scale, "Iyy": 0.025 * scale, "Izz": 0.015 * scale,
+                       "Ixy": 0.001 * scale, "Ixz": -0.0015 * scale, "Iyz": 0.0005 * scale}
+            del values["I"]
+        text += "".join(f"{key}{i} = {round(value, 6)!r}\n" for key, value in values.items())
+    for i in range(1, n + 1):
+        parent = "base" if i == 1 else str(i - 1)
+        alpha = ("pi/2" if i % 2 else "-pi/2") if spatial else "0"
+        d = f"d{i}" if spatial else "0"
+        text += f'\n[[frame]]\nname = "{i}"\nparent = "{parent}"\ndh = {{ theta = "q{i}", d = "{d}", a = "a{i}", alpha = "{alpha}" }}\n'
+    for i in range(1, n + 1):
+        if spatial:
+            com = f'["rx{i}", "ry{i}", "rz{i}"]'
+            inertia = (f'{{ xx = "Ixx{i}", xy = "Ixy{i}", xz = "Ixz{i}", yy = "Iyy{i}", yz = "Iyz{i}", zz = "Izz{i}" }}')
+        else:
+            com = f'["-a{i}/2", "0", "0"]'
+            inertia = f'{{ zz = "I{i}", yy = "I{i}" }}'
+        text += f'\n[[body]]\nname = "link{i}"\nframe = "{i}"\nmass = "m{i}"\ncom = {com}\ninertia = {inertia}\n'
+    if end_effector:
+        text += f'\n[end_effector]\nframe = "{n}"\npoint = ["0", "0", "0"]\n'
+    return text

@@ -74,7 +74,10 @@ def _build_context(model: DynamicModel, precision: str) -> dict:
         batched = batched_all[spec.name]
         program = batched.program
         trig_slots = {s: f"sn[{k}]" for k, s in enumerate(batched.sines)} | {c: f"cs[{k}]" for k, c in enumerate(batched.cosines)}
-        printer = CPrinter(slots | trig_slots, precision=precision)
+        # a large program's sums and products print in the order they hold (SymPy's canonical order of the
+        # derivation's names, fixed by the expressions): sorting each again was half of printing its C
+        settings = {"order": "none"} if program.large else None
+        printer = CPrinter(slots | trig_slots, settings, precision=precision)
         used = set().union(*(a.free_symbols for a in batched.angles))
         for _, e in program.statements:
             used |= e.free_symbols

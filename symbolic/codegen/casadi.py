@@ -45,9 +45,10 @@ class _CasadiPrinter(PythonCodePrinter):
     """lambdify's default printer for a module dictionary, except that sign(x) is a call (the default
     writes a Python conditional, which needs a number, not a CasADi expression)."""
 
-    def __init__(self) -> None:
+    def __init__(self, large: bool = False) -> None:
+        # a large program's sums and products in the order they hold, as in its C (codegen/c_source.py)
         super().__init__({"fully_qualified_modules": False, "inline": True, "allow_unknown_functions": True,
-                          "user_functions": {name: name for name in CASADI_MODULE}})
+                          "user_functions": {name: name for name in CASADI_MODULE}, **({"order": "none"} if large else {})})
 
     def _print_sign(self, expr: sp.sign) -> str:
         return f"sign({self._print(expr.args[0])})"
@@ -59,7 +60,7 @@ def _to_sx(model: DynamicModel, spec: FunctionSpec, inputs: dict[str, ca.SX]) ->
     program = programs(model)[spec.name]
     args = [list(symbols[a]) for a in spec.inputs]
     flat = list(program.outputs)
-    fn = sp.lambdify(args, flat, modules=[CASADI_MODULE], printer=_CasadiPrinter(),
+    fn = sp.lambdify(args, flat, modules=[CASADI_MODULE], printer=_CasadiPrinter(program.large),
                      cse=lambda exprs: (list(program.statements), exprs))
     values = fn(*[[inputs[a][i] for i in range(inputs[a].shape[0])] for a in spec.inputs])
     out, k = [], 0

@@ -19,7 +19,7 @@ from symbolic.derivation.dynamics import DynamicModel
 from symbolic.derivation.products import Product
 from symbolic.derivation.regressor import Regressor
 from symbolic.derivation.subexpressions import Subexpressions
-from symbolic.codegen.program import BatchedTrig, Program, batch_trig, build_program
+from symbolic.codegen.program import LARGE_PROGRAM, BatchedTrig, Program, batch_trig, build_program, program_size
 
 log = logging.getLogger(__name__)
 
@@ -191,10 +191,17 @@ def _regressor_specs(model: DynamicModel) -> list[FunctionSpec]:
 
 
 def _build_programs(model: DynamicModel) -> dict[str, Program]:
+    """Every function's program; all of a model's take the large-program path when its largest one is large
+    (:data:`~symbolic.codegen.program.LARGE_PROGRAM`): one rule per model, and the smaller programs of a large
+    model (hundreds of definitions each) are not left to the slower elimination."""
+    specs = function_specs(model)
+    large = max(program_size(spec.sub or model.sub, spec.expressions) for spec in specs) > LARGE_PROGRAM
+    if large:
+        log.info("%s: large programs (over %d definitions): repeated subtrees shared only", model.name, LARGE_PROGRAM)
     built = {}
-    for spec in function_specs(model):
+    for spec in specs:
         start = time.perf_counter()
-        built[spec.name] = build_program(spec.sub or model.sub, spec.expressions)
+        built[spec.name] = build_program(spec.sub or model.sub, spec.expressions, large=large)
         elapsed = time.perf_counter() - start
         log.log(logging.INFO if elapsed > 0.1 else logging.DEBUG, "%s: %s program (CSE): %d statements in %.1f s",
                 model.name, spec.name, len(built[spec.name].statements), elapsed)

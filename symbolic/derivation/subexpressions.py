@@ -25,6 +25,29 @@ def _is_trivial(expr: sp.Expr) -> bool:
     return False
 
 
+def partial(expr: sp.Expr, symbol: sp.Symbol) -> sp.Expr:
+    """``expr.diff(symbol)``: the same SymPy expression, built without SymPy's ``Derivative`` for sums and products.
+
+    SymPy differentiates a sum term by term (``Add._eval_derivative``) and a product by Leibniz's rule
+    (``Mul._eval_derivative_n_times`` with n = 1: one product per factor, that factor differentiated, summed
+    with ``Add``); here the same products and sums are built from the same arguments, so the result is the
+    same expression. What is saved is ``Derivative.__new__``, which SymPy runs at every node (checks,
+    dispatch, a final ``replace`` over the result): about two thirds of differentiating the short definitions
+    of a derivation (∂D/∂Q of a 20-axis chain: 15,000 intermediates). Other heads (sin, cos, powers, sign, …)
+    are left to SymPy's ``diff``.
+    """
+    if symbol not in expr.free_symbols:
+        return sp.S.Zero
+    if expr.is_Symbol:  # the symbol itself: its free symbols hold it
+        return sp.S.One
+    if expr.is_Add:
+        return sp.Add(*[partial(a, symbol) for a in expr.args])
+    if expr.is_Mul and expr.is_commutative:
+        args = expr.args
+        return sp.Add(*[sp.Mul(*args[:i], partial(a, symbol), *args[i + 1:]) for i, a in enumerate(args)])
+    return expr.diff(symbol)
+
+
 class Subexpressions:
     """An ordered registry of intermediate symbols and their definitions.
 
@@ -107,7 +130,7 @@ class Subexpressions:
             else:
                 continue
             if ds != 0:
-                terms.append(expr.diff(s) * ds)
+                terms.append(partial(expr, s) * ds)
         result = sp.Add(*terms)
         if result.has(sp.DiracDelta):
             # d sign(v)/dv = 2δ(v): friction laws are differentiated away from v = 0, where it vanishes
