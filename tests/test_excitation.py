@@ -11,6 +11,7 @@ import pytest
 
 import models
 import symbolic
+from shared_data import emps  # noqa: F401  (fixture)
 from symbolic.cli import main
 from symbolic.data import Measurements
 from symbolic.errors import IdentificationError
@@ -391,3 +392,103 @@ def test_the_loop_table_is_a_markdown_table_saying_why_a_coordinate_refuses() ->
     rows = [line for line in check.table() if line.startswith("|")]
     assert len({line.count("|") for line in rows}) == 1
     assert [line.rsplit("|", 2)[1].strip() for line in rows[2:]] == ["saturated", "over the limit", "no"]
+
+
+# -- EMPS: Coulomb friction and offset, which the one-way start of the estimation log cannot separate ----------
+
+
+@pytest.fixture(scope="module")
+def emps_model() -> symbolic.DynamicModel:
+    return symbolic.derive(symbolic.robots.load("emps"))
+
+
+def emps_design(model):
+    """The 10 s design of the shipped EMPS declarations (its envelope, noise and cascade loop), compared with
+    the first 3 s of the estimation log (the carriage moving one way)."""
+    from symbolic.robots import example_path
+
+    declared = read_declarations(example_path("emps_excitation"), ("q",))
+    return excite(model, declared, 10.0, seed=0, compare=example_path("emps_one_way")), declared
+
+
+def test_emps_one_way_log_is_refused_and_the_design_separates_coulomb_and_offset(emps, emps_model) -> None:
+    """identify refuses Fc and offset on the one-way log (rank-deficient); the design's predicted σ of both
+    is finite and small, the log's infinite; and the design stays inside the log's envelope and the drive."""
+    from symbolic.robots import example_path
+
+    with pytest.raises(IdentificationError, match=r"rank-deficient.*Fc, offset cannot be separated"):
+        identify_model(emps_model, example_path("emps_one_way"))
+    result, _ = emps_design(emps_model)
+    names = list(result.predicted.names)
+    for name in ("Fc", "offset"):
+        k = names.index(name)
+        assert result.predicted.relative[k] < 5.0, (name, result.predicted.relative[k])
+        assert not np.isfinite(result.compare.relative[k])
+    assert not np.isfinite(result.compare.log_det) and np.isfinite(result.predicted.log_det)
+    assert np.all(np.isfinite(result.compare.relative[[names.index("M_carriage"), names.index("Fv")]]))
+    assert result.loop is not None and not result.loop.refused
+    t = np.linspace(0.0, 10.0, 100_001)
+    q, qd, qdd = result.design.trajectory.evaluate(t)
+    assert 0.0 - 1e-9 <= q.min() and q.max() <= 0.245 + 1e-9
+    assert np.abs(qd).max() <= 0.128 * (1 + 1e-6) and np.abs(qdd).max() <= 1.33 * (1 + 1e-6)
+    assert np.mean(qd > 0) > 0.2 and np.mean(qd < 0) > 0.2  # both directions: what separates the two
+
+
+@pytest.mark.slow  # the cascade loop is compiled (about 10 s in a fresh cache), 200 identifications
+def test_emps_design_in_its_loop_gives_fc_and_offset_within_their_predicted_sigma(emps, emps_model) -> None:
+    """The design run through the EMPS cascade loop (the model at its nominal values, the controller's own
+    saturation), its logged force given white noise of the declared σ and its positions quantised to the declared
+    resolution, 200 times, each identified by identify_model with the experiment's treatment: the spread of every
+    base parameter agrees with the predicted σ within 20 %, Fc and offset are unbiased to a fraction of it, and
+    about 68 % of the estimates fall within ±σ of the true value (a normal's share)."""
+    from symbolic.data import Experiment
+    from symbolic.simulation import simulate
+
+    result, declared = emps_design(emps_model)
+    t, q, qd, _ = reference_samples(result.design.trajectory, 1000.0)
+    log = Measurements.from_arrays(t, ("q",), q, np.zeros_like(q), ref=q, extras={"refd_q": qd[:, 0]})
+    run = simulate(emps_model, Experiment.of(log, controller=dict(declared.controller))).simulated
+    rng = np.random.default_rng(11)
+    noise = declared.table.values["force_noise"]["q"]
+    resolution = declared.table.values["resolution"]["q"]
+    estimates = []
+    for _ in range(200):
+        measured = Measurements.from_arrays(run.t, ("q",), np.round(run.q / resolution) * resolution,
+                                            run.tau + rng.standard_normal(run.tau.shape) * noise)
+        estimates.append(identify_model(emps_model, measured, settings=declared.settings).identification.values)
+    estimates = np.array(estimates)
+    predicted = result.predicted
+    truth = np.array([95.1089, 203.5034, 20.3935, -3.1648])  # the model file's values, which the loop simulates
+    spread = estimates.std(axis=0, ddof=1)
+    assert np.all(np.abs(spread / predicted.sigmas - 1.0) < 0.2), spread / predicted.sigmas
+    for name in ("Fc", "offset"):
+        k = predicted.names.index(name)
+        assert abs(estimates[:, k].mean() - truth[k]) < 0.5 * predicted.sigmas[k]
+        assert 0.55 < np.mean(np.abs(estimates[:, k] - truth[k]) < predicted.sigmas[k]) < 0.8
+
+
+def test_a_peak_between_verification_points_is_found(arm) -> None:
+    """q̇ = cos(ω t) sampled half a step off its peaks: the grid alone sees cos(ωh/2) (1.2e-3 short of the peak
+    here); the refinement finds the peak, 1, to 1e-7 (closed form)."""
+    limits = ex.resolve_limits(arm, ("test", {**LIMITS, "velocity": {"q1": 1.0, "q2": 1.0}}))
+    a = np.array([[1.0, 0.0], [0.0, 0.0]])
+    trajectory = ex.FourierTrajectory(("q1", "q2"), 2.0, np.zeros(2), a, np.zeros((2, 2)))
+    h = 2.0 / 64
+    t = (np.arange(64) + 0.5) * h
+    assert np.abs(trajectory.evaluate(t)[1][:, 0]).max() < 1.0 - 1e-3
+    assert abs(ex.violation(ex.casadi_regressor(arm), trajectory, limits, t)["velocity"][0] - 1.0) < 1e-7
+
+
+def test_sigma_of_a_singular_information_matrix() -> None:
+    """Columns x, y, 1, 1 (the last two the same, as Coulomb friction and an offset on a one-way axis): the two
+    equal columns get σ = ∞, x and y the σ of the least squares on x, y, 1 alone (the same column space)."""
+    from symbolic.identify.excitation_noise import covariance_sigmas
+
+    rng = np.random.default_rng(3)
+    x, y = rng.standard_normal((2, 500))
+    W = np.column_stack([x, y, np.ones(500), np.ones(500)])  # noqa: N806
+    sigmas = covariance_sigmas(W.T @ W)
+    reduced = np.sqrt(np.diag(np.linalg.inv(W[:, :3].T @ W[:, :3])))
+    np.testing.assert_allclose(sigmas[:2], reduced[:2], rtol=1e-9)
+    assert np.all(np.isinf(sigmas[2:]))
+    np.testing.assert_allclose(covariance_sigmas(W[:, :3].T @ W[:, :3]), reduced, rtol=1e-12)

@@ -284,7 +284,7 @@ def _sigma_table(design: Prediction, compare: Prediction | None) -> list[str]:
     for k, name in enumerate(design.names):
         row = f"| {name} | {design.values[k]:.6g} | {design.sigmas[k]:.4g} | {percent(design.relative[k])} |"
         if compare is not None:
-            row += f" {percent(compare.relative[k])} |"
+            row += f" {'∞ (not separable)' if math.isinf(compare.sigmas[k]) else percent(compare.relative[k])} |"
         rows.append(row)
     rows.append("")
     for p in (design, compare):
