@@ -17,7 +17,7 @@ from symbolic.data import Measurements
 from symbolic.errors import IdentificationError
 from symbolic.identify import excitation as ex
 from symbolic.identify.excitation_noise import Noise, equivalent_noise, predict, treatment
-from symbolic.identify.excitation_report import Declared, excite, read_declarations, reference_samples
+from symbolic.identify.excitation_report import Declared, excite, read_declarations, reference_samples, report
 from symbolic.identify.model import base_regressor, identify_model, model_base
 
 LIMITS = {"position": {"q1": (-1.5, 1.5), "q2": (-2.0, 2.0)}, "velocity": {"q1": 2.0, "q2": 2.5},
@@ -492,3 +492,111 @@ def test_sigma_of_a_singular_information_matrix() -> None:
     np.testing.assert_allclose(sigmas[:2], reduced[:2], rtol=1e-9)
     assert np.all(np.isinf(sigmas[2:]))
     np.testing.assert_allclose(covariance_sigmas(W[:, :3].T @ W[:, :3]), reduced, rtol=1e-12)
+
+
+# -- --separate A,B: Ds-optimality for a pair the data cannot tell apart ----------------------------------------
+
+
+def test_ds_criterion_is_the_log_det_of_the_pairs_covariance_block() -> None:
+    """−log det of the Schur complement = log det (M⁻¹)_ss (the pair's covariance block), and its gradient
+    against central differences."""
+    from symbolic.identify.excitation_criteria import ds_optimal
+
+    rng = np.random.default_rng(8)
+    A = rng.standard_normal((6, 6))  # noqa: N806
+    M = A @ A.T + 0.5 * np.eye(6)  # noqa: N806
+    value, gradient = ds_optimal([1, 4])(M)
+    assert value == pytest.approx(np.linalg.slogdet(np.linalg.inv(M)[np.ix_([1, 4], [1, 4])])[1], rel=1e-12)
+    h = 1e-6
+    for i, j in ((0, 0), (1, 4), (2, 3), (4, 4)):
+        E = np.zeros((6, 6))  # noqa: N806
+        E[i, j] = E[j, i] = h
+        finite = (ds_optimal([1, 4])(M + E)[0] - ds_optimal([1, 4])(M - E)[0]) / (2 * h)
+        assert finite == pytest.approx(np.sum(gradient * E) / h, rel=1e-6, abs=1e-9)
+
+
+def test_separate_gradient_against_central_differences(smooth_arm) -> None:
+    limits = ex.resolve_limits(smooth_arm, ("test", LIMITS))
+    problem = ex.Problem(ex.casadi_regressor(smooth_arm), limits, 3.0, 3, np.linspace(0, 3.0, 60, endpoint=False),
+                         np.array([1.0, 4.0]), "ds", separate=(1, 3))
+    z = ex.random_start(np.random.default_rng(1), problem)
+    gradient = problem.gradient(z)
+    h = 1e-5 * np.maximum(1.0, np.abs(z))
+    finite = np.array([(problem.value(z + h[i] * e) - problem.value(z - h[i] * e)) / (2 * h[i])
+                       for i, e in enumerate(np.eye(len(z)))])
+    assert np.linalg.norm(gradient - finite) <= 1e-6 * np.linalg.norm(finite)
+
+
+def one_way_emps_log(model) -> Measurements:
+    """A synthetic EMPS log that moves one way (q̇ ≥ 0.02 m/s, two sines on a ramp), τ = Wβ + 1 N noise: Coulomb
+    friction and the offset are the same column on it."""
+    t = np.arange(0.0, 3.0, 1e-3)
+    w = 2 * np.pi * 0.7
+    q = 0.01 + 0.05 * t + 0.01 * np.sin(w * t)
+    qd, qdd = 0.05 + 0.01 * w * np.cos(w * t), -0.01 * w**2 * np.sin(w * t)
+    tau = base_regressor(model)(q[:, None], qd[:, None], qdd[:, None]) @ model_base(model)[1].values
+    return Measurements.from_arrays(t, ("q",), q[:, None], tau + np.random.default_rng(2).normal(0, 1.0, tau.shape))
+
+
+def test_separate_designs_for_the_pair_on_a_one_way_axis(emps_model) -> None:
+    """EMPS's model with the shipped limits, compared with a synthetic one-way log (no shared data needed): there
+    the pair is not separable (σ ∞, no correlation); the design gives both a finite σ and a correlation well below
+    0.9 — checked against the correlation of identify's estimates over 150 noisy logs of the design's reference."""
+    from symbolic.robots import example_path
+
+    declared = read_declarations(example_path("emps_excitation"), ("q",))
+    declared = Declared(declared.source, declared.table, declared.settings)  # no loop: the pair alone
+    log = one_way_emps_log(emps_model)
+    result = excite(emps_model, declared, 10.0, seed=0, starts=2, separate=("Fc", "offset"), compare=log)
+    pair = result.separation()
+    assert pair["parameters"] == ["Fc", "offset"] and result.design.criterion == "ds"
+    assert pair["compare"]["sigma"] == [None, None] and pair["compare"]["correlation"] is None
+    assert all(s is not None and np.isfinite(s) for s in pair["design"]["sigma"])
+    rho = pair["design"]["correlation"]
+    assert abs(rho) < 0.5
+    t, q, qd, qdd = result.samples()
+    tau = base_regressor(emps_model)(q, qd, qdd) @ model_base(emps_model)[1].values
+    rng = np.random.default_rng(4)
+    sigma = declared.table.values["force_noise"]["q"]
+    estimates = np.array([identify_model(emps_model, Measurements.from_arrays(t, ("q",), q, tau + rng.normal(0, sigma, tau.shape)),
+                                         settings=declared.settings).identification.values for _ in range(150)])
+    i, j = (result.predicted.names.index(n) for n in ("Fc", "offset"))
+    measured = np.corrcoef(estimates[:, i], estimates[:, j])[0, 1]
+    assert abs(measured - rho) < 0.25 and abs(measured) < 0.5, (measured, rho)
+    spread = estimates[:, [i, j]].std(axis=0, ddof=1)
+    np.testing.assert_allclose(spread, pair["design"]["sigma"], rtol=0.2)
+    assert "## Separating Fc and offset" in report(result, [], [])
+    # the D-optimal design of the same limits: the pair comes out worse (Ds is the pair's own optimum)
+    plain = excite(emps_model, declared, 10.0, seed=0, starts=2)
+    assert np.prod(result.predicted.sigmas[[i, j]]) < np.prod(plain.predicted.sigmas[[i, j]])
+
+
+def test_separate_names_model_and_base_parameters(emps_model) -> None:
+    from symbolic.identify.excitation_report import separation_indices
+
+    assert separation_indices(emps_model, ["M", "Fv"]) == (("M", 0), ("Fv", 1))
+    assert separation_indices(emps_model, ["M_carriage", "offset"]) == (("M_carriage", 0), ("offset", 3))
+    with pytest.raises(symbolic.data.DataError, match="M,M_carriage: the same base parameter M_carriage twice"):
+        separation_indices(emps_model, ["M", "M_carriage"])
+
+
+@pytest.mark.parametrize("value, message", [
+    ("Fc,ofset", "--separate: ofset: unknown parameter (allowed: base parameters of emps: M_carriage, Fv, Fc, offset; "
+                 "model parameters alone in one: M, Fv, Fc, offset); did you mean 'offset'?"),
+    ("Fc", "--separate: Fc: expected two parameter names A,B"),
+])
+def test_separate_bad_names_are_one_line_and_write_nothing(tmp_path, capsys, value, message) -> None:
+    from symbolic.robots import example_path
+
+    out = tmp_path / "design"
+    assert main(["-q", "excite", "emps", "--experiment", str(example_path("emps_excitation")), "--duration", "10",
+                 "--out", str(out), "--separate", value]) == 2
+    err = capsys.readouterr().err
+    assert err.strip() == f"error: {message}" and not out.exists()
+
+
+def test_separate_and_criterion_together_are_refused(tmp_path, capsys) -> None:
+    assert main(["-q", "excite", "emps", "--duration", "10", "--out", str(tmp_path / "d"), "--separate", "Fc,offset",
+                 "--criterion", "a"]) == 2
+    err = capsys.readouterr().err
+    assert "--criterion: not with --separate" in err and len(err.strip().splitlines()) == 1

@@ -41,7 +41,7 @@ import sympy as sp
 from symbolic.description.joint_limits import coordinate_limits
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.errors import IdentificationError
-from symbolic.identify.excitation_criteria import CRITERIA, positive_definite
+from symbolic.identify.excitation_criteria import CRITERIA, ds_optimal, positive_definite
 
 LOG = logging.getLogger(__name__)
 
@@ -450,6 +450,9 @@ class Problem:
     criterion: str
     exact: CasadiRegressor | None = None
     """The regressor with the exact sign, on which limits are verified (default: ``regressor``)."""
+    separate: tuple[int, ...] = ()
+    """Base parameters to separate: the criterion is then Ds-optimality for them
+    (:func:`~symbolic.identify.excitation_criteria.ds_optimal`), whatever ``criterion`` names."""
     callback: _CriterionCallback = field(init=False, repr=False)
     constraints: _Constraints = field(init=False, repr=False)
     objective: ca.Function = field(init=False, repr=False)
@@ -459,7 +462,8 @@ class Problem:
     def __post_init__(self) -> None:
         self.exact = self.exact or self.regressor
         n, L, K = self.regressor.n, self.harmonics, len(self.grid)  # noqa: N806
-        self.callback = _CriterionCallback("criterion", len(self.regressor.names), CRITERIA[self.criterion])
+        function = ds_optimal(self.separate) if self.separate else CRITERIA[self.criterion]
+        self.callback = _CriterionCallback("criterion", len(self.regressor.names), function)
         z = ca.MX.sym("z", n * (2 * L - 1))
         C = ca.mtimes(ca.DM(rest_null_space(L)), ca.reshape(z, 2 * L - 1, n))  # noqa: N806
         phi = [ca.DM(m) for m in basis(self.grid, self.period, L)]
@@ -663,7 +667,7 @@ class Design:
 
 def design(model: DynamicModel, limits: Limits, duration: float, *, weights: Sequence[float] | None = None,
            harmonics: int = HARMONICS, criterion: str = "d", starts: int = STARTS, seed: int = 0,
-           grid_points: int | None = None) -> Design:
+           grid_points: int | None = None, separate: Sequence[int] = ()) -> Design:
     """The periodic reference of period ``duration`` (s) that optimises ``criterion`` under ``limits``
     (module docstring).
 
@@ -686,6 +690,10 @@ def design(model: DynamicModel, limits: Limits, duration: float, *, weights: Seq
         Random starts, drawn from ``numpy.random.default_rng(seed)``: the same seed, the same design.
     grid_points
         Grid of the constraints and of M (default max(100, 20·L): 20 points per period of the highest harmonic); verified on one :data:`FINER` times finer.
+    separate
+        Indices of base parameters (two, for ``symbolic excite --separate A,B``) to separate: Ds-optimality for
+        them (:func:`~symbolic.identify.excitation_criteria.ds_optimal`) replaces ``criterion``, and the design's
+        criterion is ``"ds"``.
 
     Raises
     ------
@@ -702,7 +710,9 @@ def design(model: DynamicModel, limits: Limits, duration: float, *, weights: Seq
     K = grid_points or max(100, 20 * harmonics)  # noqa: N806
     grid = np.linspace(0.0, duration, K, endpoint=False)
     fine = np.linspace(0.0, duration, FINER * K, endpoint=False)
-    problem = Problem(smooth, limits, float(duration), harmonics, grid, w / w.mean(), criterion, regressor)
+    separate = tuple(int(i) for i in separate)
+    criterion = "ds" if separate else criterion
+    problem = Problem(smooth, limits, float(duration), harmonics, grid, w / w.mean(), criterion, regressor, separate)
     LOG.info("excitation: %d coordinates × %d harmonics, %d base parameters, %d grid points, criterion %s, %d start(s)",
              n, harmonics, len(regressor.names), K, criterion, starts)
     rng = np.random.default_rng(seed)

@@ -140,6 +140,15 @@ class Prediction:
         sign, value = np.linalg.slogdet(self.information)
         return float(value) if sign > 0 else -math.inf
 
+    def pair(self, i: int, j: int) -> tuple[float, float, float]:
+        """σ % of base parameters ``i`` and ``j`` and their correlation ρ_ij = C_ij/√(C_ii C_jj) in C = M⁻¹ (M⁺ for a
+        singular M); ρ is NaN when either is not estimable (σ = ∞: the data cannot separate it)."""
+        relative = self.relative
+        if not (math.isfinite(self.sigmas[i]) and math.isfinite(self.sigmas[j])):
+            return float(relative[i]), float(relative[j]), math.nan
+        C = np.linalg.pinv(0.5 * (self.information + self.information.T), hermitian=True)  # noqa: N806
+        return float(relative[i]), float(relative[j]), float(C[i, j] / math.sqrt(C[i, i] * C[j, j]))
+
     @property
     def condition_number(self) -> float:
         values = np.linalg.eigvalsh(self.information)
