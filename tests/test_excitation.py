@@ -318,6 +318,21 @@ def test_the_shipped_panda_declarations_are_complete() -> None:
     assert declared.table.rate == 1000.0
 
 
+def test_the_shipped_puma_declarations_are_corkes_joint_limits() -> None:
+    """Position limits: the Robotics Toolbox for Python's Puma560 qlim in degrees (±160, ±110, ±135, ±266, ±100,
+    ±266), converted here independently; every other limit and the noise declared for every joint."""
+    from symbolic.robots import example_path
+
+    names = tuple(f"q{i}" for i in range(1, 7))
+    declared = read_declarations(example_path("puma560_excitation"), names)
+    degrees = [160, 110, 135, 266, 100, 266]
+    for name, limit in zip(names, degrees):
+        lower, upper = declared.table.values["position"][name]
+        assert lower == pytest.approx(-np.deg2rad(limit), abs=1e-6) and upper == pytest.approx(np.deg2rad(limit), abs=1e-6)
+    for kind in ("velocity", "acceleration", "torque", "force_noise", "resolution"):
+        assert set(declared.table.values[kind]) == set(names), kind
+
+
 def test_every_command_reads_an_experiment_with_an_excitation_table(files) -> None:
     """The loader accepts [excitation] beside the data (checked the same way) and refuses a bad one."""
     t = np.arange(50) / 100.0
