@@ -23,7 +23,6 @@ from symbolic.data.experiment import TOP_KEYS, sample_rate
 from symbolic.data.keys import check_keys
 from symbolic.data.settings import Settings
 from symbolic.derivation.dynamics import DynamicModel
-from symbolic.errors import IdentificationError
 from symbolic.identify.least_squares import percent
 from symbolic.identify.excitation import (FINER, HARMONICS, STARTS, Design, FourierTrajectory, check_options,
                                           design, reference_samples, resolve_limits)
@@ -96,7 +95,6 @@ class Excitation:
                 "loop": None if self.loop is None else self.loop.to_dict(),
                 "separate": self.separation(),
                 "collision_avoidance": "not checked: the design keeps each coordinate within its limits only"}
-
 
     def separation(self) -> dict[str, Any] | None:
         """The pair of ``--separate``: for the design (and the compared log) the σ % of each and their correlation
