@@ -69,6 +69,7 @@ def panda(repeat: int) -> tuple[list[str], dict]:
 
 def puma(references: int) -> list[str]:
     import symbolic
+    from symbolic.errors import IdentificationError
     from symbolic.identify import excitation as ex
     from symbolic.identify.excitation_noise import equivalent_noise, resolve_noise, treatment
     from symbolic.identify.excitation_report import _predict_reference, excite, read_declarations
@@ -100,6 +101,12 @@ def puma(references: int) -> list[str]:
         worst = max(float(v.max()) for v in ex.violation(regressor, trajectory, limits, fine).values())
         p = _predict_reference(model, trajectory, noise, declared.settings, f"random {seed}")
         rows.append((seed, p.log_det, p.condition_number, worst))
+    started = time.perf_counter()
+    try:
+        conditioned, refused = excite(model, declared, period, harmonics=harmonics, criterion="condition", starts=1), ""
+    except IdentificationError as error:  # the criterion is not smooth: IPOPT may stop outside the limits
+        conditioned, refused = None, str(error)
+    seconds_condition = time.perf_counter() - started
     design = result.predicted
     log_dets = [r[1] for r in rows]
     conds = [r[2] for r in rows]
@@ -113,7 +120,11 @@ def puma(references: int) -> list[str]:
              "| reference | log det M | cond(Σ^(−1/2)W) | worst ratio to a limit |", "|---|---|---|---|"]
     lines += [f"| random {s} | {d:.1f} | {c:.1f} | {w:.4f} |" for s, d, c, w in rows]
     lines += [f"| **design** (`--criterion d`) | **{design.log_det:.1f}** | **{design.condition_number:.1f}** | "
-              f"{max(float(v.max()) for v in result.design.worst.values()):.4f} |", "",
+              f"{max(float(v.max()) for v in result.design.worst.values()):.4f} |",
+              (f"| design `--criterion condition`, 1 start ({seconds_condition:.0f} s) | "
+               f"{conditioned.predicted.log_det:.1f} | {conditioned.predicted.condition_number:.1f} | "
+               f"{max(float(v.max()) for v in conditioned.design.worst.values()):.4f} |" if conditioned is not None else
+               f"| design `--criterion condition`, 1 start ({seconds_condition:.0f} s) | refused: {refused} | | |"), "",
               f"Against the median random reference: det M × e^{design.log_det - median_det:.1f} (geometric-mean σ × "
               f"{math.exp(-(design.log_det - median_det) / (2 * b)):.3f}), condition number × "
               f"{design.condition_number / statistics.median(conds):.3f}; against the best random reference: det M × "
@@ -138,6 +149,7 @@ def main() -> int:
     if not args.skip_panda:
         part, _ = panda(args.repeat)
         lines += part
+        Path(args.out).write_text("\n".join(lines))  # kept should the PUMA part fail
     lines += puma(args.references)
     load_after = os.getloadavg()
     lines += [f"Load average at the end {', '.join(f'{x:.1f}' for x in load_after)}; the whole benchmark "
