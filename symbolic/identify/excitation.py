@@ -233,6 +233,9 @@ class CasadiRegressor:
     information: ca.Function
     torque: ca.Function
     torque_jacobian: ca.Function
+    information_gradient: ca.Function
+    """``(q, qd, qdd, w, G) -> ∂ tr(G·W_kᵀdiag(w)W_k)/∂[q; q̇; q̈]`` (3N; compiled like ``torque_jacobian``): the
+    per-sample factor of the criterion's gradient (:class:`_Objective`)."""
 
 
 def has_sign(model: DynamicModel) -> bool:
@@ -267,13 +270,19 @@ def casadi_regressor(model: DynamicModel, sign_velocity: float | None = None) ->
     W = ca.reshape(flat, b, n).T  # lambdify's outputs are row-major  # noqa: N806
     beta = np.asarray(base.values, float)
     tau = ca.mtimes(W, ca.DM(beta))
+    M = ca.mtimes(W.T, ca.mtimes(ca.diag(w), W))  # noqa: N806
+    G = ca.SX.sym("G", b, b)  # noqa: N806
+    suffix = f"{_identifier(model.name)}{'' if sign_velocity is None else '_smooth'}"
     return CasadiRegressor(
         n, tuple(base.names), beta,
         ca.Function("W", [q, qd, qdd], [W], ["q", "qd", "qdd"], ["W"]),
-        ca.Function("M", [q, qd, qdd, w], [ca.mtimes(W.T, ca.mtimes(ca.diag(w), W))], ["q", "qd", "qdd", "w"], ["M"]),
+        _compiled(ca.Function(f"M_{suffix}", [q, qd, qdd, w], [M], ["q", "qd", "qdd", "w"], ["M"])),
         ca.Function("tau", [q, qd, qdd], [tau], ["q", "qd", "qdd"], ["tau"]),
-        _compiled(ca.Function(f"dtau_{_identifier(model.name)}{'' if sign_velocity is None else '_smooth'}", [q, qd, qdd],
-                              [ca.jacobian(tau, ca.vertcat(q, qd, qdd))], ["q", "qd", "qdd"], ["dtau"])))
+        _compiled(ca.Function(f"dtau_{suffix}", [q, qd, qdd],
+                              [ca.jacobian(tau, ca.vertcat(q, qd, qdd))], ["q", "qd", "qdd"], ["dtau"])),
+        _compiled(ca.Function(f"dM_{suffix}", [q, qd, qdd, w, G],
+                              [ca.gradient(ca.sum1(ca.sum2(G * M)), ca.vertcat(q, qd, qdd))],
+                              ["q", "qd", "qdd", "w", "G"], ["dM"])))
 
 
 def _identifier(name: str) -> str:
@@ -330,50 +339,6 @@ class _Jacobian(ca.Callback):
 
     def get_n_out(self) -> int:
         return 1
-
-
-class _CriterionCallback(_WithJacobian):
-    """A criterion of M (:data:`~symbolic.identify.excitation_criteria.CRITERIA`) as a CasADi function whose
-    Jacobian is the criterion's closed-form gradient G (so that CasADi chains it with the AD of M(x))."""
-
-    def __init__(self, name: str, size: int, criterion) -> None:
-        ca.Callback.__init__(self)
-        self.size, self.criterion, self.kept = size, criterion, []
-        self.construct(name, {})
-
-    def get_n_in(self) -> int:
-        return 1
-
-    def get_n_out(self) -> int:
-        return 1
-
-    def get_sparsity_in(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(self.size, self.size)
-
-    def get_sparsity_out(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(1, 1)
-
-    def eval(self, arg):
-        return [self._value(np.asarray(arg[0]))[0]]
-
-    def _value(self, M: np.ndarray) -> tuple[float, np.ndarray]:  # noqa: N803
-        if not positive_definite(M):  # outside the domain: a large value, no slope (IPOPT backtracks)
-            return 1e10, np.zeros_like(M)
-        return self.criterion(M)
-
-
-class _CriterionGradient(_Jacobian):
-    def get_sparsity_in(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(self.outer.size, self.outer.size) if i == 0 else ca.Sparsity.dense(1, 1)
-
-    def get_sparsity_out(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(1, self.outer.size ** 2)
-
-    def eval(self, arg):
-        return [self.outer._value(np.asarray(arg[0]))[1].reshape(1, -1, order="F")]
-
-
-_CriterionCallback.jacobian_class = _CriterionGradient
 
 
 class _Constraints(_WithJacobian):
@@ -437,6 +402,72 @@ class _ConstraintJacobian(_Jacobian):
 _Constraints.jacobian_class = _ConstraintJacobian
 
 
+class _Objective(_WithJacobian):
+    """The criterion of M(z) = Σ_k W_kᵀdiag(w)W_k / K over the grid, with its gradient assembled as the constraints'
+    Jacobian is: with G = ∂criterion/∂M (closed form, :mod:`~symbolic.identify.excitation_criteria`),
+    ∂criterion/∂z_(i,r) = (1/K) Σ_k Σ_s (∂ tr(G M_k)/∂s_i)_k B_s[k, r], the per-sample factor computed by the
+    compiled :attr:`CasadiRegressor.information_gradient` and B_s = Φ_s·Z linear in z. M and that factor are
+    compiled C (CasADi's interpreted reverse mode through the mapped M took about nine tenths of a Panda start).
+    Outside the criterion's domain (M not positive definite) the value is 1e10 with no slope (IPOPT backtracks)."""
+
+    def __init__(self, regressor: CasadiRegressor, grid: np.ndarray, period: float, harmonics: int,
+                 weights: np.ndarray, criterion) -> None:
+        ca.Callback.__init__(self)
+        self.regressor, self.n, self.K, self.criterion = regressor, regressor.n, len(grid), criterion
+        self.weights = np.asarray(weights, float)
+        Z = rest_null_space(harmonics)  # noqa: N806
+        self.B = np.stack([phi @ Z for phi in basis(grid, period, harmonics)])  # 3 × K × m
+        self.m = Z.shape[1]
+        self.information = regressor.information.map("M_sum", "serial", self.K, [3], [0], {})
+        self.gradient_map = regressor.information_gradient.map(self.K)
+        self.kept = []
+        self.construct("objective", {})
+
+    def get_n_in(self) -> int:
+        return 1
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(self.n * self.m, 1)
+
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(1, 1)
+
+    def states(self, z: np.ndarray) -> list[np.ndarray]:
+        C = np.asarray(z, float).reshape(self.n, self.m).T  # noqa: N806
+        return [b @ C for b in self.B]  # K × N each
+
+    def evaluate(self, z: np.ndarray) -> tuple[float, np.ndarray]:
+        """The criterion and its gradient in z."""
+        states = self.states(z)
+        M = np.asarray(self.information(*(x.T for x in states), self.weights)) / self.K  # noqa: N806
+        if not positive_definite(M):
+            return 1e10, np.zeros(self.n * self.m)
+        value, G = self.criterion(M)  # noqa: N806
+        h = np.asarray(self.gradient_map(*(x.T for x in states), self.weights, G)) / self.K  # 3N × K
+        gradient = np.einsum("sik,skr->ir", h.reshape(3, self.n, self.K), self.B)
+        return float(value), gradient.ravel()
+
+    def eval(self, arg):
+        return [self.evaluate(np.asarray(arg[0]).ravel())[0]]
+
+
+class _ObjectiveGradient(_Jacobian):
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return self.outer.get_sparsity_in(0) if i == 0 else ca.Sparsity.dense(1, 1)
+
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(1, self.outer.n * self.outer.m)
+
+    def eval(self, arg):
+        return [self.outer.evaluate(np.asarray(arg[0]).ravel())[1].reshape(1, -1)]
+
+
+_Objective.jacobian_class = _ObjectiveGradient
+
+
 @dataclass(eq=False)
 class Problem:
     """The design problem on a grid: the NLP in the free coefficients z, its constraints and criterion."""
@@ -453,9 +484,8 @@ class Problem:
     separate: tuple[int, ...] = ()
     """Base parameters to separate: the criterion is then Ds-optimality for them
     (:func:`~symbolic.identify.excitation_criteria.ds_optimal`), whatever ``criterion`` names."""
-    callback: _CriterionCallback = field(init=False, repr=False)
     constraints: _Constraints = field(init=False, repr=False)
-    objective: ca.Function = field(init=False, repr=False)
+    objective: _Objective = field(init=False, repr=False)
     solver: Any = field(init=False, repr=False)
     bounds: tuple[np.ndarray, np.ndarray] = field(init=False, repr=False)
 
@@ -463,16 +493,11 @@ class Problem:
         self.exact = self.exact or self.regressor
         n, L, K = self.regressor.n, self.harmonics, len(self.grid)  # noqa: N806
         function = ds_optimal(self.separate) if self.separate else CRITERIA[self.criterion]
-        self.callback = _CriterionCallback("criterion", len(self.regressor.names), function)
         z = ca.MX.sym("z", n * (2 * L - 1))
-        C = ca.mtimes(ca.DM(rest_null_space(L)), ca.reshape(z, 2 * L - 1, n))  # noqa: N806
-        phi = [ca.DM(m) for m in basis(self.grid, self.period, L)]
-        states = [ca.mtimes(m, C) for m in phi]  # K × N each
-        M = self.regressor.information.map("M_sum", "serial", K, [3], [0], {})(*(s.T for s in states), ca.DM(self.weights)) / K  # noqa: N806
-        f = self.callback(M)
+        self.objective = _Objective(self.regressor, self.grid, self.period, L, self.weights, function)
+        f = self.objective(z)
         self.constraints = _Constraints(self.regressor, self.grid, self.period, L)
         g = self.constraints(z)
-        self.objective = ca.Function("objective", [z], [f, ca.gradient(f, z)])
         self.bounds = self._constraint_bounds(self.limits, K)
         self.solver = ca.nlpsol("excitation", "ipopt", {"x": z, "f": f, "g": g}, dict(IPOPT_OPTIONS))
 
@@ -494,10 +519,10 @@ class Problem:
         return np.asarray(result["x"]).ravel(), str(self.solver.stats().get("return_status", "unknown"))
 
     def value(self, z: np.ndarray) -> float:
-        return float(self.objective(z)[0])
+        return self.objective.evaluate(np.asarray(z, float))[0]
 
     def gradient(self, z: np.ndarray) -> np.ndarray:
-        return np.asarray(self.objective(z)[1]).ravel()
+        return self.objective.evaluate(np.asarray(z, float))[1]
 
     def trajectory(self, z: np.ndarray) -> FourierTrajectory:
         return FourierTrajectory.from_free(self.limits.coordinates, self.period, self.harmonics, z)
