@@ -18,8 +18,9 @@ times t_k and Σ = diag(σ_j²) the equivalent force noise per coordinate (:mod:
 criterion D (−log det M, default), A or the condition number (:mod:`symbolic.identify.excitation_criteria`).
 Under, at every grid time, |q_i − mid_i| ≤ half range, |q̇_i| ≤ v_i, |q̈_i| ≤ a_i (linear in the coefficients)
 and |τ_i| ≤ τ_i with τ = W(q, q̇, q̈)·β at the model's nominal values. The regressor is translated into CasADi
-(the straight-line program of the generated code) and mapped over the grid; ∂M/∂x is CasADi's reverse-mode
-AD, the criterion's ∂/∂M its closed form, and IPOPT (in the casadi wheel; limited-memory Hessian) solves
+(the straight-line program of the generated code) and mapped over the grid; the criterion's gradient is its
+closed-form ∂/∂M = G chained with the per-sample ∂tr(G·M_k)/∂(q, q̇, q̈) (CasADi's AD of one sample, compiled)
+and the linear basis (:class:`_Objective`), and IPOPT (in the casadi wheel; limited-memory Hessian) solves
 from several random starts (seeded). The result is verified on a grid ten times finer; a limit crossed there
 (between grid points) is tightened by the excess and the start solved again. Collision avoidance (with the
 robot itself and its surroundings) is not part of the design.
@@ -407,7 +408,8 @@ class _Objective(_WithJacobian):
     Jacobian is: with G = ∂criterion/∂M (closed form, :mod:`~symbolic.identify.excitation_criteria`),
     ∂criterion/∂z_(i,r) = (1/K) Σ_k Σ_s (∂ tr(G M_k)/∂s_i)_k B_s[k, r], the per-sample factor computed by the
     compiled :attr:`CasadiRegressor.information_gradient` and B_s = Φ_s·Z linear in z. M and that factor are
-    compiled C (CasADi's interpreted reverse mode through the mapped M took about nine tenths of a Panda start).
+    compiled C (CasADi's interpreted reverse mode through the mapped M took nine tenths of a Panda start's 40 s in
+    a profile; with this, most of a start is IPOPT's own work).
     Outside the criterion's domain (M not positive definite) the value is 1e10 with no slope (IPOPT backtracks)."""
 
     def __init__(self, regressor: CasadiRegressor, grid: np.ndarray, period: float, harmonics: int,
