@@ -46,6 +46,7 @@ bench:
 	$(PYTHON) bench/fleet.py --out bench/results/fleet.md
 	$(PYTHON) bench/float_accuracy.py --out bench/results/float_accuracy.md
 	$(PYTHON) bench/bag_load.py --out bench/results/bag_load.md
+	$(PYTHON) bench/excitation.py --out bench/results/excitation.md
 	$(PYTHON) bench/quotes.py
 
 clean:

@@ -404,6 +404,12 @@ def cmd_excite(args: argparse.Namespace) -> int:
     from symbolic.identify import excitation_report as excite
     from symbolic.identify.excitation import check_options
 
+    separate = [] if args.separate is None else args.separate.split(",")
+    if separate and args.criterion is not None:
+        print(f"error: --criterion: not with --separate, which designs for the pair's own criterion (Ds-optimality: "
+              f"the information about {args.separate} once the others are estimated); give one of them", file=sys.stderr)
+        return 2
+    args.criterion = args.criterion or "d"
     check_options(args.duration, args.harmonics, args.criterion, args.starts)  # before deriving: nothing written
     try:
         export.check_output_directory(args.out)
@@ -419,7 +425,7 @@ def cmd_excite(args: argparse.Namespace) -> int:
     declared = excite.read_declarations(args.experiment, names)
     result = excite.excite(model, declared, args.duration, limits=limits, noise=noise, rate=args.rate,
                            harmonics=args.harmonics, criterion=args.criterion, starts=args.starts, seed=args.seed,
-                           compare=args.compare)
+                           compare=args.compare, separate=separate)
     paths, notes = excite.write(result, args.out, figures=not args.no_figures, html=args.html)
     if args.json:
         print(strict_json({**result.to_dict(), "files": [str(p) for p in paths], "notes": notes}))
@@ -759,7 +765,10 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("--out", metavar="DIR", required=True, help="folder for trajectory.csv, trajectory.experiment.toml, "
                    "excitation.json, report.md and the figures")
     e.add_argument("--harmonics", type=int, default=5, help="harmonics per coordinate (default 5)")
-    e.add_argument("--criterion", default="d", help="d (D-optimality, default), a (A-optimality) or condition")
+    e.add_argument("--criterion", help="d (D-optimality, default), a (A-optimality) or condition")
+    e.add_argument("--separate", metavar="A,B", help="design the motion that separates two parameters the data cannot "
+                   "tell apart (base parameters, or model parameters alone in one): Ds-optimality for the pair, "
+                   "instead of --criterion; the report gives their σ and correlation (and --compare LOG's)")
     e.add_argument("--starts", type=int, default=3, help="random starts (default 3)")
     e.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
     e.add_argument("--compare", metavar="LOG", help="an existing log (data or experiment file identify reads): its "

@@ -375,7 +375,8 @@ def test_data_found_through_the_search_path(tmp_path: Path, monkeypatch: pytest.
 
 
 def test_experiment_files_are_examples_not_robots() -> None:
-    assert robots.examples() == ["emps_estimation", "emps_pulses", "panda_excitation"]
+    assert robots.examples() == ["emps_estimation", "emps_excitation", "emps_one_way", "emps_pulses", "panda_excitation",
+                                 "puma560_excitation"]
     assert not any("experiment" in name for name in robots.names())
     assert robots.example_path("emps_pulses").name == "emps_pulses.experiment.toml"
     with pytest.raises(KeyError):

@@ -11,12 +11,13 @@ import pytest
 
 import models
 import symbolic
+from shared_data import emps  # noqa: F401  (fixture)
 from symbolic.cli import main
 from symbolic.data import Measurements
 from symbolic.errors import IdentificationError
 from symbolic.identify import excitation as ex
 from symbolic.identify.excitation_noise import Noise, equivalent_noise, predict, treatment
-from symbolic.identify.excitation_report import Declared, excite, read_declarations, reference_samples
+from symbolic.identify.excitation_report import Declared, excite, read_declarations, reference_samples, report
 from symbolic.identify.model import base_regressor, identify_model, model_base
 
 LIMITS = {"position": {"q1": (-1.5, 1.5), "q2": (-2.0, 2.0)}, "velocity": {"q1": 2.0, "q2": 2.5},
@@ -317,6 +318,21 @@ def test_the_shipped_panda_declarations_are_complete() -> None:
     assert declared.table.rate == 1000.0
 
 
+def test_the_shipped_puma_declarations_are_corkes_joint_limits() -> None:
+    """Position limits: the Robotics Toolbox for Python's Puma560 qlim in degrees (±160, ±110, ±135, ±266, ±100,
+    ±266), converted here independently; every other limit and the noise declared for every joint."""
+    from symbolic.robots import example_path
+
+    names = tuple(f"q{i}" for i in range(1, 7))
+    declared = read_declarations(example_path("puma560_excitation"), names)
+    degrees = [160, 110, 135, 266, 100, 266]
+    for name, limit in zip(names, degrees):
+        lower, upper = declared.table.values["position"][name]
+        assert lower == pytest.approx(-np.deg2rad(limit), abs=1e-6) and upper == pytest.approx(np.deg2rad(limit), abs=1e-6)
+    for kind in ("velocity", "acceleration", "torque", "force_noise", "resolution"):
+        assert set(declared.table.values[kind]) == set(names), kind
+
+
 def test_every_command_reads_an_experiment_with_an_excitation_table(files) -> None:
     """The loader accepts [excitation] beside the data (checked the same way) and refuses a bad one."""
     t = np.arange(50) / 100.0
@@ -391,3 +407,211 @@ def test_the_loop_table_is_a_markdown_table_saying_why_a_coordinate_refuses() ->
     rows = [line for line in check.table() if line.startswith("|")]
     assert len({line.count("|") for line in rows}) == 1
     assert [line.rsplit("|", 2)[1].strip() for line in rows[2:]] == ["saturated", "over the limit", "no"]
+
+
+# -- EMPS: Coulomb friction and offset, which the one-way start of the estimation log cannot separate ----------
+
+
+@pytest.fixture(scope="module")
+def emps_model() -> symbolic.DynamicModel:
+    return symbolic.derive(symbolic.robots.load("emps"))
+
+
+def emps_design(model):
+    """The 10 s design of the shipped EMPS declarations (its envelope, noise and cascade loop), compared with
+    the first 3 s of the estimation log (the carriage moving one way)."""
+    from symbolic.robots import example_path
+
+    declared = read_declarations(example_path("emps_excitation"), ("q",))
+    return excite(model, declared, 10.0, seed=0, compare=example_path("emps_one_way")), declared
+
+
+def test_emps_one_way_log_is_refused_and_the_design_separates_coulomb_and_offset(emps, emps_model) -> None:
+    """identify refuses Fc and offset on the one-way log (rank-deficient); the design's predicted σ of both
+    is finite and small, the log's infinite; and the design stays inside the log's envelope and the drive."""
+    from symbolic.robots import example_path
+
+    with pytest.raises(IdentificationError, match=r"rank-deficient.*Fc, offset cannot be separated"):
+        identify_model(emps_model, example_path("emps_one_way"))
+    result, _ = emps_design(emps_model)
+    names = list(result.predicted.names)
+    for name in ("Fc", "offset"):
+        k = names.index(name)
+        assert result.predicted.relative[k] < 5.0, (name, result.predicted.relative[k])
+        assert not np.isfinite(result.compare.relative[k])
+    assert not np.isfinite(result.compare.log_det) and np.isfinite(result.predicted.log_det)
+    assert np.all(np.isfinite(result.compare.relative[[names.index("M_carriage"), names.index("Fv")]]))
+    assert result.loop is not None and not result.loop.refused
+    t = np.linspace(0.0, 10.0, 100_001)
+    q, qd, qdd = result.design.trajectory.evaluate(t)
+    assert 0.0 - 1e-9 <= q.min() and q.max() <= 0.245 + 1e-9
+    assert np.abs(qd).max() <= 0.128 * (1 + 1e-6) and np.abs(qdd).max() <= 1.33 * (1 + 1e-6)
+    assert np.mean(qd > 0) > 0.2 and np.mean(qd < 0) > 0.2  # both directions: what separates the two
+
+
+@pytest.mark.slow  # the cascade loop is compiled (about 10 s in a fresh cache), 200 identifications
+def test_emps_design_in_its_loop_gives_fc_and_offset_within_their_predicted_sigma(emps, emps_model) -> None:
+    """The design run through the EMPS cascade loop (the model at its nominal values, the controller's own
+    saturation), its logged force given white noise of the declared σ and its positions quantised to the declared
+    resolution, 200 times, each identified by identify_model with the experiment's treatment: the spread of every
+    base parameter agrees with the predicted σ within 20 %, Fc and offset are unbiased to a fraction of it, and
+    about 68 % of the estimates fall within ±σ of the true value (a normal's share)."""
+    from symbolic.data import Experiment
+    from symbolic.simulation import simulate
+
+    result, declared = emps_design(emps_model)
+    t, q, qd, _ = reference_samples(result.design.trajectory, 1000.0)
+    log = Measurements.from_arrays(t, ("q",), q, np.zeros_like(q), ref=q, extras={"refd_q": qd[:, 0]})
+    run = simulate(emps_model, Experiment.of(log, controller=dict(declared.controller))).simulated
+    rng = np.random.default_rng(11)
+    noise = declared.table.values["force_noise"]["q"]
+    resolution = declared.table.values["resolution"]["q"]
+    estimates = []
+    for _ in range(200):
+        measured = Measurements.from_arrays(run.t, ("q",), np.round(run.q / resolution) * resolution,
+                                            run.tau + rng.standard_normal(run.tau.shape) * noise)
+        estimates.append(identify_model(emps_model, measured, settings=declared.settings).identification.values)
+    estimates = np.array(estimates)
+    predicted = result.predicted
+    truth = np.array([95.1089, 203.5034, 20.3935, -3.1648])  # the model file's values, which the loop simulates
+    spread = estimates.std(axis=0, ddof=1)
+    assert np.all(np.abs(spread / predicted.sigmas - 1.0) < 0.2), spread / predicted.sigmas
+    for name in ("Fc", "offset"):
+        k = predicted.names.index(name)
+        assert abs(estimates[:, k].mean() - truth[k]) < 0.5 * predicted.sigmas[k]
+        assert 0.55 < np.mean(np.abs(estimates[:, k] - truth[k]) < predicted.sigmas[k]) < 0.8
+
+
+def test_a_peak_between_verification_points_is_found(arm) -> None:
+    """q̇ = cos(ω t) sampled half a step off its peaks: the grid alone sees cos(ωh/2) (1.2e-3 short of the peak
+    here); the refinement finds the peak, 1, to 1e-7 (closed form)."""
+    limits = ex.resolve_limits(arm, ("test", {**LIMITS, "velocity": {"q1": 1.0, "q2": 1.0}}))
+    a = np.array([[1.0, 0.0], [0.0, 0.0]])
+    trajectory = ex.FourierTrajectory(("q1", "q2"), 2.0, np.zeros(2), a, np.zeros((2, 2)))
+    h = 2.0 / 64
+    t = (np.arange(64) + 0.5) * h
+    assert np.abs(trajectory.evaluate(t)[1][:, 0]).max() < 1.0 - 1e-3
+    assert abs(ex.violation(ex.casadi_regressor(arm), trajectory, limits, t)["velocity"][0] - 1.0) < 1e-7
+
+
+def test_sigma_of_a_singular_information_matrix() -> None:
+    """Columns x, y, 1, 1 (the last two the same, as Coulomb friction and an offset on a one-way axis): the two
+    equal columns get σ = ∞, x and y the σ of the least squares on x, y, 1 alone (the same column space)."""
+    from symbolic.identify.excitation_noise import covariance_sigmas
+
+    rng = np.random.default_rng(3)
+    x, y = rng.standard_normal((2, 500))
+    W = np.column_stack([x, y, np.ones(500), np.ones(500)])  # noqa: N806
+    sigmas = covariance_sigmas(W.T @ W)
+    reduced = np.sqrt(np.diag(np.linalg.inv(W[:, :3].T @ W[:, :3])))
+    np.testing.assert_allclose(sigmas[:2], reduced[:2], rtol=1e-9)
+    assert np.all(np.isinf(sigmas[2:]))
+    np.testing.assert_allclose(covariance_sigmas(W[:, :3].T @ W[:, :3]), reduced, rtol=1e-12)
+
+
+# -- --separate A,B: Ds-optimality for a pair the data cannot tell apart ----------------------------------------
+
+
+def test_ds_criterion_is_the_log_det_of_the_pairs_covariance_block() -> None:
+    """−log det of the Schur complement = log det (M⁻¹)_ss (the pair's covariance block), and its gradient
+    against central differences."""
+    from symbolic.identify.excitation_criteria import ds_optimal
+
+    rng = np.random.default_rng(8)
+    A = rng.standard_normal((6, 6))  # noqa: N806
+    M = A @ A.T + 0.5 * np.eye(6)  # noqa: N806
+    value, gradient = ds_optimal([1, 4])(M)
+    assert value == pytest.approx(np.linalg.slogdet(np.linalg.inv(M)[np.ix_([1, 4], [1, 4])])[1], rel=1e-12)
+    h = 1e-6
+    for i, j in ((0, 0), (1, 4), (2, 3), (4, 4)):
+        E = np.zeros((6, 6))  # noqa: N806
+        E[i, j] = E[j, i] = h
+        finite = (ds_optimal([1, 4])(M + E)[0] - ds_optimal([1, 4])(M - E)[0]) / (2 * h)
+        assert finite == pytest.approx(np.sum(gradient * E) / h, rel=1e-6, abs=1e-9)
+
+
+def test_separate_gradient_against_central_differences(smooth_arm) -> None:
+    limits = ex.resolve_limits(smooth_arm, ("test", LIMITS))
+    problem = ex.Problem(ex.casadi_regressor(smooth_arm), limits, 3.0, 3, np.linspace(0, 3.0, 60, endpoint=False),
+                         np.array([1.0, 4.0]), "ds", separate=(1, 3))
+    z = ex.random_start(np.random.default_rng(1), problem)
+    gradient = problem.gradient(z)
+    h = 1e-5 * np.maximum(1.0, np.abs(z))
+    finite = np.array([(problem.value(z + h[i] * e) - problem.value(z - h[i] * e)) / (2 * h[i])
+                       for i, e in enumerate(np.eye(len(z)))])
+    assert np.linalg.norm(gradient - finite) <= 1e-6 * np.linalg.norm(finite)
+
+
+def one_way_emps_log(model) -> Measurements:
+    """A synthetic EMPS log that moves one way (q̇ ≥ 0.02 m/s, two sines on a ramp), τ = Wβ + 1 N noise: Coulomb
+    friction and the offset are the same column on it."""
+    t = np.arange(0.0, 3.0, 1e-3)
+    w = 2 * np.pi * 0.7
+    q = 0.01 + 0.05 * t + 0.01 * np.sin(w * t)
+    qd, qdd = 0.05 + 0.01 * w * np.cos(w * t), -0.01 * w**2 * np.sin(w * t)
+    tau = base_regressor(model)(q[:, None], qd[:, None], qdd[:, None]) @ model_base(model)[1].values
+    return Measurements.from_arrays(t, ("q",), q[:, None], tau + np.random.default_rng(2).normal(0, 1.0, tau.shape))
+
+
+def test_separate_designs_for_the_pair_on_a_one_way_axis(emps_model) -> None:
+    """EMPS's model with the shipped limits, compared with a synthetic one-way log (no shared data needed): there
+    the pair is not separable (σ ∞, no correlation); the design gives both a finite σ and a correlation well below
+    0.9 — checked against the correlation of identify's estimates over 150 noisy logs of the design's reference."""
+    from symbolic.robots import example_path
+
+    declared = read_declarations(example_path("emps_excitation"), ("q",))
+    declared = Declared(declared.source, declared.table, declared.settings)  # no loop: the pair alone
+    log = one_way_emps_log(emps_model)
+    result = excite(emps_model, declared, 10.0, seed=0, starts=2, separate=("Fc", "offset"), compare=log)
+    pair = result.separation()
+    assert pair["parameters"] == ["Fc", "offset"] and result.design.criterion == "ds"
+    assert pair["compare"]["sigma"] == [None, None] and pair["compare"]["correlation"] is None
+    assert all(s is not None and np.isfinite(s) for s in pair["design"]["sigma"])
+    rho = pair["design"]["correlation"]
+    assert abs(rho) < 0.5
+    t, q, qd, qdd = result.samples()
+    tau = base_regressor(emps_model)(q, qd, qdd) @ model_base(emps_model)[1].values
+    rng = np.random.default_rng(4)
+    sigma = declared.table.values["force_noise"]["q"]
+    estimates = np.array([identify_model(emps_model, Measurements.from_arrays(t, ("q",), q, tau + rng.normal(0, sigma, tau.shape)),
+                                         settings=declared.settings).identification.values for _ in range(150)])
+    i, j = (result.predicted.names.index(n) for n in ("Fc", "offset"))
+    measured = np.corrcoef(estimates[:, i], estimates[:, j])[0, 1]
+    assert abs(measured - rho) < 0.25 and abs(measured) < 0.5, (measured, rho)
+    spread = estimates[:, [i, j]].std(axis=0, ddof=1)
+    np.testing.assert_allclose(spread, pair["design"]["sigma"], rtol=0.2)
+    assert "## Separating Fc and offset" in report(result, [], [])
+    # the D-optimal design of the same limits: the pair comes out worse (Ds is the pair's own optimum)
+    plain = excite(emps_model, declared, 10.0, seed=0, starts=2)
+    assert np.prod(result.predicted.sigmas[[i, j]]) < np.prod(plain.predicted.sigmas[[i, j]])
+
+
+def test_separate_names_model_and_base_parameters(emps_model) -> None:
+    from symbolic.identify.excitation_report import separation_indices
+
+    assert separation_indices(emps_model, ["M", "Fv"]) == (("M", 0), ("Fv", 1))
+    assert separation_indices(emps_model, ["M_carriage", "offset"]) == (("M_carriage", 0), ("offset", 3))
+    with pytest.raises(symbolic.data.DataError, match="M,M_carriage: the same base parameter M_carriage twice"):
+        separation_indices(emps_model, ["M", "M_carriage"])
+
+
+@pytest.mark.parametrize("value, message", [
+    ("Fc,ofset", "--separate: ofset: unknown parameter (allowed: base parameters of emps: M_carriage, Fv, Fc, offset; "
+                 "model parameters alone in one: M, Fv, Fc, offset); did you mean 'offset'?"),
+    ("Fc", "--separate: Fc: expected two parameter names A,B"),
+])
+def test_separate_bad_names_are_one_line_and_write_nothing(tmp_path, capsys, value, message) -> None:
+    from symbolic.robots import example_path
+
+    out = tmp_path / "design"
+    assert main(["-q", "excite", "emps", "--experiment", str(example_path("emps_excitation")), "--duration", "10",
+                 "--out", str(out), "--separate", value]) == 2
+    err = capsys.readouterr().err
+    assert err.strip() == f"error: {message}" and not out.exists()
+
+
+def test_separate_and_criterion_together_are_refused(tmp_path, capsys) -> None:
+    assert main(["-q", "excite", "emps", "--duration", "10", "--out", str(tmp_path / "d"), "--separate", "Fc,offset",
+                 "--criterion", "a"]) == 2
+    err = capsys.readouterr().err
+    assert "--criterion: not with --separate" in err and len(err.strip().splitlines()) == 1

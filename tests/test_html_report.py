@@ -77,7 +77,7 @@ def commands(i: Path, out: Path) -> dict[str, list[str]]:
         "simulate": ["simulate", str(i / "cart.toml"), str(i / "log.csv"), "--out", str(out / "simulate"), "--html"],
         "diagnose": ["diagnose", str(i / "cart.toml"), str(i / "log.csv"), "--out", str(out / "diagnose"), "--html"],
         "excite": ["excite", str(i / "arm.toml"), "--experiment", str(i / "exp.toml"), "--duration", "3", "--harmonics",
-                   "2", "--starts", "1", "--out", str(out / "excite"), "--html"],
+                   "2", "--starts", "1", "--out", str(out / "excite"), "--separate", "Fv1,Fc1", "--html"],
         "campaign": ["campaign", str(i / "fleet" / "fleet.toml"), "--out", str(out / "campaign"), "--workers", "0", "--html"],
     }
 

@@ -100,7 +100,7 @@ def one_way_log() -> Measurements:
 
 
 @pytest.mark.slow
-def test_search_reports_the_offset_not_identifiable_and_names_the_spring(tmp_path: Path) -> None:
+def test_search_reports_the_offset_not_identifiable_and_names_the_spring(tmp_path: Path, capsys) -> None:
     path = tmp_path / "axis.toml"
     path.write_text(axis(), encoding="utf-8")
     with warnings.catch_warnings():
@@ -117,6 +117,19 @@ def test_search_reports_the_offset_not_identifiable_and_names_the_spring(tmp_pat
     listed = d.to_dict()["not_identifiable"]
     assert any(e["effect"] == "offset" and e["reason"].startswith(expected) for e in listed), listed
     assert expected in (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
+    # the reason gives the excite command that designs the separating motion; run as told, with the offset
+    # written into the model file as off_q, it separates the two
+    command = (f"to design it, write offset on q into the model file and run: symbolic excite {path} --experiment "
+               "EXP.toml --duration T --separate NEW,Fc (NEW: its parameter there)")
+    assert command in offset.reason, offset.reason
+    patched = tmp_path / "axis_offset.toml"
+    patched.write_text(axis(parameters="Fv = 0.3\nFc = 0.4\noff_q = 0.05\n",
+                            friction='viscous = "Fv"\ncoulomb = "Fc"\noffset = "off_q"'), encoding="utf-8")
+    assert main(["-q", "excite", str(patched), "--duration", "6", "--harmonics", "3", "--starts", "1", "--out",
+                 str(tmp_path / "design"), "--separate", "off_q,Fc", "--position", "q=-3:3", "--velocity", "2",
+                 "--acceleration", "10", "--torque", "5", "--force-noise", "0.01", "--rate", "200", "--json"]) == 0
+    pair = json.loads(capsys.readouterr().out)["separate"]
+    assert abs(pair["design"]["correlation"]) < 0.9 and None not in pair["design"]["sigma"]
 
 
 @pytest.mark.slow
@@ -141,5 +154,7 @@ def test_emps_first_four_seconds_diagnosis_finishes(tmp_path: Path, capsys) -> N
     notes = [n for n in json.loads(captured.out)["notes"] if "not identifiable" in n]
     assert len(notes) == 1, notes
     assert "Fc and offset cannot be separated; a motion that would separate them: q moving in both directions" in notes[0]
+    assert notes[0].endswith("; to design it: symbolic excite MODEL --experiment EXP.toml --duration T --separate "
+                             "Fc,offset"), notes[0]
     assert notes[0] in (out / "report.md").read_text(encoding="utf-8")
     assert "warning" not in captured.err

@@ -18,8 +18,9 @@ times t_k and Σ = diag(σ_j²) the equivalent force noise per coordinate (:mod:
 criterion D (−log det M, default), A or the condition number (:mod:`symbolic.identify.excitation_criteria`).
 Under, at every grid time, |q_i − mid_i| ≤ half range, |q̇_i| ≤ v_i, |q̈_i| ≤ a_i (linear in the coefficients)
 and |τ_i| ≤ τ_i with τ = W(q, q̇, q̈)·β at the model's nominal values. The regressor is translated into CasADi
-(the straight-line program of the generated code) and mapped over the grid; ∂M/∂x is CasADi's reverse-mode
-AD, the criterion's ∂/∂M its closed form, and IPOPT (in the casadi wheel; limited-memory Hessian) solves
+(the straight-line program of the generated code) and mapped over the grid; the criterion's gradient is its
+closed-form ∂/∂M = G chained with the per-sample ∂tr(G·M_k)/∂(q, q̇, q̈) (CasADi's AD of one sample, compiled)
+and the linear basis (:class:`_Objective`), and IPOPT (in the casadi wheel; limited-memory Hessian) solves
 from several random starts (seeded). The result is verified on a grid ten times finer; a limit crossed there
 (between grid points) is tightened by the excess and the start solved again. Collision avoidance (with the
 robot itself and its surroundings) is not part of the design.
@@ -41,7 +42,7 @@ import sympy as sp
 from symbolic.description.joint_limits import coordinate_limits
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.errors import IdentificationError
-from symbolic.identify.excitation_criteria import CRITERIA, positive_definite
+from symbolic.identify.excitation_criteria import CRITERIA, ds_optimal, positive_definite
 
 LOG = logging.getLogger(__name__)
 
@@ -233,6 +234,9 @@ class CasadiRegressor:
     information: ca.Function
     torque: ca.Function
     torque_jacobian: ca.Function
+    information_gradient: ca.Function
+    """``(q, qd, qdd, w, G) -> ∂ tr(G·W_kᵀdiag(w)W_k)/∂[q; q̇; q̈]`` (3N; compiled like ``torque_jacobian``): the
+    per-sample factor of the criterion's gradient (:class:`_Objective`)."""
 
 
 def has_sign(model: DynamicModel) -> bool:
@@ -267,13 +271,19 @@ def casadi_regressor(model: DynamicModel, sign_velocity: float | None = None) ->
     W = ca.reshape(flat, b, n).T  # lambdify's outputs are row-major  # noqa: N806
     beta = np.asarray(base.values, float)
     tau = ca.mtimes(W, ca.DM(beta))
+    M = ca.mtimes(W.T, ca.mtimes(ca.diag(w), W))  # noqa: N806
+    G = ca.SX.sym("G", b, b)  # noqa: N806
+    suffix = f"{_identifier(model.name)}{'' if sign_velocity is None else '_smooth'}"
     return CasadiRegressor(
         n, tuple(base.names), beta,
         ca.Function("W", [q, qd, qdd], [W], ["q", "qd", "qdd"], ["W"]),
-        ca.Function("M", [q, qd, qdd, w], [ca.mtimes(W.T, ca.mtimes(ca.diag(w), W))], ["q", "qd", "qdd", "w"], ["M"]),
+        _compiled(ca.Function(f"M_{suffix}", [q, qd, qdd, w], [M], ["q", "qd", "qdd", "w"], ["M"])),
         ca.Function("tau", [q, qd, qdd], [tau], ["q", "qd", "qdd"], ["tau"]),
-        _compiled(ca.Function(f"dtau_{_identifier(model.name)}{'' if sign_velocity is None else '_smooth'}", [q, qd, qdd],
-                              [ca.jacobian(tau, ca.vertcat(q, qd, qdd))], ["q", "qd", "qdd"], ["dtau"])))
+        _compiled(ca.Function(f"dtau_{suffix}", [q, qd, qdd],
+                              [ca.jacobian(tau, ca.vertcat(q, qd, qdd))], ["q", "qd", "qdd"], ["dtau"])),
+        _compiled(ca.Function(f"dM_{suffix}", [q, qd, qdd, w, G],
+                              [ca.gradient(ca.sum1(ca.sum2(G * M)), ca.vertcat(q, qd, qdd))],
+                              ["q", "qd", "qdd", "w", "G"], ["dM"])))
 
 
 def _identifier(name: str) -> str:
@@ -330,50 +340,6 @@ class _Jacobian(ca.Callback):
 
     def get_n_out(self) -> int:
         return 1
-
-
-class _CriterionCallback(_WithJacobian):
-    """A criterion of M (:data:`~symbolic.identify.excitation_criteria.CRITERIA`) as a CasADi function whose
-    Jacobian is the criterion's closed-form gradient G (so that CasADi chains it with the AD of M(x))."""
-
-    def __init__(self, name: str, size: int, criterion) -> None:
-        ca.Callback.__init__(self)
-        self.size, self.criterion, self.kept = size, criterion, []
-        self.construct(name, {})
-
-    def get_n_in(self) -> int:
-        return 1
-
-    def get_n_out(self) -> int:
-        return 1
-
-    def get_sparsity_in(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(self.size, self.size)
-
-    def get_sparsity_out(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(1, 1)
-
-    def eval(self, arg):
-        return [self._value(np.asarray(arg[0]))[0]]
-
-    def _value(self, M: np.ndarray) -> tuple[float, np.ndarray]:  # noqa: N803
-        if not positive_definite(M):  # outside the domain: a large value, no slope (IPOPT backtracks)
-            return 1e10, np.zeros_like(M)
-        return self.criterion(M)
-
-
-class _CriterionGradient(_Jacobian):
-    def get_sparsity_in(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(self.outer.size, self.outer.size) if i == 0 else ca.Sparsity.dense(1, 1)
-
-    def get_sparsity_out(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(1, self.outer.size ** 2)
-
-    def eval(self, arg):
-        return [self.outer._value(np.asarray(arg[0]))[1].reshape(1, -1, order="F")]
-
-
-_CriterionCallback.jacobian_class = _CriterionGradient
 
 
 class _Constraints(_WithJacobian):
@@ -437,6 +403,73 @@ class _ConstraintJacobian(_Jacobian):
 _Constraints.jacobian_class = _ConstraintJacobian
 
 
+class _Objective(_WithJacobian):
+    """The criterion of M(z) = Σ_k W_kᵀdiag(w)W_k / K over the grid, with its gradient assembled as the constraints'
+    Jacobian is: with G = ∂criterion/∂M (closed form, :mod:`~symbolic.identify.excitation_criteria`),
+    ∂criterion/∂z_(i,r) = (1/K) Σ_k Σ_s (∂ tr(G M_k)/∂s_i)_k B_s[k, r], the per-sample factor computed by the
+    compiled :attr:`CasadiRegressor.information_gradient` and B_s = Φ_s·Z linear in z. M and that factor are
+    compiled C (CasADi's interpreted reverse mode through the mapped M took nine tenths of a Panda start's 40 s in
+    a profile; with this, most of a start is IPOPT's own work).
+    Outside the criterion's domain (M not positive definite) the value is 1e10 with no slope (IPOPT backtracks)."""
+
+    def __init__(self, regressor: CasadiRegressor, grid: np.ndarray, period: float, harmonics: int,
+                 weights: np.ndarray, criterion) -> None:
+        ca.Callback.__init__(self)
+        self.regressor, self.n, self.K, self.criterion = regressor, regressor.n, len(grid), criterion
+        self.weights = np.asarray(weights, float)
+        Z = rest_null_space(harmonics)  # noqa: N806
+        self.B = np.stack([phi @ Z for phi in basis(grid, period, harmonics)])  # 3 × K × m
+        self.m = Z.shape[1]
+        self.information = regressor.information.map("M_sum", "serial", self.K, [3], [0], {})
+        self.gradient_map = regressor.information_gradient.map(self.K)
+        self.kept = []
+        self.construct("objective", {})
+
+    def get_n_in(self) -> int:
+        return 1
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(self.n * self.m, 1)
+
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(1, 1)
+
+    def states(self, z: np.ndarray) -> list[np.ndarray]:
+        C = np.asarray(z, float).reshape(self.n, self.m).T  # noqa: N806
+        return [b @ C for b in self.B]  # K × N each
+
+    def evaluate(self, z: np.ndarray) -> tuple[float, np.ndarray]:
+        """The criterion and its gradient in z."""
+        states = self.states(z)
+        M = np.asarray(self.information(*(x.T for x in states), self.weights)) / self.K  # noqa: N806
+        if not positive_definite(M):
+            return 1e10, np.zeros(self.n * self.m)
+        value, G = self.criterion(M)  # noqa: N806
+        h = np.asarray(self.gradient_map(*(x.T for x in states), self.weights, G)) / self.K  # 3N × K
+        gradient = np.einsum("sik,skr->ir", h.reshape(3, self.n, self.K), self.B)
+        return float(value), gradient.ravel()
+
+    def eval(self, arg):
+        return [self.evaluate(np.asarray(arg[0]).ravel())[0]]
+
+
+class _ObjectiveGradient(_Jacobian):
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return self.outer.get_sparsity_in(0) if i == 0 else ca.Sparsity.dense(1, 1)
+
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(1, self.outer.n * self.outer.m)
+
+    def eval(self, arg):
+        return [self.outer.evaluate(np.asarray(arg[0]).ravel())[1].reshape(1, -1)]
+
+
+_Objective.jacobian_class = _ObjectiveGradient
+
+
 @dataclass(eq=False)
 class Problem:
     """The design problem on a grid: the NLP in the free coefficients z, its constraints and criterion."""
@@ -450,25 +483,23 @@ class Problem:
     criterion: str
     exact: CasadiRegressor | None = None
     """The regressor with the exact sign, on which limits are verified (default: ``regressor``)."""
-    callback: _CriterionCallback = field(init=False, repr=False)
+    separate: tuple[int, ...] = ()
+    """Base parameters to separate: the criterion is then Ds-optimality for them
+    (:func:`~symbolic.identify.excitation_criteria.ds_optimal`), whatever ``criterion`` names."""
     constraints: _Constraints = field(init=False, repr=False)
-    objective: ca.Function = field(init=False, repr=False)
+    objective: _Objective = field(init=False, repr=False)
     solver: Any = field(init=False, repr=False)
     bounds: tuple[np.ndarray, np.ndarray] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         self.exact = self.exact or self.regressor
         n, L, K = self.regressor.n, self.harmonics, len(self.grid)  # noqa: N806
-        self.callback = _CriterionCallback("criterion", len(self.regressor.names), CRITERIA[self.criterion])
+        function = ds_optimal(self.separate) if self.separate else CRITERIA[self.criterion]
         z = ca.MX.sym("z", n * (2 * L - 1))
-        C = ca.mtimes(ca.DM(rest_null_space(L)), ca.reshape(z, 2 * L - 1, n))  # noqa: N806
-        phi = [ca.DM(m) for m in basis(self.grid, self.period, L)]
-        states = [ca.mtimes(m, C) for m in phi]  # K × N each
-        M = self.regressor.information.map("M_sum", "serial", K, [3], [0], {})(*(s.T for s in states), ca.DM(self.weights)) / K  # noqa: N806
-        f = self.callback(M)
+        self.objective = _Objective(self.regressor, self.grid, self.period, L, self.weights, function)
+        f = self.objective(z)
         self.constraints = _Constraints(self.regressor, self.grid, self.period, L)
         g = self.constraints(z)
-        self.objective = ca.Function("objective", [z], [f, ca.gradient(f, z)])
         self.bounds = self._constraint_bounds(self.limits, K)
         self.solver = ca.nlpsol("excitation", "ipopt", {"x": z, "f": f, "g": g}, dict(IPOPT_OPTIONS))
 
@@ -490,21 +521,52 @@ class Problem:
         return np.asarray(result["x"]).ravel(), str(self.solver.stats().get("return_status", "unknown"))
 
     def value(self, z: np.ndarray) -> float:
-        return float(self.objective(z)[0])
+        return self.objective.evaluate(np.asarray(z, float))[0]
 
     def gradient(self, z: np.ndarray) -> np.ndarray:
-        return np.asarray(self.objective(z)[1]).ravel()
+        return self.objective.evaluate(np.asarray(z, float))[1]
 
     def trajectory(self, z: np.ndarray) -> FourierTrajectory:
         return FourierTrajectory.from_free(self.limits.coordinates, self.period, self.harmonics, z)
 
 
+REFINE = 101
+"""Points of the local grid that :func:`violation` lays over ±one step around each peak of the verification grid."""
+PEAK = 0.99
+"""A local peak of |q − middle|, |q̇|, |q̈| or |τ| on the verification grid is refined when it reaches this share of
+the coordinate's largest."""
+
+
 def violation(regressor: CasadiRegressor, trajectory: FourierTrajectory, limits: Limits,
               t: np.ndarray) -> dict[str, np.ndarray]:
-    """Per kind, per coordinate: the largest ratio of the excursion to its limit on the times ``t`` (≤ 1: inside).
+    """Per kind, per coordinate: the largest ratio of the excursion to its limit on the times ``t`` (≤ 1: inside),
+    refined between them.
 
-    Position: :func:`position_ratio`."""
+    A peak between two times of ``t`` exceeds both: for a harmonic of frequency ω sampled every h, by up to
+    1 − cos(ωh/2) ≈ (ωh)²/8 relative (1.2e-4 for the EMPS design's verification grid, 60 times
+    :data:`TOLERANCE`). So around every local peak of ``t`` within :data:`PEAK` of its coordinate's largest (the
+    signed extremes of q, q̇, q̈ and τ), a grid of :data:`REFINE` points over ± one step of ``t`` is evaluated too,
+    which leaves (ωh/100)²/8 — below 1e-7 there. Position: :func:`position_ratio`."""
+    t = np.asarray(t, float)
     q, qd, qdd = trajectory.evaluate(t)
+    tau = torques(regressor, q, qd, qdd)
+    if len(t) > 2:
+        step = float(np.median(np.diff(t)))
+        middle = np.where(np.isfinite(limits.lower + limits.upper), 0.5 * (limits.lower + limits.upper), 0.0)
+        peaks = set()
+        for signal in (q - middle, qd, qdd, tau):
+            for values in (signal, -signal):
+                top = values.max(axis=0)
+                local = (values > np.roll(values, 1, axis=0)) & (values >= np.roll(values, -1, axis=0))  # a flat run: none
+                high = local & (values >= np.where(top > 0, PEAK * top, top))
+                peaks.update(np.flatnonzero(high.any(axis=1)).tolist())
+        offsets = np.linspace(-step, step, REFINE)
+        local_t = (t[sorted(peaks)][:, None] + offsets[None, :]).ravel()
+        if local_t.size:
+            t = np.concatenate([t, local_t])
+            more = trajectory.evaluate(local_t)
+            q, qd, qdd = (np.vstack([a, b]) for a, b in zip((q, qd, qdd), more))
+            tau = np.vstack([tau, torques(regressor, *more)])
     tau = torques(regressor, q, qd, qdd)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = {"position": position_ratio(q, limits.lower, limits.upper),
@@ -632,7 +694,7 @@ class Design:
 
 def design(model: DynamicModel, limits: Limits, duration: float, *, weights: Sequence[float] | None = None,
            harmonics: int = HARMONICS, criterion: str = "d", starts: int = STARTS, seed: int = 0,
-           grid_points: int | None = None) -> Design:
+           grid_points: int | None = None, separate: Sequence[int] = ()) -> Design:
     """The periodic reference of period ``duration`` (s) that optimises ``criterion`` under ``limits``
     (module docstring).
 
@@ -655,6 +717,10 @@ def design(model: DynamicModel, limits: Limits, duration: float, *, weights: Seq
         Random starts, drawn from ``numpy.random.default_rng(seed)``: the same seed, the same design.
     grid_points
         Grid of the constraints and of M (default max(100, 20·L): 20 points per period of the highest harmonic); verified on one :data:`FINER` times finer.
+    separate
+        Indices of base parameters (two, for ``symbolic excite --separate A,B``) to separate: Ds-optimality for
+        them (:func:`~symbolic.identify.excitation_criteria.ds_optimal`) replaces ``criterion``, and the design's
+        criterion is ``"ds"``.
 
     Raises
     ------
@@ -671,7 +737,9 @@ def design(model: DynamicModel, limits: Limits, duration: float, *, weights: Seq
     K = grid_points or max(100, 20 * harmonics)  # noqa: N806
     grid = np.linspace(0.0, duration, K, endpoint=False)
     fine = np.linspace(0.0, duration, FINER * K, endpoint=False)
-    problem = Problem(smooth, limits, float(duration), harmonics, grid, w / w.mean(), criterion, regressor)
+    separate = tuple(int(i) for i in separate)
+    criterion = "ds" if separate else criterion
+    problem = Problem(smooth, limits, float(duration), harmonics, grid, w / w.mean(), criterion, regressor, separate)
     LOG.info("excitation: %d coordinates × %d harmonics, %d base parameters, %d grid points, criterion %s, %d start(s)",
              n, harmonics, len(regressor.names), K, criterion, starts)
     rng = np.random.default_rng(seed)

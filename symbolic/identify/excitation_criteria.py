@@ -16,11 +16,17 @@ regressor and chains G in (d value = tr(G·dM)), so a new criterion is one funct
   (IEEE Trans. Robot. Autom. 8(3), 1992, "Exciting trajectories for the identification of base inertial
   parameters of robots"); G = ½(v_max v_maxᵀ/λ_max − v_min v_minᵀ/λ_min) for the unit eigenvectors (the
   derivative of a simple eigenvalue, dλ = vᵀdM v; not differentiable where an extreme eigenvalue is double).
+* ``ds`` (Ds-optimality, :func:`ds_optimal`, ``symbolic excite --separate A,B``): the information about a subset s
+  of the parameters once the others r are estimated is the Schur complement M_s = M_ss − M_sr M_rr⁻¹ M_rs, whose
+  inverse is the block (M⁻¹)_ss of their covariance; −log det M_s = −log det M + log det M_rr (the determinant of
+  a partitioned matrix), G = −M⁻¹ + P_r M_rr⁻¹ P_rᵀ (P_r the columns of the identity on r). Maximising det M_s
+  shrinks the confidence ellipse of β̂_s: det (M⁻¹)_ss = σ_a²σ_b²(1 − ρ_ab²) for a pair (Atkinson, Donev and
+  Tobias, *Optimum Experimental Designs, with SAS*, Oxford 2007, §10.3).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -50,10 +56,31 @@ def condition(M: np.ndarray) -> tuple[float, np.ndarray]:  # noqa: N803
     return float(0.5 * np.log(values[-1] / values[0])), G
 
 
+def ds_optimal(subset: Sequence[int]) -> Criterion:
+    """The Ds criterion of the parameters ``subset`` (indices into M; module docstring): −log det of the Schur
+    complement of M_rr, and its gradient. With ``subset`` every parameter it is D-optimality."""
+    s = sorted({int(i) for i in subset})
+
+    def criterion(M: np.ndarray) -> tuple[float, np.ndarray]:  # noqa: N803
+        value, gradient = d_optimal(M)
+        rest = [i for i in range(M.shape[0]) if i not in s]
+        if rest:
+            block = M[np.ix_(rest, rest)]
+            L = np.linalg.cholesky(block)  # noqa: N806
+            inverse = np.linalg.inv(block)
+            value += float(2.0 * np.log(np.diag(L)).sum())
+            gradient = gradient.copy()
+            gradient[np.ix_(rest, rest)] += 0.5 * (inverse + inverse.T)
+        return value, gradient
+
+    return criterion
+
+
 CRITERIA: dict[str, Criterion] = {"d": d_optimal, "a": a_optimal, "condition": condition}
 """Criterion name → function (module docstring); the names ``symbolic excite --criterion`` accepts."""
 
-DESCRIPTIONS = {"d": "D-optimality, −log det M", "a": "A-optimality, log tr M⁻¹", "condition": "log cond"}
+DESCRIPTIONS = {"d": "D-optimality, −log det M", "a": "A-optimality, log tr M⁻¹", "condition": "log cond",
+                "ds": "Ds-optimality for the pair, −log det of the Schur complement M_ss − M_sr M_rr⁻¹ M_rs"}
 """Criterion name → what it minimises, in the reports' words."""
 
 

@@ -62,6 +62,17 @@ def render(result: Any, document: Mapping[str, Any]) -> str:
     rows = [[p["label"], number(r, key, "samples"), number(r, key, "duration"), number(r, key, "log_det_information", digits=6),
              number(r, key, "condition_number", digits=6)] for key, p in (("predicted", r["predicted"]), ("compare", compare)) if p]
     page.table(["trajectory", "samples kept", "duration (s)", "log det M", "cond(Σ^(−1/2)W)"], rows)
+    pair = r.get("separate")
+    if pair:
+        a, b = pair["parameters"]
+        page.heading(f"Separating {a} and {b}")
+        page.paragraph("Designed for the pair: Ds-optimality, the information about the two once the others are "
+                       "estimated. —: the data cannot separate them (σ = ∞, correlation ±1).")
+        page.table(["trajectory", f"σ % {a}", f"σ % {b}", "correlation ρ"],
+                   [[label, number(r, "separate", key, "relative_sigma", 0), number(r, "separate", key, "relative_sigma", 1),
+                     number(r, "separate", key, "correlation", digits=4)]
+                    for key, label in (("design", "design"), ("compare", compare["label"] if compare else ""))
+                    if pair.get(key)])
     _figures(page, result)
     return page.render()
 

@@ -140,6 +140,15 @@ class Prediction:
         sign, value = np.linalg.slogdet(self.information)
         return float(value) if sign > 0 else -math.inf
 
+    def pair(self, i: int, j: int) -> tuple[float, float, float]:
+        """σ % of base parameters ``i`` and ``j`` and their correlation ρ_ij = C_ij/√(C_ii C_jj) in C = M⁻¹ (M⁺ for a
+        singular M); ρ is NaN when either is not estimable (σ = ∞: the data cannot separate it)."""
+        relative = self.relative
+        if not (math.isfinite(self.sigmas[i]) and math.isfinite(self.sigmas[j])):
+            return float(relative[i]), float(relative[j]), math.nan
+        C = np.linalg.pinv(0.5 * (self.information + self.information.T), hermitian=True)  # noqa: N806
+        return float(relative[i]), float(relative[j]), float(C[i, j] / math.sqrt(C[i, i] * C[j, j]))
+
     @property
     def condition_number(self) -> float:
         values = np.linalg.eigvalsh(self.information)
@@ -173,12 +182,29 @@ def predict(model: DynamicModel, label: str, q: np.ndarray, qd: np.ndarray, qdd:
     weights = 1.0 / np.asarray(sigma, float) ** 2
     M = processing.decimation * np.einsum("kjp,j,kjr->pr", reduced, weights, reduced)  # noqa: N806
     M = 0.5 * (M + M.T)  # noqa: N806
-    b = len(base.names)
-    try:
-        covariance = np.linalg.inv(M) if np.linalg.matrix_rank(M) == b else np.full((b, b), np.inf)
-    except np.linalg.LinAlgError:
-        covariance = np.full((b, b), np.inf)
-    sigmas = np.sqrt(np.abs(np.diag(covariance)))
+    sigmas = covariance_sigmas(M)
     kept = len(q) - processing.border[0] - processing.border[1]
     return Prediction(label, tuple(base.names), np.asarray(base.values, float), sigmas, M, kept,
                       np.asarray(sigma, float), float(duration))
+
+
+def covariance_sigmas(M: np.ndarray) -> np.ndarray:  # noqa: N803
+    """√diag(M⁻¹), and for a singular M (data that cannot separate some parameters) ∞ for the parameters in its
+    null space and √diag(M⁺) for the others.
+
+    β_i is estimable from the data when the unit vector e_i is orthogonal to the null space of M (a linear
+    function cᵀβ is estimable iff c lies in the range of M; Searle, *Linear Models*, 1971, §5.4); its variance is
+    then e_iᵀM⁺e_i. The null space: the eigenvectors of M whose eigenvalues are at most λ_max·b·ε (NumPy's
+    ``matrix_rank`` tolerance); e_i is taken as orthogonal to it when its component there is below 1e-6."""
+    M = 0.5 * (M + M.T)  # noqa: N806
+    b = M.shape[0]
+    values, vectors = np.linalg.eigh(M)
+    if not np.all(np.isfinite(values)) or values[-1] <= 0:
+        return np.full(b, np.inf)
+    null = values <= values[-1] * b * np.finfo(float).eps
+    if not null.any():
+        return np.sqrt(np.abs(np.diag(np.linalg.inv(M))))
+    kept = vectors[:, ~null]
+    pseudo = (kept / values[~null]) @ kept.T
+    inestimable = np.linalg.norm(vectors[:, null], axis=1) > 1e-6
+    return np.where(inestimable, np.inf, np.sqrt(np.abs(np.diag(pseudo))))

@@ -81,6 +81,8 @@ class Excitation:
     """The experiment's ``[controller]`` table as declared, carried into trajectory.experiment.toml."""
     loop: LoopCheck | None = None
     """The design run through that controller (:mod:`symbolic.identify.excitation_loop`); ``None`` without one."""
+    separate: tuple[tuple[str, int], ...] = ()
+    """``--separate A,B``: each name as given and the index of its base parameter (empty: no pair)."""
 
     def samples(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """t, q, q̇, q̈ of the reference at the declared rate over one period, both ends included."""
@@ -91,18 +93,92 @@ class Excitation:
                 "predicted": self.predicted.to_dict(),
                 "compare": None if self.compare is None else self.compare.to_dict(),
                 "loop": None if self.loop is None else self.loop.to_dict(),
+                "separate": self.separation(),
                 "collision_avoidance": "not checked: the design keeps each coordinate within its limits only"}
+
+    def separation(self) -> dict[str, Any] | None:
+        """The pair of ``--separate``: for the design (and the compared log) the σ % of each and their correlation
+        (``None`` where not estimable); ``None`` without a pair."""
+        if not self.separate:
+            return None
+        (a, i), (b, j) = self.separate
+        names = self.predicted.names
+
+        def side(p: Prediction | None) -> dict[str, Any] | None:
+            if p is None:
+                return None
+            ra, rb, rho = p.pair(i, j)
+            return {"sigma": [_number(p.sigmas[i]), _number(p.sigmas[j])], "relative_sigma": [_number(ra), _number(rb)],
+                    "correlation": _number(rho)}
+
+        return {"parameters": [a, b], "base_parameters": [names[i], names[j]], "design": side(self.predicted),
+                "compare": side(self.compare)}
+
+
+def _number(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def separation_indices(model: DynamicModel, names: Sequence[str]) -> tuple[tuple[str, int], ...]:
+    """The base parameters of ``--separate A,B``: each name a base parameter's (``ZZR1``) or a model parameter's
+    that is alone in one (``Fc``: the base parameter holds no other estimated parameter).
+
+    Raises
+    ------
+    DataError
+        One line: not two names, the same base parameter twice, a name the model does not have (with what is
+        allowed and the nearest), or a model parameter that enters only combinations or is not estimated.
+    """
+    from symbolic.errors import suggestion
+    from symbolic.identify.known import model_parameters_of
+    from symbolic.identify.model import geometric_parameters, model_base
+
+    if len(names) != 2 or not all(isinstance(n, str) and n.strip() for n in names):
+        raise DataError("--separate", ",".join(map(str, names)), "expected two parameter names A,B")
+    reg, base = model_base(model)
+    known = geometric_parameters(model, reg)
+    alone: dict[str, int] = {}
+    within: dict[str, list[str]] = {}
+    for k, name in enumerate(base.names):
+        every, _ = model_parameters_of(model, reg, base, [name], known)
+        if len(every) == 1:
+            alone.setdefault(every[0], k)
+        for parameter in every:
+            within.setdefault(parameter, []).append(name)
+    allowed = f"base parameters of {model.name}: {', '.join(base.names)}; model parameters alone in one: " \
+              f"{', '.join(alone) or 'none'}"
+    out = []
+    for name in (n.strip() for n in names):
+        if name in base.names:
+            out.append((name, base.names.index(name)))
+        elif name in alone:
+            out.append((name, alone[name]))
+        elif name in within:
+            raise DataError("--separate", name, f"model parameter of {model.name} that enters only combinations "
+                                                f"({', '.join(within[name])}): name base parameters (allowed: {allowed})")
+        else:
+            declared = {str(s) for s in model.parameter_symbols}
+            what = "a parameter the regressor depends on (not estimated)" if name in declared else "unknown parameter"
+            raise DataError("--separate", name, f"{what} (allowed: {allowed})"
+                                                f"{suggestion(name, [*base.names, *alone])}")
+    if out[0][1] == out[1][1]:
+        raise DataError("--separate", f"{out[0][0]},{out[1][0]}",
+                        f"the same base parameter {base.names[out[0][1]]} twice: name two different ones")
+    return tuple(out)
 
 
 def excite(model: DynamicModel, declared: Declared, duration: float, *, limits: Mapping[str, Mapping[str, Any]] | None = None,
            noise: Mapping[str, Mapping[str, Any]] | None = None, rate: float | None = None, harmonics: int = HARMONICS,
            criterion: str = "d", starts: int = STARTS, seed: int = 0, compare: str | Path | Measurements | None = None,
-           grid_points: int | None = None, check_loop: bool = True) -> Excitation:
+           grid_points: int | None = None, check_loop: bool = True, separate: Sequence[str] = ()) -> Excitation:
     """Design, check in the loop, predict, compare (module docstring). ``limits`` and ``noise``: ``{kind:
     {coordinate: value}}`` from the command line, replacing the experiment's; ``rate`` likewise. With a
     ``[controller]`` declared (and ``check_loop``), a design that saturates in that loop is refused
-    (:func:`symbolic.identify.excitation_loop.refusal`: an :class:`IdentificationError`, nothing returned)."""
+    (:func:`symbolic.identify.excitation_loop.refusal`: an :class:`IdentificationError`, nothing returned).
+    ``separate``: two parameter names (:func:`separation_indices`) whose separation is designed for
+    (Ds-optimality, :func:`symbolic.identify.excitation_criteria.ds_optimal`) instead of ``criterion``."""
     check_options(duration, harmonics, criterion, starts)
+    pair = separation_indices(model, separate) if separate else ()
     if compare is not None:  # a log that cannot be read is refused before the design, not after it
         from symbolic.data import load
 
@@ -116,7 +192,7 @@ def excite(model: DynamicModel, declared: Declared, duration: float, *, limits: 
     mid = 0.5 * np.where(np.isfinite(bounds.lower + bounds.upper), bounds.lower + bounds.upper, 0.0)
     sigma = equivalent_noise(model, declared_noise, processing, [mid])
     made = design(model, bounds, duration, weights=1.0 / sigma**2, harmonics=harmonics, criterion=criterion,
-                  starts=starts, seed=seed, grid_points=grid_points)
+                  starts=starts, seed=seed, grid_points=grid_points, separate=[k for _, k in pair])
     loop = None
     if declared.controller and check_loop:
         LOG.info("excitation: the design in the loop of [controller] (%s)", declared.controller.get("kind", "?"))
@@ -125,7 +201,8 @@ def excite(model: DynamicModel, declared: Declared, duration: float, *, limits: 
             raise refusal(loop)
     predicted = _predict_reference(model, made.trajectory, declared_noise, declared.settings, "design")
     compared = None if compare is None else predict_log(model, compare, declared_noise, declared.settings)
-    return Excitation(model, made, declared_noise, predicted, compared, declared.settings, declared.controller, loop)
+    return Excitation(model, made, declared_noise, predicted, compared, declared.settings, declared.controller, loop,
+                      pair)
 
 
 def _predict_reference(model: DynamicModel, trajectory: FourierTrajectory, noise: Noise, settings: Settings,
@@ -273,6 +350,7 @@ def report(result: Excitation, figures: Sequence[str], notes: Sequence[str]) -> 
               f"per coordinate {', '.join(f'{s:.4g}' for s in result.predicted.noise)}), the treatment's filters as an "
               "effective noise bandwidth (docs/data.md, \"Predicted σ\"). σ % = 100·σ/|β| at the nominal β.", ""]
     lines += _sigma_table(result.predicted, result.compare)
+    lines += _separation_lines(result)
     lines += ["", *(f"![{name}]({name})" for name in figures), *notes]
     return "\n".join(lines) + "\n"
 
@@ -284,7 +362,7 @@ def _sigma_table(design: Prediction, compare: Prediction | None) -> list[str]:
     for k, name in enumerate(design.names):
         row = f"| {name} | {design.values[k]:.6g} | {design.sigmas[k]:.4g} | {percent(design.relative[k])} |"
         if compare is not None:
-            row += f" {percent(compare.relative[k])} |"
+            row += f" {'∞ (not separable)' if math.isinf(compare.sigmas[k]) else percent(compare.relative[k])} |"
         rows.append(row)
     rows.append("")
     for p in (design, compare):
@@ -297,6 +375,27 @@ def _sigma_table(design: Prediction, compare: Prediction | None) -> list[str]:
                     f"(geometric mean σ × {math.exp(-(design.log_det - compare.log_det) / (2 * b)):.4g}), condition "
                     f"number × {design.condition_number / compare.condition_number:.4g}")
     return rows
+
+
+def _separation_lines(result: Excitation) -> list[str]:
+    """The pair of ``--separate``: σ % of each and their correlation, for the design and the compared log."""
+    pair = result.separation()
+    if pair is None:
+        return []
+    a, b = pair["parameters"]
+    lines = ["", f"## Separating {a} and {b}", "",
+             f"Designed for the pair (base parameters {', '.join(pair['base_parameters'])}): Ds-optimality, the "
+             "information about the two once the others are estimated. |ρ| near 1: the data cannot tell them apart.", "",
+             f"| | σ % {a} | σ % {b} | correlation ρ |", "|---|---|---|---|"]
+    for label, side in (("design", pair["design"]), (None if result.compare is None else result.compare.label,
+                                                       pair["compare"])):
+        if side is None:
+            continue
+        cells = ["∞ (not separable)" if sigma is None else percent(math.inf if v is None else v)
+                 for sigma, v in zip(side["sigma"], side["relative_sigma"])]
+        rho = "±1 (not separable)" if side["correlation"] is None else f"{side['correlation']:.4f}"
+        lines.append(f"| {label} | {cells[0]} | {cells[1]} | {rho} |")
+    return lines
 
 
 def draw(result: Excitation) -> tuple[bytes, bytes]:
@@ -399,4 +498,5 @@ def summary(result: Excitation) -> str:
     if result.loop is not None:
         lines += [line for line in result.loop.table() if line]
     lines += [line for line in _sigma_table(result.predicted, result.compare) if line]
+    lines += [line for line in _separation_lines(result) if line]
     return "\n".join(lines)

@@ -371,11 +371,15 @@ def not_separable(group: Homogeneous, parameters: Sequence[str], inertial: Seque
 
 
 def rank_hint(error: IdentificationError, parameters: Sequence[str]) -> IdentificationError:
-    """A rank-deficiency error with the model-file parameters to fix appended."""
+    """A rank-deficiency error with the model-file parameters to fix appended, and for a pair of base parameters
+    the ``symbolic excite --separate`` that designs a motion separating them (docs/data.md, "Designs for doubt")."""
+    pair = tuple(getattr(error, "parameters", ()))
+    design = (f"; or design a motion that separates them: symbolic excite MODEL --experiment EXP.toml --duration T "
+              f"--separate {','.join(pair)}") if len(pair) == 2 else ""
     if not parameters:
-        return error
+        return IdentificationError(f"{error}{design}") if design else error
     return IdentificationError(f"{error}; or keep known values fixed (--fix with some of {listing(parameters)}) "
-                               f"{FIX_HINT}")
+                               f"{FIX_HINT}{design}")
 
 
 def scale_holds(group: Homogeneous, regressor: np.ndarray, coordinates: Sequence[str], names: Sequence[str],

@@ -52,7 +52,7 @@ class Separability:
                                                   motion, self.search.context.coordinates, cases)
             self._separable[key] = None if phrase is None else (
                 f"not identifiable from these data: {c.label()} and {self.terms_named(design, taking, p)} cannot be "
-                f"separated; a motion that would separate them: {phrase}")
+                f"separated; a motion that would separate them: {phrase}; {self.excite_command(c, taking, p)}")
         return self._separable[key]
 
     def probe_motions(self) -> tuple[Motion, list[tuple[str, int, Motion]]]:
@@ -91,6 +91,25 @@ class Separability:
                 out.append(own[:, :, kept[k - start]])
         out.append(own[:, :, i])
         return np.stack(out, axis=2)
+
+    def excite_command(self, c: Candidate, taking: np.ndarray, p: int) -> str:
+        """The ``symbolic excite ... --separate A,B`` that designs that motion (docs/data.md, "Designs for doubt"):
+        the candidate is not in the model, so it is named ``NEW``, the parameter it gets once written into the model
+        file; the other is the model's parameter (the first of those named) or, when the candidate's partner is an
+        accepted effect, ``OTHER``."""
+        terms = self.search.terms
+        known = geometric_parameters(terms.model, terms.reg) | set(terms.fixed)
+        free = terms.free_names
+        partner = "OTHER"
+        for k in taking:
+            if k < len(free):
+                label = separation.parameter_label(terms.model, terms.reg, terms.base, free[k], known)
+                partner = label.split(" (of ", 1)[0]  # a model parameter alone in a base parameter, else the base one
+                break
+        source = getattr(self.search.context.robot, "source", None)
+        model = str(source) if source and str(source).endswith((".toml", ".urdf")) else terms.model.name
+        return (f"to design it, write {c.label()} into the model file and run: symbolic excite {model} --experiment "
+                f"EXP.toml --duration T --separate NEW,{partner} (NEW: its parameter there)")
 
     def terms_named(self, design: Any, taking: np.ndarray, p: int) -> str:
         """The design's columns ``taking`` in words: the model's parameters (``the model's Fc``), the accepted

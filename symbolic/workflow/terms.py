@@ -256,8 +256,12 @@ def inseparable(terms: ModelTerms, data: DataSet, names: Sequence[str], what: st
     known = geometric_parameters(terms.model, terms.reg) | set(terms.fixed)
     labels = [parameter_label(terms.model, terms.reg, terms.base, n, known) for n in names]
     listed = ", ".join(labels[:-1]) + f" and {labels[-1]}" if len(labels) > 1 else labels[0]
+    pair = [label.split(" (of ", 1)[0] for label in labels[:2]]  # model parameters alone in one, else base names
+    design = "" if phrase is None or len(pair) < 2 else (
+        f"; to design it: symbolic excite MODEL --experiment EXP.toml --duration T --separate {','.join(pair)}"
+        + (" (or another two of them)" if len(labels) > 2 else ""))
     return (f"not identifiable from {what}: {listed} cannot be separated; a motion that would separate them: "
-            + (phrase or "none (they are the same function of the states)"))
+            + (phrase or "none (they are the same function of the states)") + design)
 
 
 def solve_normal(gram: np.ndarray, right: np.ndarray) -> np.ndarray:
