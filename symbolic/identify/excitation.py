@@ -318,6 +318,30 @@ class _WithJacobian(ca.Callback):
 
     jacobian_class: type
 
+    def _on_grid(self, regressor: CasadiRegressor, grid: np.ndarray, period: float, harmonics: int) -> None:
+        """The design's layout: N coordinates, K grid points, m free coefficients per coordinate, and the
+        state bases B_s = Φ_s·Z (3 × K × m: q, q̇, q̈ linear in the coefficients)."""
+        ca.Callback.__init__(self)
+        self.regressor, self.n, self.K = regressor, regressor.n, len(grid)
+        Z = rest_null_space(harmonics)  # noqa: N806
+        self.B = np.stack([phi @ Z for phi in basis(grid, period, harmonics)])
+        self.m = Z.shape[1]
+        self.kept = []
+
+    def get_n_in(self) -> int:
+        return 1
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(self.n * self.m, 1)
+
+    def states(self, z: np.ndarray) -> list[np.ndarray]:
+        """q, q̇, q̈ at the grid points (K × N each) of the coefficients ``z`` (coordinate by coordinate)."""
+        C = np.asarray(z, float).reshape(self.n, self.m).T  # noqa: N806
+        return [b @ C for b in self.B]
+
     def has_jacobian(self) -> bool:
         return True
 
@@ -351,30 +375,12 @@ class _Constraints(_WithJacobian):
     one of the N·(2L − 1) directions through every sample (ten times slower for the Panda)."""
 
     def __init__(self, regressor: CasadiRegressor, grid: np.ndarray, period: float, harmonics: int) -> None:
-        ca.Callback.__init__(self)
-        self.regressor, self.n, self.K = regressor, regressor.n, len(grid)
-        Z = rest_null_space(harmonics)  # noqa: N806
-        self.B = [phi @ Z for phi in basis(grid, period, harmonics)]  # K × m each
-        self.m = Z.shape[1]
+        self._on_grid(regressor, grid, period, harmonics)
         self.linear = np.vstack([np.kron(np.eye(self.n), b) for b in self.B])  # (3·N·K) × (N·m)
-        self.kept = []
         self.construct("constraints", {})
-
-    def get_n_in(self) -> int:
-        return 1
-
-    def get_n_out(self) -> int:
-        return 1
-
-    def get_sparsity_in(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(self.n * self.m, 1)
 
     def get_sparsity_out(self, i: int) -> ca.Sparsity:
         return ca.Sparsity.dense(4 * self.n * self.K, 1)
-
-    def states(self, z: np.ndarray) -> list[np.ndarray]:
-        C = np.asarray(z, float).reshape(self.n, self.m).T  # noqa: N806
-        return [b @ C for b in self.B]  # K × N each
 
     def eval(self, arg):
         states = self.states(np.asarray(arg[0]).ravel())
@@ -385,7 +391,7 @@ class _Constraints(_WithJacobian):
         states = self.states(z)
         A = np.asarray(self.regressor.torque_jacobian.map(self.K)(*(x.T for x in states)))  # noqa: N806
         A = A.reshape(self.n, self.K, 3, self.n)  # [j, k, s, i]: column k·3N + s·N + i of the map's horzcat  # noqa: N806
-        torque = np.einsum("jksi,skr->jkir", A, np.stack(self.B)).reshape(self.n * self.K, self.n * self.m)
+        torque = np.einsum("jksi,skr->jkir", A, self.B).reshape(self.n * self.K, self.n * self.m)
         return np.vstack([self.linear, torque])
 
 
@@ -414,32 +420,14 @@ class _Objective(_WithJacobian):
 
     def __init__(self, regressor: CasadiRegressor, grid: np.ndarray, period: float, harmonics: int,
                  weights: np.ndarray, criterion) -> None:
-        ca.Callback.__init__(self)
-        self.regressor, self.n, self.K, self.criterion = regressor, regressor.n, len(grid), criterion
-        self.weights = np.asarray(weights, float)
-        Z = rest_null_space(harmonics)  # noqa: N806
-        self.B = np.stack([phi @ Z for phi in basis(grid, period, harmonics)])  # 3 × K × m
-        self.m = Z.shape[1]
+        self._on_grid(regressor, grid, period, harmonics)
+        self.criterion, self.weights = criterion, np.asarray(weights, float)
         self.information = regressor.information.map("M_sum", "serial", self.K, [3], [0], {})
         self.gradient_map = regressor.information_gradient.map(self.K)
-        self.kept = []
         self.construct("objective", {})
-
-    def get_n_in(self) -> int:
-        return 1
-
-    def get_n_out(self) -> int:
-        return 1
-
-    def get_sparsity_in(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(self.n * self.m, 1)
 
     def get_sparsity_out(self, i: int) -> ca.Sparsity:
         return ca.Sparsity.dense(1, 1)
-
-    def states(self, z: np.ndarray) -> list[np.ndarray]:
-        C = np.asarray(z, float).reshape(self.n, self.m).T  # noqa: N806
-        return [b @ C for b in self.B]  # K × N each
 
     def evaluate(self, z: np.ndarray) -> tuple[float, np.ndarray]:
         """The criterion and its gradient in z."""
