@@ -455,18 +455,28 @@ def _sigint_deferred():
     """SIGINT blocked in this thread while the local cluster starts: the threads and the worker processes
     started meanwhile inherit the mask (across exec too), so that a Ctrl-C, which the terminal sends to every
     process of the group, reaches this process alone, which closes the cluster, instead of every worker
-    printing its own traceback. A Ctrl-C meanwhile is delivered when the cluster has started."""
+    printing its own traceback. A Ctrl-C meanwhile is delivered when the cluster has started.
+
+    The kernel may still hand the signal to a thread started before (one that does not block it), and Python then
+    raises KeyboardInterrupt in this thread wherever it is, inside Dask's start, which can swallow it (a campaign
+    interrupted so ran to the end and exited 0, on a loaded machine): meanwhile Python's handler only records it,
+    and it is raised here once the cluster has started."""
     if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
         yield
         return
     from multiprocessing import resource_tracker
 
     resource_tracker.ensure_running()  # started later, it would unblock SIGINT in the thread that starts it
+    pressed: list[int] = []
+    handler = signal.signal(signal.SIGINT, lambda number, frame: pressed.append(number))
     before = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, before)
+        signal.signal(signal.SIGINT, handler)
+        if pressed:
+            raise KeyboardInterrupt
 
 
 def _silence_dask() -> None:
