@@ -115,17 +115,22 @@ def naive_sine(model, period: float) -> ex.FourierTrajectory:
     raise AssertionError("no naive sine inside the limits")
 
 
+def _gradient_and_central_differences(problem) -> tuple[np.ndarray, np.ndarray]:
+    """The design's criterion gradient at a random start, and its central differences (steps 1e-5 relative)."""
+    z = ex.random_start(np.random.default_rng(1), problem)
+    h = 1e-5 * np.maximum(1.0, np.abs(z))
+    finite = np.array([(problem.value(z + h[i] * e) - problem.value(z - h[i] * e)) / (2 * h[i])
+                       for i, e in enumerate(np.eye(len(z)))])
+    return problem.gradient(z), finite
+
+
 @pytest.mark.parametrize("criterion", ["d", "a", "condition"])
 def test_gradient_against_central_differences(smooth_arm, criterion) -> None:
     limits = ex.resolve_limits(smooth_arm, ("test", LIMITS))
     regressor = ex.casadi_regressor(smooth_arm)
     problem = ex.Problem(regressor, limits, 3.0, 3, np.linspace(0, 3.0, 60, endpoint=False), np.array([1.0, 4.0]),
                          criterion)
-    z = ex.random_start(np.random.default_rng(1), problem)
-    gradient = problem.gradient(z)
-    h = 1e-5 * np.maximum(1.0, np.abs(z))
-    finite = np.array([(problem.value(z + h[i] * e) - problem.value(z - h[i] * e)) / (2 * h[i])
-                       for i, e in enumerate(np.eye(len(z)))])
+    gradient, finite = _gradient_and_central_differences(problem)
     assert np.linalg.norm(gradient - finite) <= 1e-6 * np.linalg.norm(finite)
 
 
@@ -534,11 +539,7 @@ def test_separate_gradient_against_central_differences(smooth_arm) -> None:
     limits = ex.resolve_limits(smooth_arm, ("test", LIMITS))
     problem = ex.Problem(ex.casadi_regressor(smooth_arm), limits, 3.0, 3, np.linspace(0, 3.0, 60, endpoint=False),
                          np.array([1.0, 4.0]), "ds", separate=(1, 3))
-    z = ex.random_start(np.random.default_rng(1), problem)
-    gradient = problem.gradient(z)
-    h = 1e-5 * np.maximum(1.0, np.abs(z))
-    finite = np.array([(problem.value(z + h[i] * e) - problem.value(z - h[i] * e)) / (2 * h[i])
-                       for i, e in enumerate(np.eye(len(z)))])
+    gradient, finite = _gradient_and_central_differences(problem)
     assert np.linalg.norm(gradient - finite) <= 1e-6 * np.linalg.norm(finite)
 
 

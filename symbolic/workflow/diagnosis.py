@@ -420,8 +420,7 @@ def _stand_ins(text: str, target: Path, accepted: Sequence[Any], written: Sequen
         return Review((), (), response)
     findings = [Finding(a.candidate.label(), coordinates[a.candidate.j], a.candidate.effect.null_values(w))
                 for a, w in zip(accepted, written)]
-    held = sets["validation"]
-    record, start = (held.record.measurements, held.start) if held.record is not None else (held.measurements, 0)
+    record, start = _held_record(sets)
     return review(text, str(target), findings, response, sets["estimation"].measurements, record, start, min_gain)
 
 
@@ -469,6 +468,13 @@ def _found_elastic(e: Any, written: dict[str, float]) -> list[Found]:
     return out
 
 
+def _held_record(sets: dict[str, DataSet]) -> tuple[Measurements, int]:
+    """The held-out data as the response judges them: the whole record and the sample its held-out tail starts at
+    (the tail simulated from the record's start), or the validation data from their start."""
+    held = sets["validation"]
+    return (held.record.measurements, held.start) if held.record is not None else (held.measurements, 0)
+
+
 def _judge_response(patched: DynamicModel, sets: dict[str, DataSet], effects: Sequence[Any], fix: Sequence[str],
                     min_gain: float, notes: list[str], determined: Sequence[str]) -> Any:
     """The search judged on the response (:mod:`symbolic.workflow.response`) of the patched model at the values
@@ -476,8 +482,7 @@ def _judge_response(patched: DynamicModel, sets: dict[str, DataSet], effects: Se
     from the record's start when the held-out data are the record's last fifth."""
     from symbolic.workflow.response import search_response
 
-    held = sets["validation"]
-    record, start = (held.record.measurements, held.start) if held.record is not None else (held.measurements, 0)
+    record, start = _held_record(sets)
     kept = [n for n in fix if n in {p.name for p in patched.robot.parameters}]
     try:
         return search_response(patched, sets["estimation"].measurements, record, held_from=start, effects=effects,

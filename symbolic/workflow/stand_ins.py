@@ -29,9 +29,9 @@ from symbolic.derivation.dynamics import derive
 from symbolic.description.modelfile import loads, with_parameter_values
 from symbolic.errors import IdentificationError, ModelError, SimulationError
 from symbolic.identify.output_error import OutputErrorFit, output_error, simulation_errors
-from symbolic.workflow.effects.on_response import PARAMETER, fixed_key
-from symbolic.workflow.response import (MAX_ITERATIONS, TOLERANCE, Errors, ResponseSearch, _all_values,
-                                        _all_values_of, _at, _gain, _layered, _removed)
+from symbolic.workflow.effects.on_response import fixed_key
+from symbolic.workflow.response import (MAX_ITERATIONS, TOLERANCE, Errors, ResponseSearch, _all_values_of, _at,
+                                        _gain, _layered, _removed)
 from symbolic.workflow.statistics import MIN_FORCE_SHARE, MIN_HELD_OUT_GAIN
 
 log = logging.getLogger("symbolic")
@@ -66,7 +66,7 @@ def review(text: str, source: str, findings: Sequence[Finding], response: Respon
         return Review((), (), response)
     last = response.named[-1].fit
     current = response.after["validation"]
-    accepted = _named_values(response)
+    accepted = response.layer_values()
     dropped: list[int] = []
     notes: list[str] = []
     unjudged: set[int] = set()
@@ -108,13 +108,8 @@ def review(text: str, source: str, findings: Sequence[Finding], response: Respon
         nulls.update(finding.null)
         last, current = fit, held
         response = _refitted(response, fit, held, 1.0 / float(estimation.sample_period))
-        accepted = _named_values(response)
+        accepted = response.layer_values()
     return Review(tuple(dropped), tuple(notes), response)
-
-
-def _named_values(response: ResponseSearch) -> dict:
-    """The signal-layer values the response named (free again in a refit; a drive's delay held fixed)."""
-    return {k: v.value for j in response.named for k, v in _all_values(j).items() if k[0] != PARAMETER}
 
 
 def _without(text: str, source: str, null: Mapping[str, float], last: OutputErrorFit, accepted: Mapping,
