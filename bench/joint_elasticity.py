@@ -10,7 +10,7 @@ whole catalogue (the inverse path: the two-encoder test runs on both paths alike
 * elastic cases — stiffnesses from 400 to 20000 N·m/rad, backlash from 2 to 10 mrad, on the joint and on the arm's
   joint 2: the values named against the truth's;
 * the same with the link encoder left out (``one_encoder``): rigid joints over seeds, motor encoders and noise,
-  and stiffnesses from 150 to 4000 N·m/rad read from the motor encoder alone.
+  stiffnesses from 150 to 4000 N·m/rad and backlash from 2 to 10 mrad read from the motor encoder alone.
 
 Results to bench/results/joint_elasticity.md (``python bench/joint_elasticity.py``; ``--quick`` for a few cases).
 """
@@ -93,8 +93,14 @@ ONE_ENCODER = [(f"geared joint, k {k:g}, motor encoder alone", "joint", dict(sti
                 {"stiffness": k}) for k in (150.0, 400.0, 1500.0, 4000.0)] + [
     ("arm joint 2, k 300, motor encoders alone", "arm", dict(one_encoder=True), {"stiffness": truth.ARM_TRUTH["k2"]}),
     ("arm joint 2, k 1000, motor encoders alone", "arm", dict(stiffness=1000.0, one_encoder=True), {"stiffness": 1000.0}),
-    ("geared joint, k 2000, backlash 10 mrad, motor encoder alone (backlash from one encoder: not built)", "joint",
-     dict(stiffness=2000.0, backlash=0.01, one_encoder=True), {"stiffness": 2000.0, "width": 0.01})]
+    ("geared joint, k 2000, backlash 10 mrad, motor encoder alone", "joint",
+     dict(stiffness=2000.0, backlash=0.01, one_encoder=True), {"width": 0.01, "stiffness": 2000.0}),
+    ("geared joint, k 2000, backlash 2 mrad, motor encoder alone", "joint",
+     dict(stiffness=2000.0, backlash=0.002, one_encoder=True), {"width": 0.002, "stiffness": 2000.0}),
+    ("geared joint, k 400, backlash 10 mrad, motor encoder alone", "joint",
+     dict(stiffness=400.0, backlash=0.01, one_encoder=True), {"width": 0.01, "stiffness": 400.0}),
+    ("arm joint 2, k 2000, backlash 8 mrad, motor encoders alone", "arm",
+     dict(stiffness=2000.0, backlash=0.008, one_encoder=True), {"width": 0.008, "stiffness": 2000.0})]
 
 
 def main() -> None:

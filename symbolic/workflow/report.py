@@ -275,7 +275,7 @@ def markdown(d: Diagnosis) -> str:
               f"earns its place on its own coordinate (physical, the held-out gain, ΔBIC < 0 there) and the group is judged "
               f"on their rows together. The stacked figures (share / held-out gain over all coordinates) are shown, not "
               f"judged. At the end, effects that later ones made insignificant are removed.", ""]
-    searched = [f for f in d.found if f.effect not in ("joint_elasticity", "backlash")]
+    searched = [f for f in d.found if "explained_share" in f.evidence]  # not the two encoders' test (below)
     if searched:
         rows = [[f.label(), f.coordinate, _roles(f.parameters, f.sigmas), _roles(f.model_parameters),
                  f"{100 * f.evidence['explained_share']:.3g} %", _g(f.evidence["p_value"], 3),

@@ -586,9 +586,10 @@ class OneEncoder(FlexibleMode):
     stick-slip rings the link), k 4000 N·m/rad came out as 15 on a load of 0.007 of the link's 0.15."""
 
     def check(self, roles, reference, context, j):
-        problem = super().check(roles, reference, context, j)
-        if problem is not None:
-            return problem
+        return super().check(roles, reference, context, j) or self._link_check(roles, context, j)
+
+    def _link_check(self, roles, context, j) -> str | None:
+        """Why the inertia ringing on the spring is not the link's (:attr:`LINK_RANGE`), or ``None``."""
         link = link_inertia(context.model, context.coordinates[j], np.mean(context.q, axis=0), context.coordinates)
         low, high = self.LINK_RANGE
         if link is not None and link > 0 and not low <= roles["load"] / link <= high:

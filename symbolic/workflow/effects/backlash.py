@@ -1,0 +1,217 @@
+"""``backlash`` from the motor's encoder alone: a dead band in an elastic transmission, found by the link's rattle.
+
+The two encoders' test (:mod:`symbolic.workflow.effects.joint_elasticity`, "Backlash") measures the deflection and
+fits the band on it. From the motor's encoder alone the deflection δ = q − q_l is not measured, but the link's
+equation at the motor's position still gives it (Spong's reduced model, the link's side, with the transmitted torque
+of a dead band of whole width b: nothing inside |δ| ≤ b/2, spring and damper in contact)::
+
+    D_jj·δ̈ + B_jj·δ̇ + A_jj·δ + [|δ| > b/2]·(k·(δ − b/2·sgn δ) + d·δ̇) = T_j
+
+with T_j the rigid link's torque at the motor's q, q̇, q̈ and A, B, D the link's side of the rigid model
+(:class:`~symbolic.workflow.effects.joint_elasticity.LinkSide`). It is not linear in δ, so no filter gives δ: it is
+integrated over the record (:func:`rattle`, symplectic Euler at a few sub-steps a sample, the logged signals
+interpolated linearly between samples, from rest against the first sample's torque), per value of the grid
+(ω, ζ, b), k = D̄·ω² and d = 2ζω·D̄ (D̄ the link's mean inertia about the joint). Every row i of the rigid model then
+misses the link's reaction −(D_ij·δ̈ + A_ij·δ + B_ij·δ̇), as in the linear case: the column, linear in the load J_L
+(≈ D̄) for a given (ω, ζ, b). The search compares it with the linear spring (``joint_elasticity``, one encoder)
+on the same coordinate; each excludes the other.
+
+A rigid joint has no such rattle, and a spring without a band fits as well with b → 0: the band's width must lie
+inside the range searched (then the linear spring, one parameter fewer, is the one named).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+from collections.abc import Sequence
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+
+from symbolic.workflow.effects.base import register
+from symbolic.workflow.effects.joint_elasticity import LinkSide, OneEncoder, _link_side, patch, rotor_inertia
+
+
+class Backlash(OneEncoder):
+    """``backlash`` from the motor's encoder alone (module docstring). Roles: the band's whole ``width`` b, the
+    spring's ``stiffness`` k = J_L·ω² and ``damping`` d = 2ζω·J_L in contact; written as Spong's joint with the
+    dead band, as two encoders write it (:func:`~symbolic.workflow.effects.joint_elasticity.patch`)."""
+
+    name, contract, variant = "backlash_one_encoder", "backlash", "one_encoder"
+    rank = 121
+    roles = ("width", "stiffness", "damping")
+    nonlinear = "contact frequency, damping ratio and width"
+    summary = "a dead band between motor and link seen by the motor encoder alone: the link rattles in it"
+    formula = "−(D_ij·δ̈ + A_ij·δ + B_ij·δ̇) on every row i, δ the link's deflection in a dead band of width b (integrated)"
+    regressors = "the link's reaction to its deflection, δ integrated from its torque T_j through the band and the spring; (ω, ζ, b) on a grid"
+    written_as = "Spong's joint with the dead band: `<q>_flex` added to the joint's DH, `[[force]]` −(k·(x ∓ b/2) + d·ẋ) in contact, 0 inside"
+    roles_note = "the spring's in contact"
+    units = {"width": "{position}", "stiffness": "{force}/{position}", "damping": "{force}·s/{position}"}
+    excludes = ("joint_elasticity_one_encoder",)
+
+    DAMPING = (0.03, 0.1, 0.3)
+    """Damping ratios of the grid in contact (the linear spring's span, coarser: the grid has a third axis)."""
+    SPACING = 1.15
+    """Ratio of neighbouring grid frequencies in contact (the simplex search refines between them)."""
+    WIDTHS = tuple(float(x) for x in np.geomspace(1e-4, 1e-1, 8))
+    """Widths of the grid as fractions of the coordinate's range of motion (its 2–98 % quantiles): from a gear's
+    tenth of a milliradian on a joint turning a radian, to a tenth of the motion (the tests' joint turns 0.4 rad:
+    4e-5 to 0.04 rad)."""
+
+    def grid(self, context, j):
+        low, high = self.LOWEST_HZ, self.TOP * context.passband
+        if high <= low:
+            return None
+        span = float(np.subtract(*np.quantile(context.q[:, j], [0.98, 0.02])))
+        if not span > 0:
+            return None
+        frequencies = np.exp(np.arange(math.log(low), math.log(high), math.log(self.SPACING)))
+        rows = np.array([(f, z, w * span) for f in frequencies for z in self.DAMPING for w in self.WIDTHS])
+        return rows, float(len(rows))
+
+    def columns_at(self, signals, j, value):
+        """The link's reaction on every row, −(D_ij·δ̈ + A_ij·δ + B_ij·δ̇)/D̄, δ from :func:`rattle` at ``value`` =
+        (contact frequency in Hz, ζ, b)."""
+        if signals.model is None:
+            raise TypeError("backlash (one encoder) needs the derived model: Signals.model")
+        if signals.record is not None:  # the link's state at the first sample is what the motion before left
+            whole = self.columns_at(signals.record, j, value)
+            return whole[signals.start:signals.start + len(signals.t)]
+        link = _link_side(signals, j)
+        delta, rate, acceleration = rattle(link, value, signals.rate)
+        reaction = link.inertia * acceleration[:, None] + link.stiffness * delta[:, None] + link.damping * rate[:, None]
+        return (-reaction / link.mean)[:, :, None]
+
+    def roles_of(self, c, value, reference):
+        frequency, damping, width = (float(v) for v in value)
+        load, w = float(c[0]), 2.0 * math.pi * frequency
+        roles = {"width": width, "stiffness": load * w * w, "damping": 2.0 * damping * w * load, "load": load,
+                 "frequency_hz": frequency, "damping_ratio": damping}
+        if reference is not None and reference - load > 0:  # as the linear spring's (OneEncoder.roles_of)
+            roles["motor_inertia"] = reference - load
+        return roles
+
+    def check(self, roles, reference, context, j):
+        if roles["load"] <= 0:
+            return f"load inertia {roles['load']:.4g} is not positive (no link rattles so)"
+        grid = self.grid(context, j)
+        rows = grid[0]
+        located = [("contact frequency", roles["frequency_hz"], rows[:, 0]), ("damping ratio", roles["damping_ratio"], rows[:, 1]),
+                   ("width", roles["width"], rows[:, 2])]
+        for what, value, axis in located:
+            if not (1 + self.EDGE) * axis.min() < value < (1 - self.EDGE) * axis.max():
+                return (f"the dead band is not located: its {what} {value:.4g} lies at the edge of the range searched "
+                        f"({axis.min():.4g}–{axis.max():.4g})" + (" — a spring without a band" if what == "width" and
+                                                                     value <= axis.min() * (1 + self.EDGE) else ""))
+        return self._link_check(roles, context, j)
+
+    def check_residual(self, roles, frequency, psd, share):
+        return None  # a rattle is broadband (impacts at each reversal), not a ringing peak
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        coordinate = context.coordinates[j]
+        motor = roles.get("motor_inertia")
+        if motor is None or not motor > 0:
+            motor = rotor_inertia(context.robot, coordinate)
+        spring = {"stiffness": roles["stiffness"], "damping": roles["damping"], "motor_inertia": motor}
+        written, _ = patch(editor, context.robot, coordinate, spring, {"width": roles["width"], "centre": 0.0}, comment)
+        return written
+
+    def as_measured(self, patched, parameters, context, j, roles, controller, period):
+        return ({key: roles[key] for key in self.roles},
+                {"contact_frequency_hz": roles["frequency_hz"], "contact_damping_ratio": roles["damping_ratio"],
+                 "ringing": "a dead band: no linear mode at rest inside it"})
+
+
+def rattle(link: LinkSide, value: tuple[float, float, float], rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """δ, δ̇, δ̈ of the link behind the joint in a dead band (module docstring) at ``value`` = (contact frequency in Hz,
+    ζ, whole width b), k = D̄·ω², d = 2ζω·D̄: symplectic Euler with :func:`substeps` steps a sample, the link's torque
+    and coefficients interpolated linearly between samples, from rest against the first sample's torque. Compiled
+    C (:data:`SOURCE`, called through ctypes) where a compiler is found, else the same loop in Python."""
+    frequency, damping, width = value
+    w = 2.0 * math.pi * frequency
+    own = link.index
+    inputs = np.ascontiguousarray(np.column_stack([link.torque, link.own, link.stiffness[:, own], link.damping[:, own]]))
+    parameters = np.array([w * w, 2.0 * damping * w, 0.5 * width, link.mean])
+    first = link.torque[0] / (link.mean * w * w)
+    start = first + math.copysign(0.5 * width, first) if first else 0.0
+    out = np.empty((len(inputs), 3))
+    (_compiled() or _loop)(inputs, parameters, substeps(w, rate), 1.0 / rate, start, out)
+    return out[:, 0], out[:, 1], out[:, 2]
+
+
+def substeps(w: float, rate: float) -> int:
+    """Sub-steps a sample so that ω·h stays below 0.2 (symplectic Euler's phase error under 0.2 %)."""
+    return max(1, math.ceil(w / rate / 0.2))
+
+
+SOURCE = """\
+#include <math.h>
+static double acceleration(double x, double v, const double *u, const double *p) {
+    double excess = fabs(x) - p[2];
+    double band = excess > 0.0 ? p[3] * (p[0] * copysign(excess, x) + p[1] * v) : 0.0;
+    return (u[0] - u[3] * v - u[2] * x - band) / u[1];
+}
+void symbolic_rattle(long samples, const double *inputs, const double *p, long steps, double h, double start,
+                     double *out) {
+    double x = start, v = 0.0, u[4];
+    for (long k = 0; k < samples; ++k) {
+        const double *a = inputs + 4 * k, *b = inputs + 4 * (k + 1 < samples ? k + 1 : k);
+        out[3 * k] = x;
+        out[3 * k + 1] = v;
+        out[3 * k + 2] = acceleration(x, v, a, p);
+        for (long s = 0; s < steps; ++s) {
+            double f = (double)s / (double)steps;
+            for (int i = 0; i < 4; ++i) u[i] = a[i] + (b[i] - a[i]) * f;
+            v += h / steps * acceleration(x, v, u, p);
+            x += h / steps * v;
+        }
+    }
+}
+"""
+"""The integration of :func:`rattle` as a C loop over the samples."""
+
+
+@lru_cache(maxsize=None)
+def _compiled() -> Any:
+    """The C loop of :data:`SOURCE` as ``(inputs, parameters, steps, h, start, out) -> None``, or ``None`` without a
+    compiler."""
+    from symbolic.codegen.compiled import load_library
+
+    library = load_library(SOURCE, "rattle", ctypes.CDLL)
+    if library is None:
+        return None
+    function = library.symbolic_rattle
+    function.restype = None
+    function.argtypes = [ctypes.c_long, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_long, ctypes.c_double,
+                         ctypes.c_double, ctypes.c_void_p]
+
+    def run(inputs: np.ndarray, parameters: np.ndarray, steps: int, h: float, start: float, out: np.ndarray) -> None:
+        function(len(inputs), inputs.ctypes.data, parameters.ctypes.data, steps, h, start, out.ctypes.data)
+
+    return run
+
+
+def _loop(inputs: np.ndarray, parameters: np.ndarray, steps: int, h: float, start: float, out: np.ndarray) -> None:
+    """:data:`SOURCE`'s loop in Python (no compiler: slower, the same numbers to rounding)."""
+    w2, c, half, mean = (float(x) for x in parameters)
+
+    def acceleration(x: float, v: float, u: Sequence[float]) -> float:
+        excess = abs(x) - half
+        band = mean * (w2 * math.copysign(excess, x) + c * v) if excess > 0.0 else 0.0
+        return (u[0] - u[3] * v - u[2] * x - band) / u[1]
+
+    x, v, n = start, 0.0, len(inputs)
+    rows = inputs.tolist()
+    for k in range(n):
+        a, b = rows[k], rows[min(k + 1, n - 1)]
+        out[k] = (x, v, acceleration(x, v, a))
+        for s in range(steps):
+            f = s / steps
+            v += h / steps * acceleration(x, v, [ai + (bi - ai) * f for ai, bi in zip(a, b)])
+            x += h / steps * v
+
+
+register(Backlash())
