@@ -30,7 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from symbolic.workflow.effects.base import register
+from symbolic.workflow.effects.base import on_row, register
+from symbolic.workflow.effects.flexible_mode import FlexibleMode, second_mass
 from symbolic.workflow.effects.joint_elasticity import LinkSide, OneEncoder, _link_side, patch, rotor_inertia
 
 
@@ -51,9 +52,9 @@ class Backlash(OneEncoder):
     units = {"width": "{position}", "stiffness": "{force}/{position}", "damping": "{force}·s/{position}"}
     excludes = ("joint_elasticity_one_encoder",)
 
-    DAMPING = (0.03, 0.1, 0.3)
+    DAMPING = (0.1, 0.3)
     """Damping ratios of the grid in contact (the linear spring's span, coarser: the grid has a third axis)."""
-    SPACING = 1.15
+    SPACING = 1.25
     """Ratio of neighbouring grid frequencies in contact (the simplex search refines between them)."""
     WIDTHS = tuple(float(x) for x in np.geomspace(1e-4, 1e-1, 8))
     """Widths of the grid as fractions of the coordinate's range of motion (its 2–98 % quantiles): from a gear's
@@ -94,18 +95,21 @@ class Backlash(OneEncoder):
         return roles
 
     def check(self, roles, reference, context, j):
+        return self._located(roles, context, j) or self._link_check(roles, context, j)
+
+    def _located(self, roles, context, j) -> str | None:
+        """Why the band is not one (a load that is not positive, a value at the edge of the grid's box), or ``None``."""
         if roles["load"] <= 0:
             return f"load inertia {roles['load']:.4g} is not positive (no link rattles so)"
-        grid = self.grid(context, j)
-        rows = grid[0]
-        located = [("contact frequency", roles["frequency_hz"], rows[:, 0]), ("damping ratio", roles["damping_ratio"], rows[:, 1]),
-                   ("width", roles["width"], rows[:, 2])]
+        rows = self.grid(context, j)[0]
+        located = [("contact frequency", roles["frequency_hz"], rows[:, 0]),
+                   ("damping ratio", roles["damping_ratio"], rows[:, 1]), ("width", roles["width"], rows[:, 2])]
         for what, value, axis in located:
             if not (1 + self.EDGE) * axis.min() < value < (1 - self.EDGE) * axis.max():
+                spring = " — a spring without a band" if what == "width" and value <= (1 + self.EDGE) * axis.min() else ""
                 return (f"the dead band is not located: its {what} {value:.4g} lies at the edge of the range searched "
-                        f"({axis.min():.4g}–{axis.max():.4g})" + (" — a spring without a band" if what == "width" and
-                                                                     value <= axis.min() * (1 + self.EDGE) else ""))
-        return self._link_check(roles, context, j)
+                        f"({axis.min():.4g}–{axis.max():.4g}){spring}")
+        return None
 
     def check_residual(self, roles, frequency, psd, share):
         return None  # a rattle is broadband (impacts at each reversal), not a ringing peak
@@ -123,6 +127,48 @@ class Backlash(OneEncoder):
         return ({key: roles[key] for key in self.roles},
                 {"contact_frequency_hz": roles["frequency_hz"], "contact_damping_ratio": roles["damping_ratio"],
                  "ringing": "a dead band: no linear mode at rest inside it"})
+
+
+class LoadBacklash(Backlash):
+    """``backlash`` of a second mass (a load on a coupling with a dead band) where the model declares no motor on
+    the coordinate (``flexible_mode``'s case, which it excludes): the load J_L, unknown to the model file, is driven
+    through the band by the coordinate's own acceleration, δ̈ + [|δ| > b/2]·(ω²·(δ ∓ b/2) + 2ζω·δ̇) = q̈ (the link's
+    equation of the module docstring divided by J_L, without weight or couplings), and the coordinate supplies
+    J_L·(q̈ − δ̈) besides the model: the column −δ̈ on its own row (the model's q̈ absorbs J_L·q̈). Written as
+    ``flexible_mode``'s second mass with the band in its coupling
+    (:func:`~symbolic.workflow.effects.flexible_mode.second_mass`)."""
+
+    name, variant = "backlash_second_mass", "second_mass"
+    rank = 122
+    summary = "a dead band between the coordinate and a load the model does not hold: the load rattles in it"
+    formula = "−J_L·δ̈ on q's row, δ̈ + [|δ| > b/2]·(ω²·(δ ∓ b/2) + 2ζω·δ̇) = q̈ (integrated)"
+    regressors = "the load's deflection integrated from q̈ through the band and the coupling; (ω, ζ, b) on a grid"
+    written_as = "a second mass as `flexible_mode` writes it, its coupling −(k·(x ∓ b/2) + d·ẋ) in contact, 0 inside"
+    excludes = ("flexible_mode",)
+    own_row = True
+
+    def applicable(self, context, j):
+        return FlexibleMode.applicable(self, context, j)
+
+    def columns_at(self, signals, j, value):
+        if signals.record is not None:
+            whole = self.columns_at(signals.record, j, value)
+            return whole[signals.start:signals.start + len(signals.t)]
+        acceleration = signals.qdd[:, j]
+        ones, zeros = np.ones((len(acceleration), 1)), np.zeros((len(acceleration), 1))
+        load = LinkSide(acceleration, ones, zeros, zeros, ones[:, 0], 1.0, 0)
+        _, _, deflection = rattle(load, value, signals.rate)
+        return on_row(j, signals.qdd.shape[1], [-deflection])
+
+    def check(self, roles, reference, context, j):
+        problem = self._located(roles, context, j)
+        if problem is None and reference is not None and len(context.coordinates) == 1 and reference <= 0:
+            return f"the inertia left on the coordinate's own side, {reference:.4g}, is not positive"
+        return problem
+
+    def patch(self, editor, context, j, roles, c, value, comment):
+        return second_mass(editor, context, j, roles["load"], roles["stiffness"], roles["damping"], comment,
+                           band=roles["width"])
 
 
 def rattle(link: LinkSide, value: tuple[float, float, float], rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -214,4 +260,4 @@ def _loop(inputs: np.ndarray, parameters: np.ndarray, steps: int, h: float, star
             x += h / steps * v
 
 
-register(Backlash())
+register(Backlash(), LoadBacklash())

@@ -117,32 +117,10 @@ class FlexibleMode(Effect):
         return None
 
     def patch(self, editor, context, j, roles, c, value, comment):
-        coordinate = context.coordinates[j]
         frequency, damping = value
         w = 2.0 * math.pi * frequency
         load = roles["load"]
-        revolute = context.kind(coordinate) == "revolute"
-        written = {}
-        loaded = f"{coordinate}_load"
-        name = editor.parameter(coefficient_name("J" if revolute else "m", loaded), load, comment + "; the load")
-        k = editor.parameter(coefficient_name("k", loaded), load * w * w, comment + "; coupling stiffness")
-        d = editor.parameter(coefficient_name("d", loaded), 2.0 * damping * w * load, comment + "; coupling damping")
-        written = {name: load, k: load * w * w, d: 2.0 * damping * w * load}
-        flex = editor.coordinate(f"{coordinate}_flex", comment + "; the load's deflection")
-        frame = joint_frame(context.robot, coordinate)
-        dh = editor.frame_dh(frame.name)
-        if context.robot.convention != "modified":  # standard DH: the joint turns about the parent's z
-            dh.update(a="0", alpha="0")
-        key = "theta" if revolute else "d"
-        dh[key] = f"{dh[key]} + {flex}"
-        target = editor.add_frame(f"{frame.name}_load", frame.parent, dh, comment)
-        if revolute:
-            # a thin disc about the joint axis (the triangle inequality holds; only zz acts on q)
-            editor.add_body(f"{frame.name}_load", target, "0", {"xx": f"{name}/2", "yy": f"{name}/2", "zz": name}, comment)
-        else:
-            editor.add_body(f"{frame.name}_load", target, name, None, comment)
-        editor.add_force(f"coupling_{coordinate}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
-        return written
+        return second_mass(editor, context, j, load, load * w * w, 2.0 * damping * w * load, comment)
 
     PEAK_BAND = 1.3
     """A ringing must show as a spectral peak of the residual within this factor of the load's frequency
@@ -184,6 +162,49 @@ class FlexibleMode(Effect):
         f, z = min(modes, key=lambda m: abs(math.log(max(m[0], 1e-12) / roles["frequency_hz"])))
         return {"frequency_hz": f, "damping_ratio": z}, {**own, "ringing": "closed-loop mode of the patched model",
                                                           "closed_loop_modes": [list(m) for m in modes]}
+
+
+def second_mass(editor, context, j: int, load: float, stiffness: float, damping: float, comment: str,
+                band: float | None = None) -> dict[str, float]:
+    """Write a second mass on coordinate ``j`` (:class:`FlexibleMode`): a coordinate ``<q>_flex`` (the load's
+    deflection), a frame turning (or sliding) with q plus it, a body of inertia (mass) ``load`` and a ``[[force]]``
+    −k·x − d·ẋ on it; with ``band`` (a dead band's whole width b) the spring and damper act in contact only,
+    −(k·(x ∓ b/2) + d·ẋ) outside |x| ≤ b/2 and 0 inside, as the two encoders' backlash writes it. Returns the
+    parameters written."""
+    coordinate = context.coordinates[j]
+    revolute = context.kind(coordinate) == "revolute"
+    loaded = f"{coordinate}_load"
+    name = editor.parameter(coefficient_name("J" if revolute else "m", loaded), load, comment + "; the load")
+    k = editor.parameter(coefficient_name("k", loaded), stiffness, comment + "; coupling stiffness")
+    d = editor.parameter(coefficient_name("d", loaded), damping, comment + "; coupling damping")
+    written = {name: load, k: stiffness, d: damping}
+    flex = editor.coordinate(f"{coordinate}_flex", comment + "; the load's deflection")
+    frame = joint_frame(context.robot, coordinate)
+    dh = editor.frame_dh(frame.name)
+    if context.robot.convention != "modified":  # standard DH: the joint turns about the parent's z
+        dh.update(a="0", alpha="0")
+    key = "theta" if revolute else "d"
+    dh[key] = f"{dh[key]} + {flex}"
+    target = editor.add_frame(f"{frame.name}_load", frame.parent, dh, comment)
+    if revolute:
+        # a thin disc about the joint axis (the triangle inequality holds; only zz acts on q)
+        editor.add_body(f"{frame.name}_load", target, "0", {"xx": f"{name}/2", "yy": f"{name}/2", "zz": name}, comment)
+    else:
+        editor.add_body(f"{frame.name}_load", target, name, None, comment)
+    if band is None:
+        editor.add_force(f"coupling_{coordinate}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
+        return written
+    b = editor.parameter(coefficient_name("backlash", coordinate), band, comment + "; the dead band's whole width")
+    editor.add_force(f"coupling_{coordinate}", flex, dead_band_force(k, d, flex, b),
+                     comment + "; the spring and damper act in contact only")
+    return {**written, b: band}
+
+
+def dead_band_force(k: str, d: str, x: str, b: str) -> str:
+    """The model file's force on deflection ``x`` of a spring ``k`` and damper ``d`` with a dead band of whole width
+    ``b``: −(k·(x − b/2·sgn x) + d·ẋ) in contact, 0 inside |x| ≤ b/2 (the format has no comparison: the last factor
+    is 1 in contact, 0 inside)."""
+    return f"-({k}*({x} - {b}/2*sign({x})) + {d}*qd_{x})*(1 + sign(abs({x}) - {b}/2))/2"
 
 
 def mode_denominator(frequency: float, damping: float, rate: float) -> tuple[np.ndarray, float, float]:

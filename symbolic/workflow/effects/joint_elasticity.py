@@ -63,7 +63,7 @@ from symbolic.derivation.products import Product
 from symbolic.description.names import coefficient_name
 from symbolic.description.units import coordinate_kind
 from symbolic.workflow.effects.base import joint_frame, register
-from symbolic.workflow.effects.flexible_mode import FlexibleMode, mode_denominator, motor_declared
+from symbolic.workflow.effects.flexible_mode import FlexibleMode, dead_band_force, mode_denominator, motor_declared
 from symbolic.workflow.statistics import MIN_SIGMAS
 from symbolic.workflow.terms import relative_gap
 
@@ -441,8 +441,7 @@ def patch(editor: Any, robot: Any, c: str, v: Mapping[str, float], band: Mapping
         editor.add_force(f"transmission_{c}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
         return {k: v["stiffness"], d: damping, rotor: v["motor_inertia"] / ratio**2}, flex
     b = editor.parameter(coefficient_name("backlash", c), band["width"], comment + "; the dead band's whole width")
-    contact = f"(1 + sign(abs({flex}) - {b}/2))/2"  # 1 in contact, 0 inside the band
-    editor.add_force(f"transmission_{c}", flex, f"-({k}*({flex} - {b}/2*sign({flex})) + {d}*qd_{flex})*{contact}",
+    editor.add_force(f"transmission_{c}", flex, dead_band_force(k, d, flex, b),
                      comment + "; the spring and damper act in contact only")
     return {k: v["stiffness"], d: damping, rotor: v["motor_inertia"] / ratio**2, b: band["width"]}, flex
 
