@@ -160,6 +160,10 @@ class LoadBacklash(Backlash):
         _, _, deflection = rattle(load, value, signals.rate)
         return on_row(j, signals.qdd.shape[1], [-deflection])
 
+    def roles_of(self, c, value, reference):
+        roles = super().roles_of(c, value, None)  # no motor: the coordinate's own inertia is the model's
+        return roles
+
     def check(self, roles, reference, context, j):
         problem = self._located(roles, context, j)
         if problem is None and reference is not None and len(context.coordinates) == 1 and reference <= 0:
