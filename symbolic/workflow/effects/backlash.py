@@ -18,6 +18,10 @@ on the same coordinate; each excludes the other.
 
 A rigid joint has no such rattle, and a spring without a band fits as well with b → 0: the band's width must lie
 inside the range searched (then the linear spring, one parameter fewer, is the one named).
+
+What the motor's encoder tells is the width. A lightly damped link rattling in its band is chaotic: δ integrated from
+the motor's filtered motion cannot follow the ringing after each impact, and a damped contact fits its mean — the
+contact's k and d come out as effective values (docs/workflow.md, "Backlash from the motor encoder alone").
 """
 
 from __future__ import annotations
@@ -98,12 +102,13 @@ class Backlash(OneEncoder):
         return self._located(roles, context, j) or self._link_check(roles, context, j)
 
     def _located(self, roles, context, j) -> str | None:
-        """Why the band is not one (a load that is not positive, a value at the edge of the grid's box), or ``None``."""
+        """Why the band is not one (a load that is not positive, a contact frequency or width at the edge of the grid's
+        box), or ``None``. The damping ratio may lie at its edge: the contact's damping is an effective value
+        (module docstring), fitted to the rattle's mean where its ringing cannot be followed."""
         if roles["load"] <= 0:
             return f"load inertia {roles['load']:.4g} is not positive (no link rattles so)"
         rows = self.grid(context, j)[0]
-        located = [("contact frequency", roles["frequency_hz"], rows[:, 0]),
-                   ("damping ratio", roles["damping_ratio"], rows[:, 1]), ("width", roles["width"], rows[:, 2])]
+        located = [("contact frequency", roles["frequency_hz"], rows[:, 0]), ("width", roles["width"], rows[:, 2])]
         for what, value, axis in located:
             if not (1 + self.EDGE) * axis.min() < value < (1 - self.EDGE) * axis.max():
                 spring = " — a spring without a band" if what == "width" and value <= (1 + self.EDGE) * axis.min() else ""
