@@ -284,12 +284,17 @@ class Search:
         missing = list(dict.fromkeys(k for k in keys if k not in store))
         if missing:
             signals = self.signals(role)
-            raw = [effect.columns_at(signals, j, k[2]) for k in missing]
-            rows = np.array([j]) if effect.own_row else _acting(raw)
-            if rows.size == 0:
+            if effect.own_row:  # samples × 1 × k each: the other rows are zero
                 rows = np.array([j])
+                raw = [effect.row_columns_at(signals, j, k[2])[:, None, :] for k in missing]
+            else:
+                raw = [effect.columns_at(signals, j, k[2]) for k in missing]
+                rows = _acting(raw)
+                if rows.size == 0:
+                    rows = np.array([j])
+                raw = [r[:, rows, :] for r in raw]
             widths = [r.shape[2] for r in raw]
-            reduced = self.sets[role].reduce(np.concatenate([r[:, rows, :] for r in raw], axis=2))
+            reduced = self.sets[role].reduce(np.concatenate(raw, axis=2))
             for key, part in zip(missing, np.split(reduced, np.cumsum(widths)[:-1], axis=2)):
                 store[key] = (rows, part)
         return [store[k] for k in keys]
