@@ -183,7 +183,8 @@ def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compil
     split of :func:`symbolic.identify.known.split_base` with its known columns last.
 
     ``compiled``: True evaluates through a C loop (:mod:`symbolic.codegen.compiled_regressor`), False
-    through NumPy; None (default) chooses C for large work (:data:`COMPILE_WORK`) when a compiler is found.
+    through NumPy; None (default) chooses C for large work (:data:`COMPILE_WORK`) when a compiler is found, and
+    for any work once it has done so.
     A time-varying model's regressor (a [[force]] in time) needs the sample times: ``regressor(q, qd, qdd,
     t=times)``; its attribute ``time_varying`` says so (:func:`symbolic.identify.processing.observe` reads it).
     """
@@ -203,7 +204,8 @@ def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compil
                 raise ValueError(f"model {model.name}'s forces depend on time: give the {samples} sample times t "
                                  f"(got {'none' if t is None else np.shape(t)})")
             times = [np.reshape(np.asarray(t, float), (samples, 1))]
-        if compiled or (compiled is None and samples * statements > COMPILE_WORK):
+        # small work too once the C loop is loaded: building NumPy's evaluator as well would cost 0.1 s
+        if compiled or (compiled is None and (samples * statements > COMPILE_WORK or built.get("c") is not None)):
             if "c" not in built:
                 built["c"] = compiled_batch(reg.sub, groups, model.parameter_symbols, columns)
             if built["c"] is not None:

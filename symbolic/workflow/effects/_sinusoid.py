@@ -23,8 +23,8 @@ class Sinusoid(Effect):
 
     @staticmethod
     def sin_cos(x: np.ndarray) -> np.ndarray:
-        """The columns sin(x), cos(x) of angles ``x``: ``samples × 2``."""
-        return np.stack([np.sin(x), np.cos(x)], axis=1)
+        """The columns sin(x), cos(x) of angles ``x``: ``samples × 2`` (each column contiguous)."""
+        return np.stack([np.sin(x), np.cos(x)], axis=0).T
 
     @staticmethod
     def polar(c: np.ndarray) -> tuple[float, float]:
