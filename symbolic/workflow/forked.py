@@ -10,6 +10,9 @@ and Windows spawn, which would have to send the search), at least two CPUs avail
 inside a daemonic process (a Dask worker: its campaign already uses the cores, and daemons may not have
 children). Both processes then use one BLAS thread each. Anywhere else, and when the child fails for any
 reason, the work is done here: the results are the same either way, only the time differs.
+
+:func:`interleaved` gives each process every other item; :func:`shared` lets each take the next item left, so
+that the two finish together however the costs are spread (the search's rounds).
 """
 
 from __future__ import annotations
