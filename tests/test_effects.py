@@ -123,6 +123,25 @@ def test_every_registered_effect_conforms(name: str) -> None:
     assert conformance_failures(EFFECTS[name]) == []
 
 
+@pytest.mark.parametrize("name", [name for name, effect in EFFECTS.items() if effect.own_row])
+def test_an_own_row_effect_s_row_columns_are_its_columns_on_that_row(name: str) -> None:
+    """What the search treats (:meth:`Effect.row_columns_at`) is exactly :meth:`Effect.columns_at`'s row ``j``, on a
+    record's continuation too (a filtered column runs through the record)."""
+    effect = EFFECTS[name]
+    start = SAMPLES // 2
+    tail = Signals(*(x[start:] for x in (SIGNALS.q, SIGNALS.qd, SIGNALS.qdd, SIGNALS.t)), RATE, SIGNALS.robot, SIGNALS,
+                   start, SIGNALS.model, SIGNALS.coordinates)
+    checked = 0
+    for j in range(len(CONTEXT.coordinates)):
+        if effect.applicable(CONTEXT, j) is not None:
+            continue
+        for value in values_to_try(effect, j):
+            for signals in (SIGNALS, tail):
+                assert np.array_equal(effect.row_columns_at(signals, j, value), effect.columns_at(signals, j, value)[:, j, :])
+                checked += 1
+    assert checked
+
+
 def test_the_checks_catch_what_they_look_for() -> None:
     """An effect without units, with a misdeclared row or unloadable patch is reported, not passed."""
 

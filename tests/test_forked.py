@@ -41,6 +41,10 @@ def test_interleaved_alternates_the_items_and_keeps_their_order() -> None:
     assert {pid for *_, pid in out[0::2]} == {here} == {os.getpid()} and {pid for *_, pid in out[1::2]} == {there} != {here}
 
 
+def tagged_with_extra(items):
+    return tagged(items), os.getpid()
+
+
 def test_an_empty_second_half_forks_nothing() -> None:
     assert forked.in_two(tagged, [7], []) == ([(7, 49, os.getpid())], [])
 
@@ -70,6 +74,36 @@ PARENT = os.getpid()
 @pytest.mark.parametrize("work", [failing_there, unpicklable_there, dying_there])
 def test_what_the_child_could_not_do_is_done_here(work) -> None:
     assert forked.in_two(work, [1], [2, 3]) == ([2], [3, 4])
+
+
+@needs_fork
+def test_shared_items_are_taken_as_they_come_and_returned_in_order() -> None:
+    """Each process takes the next item left: the process that takes the costly first item (here, one that waits
+    until the last is taken) leaves all the others to the other process; the results in the items' order, each
+    process's extra value apart."""
+    last = multiprocessing.get_context("fork").Event()
+
+    def first_waits(items):
+        out = []
+        for x in items:
+            if x == 0:
+                last.wait(60)
+            out.append((x, x * x, os.getpid()))
+            if x == 7:
+                last.set()
+        return out, os.getpid()
+
+    out, (here, there) = forked.shared(first_waits, list(range(8)))
+    assert [(x, y) for x, y, _ in out] == [(x, x * x) for x in range(8)]
+    assert here == os.getpid() and there != here
+    assert {pid for *_, pid in out[1:]} == {here, there} - {out[0][2]}
+
+
+@needs_fork
+@pytest.mark.parametrize("work", [failing_there, unpicklable_there, dying_there])
+def test_shared_items_the_child_could_not_do_are_done_here(work) -> None:
+    out, _ = forked.shared(lambda items: (work(list(items)), None), [1, 2, 3, 4])
+    assert out == [2, 3, 4, 5]
 
 
 def always_failing(items):

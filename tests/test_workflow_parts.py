@@ -282,3 +282,36 @@ def test_a_fold_does_not_fit_a_column_its_training_blocks_do_not_hold():
         coef = _fold_solve(A[train].T @ A[train], A[train].T @ y[train], 2, np.array([Z @ Z]))
         expected = np.linalg.lstsq(A[train] if fitted else X[train], y[train], rcond=None)[0]
         assert coef == pytest.approx(expected if fitted else [*expected, 0.0], rel=1e-12, abs=1e-12)
+
+
+def test_treated_columns_sent_in_one_piece_come_back_the_same() -> None:
+    """The forked child's new treated columns travel as one array (search._packed) and are rebuilt exactly."""
+    from symbolic.workflow.search import _packed, _unpacked
+
+    rng = np.random.default_rng(4)
+    store = {("periodic", 0, 0.5, "estimation"): (np.array([0]), rng.normal(size=(30, 1, 2))),
+             ("payload", 1, None, "estimation"): (np.array([0, 1]), rng.normal(size=(30, 2, 4))),
+             ("flexible_mode", 1, (2.0, 0.1), "validation"): (np.array([1]), rng.normal(size=(7, 1, 1)))}
+    back = _unpacked(*_packed(store))
+    assert list(back) == list(store)
+    for key, (rows, part) in store.items():
+        assert np.array_equal(back[key][0], rows) and back[key][0].dtype == rows.dtype
+        assert np.array_equal(back[key][1], part) and back[key][1].shape == part.shape
+    assert _unpacked(*_packed({})) == {}
+
+
+def test_the_base_columns_are_shared_by_the_data_with_a_held_force() -> None:
+    """The held-force check refits on the same states with τ treated otherwise: the model's columns are computed
+    once (the same array), and equal those of a fresh computation."""
+    from symbolic.workflow.dataset import with_held_force
+    from symbolic.workflow.terms import model_terms
+
+    data = cases.measurements(models.axis(), 3, 0.01, seconds=10.0)
+    estimation, _, _ = load_sets(("q",), data)
+    model = symbolic.derive(symbolic.loads(models.axis(), "axis.toml"))
+    terms = model_terms(model)
+    columns = terms.columns(estimation)
+    held = with_held_force(estimation)
+    assert held.states is not estimation.states and terms.columns(held) is columns
+    s = estimation.states
+    assert np.array_equal(columns, estimation.reduce(terms.regressor(s.q, s.qd, s.qdd, t=estimation.measurements.t)))

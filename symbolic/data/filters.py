@@ -189,8 +189,10 @@ GROUP = 16
 """Blocks per group: the states at the groups' starts are carried from group to group in extended precision
 (``np.longdouble``), those inside a group in double precision from its start (see :func:`_states`)."""
 
-COLUMNS = 512
-"""Columns filtered at once (bounds the working memory to a few tens of MB per call)."""
+COLUMNS = 64
+"""Columns filtered at once: the two working arrays of 20 000 samples then hold some 20 MB, which the caches keep
+closer than 512 columns' 160 MB (the Panda's 301 regressor columns: 60 ms instead of 85 ms; each column's result
+is the same whatever the lot)."""
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,7 @@ they stay at their values in the model file.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -183,7 +184,8 @@ def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compil
     split of :func:`symbolic.identify.known.split_base` with its known columns last.
 
     ``compiled``: True evaluates through a C loop (:mod:`symbolic.codegen.compiled_regressor`), False
-    through NumPy; None (default) chooses C for large work (:data:`COMPILE_WORK`) when a compiler is found.
+    through NumPy; None (default) chooses C for large work (:data:`COMPILE_WORK`) when a compiler is found, and
+    for any work once it has done so.
     A time-varying model's regressor (a [[force]] in time) needs the sample times: ``regressor(q, qd, qdd,
     t=times)``; its attribute ``time_varying`` says so (:func:`symbolic.identify.processing.observe` reads it).
     """
@@ -203,7 +205,8 @@ def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compil
                 raise ValueError(f"model {model.name}'s forces depend on time: give the {samples} sample times t "
                                  f"(got {'none' if t is None else np.shape(t)})")
             times = [np.reshape(np.asarray(t, float), (samples, 1))]
-        if compiled or (compiled is None and samples * statements > COMPILE_WORK):
+        # small work too once the C loop is loaded: building NumPy's evaluator as well would cost 0.1 s
+        if compiled or (compiled is None and (samples * statements > COMPILE_WORK or built.get("c") is not None)):
             if "c" not in built:
                 built["c"] = compiled_batch(reg.sub, groups, model.parameter_symbols, columns)
             if built["c"] is not None:
@@ -298,14 +301,22 @@ def _solve(model: DynamicModel, reg: Regressor, base: BaseParameters, observatio
         raise rank_hint(error, model_parameters_of(model, reg, base, error.parameters, known)[0]) from None
 
 
+_GEOMETRIC: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""Per model: {id(regressor): (regressor, its geometric parameters)} (:func:`geometric_parameters`)."""
+
+
 def geometric_parameters(model: DynamicModel, reg: Regressor) -> set[sp.Symbol]:
-    """Model parameters that Y depends on (fixed during identification)."""
-    used: set[sp.Symbol] = set()
-    for _, definition in reg.sub.program(list(reg.Y)):
-        used |= definition.free_symbols
-    for e in reg.Y:
-        used |= e.free_symbols
-    return used & set(model.parameter_symbols)
+    """Model parameters that Y depends on (fixed during identification). Computed once per model and regressor:
+    a diagnosis asks some fourteen times, and collecting the free symbols of the Panda's program takes 0.04 s."""
+    found = _GEOMETRIC.setdefault(model, {})
+    if id(reg) not in found:
+        used: set[sp.Symbol] = set()
+        for _, definition in reg.sub.program(list(reg.Y)):
+            used |= definition.free_symbols
+        for e in reg.Y:
+            used |= e.free_symbols
+        found[id(reg)] = (reg, frozenset(used & set(model.parameter_symbols)))
+    return set(found[id(reg)][1])
 
 
 def direct_parameters(model: DynamicModel, reg: Regressor, base: BaseParameters, ident: Identification,

@@ -35,6 +35,7 @@ from symbolic.derivation.dynamics import DynamicModel, derive
 from symbolic.errors import ModelError, SimulationError
 from symbolic.identify.known import fixed_symbols
 from symbolic.identify.least_squares import IdentificationError
+from symbolic.numeric.blas import on_one_blas_thread
 from symbolic.data.treatment import Settings, settings_for
 from symbolic.description.modelfile import loads
 from symbolic.description.robot import Robot
@@ -62,6 +63,7 @@ def _cpu_time() -> float:
     return time.process_time() + times.children_user + times.children_system
 
 
+@on_one_blas_thread  # tall, thin least squares throughout: one BLAS thread is faster (symbolic.numeric.blas)
 def diagnose(
     model: DynamicModel | Robot | str | Path,
     data: str | Path | Measurements,

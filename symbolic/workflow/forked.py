@@ -10,6 +10,9 @@ and Windows spawn, which would have to send the search), at least two CPUs avail
 inside a daemonic process (a Dask worker: its campaign already uses the cores, and daemons may not have
 children). Both processes then use one BLAS thread each. Anywhere else, and when the child fails for any
 reason, the work is done here: the results are the same either way, only the time differs.
+
+:func:`interleaved` gives each process every other item; :func:`shared` lets each take the next item left, so
+that the two finish together however the costs are spread (the search's rounds).
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ import multiprocessing
 import os
 import sys
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any, TypeVar
 
 from symbolic.numeric.blas import one_blas_thread
@@ -57,6 +60,41 @@ def interleaved(work: Callable[[Sequence[T]], tuple[list[R], X]], items: Sequenc
     out: list[R] = [None] * len(items)  # type: ignore[list-item]
     out[0::2], out[1::2] = mine, theirs
     return out, (extra_here, extra_there)
+
+
+def shared(work: Callable[[Iterable[T]], tuple[list[R], X]], items: Sequence[T]) -> tuple[list[R], tuple[X, X]]:
+    """``work`` over ``items`` shared with a forked child (:func:`in_two`) as they come: each process takes the next
+    item neither has taken (a counter in shared memory) until none is left, so that neither waits idle while the
+    other works through a few costly items (which items cost most depends on the data: put those expected to first).
+    ``work`` iterates over the items it is given once and returns its results, one per item in that order, and one
+    more value. Returns the results in the items' order and the two more values (here's, there's); items the child
+    took but could not return (it failed, or died) are computed here."""
+    counter = multiprocessing.get_context("fork").Value("q", 0)
+
+    def claimed(_: Sequence[int]) -> tuple[list[int], list[R], X]:
+        taken: list[int] = []
+        results, extra = work(_claims(items, counter, taken))
+        return taken, results, extra
+
+    (mine, done_here, extra_here), (theirs, done_there, extra_there) = in_two(claimed, [0], [1])
+    out: dict[int, R] = dict(zip(mine, done_here)) | dict(zip(theirs, done_there))
+    missing = [k for k in range(len(items)) if k not in out]
+    if missing:  # taken by a child that did not return: its work(there) ran here after the counter was spent
+        redone, _ = work([items[k] for k in missing])
+        out |= dict(zip(missing, redone))
+    return [out[k] for k in range(len(items))], (extra_here, extra_there)
+
+
+def _claims(items: Sequence[T], counter: Any, taken: list[int]) -> Iterator[T]:
+    """The items not taken yet by either process, one at a time, each index recorded in ``taken``."""
+    while True:
+        with counter.get_lock():
+            k = counter.value
+            counter.value = k + 1
+        if k >= len(items):
+            return
+        taken.append(k)
+        yield items[k]
 
 
 def _split(work: Callable[[Sequence[T]], R], here: Sequence[T], there: Sequence[T]) -> tuple[R, R]:

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import scipy.linalg
@@ -38,6 +38,9 @@ COLLINEAR = 1e-6
 """A column whose part outside the current model's span is below this fraction of its norm is in the model."""
 REFERENCE = 1e-9
 """A model column equal to an effect's reference column up to this relative difference holds its coefficient."""
+T = TypeVar("T")
+J = TypeVar("J", bound=Judged)
+
 FORK_ROWS = 5_000
 """Stacked estimation rows (samples × coordinates) from which a round is split between two processes: below,
 a round takes well under a second and forking the search would cost a noticeable part of it."""
@@ -159,13 +162,14 @@ class Search:
         candidates = self.evaluate_all(state, [(e, j) for e in self.effects for j in range(len(self.context.coordinates))])
         tested = [c for c in candidates if c.status == "tested"]
         effective = state.effective(tested)
-        groups, seen = [], set()
+        offered, seen = [], set()
         for hypothesis in self.hypotheses:  # one group per set of members (friction together = Coulomb alone, ...)
             pool = state.pool(hypothesis, candidates)
             members = frozenset((c.effect.name, c.j) for c in pool)
             if len(pool) >= 2 and members not in seen:
                 seen.add(members)
-                groups.append(state.evaluate_group(hypothesis, pool, effective))
+                offered.append((hypothesis, pool))
+        groups: list[Grouped] = self.shared(lambda offer: state.evaluate_group(*offer, effective), offered)
         judged: list[Judged] = tested + [g for g in groups if g.status == "tested"]
         threshold = self.settings.alpha / max(sum(c.trials for c in judged), 1.0)
         for c in judged:
@@ -191,27 +195,37 @@ class Search:
         return accepted
 
     def evaluate_all(self, state: _RoundState, pairs: Sequence[tuple[Effect, int]]) -> list[Candidate]:
-        """The candidates of ``pairs`` (effect, coordinate index), in order; split between this process and a
-        forked one (:attr:`SearchSettings.processes`), whose treated columns then join this search's store."""
+        """The candidates of ``pairs`` (effect, coordinate index), in order (:meth:`shared`: the scans of the
+        nonlinear effects, most of a round's work, taken first, so that the two processes finish within one small
+        candidate of each other)."""
+        order = sorted(range(len(pairs)), key=lambda k: (pairs[k][0].nonlinear is None, k))
+        done = self.shared(lambda pair: state.evaluate(*pair), [pairs[k] for k in order])
+        out: list[Candidate] = [None] * len(pairs)  # type: ignore[list-item]
+        for k, c in zip(order, done):
+            out[k] = c
+        return out
+
+    def shared(self, evaluate: Callable[[T], J], items: Sequence[T]) -> list[J]:
+        """``evaluate`` of each item (a candidate's or a group's evaluation), in order; shared with a forked process
+        as they come (:func:`~symbolic.workflow.forked.shared`, :attr:`SearchSettings.processes`), whose treated
+        columns then join this search's store. The effect objects stay here (a user's effect class need not be
+        picklable): the results travel with their effects' names."""
         wanted = self.settings.processes
         if wanted is None:
             wanted = 2 if self.sets["estimation"].samples * len(self.context.coordinates) >= FORK_ROWS else 1
-        if min(wanted, forked.usable_processes()) < 2 or len(pairs) < 2:
-            return [state.evaluate(e, j) for e, j in pairs]
+        if min(wanted, forked.usable_processes()) < 2 or len(items) < 2:
+            return [evaluate(item) for item in items]
 
-        def work(part: Sequence[tuple[Effect, int]]) -> tuple[list[Candidate], dict[tuple, Any]]:
+        def work(part: Iterable[T]) -> tuple[list[J], tuple]:
             known = set(self._reduced)
-            done = [state.evaluate(e, j) for e, j in part]
-            for c in done:  # the effect objects stay here (a user's effect class need not be picklable)
-                c.effect = None  # type: ignore[assignment]
-            return done, {k: v for k, v in self._reduced.items() if k not in known}
+            done = [_named_effects(evaluate(item)) for item in part]
+            return done, _packed({k: v for k, v in self._reduced.items() if k not in known})
 
-        out, (_, treated) = forked.interleaved(work, pairs)
-        for key, value in treated.items():
+        done, (_, treated) = forked.shared(work, items)
+        for key, value in _unpacked(*treated).items():
             self._reduced.setdefault(key, value)
-        for c, (effect, _) in zip(out, pairs):
-            c.effect = effect
-        return out
+        effects = {e.name: e for e in self.effects}
+        return [_with_effects(c, effects) for c in done]
 
     def units(self) -> list[list[int]]:
         """The accepted effects by what was accepted together: a group's members form one unit."""
@@ -284,15 +298,65 @@ class Search:
         missing = list(dict.fromkeys(k for k in keys if k not in store))
         if missing:
             signals = self.signals(role)
-            raw = [effect.columns_at(signals, j, k[2]) for k in missing]
-            rows = np.array([j]) if effect.own_row else _acting(raw)
-            if rows.size == 0:
+            if effect.own_row:
                 rows = np.array([j])
-            widths = [r.shape[2] for r in raw]
-            reduced = self.sets[role].reduce(np.concatenate([r[:, rows, :] for r in raw], axis=2))
-            for key, part in zip(missing, np.split(reduced, np.cumsum(widths)[:-1], axis=2)):
-                store[key] = (rows, part)
+                store.update(zip(missing, self._reduced_on_row(effect, j, [k[2] for k in missing], role)))
+            else:
+                raw = [effect.columns_at(signals, j, k[2]) for k in missing]
+                rows = _acting(raw)
+                if rows.size == 0:
+                    rows = np.array([j])
+                widths = [r.shape[2] for r in raw]
+                reduced = self.sets[role].reduce(np.concatenate([r[:, rows, :] for r in raw], axis=2))
+                for key, part in zip(missing, np.split(reduced, np.cumsum(widths)[:-1], axis=2)):
+                    store[key] = (rows, part)
         return [store[k] for k in keys]
+
+    def _reduced_on_row(self, effect: Effect, j: int, values: Sequence[Any], role: str) -> list[tuple[np.ndarray, np.ndarray]]:
+        """:meth:`reduced` of an :attr:`~symbolic.workflow.effects.base.Effect.own_row` effect: its columns on row
+        ``j`` alone. Gathered column by column (``columns × samples``: copying each contiguous column into a
+        ``samples × columns`` array is a strided write, three times slower) and treated as that array's transpose."""
+        signals = self.signals(role)
+        raw = [effect.row_columns_at(signals, j, v).T for v in values]
+        reduced = self.sets[role].reduce(np.concatenate(raw, axis=0).T)
+        widths = np.cumsum([r.shape[0] for r in raw])[:-1]
+        return [(np.array([j]), part[:, None, :]) for part in np.split(reduced, widths, axis=1)]
+
+
+def _candidates_in(c: Judged) -> list[Candidate]:
+    """The candidates ``c`` holds: itself, or a group's members and those it dropped."""
+    return [*c.members, *(m for m, _ in c.dropped)] if isinstance(c, Grouped) else [c]  # type: ignore[list-item]
+
+
+def _named_effects(c: J) -> J:
+    """``c`` with its candidates' effects replaced by their names (for sending from the forked process)."""
+    for m in _candidates_in(c):
+        m.effect = m.effect.name  # type: ignore[assignment]
+    return c
+
+
+def _with_effects(c: J, effects: Mapping[str, Effect]) -> J:
+    """``c`` with its candidates' effects named by :func:`_named_effects` put back."""
+    for m in _candidates_in(c):
+        m.effect = effects[m.effect]  # type: ignore[index]
+    return c
+
+
+def _packed(store: Mapping[tuple, tuple[np.ndarray, np.ndarray]]) -> tuple[list[tuple], list[tuple], np.ndarray]:
+    """Treated columns (:meth:`Search.reduced`'s store) as their keys, (rows, shape) and one array of all their
+    numbers: sent from the forked child in one piece (some 40 MB in thousands of small arrays took 0.2 s to
+    pickle one by one)."""
+    parts = [part for _, part in store.values()]
+    layout = [(tuple(int(r) for r in rows), part.shape) for rows, part in store.values()]
+    numbers = np.concatenate([p.ravel() for p in parts]) if parts else np.zeros(0)
+    return list(store), layout, numbers
+
+
+def _unpacked(keys: list[tuple], layout: list[tuple], numbers: np.ndarray) -> dict[tuple, tuple[np.ndarray, np.ndarray]]:
+    """The store :func:`_packed` packed (each part a view of ``numbers``)."""
+    sizes = np.cumsum([math.prod(shape) for _, shape in layout])[:-1]
+    return {key: (np.array(rows, dtype=np.int64), part.reshape(shape))
+            for key, (rows, shape), part in zip(keys, layout, np.split(numbers, sizes))}
 
 
 FOLD_SUPPORT = 1e-6

@@ -74,11 +74,12 @@ class ModelTerms:
         return tuple(n for n, f in zip(self.names, self.free) if f)
 
     def columns(self, data: DataSet) -> np.ndarray:
-        """The base columns on ``data``, reduced: ``samples × N × len(names)`` (computed once per data set);
-        a time-varying model's at each sample's time."""
-        key = id(data)
+        """The base columns on ``data``, reduced: ``samples × N × len(names)`` (computed once per data set's states
+        and treatment: the same data with the force treated otherwise, :func:`~symbolic.workflow.dataset.with_held_force`,
+        share them); a time-varying model's at each sample's time."""
+        s, p = data.states, data.states.processing
+        key = (id(s.q), id(s.qd), id(s.qdd), id(data.measurements.t), p.border, p.decimation)  # data holds them alive
         if key not in self._columns:
-            s = data.states
             self._columns[key] = (data, data.reduce(self.regressor(s.q, s.qd, s.qdd, t=data.measurements.t)))
         return self._columns[key][1]
 

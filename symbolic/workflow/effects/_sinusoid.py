@@ -22,6 +22,11 @@ class Sinusoid(Effect):
         return {"phase_rad": float(np.arctan2(coefficients[1], coefficients[0]))}
 
     @staticmethod
+    def sin_cos(x: np.ndarray) -> np.ndarray:
+        """The columns sin(x), cos(x) of angles ``x``: ``samples × 2`` (each column contiguous)."""
+        return np.stack([np.sin(x), np.cos(x)], axis=0).T
+
+    @staticmethod
     def polar(c: np.ndarray) -> tuple[float, float]:
         return float(math.hypot(c[0], c[1])), float(math.atan2(c[1], c[0]))
 

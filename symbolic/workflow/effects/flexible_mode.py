@@ -76,11 +76,14 @@ class FlexibleMode(Effect):
         raise TypeError("flexible_mode needs the sampling rate: use columns_at")
 
     def columns_at(self, signals, j, value):
+        return on_row(j, signals.qdd.shape[1], [self.row_columns_at(signals, j, value)[:, 0]])
+
+    def row_columns_at(self, signals, j, value):
         import scipy.signal
 
         frequency, damping = value
         if signals.record is not None:  # the load's state at the first sample is what the motion before left
-            whole = self.columns_at(signals.record, j, value)
+            whole = self.row_columns_at(signals.record, j, value)
             return whole[signals.start:signals.start + len(signals.t)]
         a, K, w = mode_denominator(frequency, damping, signals.rate)
         c1, c0 = 2.0 * damping * w * K, w * w
@@ -92,7 +95,7 @@ class FlexibleMode(Effect):
         # b1 − a1 + (b2 − a2)
         rest = b[2] - a[2]
         load, _ = scipy.signal.lfilter(b, a, x, zi=np.array([b[1] - a[1] + rest, rest]) * x[0])
-        return on_row(j, signals.qdd.shape[1], [load])
+        return load[:, None]
 
     def roles_of(self, c, value, reference):
         return {"frequency_hz": float(value[0]), "damping_ratio": float(value[1]), "load": float(c[0])}

@@ -40,8 +40,10 @@ class Periodic(Sinusoid):
         return 1.0 / frequencies[::-1], max(count / self.OVERSAMPLING, 1.0)
 
     def columns(self, q, qd, qdd, j, value):
-        x = 2.0 * math.pi * q[:, j] / value
-        return on_row(j, q.shape[1], [np.sin(x), np.cos(x)])
+        return on_row(j, q.shape[1], list(self.sin_cos(2.0 * math.pi * q[:, j] / value).T))
+
+    def row_columns_at(self, signals, j, value):
+        return self.sin_cos(2.0 * math.pi * signals.q[:, j] / value)
 
     def roles_of(self, c, value, reference):
         amplitude, _ = self.polar(c)
@@ -74,6 +76,8 @@ class PeriodicTime(Sinusoid):
     The independent trials are the resolution cells scanned. Hence a disturbance that itself holds more
     than 1 − :data:`MOTION` of the velocity's power sets the band edge and is not searched.
     """
+
+    own_row = True
 
     name, contract, variant = "periodic_time", "periodic", "time"
     roles, axis, nonlinear = ("amplitude", "frequency_hz"), "time", "frequency_hz"
@@ -175,8 +179,10 @@ class PeriodicTime(Sinusoid):
         raise TypeError("periodic in time needs the time stamps: use columns_at")
 
     def columns_at(self, signals, j, value):
-        x = 2.0 * math.pi * value * np.asarray(signals.t, float)
-        return on_row(j, signals.q.shape[1], [np.sin(x), np.cos(x)])
+        return on_row(j, signals.q.shape[1], list(self.row_columns_at(signals, j, value).T))
+
+    def row_columns_at(self, signals, j, value):
+        return self.sin_cos(2.0 * math.pi * value * np.asarray(signals.t, float))
 
     def scan_columns(self, t, n, j, values):
         # the treatment's filters are linear and time-invariant: a sinusoid stays one of the same frequency
