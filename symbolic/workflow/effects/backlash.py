@@ -156,14 +156,17 @@ class LoadBacklash(Backlash):
         return FlexibleMode.applicable(self, context, j)
 
     def columns_at(self, signals, j, value):
-        if signals.record is not None:
-            whole = self.columns_at(signals.record, j, value)
+        return on_row(j, signals.qdd.shape[1], [self.row_columns_at(signals, j, value)[:, 0]])
+
+    def row_columns_at(self, signals, j, value):
+        """−δ̈ of the load (``samples × 1``), δ from :func:`rattle` driven by the coordinate's q̈ alone."""
+        if signals.record is not None:  # the load's state at the first sample is what the motion before left
+            whole = self.row_columns_at(signals.record, j, value)
             return whole[signals.start:signals.start + len(signals.t)]
         acceleration = signals.qdd[:, j]
         ones, zeros = np.ones((len(acceleration), 1)), np.zeros((len(acceleration), 1))
         load = LinkSide(acceleration, ones, zeros, zeros, ones[:, 0], 1.0, 0)
-        _, _, deflection = rattle(load, value, signals.rate)
-        return on_row(j, signals.qdd.shape[1], [-deflection])
+        return -rattle(load, value, signals.rate)[2][:, None]
 
     def roles_of(self, c, value, reference):
         roles = super().roles_of(c, value, None)  # no motor: the coordinate's own inertia is the model's
