@@ -27,7 +27,6 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "tests"))
 
 import elastic_reference as truth  # noqa: E402
-import models  # noqa: E402
 
 from symbolic.workflow import diagnose  # noqa: E402
 
@@ -36,18 +35,7 @@ def run(kind: str, one_encoder: bool = False, **options) -> tuple[list[tuple[str
     """(named as (effect, coordinate, parameters), seconds) of one synthetic case; ``one_encoder``: the link encoder
     left out of the experiment (the motor encoder alone)."""
     with tempfile.TemporaryDirectory() as folder:
-        tmp = Path(folder)
-        if kind == "joint":
-            experiment = truth.write_joint_experiment(tmp, **options)
-            text = truth.model_text()
-        else:
-            experiment = truth.write_arm_joint_experiment(tmp, **options)
-            text = models.arm(parameters=models.ARM_PARAMETERS + "Jm2 = 0.01\n", extra=truth.ARM_MODEL_EXTRA)
-        if one_encoder:
-            experiment.write_text("".join(line for line in experiment.read_text().splitlines(keepends=True)
-                                          if not line.startswith("ql_")), encoding="utf-8")
-        model = tmp / f"{kind}.toml"
-        model.write_text(text, encoding="utf-8")
+        model, experiment = truth.case_files(Path(folder), kind, one_encoder, **options)
         started = time.perf_counter()
         result = diagnose(str(model), str(experiment), figures=False)
         seconds = time.perf_counter() - started

@@ -292,3 +292,21 @@ def elastic_arm_text(**values: float) -> str:
                                               'expression = "-k2*q2_flex - d2*qd_q2_flex"\n')
     return text.replace('coordinates = ["q1", "q2"]', 'coordinates = ["q1", "q2", "q2_flex"]').replace(
         'theta = "q2"', 'theta = "q2 + q2_flex"')
+
+
+def case_files(folder: Path, kind: str, one_encoder: bool = False, **options) -> tuple[Path, Path]:
+    """(model file, experiment) of a synthetic case in ``folder``: the geared joint (``kind`` ``"joint"``) or joint 2
+    of the two-link arm (``"arm"``) logged by :func:`write_joint_experiment` or :func:`write_arm_joint_experiment`
+    with ``options``, and the rigid model file a user writes; ``one_encoder``: the link encoder left out."""
+    import models
+
+    if kind == "joint":
+        experiment, text = write_joint_experiment(folder, **options), model_text()
+    else:
+        experiment = write_arm_joint_experiment(folder, **options)
+        text = models.arm(parameters=models.ARM_PARAMETERS + "Jm2 = 0.01\n", extra=ARM_MODEL_EXTRA)
+    if one_encoder:
+        motor_encoder_only(experiment)
+    model = folder / f"{kind}.toml"
+    model.write_text(text, encoding="utf-8")
+    return model, experiment

@@ -13,27 +13,12 @@ import pytest
 import scipy.integrate
 
 import elastic_reference as truth
-import models
 from symbolic.derivation import derive
 from symbolic.description import loads
 from symbolic.workflow import diagnose
 from symbolic.workflow.effects import EFFECTS, Context
 from symbolic.workflow.effects.backlash import rattle
 from symbolic.workflow.effects.joint_elasticity import LinkSide
-
-
-def _motor_encoder_only(folder, kind="joint", **kwargs):
-    if kind == "joint":
-        experiment = truth.write_joint_experiment(folder, **kwargs)
-        text = truth.model_text()
-    else:
-        experiment = truth.write_arm_joint_experiment(folder, **kwargs)
-        text = models.arm(parameters=models.ARM_PARAMETERS + "Jm2 = 0.01\n", extra=truth.ARM_MODEL_EXTRA)
-    experiment.write_text("".join(line for line in experiment.read_text().splitlines(keepends=True)
-                                  if not line.startswith("ql_")))
-    model = folder / f"{kind}.toml"
-    model.write_text(text)
-    return model, experiment
 
 
 def test_a_dead_band_is_named_with_its_width_from_the_motor_encoder(tmp_path):
@@ -44,7 +29,7 @@ def test_a_dead_band_is_named_with_its_width_from_the_motor_encoder(tmp_path):
     ringing, and a damped contact fits its mean. The patched file holds Spong's joint with the band; report.md lists the
     finding with the search's (it said "no significant missing effect beyond the joint elasticity" for a one-encoder
     finding)."""
-    model, experiment = _motor_encoder_only(tmp_path, stiffness=2000.0, backlash=0.01)
+    model, experiment = truth.case_files(tmp_path, "joint", one_encoder=True, stiffness=2000.0, backlash=0.01)
     result = diagnose(str(model), str(experiment), out=tmp_path / "out", figures=False)
     assert [(f.effect, f.coordinate, f.variant) for f in result.found] == [("backlash", "q", "one_encoder")]
     report = (tmp_path / "out" / "report.md").read_text()
@@ -63,7 +48,7 @@ def test_a_dead_band_is_named_with_its_width_from_the_motor_encoder(tmp_path):
 def test_a_dead_band_on_joint_2_of_an_arm_from_the_motor_encoders(tmp_path):
     """Joint 2 of the two-link arm, k 2000 with an 8 mrad band, motor encoders alone: ``backlash(q2)`` with its width
     within 10 % (0.00788 when written), nothing on joint 1."""
-    model, experiment = _motor_encoder_only(tmp_path, "arm", stiffness=2000.0, backlash=0.008)
+    model, experiment = truth.case_files(tmp_path, "arm", one_encoder=True, stiffness=2000.0, backlash=0.008)
     result = diagnose(str(model), str(experiment), figures=False)
     assert [(f.effect, f.coordinate) for f in result.found] == [("backlash", "q2")]
     assert result.found[0].parameters["width"] == pytest.approx(0.008, rel=0.10)
@@ -101,8 +86,7 @@ def _loaded_axis(folder, monkeypatch, **kwargs):
     """The truth's joint with a weightless link (a load of 0.15 on the coupling), the model file its motor alone (no
     [[drive]]: a second mass there is flexible_mode's, not a transmission's)."""
     monkeypatch.setitem(truth.TRUTH, "m", 0.0)
-    experiment = truth.write_joint_experiment(folder, **kwargs)
-    experiment.write_text(experiment.read_text().replace('ql_q = "ql_q"\n', ""))
+    experiment = truth.motor_encoder_only(truth.write_joint_experiment(folder, **kwargs))
     model = folder / "axis.toml"
     model.write_text(LOADED_AXIS)
     return model, experiment
