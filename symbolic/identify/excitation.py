@@ -24,7 +24,8 @@ closed-form ∂/∂M = G chained with the per-sample ∂tr(G·M_k)/∂(q, q̇, q
 and the linear basis (:class:`_Objective`), and IPOPT (in the casadi wheel; limited-memory Hessian) solves
 from several random starts (seeded). The result is verified on a grid ten times finer; a limit crossed there
 (between grid points) is tightened by the excess and the start solved again, warm (from the previous solve's
-point and multipliers, :data:`WARM_START`). Collision avoidance (with the
+point and multipliers, :data:`WARM_START`); a start still over a limit after three re-solves is scaled inside
+(:func:`_shrink`). Collision avoidance (with the
 robot itself and its surroundings) is not part of the design.
 """
 
@@ -816,4 +817,29 @@ def _one_start(problem: Problem, z0: np.ndarray, fine: np.ndarray, index: int) -
             factors[k] = np.where(v > 1.0, factors[k] / v * (1.0 - 1e-4), factors[k])
         tightened = declared.scaled(factors)
     problem.with_limits(declared)
+    if worst > 1.0 + TOLERANCE:
+        z, worst, worst_kind, scale = _shrink(problem, z, fine)
+        status += f"; amplitudes × {scale:.6f}" if worst <= 1.0 + TOLERANCE else ""
     return z, Start(index, start_value, problem.value(z), status, worst, time.perf_counter() - started, worst_kind)
+
+
+def _shrink(problem: Problem, z: np.ndarray, fine: np.ndarray) -> tuple[np.ndarray, float, str, float]:
+    """The last resort of a start still over a limit after its re-solves: every coefficient but the offsets scaled
+    by (1 − 1e-4)/(worst ratio), as long as that lowers the worst ratio (five times at most). q̇, q̈ and the excursion
+    about q0 scale exactly, τ nearly (its inertial part as the square, gravity with the positions). Returns z, the
+    worst ratio and its kind on the verification grid, and the scale applied."""
+    n = problem.regressor.n
+    scale, worst, kind = 1.0, math.inf, ""
+    for _ in range(5):
+        shrunk = z.reshape(n, -1).copy()
+        shrunk[:, 1:] *= scale
+        ratios = violation(problem.exact, problem.trajectory(shrunk.ravel()), problem.limits, fine)
+        kind_now = max(ratios, key=lambda k: float(ratios[k].max()))
+        worst_now = float(ratios[kind_now].max())
+        if worst_now >= worst:
+            break
+        best, worst, kind = (shrunk.ravel(), scale), worst_now, kind_now
+        if worst <= 1.0 + TOLERANCE:
+            break
+        scale *= (1.0 - 1e-4) / worst
+    return best[0], worst, kind, best[1]
