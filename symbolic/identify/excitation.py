@@ -390,8 +390,8 @@ class _Constraints(_WithJacobian):
                              np.ones((self.n * self.K, self.n * self.m))]).astype(bool)
         rows, columns = np.nonzero(pattern.T)
         self.sparsity = ca.Sparsity.triplet(pattern.shape[0], pattern.shape[1], columns.tolist(), rows.tolist())
-        """The Jacobian's structure: q, q̇, q̈ of coordinate i depend on its own coefficients alone (IPOPT factorises a
-        third as many nonzeros as a dense Jacobian's)."""
+        """The Jacobian's structure: q, q̇, q̈ of coordinate i depend on its own coefficients alone (IPOPT factorises
+        about a third of a dense Jacobian's nonzeros)."""
         self.nonzero = pattern.T
         self.construct("constraints", {})
 
@@ -680,7 +680,8 @@ class Design:
     trajectory
         The designed reference.
     criterion
-        ``"d"``, ``"a"``, ``"condition"``, ``"dc"`` or ``"ds"``; ``value`` its value on the design grid (M normalised per grid point),
+        ``"d"``, ``"a"``, ``"condition"``, ``"dc"`` or ``"ds"``; ``value`` its value on the design grid (M normalised
+        per grid point),
         ``start_value`` the best start's value before the solve.
     limits
         The limits declared (those tightened on the verification grid are in ``margins``).
@@ -826,7 +827,7 @@ def _one_start(problem: Problem, z0: np.ndarray, fine: np.ndarray, index: int) -
 def _shrink(problem: Problem, z: np.ndarray, fine: np.ndarray) -> tuple[np.ndarray, float, str, float]:
     """The last resort of a start still over a limit after its re-solves: every coefficient but the offsets scaled
     by (1 − 1e-4)/(worst ratio), as long as that lowers the worst ratio (five times at most). q̇, q̈ and the excursion
-    about q0 scale exactly, τ nearly (its inertial part as the square, gravity with the positions). Returns z, the
+    about q0 scale exactly, τ not exactly (gravity's part depends on the positions alone). Returns z, the
     worst ratio and its kind on the verification grid, and the scale applied."""
     n = problem.regressor.n
     scale, worst, kind = 1.0, math.inf, ""
