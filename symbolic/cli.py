@@ -765,7 +765,8 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("--out", metavar="DIR", required=True, help="folder for trajectory.csv, trajectory.experiment.toml, "
                    "excitation.json, report.md and the figures")
     e.add_argument("--harmonics", type=int, default=5, help="harmonics per coordinate (default 5)")
-    e.add_argument("--criterion", help="d (D-optimality, default), a (A-optimality) or condition")
+    e.add_argument("--criterion", help="d (D-optimality, default), a (A-optimality), condition, or dc (D-optimality "
+                   "and the condition number together)")
     e.add_argument("--separate", metavar="A,B", help="design the motion that separates two parameters the data cannot "
                    "tell apart (base parameters, or model parameters alone in one): Ds-optimality for the pair, "
                    "instead of --criterion; the report gives their σ and correlation (and --compare LOG's)")

@@ -16,6 +16,8 @@ ROOT = Path(__file__).resolve().parents[1]
 EMPS_FILES = ("DATA_EMPS.mat", "DATA_EMPS_PULSES.mat")
 PANDA_FILES = ("exciting_traj_time.txt", "exciting_traj_positions.txt", "exciting_traj_torques.txt")
 """Gaz et al. 2019's exciting trajectory (GPL-3.0: read from the shared folder, never copied)."""
+PANDA_COMMANDED = ("gen_q0.txt", "gen_dq.txt")
+"""The commanded trajectory of that log: the initial positions and the velocity every 1 ms."""
 
 
 def data_folder(name: str, files: tuple[str, ...], how: str) -> Path:
@@ -60,3 +62,18 @@ def panda_measurements(folder: Path):
     t = np.loadtxt(folder / PANDA_FILES[0])
     q, tau = (np.loadtxt(folder / name).reshape(len(t), 7) for name in PANDA_FILES[1:])
     return Measurements.from_arrays(t, tuple(f"q{j}" for j in range(1, 8)), q, tau, resample=True)
+
+
+def panda_commanded():
+    """Gaz et al.'s exciting trajectory as commanded (the folder's README): t every 1 ms, q = ``gen_dq.txt``
+    integrated from ``gen_q0.txt`` (trapezoidal rule), q̇ = ``gen_dq.txt``, q̈ its central differences; skips the
+    calling test when the files are absent."""
+    import numpy as np
+    import scipy.integrate
+
+    folder = data_folder("franka_panda", PANDA_COMMANDED, "Franka Panda commanded trajectory (Gaz et al. 2019, "
+                         "marcocognetti/FrankaEmikaPandaDynModel, Exciting_Traj/Trajectory_1)")
+    qd = np.loadtxt(folder / PANDA_COMMANDED[1]).reshape(-1, 7)
+    t = np.arange(len(qd)) * 1e-3
+    q = np.loadtxt(folder / PANDA_COMMANDED[0]) + scipy.integrate.cumulative_trapezoid(qd, t, axis=0, initial=0.0)
+    return t, q, qd, np.gradient(qd, t, axis=0)

@@ -15,14 +15,17 @@ optimiser moves the other 2L − 1 coefficients (L ≥ 2: with one harmonic the 
 The design maximises the information of the base parameters β (τ = W β, :mod:`symbolic.numeric.base_parameters`)
 that the log would carry: M = Σ_k W_kᵀ Σ⁻¹ W_k, W_k the base regressor at the reference's state at the grid
 times t_k and Σ = diag(σ_j²) the equivalent force noise per coordinate (:mod:`symbolic.identify.excitation_noise`);
-criterion D (−log det M, default), A or the condition number (:mod:`symbolic.identify.excitation_criteria`).
+criterion D (−log det M, default), A, the condition number, or D and the condition number together
+(:mod:`symbolic.identify.excitation_criteria`).
 Under, at every grid time, |q_i − mid_i| ≤ half range, |q̇_i| ≤ v_i, |q̈_i| ≤ a_i (linear in the coefficients)
 and |τ_i| ≤ τ_i with τ = W(q, q̇, q̈)·β at the model's nominal values. The regressor is translated into CasADi
 (the straight-line program of the generated code) and mapped over the grid; the criterion's gradient is its
 closed-form ∂/∂M = G chained with the per-sample ∂tr(G·M_k)/∂(q, q̇, q̈) (CasADi's AD of one sample, compiled)
 and the linear basis (:class:`_Objective`), and IPOPT (in the casadi wheel; limited-memory Hessian) solves
 from several random starts (seeded). The result is verified on a grid ten times finer; a limit crossed there
-(between grid points) is tightened by the excess and the start solved again. Collision avoidance (with the
+(between grid points) is tightened by the excess and the start solved again, warm (from the previous solve's
+point and multipliers, :data:`WARM_START`); a start still over a limit after three re-solves is scaled inside
+(:func:`_shrink`). Collision avoidance (with the
 robot itself and its surroundings) is not part of the design.
 """
 
@@ -43,6 +46,7 @@ from symbolic.description.joint_limits import coordinate_limits
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.errors import IdentificationError
 from symbolic.identify.excitation_criteria import CRITERIA, ds_optimal, positive_definite
+from symbolic.numeric.blas import one_blas_thread
 
 LOG = logging.getLogger(__name__)
 
@@ -57,6 +61,10 @@ IPOPT_OPTIONS = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
                  "ipopt.hessian_approximation": "limited-memory", "ipopt.max_iter": 300}
 """IPOPT's options (CasADi's names): quiet, limited-memory Hessian (the criterion's second derivatives are not
 formed), at most 300 iterations per solve."""
+WARM_START = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-6, "ipopt.warm_start_bound_push": 1e-6,
+              "ipopt.warm_start_mult_bound_push": 1e-6, "ipopt.warm_start_slack_bound_push": 1e-6}
+"""IPOPT's options when a start is solved again with tightened limits: from the previous solve's point and
+multipliers, with a small barrier parameter (the solution moves a little), rather than from the barrier's start."""
 SIGN_VELOCITY = 1e-2
 """ε of the smooth sign tanh(v/ε) the optimiser sees in place of Coulomb friction's sign(v) (coordinate units per
 second): with the exact sign, M and τ jump where a velocity crosses zero at a grid point, and IPOPT's line search
@@ -377,6 +385,14 @@ class _Constraints(_WithJacobian):
     def __init__(self, regressor: CasadiRegressor, grid: np.ndarray, period: float, harmonics: int) -> None:
         self._on_grid(regressor, grid, period, harmonics)
         self.linear = np.vstack([np.kron(np.eye(self.n), b) for b in self.B])  # (3·N·K) × (N·m)
+        pattern = np.vstack([np.kron(np.eye(self.n), np.ones((3 * self.K, self.m))).reshape(self.n, 3, self.K, -1)
+                             .transpose(1, 0, 2, 3).reshape(3 * self.n * self.K, -1),
+                             np.ones((self.n * self.K, self.n * self.m))]).astype(bool)
+        rows, columns = np.nonzero(pattern.T)
+        self.sparsity = ca.Sparsity.triplet(pattern.shape[0], pattern.shape[1], columns.tolist(), rows.tolist())
+        """The Jacobian's structure: q, q̇, q̈ of coordinate i depend on its own coefficients alone (IPOPT factorises
+        about a third of a dense Jacobian's nonzeros)."""
+        self.nonzero = pattern.T
         self.construct("constraints", {})
 
     def get_sparsity_out(self, i: int) -> ca.Sparsity:
@@ -400,10 +416,11 @@ class _ConstraintJacobian(_Jacobian):
         return self.outer.get_sparsity_in(0) if i == 0 else self.outer.get_sparsity_out(0)
 
     def get_sparsity_out(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(4 * self.outer.n * self.outer.K, self.outer.n * self.outer.m)
+        return self.outer.sparsity
 
     def eval(self, arg):
-        return [self.outer.jacobian(np.asarray(arg[0]).ravel())]
+        jacobian = self.outer.jacobian(np.asarray(arg[0]).ravel())
+        return [ca.DM(self.outer.sparsity, jacobian.T[self.outer.nonzero])]  # nonzeros column by column
 
 
 _Constraints.jacobian_class = _ConstraintJacobian
@@ -424,15 +441,25 @@ class _Objective(_WithJacobian):
         self.criterion, self.weights = criterion, np.asarray(weights, float)
         self.information = regressor.information.map("M_sum", "serial", self.K, [3], [0], {})
         self.gradient_map = regressor.information_gradient.map(self.K)
+        self.last: list[tuple[bytes, list[np.ndarray], np.ndarray]] = []
+        """The last z, its states and M: IPOPT asks for the value and then the gradient at the same point."""
         self.construct("objective", {})
 
     def get_sparsity_out(self, i: int) -> ca.Sparsity:
         return ca.Sparsity.dense(1, 1)
 
+    def matrix(self, z: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+        """The states at the grid points and M(z) (computed once per z)."""
+        key = z.tobytes()
+        if not self.last or self.last[0][0] != key:
+            states = self.states(z)
+            M = np.asarray(self.information(*(x.T for x in states), self.weights)) / self.K  # noqa: N806
+            self.last[:] = [(key, states, M)]
+        return self.last[0][1], self.last[0][2]
+
     def evaluate(self, z: np.ndarray) -> tuple[float, np.ndarray]:
         """The criterion and its gradient in z."""
-        states = self.states(z)
-        M = np.asarray(self.information(*(x.T for x in states), self.weights)) / self.K  # noqa: N806
+        states, M = self.matrix(np.ascontiguousarray(z, float))  # noqa: N806
         if not positive_definite(M):
             return 1e10, np.zeros(self.n * self.m)
         value, G = self.criterion(M)  # noqa: N806
@@ -477,6 +504,7 @@ class Problem:
     constraints: _Constraints = field(init=False, repr=False)
     objective: _Objective = field(init=False, repr=False)
     solver: Any = field(init=False, repr=False)
+    warm_solver: Any = field(init=False, repr=False)
     bounds: tuple[np.ndarray, np.ndarray] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -490,6 +518,8 @@ class Problem:
         g = self.constraints(z)
         self.bounds = self._constraint_bounds(self.limits, K)
         self.solver = ca.nlpsol("excitation", "ipopt", {"x": z, "f": f, "g": g}, dict(IPOPT_OPTIONS))
+        self.warm_solver = ca.nlpsol("excitation_warm", "ipopt", {"x": z, "f": f, "g": g},
+                                     {**IPOPT_OPTIONS, **WARM_START})
 
     @staticmethod
     def _constraint_bounds(limits: Limits, K: int) -> tuple[np.ndarray, np.ndarray]:  # noqa: N803
@@ -503,10 +533,15 @@ class Problem:
         """Tighten the constraint bounds (the NLP is unchanged)."""
         self.bounds = self._constraint_bounds(limits, len(self.grid))
 
-    def solve(self, z0: np.ndarray) -> tuple[np.ndarray, str]:
-        """IPOPT from ``z0``: the free coefficients and IPOPT's return status."""
-        result = self.solver(x0=z0, lbg=self.bounds[0], ubg=self.bounds[1])
-        return np.asarray(result["x"]).ravel(), str(self.solver.stats().get("return_status", "unknown"))
+    def solve(self, z0: np.ndarray, warm: Mapping[str, Any] | None = None) -> tuple[np.ndarray, str, dict[str, Any]]:
+        """IPOPT from ``z0``: the free coefficients, IPOPT's return status and its result. ``warm``: the result of
+        a previous solve, whose multipliers start this one (:data:`WARM_START`)."""
+        if warm is None:
+            solver, given = self.solver, {}
+        else:
+            solver, given = self.warm_solver, {"lam_g0": warm["lam_g"], "lam_x0": warm["lam_x"]}
+        result = solver(x0=z0, lbg=self.bounds[0], ubg=self.bounds[1], **given)
+        return np.asarray(result["x"]).ravel(), str(solver.stats().get("return_status", "unknown")), result
 
     def value(self, z: np.ndarray) -> float:
         return self.objective.evaluate(np.asarray(z, float))[0]
@@ -645,7 +680,8 @@ class Design:
     trajectory
         The designed reference.
     criterion
-        ``"d"``, ``"a"`` or ``"condition"``; ``value`` its value on the design grid (M normalised per grid point),
+        ``"d"``, ``"a"``, ``"condition"``, ``"dc"`` or ``"ds"``; ``value`` its value on the design grid (M normalised
+        per grid point),
         ``start_value`` the best start's value before the solve.
     limits
         The limits declared (those tightened on the verification grid are in ``margins``).
@@ -733,7 +769,8 @@ def design(model: DynamicModel, limits: Limits, duration: float, *, weights: Seq
     rng = np.random.default_rng(seed)
     best, runs = None, []
     for k in range(starts):
-        z, run = _one_start(problem, random_start(rng, problem), fine, k)
+        with one_blas_thread():  # M is b × b (b ≈ 50), factored at every iteration: threads cost more than they give
+            z, run = _one_start(problem, random_start(rng, problem), fine, k)
         runs.append(run)
         LOG.info("excitation: start %d/%d: criterion %.6g -> %.6g (%s, worst ratio to a limit %.6f (%s), %.1f s)",
                  k + 1, starts, run.start_value, run.value, run.status, run.worst, run.worst_kind, run.seconds)
@@ -768,10 +805,10 @@ def _one_start(problem: Problem, z0: np.ndarray, fine: np.ndarray, index: int) -
     start_value = problem.value(z0)
     declared, tightened = problem.limits, problem.limits
     factors = {k: np.ones(problem.regressor.n) for k in KINDS}
-    z, status, worst, worst_kind = z0, "not solved", math.inf, ""
+    z, status, worst, worst_kind, warm = z0, "not solved", math.inf, "", None
     for _ in range(4):
         problem.with_limits(tightened)
-        z, status = problem.solve(z)
+        z, status, warm = problem.solve(z, warm)
         ratios = violation(problem.exact, problem.trajectory(z), declared, fine)
         worst_kind = max(ratios, key=lambda k: float(ratios[k].max()))
         worst = float(ratios[worst_kind].max())
@@ -781,4 +818,29 @@ def _one_start(problem: Problem, z0: np.ndarray, fine: np.ndarray, index: int) -
             factors[k] = np.where(v > 1.0, factors[k] / v * (1.0 - 1e-4), factors[k])
         tightened = declared.scaled(factors)
     problem.with_limits(declared)
+    if worst > 1.0 + TOLERANCE:
+        z, worst, worst_kind, scale = _shrink(problem, z, fine)
+        status += f"; amplitudes × {scale:.6f}" if worst <= 1.0 + TOLERANCE else ""
     return z, Start(index, start_value, problem.value(z), status, worst, time.perf_counter() - started, worst_kind)
+
+
+def _shrink(problem: Problem, z: np.ndarray, fine: np.ndarray) -> tuple[np.ndarray, float, str, float]:
+    """The last resort of a start still over a limit after its re-solves: every coefficient but the offsets scaled
+    by (1 − 1e-4)/(worst ratio), as long as that lowers the worst ratio (five times at most). q̇, q̈ and the excursion
+    about q0 scale exactly, τ not exactly (gravity's part depends on the positions alone). Returns z, the
+    worst ratio and its kind on the verification grid, and the scale applied."""
+    n = problem.regressor.n
+    scale, worst, kind = 1.0, math.inf, ""
+    for _ in range(5):
+        shrunk = z.reshape(n, -1).copy()
+        shrunk[:, 1:] *= scale
+        ratios = violation(problem.exact, problem.trajectory(shrunk.ravel()), problem.limits, fine)
+        kind_now = max(ratios, key=lambda k: float(ratios[k].max()))
+        worst_now = float(ratios[kind_now].max())
+        if worst_now >= worst:
+            break
+        best, worst, kind = (shrunk.ravel(), scale), worst_now, kind_now
+        if worst <= 1.0 + TOLERANCE:
+            break
+        scale *= (1.0 - 1e-4) / worst
+    return best[0], worst, kind, best[1]
