@@ -77,6 +77,18 @@ class DataSet:
         return x.transpose(1, 0, *range(2, x.ndim)).reshape(x.shape[0] * x.shape[1], *x.shape[2:])  # 0 columns too
 
 
+def position_steps(q: np.ndarray) -> tuple[float, ...]:
+    """Per column of the logged positions ``q`` (``samples × N``), its quantum: the smallest change between two
+    samples (an encoder moves by whole counts, and a slow axis by one count at a time somewhere in a log), or 0
+    where none is above 1e-12 of the column's range (a constant column)."""
+    out = []
+    for column in np.asarray(q, dtype=float).T:
+        change = np.abs(np.diff(column))
+        moved = change[change > 1e-12 * float(np.ptp(column))] if column.size > 1 else change[:0]
+        out.append(float(moved.min()) if moved.size else 0.0)
+    return tuple(out)
+
+
 def treat(measurements: Measurements, role: str, settings: Settings | None = None) -> DataSet:
     """The IDIM-LS treatment of ``measurements`` (steps 1–2 at every sample; τ and states reduced)."""
     s = states(measurements, settings)

@@ -25,7 +25,7 @@ import scipy.optimize
 from symbolic.errors import ModelError
 from symbolic.identify.least_squares import Identification
 from symbolic.workflow import forked
-from symbolic.workflow.dataset import DataSet
+from symbolic.workflow.dataset import DataSet, position_steps
 from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals, excluded, groups
 from symbolic.workflow.effects.joint_elasticity import ELASTIC_ROW
 from symbolic.workflow.separability import Separability
@@ -110,7 +110,8 @@ class Search:
         self.context = Context(terms.model.robot, estimation.coordinates, s.q[inner], s.qd[inner], s.qdd[inner], passband,
                                p.decimation / p.rate, float(estimation.t[-1] - estimation.t[0]), float(p.rate), terms.model,
                                frozenset(c for c, column in zip(estimation.coordinates, np.asarray(estimation.tau).T)
-                                         if not np.any(column)), terms=terms, elastic=frozenset(elastic))
+                                         if not np.any(column)), terms=terms, elastic=frozenset(elastic),
+                               position_step=position_steps(estimation.measurements.q))
         self.hypotheses = self._hypotheses()
         self.rounds: list[Round] = []
         self.accepted: list[Accepted] = []

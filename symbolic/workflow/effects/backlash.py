@@ -65,6 +65,11 @@ class Backlash(OneEncoder):
     tenth of a milliradian on a joint turning a radian, to a tenth of the motion (the tests' joint turns 0.4 rad:
     4e-5 to 0.04 rad)."""
 
+    MIN_COUNTS = 4.0
+    """A band must span at least this many of the log's position steps (an encoder's counts): a loop that feeds back
+    a quantised position hunts about it by a count or two, which the rattle's column fits (the tests' axis and arm
+    under PD with 12- and 14-bit encoders and nothing missing: bands of 0.2–2.2 counts named before this rule)."""
+
     def grid(self, context, j):
         low, high = self.LOWEST_HZ, self.TOP * context.passband
         if high <= low:
@@ -107,6 +112,11 @@ class Backlash(OneEncoder):
         (module docstring), fitted to the rattle's mean where its ringing cannot be followed."""
         if roles["load"] <= 0:
             return f"load inertia {roles['load']:.4g} is not positive (no link rattles so)"
+        step = context.position_step[j] if context.position_step else 0.0
+        if roles["width"] < self.MIN_COUNTS * step:
+            return (f"the band's width {roles['width']:.4g} is {roles['width'] / step:.3g} of the log's position steps "
+                    f"({step:.4g}; at least {self.MIN_COUNTS:g} needed): a loop hunting about its quantised reading "
+                    "rattles so")
         rows = self.grid(context, j)[0]
         located = [("contact frequency", roles["frequency_hz"], rows[:, 0]), ("width", roles["width"], rows[:, 2])]
         for what, value, axis in located:

@@ -53,6 +53,9 @@ class Context:
     """Coordinates whose transmission two encoders show elastic (``joint_elasticity`` named,
     :mod:`symbolic.workflow.effects.joint_elasticity`): their rows are the motor side's, which no effect of
     the catalogue acts on."""
+    position_step: tuple[float, ...] = ()
+    """The logged positions' quantum per coordinate (:func:`symbolic.workflow.dataset.position_steps`: an encoder's
+    count, or the log's rounding), 0 where the log shows none; empty when unknown."""
 
     def kind(self, coordinate: str) -> str:
         """``"revolute"`` (the coordinate is in a DH θ), ``"prismatic"`` (in a d) or ``"modal"``
