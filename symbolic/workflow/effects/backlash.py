@@ -17,7 +17,9 @@ misses the link's reaction −(D_ij·δ̈ + A_ij·δ + B_ij·δ̇), as in the li
 on the same coordinate; each excludes the other.
 
 A rigid joint has no such rattle, and a spring without a band fits as well with b → 0: the band's width must lie
-inside the range searched (then the linear spring, one parameter fewer, is the one named).
+inside the range searched (then the linear spring, one parameter fewer, is the one named); like a resonance, the
+rattle must show in the residual's spectrum near its contact frequency or explain most of the whole residual
+(:meth:`~symbolic.workflow.effects.flexible_mode.FlexibleMode.check_residual`).
 
 What the motor's encoder tells is the width. A lightly damped link rattling in its band is chaotic: δ integrated from
 the motor's filtered motion cannot follow the ringing after each impact, and a damped contact fits its mean — the
@@ -125,9 +127,6 @@ class Backlash(OneEncoder):
                 return (f"the dead band is not located: its {what} {value:.4g} lies at the edge of the range searched "
                         f"({axis.min():.4g}–{axis.max():.4g}){spring}")
         return None
-
-    def check_residual(self, roles, frequency, psd, share):
-        return None  # a rattle is broadband (impacts at each reversal), not a ringing peak
 
     def patch(self, editor, context, j, roles, c, value, comment):
         coordinate = context.coordinates[j]
