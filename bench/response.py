@@ -70,7 +70,8 @@ def main() -> None:
     false, total = 0, 0.0
     if args.cases_only:
         kept = args.out.read_text(encoding="utf-8").split("## Nothing missing\n", 1)[1].split("## Effects to name", 1)[0]
-        lines += [kept.strip(), "", "(This section is the last full run's: `--cases-only` ran the cases below again.)", ""]
+        note = "(This section is the last full run's: `--cases-only` ran the cases below again.)"
+        lines += [kept.replace(note, "").strip(), "", note, ""]
         nulls = []
     for kind, options in nulls:
         named, seconds = run(kind, **options)
