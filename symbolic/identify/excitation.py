@@ -441,7 +441,7 @@ class _Objective(_WithJacobian):
         self.criterion, self.weights = criterion, np.asarray(weights, float)
         self.information = regressor.information.map("M_sum", "serial", self.K, [3], [0], {})
         self.gradient_map = regressor.information_gradient.map(self.K)
-        self.last: list[tuple[bytes, list[np.ndarray], np.ndarray]] = []
+        self.last: tuple[bytes, list[np.ndarray], np.ndarray] | None = None
         """The last z, its states and M: IPOPT asks for the value and then the gradient at the same point."""
         self.construct("objective", {})
 
@@ -451,11 +451,11 @@ class _Objective(_WithJacobian):
     def matrix(self, z: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
         """The states at the grid points and M(z) (computed once per z)."""
         key = z.tobytes()
-        if not self.last or self.last[0][0] != key:
+        if self.last is None or self.last[0] != key:
             states = self.states(z)
             M = np.asarray(self.information(*(x.T for x in states), self.weights)) / self.K  # noqa: N806
-            self.last[:] = [(key, states, M)]
-        return self.last[0][1], self.last[0][2]
+            self.last = (key, states, M)
+        return self.last[1], self.last[2]
 
     def evaluate(self, z: np.ndarray) -> tuple[float, np.ndarray]:
         """The criterion and its gradient in z."""

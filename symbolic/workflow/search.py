@@ -298,11 +298,10 @@ class Search:
         keys = [(effect.name, j, v, role) for v in values]
         missing = list(dict.fromkeys(k for k in keys if k not in store))
         if missing:
-            signals = self.signals(role)
             if effect.own_row:
-                rows = np.array([j])
                 store.update(zip(missing, self._reduced_on_row(effect, j, [k[2] for k in missing], role)))
             else:
+                signals = self.signals(role)
                 raw = [effect.columns_at(signals, j, k[2]) for k in missing]
                 rows = _acting(raw)
                 if rows.size == 0:

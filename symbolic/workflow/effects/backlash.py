@@ -38,7 +38,7 @@ import numpy as np
 
 from symbolic.workflow.effects.base import on_row, register
 from symbolic.workflow.effects.flexible_mode import FlexibleMode, second_mass
-from symbolic.workflow.effects.joint_elasticity import LinkSide, OneEncoder, _link_side, patch, rotor_inertia
+from symbolic.workflow.effects.joint_elasticity import LinkSide, OneEncoder
 
 
 class Backlash(OneEncoder):
@@ -73,37 +73,23 @@ class Backlash(OneEncoder):
     under PD with 12- and 14-bit encoders and nothing missing: bands of 0.2–2.2 counts named before this rule)."""
 
     def grid(self, context, j):
-        low, high = self.LOWEST_HZ, self.TOP * context.passband
-        if high <= low:
-            return None
+        frequencies = self.frequencies(context)
         span = float(np.subtract(*np.quantile(context.q[:, j], [0.98, 0.02])))
-        if not span > 0:
+        if frequencies is None or not span > 0:
             return None
-        frequencies = np.exp(np.arange(math.log(low), math.log(high), math.log(self.SPACING)))
         rows = np.array([(f, z, w * span) for f in frequencies for z in self.DAMPING for w in self.WIDTHS])
         return rows, float(len(rows))
 
-    def columns_at(self, signals, j, value):
-        """The link's reaction on every row, −(D_ij·δ̈ + A_ij·δ + B_ij·δ̇)/D̄, δ from :func:`rattle` at ``value`` =
-        (contact frequency in Hz, ζ, b)."""
-        if signals.model is None:
-            raise TypeError("backlash (one encoder) needs the derived model: Signals.model")
-        if signals.record is not None:  # the link's state at the first sample is what the motion before left
-            whole = self.columns_at(signals.record, j, value)
-            return whole[signals.start:signals.start + len(signals.t)]
-        link = _link_side(signals, j)
-        delta, rate, acceleration = rattle(link, value, signals.rate)
-        reaction = link.inertia * acceleration[:, None] + link.stiffness * delta[:, None] + link.damping * rate[:, None]
-        return (-reaction / link.mean)[:, :, None]
+    def motions(self, link, value, rate):
+        """The link's one motion: δ from :func:`rattle` at ``value`` = (contact frequency in Hz, ζ, b) (the linear
+        spring's column, :meth:`OneEncoder.columns_at`, with it)."""
+        return [rattle(link, value, rate)]
 
     def roles_of(self, c, value, reference):
-        frequency, damping, width = (float(v) for v in value)
-        load, w = float(c[0]), 2.0 * math.pi * frequency
-        roles = {"width": width, "stiffness": load * w * w, "damping": 2.0 * damping * w * load, "load": load,
-                 "frequency_hz": frequency, "damping_ratio": damping}
-        if reference is not None and reference - load > 0:  # as the linear spring's (OneEncoder.roles_of)
-            roles["motor_inertia"] = reference - load
-        return roles
+        return {"width": float(value[2]), **super().roles_of(c, value, reference)}
+
+    def band(self, roles):
+        return {"width": roles["width"], "centre": 0.0}
 
     def check(self, roles, reference, context, j):
         return self._located(roles, context, j) or self._link_check(roles, context, j)
@@ -127,15 +113,6 @@ class Backlash(OneEncoder):
                 return (f"the dead band is not located: its {what} {value:.4g} lies at the edge of the range searched "
                         f"({axis.min():.4g}–{axis.max():.4g}){spring}")
         return None
-
-    def patch(self, editor, context, j, roles, c, value, comment):
-        coordinate = context.coordinates[j]
-        motor = roles.get("motor_inertia")
-        if motor is None or not motor > 0:
-            motor = rotor_inertia(context.robot, coordinate)
-        spring = {"stiffness": roles["stiffness"], "damping": roles["damping"], "motor_inertia": motor}
-        written, _ = patch(editor, context.robot, coordinate, spring, {"width": roles["width"], "centre": 0.0}, comment)
-        return written
 
     def as_measured(self, patched, parameters, context, j, roles, controller, period):
         return ({key: roles[key] for key in self.roles},

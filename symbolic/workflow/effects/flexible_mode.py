@@ -64,13 +64,19 @@ class FlexibleMode(Effect):
         return None if joint_frame(context.robot, c) is not None else f"no frame moves with {c} alone"
 
     def grid(self, context, j):
-        # from LOWEST_HZ (slower is a spring, gravity or the loop itself) to TOP × the treatment's pass band
+        frequencies = self.frequencies(context)
+        if frequencies is None:
+            return None
+        rows = np.array([(f, z) for f in frequencies for z in self.DAMPING])
+        return rows, float(len(rows))
+
+    def frequencies(self, context) -> np.ndarray | None:
+        """The grid's frequencies, :attr:`SPACING` apart from :attr:`LOWEST_HZ` (slower is a spring, gravity or the
+        loop itself) to :attr:`TOP` × the treatment's pass band; ``None`` when that range is empty."""
         low, high = self.LOWEST_HZ, self.TOP * context.passband
         if high <= low:
             return None
-        frequencies = np.exp(np.arange(math.log(low), math.log(high), math.log(self.SPACING)))
-        rows = np.array([(f, z) for f in frequencies for z in self.DAMPING])
-        return rows, float(len(rows))
+        return np.exp(np.arange(math.log(low), math.log(high), math.log(self.SPACING)))
 
     def columns(self, q, qd, qdd, j, value):
         raise TypeError("flexible_mode needs the sampling rate: use columns_at")
@@ -194,20 +200,22 @@ def second_mass(editor, context, j: int, load: float, stiffness: float, damping:
         editor.add_body(f"{frame.name}_load", target, "0", {"xx": f"{name}/2", "yy": f"{name}/2", "zz": name}, comment)
     else:
         editor.add_body(f"{frame.name}_load", target, name, None, comment)
+    return {**written, **coupling(editor, f"coupling_{coordinate}", coordinate, flex, k, d, band, comment)}
+
+
+def coupling(editor, name: str, coordinate: str, x: str, k: str, d: str, band: float | None, comment: str
+             ) -> dict[str, float]:
+    """Write the ``[[force]]`` ``name`` on deflection ``x`` of a spring ``k`` and damper ``d``: −k·x − d·ẋ, or with a
+    dead band of whole width ``band`` (a parameter ``backlash_<coordinate>``) −(k·(x − b/2·sgn x) + d·ẋ) in contact
+    and 0 inside |x| ≤ b/2 (the format has no comparison: a last factor 1 in contact, 0 inside). Returns the band's
+    parameter written ({} without one)."""
     if band is None:
-        editor.add_force(f"coupling_{coordinate}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
-        return written
+        editor.add_force(name, x, f"-{k}*{x} - {d}*qd_{x}", comment)
+        return {}
     b = editor.parameter(coefficient_name("backlash", coordinate), band, comment + "; the dead band's whole width")
-    editor.add_force(f"coupling_{coordinate}", flex, dead_band_force(k, d, flex, b),
+    editor.add_force(name, x, f"-({k}*({x} - {b}/2*sign({x})) + {d}*qd_{x})*(1 + sign(abs({x}) - {b}/2))/2",
                      comment + "; the spring and damper act in contact only")
-    return {**written, b: band}
-
-
-def dead_band_force(k: str, d: str, x: str, b: str) -> str:
-    """The model file's force on deflection ``x`` of a spring ``k`` and damper ``d`` with a dead band of whole width
-    ``b``: −(k·(x − b/2·sgn x) + d·ẋ) in contact, 0 inside |x| ≤ b/2 (the format has no comparison: the last factor
-    is 1 in contact, 0 inside)."""
-    return f"-({k}*({x} - {b}/2*sign({x})) + {d}*qd_{x})*(1 + sign(abs({x}) - {b}/2))/2"
+    return {b: band}
 
 
 def mode_denominator(frequency: float, damping: float, rate: float) -> tuple[np.ndarray, float, float]:

@@ -63,7 +63,7 @@ from symbolic.derivation.products import Product
 from symbolic.description.names import coefficient_name
 from symbolic.description.units import coordinate_kind
 from symbolic.workflow.effects.base import joint_frame, register
-from symbolic.workflow.effects.flexible_mode import FlexibleMode, dead_band_force, mode_denominator, motor_declared
+from symbolic.workflow.effects.flexible_mode import FlexibleMode, coupling, mode_denominator, motor_declared
 from symbolic.workflow.statistics import MIN_SIGMAS
 from symbolic.workflow.terms import relative_gap
 
@@ -437,13 +437,8 @@ def patch(editor: Any, robot: Any, c: str, v: Mapping[str, float], band: Mapping
     key = "theta" if coordinate_kind(robot, c) == "revolute" else "d"
     editor.set_frame_dh(frame.name, key, f"{editor.frame_dh(frame.name)[key]} + {flex}", comment + "; the link turns with "
                         "the motor plus the deflection")
-    if band is None:
-        editor.add_force(f"transmission_{c}", flex, f"-{k}*{flex} - {d}*qd_{flex}", comment)
-        return {k: v["stiffness"], d: damping, rotor: v["motor_inertia"] / ratio**2}, flex
-    b = editor.parameter(coefficient_name("backlash", c), band["width"], comment + "; the dead band's whole width")
-    editor.add_force(f"transmission_{c}", flex, dead_band_force(k, d, flex, b),
-                     comment + "; the spring and damper act in contact only")
-    return {k: v["stiffness"], d: damping, rotor: v["motor_inertia"] / ratio**2, b: band["width"]}, flex
+    written = coupling(editor, f"transmission_{c}", c, flex, k, d, None if band is None else band["width"], comment)
+    return {k: v["stiffness"], d: damping, rotor: v["motor_inertia"] / ratio**2, **written}, flex
 
 
 def motor_roles(robot: Any, coordinate: str) -> dict[str, str]:
@@ -544,14 +539,19 @@ class OneEncoder(FlexibleMode):
         motions from the record's start (:func:`free_responses`), whose coefficients are the record's unknown
         initial deflection and its rate."""
         if signals.model is None:
-            raise TypeError("joint_elasticity (one encoder) needs the derived model: Signals.model")
+            raise TypeError(f"{self.label()} needs the derived model: Signals.model")
         if signals.record is not None:  # the deflection at the first sample is what the motion before left
             whole = self.columns_at(signals.record, j, value)
             return whole[signals.start:signals.start + len(signals.t)]
         link = _link_side(signals, j)
-        motions = [deflection(link, value, signals.rate), *free_responses(value, signals.rate, len(signals.t))]
         return np.stack([-(link.inertia * acceleration[:, None] + link.stiffness * delta[:, None]
-                           + link.damping * rate[:, None]) / link.mean for delta, rate, acceleration in motions], axis=2)
+                           + link.damping * rate[:, None]) / link.mean
+                         for delta, rate, acceleration in self.motions(link, value, signals.rate)], axis=2)
+
+    def motions(self, link: LinkSide, value: Any, rate: float) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """(δ, δ̇, δ̈) of each motion of the link whose reaction is a column: the deflection driven by the link's torque
+        (:func:`deflection`) and the two free motions from the record's start (:func:`free_responses`)."""
+        return [deflection(link, value, rate), *free_responses(value, rate, len(link.torque))]
 
     def roles_of(self, c, value, reference):
         roles = super().roles_of(c, value, reference)
@@ -574,8 +574,12 @@ class OneEncoder(FlexibleMode):
         if motor is None or not motor > 0:
             motor = rotor_inertia(context.robot, coordinate)
         spring = {"stiffness": roles["stiffness"], "damping": roles["damping"], "motor_inertia": motor}
-        written, _ = patch(editor, context.robot, coordinate, spring, None, comment)
+        written, _ = patch(editor, context.robot, coordinate, spring, self.band(roles), comment)
         return written
+
+    def band(self, roles) -> Mapping[str, Any] | None:
+        """The dead band :meth:`patch` writes in the spring (:attr:`Elasticity.band`'s form), ``None``: a spring."""
+        return None
 
     LINK_RANGE = (0.5, 2.0)
     """The ringing inertia J_L must lie within these factors of the link's inertia about the joint in the model
