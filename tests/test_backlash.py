@@ -13,6 +13,7 @@ import pytest
 import scipy.integrate
 
 import elastic_reference as truth
+import models
 from symbolic.derivation import derive
 from symbolic.description import loads
 from symbolic.workflow import diagnose
@@ -54,41 +55,16 @@ def test_a_dead_band_on_joint_2_of_an_arm_from_the_motor_encoders(tmp_path):
     assert result.found[0].parameters["width"] == pytest.approx(0.008, rel=0.10)
 
 
-LOADED_AXIS = """# The geared joint's motor alone: the file knows nothing of the load behind its coupling.
-name = "axis_with_load"
-coordinates = ["q"]
-gravity = ["0", "-9.81", "0"]
-
-[parameters]
-Jm = 0.02
-Fv = 0.3
-Fc = 0.5
-
-[[frame]]
-name = "motor"
-parent = "base"
-dh = { theta = "q", d = "0", a = "0", alpha = "0" }
-
-[[body]]
-name = "motor"
-frame = "motor"
-mass = "0"
-inertia = { xx = "0", yy = "0", zz = "Jm" }
-
-[[friction]]
-coordinate = "q"
-viscous = "Fv"
-coulomb = "Fc"
-"""
 
 
 def _loaded_axis(folder, monkeypatch, **kwargs):
-    """The truth's joint with a weightless link (a load of 0.15 on the coupling), the model file its motor alone (no
-    [[drive]]: a second mass there is flexible_mode's, not a transmission's)."""
+    """The truth's joint with a weightless link (a load of 0.15 on the coupling), the model file its motor alone: the
+    tests' rotary axis with the truth's rotor inertia and friction (no [[drive]]: a second mass there is
+    flexible_mode's, not a transmission's)."""
     monkeypatch.setitem(truth.TRUTH, "m", 0.0)
     experiment = truth.motor_encoder_only(truth.write_joint_experiment(folder, **kwargs))
     model = folder / "axis.toml"
-    model.write_text(LOADED_AXIS)
+    model.write_text(models.axis(parameters=f"Fv = {truth.TRUTH['Fv']!r}\nFc = {truth.TRUTH['Fc']!r}\n", J=truth.TRUTH["Jm"]))
     return model, experiment
 
 
