@@ -92,7 +92,7 @@ void emps_inverse_dynamics(const double *q, const double *qd, const double *qdd,
     tau[0] = v2;
 }
 
-/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (d tau / d q by the chain rule through the intermediates of tau; d tau / d qd = 2 C(q, qd) + d(friction - applied) / d qd; d tau / d qdd = D(q))
  * Inputs: q[1] (q), qd[1] (q), qdd[1] (q), p[5] (see emps_parameter_names); outputs dtau_dq[1], dtau_dqd[1]
  * 0 operations. */
 void emps_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)

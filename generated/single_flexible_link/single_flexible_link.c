@@ -203,7 +203,7 @@ void single_flexible_link_inverse_dynamics(const double *q, const double *qd, co
     tau[4] = v26;
 }
 
-/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (d tau / d q by the chain rule through the intermediates of tau; d tau / d qd = 2 C(q, qd) + d(friction - applied) / d qd; d tau / d qdd = D(q))
  * Inputs: q[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), qdd[5] (q0, link_nu1, link_nu2, link_eta1, link_eta2), p[6] (see single_flexible_link_parameter_names); outputs dtau_dq[25], dtau_dqd[25]
  * 30 operations. */
 void single_flexible_link_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
@@ -215,54 +215,53 @@ void single_flexible_link_inverse_dynamics_derivatives(const double *q, const do
     const double v4 = -(qd[0]*qd[0])*p[3];
     const double v5 = p[5]*v2;
     const double v6 = q[1]*v0;
-    const double v7 = q[2]*v0;
-    const double v8 = qd[1]*v1 + qdd[0]*v6;
-    const double v9 = qd[2]*v1 + qdd[0]*v7;
-    const double v10 = 12.362363368326191*v3;
-    const double v11 = v10 + v4;
-    const double v12 = 485.51881851337106*v3;
+    const double v7 = qd[0]*v6;
+    const double v8 = q[2]*v0;
+    const double v9 = qd[0]*v8;
+    const double v10 = qd[1]*v1 + qdd[0]*v6;
+    const double v11 = qd[2]*v1 + qdd[0]*v8;
+    const double v12 = 12.362363368326191*v3;
     const double v13 = v12 + v4;
-    const double v14 = 12.362363368326191*v5;
-    const double v15 = 485.51881851337106*v5;
-    const double v16 = qd[1]*v6 + qd[2]*v7;
-    const double v17 = qd[0]*v6;
-    const double v18 = qd[0]*v7;
+    const double v14 = 485.51881851337106*v3;
+    const double v15 = v14 + v4;
+    const double v16 = 12.362363368326191*v5;
+    const double v17 = 485.51881851337106*v5;
     dtau_dq[0] = 0.0;
-    dtau_dq[1] = v8;
-    dtau_dq[2] = v9;
+    dtau_dq[1] = v10;
+    dtau_dq[2] = v11;
     dtau_dq[3] = 0.0;
     dtau_dq[4] = 0.0;
     dtau_dq[5] = 0.0;
-    dtau_dq[6] = v11;
+    dtau_dq[6] = v13;
     dtau_dq[7] = 0.0;
     dtau_dq[8] = 0.0;
     dtau_dq[9] = 0.0;
     dtau_dq[10] = 0.0;
     dtau_dq[11] = 0.0;
-    dtau_dq[12] = v13;
+    dtau_dq[12] = v15;
     dtau_dq[13] = 0.0;
     dtau_dq[14] = 0.0;
     dtau_dq[15] = 0.0;
     dtau_dq[16] = 0.0;
     dtau_dq[17] = 0.0;
-    dtau_dq[18] = v14;
+    dtau_dq[18] = v16;
     dtau_dq[19] = 0.0;
     dtau_dq[20] = 0.0;
     dtau_dq[21] = 0.0;
     dtau_dq[22] = 0.0;
     dtau_dq[23] = 0.0;
-    dtau_dq[24] = v15;
-    dtau_dqd[0] = v16;
-    dtau_dqd[1] = v17;
-    dtau_dqd[2] = v18;
+    dtau_dq[24] = v17;
+    dtau_dqd[0] = qd[1]*v6 + qd[2]*v8;
+    dtau_dqd[1] = v7;
+    dtau_dqd[2] = v9;
     dtau_dqd[3] = 0.0;
     dtau_dqd[4] = 0.0;
-    dtau_dqd[5] = -v17;
+    dtau_dqd[5] = -v7;
     dtau_dqd[6] = 0.0;
     dtau_dqd[7] = 0.0;
     dtau_dqd[8] = 0.0;
     dtau_dqd[9] = 0.0;
-    dtau_dqd[10] = -v18;
+    dtau_dqd[10] = -v9;
     dtau_dqd[11] = 0.0;
     dtau_dqd[12] = 0.0;
     dtau_dqd[13] = 0.0;

@@ -165,8 +165,8 @@ def _derivative_spec(model: DynamicModel) -> FunctionSpec:
     return FunctionSpec("inverse_dynamics_derivatives", timed(model, "q", "qd", "qdd", "p"), "dtau_dq", n, n,
                         derivatives.dq + derivatives.dqd,
                         "Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, "
-                        "dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; "
-                        "d tau / d qdd = D(q))", derivatives.sub, (("dtau_dqd", n, n),))
+                        "dtau_dqd[i*N + j] = d tau_i / d qd_j (d tau / d q by the chain rule through the intermediates of "
+                        "tau; d tau / d qd = 2 C(q, qd) + d(friction - applied) / d qd; d tau / d qdd = D(q))", derivatives.sub, (("dtau_dqd", n, n),))
 
 
 def _jacobian_specs(model: DynamicModel) -> list[FunctionSpec]:

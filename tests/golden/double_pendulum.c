@@ -299,61 +299,53 @@ void double_pendulum_inverse_dynamics(const double *q, const double *qd, const d
     tau[1] = v12;
 }
 
-/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (d tau / d q by the chain rule through the intermediates of tau; d tau / d qd = 2 C(q, qd) + d(friction - applied) / d qd; d tau / d qdd = D(q))
  * Inputs: q[2] (q1, q2), qd[2] (q1, q2), qdd[2] (q1, q2), p[5] (see double_pendulum_parameter_names); outputs dtau_dq[4], dtau_dqd[4]
- * 87 operations; sine and cosine of 2 angles in one double_pendulum_sincos call. */
+ * 74 operations; sine and cosine of 2 angles in one double_pendulum_sincos call. */
 void double_pendulum_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
 {
     double sn[2], cs[2];
     double_pendulum_sincos(2, q, sn, cs);
-    const double v0 = p[2]*qd[0];
-    const double v1 = sn[0]*p[0];
-    const double v2 = -p[1]*(qd[0]*qd[0]) + v1;
-    const double v3 = cs[0]*p[0];
-    const double v4 = p[1]*qdd[0] + v3;
-    const double v5 = cs[1]*v2 + sn[1]*v4;
-    const double v6 = cs[1]*v4 - sn[1]*v2;
-    const double v7 = 2.0*p[2];
-    const double v8 = cs[1]*v1 + sn[1]*v3;
-    const double v9 = -cs[1]*v3 + sn[1]*v1;
-    const double v10 = -qd[0]*v0 + v5;
-    const double v11 = p[2]*qdd[0] + v6;
-    const double v12 = p[2]*(qd[1]*qd[1]) + 2.0*qd[1]*v0 - v10;
-    const double v13 = p[2]*qdd[1] + v11;
-    const double v14 = p[4]*v12;
-    const double v15 = p[4]*v13;
-    const double v16 = p[4]*v8;
-    const double v17 = p[2]*v16;
-    const double v18 = p[3]*v1;
-    const double v19 = p[4]*v9;
-    const double v20 = cs[1]*v16 + sn[1]*v19;
-    const double v21 = v18 + v20;
-    const double v22 = p[1]*v21 + v17;
-    const double v23 = p[4]*v5;
-    const double v24 = p[2]*v23;
-    const double v25 = p[4]*v6;
-    const double v26 = cs[1]*v14 + cs[1]*v23 + sn[1]*v15 - sn[1]*v25;
-    const double v27 = p[1]*v26 + v24;
-    const double v28 = 2.0*p[1]*qd[0];
-    const double v29 = sn[1]*v28;
-    const double v30 = p[4]*v29;
-    const double v31 = p[2]*v30;
-    const double v32 = cs[1]*v28 + 2.0*v0;
-    const double v33 = qd[1]*v7 + v32;
-    const double v34 = p[4]*v33;
-    const double v35 = cs[1]*v30 - sn[1]*v34;
-    const double v36 = p[1]*v35 + v31;
-    const double v37 = v7*(qd[0] + qd[1]);
-    const double v38 = p[4]*v37;
-    const double v39 = sn[1]*v38;
-    const double v40 = p[1]*v39;
-    dtau_dq[0] = -v22;
-    dtau_dq[1] = -v27;
-    dtau_dq[2] = -v17;
-    dtau_dq[3] = -v24;
-    dtau_dqd[0] = v36;
-    dtau_dqd[1] = -v40;
-    dtau_dqd[2] = v31;
+    const double v0 = p[2]*p[4];
+    const double v1 = sn[1]*v0;
+    const double v2 = p[1]*v1;
+    const double v3 = p[2]*qd[0];
+    const double v4 = sn[0]*p[0];
+    const double v5 = -p[1]*(qd[0]*qd[0]) + v4;
+    const double v6 = cs[0]*p[0];
+    const double v7 = p[1]*qdd[0] + v6;
+    const double v8 = cs[1]*v5 + sn[1]*v7;
+    const double v9 = cs[1]*v7 - sn[1]*v5;
+    const double v10 = 2.0*qd[1];
+    const double v11 = 2.0*v2;
+    const double v12 = qd[0]*v11;
+    const double v13 = cs[1]*v4 + sn[1]*v6;
+    const double v14 = -cs[1]*v6 + sn[1]*v4;
+    const double v15 = -qd[0]*v3 + v8;
+    const double v16 = p[2]*qdd[0] + v9;
+    const double v17 = p[2]*(qd[1]*qd[1]) + v10*v3 - v15;
+    const double v18 = p[2]*qdd[1] + v16;
+    const double v19 = p[4]*v17;
+    const double v20 = p[4]*v18;
+    const double v21 = p[4]*v13;
+    const double v22 = p[2]*v21;
+    const double v23 = p[3]*v4;
+    const double v24 = p[4]*v14;
+    const double v25 = cs[1]*v21 + sn[1]*v24;
+    const double v26 = v23 + v25;
+    const double v27 = p[1]*v26 + v22;
+    const double v28 = p[4]*v8;
+    const double v29 = p[2]*v28;
+    const double v30 = p[4]*v9;
+    const double v31 = cs[1]*v19 + cs[1]*v28 + sn[1]*v20 - sn[1]*v30;
+    const double v32 = p[1]*v31 + v29;
+    dtau_dq[0] = -v27;
+    dtau_dq[1] = -v32;
+    dtau_dq[2] = -v22;
+    dtau_dq[3] = -v29;
+    dtau_dqd[0] = -qd[1]*v11;
+    dtau_dqd[1] = -v10*v2 - v12;
+    dtau_dqd[2] = v12;
     dtau_dqd[3] = 0.0;
 }
 

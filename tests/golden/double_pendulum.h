@@ -97,8 +97,8 @@ void double_pendulum_applied(const double *q, const double *qd, const double *p,
  * 40 operations, sine and cosine of 2 angles. */
 void double_pendulum_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
-/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (chain rule through the intermediates of tau; d tau / d qdd = D(q))
- * 87 operations, sine and cosine of 2 angles. */
+/* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (d tau / d q by the chain rule through the intermediates of tau; d tau / d qd = 2 C(q, qd) + d(friction - applied) / d qd; d tau / d qdd = D(q))
+ * 74 operations, sine and cosine of 2 angles. */
 void double_pendulum_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd);
 
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
