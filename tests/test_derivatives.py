@@ -21,6 +21,8 @@ States: angles uniform in [−π, π] (beams' modal coordinates in [−0.01, 0.0
 from __future__ import annotations
 
 import ctypes
+import platform
+import subprocess
 import warnings
 from pathlib import Path
 
@@ -231,3 +233,33 @@ def test_derivatives_report_a_matrix_that_is_not_positive_definite(built_in) -> 
     q = np.full(7, np.nan)
     for function, shapes in (("forward_dynamics_derivatives", [(7, 7)] * 3), ("A", [(14, 14)]), ("B", [(14, 7)])):
         assert c._outputs(function, [q, np.zeros(7), np.zeros(7), c.defaults], shapes)[1] == 1
+
+
+def _has_avx() -> bool:
+    flags = Path("/proc/cpuinfo").read_text() if Path("/proc/cpuinfo").exists() else ""
+    return platform.machine() == "x86_64" and " avx " in flags.replace("\n", " ")
+
+
+def test_avx_copy_gives_the_same_bits(tmp_path) -> None:
+    """Built for x86-64 without AVX, a function of DISPATCH_OPERATIONS or more runs a copy compiled for AVX where the
+    processor has it (docs/contracts.md, "Generated C"); AVX has no fused multiply-add, so the copy's results are
+    the baseline copy's (SYMBOLIC_NO_DISPATCH) bit for bit. Sines and cosines from libm in both builds: the batched
+    kernel's own AVX2+FMA copy may differ in the last bit (tests/test_sincos.py)."""
+    if not _has_avx():
+        pytest.skip("needs an x86-64 processor with AVX (the dispatch is compiled for x86-64 only)")
+    model = derived("panda")
+    source = GENERATED / "panda" / "panda.c"
+    flags = (*STRICT[:-1], "-O3", "-DSYMBOLIC_LIBM_SINCOS")
+    dispatched = compile_shared(source, tmp_path / "libdispatched.so", flags)
+    baseline = compile_shared(source, tmp_path / "libbaseline.so", (*flags, "-DSYMBOLIC_NO_DISPATCH"))
+    symbols = subprocess.run(["nm", str(dispatched)], capture_output=True, text=True, check=True).stdout
+    assert "panda_inverse_dynamics_derivatives_avx" in symbols and "panda_coriolis_matrix_avx" in symbols
+    a, b = (Derivatives(lib, model.name, model.n, len(model.robot.parameters)) for lib in (dispatched, baseline))
+    p = a.defaults
+    for q, qd, qdd in states(model, 50, seed=36):
+        for x, y in zip(a.id_derivatives(q, qd, qdd, p), b.id_derivatives(q, qd, qdd, p)):
+            assert np.array_equal(x, y)
+        assert np.array_equal(a.coriolis_matrix(q, qd, p), b.coriolis_matrix(q, qd, p))
+        tau = a.inverse_dynamics(q, qd, qdd, p)
+        for x, y in zip(a.fd_derivatives(q, qd, tau, p), b.fd_derivatives(q, qd, tau, p)):
+            assert np.array_equal(x, y)

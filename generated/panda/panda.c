@@ -154,6 +154,15 @@ static void panda_sincos(int n, const double *restrict x, double *restrict s, do
     }
 }
 
+/* On x86-64 compiled without AVX (gcc or clang), the functions of 2000 operations or more are compiled twice,
+ * the second copy for AVX, and the copy the processor can run is chosen at run time: AVX's three-operand
+ * instructions make their machine code about a fifth shorter, which decides whether it fits the processor's
+ * instruction cache. The arithmetic is the same (AVX has no fused multiply-add), so both copies give the same
+ * bits. Define SYMBOLIC_NO_DISPATCH to compile only the copy for the build's target. */
+#if !defined(SYMBOLIC_NO_DISPATCH) && defined(__x86_64__) && defined(__GNUC__) && !defined(__AVX__)
+#define PANDA_AVX_DISPATCH 1
+#endif
+
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * Inputs: q[7] (q1, q2, q3, q4, q5, q6, q7), p[78] (see panda_parameter_names); output D[49]
  * 632 operations; sine and cosine of 6 angles in one panda_sincos call. */
@@ -744,7 +753,11 @@ void panda_coriolis(const double *q, const double *qd, const double *p, double *
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
  * Inputs: q[7] (q1, q2, q3, q4, q5, q6, q7), qd[7] (q1, q2, q3, q4, q5, q6, q7), p[78] (see panda_parameter_names); output C[49]
  * 2133 operations; sine and cosine of 6 angles in one panda_sincos call. */
+#ifdef PANDA_AVX_DISPATCH
+static inline __attribute__((always_inline)) void panda_coriolis_matrix_body(const double *q, const double *qd, const double *p, double *C)
+#else
 void panda_coriolis_matrix(const double *q, const double *qd, const double *p, double *C)
+#endif
 {
     double sn[6], cs[6];
     panda_sincos(6, q + 1, sn, cs);
@@ -1588,6 +1601,23 @@ void panda_coriolis_matrix(const double *q, const double *qd, const double *p, d
     C[48] = 0.0;
 }
 
+#ifdef PANDA_AVX_DISPATCH
+__attribute__((target("avx")))
+static void panda_coriolis_matrix_avx(const double *q, const double *qd, const double *p, double *C)
+{
+    panda_coriolis_matrix_body(q, qd, p, C);
+}
+
+void panda_coriolis_matrix(const double *q, const double *qd, const double *p, double *C)
+{
+    if (__builtin_cpu_supports("avx")) {
+        panda_coriolis_matrix_avx(q, qd, p, C);
+    } else {
+        panda_coriolis_matrix_body(q, qd, p, C);
+    }
+}
+#endif
+
 /* g(q) = dV_gravity/dq
  * Inputs: q[7] (q1, q2, q3, q4, q5, q6, q7), p[78] (see panda_parameter_names); output g[7]
  * 135 operations; sine and cosine of 6 angles in one panda_sincos call. */
@@ -1996,7 +2026,11 @@ void panda_inverse_dynamics(const double *q, const double *qd, const double *qdd
 /* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (d tau / d q by the chain rule through the intermediates of tau; d tau / d qd = 2 C(q, qd) + d(friction - applied) / d qd; d tau / d qdd = D(q))
  * Inputs: q[7] (q1, q2, q3, q4, q5, q6, q7), qd[7] (q1, q2, q3, q4, q5, q6, q7), qdd[7] (q1, q2, q3, q4, q5, q6, q7), p[78] (see panda_parameter_names); outputs dtau_dq[49], dtau_dqd[49]
  * 5928 operations; sine and cosine of 6 angles in one panda_sincos call. */
+#ifdef PANDA_AVX_DISPATCH
+static inline __attribute__((always_inline)) void panda_inverse_dynamics_derivatives_body(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+#else
 void panda_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+#endif
 {
     double sn[6], cs[6];
     panda_sincos(6, q + 1, sn, cs);
@@ -4053,6 +4087,23 @@ void panda_inverse_dynamics_derivatives(const double *q, const double *qd, const
     dtau_dqd[47] = -v1036;
     dtau_dqd[48] = 0.0;
 }
+
+#ifdef PANDA_AVX_DISPATCH
+__attribute__((target("avx")))
+static void panda_inverse_dynamics_derivatives_avx(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    panda_inverse_dynamics_derivatives_body(q, qd, qdd, p, dtau_dq, dtau_dqd);
+}
+
+void panda_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    if (__builtin_cpu_supports("avx")) {
+        panda_inverse_dynamics_derivatives_avx(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    } else {
+        panda_inverse_dynamics_derivatives_body(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    }
+}
+#endif
 
 /* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
  * Inputs: q[7] (q1, q2, q3, q4, q5, q6, q7), p[78] (see panda_parameter_names); output J[21]

@@ -154,6 +154,15 @@ static void puma560_sincos(int n, const double *restrict x, double *restrict s, 
     }
 }
 
+/* On x86-64 compiled without AVX (gcc or clang), the functions of 2000 operations or more are compiled twice,
+ * the second copy for AVX, and the copy the processor can run is chosen at run time: AVX's three-operand
+ * instructions make their machine code about a fifth shorter, which decides whether it fits the processor's
+ * instruction cache. The arithmetic is the same (AVX has no fused multiply-add), so both copies give the same
+ * bits. Define SYMBOLIC_NO_DISPATCH to compile only the copy for the build's target. */
+#if !defined(SYMBOLIC_NO_DISPATCH) && defined(__x86_64__) && defined(__GNUC__) && !defined(__AVX__)
+#define PUMA560_AVX_DISPATCH 1
+#endif
+
 /* D(q), N*N row-major, symmetric positive definite (rotor inertias included)
  * Inputs: q[6] (q1, q2, q3, q4, q5, q6), p[37] (see puma560_parameter_names); output D[36]
  * 357 operations; sine and cosine of 5 angles in one puma560_sincos call. */
@@ -1347,7 +1356,11 @@ void puma560_inverse_dynamics(const double *q, const double *qd, const double *q
 /* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (d tau / d q by the chain rule through the intermediates of tau; d tau / d qd = 2 C(q, qd) + d(friction - applied) / d qd; d tau / d qdd = D(q))
  * Inputs: q[6] (q1, q2, q3, q4, q5, q6), qd[6] (q1, q2, q3, q4, q5, q6), qdd[6] (q1, q2, q3, q4, q5, q6), p[37] (see puma560_parameter_names); outputs dtau_dq[36], dtau_dqd[36]
  * 2537 operations; sine and cosine of 5 angles in one puma560_sincos call. */
+#ifdef PUMA560_AVX_DISPATCH
+static inline __attribute__((always_inline)) void puma560_inverse_dynamics_derivatives_body(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+#else
 void puma560_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+#endif
 {
     double sn[5], cs[5];
     puma560_sincos(5, q + 1, sn, cs);
@@ -2475,6 +2488,23 @@ void puma560_inverse_dynamics_derivatives(const double *q, const double *qd, con
     dtau_dqd[34] = -v678;
     dtau_dqd[35] = 0.0;
 }
+
+#ifdef PUMA560_AVX_DISPATCH
+__attribute__((target("avx")))
+static void puma560_inverse_dynamics_derivatives_avx(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    puma560_inverse_dynamics_derivatives_body(q, qd, qdd, p, dtau_dq, dtau_dqd);
+}
+
+void puma560_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
+{
+    if (__builtin_cpu_supports("avx")) {
+        puma560_inverse_dynamics_derivatives_avx(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    } else {
+        puma560_inverse_dynamics_derivatives_body(q, qd, qdd, p, dtau_dq, dtau_dqd);
+    }
+}
+#endif
 
 /* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
  * Inputs: q[6] (q1, q2, q3, q4, q5, q6), p[37] (see puma560_parameter_names); output J[18]
