@@ -177,10 +177,10 @@ def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
     derivatives = _forward_dynamics_derivatives(model, out["inverse_dynamics_derivatives"], inputs, values["inertia"], qdd)
     out["forward_dynamics_derivatives"] = ca.Function("forward_dynamics_derivatives", args, derivatives, names,
                                                       ["dqdd_dq", "dqdd_dqd", "dqdd_dtau"])
-    x = ca.vertcat(q, qd)
-    xdot = ca.vertcat(qd, qdd)
-    out["A"] = ca.Function("A", args, [ca.jacobian(xdot, x)], names, ["A"])
-    out["B"] = ca.Function("B", args, [ca.jacobian(xdot, tau)], names, ["B"])
+    dqdd_dq, dqdd_dqd, dqdd_dtau = derivatives  # A and B of (2), as the C builds them (Madill 3.9.4)
+    zero, eye = ca.SX.zeros(n, n), ca.SX.eye(n)
+    out["A"] = ca.Function("A", args, [ca.vertcat(ca.horzcat(zero, eye), ca.horzcat(dqdd_dq, dqdd_dqd))], names, ["A"])
+    out["B"] = ca.Function("B", args, [ca.vertcat(zero, dqdd_dtau)], names, ["B"])
     solved = {spec.name for spec in solved_specs(model)}
     if {"operational_inertia", "apparent_mass"} <= solved:  # declared with the end effector's Jacobian
         u = ca.SX.sym("u", SOLVED_INPUT_SIZES["u"])
