@@ -28,14 +28,19 @@ def compiled_batch(
     varying: Sequence[Sequence[sp.Symbol]],
     fixed: Sequence[sp.Symbol],
     outputs: sp.Matrix,
+    source: str | None = None,
 ) -> Callable[..., np.ndarray] | None:
     """``evaluate(*varying_arrays, fixed_values) -> samples × outputs.shape``, or ``None`` without a compiler.
 
-    Each varying array is ``samples × len(group)``; ``fixed_values`` has ``len(fixed)`` numbers.
+    Each varying array is ``samples × len(group)``; ``fixed_values`` has ``len(fixed)`` numbers. ``source``:
+    :func:`batch_source` of these arguments with ``FUNCTION``'s name, when the caller kept it (printing it takes
+    0.2 s for the Panda, more than loading the compiled library).
     """
     shape = outputs.shape
     flat = list(outputs)
-    library = load_library(batch_source(FUNCTION, sub, varying, fixed, flat), "batch", ctypes.CDLL)
+    if source is None:
+        source = batch_source(FUNCTION, sub, varying, fixed, flat)
+    library = load_library(source, "batch", ctypes.CDLL)
     if library is None:
         return None
     function = getattr(library, FUNCTION)

@@ -39,7 +39,9 @@ from symbolic.data import Measurements, load
 from symbolic.data.measurements import check_forces
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.derivation.regressor import Regressor
-from symbolic.codegen.compiled_regressor import compiled_batch
+from symbolic.codegen.c_batch import batch_source
+from symbolic.codegen.compiled_regressor import FUNCTION, compiled_batch
+from symbolic.derivation.products import Product
 from symbolic.identify.consistent import ConsistentFit
 from symbolic.identify.known import (beta_bounds, fixed_symbols, homogeneous_groups, model_parameters_of, not_separable,
                                      parameter_bounds, rank_hint, split_base)
@@ -191,8 +193,7 @@ def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compil
     """
     reg, own = model_base(model)
     base = own if base is None else base
-    columns = reg.Y.extract(list(range(model.n)), list(base.independent))
-    groups = [model.coordinates, model.velocities, model.accelerations, *([[model.time]] if model.time_varying else [])]
+    columns, groups = _columns_and_inputs(model, reg, base)
     p = model.parameter_vector.coerce(p)
     statements = len(reg.sub.program(list(columns)))
     built: dict[str, Any] = {}  # each evaluator is built on first use (lambdify or C source: 0.1-0.3 s)
@@ -208,7 +209,8 @@ def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compil
         # small work too once the C loop is loaded: building NumPy's evaluator as well would cost 0.1 s
         if compiled or (compiled is None and (samples * statements > COMPILE_WORK or built.get("c") is not None)):
             if "c" not in built:
-                built["c"] = compiled_batch(reg.sub, groups, model.parameter_symbols, columns)
+                source = model.products.get(BATCH_SOURCE) if base is own else None
+                built["c"] = compiled_batch(reg.sub, groups, model.parameter_symbols, columns, source)
             if built["c"] is not None:
                 return built["c"](q, qd, qdd, *times, p)
         if "numpy" not in built:
@@ -217,6 +219,24 @@ def base_regressor(model: DynamicModel, p: Sequence[float] | None = None, compil
 
     regressor.time_varying = model.time_varying
     return regressor
+
+
+def _columns_and_inputs(model: DynamicModel, reg: Regressor, base: BaseParameters) -> tuple[sp.Matrix, list]:
+    """The base columns of Y (N × len(β)) and the symbol groups a sample gives them (q, q̇, q̈ and, for a
+    time-varying model, t)."""
+    columns = reg.Y.extract(list(range(model.n)), list(base.independent))
+    return columns, [model.coordinates, model.velocities, model.accelerations, *([[model.time]] if model.time_varying else [])]
+
+
+def _own_batch_source(model: DynamicModel) -> str:
+    reg, base = model_base(model)
+    columns, groups = _columns_and_inputs(model, reg, base)
+    return batch_source(FUNCTION, reg.sub, groups, model.parameter_symbols, list(columns))
+
+
+BATCH_SOURCE: Product[str] = Product("base regressor C loop", _own_batch_source, persist=True)
+"""The C loop of the model's own base regressor (:func:`base_regressor`), kept in the cache folder: a warm process
+loads the compiled library without printing its source again (0.2 s per model for the Panda)."""
 
 
 def identify_model(
