@@ -169,7 +169,7 @@ void fivebar_flexible_applied(const double *q, const double *qd, const double *p
 void fivebar_flexible_inverse_dynamics(const double *q, const double *qd, const double *qdd, const double *p, double *tau);
 
 /* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (d tau / d q by the chain rule through the intermediates of tau; d tau / d qd = 2 C(q, qd) + d(friction - applied) / d qd; d tau / d qdd = D(q))
- * 1499 operations, sine and cosine of 2 angles. */
+ * 1496 operations, sine and cosine of 2 angles. */
 void fivebar_flexible_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd);
 
 /* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F

@@ -14,6 +14,9 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 
 import sympy as sp
+from sympy.core.function import _coeff_isneg
+from sympy.core.operations import LatticeOp
+from sympy.simplify.radsimp import fraction
 
 
 def _is_trivial(expr: sp.Expr) -> bool:
@@ -178,6 +181,70 @@ class Subexpressions:
         return [(s, self.definition[s]) for s in self.program_symbols(roots)]
 
     def count_ops(self, outputs: Sequence[sp.Expr]) -> int:
-        """Arithmetic operations (SymPy's ``count_ops``) of the program computing ``outputs``."""
-        total = sum(sp.count_ops(d) for _, d in self.program(outputs))
-        return int(total + sum(sp.count_ops(e) for e in outputs))
+        """Arithmetic operations (SymPy's ``count_ops``, :func:`count_operations`) of the program computing ``outputs``."""
+        total = sum(count_operations(d) for _, d in self.program(outputs))
+        return int(total + sum(count_operations(sp.sympify(e)) for e in outputs))
+
+
+def count_operations(expr: sp.Expr) -> int:
+    """``sympy.count_ops(expr)``, the same number, counted in integers.
+
+    SymPy's ``count_ops`` (visual=False) collects one symbol per operation (ADD, MUL, NEG, SIN, …), sums them
+    symbolically and returns the sum of the coefficients; that sum is linear, so adding 1 per symbol as this
+    walk (the same walk, branch for branch) meets it gives the same count without the symbolic arithmetic,
+    which was a fifth of printing a large model's C. Expressions other than SymPy ``Expr`` go to SymPy.
+    """
+    if not isinstance(expr, sp.Expr) or expr.is_Relational:
+        return int(sp.count_ops(expr))
+    total = 0
+    args = [expr]
+    while args:
+        a = args.pop()
+        if a.is_Rational:
+            if a is not sp.S.One:
+                total += (a.p < 0) + (a.q != 1)  # NEG, DIV
+                continue
+        elif a.is_Mul:
+            if _coeff_isneg(a):
+                total += 1  # NEG
+                a = a.as_two_terms()[1] if a.args[0] is sp.S.NegativeOne else -a
+            n, d = fraction(a)
+            if n.is_Integer:
+                total += 1 + bool(n < 0)  # DIV (and NEG)
+                args.append(d)
+                continue
+            if d is not sp.S.One:
+                if not d.is_Integer:
+                    args.append(d)
+                total += 1  # DIV
+                args.append(n)
+                continue
+        elif a.is_Add:
+            negatives = 0
+            for ai in a.args:
+                if _coeff_isneg(ai):
+                    negatives += 1
+                    args.append(-ai)
+                else:
+                    args.append(ai)
+            # an ADD or SUB between terms; NEG when all are negative (a leading negative turns an ADD into a SUB)
+            total += len(a.args) - 1 + (negatives == len(a.args))
+            continue
+        if a.is_Pow and a.exp is sp.S.NegativeOne:
+            total += 1  # DIV
+            args.append(a.base)
+            continue
+        if a == sp.S.Exp1:
+            total += 1  # EXP
+            continue
+        if a.is_Pow and a.base == sp.S.Exp1:
+            total += 1  # EXP
+            args.append(a.exp)
+            continue
+        if a.is_Mul or isinstance(a, LatticeOp):
+            total += len(a.args) - 1  # MUL (MAX, MIN)
+        elif a.args and (a.is_Pow or a.is_Function or isinstance(a, (sp.Derivative, sp.Integral, sp.Sum))):
+            total += 1  # POW, SIN, ...
+        if not a.is_Symbol:
+            args.extend(a.args)
+    return total
