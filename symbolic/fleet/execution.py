@@ -176,8 +176,12 @@ def run(campaign: Campaign, out: str | os.PathLike, *, scheduler: str | None = N
     cached = len(jobs) - sum(1 for job in jobs if job.key not in results)
     log.info("campaign %s: %d logs of %d robots, %d from the cache, %d to compute", campaign.name, len(rows),
              len(campaign.robots), cached, len(jobs) - cached)
+    on_cluster = bool(todo) and (workers != 0 or bool(scheduler))
+    importing = _import_ahead(figures) if on_cluster else None
     if todo:
         results.update(execute(todo, store, scheduler=scheduler, workers=workers, connect_timeout=connect_timeout))
+    if importing is not None:
+        importing.join()
     store.save_digests()
     rows = assemble(rows, results)
     found_series = series_of(rows, 0.0)
@@ -191,6 +195,27 @@ def run(campaign: Campaign, out: str | os.PathLike, *, scheduler: str | None = N
     files["results.csv"] = table(rows).encode("utf-8")
     written = write_files(files, out)
     return dataclasses.replace(outcome, files=tuple(written), notes=tuple(notes))
+
+
+def _import_ahead(figures: bool) -> threading.Thread:
+    """A thread importing, while the workers compute the logs (the caller waits for their results), the modules
+    the analysis and the report import when they first need them: scipy.special (the drift and siblings' tests)
+    and, with ``figures``, Matplotlib. A fresh process, as ``symbolic campaign`` is, spent 0.14 s and 0.3 s on
+    them after the last task, with the workers idle. Imports only: the report chooses Matplotlib's backend
+    (:func:`symbolic.plotting.figure_class`, in the caller's thread) and says when Matplotlib is missing, as
+    before."""
+
+    def load() -> None:
+        with contextlib.suppress(Exception):  # a failure is met again, and reported, where the module is used
+            import scipy.special  # noqa: F401
+        if figures:
+            with contextlib.suppress(Exception):
+                import matplotlib.backends.backend_agg  # noqa: F401
+                import matplotlib.figure  # noqa: F401
+
+    thread = threading.Thread(target=load, name="symbolic: imports ahead", daemon=True)
+    thread.start()
+    return thread
 
 
 def judge_bursts(rows: list[dict[str, Any]], campaign: Campaign) -> list[dict[str, Any]]:

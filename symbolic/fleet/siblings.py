@@ -35,6 +35,7 @@ Input: the campaign's rows, each with the bursts of its log and the profile of i
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -68,6 +69,14 @@ class Log:
     states: np.ndarray
     window: float
     shared: dict[int, bool] = field(default_factory=dict, repr=False)
+
+    @functools.cached_property
+    def columns(self) -> np.ndarray:
+        """:attr:`states` transposed (a row per position or velocity), contiguous, read once :func:`_scale` has
+        scaled them: the largest difference of a state over its few columns is then an elementwise maximum of
+        rows, 7 times faster than NumPy's reduction along the short last axis of ``states``; the search for the
+        nearest state was two thirds of the judgement's time (36 logs of 100 s, bench/fleet.py)."""
+        return np.ascontiguousarray(self.states.T)
 
 
 @dataclass(frozen=True)
@@ -275,7 +284,7 @@ def shares_cycle(a: Log, b: Log) -> bool:
         same = abs(a.width - b.width) <= 1e-9 * max(a.width, b.width) and abs(len(a.states) - len(b.states)) <= 1
         if same:
             n = min(len(a.states), len(b.states))
-            same = float(np.median(np.abs(a.states[:n] - b.states[:n]).max(axis=1))) < RECUR
+            same = float(np.median(_largest(a.columns[:, :n] - b.columns[:, :n]))) < RECUR
         a.shared[b.index] = b.shared[a.index] = known = same
     return known
 
@@ -288,11 +297,17 @@ def _level_at(log: Log, span: slice, other: Log, j: int) -> float | None:
         return float(window.max()) if window.size else None
     found = []
     for k in range(span.start, span.stop):
-        distance = np.abs(other.states - log.states[k]).max(axis=1)
+        distance = _largest(other.columns - log.states[k][:, None])
         nearest = int(np.argmin(distance))
         if distance[nearest] < RECUR:
             found.append(float(other.levels[nearest, j]))
     return max(found) if found else None
+
+
+def _largest(differences: np.ndarray) -> np.ndarray:
+    """The largest absolute difference of each column of ``differences`` (rows: the state's positions and
+    velocities), the values of ``np.abs(...).max(axis=1)`` on the transpose."""
+    return np.maximum.reduce(np.abs(differences), axis=0)
 
 
 def _groups(logs: Mapping[int, Log], bursts: Sequence[tuple[int, dict[str, Any]]]) -> list[list[tuple[int, dict]]]:
