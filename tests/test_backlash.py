@@ -55,8 +55,6 @@ def test_a_dead_band_on_joint_2_of_an_arm_from_the_motor_encoders(tmp_path):
     assert result.found[0].parameters["width"] == pytest.approx(0.008, rel=0.10)
 
 
-
-
 def _loaded_axis(folder, monkeypatch, **kwargs):
     """The truth's joint with a weightless link (a load of 0.15 on the coupling), the model file its motor alone: the
     tests' rotary axis with the truth's rotor inertia and friction (no [[drive]]: a second mass there is

@@ -24,11 +24,8 @@ from symbolic.codegen.templates import render
 
 DISPATCH_OPERATIONS = 2000
 """Functions of at least this many operations get, on x86-64 built without AVX, a second copy compiled for AVX and
-chosen at run time (docs/contracts.md, "Generated C"). AVX's three-operand instructions need no register copies:
-the Panda's derivative function's machine code is 62 kB instead of 78 kB (gcc -O3), which then fits the level-1
-instruction cache of the processors measured, and runs in 0.59 µs instead of 1.5–1.8 µs (bench/results/runtime.md).
-The arithmetic is the same — AVX has no fused multiply-add — so both copies give the same bits. Smaller functions
-gain nothing measurable and are not doubled."""
+chosen at run time, giving the same bits: why and what it gains, docs/contracts.md ("Generated C"). Smaller
+functions gain nothing measurable and are not doubled."""
 
 
 def c_file_stem(model: DynamicModel, precision: str = "double") -> str:

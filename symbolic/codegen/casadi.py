@@ -168,7 +168,7 @@ def _casadi_functions(model: DynamicModel) -> dict[str, ca.Function]:
         values[spec.name] = arrays[0]
         args = [inputs[a] for a in spec.inputs]
         out[spec.name] = ca.Function(spec.name, args, arrays, list(spec.inputs), [a for a, _, _ in spec.arrays])
-    q, qd, tau, p = inputs["q"], inputs["qd"], inputs["tau"], inputs["p"]
+    q, tau, p = inputs["q"], inputs["tau"], inputs["p"]
     bias = ca.substitute(values["inverse_dynamics"], inputs["qdd"], ca.SX.zeros(n))
     qdd = cholesky_solve(values["inertia"], tau - bias)
     names = list(timed(model, "q", "qd", "tau", "p"))  # with t before p for a time-varying model
