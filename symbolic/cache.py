@@ -68,15 +68,36 @@ def source_digest() -> str:
 def stamp() -> dict[str, str]:
     """What an entry must have been written by: package version and sources, Python, SymPy, NumPy."""
     import numpy
-    import sympy
 
     return {
         "symbolic": __version__,
         "sources": source_digest()[:32],
         "python": f"{platform.python_implementation()} {platform.python_version()}",
-        "sympy": sympy.__version__,
+        "sympy": sympy_version(),
         "numpy": numpy.__version__,
     }
+
+
+def sympy_version() -> str:
+    """SymPy's ``__version__``, read from its ``release.py`` (where ``sympy/__init__.py`` takes it from) when
+    SymPy is not imported yet: a command that finds its numbers in the cache does not import SymPy
+    (``symbolic simulate``, docs/simulation.md)."""
+    if "sympy" not in sys.modules:
+        import importlib.util
+        import re
+
+        spec = importlib.util.find_spec("sympy")
+        release = Path(spec.origin).with_name("release.py") if spec is not None and spec.origin else None
+        try:
+            found = re.search(r"^__version__\s*=\s*[\"']([^\"']+)[\"']\s*$", release.read_text(encoding="utf-8"),
+                              re.MULTILINE) if release is not None else None
+        except OSError:
+            found = None
+        if found:
+            return found.group(1)
+    import sympy
+
+    return sympy.__version__
 
 
 def entry_path(kind: str, key: str) -> Path:

@@ -350,7 +350,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
 def cmd_simulate(args: argparse.Namespace) -> int:
     from symbolic import data, export
     from symbolic.simulation import simulate
-    from symbolic.simulation.simulator import EXPERIMENT_NAME
+    from symbolic.simulation.simulator import EXPERIMENT_NAME, cached_model
     from symbolic.description.units import coordinate_units
     from symbolic.simulation.figures import MatplotlibMissing, draw
 
@@ -364,7 +364,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print("error: --html: name the folder of the report with --out DIR (report.html is written there)", file=sys.stderr)
         return 2
     _check_html(args)
-    model = derive(resolve(args.model, args))
+    # the model's numbers and CasADi plant, read from the cache folder without SymPy when they are there
+    model = cached_model(args.model, getattr(args, "root", None), getattr(args, "tip", None))
     measurements = data.load(args.experiment, model=model.robot)
     simulation = simulate(model, measurements, method=args.method, substeps=args.substeps,
                           friction_velocity=args.friction_velocity)

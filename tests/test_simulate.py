@@ -449,3 +449,67 @@ def test_rk4_stability_bounds_are_where_the_stability_function_has_modulus_one()
     for z in (1j * RK4_IMAGINARY_BOUND, -RK4_REAL_BOUND):
         assert R(z) == pytest.approx(1.0, abs=1e-12)
         assert R(z * (1 - 1e-6)) < 1.0 < R(z * (1 + 1e-6))
+
+
+# -- the whole command on a warm cache folder: no SymPy (issue 38 §2) --------------------------------------------
+
+
+def _emps_experiment(folder: Path, model: str = "emps") -> Path:
+    """A 2 s, 1 kHz PD log of the EMPS carriage (a CSV file and its experiment file) in ``folder``."""
+    t = np.arange(2001) * 1e-3
+    ref = 0.05 * np.sin(2 * np.pi * t)
+    np.savetxt(folder / "log.csv", np.column_stack([t, ref, np.zeros_like(t), ref]), delimiter=",",
+               header="t,q,tau,r", comments="", fmt="%.17g")
+    path = folder / "run.toml"
+    path.write_text(f'data = "log.csv"\nmodel = "{model}"\n\n[signals]\nt = "t"\nq_q = "q"\ntau_q = "tau"\n'
+                    'ref_q = "r"\n\n[controller]\nkind = "pd"\ncoordinates = ["q"]\nkp = [20000.0]\nkd = [500.0]\n'
+                    'gain = 1\nreference = "ref"\n')
+    return path
+
+
+def _simulate_command(cache: Path, *argv: str) -> tuple[dict, list[str]]:
+    """``symbolic -q simulate ARGV --json`` in a fresh process with the cache folder ``cache``: its JSON (without
+    the timings) and which of SymPy and the derivation it imported."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    code = ("import contextlib, io, json, sys\nfrom symbolic import cli\nout = io.StringIO()\n"
+            "with contextlib.redirect_stdout(out):\n    code = cli.main(sys.argv[1:])\n"
+            "assert code == 0, code\nresult = json.loads(out.getvalue())\nresult.pop('timings')\n"
+            "print(json.dumps([result, sorted(m for m in sys.modules if m == 'sympy' or "
+            "m.startswith('symbolic.derivation'))]))")
+    env = dict(os.environ, SYMBOLIC_CACHE_DIR=str(cache))
+    done = subprocess.run([sys.executable, "-c", code, "-q", "simulate", *argv, "--json"], capture_output=True,
+                          text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr
+    result, imported = json.loads(done.stdout.splitlines()[-1])
+    return result, imported
+
+
+def test_warm_simulate_command_does_not_import_sympy(tmp_path: Path) -> None:
+    """docs/simulation.md ("The whole command"): the first run derives the model and keeps its numbers and CasADi
+    plant in the cache folder; the second reads them and neither parses the model file nor imports SymPy, and
+    gives the same result."""
+    experiment = _emps_experiment(tmp_path)
+    cold, imported = _simulate_command(tmp_path / "cache", "emps", str(experiment))
+    assert "sympy" in imported
+    warm, imported = _simulate_command(tmp_path / "cache", "emps", str(experiment))
+    assert imported == []
+    assert warm == cold
+
+
+def test_a_changed_model_file_is_not_simulated_from_its_old_numbers(tmp_path: Path) -> None:
+    """The numbers kept for a warm run are keyed by the model file: a parameter changed in it is simulated
+    with its new value (as from an empty cache folder), never with the numbers of the file before."""
+    model = tmp_path / "carriage.toml"
+    model.write_text(symbolic.robots.path("emps").read_text())
+    experiment = _emps_experiment(tmp_path, str(model))
+    before, _ = _simulate_command(tmp_path / "cache", str(model), str(experiment))
+    again, imported = _simulate_command(tmp_path / "cache", str(model), str(experiment))
+    assert again == before and imported == []
+    model.write_text(model.read_text().replace("M = { value = 95.1089,", "M = { value = 60.0,"))
+    changed, _ = _simulate_command(tmp_path / "cache", str(model), str(experiment))
+    fresh, _ = _simulate_command(tmp_path / "fresh", str(model), str(experiment))
+    assert changed == fresh and changed != before

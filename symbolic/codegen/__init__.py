@@ -10,6 +10,20 @@ user's files: :mod:`symbolic.export` does.
 
 from __future__ import annotations
 
-from symbolic.codegen.functions import compile_function
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from symbolic.codegen.functions import compile_function  # noqa: F401
 
 __all__ = ["compile_function"]
+
+
+def __getattr__(name: str) -> object:
+    """``compile_function`` on first use: the modules that need no SymPy (:mod:`.compiled`, loading a cached
+    library) are imported without it."""
+    if name == "compile_function":
+        from symbolic.codegen.functions import compile_function
+
+        globals()[name] = compile_function
+        return compile_function
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

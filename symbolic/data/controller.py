@@ -19,17 +19,18 @@ from __future__ import annotations
 import math
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import sympy as sp
 
 from symbolic.data.errors import DataError
 from symbolic.data.keys import suggestion, unknown_key
 from symbolic.data.measurements import MAX_MAGNITUDE
-from symbolic.description.expressions import parse_expression, variable_names
-from symbolic.description.robot import parameter_symbol
+from symbolic.description.reserved import check_magnitude, variable_names
 from symbolic.errors import ModelError, shown
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 STATE_FEEDBACK = "state_feedback"
 CASCADE_PI = "cascade_pi"
@@ -93,7 +94,8 @@ class Controller:
         Loop gains (zero where the kind has none). ``cascade_pi`` keeps kp_position in ``kp``,
         kp_velocity in ``kv``, ki_velocity in ``ki`` and kd_velocity in ``kd``.
     gain
-        Output-to-force gains, as expressions of the model's parameters (numbers are constants).
+        Output-to-force gains: a number as a float, an expression of the model's parameters as a SymPy
+        expression (parsed only then: a table of numbers is read without SymPy).
     reference
         ``"ref"`` (the data's ref_<c> columns), a tuple of expressions, or ``None`` (torque, state feedback).
     saturation
@@ -129,7 +131,7 @@ class Controller:
     kd: np.ndarray
     ki: np.ndarray
     kv: np.ndarray
-    gain: tuple[sp.Expr, ...]
+    gain: tuple[float | sp.Expr, ...]
     reference: str | tuple[str, ...] | None
     saturation: np.ndarray
     quantisation: np.ndarray
@@ -499,7 +501,7 @@ def _reference(table: Mapping[str, Any], nc: int, source: str) -> str | tuple[st
 
 
 def _gain(table: Mapping[str, Any], coordinates: tuple[str, ...], parameters: Sequence[sp.Symbol] | None,
-          source: str) -> tuple[sp.Expr, ...]:
+          source: str) -> tuple[float | sp.Expr, ...]:
     value = table.get("gain", 1.0)
     values = [value] * len(coordinates) if isinstance(value, (str, int, float)) else value
     if not isinstance(values, list) or len(values) != len(coordinates):
@@ -508,6 +510,18 @@ def _gain(table: Mapping[str, Any], coordinates: tuple[str, ...], parameters: Se
     out = []
     for k, v in enumerate(values):
         key = f"[controller] gain[{k}]" if isinstance(value, list) else "[controller] gain"
+        if isinstance(v, (int, float)) and not isinstance(v, bool):  # a number: checked as the parser would
+            try:
+                check_magnitude(v, source, key)
+            except ModelError as error:
+                raise DataError(error.source, error.key, error.problem) from None
+            if v < 0:
+                raise DataError(source, key, f"{v!r} is negative (allowed: numbers ≥ 0 or expressions of the parameters)")
+            out.append(float(v) if v else 0.0)  # the parser's exact number as a float (-0.0 is 0)
+            continue
+        from symbolic.description.expressions import parse_expression
+        from symbolic.description.robot import parameter_symbol
+
         if parameters is None:  # no model yet: any name, as the model's parameter symbol of that name
             symbols = {n: parameter_symbol(n) for n in (variable_names(v) if isinstance(v, str) else [])}
         else:

@@ -23,10 +23,9 @@ import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import sympy as sp
 
 from symbolic import robots
 from symbolic.data import excitation, files, signal_layer
@@ -38,10 +37,14 @@ from symbolic.data.measurements import (KINDS, MAX_MAGNITUDE, MAX_RATE, DriveGai
 from symbolic.data.settings import Settings
 from symbolic.data.signal_layer import SignalLayer
 from symbolic.data.units import check_units
-from symbolic.description.expressions import (RESERVED_NAMES, parse_expression, reserved_meaning, reserved_uses,
-                                              variable_names)
-from symbolic.description.robot import Robot
+from symbolic.description.numbers import RobotNumbers
+from symbolic.description.reserved import RESERVED_NAMES, reserved_meaning, reserved_uses, variable_names
 from symbolic.errors import ModelError, listing, shorten
+
+if TYPE_CHECKING:  # a model is a Robot, or a RobotNumbers (symbolic.description.numbers) read without SymPy
+    import sympy as sp
+
+    from symbolic.description.robot import Robot
 
 DATA_PATH_VARIABLE = "SYMBOLIC_DATA_PATH"
 """Environment variable: folders (separated by ``os.pathsep``) searched for a data file by its name
@@ -318,6 +321,10 @@ def drive_gains(robot: Robot) -> DriveGains:
     DataError
         For a gain that is not a finite non-zero number at those values.
     """
+    import sympy as sp
+
+    if isinstance(robot, RobotNumbers):  # the gains are expressions: read the description itself
+        robot = robot.robot()
     values = robot.parameter_values
     gains = {}
     for d in robot.drives:
@@ -512,6 +519,10 @@ def _evaluate(name: str, text: Any, table: files.Table, constants: Mapping[str, 
         _check_names(text, table, constants, source, key, written)
         if text.strip() in table.vectors:  # a column as it is (most signals): no expression to compile
             return np.array(table.vectors[text.strip()], dtype=float)
+    import sympy as sp
+
+    from symbolic.description.expressions import parse_expression
+
     usable = [*table.vectors, *table.scalars, *constants]
     symbols = {v: sp.Symbol(v) for v in usable if v.isidentifier() and v not in RESERVED_NAMES}
     try:

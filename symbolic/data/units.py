@@ -19,12 +19,16 @@ from __future__ import annotations
 import math
 import warnings
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from symbolic.data.measurements import Measurements, duration
-from symbolic.description.robot import Robot
 from symbolic.description.units import coordinate_kind
 from symbolic.errors import ModelWarning
+
+if TYPE_CHECKING:
+    from symbolic.description.robot import Robot
 
 MIN_RATE = 10.0
 """Hz: a robot's log is sampled at 100 Hz or faster (EMPS and the Panda: 1 kHz); below 10 Hz the time

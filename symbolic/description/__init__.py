@@ -29,14 +29,52 @@ symbolic.errors.ModelError: x.toml: top level: unknown key(s) ['colour'] (allowe
 
 from __future__ import annotations
 
-from symbolic.description.modelfile import load, loads
-from symbolic.description.parameters import ParameterVector
-from symbolic.description.robot import (
-    Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Joint, Parameter, Robot, Stribeck,
-)
-from symbolic.description.validation import validate
+import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from symbolic.description.modelfile import load, loads  # noqa: F401
+    from symbolic.description.parameters import ParameterVector  # noqa: F401
+    from symbolic.description.robot import (  # noqa: F401
+        Beam, Body, Constraint, Directional, Drive, EndEffector, Force, Frame, Friction, Joint, Parameter, Robot,
+        Stribeck,
+    )
+    from symbolic.description.validation import validate  # noqa: F401
+
+_LAZY = {
+    # name: module. Imported on first use (PEP 562): a module of this layer that needs no SymPy
+    # (symbolic.description.reserved, numbers) is imported without the parser and SymPy behind it.
+    "load": "symbolic.description.modelfile",
+    "loads": "symbolic.description.modelfile",
+    "ParameterVector": "symbolic.description.parameters",
+    "validate": "symbolic.description.validation",
+    **{name: "symbolic.description.robot" for name in (
+        "Beam", "Body", "Constraint", "Directional", "Drive", "EndEffector", "Force", "Frame", "Friction", "Joint",
+        "Parameter", "Robot", "Stribeck")},
+}
 
 __all__ = [
     "Beam", "Body", "Constraint", "Directional", "Drive", "EndEffector", "Force", "Frame", "Friction", "Joint",
     "Parameter", "ParameterVector", "Robot", "Stribeck", "load", "loads", "validate",
 ]
+
+
+def __getattr__(name: str) -> object:
+    """The names of :data:`__all__` and the submodules (``symbolic.description.robot``), imported on first use."""
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+    elif not name.startswith("_"):
+        try:
+            value = importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as missing:
+            if missing.name != f"{__name__}.{name}":
+                raise
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

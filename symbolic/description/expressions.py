@@ -15,37 +15,24 @@ limits, when each is checked and why: docs/model-format.md, "Limits".
 from __future__ import annotations
 
 import ast
-import math
 import re
 from collections.abc import Callable, Mapping
 
 import sympy as sp
 
+from symbolic.description.reserved import (  # noqa: F401 (re-exported: the parser's names)
+    FUNCTION_ARITY, RESERVED_NAMES, check_magnitude, reserved_meaning, reserved_uses, variable_names,
+)
 from symbolic.errors import ModelError, shorten, shown, suggestion
 
 FUNCTIONS: dict[str, tuple[Callable[..., sp.Expr], int]] = {
-    "sin": (sp.sin, 1),
-    "cos": (sp.cos, 1),
-    "tan": (sp.tan, 1),
-    "asin": (sp.asin, 1),
-    "acos": (sp.acos, 1),
-    "atan": (sp.atan, 1),
-    "atan2": (sp.atan2, 2),
-    "sinh": (sp.sinh, 1),
-    "cosh": (sp.cosh, 1),
-    "tanh": (sp.tanh, 1),
-    "sqrt": (sp.sqrt, 1),
-    "exp": (sp.exp, 1),
-    "log": (sp.log, 1),
-    "abs": (sp.Abs, 1),
-    "sign": (sp.sign, 1),
+    name: ({"abs": sp.Abs}.get(name) or getattr(sp, name), arity) for name, arity in FUNCTION_ARITY.items()
 }
 """Functions allowed in expressions: name -> (SymPy function, number of arguments)."""
 
 CONSTANTS: dict[str, sp.Expr] = {"pi": sp.pi}
-"""Named constants allowed in expressions."""
+"""Named constants allowed in expressions (their names: :data:`~symbolic.description.reserved.CONSTANT_NAMES`)."""
 
-RESERVED_NAMES = frozenset(FUNCTIONS) | frozenset(CONSTANTS)
 
 _ADDITIVE = (ast.Add, ast.Sub)
 _MULTIPLICATIVE = (ast.Mult, ast.Div)
@@ -80,41 +67,6 @@ _DIGITS_BOUND = 10**MAX_DIGITS
 _NOT_FINITE = (sp.zoo, sp.nan, sp.oo, -sp.oo)
 
 
-def variable_names(text: str) -> list[str]:
-    """The names ``text`` uses as variables (not called, not ``pi`` or a function), in order of appearance.
-
-    For messages that list what the caller could have meant; text that does not parse gives [] (the
-    parser reports it).
-    """
-    try:
-        tree = ast.parse(text.strip(), mode="eval")
-    except (SyntaxError, RecursionError, MemoryError, ValueError):
-        return []
-    called = {id(n.func) for n in ast.walk(tree) if isinstance(n, ast.Call)}
-    return [n.id for n in ast.walk(tree)
-            if isinstance(n, ast.Name) and id(n) not in called and n.id not in CONSTANTS and n.id not in FUNCTIONS]
-
-
-def reserved_uses(text: str) -> list[str]:
-    """The reserved names (:data:`RESERVED_NAMES`: ``pi`` and the functions) ``text`` uses, called or
-    not, once each in order of appearance; text that does not parse gives [] (the parser reports it).
-
-    For callers whose names come from elsewhere (a data file's columns): a name that is both theirs and
-    reserved is ambiguous, and refused rather than read one way or the other.
-    """
-    try:
-        tree = ast.parse(text.strip(), mode="eval")
-    except (SyntaxError, RecursionError, MemoryError, ValueError):
-        return []
-    names = [n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and n.id in RESERVED_NAMES]
-    return list(dict.fromkeys(names))
-
-
-def reserved_meaning(name: str) -> str:
-    """What a reserved name means in an expression, for messages ("the constant pi (3.14159…)")."""
-    return "the constant pi (3.14159…)" if name in CONSTANTS else f"the function {name}()"
-
-
 def number(value: float | int, source: str, key: str) -> sp.Expr:
     """Convert a TOML/Python number to an exact SymPy number (0.0825 -> 33/400).
 
@@ -132,24 +84,6 @@ def number(value: float | int, source: str, key: str) -> sp.Expr:
     if isinstance(value, int):
         return sp.Integer(value)
     return sp.Rational(repr(float(value)))
-
-
-def check_magnitude(value: float | int, source: str, key: str) -> None:
-    """Refuse a number that is not finite, or not 0 and outside 1e-30 … 1e30 in magnitude."""
-    if isinstance(value, float) and not math.isfinite(value):
-        raise ModelError(source, key, f"expected a finite number, got {value!r}")
-    exact = sp.Rational(repr(value)) if isinstance(value, float) else sp.Integer(value)  # 1e30 is 10**30, as parsed
-    if value != 0 and not sp.Integer(1) / MAX_MAGNITUDE <= abs(exact) <= MAX_MAGNITUDE:
-        text = f"{value:.3g}" if isinstance(value, float) else _integer_text(value)
-        raise ModelError(source, key, f"number {text} is outside the allowed magnitudes 1e-30 to 1e30 (or 0)")
-
-
-def _integer_text(value: int) -> str:
-    """An integer for a message, without tripping Python's int-to-text digit limit."""
-    if abs(value) < 10**30:
-        return str(value)
-    digits = int(abs(value).bit_length() * math.log10(2))  # exact, or one short (no int-to-text conversion)
-    return f"with {digits + (abs(value) >= 10**digits)} digits"
 
 
 def parse_expression(

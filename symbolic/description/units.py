@@ -19,10 +19,10 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import sympy as sp
-
-from symbolic.description.robot import Robot, coordinate_symbol
+if TYPE_CHECKING:
+    from symbolic.description.robot import Robot
 
 TIME = "s"
 """The unit of the data's time stamps."""
@@ -83,9 +83,18 @@ UNKNOWN = CoordinateUnits()
 
 def coordinate_kind(robot: Robot, coordinate: str) -> str:
     """``"revolute"`` (the coordinate enters a DH θ), ``"prismatic"`` (another frame coordinate) or
-    ``"modal"`` (a beam's modal coordinate). Raises ``KeyError`` for a name the robot does not have."""
+    ``"modal"`` (a beam's modal coordinate). Raises ``KeyError`` for a name the robot does not have.
+
+    ``robot`` may also be a :class:`~symbolic.description.numbers.RobotNumbers`, which holds the kinds."""
     if coordinate not in robot.generalized_coordinates:
         raise KeyError(coordinate)
+    kinds = getattr(robot, "kinds", None)  # RobotNumbers: taken from the description when it was read
+    if kinds is not None:
+        return kinds[coordinate]
+    import sympy as sp
+
+    from symbolic.description.robot import coordinate_symbol
+
     if coordinate not in robot.coordinates:
         return "modal"
     symbol = coordinate_symbol(coordinate)

@@ -446,7 +446,7 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
     sim._check_data(measurements, names, model.robot.name)
     p = sim._parameters(model, parameters, source)
     ctrl = control.check_delay(sim._controller(None, measurements, model, names), measurements.samples)
-    in_gains = sorted({s.name for g in ctrl.gain for s in g.free_symbols} & set(free))
+    in_gains = sorted({s.name for g in ctrl.gain for s in getattr(g, "free_symbols", ())} & set(free))  # numbers: floats
     if in_gains:  # the controller's constants are evaluated once: a gain cannot follow θ
         raise IdentificationError(f"{source}: [controller] gain: {', '.join(in_gains)} would be fitted but sets the "
                                   f"controller's drive gain, which the output-error fit keeps at its start value: keep "

@@ -17,18 +17,25 @@ validated where the experiment is loaded, by :func:`symbolic.data.controller.par
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
-import sympy as sp
 
 from symbolic.data import DataError, Measurements
 from symbolic.data.controller import (CASCADE_PI, GAINS, KEYS, KINDS, LINE_IN_MEMORY, STATE_FEEDBACK, Controller,
                                       allowed_keys, check_delay, check_names, parse, replay)
 from symbolic.errors import ModelError
-from symbolic.description.expressions import RESERVED_NAMES, parse_expression
+from symbolic.description.reserved import RESERVED_NAMES
+
+if TYPE_CHECKING:
+    import sympy as sp
+
+Parameters = Mapping["sp.Symbol", float] | Callable[[], Mapping["sp.Symbol", float]]
+"""Parameter values by symbol, or a function giving them: called only for a gain that is an expression of the
+parameters (a table of numbers needs no symbols, hence no SymPy: docs/simulation.md, "The whole command")."""
 
 __all__ = ["CASCADE_PI", "GAINS", "KEYS", "KINDS", "LINE_IN_MEMORY", "STATE_FEEDBACK", "Controller", "DelayLine", "Inputs",
            "allowed_keys", "check_delay", "constants", "controller_function", "drive_gains", "evaluate", "inputs",
@@ -115,6 +122,10 @@ def _evaluate_all(texts: Sequence[str], measurements: Measurements, name: str) -
 
 def evaluate(text: str, measurements: Measurements, key: str) -> np.ndarray:
     """An expression of ``t`` and the data's columns (names as in the data file), at every sample."""
+    import sympy as sp
+
+    from symbolic.description.expressions import parse_expression
+
     columns = measurements.columns()
     source = str(measurements.source)
     symbols = {name: sp.Symbol(name) for name in columns if name.isidentifier() and name not in RESERVED_NAMES}
@@ -137,8 +148,8 @@ def evaluate(text: str, measurements: Measurements, key: str) -> np.ndarray:
 # -- the discrete controller as a CasADi function --------------------------------------------------------
 
 
-def drive_gains(controller: Controller, parameters: Mapping[sp.Symbol, float]) -> np.ndarray:
-    """The output-to-force gains at ``parameters``, one per controlled coordinate.
+def drive_gains(controller: Controller, parameters: Parameters) -> np.ndarray:
+    """The output-to-force gains at ``parameters``, one per controlled coordinate (a number as it is).
 
     Raises
     ------
@@ -147,6 +158,11 @@ def drive_gains(controller: Controller, parameters: Mapping[sp.Symbol, float]) -
     """
     gain = []
     for k, g in enumerate(controller.gain):
+        if isinstance(g, float):  # a number (symbolic.data.controller: checked ≥ 0 when read)
+            gain.append(g)
+            continue
+        if callable(parameters):
+            parameters = parameters()
         unknown = sorted(s.name for s in g.free_symbols - set(parameters))
         if unknown:  # a gain read before a model was known (symbolic.data.controller.parse)
             raise DataError(controller.source, f"[controller] gain[{k}]",
@@ -160,7 +176,7 @@ def drive_gains(controller: Controller, parameters: Mapping[sp.Symbol, float]) -
     return np.array(gain)
 
 
-def constants(controller: Controller, parameters: Mapping[sp.Symbol, float]) -> np.ndarray:
+def constants(controller: Controller, parameters: Parameters) -> np.ndarray:
     """The numbers :func:`controller_function` takes as its ``c`` input (gains evaluated at ``parameters``):
     kp, kd, ki, kv, gain, saturation (one per controlled coordinate each), quantisation (one per sensed
     coordinate), the velocity filter's taps, then K row by row (state feedback; empty otherwise), then

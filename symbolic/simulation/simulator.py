@@ -20,23 +20,27 @@ import dataclasses
 import logging
 import math
 import time
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
-import sympy as sp
 
 from symbolic.data import DataError, Experiment, Measurements, load
-from symbolic.derivation.dynamics import DynamicModel
-from symbolic.derivation.products import Product
+from symbolic.description.numbers import RobotNumbers
 from symbolic.errors import SimulationError
 from symbolic.simulation import controller as control
-from symbolic.codegen.casadi import cholesky_solve, program_to_sx
 from symbolic.codegen.compiled import compile_casadi
 from symbolic.simulation.comparison import Comparison, compare, treatment
+
+if TYPE_CHECKING:  # SymPy, the derivation and its products are imported where a model is derived, not here:
+    import sympy as sp  # a warm `symbolic simulate` reads a SimulationModel from the cache folder without them
+
+    from symbolic.derivation.dynamics import DynamicModel
+    from symbolic.derivation.products import Product
 
 LOG = logging.getLogger(__name__)
 
@@ -209,7 +213,7 @@ class Simulation:
 
 
 def simulate(
-    model: DynamicModel,
+    model: DynamicModel | SimulationModel,
     data: Measurements | str | Path,
     *,
     controller: Mapping[str, Any] | control.Controller | None = None,
@@ -227,7 +231,8 @@ def simulate(
     Parameters
     ----------
     model
-        The derived model (:func:`symbolic.derive`).
+        The derived model (:func:`symbolic.derive`), or what a simulation reads of it (:class:`SimulationModel`:
+        :func:`cached_model` reads one from the cache folder without SymPy).
     data
         Measurements or an experiment (:func:`symbolic.data.load`), or a data or experiment file, loaded
         for ``model`` (its drive gains for ``u_<c>`` columns); the data's coordinates must be
@@ -256,6 +261,7 @@ def simulate(
     DataError
         For a log, controller table or option that cannot be simulated (one line: file, key, problem).
     """
+    model = simulation_model(model)
     measurements = data if isinstance(data, Measurements) else load(data, model=model.robot)
     source = str(measurements.source)
     names = tuple(model.robot.generalized_coordinates)
@@ -264,10 +270,10 @@ def simulate(
     p = _parameters(model, parameters, source)
     ctrl = control.check_delay(_controller(controller, measurements, model, names), measurements.samples)
     signals = control.inputs(ctrl, measurements, names)
-    ctrl, signals = drive_layer(ctrl, signals, measurements, model.parameter_vector.with_array(p).by_symbol())
+    ctrl, signals = drive_layer(ctrl, signals, measurements, lambda: model.by_symbol(p))
     sensed = position_sensors(ctrl, measurements, names)
     started = time.perf_counter()
-    plant = _plant(model)
+    plant = model.plant
     x0 = _initial_state(model, measurements, p, initial)
     radius = _spectral_radius(plant, x0, p, friction_velocity, float(measurements.t[0]), names, source)
     m = substeps or substeps_for(measurements.sample_period, radius)
@@ -279,8 +285,7 @@ def simulate(
         LOG.warning("%d sub-step(s) of %.3g s: h·ρ = %.2f exceeds RK4's stability bound %.3f (ρ = %.4g 1/s)",
                     substeps, measurements.sample_period / substeps, measurements.sample_period / substeps * radius,
                     RK4_REAL_BOUND, radius)
-    values = model.parameter_vector.with_array(p)
-    c = control.constants(ctrl, values.by_symbol())
+    c = control.constants(ctrl, lambda: model.by_symbol(p))
     timings = {"build": time.perf_counter() - started}
     args = (ctrl, plant, measurements, signals, x0, p, c, friction_velocity)
     if method == "rk4":
@@ -290,7 +295,7 @@ def simulate(
         timings["integrate"] = time.perf_counter() - started - timings["build"]
     simulated = _trajectory(measurements, names, outputs)
     return Simulation(measurements, simulated, ctrl, method, m, radius, friction_velocity,
-                      values.by_name(), used_compiled,
+                      model.by_name(p), used_compiled,
                       model.robot.name, timings)
 
 
@@ -333,17 +338,23 @@ def _check_data(measurements: Measurements, names: tuple[str, ...], model: str) 
                                               f"{model!r} (its coordinates: {', '.join(names)})")
 
 
-def _parameters(model: DynamicModel, values: Mapping[str, float] | None, source: str) -> np.ndarray:
-    nominal = model.parameter_vector
+def _parameters(model: DynamicModel | SimulationModel, values: Mapping[str, float] | None, source: str) -> np.ndarray:
+    """The array p: the model's nominal values with ``values`` (by name) in their place."""
+    model = simulation_model(model)
+    names = model.robot.parameter_names
     for name, value in (values or {}).items():
-        if name not in nominal.names:
-            raise DataError(source, "parameters", f"unknown parameter {name!r} (the model's: {', '.join(nominal.names)})")
+        if name not in names:
+            raise DataError(source, "parameters", f"unknown parameter {name!r} (the model's: {', '.join(names)})")
         if not math.isfinite(float(value)):
             raise DataError(source, f"parameters {name}", f"expected a finite number, got {value!r}")
-    return nominal.updated(values or {}).array()
+    p = np.array(model.robot.parameter_values, dtype=float)
+    for name, value in (values or {}).items():
+        p[names.index(name)] = float(value)
+    return p
 
 
-def _controller(given: Any, measurements: Measurements, model: DynamicModel, names: tuple[str, ...]) -> control.Controller:
+def _controller(given: Any, measurements: Measurements, model: DynamicModel | SimulationModel,
+                names: tuple[str, ...]) -> control.Controller:
     """The controller given (a table is checked as an experiment file's would be), else the experiment's
     (checked when it was loaded), else the replay of the measured forces."""
     if isinstance(given, control.Controller):
@@ -379,10 +390,12 @@ class Plant:
 
 
 def _plant(model: DynamicModel) -> Plant:
-    return model.products.get(PLANT)
+    return model.products.get(globals().get("PLANT") or __getattr__("PLANT"))
 
 
 def _build_plant(model: DynamicModel) -> Plant:
+    from symbolic.codegen.casadi import cholesky_solve, program_to_sx
+
     n = model.n
     q, qd, tau = ca.SX.sym("q", n), ca.SX.sym("qd", n), ca.SX.sym("tau", n)
     p, eps, t = ca.SX.sym("p", len(model.parameter_symbols)), ca.SX.sym("eps"), ca.SX.sym("t")
@@ -400,11 +413,145 @@ def _build_plant(model: DynamicModel) -> Plant:
     return Plant(n, rhs, ca.Function("bias", [q, qd, p, eps, t], [bias], ["q", "qd", "p", "eps", "t"], ["bias"]))
 
 
-PLANT: Product[Plant] = Product(f"simulation plant (CasADi {ca.__version__})", _build_plant, persist=True)
-"""The CasADi plant of a model, kept in the cache folder: translating the SymPy expressions into CasADi
-is most of what a warm ``symbolic simulate`` would otherwise redo (its compiled closed loops are libraries
-on disk, named by their C source). The CasADi version is part of the name, hence of the entry's key: a
-serialised CasADi function is read back only by the version that wrote it."""
+def __getattr__(name: str) -> Any:
+    """:data:`PLANT`, made on first use (its :class:`~symbolic.derivation.products.Product` comes with SymPy)."""
+    if name == "PLANT":
+        from symbolic.derivation.products import Product
+
+        plant: Product[Plant] = Product(f"simulation plant (CasADi {ca.__version__})", _build_plant, persist=True)
+        globals()["PLANT"] = plant
+        return plant
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+# PLANT: the CasADi plant of a model, kept in the cache folder: translating the SymPy expressions into CasADi
+# is most of what a warm simulation would otherwise redo (its compiled closed loops are libraries on disk,
+# named by their C source). The CasADi version is part of the name, hence of the entry's key: a serialised
+# CasADi function is read back only by the version that wrote it.
+
+
+# -- what a simulation reads of a model, kept apart from its expressions ------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class SimulationModel:
+    """What a simulation reads of a derived model: the description's names and numbers
+    (:class:`~symbolic.description.numbers.RobotNumbers`) and the CasADi plant — no SymPy.
+
+    Made from a :class:`~symbolic.derivation.dynamics.DynamicModel` (:meth:`of`, the plant then built or read
+    as the model's product :data:`PLANT`), or read from the cache folder by :func:`cached_model`, so that a warm
+    ``symbolic simulate`` neither parses the model file nor imports SymPy. What only the derivation can answer (a
+    flexible model's initial sag, a controller gain that names parameters) is taken from it on first use
+    (:meth:`dynamic`, :attr:`parameter_symbols`: derived or read from the cache folder as ``symbolic.derive``
+    would)."""
+
+    robot: RobotNumbers
+    _plant: list = field(default_factory=list, repr=False)
+    _dynamic: list = field(default_factory=list, repr=False)
+
+    @classmethod
+    def of(cls, model: DynamicModel, locator: tuple[str, str | None, str | None] | None = None) -> SimulationModel:
+        """The simulation model of ``model`` (``locator``: how to read its description again,
+        :class:`~symbolic.description.numbers.RobotNumbers`)."""
+        return cls(RobotNumbers.of(model.robot, locator or (str(model.robot.source), None, None)), [], [model])
+
+    def __reduce__(self) -> tuple:
+        # the numbers and the plant; the derived model is this process's own
+        return SimulationModel, (self.robot, [self.plant])
+
+    @property
+    def plant(self) -> Plant:
+        """The CasADi plant (:data:`PLANT`)."""
+        if not self._plant:
+            self._plant.append(_plant(self.dynamic()))
+        return self._plant[0]
+
+    @property
+    def n(self) -> int:
+        return len(self.robot.generalized_coordinates)
+
+    @property
+    def parameter_symbols(self) -> tuple[sp.Symbol, ...]:
+        return self.robot.parameter_symbols
+
+    def dynamic(self) -> DynamicModel:
+        """The derived model (derived on first use when this was read from the cache folder)."""
+        if not self._dynamic:
+            from symbolic.derivation.dynamics import derive
+
+            self._dynamic.append(derive(self.robot.robot()))
+        return self._dynamic[0]
+
+    def by_name(self, p: np.ndarray) -> dict[str, float]:
+        """``{name: value}`` of the parameter array ``p``, in model-file order."""
+        return {name: float(v) for name, v in zip(self.robot.parameter_names, p)}
+
+    def by_symbol(self, p: np.ndarray) -> dict[sp.Symbol, float]:
+        """``{symbol: value}`` of the parameter array ``p`` (reads the description: SymPy)."""
+        return {s: float(v) for s, v in zip(self.parameter_symbols, p)}
+
+
+def simulation_model(model: DynamicModel | SimulationModel) -> SimulationModel:
+    """``model`` as a :class:`SimulationModel`."""
+    return model if isinstance(model, SimulationModel) else SimulationModel.of(model)
+
+
+SIMULATION_MODEL = f"simulation model (CasADi {ca.__version__})"
+"""The kind of a :class:`SimulationModel`'s entry in the cache folder (the CasADi version in it: see :data:`PLANT`)."""
+
+
+def model_file_key(found: Path, root: str | None, tip: str | None) -> str | None:
+    """The key of a :class:`SimulationModel` entry: SHA-256 of the model file's name as given, its bytes, and the
+    chain chosen in a URDF (everything its description is read from, docs/architecture.md "Derived products and
+    the cache"); ``None`` when the file cannot be read."""
+    import hashlib
+    import json
+
+    try:
+        content = found.read_bytes()
+    except OSError:
+        return None
+    return hashlib.sha256(json.dumps([str(found), root, tip, hashlib.sha256(content).hexdigest()]).encode()).hexdigest()
+
+
+def cached_model(name_or_path: str | Path, root: str | None = None, tip: str | None = None) -> SimulationModel:
+    """The simulation model of MODEL (a model file or a built-in robot's name, :func:`symbolic.robots.resolve`):
+    read from the cache folder, else derived (the derivation itself read from the cache folder when it is there,
+    as ``symbolic.derive`` does), its plant built and the whole kept for the next time.
+
+    The entry is keyed by the model file (:func:`model_file_key`) under the cache's stamp (package sources,
+    Python, SymPy, NumPy; CasADi in its kind), so that a changed file or parameter value is never read from an
+    entry of the old one. A hit imports neither SymPy nor the derivation; the warnings reading the file gave
+    (:class:`~symbolic.errors.ModelWarning`) are kept in the entry and given again.
+    """
+    from symbolic import cache, robots
+
+    started = time.perf_counter()
+    found = robots.locate(name_or_path)
+    chain = found.suffix.lower() == ".urdf" or (root is None and tip is None)  # else resolve() says why not
+    key = model_file_key(found, root, tip) if chain else None
+    entry = cache.load(SIMULATION_MODEL, key) if key is not None else None
+    if entry is not None and isinstance(entry[0], tuple) and len(entry[0]) == 2 \
+            and isinstance(entry[0][0], SimulationModel):
+        model, said = entry[0]
+        LOG.info("%s: its numbers and CasADi plant read from the cache in %.2f s", model.robot.name,
+                 time.perf_counter() - started)
+        for category, message in said:  # what reading the model file said, said again
+            warnings.warn(message, category, stacklevel=2)
+        return model
+    from symbolic.derivation.dynamics import derive
+    from symbolic.errors import ModelWarning
+
+    with warnings.catch_warnings(record=True) as caught:  # the filters in force: what would be shown
+        robot = robots.resolve(name_or_path, root, tip)
+        model = SimulationModel.of(derive(robot), (str(found), root, tip))
+    for w in caught:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
+    said = tuple((w.category, str(w.message)) for w in caught if issubclass(w.category, ModelWarning))
+    model.plant  # built (or read) before it is kept  # noqa: B018
+    if key is not None and model_file_key(found, root, tip) == key:  # the file did not change meanwhile
+        cache.save(SIMULATION_MODEL, key, (model, said))
+    return model
 
 
 def substeps_for(period: float, radius: float) -> int:
@@ -436,7 +583,7 @@ def _spectral_radius(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0
 
 
 def drive_layer(ctrl: control.Controller, signals: control.Inputs, measurements: Measurements,
-                 parameters: Mapping[sp.Symbol, float]) -> tuple[control.Controller, control.Inputs]:
+                 parameters: control.Parameters) -> tuple[control.Controller, control.Inputs]:
     """``ctrl`` and its inputs with the experiment's ``[drive]`` (docs/data.md, "The signal layer"): the force
     applied is g·(τ_ctrl(t − d) + b) for the controller's output τ_ctrl = gain·(u + disturbance), so the loop's
     gain becomes g·gain, its delay delay + d (whole samples: each coordinate's is
@@ -481,6 +628,8 @@ def drive_layer(ctrl: control.Controller, signals: control.Inputs, measurements:
     for k, shift in enumerate(shifts):  # the disturbance joins the command before the drive: late with it
         if shift:
             disturbance[:, k] = np.concatenate([np.repeat(disturbance[:1, k], shift), disturbance[:-shift, k]])
+    import sympy as sp
+
     gain = tuple(g if ch is None else sp.Float(ch.gain) * g for g, ch in zip(ctrl.gain, channels))
     ctrl = dataclasses.replace(ctrl, gain=gain, delay=ctrl.delay + common, drive_delays=own if any(own) else ())
     ctrl = control.check_delay(ctrl, measurements.samples)
@@ -531,7 +680,9 @@ def position_sensors(ctrl: control.Controller, measurements: Measurements,
 # -- initial state -----------------------------------------------------------------------------------------
 
 
-def _initial_state(model: DynamicModel, measurements: Measurements, p: np.ndarray, initial: Any) -> np.ndarray:
+def _initial_state(model: DynamicModel | SimulationModel, measurements: Measurements, p: np.ndarray,
+                   initial: Any) -> np.ndarray:
+    model = simulation_model(model)
     names = list(model.robot.generalized_coordinates)
     n = len(names)
     if initial is not None:
@@ -549,7 +700,7 @@ def _initial_state(model: DynamicModel, measurements: Measurements, p: np.ndarra
         from symbolic.numeric.statics import residual_imbalance
 
         rigid = len(model.robot.coordinates)
-        sag = residual_imbalance(model, x0[:rigid], model.parameter_vector.with_array(p).by_name())
+        sag = residual_imbalance(model.dynamic(), x0[:rigid], model.by_name(p))
         for name, value in sag.modal.items():
             if name not in measurements.coordinates:
                 x0[names.index(name)] = value
