@@ -2,8 +2,8 @@
 
 Issue 23 §3 ("nothing derived twice"). The command runs in a fresh process
 (``python -m symbolic -q simulate panda run.toml --json``) with ``SYMBOLIC_CACHE_DIR`` pointing to a folder
-of its own: empty for the cold run, filled by the runs before for the warm ones (the derivation, the
-CasADi plant and the compiled closed loop are read from it). The experiment is the one of
+of its own: empty for the cold run, filled by the runs before for the warm ones (the model's numbers and
+CasADi plant, kept under the model file's digest, and the compiled closed loop are read from it: no SymPy). The experiment is the one of
 ``bench/simulate.py``: the Panda from q⁰ under a discrete PD (kp = D_ii(q⁰)·ω², kd = 2ζ·D_ii(q⁰)·ω,
 ω = 2π·5 rad/s, ζ = 0.7) following q⁰ + 0.3·sin(2π·f_i·t), written as a CSV log and an experiment file
 with a ``[controller]`` table in a temporary folder.
@@ -127,6 +127,9 @@ def main() -> int:
     median = lambda rows, k: statistics.median(r[k] for r in rows)  # noqa: E731
     a_wall, a_cpu = median(anchor, 0), median(anchor, 1)
     w_wall, w_cpu, w_run = median(warm, 0), median(warm, 1), median(warm, 2)
+    absent = [note for library, note in (("sympy", "no SymPy"),
+                                         ("scipy", "no SciPy: the comparison's low-pass is NumPy's, symbolic.data.filters"))
+              if library not in packages]
     lines = [
         "# `symbolic simulate`: the whole command against a Pinocchio loop (issue 23 §3)", "",
         f"Panda, 20 s at 1 kHz, discrete PD (`bench/simulate_command.py`). {platform.machine()}, Python "
@@ -140,11 +143,12 @@ def main() -> int:
         f"{w_cpu / a_cpu:.1f}× | **{w_run / a_wall:.2f}×** |",
         f"| anchor: Pinocchio `aba` loop in Python | {a_wall:.2f} | {a_cpu:.2f} | | 1 | 1 | |", "",
         "Goals (issue 38 §2): the warm command within 2× the loop's wall time, the integration within 0.5×. Warm, the "
-        "derivation, the CasADi plant and the compiled closed loop are read from the cache folder; what is left "
-        "is the imports, reading the log, the integration and the comparison. Packages the warm command imports "
-        "(`-X importtime`, cumulative wall time): " + ", ".join(f"{m} {v:.2f} s" for m, v in packages.items())
-        + (" (no SciPy: the comparison's low-pass is NumPy's, symbolic.data.filters)" if "scipy" not in packages
-           else "") + ". CPU time of some imports in a fresh process in this run, for scale: "
+        "model's numbers and CasADi plant (kept under the model file's digest: the file is not parsed) and the "
+        "compiled closed loop are read from the cache folder; what is left is the imports, reading the log, the "
+        "integration and the comparison. Packages the warm command imports (`-X importtime`, cumulative wall time): "
+        + ", ".join(f"{m} {v:.2f} s" for m, v in packages.items())
+        + (f" ({'; '.join(absent)})" if absent else "") + ". CPU time of some imports in a fresh process in this "
+        "run, for scale: "
         + ", ".join(f"{m} {v:.2f} s" for m, v in imports.items()) + ".", "",
     ]
     Path(args.out).write_text("\n".join(lines))
