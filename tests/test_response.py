@@ -283,17 +283,39 @@ def test_the_rigs_half_sample_log_is_named_and_its_stiffness_kept(tmp_path: Path
     assert patched["Ks"] == pytest.approx(factor, rel=0.01)
 
 
-def test_not_run_where_the_refit_would_free_too_many(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Beyond MAX_REFIT parameters the search is not run, and the JSON and the report say why (here the
-    axis's three parameters against a limit of two)."""
+def test_beyond_max_refit_the_search_is_local_and_beyond_max_local_not_run(tmp_path: Path,
+                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """Beyond MAX_REFIT parameters the search is local (the refit frees the values acting on one coordinate's
+    force alone, each candidate its own coordinate's): the axis's three, against a limit of two, still name the
+    force's 3-sample delay, and the JSON and the report say the search was local. Beyond MAX_LOCAL it is not
+    run, and they say why."""
     import symbolic.workflow.response as response
 
     monkeypatch.setattr(response, "MAX_REFIT", 2)
-    result = _diagnose(tmp_path, "axis", log_delay=3, force_noise=0.02, counts=2**16, seed=1)
+    result = _diagnose(tmp_path / "local", "axis", log_delay=3, force_noise=0.02, counts=2**16, seed=1)
+    named = _named(result)
+    assert list(named) == ["delay(q)"] and abs(named["delay(q)"]["delay"] - 3.0) < 1.0
+    data = result.to_dict()["response"]
+    assert data["local"] is True and data["notes"][0].startswith("local search")
+    assert sorted(data["parameter_values"]) == ["Fc", "Fv", "J"]
+    monkeypatch.setattr(response, "MAX_LOCAL", 2)
+    result = _diagnose(tmp_path / "skipped", "axis", log_delay=3, force_noise=0.02, counts=2**16, seed=1)
     assert result.response.named == () and result.response.rounds == ()
     data = result.to_dict()["response"]
     assert "more than the 2" in data["refit"]["skipped"] and data["notes"][0].startswith("not run")
-    assert "Not run: the model has 3 parameters" in (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
+    assert "Not run: the model has 3 parameters acting on one coordinate's force alone" in \
+        (tmp_path / "skipped" / "out" / "report.md").read_text(encoding="utf-8")
+
+
+def test_own_rows_are_the_values_acting_on_one_coordinates_force_alone() -> None:
+    """On the 2-link arm: the friction values act on their own joint's row, link 1's inertial values on joint 1's
+    alone; link 2's on both (joint 1 carries link 2) and a length is in Y itself: neither is own-row."""
+    from symbolic.workflow.response import own_rows
+
+    model = symbolic.derive(symbolic.loads(models.arm(), "<arm>"))
+    own = own_rows(model, [p.name for p in model.robot.parameters])
+    assert own == {"m1": "q1", "c1": "q1", "I1": "q1", "Fv1": "q1", "Fc1": "q1", "Fv2": "q2", "Fc2": "q2"}
+    assert not {"m2", "l1"} & set(own)
 
 
 def test_help_and_list_name_the_response_effects() -> None:

@@ -136,6 +136,8 @@ class OutputErrorFit:
     signal_values: dict[str, FittedParameter] = field(default_factory=dict)
     residual: np.ndarray | None = field(default=None, repr=False)
     """The weighted residual at the end, ``samples × compared columns`` (its colour: the σ above assume it white)."""
+    held: dict[str, float] = field(default_factory=dict)
+    """Parameters not fitted and held at these values instead of the model's (``output_error(held=...)``)."""
 
     def values(self) -> dict[str, float]:
         """{model parameter: fitted value}, for writing back into the model file."""
@@ -187,7 +189,8 @@ class OutputErrorFit:
 
 def sensitivity_function(ctrl: control.Controller, plant: sim.Plant, names: tuple[str, ...], period: float,
                          substeps: int, free: Sequence[int], quantised: bool = False,
-                         sensed: sim.PositionSensors | None = None, signal_count: int = 0) -> ca.Function:
+                         sensed: sim.PositionSensors | None = None, signal_count: int = 0,
+                         calm: int = 0) -> ca.Function:
     """One sample of the closed loop with its forward sensitivities to the parameters ``free`` (indices of p).
 
     ``(za, w, p, c, eps) -> (za_next, ya)`` with za = [z; vec(S)], S = ∂z/∂θ (column-major), and
@@ -203,7 +206,7 @@ def sensitivity_function(ctrl: control.Controller, plant: sim.Plant, names: tupl
     ``signal_count``: θ ends with that many values of the experiment's signal layer, which act on the loop
     through its inputs and constants only: w then ends with ∂w/∂θ_s (column-major, nw × signal_count) and the
     function takes a last input ``dc``, ∂c/∂θ_s (nc × signal_count), the seeds of those directions."""
-    F = sim.sample_function(ctrl, plant, names, period, substeps, sensed=sensed)
+    F = sim.sample_function(ctrl, plant, names, period, substeps, sensed=sensed, calm=calm)
     nz, ny, npar, kp = F.size1_in(0), F.size1_out(1), F.size1_in(2), len(free)
     ks = signal_count
     k = kp + ks
@@ -277,6 +280,8 @@ class ClosedLoop:
     signal_values: tuple[SignalValue, ...] = ()
     before: np.ndarray | None = None  # the controller's own drive gains, before the [drive] gains
     initial_given: bool = False
+    calm: int = 0
+    """RK4 sub-steps of a calm sample (:func:`symbolic.simulation.simulator.stepping`; 0: all take ``substeps``)."""
     _functions: dict = field(default_factory=dict)
 
     def function(self, sensitivities: bool) -> sim.Chunked:
@@ -286,12 +291,12 @@ class ClosedLoop:
             if sensitivities:
                 f = sensitivity_function(self.ctrl, self.plant, self.names, self.measurements.sample_period,
                                          self.substeps, self.free, self.c_smooth is not None, self.sensed,
-                                         len(self.signal_values))
+                                         len(self.signal_values), self.calm)
                 self._functions[True] = sim.Chunked(f, self.compiled)
             else:
                 self._functions[False] = sim._closed_loop(self.ctrl, self.plant, self.names,
                                                           self.measurements.sample_period, self.substeps,
-                                                          self.compiled, self.sensed)
+                                                          self.compiled, self.sensed, self.calm)
         return self._functions[sensitivities]
 
     def parameters(self, theta: np.ndarray) -> np.ndarray:
@@ -464,8 +469,8 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
     fitted = tuple(_signal_value(v, ctrl, measurements) for v in signal_values)
     plant = sim._plant(model)
     x0 = sim._initial_state(model, measurements, p, initial)
-    radius = sim._spectral_radius(plant, x0, p, friction_velocity, float(measurements.t[0]), names, source)
-    m = substeps or sim.substeps_for(measurements.sample_period, radius)
+    m, calm, radius = sim.stepping(plant, x0, p, friction_velocity, float(measurements.t[0]),
+                                   measurements.sample_period, names, source, substeps)
     if m > sim.MAX_SUBSTEPS:
         raise IdentificationError(f"the model needs {m:.3g} RK4 sub-steps per sample (spectral radius {radius:.4g} "
                                   f"1/s): too stiff for the output-error identification's fixed-step simulation")
@@ -476,7 +481,7 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
     w = sim.loop_inputs(signals, measurements)
     index = [model.parameter_vector.names.index(name) for name in free]
     return ClosedLoop(model, measurements, ctrl, plant, names, tuple(index), p, x0, c, smooth, np.ascontiguousarray(w), m,
-                      friction_velocity, compiled, sensed, layer, fitted, before, initial is not None)
+                      friction_velocity, compiled, sensed, layer, fitted, before, initial is not None, calm)
 
 
 def _signal_value(value: FreeValue, ctrl: control.Controller, measurements: Measurements) -> SignalValue:
@@ -640,6 +645,7 @@ def output_error(
     initial: tuple[Any, Any] | None = None,
     tolerance: float = SIGMA_TOLERANCE,
     evaluate_if_nothing_free: bool = False,
+    held: Mapping[str, float] | None = None,
 ) -> OutputErrorFit:
     """Fit ``model``'s parameters by the output error of its closed loop on ``data`` (module docstring).
 
@@ -662,6 +668,9 @@ def output_error(
         Parameters kept at their values besides ``fixed = true`` ones.
     max_iterations
         Levenberg–Marquardt iterations before stopping unconverged.
+    held
+        Parameters not fitted, held at these values instead of the model's (a search that fits one coordinate's
+        values at the others' fitted ones).
     evaluate_if_nothing_free
         With nothing to fit (``start`` empty, no free signal value): the loop evaluated once at the values given
         instead of the error (a search's candidate whose values are all held: a delay line's length scanned).
@@ -709,11 +718,12 @@ def output_error(
     fixed_names = {s.name for s in fixed}
     start = {n: float(v) for n, v in start.items() if n not in fixed_names}
     names = list(start)
+    held = {n: float(v) for n, v in (held or {}).items() if n not in start}
     layer = getattr(measurements, "signal_layer", None)
     if not start and not (layer and layer.free) and not evaluate_if_nothing_free:
         raise IdentificationError(f"model {model.name}: no parameter to fit by output error (IDIM-LS determines none "
                                   "directly and alone; try --consistent, or free parameters kept fixed)")
-    loop = closed_loop(model, measurements, names, parameters=start, friction_velocity=friction_velocity,
+    loop = closed_loop(model, measurements, names, parameters={**held, **start}, friction_velocity=friction_velocity,
                        substeps=substeps, compiled=compiled, initial=initial,
                        signal_values=layer.free if layer else ())
     residuals = _residuals(measurements, loop.names, signals, weights, loop.ctrl, loop)
@@ -751,7 +761,7 @@ def output_error(
                           iterations, cost0, float(r @ r), residuals.errors(y0, loop.layer_at(theta0)),
                           residuals.errors(y, loop.layer_at(theta)),
                           {s.name: float(model.parameters[s]) for s in model.parameter_symbols if s in fixed},
-                          timings, start_method, values, r.reshape(measurements.samples, -1))
+                          timings, start_method, values, r.reshape(measurements.samples, -1), held)
 
 
 SEEN = 1e-3
@@ -819,9 +829,10 @@ def simulated(model: DynamicModel, measurements: Measurements, fit: OutputErrorF
     layer = getattr(measurements, "signal_layer", None)
     names = list(fit.parameters) if fit is not None else []
     values = {n: p.value for n, p in fit.parameters.items()} if fit is not None else None
+    held = fit.held if fit is not None else {}
     free = layer.free if layer and fit is not None else ()
-    loop = closed_loop(model, measurements, names, parameters=values, friction_velocity=friction_velocity,
-                       signal_values=free)
+    loop = closed_loop(model, measurements, names, parameters={**held, **values} if values is not None else None,
+                       friction_velocity=friction_velocity, signal_values=free)
     theta = np.array([values[n] for n in names] + [fit.signal_values[v.name].value for v in loop.signal_values]
                      if fit is not None else [], dtype=float)
     y, _ = loop.run(theta, sensitivities=False)

@@ -46,6 +46,19 @@ LOG = logging.getLogger(__name__)
 
 METHODS = ("rk4", "Radau", "BDF", "LSODA")
 
+CALM_WHEN = 4
+"""Where RK4 needs this many times the sub-steps it would need without friction's smoothed sign (a light joint
+with Coulomb friction: hundreds a sample), a sample in which every velocity stays clear of zero takes the fewer
+(:func:`stepping`): the sign's steep part, |v| ≲ ε, is where the model is stiff, and such a sample never enters it."""
+
+CALM_MARGIN = 20.0
+"""A sample is calm when every |q̇_j| − 2T|q̈_j| at its start exceeds this many ε: the velocity cannot reach the
+smoothed sign's steep part within the sample (sech²(20) ≈ 2e-17: the friction's slope there is nothing), even if
+the acceleration doubles over it."""
+
+SOFT_FRICTION_VELOCITY = 1e6
+"""ε at which the spectral radius without friction's smoothed sign is measured (tanh(v/ε) is then flat)."""
+
 FRICTION_VELOCITY = 1e-4
 """Default ε of the smoothed sign tanh(v/ε), in coordinate units per second (m/s, rad/s)."""
 
@@ -128,6 +141,8 @@ class Simulation:
     compiled: bool
     model_name: str
     timings: Mapping[str, float] = field(default_factory=dict)
+    calm_substeps: int = 0
+    """RK4 sub-steps of a calm sample (:func:`stepping`; 0: every sample takes :attr:`substeps`)."""
 
     def compare(self, window: float = 1.0) -> Comparison:
         """Per coordinate and signal: relative error, RMS, worst window (:func:`symbolic.simulation.comparison.compare`)."""
@@ -142,6 +157,7 @@ class Simulation:
             "controller": self.controller.describe(),
             "method": self.method,
             "substeps": self.substeps,
+            "calm_substeps": self.calm_substeps,
             "spectral_radius": self.spectral_radius,
             "friction_velocity": self.friction_velocity,
             "compiled": self.compiled,
@@ -153,7 +169,8 @@ class Simulation:
 
     def summary(self) -> str:
         """Lines saying what was simulated and how."""
-        how = (f"RK4, {self.substeps} sub-step(s) per sample (spectral radius {self.spectral_radius:.4g} 1/s)"
+        calm = f", {self.calm_substeps} in a sample whose velocities stay clear of zero" if self.calm_substeps else ""
+        how = (f"RK4, {self.substeps} sub-step(s) per sample{calm} (spectral radius {self.spectral_radius:.4g} 1/s)"
                if self.method == "rk4" else f"solve_ivp {self.method}")
         return "\n".join([
             f"model {self.model_name}: {self.measured.samples} samples at {self.measured.rate:g} Hz from "
@@ -275,8 +292,8 @@ def simulate(
     started = time.perf_counter()
     plant = model.plant
     x0 = _initial_state(model, measurements, p, initial)
-    radius = _spectral_radius(plant, x0, p, friction_velocity, float(measurements.t[0]), names, source)
-    m = substeps or substeps_for(measurements.sample_period, radius)
+    m, calm, radius = stepping(plant, x0, p, friction_velocity, float(measurements.t[0]), measurements.sample_period,
+                               names, source, substeps)
     if method == "rk4" and m > MAX_SUBSTEPS:
         raise SimulationError(f"the model needs {m:.3g} RK4 sub-steps per sample of "
                               f"{measurements.sample_period:.3g} s (spectral radius {radius:.4g} 1/s; allowed: up to "
@@ -289,14 +306,14 @@ def simulate(
     timings = {"build": time.perf_counter() - started}
     args = (ctrl, plant, measurements, signals, x0, p, c, friction_velocity)
     if method == "rk4":
-        outputs, used_compiled = _run_fixed_step(*args, m, names, compiled, timings, sensed)
+        outputs, used_compiled = _run_fixed_step(*args, m, names, compiled, timings, sensed, calm)
     else:
-        outputs, used_compiled, m = _run_solve_ivp(*args, names, method, rtol, atol, sensed), False, 1
+        outputs, used_compiled, m, calm = _run_solve_ivp(*args, names, method, rtol, atol, sensed), False, 1, 0
         timings["integrate"] = time.perf_counter() - started - timings["build"]
     simulated = _trajectory(measurements, names, outputs)
     return Simulation(measurements, simulated, ctrl, method, m, radius, friction_velocity,
                       model.by_name(p), used_compiled,
-                      model.robot.name, timings)
+                      model.robot.name, timings, calm)
 
 
 DATA_NAME = "simulated.csv"
@@ -554,6 +571,23 @@ def cached_model(name_or_path: str | Path, root: str | None = None, tip: str | N
     return model
 
 
+def stepping(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0: float, period: float,
+             names: tuple[str, ...], source: str, substeps: int | None = None) -> tuple[int, int, float]:
+    """(RK4 sub-steps per sample, sub-steps of a calm sample or 0, ρ): h·ρ ≤ :data:`STEP_BOUND`; where that is
+    :data:`CALM_WHEN` times the sub-steps of the model with friction's sign flat (ρ_soft, at ε =
+    :data:`SOFT_FRICTION_VELOCITY`), a calm sample — every velocity clear of the sign's steep part over it
+    (:data:`CALM_MARGIN`) — takes those instead, the others all of them (:func:`sample_function`).
+    ``substeps`` given: that many in every sample."""
+    radius = _spectral_radius(plant, x0, p, eps, t0, names, source)
+    if substeps:
+        return substeps, 0, radius
+    m = substeps_for(period, radius)
+    if m < CALM_WHEN:
+        return m, 0, radius
+    calm = substeps_for(period, _spectral_radius(plant, x0, p, max(eps, SOFT_FRICTION_VELOCITY), t0, names, source))
+    return (m, calm, radius) if CALM_WHEN * calm <= m else (m, 0, radius)
+
+
 def substeps_for(period: float, radius: float) -> int:
     """RK4 sub-steps per sample of ``period`` so that h·ρ ≤ :data:`STEP_BOUND` (``radius`` = ρ)."""
     return max(1, math.ceil(min(period * radius / STEP_BOUND, 2.0**62)))
@@ -730,12 +764,14 @@ def initial_velocity(measurements: Measurements) -> np.ndarray:
 
 def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float,
                     substeps: int, external: bool = False,
-                    sensed: PositionSensors | None = None) -> ca.Function:
+                    sensed: PositionSensors | None = None, calm: int = 0) -> ca.Function:
     """One sample of the closed loop: ``(z, w, p, c, eps) -> (z_next, y)``.
 
     z = [x; controller memory], w = [reference (x_ref of a state feedback); disturbance; logged τ; t_k] of
     the sample, y = [q; q̇; q̈; τ] at t_k (q̈ with τ_k applied), z_next after ``substeps`` RK4 steps of
-    period/substeps (each at its own times, for a model whose forces depend on time).
+    period/substeps (each at its own times, for a model whose forces depend on time) — or, with ``calm`` > 0,
+    ``calm`` steps of period/calm where the sample is calm (:func:`stepping`): a conditional in the generated code,
+    which runs one branch only, and whose sensitivities are the branch's.
 
     ``external``: the delay line is the caller's (:class:`~symbolic.simulation.controller.DelayLine`): w
     ends with the output applied at the sample and y with the output computed there.
@@ -749,14 +785,7 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     step_controller = control.controller_function(ctrl, names, period, external)
     X, T = ca.MX.sym("x", 2 * n), ca.MX.sym("tau", n)
     P, E = ca.MX.sym("p", plant.rhs.size1_in(2)), ca.MX.sym("eps")
-    h = period / substeps
-    S, K1 = ca.MX.sym("t"), ca.MX.sym("k1", 2 * n)
-    k2 = plant.rhs(X + h / 2 * K1, T, P, E, S + h / 2)
-    k3 = plant.rhs(X + h / 2 * k2, T, P, E, S + h / 2)
-    k4 = plant.rhs(X + h * k3, T, P, E, S + h)
-    # the first stage is an input: the sample's first step shares it with y's q̈ (one evaluation of five saved)
-    rk4_after = ca.Function("rk4_stages", [X, K1, T, P, E, S], [X + h / 6 * (K1 + 2 * k2 + 2 * k3 + k4)])
-    rk4 = ca.Function("rk4", [X, T, P, E, S], [rk4_after(X, plant.rhs(X, T, P, E, S), T, P, E, S)])
+    steps = _rk4_sample(plant, period, substeps)
     Z, W = ca.MX.sym("z", 2 * n + memory + depth * n), ca.MX.sym("w", nr + nc + n + 1 + (nc if external else 0))
     C = ca.MX.sym("c", step_controller.size1_in(5))
     x, m = Z[: 2 * n], Z[2 * n:2 * n + memory]
@@ -769,12 +798,33 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     else:
         (m_next, tau), u = step_controller(*read), ca.MX(0, 1)
     xdot = plant.rhs(x, tau, P, E, t_k)
-    x_first = rk4_after(x, xdot, tau, P, E, t_k)
-    x_next = x_first if substeps == 1 else \
-        _repeat(rk4, substeps - 1, x_first, tau, P, E, starts=t_k + h * ca.DM(range(1, substeps)).T)
+    if calm:
+        v, a = x[n:], xdot[n:]
+        clear = ca.mmin(ca.fabs(v) - 2 * period * ca.fabs(a)) > CALM_MARGIN * E
+        x_next = ca.Function.conditional("rk4_sample", [steps], _rk4_sample(plant, period, calm))(
+            clear, x, xdot, tau, P, E, t_k)  # index 0 (not clear): every sub-step; 1: the calm ones
+    else:
+        x_next = steps(x, xdot, tau, P, E, t_k)
     return ca.Function("closed_loop_sample", [Z, W, P, C, E], [ca.vertcat(x_next, m_next, *history[:depth]),
                                                                  ca.vertcat(x, xdot[n:], tau, u)],
                        ["z", "w", "p", "c", "eps"], ["z_next", "y"])
+
+
+def _rk4_sample(plant: Plant, period: float, substeps: int) -> ca.Function:
+    """``(x, ẋ(x), tau, p, eps, t_k) -> x after one sample``: ``substeps`` RK4 steps of period/substeps, the first
+    stage given (the sample shares it with y's q̈: one evaluation of five saved)."""
+    n, h = plant.n, period / substeps
+    X, T, K1 = ca.MX.sym("x", 2 * n), ca.MX.sym("tau", n), ca.MX.sym("k1", 2 * n)
+    P, E, S = ca.MX.sym("p", plant.rhs.size1_in(2)), ca.MX.sym("eps"), ca.MX.sym("t")
+    k2 = plant.rhs(X + h / 2 * K1, T, P, E, S + h / 2)
+    k3 = plant.rhs(X + h / 2 * k2, T, P, E, S + h / 2)
+    k4 = plant.rhs(X + h * k3, T, P, E, S + h)
+    rk4_after = ca.Function("rk4_stages", [X, K1, T, P, E, S], [X + h / 6 * (K1 + 2 * k2 + 2 * k3 + k4)])
+    rk4 = ca.Function("rk4", [X, T, P, E, S], [rk4_after(X, plant.rhs(X, T, P, E, S), T, P, E, S)])
+    x_first = rk4_after(X, K1, T, P, E, S)
+    x_next = x_first if substeps == 1 else \
+        _repeat(rk4, substeps - 1, x_first, T, P, E, starts=S + h * ca.DM(range(1, substeps)).T)
+    return ca.Function(f"rk4_sample_{substeps}", [X, K1, T, P, E, S], [x_next])
 
 
 def _repeat(step: ca.Function, count: int, x: ca.MX, *args: ca.MX, starts: ca.MX) -> ca.MX:
@@ -843,13 +893,13 @@ class Chunked:
 
 
 def _closed_loop(ctrl: control.Controller, plant: Plant, names: tuple[str, ...], period: float, substeps: int,
-                 compiled: bool | None, sensed: PositionSensors | None = None) -> Chunked:
+                 compiled: bool | None, sensed: PositionSensors | None = None, calm: int = 0) -> Chunked:
     """The closed loop's samples in compiled chunks, built once per plant, controller structure and position sensors."""
     external = control.line_outside(ctrl)
-    key = (ctrl.structure(), external, names, period, substeps, compiled, sensed)
+    key = (ctrl.structure(), external, names, period, substeps, compiled, sensed, calm)
     cache = plant.closed_loops
     if key not in cache:
-        cache[key] = Chunked(sample_function(ctrl, plant, names, period, substeps, external, sensed), compiled)
+        cache[key] = Chunked(sample_function(ctrl, plant, names, period, substeps, external, sensed, calm), compiled)
     return cache[key]
 
 
@@ -868,9 +918,9 @@ def loop_inputs(signals: control.Inputs, measurements: Measurements) -> np.ndarr
 def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measurements, signals: control.Inputs,
                     x0: np.ndarray, p: np.ndarray, c: np.ndarray, eps: float, substeps: int, names: tuple[str, ...],
                     compiled: bool | None, timings: dict[str, float],
-                    sensed: PositionSensors | None = None) -> tuple[np.ndarray, bool]:
+                    sensed: PositionSensors | None = None, calm: int = 0) -> tuple[np.ndarray, bool]:
     started = time.perf_counter()
-    loop = _closed_loop(ctrl, plant, names, measurements.sample_period, substeps, compiled, sensed)
+    loop = _closed_loop(ctrl, plant, names, measurements.sample_period, substeps, compiled, sensed, calm)
     line = control.DelayLine(ctrl.delay, ctrl.size) if control.line_outside(ctrl) else None
     # with a delay line, a chunk's applied outputs were computed at least `delay` samples before it
     chunk = CHUNK if line is None else min(CHUNK, ctrl.delay)

@@ -66,12 +66,15 @@ compares fits by their held-out errors, which a twentieth of a σ does not move 
 goes on to 1e-3 σ)."""
 
 MAX_REFIT = 12
-"""The search runs where the refit (and every candidate with it) frees at most this many of the model's
-parameters. Beyond, it is not run yet, and says so: on a 6-axis arm with nothing missing (tests/workflow_cases.py's
-industrial arm, 10 s at 500 Hz) the refit of its parameters took 12 min and moved friction and rotor inertias
-by 30–200 % for an 11 % held-out gain, and without the refit every joint's drive gain came out at 1.02–1.19
-(the closed loop's misfit at IDIM-LS's values, which a scale absorbs), joint 1's named at 10.8 % — neither is a
-finding to trust."""
+"""Where the data determine at most this many of the model's parameters, the refit frees them all and every
+candidate is fitted with all of them free. Beyond (a 6-axis arm: tens of inertial combinations), the search is
+*local* (:class:`Scope`): the refit frees only the values that act on one coordinate's force alone (its friction,
+its rotor inertia, a spring of its own), and each candidate frees, beside its own values, those of its coordinate;
+everything else stays at the refit's values. A refit of every value of a 6-axis arm took 12 min and moved friction
+and rotor inertias by 30–200 % for an 11 % held-out gain (docs/workflow.md, "Where it runs")."""
+
+MAX_LOCAL = 30
+"""The local refit's limit (own-row values of every coordinate: three or four a joint)."""
 
 Errors = dict[str, dict[str, float]]
 
@@ -127,6 +130,9 @@ class ResponseSearch:
     corrections: tuple[dict[str, Any], ...] = ()
     """The values among :attr:`values` that the output error moves from IDIM-LS's by 3σ and 10 %, named as
     corrections (a stiffness the resonance shows and the noisy accelerations did not)."""
+    local: bool = False
+    """Whether the search was local (:data:`MAX_REFIT`): each fit freed its own coordinate's values only, and the
+    last named candidate's fit does not hold every value named (the stand-in review does not run)."""
 
     def parameter_values(self) -> dict[str, float]:
         """The model-file values to write into the patched file (empty: IDIM-LS's stay)."""
@@ -155,7 +161,7 @@ class ResponseSearch:
                 "rounds": [[j.to_dict() for j in r] for r in self.rounds],
                 "experiment_lines": self.experiment_lines(), "parameter_values": self.parameter_values(),
                 "refit": None if self.refit is None else {k: v for k, v in self.refit.items()},
-                "seconds": self.seconds, "notes": list(self.notes)}
+                "seconds": self.seconds, "notes": list(self.notes), "local": self.local}
 
 
 def _all_values(judged: Judged) -> dict[Key, FittedParameter]:
@@ -189,33 +195,42 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
         return ResponseSearch(signals, base, base, (), (), time.perf_counter() - started,
                               (f"not run: the held-out simulation error is below {floor:g} % of every signal's "
                                "spread (the simulation's and the treatment's own: nothing to explain)",))
-    refit, last = _refit(model, estimation, (held_out, held_from), base, signals, fix, min_gain, determined)
-    if refit is not None and "skipped" in refit:
-        return ResponseSearch(signals, base, base, (), (), time.perf_counter() - started,
-                              (f"not run: {refit['skipped']}",), refit)
+    scope = Scope.of(model, estimation, fix, determined)
+    if scope.skipped:
+        return ResponseSearch(signals, base, base, (), (), time.perf_counter() - started, (f"not run: {scope.skipped}",),
+                              {"skipped": scope.skipped, "accepted": False, "moved": []})
+    refit, last = _refit(model, estimation, (held_out, held_from), base, signals, fix, min_gain, scope)
     accepted: dict[Key, float] = {} if last is None else {(PARAMETER, n, ""): p.value for n, p in last.parameters.items()}
+    fitted: dict[str, FittedParameter] = {} if last is None else dict(last.parameters)  # every parameter's latest fit
+    homes = {k: scope.home(k[1]) for k in accepted}
     current = base if last is None else {"estimation": last.errors, "validation": refit["held_out"]}
     fixed = set(fix) | {p.name for p in model.robot.parameters if p.fixed} | {k[1] for k in accepted}
     chosen = list(RESPONSE_EFFECTS.values()) if effects is None else list(effects)
     remaining = [c for e in chosen for c in e.candidates(model, estimation, fixed)]
     named: list[Judged] = []
     rounds: list[tuple[Judged, ...]] = []
-    notes: list[str] = []
+    notes: list[str] = ([f"local search: the data determine more than {MAX_REFIT} of the model's parameters, so the "
+                         f"refit freed the {len(scope.refitted)} that act on one coordinate's force alone and each "
+                         "candidate its own coordinate's (docs/workflow.md, \"Where it runs\")"]
+                        if scope.local is not None else [])
     for round_number in range(1, MAX_ROUNDS + 1):
         if not remaining:
             break
         log.info("diagnose %s: response round %d, %d candidate(s)", model.name, round_number, len(remaining))
-        now = _now(model, estimation, accepted, last, source)
-        judged = _judge_all(remaining, lambda c: _judge(model, c, accepted, estimation, (held_out, held_from),
-                                                        current, signals, min_gain, source, now))
+        now = _now(model, estimation, accepted, last, source, scope)
+        judged = _judge_all(remaining, lambda c: _judge(model, c, scope.split(accepted, homes, c.coordinate),
+                                                        estimation, (held_out, held_from), current, signals,
+                                                        min_gain, source, now))
         rounds.append(judged)
         passing = [j for j in judged if j.verdict is None]
         if not passing:
             break
         best = max(passing, key=lambda j: (j.stacked_gain, j.gain))  # over every coordinate: scopes differ
         named.append(best)
-        held_fixed = {k: v for k, v in accepted.items() if fixed_key(k)}  # the fits return only the free values
-        accepted = {**held_fixed, **{k: v.value for k, v in _all_values(best).items()}}
+        kept = {k: v for k, v in accepted.items() if fixed_key(k) or scope.local is not None}  # the fits return
+        accepted = {**kept, **{k: v.value for k, v in _all_values(best).items()}}  # only the values they free
+        homes.update({k: best.candidate.coordinate for k in _all_values(best) if k not in homes})
+        fitted.update(best.fit.parameters if best.fit is not None else {})
         last = best.fit
         current = {"estimation": best.estimation, "validation": best.held_out}
         remaining = [c for c in remaining if (c.effect, c.coordinate, c.frees) != (best.candidate.effect,
@@ -226,15 +241,83 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
               f"after it free in the same fit: {verdict}; its value is left at the model file's" for j, verdict in dropped]
     if named:
         left = {k[1] for j, _ in dropped for k in j.values if k[0] == PARAMETER}
-        values = {n: p.value for n, p in named[-1].fit.parameters.items() if n not in left}
+        final = fitted if scope.local is not None else named[-1].fit.parameters
+        final = {n: p for n, p in final.items() if n not in left}
     elif refit is not None and refit["accepted"] and refit["moved"]:
-        values = {n: p.value for n, p in last.parameters.items()}
+        final = dict(last.parameters)
     else:  # nothing the response supports: the patched model as IDIM-LS identified it
-        values, current = {}, base
-    final = named[-1].fit if named else (last if values else None)
-    corrections = tuple(_corrections(model, final)) if final is not None else ()
+        final, current = {}, base
+    values = {n: p.value for n, p in final.items()}
     return ResponseSearch(signals, base, current, tuple(rounds), tuple(named), time.perf_counter() - started,
-                          tuple(notes), refit, values, corrections)
+                          tuple(notes), refit, values, tuple(_corrections(model, final)), scope.local is not None)
+
+
+@dataclass(frozen=True)
+class Scope:
+    """Which values the refit frees and which of the accepted ones each candidate's fit frees with its own
+    (:data:`MAX_REFIT`). ``local`` is ``None`` where every accepted value is freed with every candidate; else it
+    maps each refitted parameter to the one coordinate whose force it acts on, and a candidate frees the accepted
+    values of its own coordinate only, the others held at their values. ``skipped``: why the search does not run."""
+
+    refitted: tuple[str, ...]
+    local: dict[str, str] | None = None
+    skipped: str | None = None
+
+    @classmethod
+    def of(cls, model: DynamicModel, estimation: Measurements, fix: Sequence[str],
+           determined: Sequence[str] | None) -> Scope:
+        """The scope of ``model`` on ``estimation``: ``determined`` the parameters the data determine (default:
+        IDIM-LS's on ``estimation``)."""
+        from symbolic.identify.model import identify_model
+
+        if determined is None:
+            try:
+                idim = identify_model(model, estimation, fix=fix)
+            except IdentificationError:
+                return cls(())
+            determined = [n for n, p in idim.parameters.items() if math.isfinite(p.sigma)]
+        names = [n for n in determined if n not in fix]
+        if len(names) <= MAX_REFIT:
+            return cls(tuple(names))
+        own = own_rows(model, names)
+        local = {n: own[n] for n in names if n in own}
+        if len(local) > MAX_LOCAL:
+            return cls((), local, f"the model has {len(local)} parameters acting on one coordinate's force alone, "
+                                  f"more than the {MAX_LOCAL} the local output-error refit frees (speed)")
+        return cls(tuple(local), local)
+
+    def home(self, name: str) -> str:
+        """The coordinate a refitted parameter belongs to ("" where the search is not local)."""
+        return "" if self.local is None else self.local.get(name, "")
+
+    def split(self, accepted: Mapping[Key, float], homes: Mapping[Key, str], coordinate: str
+              ) -> tuple[dict[Key, float], dict[Key, float]]:
+        """(the accepted values a candidate on ``coordinate`` frees, those held at their values)."""
+        if self.local is None:
+            return dict(accepted), {}
+        free = {k: v for k, v in accepted.items() if homes.get(k, "") == coordinate}
+        return free, {k: v for k, v in accepted.items() if k not in free}
+
+
+def own_rows(model: DynamicModel, names: Sequence[str]) -> dict[str, str]:
+    """``{name: coordinate}`` for those of ``names`` whose every standard parameter θ acts on one row of τ = Y·θ
+    alone (Y's column structurally zero elsewhere) and that Y does not depend on: a joint's friction, its rotor
+    inertia, a spring of its own, the first link's inertial values — not a later link's, which the joints before
+    it feel too, nor a length."""
+    import sympy as sp
+
+    from symbolic.identify.model import geometric_parameters
+
+    reg = model.regressor()
+    coordinates = list(model.robot.generalized_coordinates)
+    geometric = {s.name for s in geometric_parameters(model, reg)}
+    names = [n for n in names if n not in geometric]
+    rows: dict[str, set[int]] = {}
+    for k, expression in enumerate(reg.theta_expressions):
+        acting = {i for i in range(reg.Y.rows) if reg.Y[i, k] != 0}
+        for symbol in sp.sympify(expression).free_symbols:
+            rows.setdefault(symbol.name, set()).update(acting)
+    return {n: coordinates[next(iter(rows[n]))] for n in names if len(rows.get(n, ())) == 1}
 
 
 def _still_named(model: DynamicModel, named: Sequence[Judged], rate: float
@@ -282,14 +365,14 @@ def _judge_all(candidates: Sequence[ResponseCandidate], judge: Callable[[Respons
     return tuple(dataclasses.replace(j, candidate=c) for j, c in zip(out, candidates))
 
 
-def _corrections(model: DynamicModel, fit: OutputErrorFit) -> list[dict[str, Any]]:
+def _corrections(model: DynamicModel, fitted: Mapping[str, FittedParameter]) -> list[dict[str, Any]]:
     """The model's values the output error moves from the patched model's (IDIM-LS's) by 3σ and 10 % at
     least: corrections found through the response, each with what it is (a stiffness, a damping, ...)."""
     from symbolic.workflow.corrections import parameter_kind
     from symbolic.workflow.effects.correction import force_coordinate
 
     out = []
-    for name, p in fit.parameters.items():
+    for name, p in fitted.items():
         before = _value(model, name)
         if abs(p.value - before) > max(3 * p.sigma, 0.1 * abs(before)):
             out.append({"effect": "correction", "parameter": name, "kind": parameter_kind(model.robot, name),
@@ -301,27 +384,16 @@ def _corrections(model: DynamicModel, fit: OutputErrorFit) -> list[dict[str, Any
 
 def _refit(model: DynamicModel, estimation: Measurements, held_out: tuple[Measurements, int],
            base: Mapping[str, Errors], signals: str, fix: Sequence[str], min_gain: float,
-           determined: Sequence[str] | None = None) -> tuple[dict[str, Any] | None, OutputErrorFit | None]:
-    """The model's parameters that IDIM-LS determines, fitted by the output error from the values the model
-    holds (DIDIM): every candidate is then fitted with them free and compared with this fit, so that what a
-    candidate gains is its own. Accepted as a correction of the model's values when it lowers the held-out
-    simulation error over all coordinates by the effect size; the values it moves beyond 3σ and 10 % are listed,
-    and only when some move so are the refitted values written (a polish within 10 % leaves IDIM-LS's)."""
-    from symbolic.identify.model import identify_model
-
-    if determined is None:
-        try:
-            idim = identify_model(model, estimation, fix=fix)
-        except IdentificationError:
-            return None, None
-        determined = [n for n, p in idim.parameters.items() if math.isfinite(p.sigma)]
-    start = {n: _value(model, n) for n in determined if n not in fix}
+           scope: Scope) -> tuple[dict[str, Any] | None, OutputErrorFit | None]:
+    """The model's parameters that IDIM-LS determines (``scope.refitted``), fitted by the output error from the
+    values the model holds (DIDIM): every candidate is then fitted with them free (those of its coordinate, where
+    the scope is local) and compared with this fit, so that what a candidate gains is its own. Accepted as a
+    correction of the model's values when it lowers the held-out simulation error over all coordinates by the
+    effect size; the values it moves beyond 3σ and 10 % are listed, and only when some move so are the refitted
+    values written (a polish within 10 % leaves IDIM-LS's)."""
+    start = {n: _value(model, n) for n in scope.refitted}
     if not start:
         return None, None
-    if len(start) > MAX_REFIT:
-        return {"skipped": f"the model has {len(start)} parameters the data determine, more than the {MAX_REFIT} the "
-                           "output-error refit frees today (speed, and a trustworthy refit of many values)",
-                "accepted": False, "moved": []}, None
     try:
         fit = output_error(model, estimation, start=start, signals=signals, fix=fix, max_iterations=MAX_ITERATIONS,
                            tolerance=TOLERANCE)
@@ -336,22 +408,28 @@ def _refit(model: DynamicModel, estimation: Measurements, held_out: tuple[Measur
             "estimation": fit.errors, "converged": fit.converged}, fit
 
 
-def _layered(measurements: Measurements, values: Mapping[Key, float | None], source: str) -> Measurements:
+def _layered(measurements: Measurements, values: Mapping[Key, float | None], source: str,
+             kept: Mapping[Key, float] | None = None) -> Measurements:
     """``measurements`` with the layer's ``values``: free where the output error can fit them, declared fixed
-    where it cannot (:func:`~symbolic.workflow.effects.on_response.fixed_key`: a drive's delay in the loop)."""
+    where it cannot (:func:`~symbolic.workflow.effects.on_response.fixed_key`: a drive's delay in the loop);
+    ``kept``: values declared fixed (another coordinate's, in a local search)."""
     free = {k: v for k, v in values.items() if k[0] != PARAMETER and not fixed_key(k)}
     held = {k: v for k, v in values.items() if k[0] != PARAMETER and fixed_key(k)}
+    held.update({k: v for k, v in (kept or {}).items() if k[0] != PARAMETER})
     out = signal_layer.freed(measurements, free, source) if free else measurements
     return signal_layer.fixed(out, held, source) if held else out
 
 
-def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[Key, float],
+def _judge(model: DynamicModel, candidate: ResponseCandidate, scoped: tuple[Mapping[Key, float], Mapping[Key, float]],
            estimation: Measurements, held_out: tuple[Measurements, int], current: Mapping[str, Errors], signals: str,
            min_gain: float, source: str, now: tuple[np.ndarray, list[str]]) -> Judged:
-    """Fit ``candidate``'s values with everything ``accepted`` free too, and judge it on ``held_out``;
+    """Fit ``candidate``'s values with the accepted ones ``scoped`` = (freed, kept) — the first free too, the
+    second held at their values — and judge it on ``held_out``;
     ``now``: the current model's simulation of the estimation data (where the fit starts). A scanned candidate
     (:attr:`~symbolic.workflow.effects.on_response.ResponseEffect.scan`) is fitted at its values in turn, until two
     past the best, and the one that lowers the estimation data's simulation error most is judged."""
+    accepted, kept = scoped
+    held_values = {k[1]: v for k, v in kept.items() if k[0] == PARAMETER}
     scanned = candidate.effect.scan
     trials = [{k: value for k in candidate.frees} for value in scanned] if scanned else \
         [{k: _start(candidate, k, estimation, now) for k in candidate.frees if k not in accepted}]
@@ -366,9 +444,9 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[
         start = {k[1]: (v if v is not None else float(_value(model, k[1]))) for k, v in frees.items()
                  if k[0] == PARAMETER}
         try:
-            est, held = _layered(estimation, frees, source), _layered(held_out[0], frees, source)
+            est, held = _layered(estimation, frees, source, kept), _layered(held_out[0], frees, source, kept)
             fit = output_error(model, est, start=start, signals=signals, max_iterations=CANDIDATE_ITERATIONS,
-                               tolerance=TOLERANCE, evaluate_if_nothing_free=bool(scanned))
+                               tolerance=TOLERANCE, evaluate_if_nothing_free=bool(scanned), held=held_values)
         except (DataError, IdentificationError, SimulationError, np.linalg.LinAlgError) as error:
             problem = getattr(error, "problem", None) or str(error)
             continue
@@ -414,10 +492,21 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, accepted: Mapping[
 
 
 def _now(model: DynamicModel, estimation: Measurements, accepted: Mapping[Key, float],
-         last: OutputErrorFit | None, source: str) -> tuple[np.ndarray, list[str]]:
-    """The current model (``last`` fit's values) simulated on the estimation data: (y, the model's coordinates)."""
-    y, _, _ = simulated(model, _layered(estimation, accepted, source), last)
+         last: OutputErrorFit | None, source: str, scope: Scope) -> tuple[np.ndarray, list[str]]:
+    """The current model (``last`` fit's values; every accepted value, where the scope is local) simulated on
+    the estimation data: (y, the model's coordinates)."""
+    if scope.local is not None:
+        y, _, _ = simulated(model, _layered(estimation, {}, source, accepted), _held_fit(model, accepted))
+    else:
+        y, _, _ = simulated(model, _layered(estimation, accepted, source), last)
     return y, list(model.robot.generalized_coordinates)
+
+
+def _held_fit(model: DynamicModel, values: Mapping[Key, float]) -> OutputErrorFit:
+    """A fit of nothing holding the parameter values among ``values``: what :func:`simulated` takes to simulate
+    ``model`` at them."""
+    held = {k[1]: float(v) for k, v in values.items() if k[0] == PARAMETER}
+    return OutputErrorFit(model.name, "both", (1.0, 1.0), {}, True, "held values", 0, 0.0, 0.0, {}, {}, held=held)
 
 
 def _start(candidate: ResponseCandidate, key: Key, estimation: Measurements,

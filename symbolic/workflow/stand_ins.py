@@ -64,6 +64,9 @@ def review(text: str, source: str, findings: Sequence[Finding], response: Respon
     (module docstring); ``held_out``'s samples from ``held_from`` on are the held-out data."""
     if not response.named or not findings or response.named[-1].fit is None:
         return Review((), (), response)
+    if response.local:  # its last fit frees one coordinate's values: no refit of the whole to judge them by
+        return Review((), ("the equation error's findings are not judged again with the response's named values: the "
+                           "response search was local (docs/workflow.md, \"Where it runs\")",), response)
     last = response.named[-1].fit
     current = response.after["validation"]
     accepted = response.layer_values()
