@@ -513,3 +513,34 @@ def test_a_changed_model_file_is_not_simulated_from_its_old_numbers(tmp_path: Pa
     changed, _ = _simulate_command(tmp_path / "cache", str(model), str(experiment))
     fresh, _ = _simulate_command(tmp_path / "fresh", str(model), str(experiment))
     assert changed == fresh and changed != before
+
+
+def test_a_calm_sample_takes_the_fewer_substeps_on_the_same_path(tmp_path: Path) -> None:
+    """The 2-link arm with Coulomb friction on both joints under PD (exact encoder): RK4 needs hundreds of
+    sub-steps a sample for the smoothed sign's damper and one without it, so a calm sample — every velocity clear
+    of zero over it — takes one (docs/simulation.md, "Calm samples"). Against the same run with four times the
+    sub-steps everywhere, its positions are as close as those of the run with all the sub-steps in every sample
+    (1e-9 rad more allowed), and so are its forces; and against the exact stick/slip axis
+    (tests/reference_integrator.py), the positions are within 1e-5 rad."""
+    from reference_integrator import axis_pd_run, reference_motion, write_arm_experiment, write_axis_experiment
+
+    experiment = write_arm_experiment(tmp_path / "arm", seconds=3.0, counts=0)
+    arm = symbolic.derive(symbolic.loads(models.arm(), "<arm>"))
+    calm = simulate(arm, experiment)
+    assert calm.calm_substeps == 1 and calm.substeps >= 4 and calm.to_dict()["calm_substeps"] == 1
+    every = simulate(arm, experiment, substeps=calm.substeps)
+    finer = simulate(arm, experiment, substeps=4 * calm.substeps)
+    assert every.calm_substeps == 0
+
+    def apart(run, signal: str) -> float:
+        return float(np.abs(np.asarray(getattr(run.simulated, signal)) - np.asarray(getattr(finer.simulated, signal))).max())
+
+    assert apart(calm, "q") <= 1.5 * apart(every, "q") + 1e-9
+    assert apart(calm, "tau") <= 1.5 * apart(every, "tau") + 1e-9
+    path = write_axis_experiment(tmp_path / "axis", counts=0, seconds=4.0)
+    axis = symbolic.derive(symbolic.loads(models.axis(), "<axis>"))
+    run = simulate(axis, path)
+    t = np.arange(4000) / 1000.0
+    true, _, _ = axis_pd_run(t, reference_motion(t), 0.05, 0.3, 0.4, 20.0, 1.0, 0.0)
+    assert run.calm_substeps == 1
+    assert np.abs(np.asarray(run.simulated.q)[:, 0] - true).max() < 1e-5
