@@ -176,7 +176,7 @@ def six_axis(out: Path) -> None:
              "`python bench/response.py --six-axis` (issue 34); truth from tests/reference_six_axis.py (the industrial "
              "arm of tests/workflow_cases.py with viscous friction and rotors, Pinocchio's dynamics, DOP853 at rtol "
              "1e-10, its own PD loop with a logged feedforward), 10 s at 500 Hz, 1 % force noise. *local*: "
-             "MAX_REFIT forced to 4, below the 14 values the data determine, so that the search frees each "
+             "MAX_REFIT forced to 4, below the 11 values the data determine, so that the search frees each "
              "coordinate's own values only (docs/workflow.md, \"Where it runs\").", "", "## Nothing missing", "",
              "| search | seed | encoder counts | named | seconds |", "|---|---|---|---|---|"]
     false = runs = 0

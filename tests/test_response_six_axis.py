@@ -32,7 +32,7 @@ def test_one_joints_drive_gain_is_named_on_that_joint(tmp_path: Path, local: boo
                                                       monkeypatch: pytest.MonkeyPatch) -> None:
     """Joint 3's drive applies 1.25 × its command: `drive_gain(q3)` alone is named, within 2 %; the values of joint 3
     that IDIM-LS scaled by 1/1.25 (its rotor inertia and viscous friction) come back within 5 % of the truth's.
-    ``local``: the search forced local (MAX_REFIT below the 14 values the data determine)."""
+    ``local``: the search forced local (MAX_REFIT below the 11 values the data determine)."""
     require_pinocchio()
     import symbolic.workflow.response as response
 
