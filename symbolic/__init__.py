@@ -11,13 +11,13 @@ The public API is :data:`__all__`, documented in docs/api.md.
 
 from __future__ import annotations
 
-import importlib
 import logging
 from typing import TYPE_CHECKING
 
 from symbolic.errors import (
     DataError, ExportError, IdentificationError, ModelError, ModelWarning, SimulationError, SymbolicError,
 )
+from symbolic import lazy
 from symbolic.version import __version__
 
 if TYPE_CHECKING:
@@ -49,21 +49,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
 
 def __getattr__(name: str) -> object:
     """The public names and the subpackages (``symbolic.robots``, ``symbolic.data``, ...), imported on first use."""
-    if name in _LAZY:
-        module, attribute = _LAZY[name]
-        value = importlib.import_module(module)
-        value = value if attribute is None else getattr(value, attribute)
-    elif not name.startswith("_"):
-        try:
-            value = importlib.import_module(f"{__name__}.{name}")
-        except ModuleNotFoundError as missing:
-            if missing.name != f"{__name__}.{name}":
-                raise
-            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
-    else:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    globals()[name] = value  # later lookups find it directly
-    return value
+    return lazy.attribute(__name__, _LAZY, globals(), name)
 
 
 def __dir__() -> list[str]:

@@ -17,7 +17,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "symbolic"
 
 # Lowest first. A module may import its own layer and the layers before it.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("symbolic.errors", "symbolic.version", "symbolic.writing", "symbolic.plotting", "symbolic.htmlpage", "symbolic.cache"),
+    ("symbolic.errors", "symbolic.version", "symbolic.writing", "symbolic.plotting", "symbolic.htmlpage", "symbolic.cache",
+     "symbolic.lazy"),
     ("symbolic.description", "symbolic.robots"),
     ("symbolic.data",),
     ("symbolic.derivation",),

@@ -29,8 +29,9 @@ symbolic.errors.ModelError: x.toml: top level: unknown key(s) ['colour'] (allowe
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from symbolic import lazy
 
 if TYPE_CHECKING:
     from symbolic.description.modelfile import load, loads  # noqa: F401
@@ -41,14 +42,14 @@ if TYPE_CHECKING:
     )
     from symbolic.description.validation import validate  # noqa: F401
 
-_LAZY = {
+_LAZY: dict[str, tuple[str, str | None]] = {
     # name: module. Imported on first use (PEP 562): a module of this layer that needs no SymPy
     # (symbolic.description.reserved, numbers) is imported without the parser and SymPy behind it.
-    "load": "symbolic.description.modelfile",
-    "loads": "symbolic.description.modelfile",
-    "ParameterVector": "symbolic.description.parameters",
-    "validate": "symbolic.description.validation",
-    **{name: "symbolic.description.robot" for name in (
+    "load": ("symbolic.description.modelfile", "load"),
+    "loads": ("symbolic.description.modelfile", "loads"),
+    "ParameterVector": ("symbolic.description.parameters", "ParameterVector"),
+    "validate": ("symbolic.description.validation", "validate"),
+    **{name: ("symbolic.description.robot", name) for name in (
         "Beam", "Body", "Constraint", "Directional", "Drive", "EndEffector", "Force", "Frame", "Friction", "Joint",
         "Parameter", "Robot", "Stribeck")},
 }
@@ -61,19 +62,7 @@ __all__ = [
 
 def __getattr__(name: str) -> object:
     """The names of :data:`__all__` and the submodules (``symbolic.description.robot``), imported on first use."""
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-    elif not name.startswith("_"):
-        try:
-            value = importlib.import_module(f"{__name__}.{name}")
-        except ModuleNotFoundError as missing:
-            if missing.name != f"{__name__}.{name}":
-                raise
-            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
-    else:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    globals()[name] = value
-    return value
+    return lazy.attribute(__name__, _LAZY, globals(), name)
 
 
 def __dir__() -> list[str]:
