@@ -472,9 +472,8 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
     m, calm, radius = sim.stepping(plant, x0, p, friction_velocity, float(measurements.t[0]),
                                    measurements.sample_period, names, source, substeps)
     if np.any(ctrl.quantisation > 0):
-        # the sensitivities of a quantising loop are taken along its unquantised twin (sensitivity_function), whose
-        # calm samples need not be the simulated loop's: with calm samples, the fit of tests/test_unmeasured.py's
-        # geared joint (motor encoder, Coulomb friction) overflowed its Jacobian; every sample takes them all there
+        # with calm samples the fit of tests/test_unmeasured.py's geared joint (its encoder quantising, Coulomb
+        # friction on the motor) overflowed its Jacobian; the cause is not found: every sample takes them all here
         calm = 0
     if m > sim.MAX_SUBSTEPS:
         raise IdentificationError(f"the model needs {m:.3g} RK4 sub-steps per sample (spectral radius {radius:.4g} "
