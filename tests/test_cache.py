@@ -321,6 +321,7 @@ def test_a_warm_simulation_reads_the_plant_and_integrates_the_same(folder: Path,
     table = {"kind": "pd", "kp": [40.0, 20.0], "kd": [4.0, 2.0], "reference": "ref"}
     first = simulator.simulate(symbolic.derive(robot), log, controller=table, initial=(np.zeros(2), np.zeros(2)))
     assert len(entries(folder, "simulation_plant")) == 1
-    monkeypatch.setattr(simulator, "PLANT", Product(simulator.PLANT.name, fail, persist=True))
+    failing = Product(simulator.plant_product().name, fail, persist=True)
+    monkeypatch.setattr(simulator, "plant_product", lambda: failing)
     warm = simulator.simulate(symbolic.derive(robot), log, controller=table, initial=(np.zeros(2), np.zeros(2)))
     assert np.array_equal(warm.simulated.q, first.simulated.q) and np.array_equal(warm.simulated.tau, first.simulated.tau)

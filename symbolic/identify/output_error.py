@@ -827,15 +827,17 @@ def simulation_errors(model: DynamicModel, measurements: Measurements, fit: Outp
 
 
 def simulated(model: DynamicModel, measurements: Measurements, fit: OutputErrorFit | None = None, *,
-              friction_velocity: float = sim.FRICTION_VELOCITY) -> tuple[np.ndarray, ClosedLoop, np.ndarray]:
+              friction_velocity: float = sim.FRICTION_VELOCITY, held: Mapping[str, float] | None = None
+              ) -> tuple[np.ndarray, ClosedLoop, np.ndarray]:
     """(y, the loop, θ): the closed loop of :func:`simulation_errors` run once, y = samples × 4n (q, q̇, q̈, τ
-    over the model's coordinates)."""
+    over the model's coordinates); ``held``: parameter values in place of the model's (a fit's own held ones
+    are used without it)."""
     layer = getattr(measurements, "signal_layer", None)
     names = list(fit.parameters) if fit is not None else []
     values = {n: p.value for n, p in fit.parameters.items()} if fit is not None else None
-    held = fit.held if fit is not None else {}
+    held = {**(fit.held if fit is not None else {}), **(held or {})}
     free = layer.free if layer and fit is not None else ()
-    loop = closed_loop(model, measurements, names, parameters={**held, **values} if values is not None else None,
+    loop = closed_loop(model, measurements, names, parameters={**held, **(values or {})} or None,
                        friction_velocity=friction_velocity, signal_values=free)
     theta = np.array([values[n] for n in names] + [fit.signal_values[v.name].value for v in loop.signal_values]
                      if fit is not None else [], dtype=float)

@@ -17,6 +17,7 @@ docs/simulation.md ("Integration").
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 import time
@@ -407,7 +408,19 @@ class Plant:
 
 
 def _plant(model: DynamicModel) -> Plant:
-    return model.products.get(globals().get("PLANT") or __getattr__("PLANT"))
+    return model.products.get(plant_product())
+
+
+@functools.cache
+def plant_product() -> Product[Plant]:
+    """The CasADi plant of a model as the model's product, kept in the cache folder: translating the SymPy
+    expressions into CasADi is most of what a warm simulation would otherwise redo (its compiled closed loops are
+    libraries on disk, named by their C source). The CasADi version is part of the name, hence of the entry's key:
+    a serialised CasADi function is read back only by the version that wrote it. Made on first use: a
+    :class:`~symbolic.derivation.products.Product` comes with SymPy."""
+    from symbolic.derivation.products import Product
+
+    return Product(f"simulation plant (CasADi {ca.__version__})", _build_plant, persist=True)
 
 
 def _build_plant(model: DynamicModel) -> Plant:
@@ -430,23 +443,6 @@ def _build_plant(model: DynamicModel) -> Plant:
     return Plant(n, rhs, ca.Function("bias", [q, qd, p, eps, t], [bias], ["q", "qd", "p", "eps", "t"], ["bias"]))
 
 
-def __getattr__(name: str) -> Any:
-    """:data:`PLANT`, made on first use (its :class:`~symbolic.derivation.products.Product` comes with SymPy)."""
-    if name == "PLANT":
-        from symbolic.derivation.products import Product
-
-        plant: Product[Plant] = Product(f"simulation plant (CasADi {ca.__version__})", _build_plant, persist=True)
-        globals()["PLANT"] = plant
-        return plant
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-# PLANT: the CasADi plant of a model, kept in the cache folder: translating the SymPy expressions into CasADi
-# is most of what a warm simulation would otherwise redo (its compiled closed loops are libraries on disk,
-# named by their C source). The CasADi version is part of the name, hence of the entry's key: a serialised
-# CasADi function is read back only by the version that wrote it.
-
-
 # -- what a simulation reads of a model, kept apart from its expressions ------------------------------------
 
 
@@ -456,7 +452,7 @@ class SimulationModel:
     (:class:`~symbolic.description.numbers.RobotNumbers`) and the CasADi plant — no SymPy.
 
     Made from a :class:`~symbolic.derivation.dynamics.DynamicModel` (:meth:`of`, the plant then built or read
-    as the model's product :data:`PLANT`), or read from the cache folder by :func:`cached_model`, so that a warm
+    as the model's product :func:`plant_product`), or read from the cache folder by :func:`cached_model`, so that a warm
     ``symbolic simulate`` neither parses the model file nor imports SymPy. What only the derivation can answer (a
     flexible model's initial sag, a controller gain that names parameters) is taken from it on first use
     (:meth:`dynamic`, :attr:`parameter_symbols`: derived or read from the cache folder as ``symbolic.derive``
@@ -478,7 +474,7 @@ class SimulationModel:
 
     @property
     def plant(self) -> Plant:
-        """The CasADi plant (:data:`PLANT`)."""
+        """The CasADi plant (:func:`plant_product`)."""
         if not self._plant:
             self._plant.append(_plant(self.dynamic()))
         return self._plant[0]
@@ -514,7 +510,7 @@ def simulation_model(model: DynamicModel | SimulationModel) -> SimulationModel:
 
 
 SIMULATION_MODEL = f"simulation model (CasADi {ca.__version__})"
-"""The kind of a :class:`SimulationModel`'s entry in the cache folder (the CasADi version in it: see :data:`PLANT`)."""
+"""The kind of a :class:`SimulationModel`'s entry in the cache folder (the CasADi version in it: see :func:`plant_product`)."""
 
 
 def model_file_key(found: Path, root: str | None, tip: str | None) -> str | None:
@@ -783,7 +779,6 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     depth = 0 if sensed is None else sensed.depth
     nc, nr = ctrl.size, ctrl.reference_size
     step_controller = control.controller_function(ctrl, names, period, external)
-    X, T = ca.MX.sym("x", 2 * n), ca.MX.sym("tau", n)
     P, E = ca.MX.sym("p", plant.rhs.size1_in(2)), ca.MX.sym("eps")
     steps = _rk4_sample(plant, period, substeps)
     Z, W = ca.MX.sym("z", 2 * n + memory + depth * n), ca.MX.sym("w", nr + nc + n + 1 + (nc if external else 0))

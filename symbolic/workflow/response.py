@@ -496,17 +496,11 @@ def _now(model: DynamicModel, estimation: Measurements, accepted: Mapping[Key, f
     """The current model (``last`` fit's values; every accepted value, where the scope is local) simulated on
     the estimation data: (y, the model's coordinates)."""
     if scope.local is not None:
-        y, _, _ = simulated(model, _layered(estimation, {}, source, accepted), _held_fit(model, accepted))
+        held = {k[1]: float(v) for k, v in accepted.items() if k[0] == PARAMETER}
+        y, _, _ = simulated(model, _layered(estimation, {}, source, accepted), held=held)
     else:
         y, _, _ = simulated(model, _layered(estimation, accepted, source), last)
     return y, list(model.robot.generalized_coordinates)
-
-
-def _held_fit(model: DynamicModel, values: Mapping[Key, float]) -> OutputErrorFit:
-    """A fit of nothing holding the parameter values among ``values``: what :func:`simulated` takes to simulate
-    ``model`` at them."""
-    held = {k[1]: float(v) for k, v in values.items() if k[0] == PARAMETER}
-    return OutputErrorFit(model.name, "both", (1.0, 1.0), {}, True, "held values", 0, 0.0, 0.0, {}, {}, held=held)
 
 
 def _start(candidate: ResponseCandidate, key: Key, estimation: Measurements,
