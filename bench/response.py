@@ -193,6 +193,8 @@ def six_axis(out: Path) -> None:
               "| search | case | truth | named | seconds |", "|---|---|---|---|---|"]
     cases = [("joint 3's drive gain", "gain 1.25 on q3", dict(drive_gain={"q3": 1.25})),
              ("joint 5's drive gain", "gain 0.8 on q5", dict(drive_gain={"q5": 0.8})),
+             ("joint 5's own values 1.25× the file's (its drive exact)", "nothing for the response (the equation "
+              "error corrects Ia_q5, Fv_q5)", dict(own_scale={"q5": 1.25})),
              ("joint 2's force logged 3 samples late", "delay 3 on q2", dict(log_delay={"q2": 3}))]
     for local in (False, True):
         for title, truth, options in cases:

@@ -38,12 +38,14 @@ def truth_text() -> str:
 
 
 def experiment(seed: int, *, seconds: float = 10.0, rate: float = 500.0, counts: int = 2**18, noise: float = 0.01,
-               drive_gain: dict[str, float] | None = None, log_delay: dict[str, int] | None = None) -> Measurements:
+               drive_gain: dict[str, float] | None = None, log_delay: dict[str, int] | None = None,
+               own_scale: dict[str, float] | None = None) -> Measurements:
     """The log (positions read by the encoders, the commanded force with white noise of ``noise`` × its rms per
     joint, the reference and the feedforward) of the arm under its loop, following tests/workflow_cases.py's
     Fourier reference of ``seed``, as an :class:`~symbolic.data.Experiment` with the loop's ``[controller]``.
     ``drive_gain``: per joint, the drive applies g·command; ``log_delay``: per joint, the logged force lags the
-    command by that many samples (a logging path's delay)."""
+    command by that many samples (a logging path's delay); ``own_scale``: per joint, the machine's rotor inertia and
+    viscous friction are this many times the model file's (what a drive gain of 1/scale looks like to IDIM-LS)."""
     require_pinocchio()
     from scipy.integrate import solve_ivp
 
@@ -56,6 +58,8 @@ def experiment(seed: int, *, seconds: float = 10.0, rate: float = 500.0, counts:
     armature = np.array([rotor * ratio**2 for rotor, ratio, _, _ in cases.INDUSTRIAL_DRIVES.values()])
     viscous = np.array([v for _, _, v, _ in cases.INDUSTRIAL_DRIVES.values()])
     gains = np.array([(drive_gain or {}).get(c, 1.0) for c in names])
+    scales = np.array([(own_scale or {}).get(c, 1.0) for c in names])
+    armature, viscous = armature * scales, viscous * scales
 
     def mass(q: np.ndarray) -> np.ndarray:
         M = pin.crba(model, data, q).copy()

@@ -318,6 +318,33 @@ def test_own_rows_are_the_values_acting_on_one_coordinates_force_alone() -> None
     assert not {"m2", "l1"} & set(own)
 
 
+def test_a_drive_gain_restarts_where_the_equation_error_scaled_its_joints_own_values() -> None:
+    """IDIM-LS fits a joint's own values as θ/g behind a drive gain g: the restart is g = the median of file/corrected,
+    those values back at the file's; no restart where nothing was corrected, nor for a ratio within 2 % of 1 or
+    outside the plausible range (drive_gain.MIN_CHANGE, PLAUSIBLE)."""
+    gain = RESPONSE_EFFECTS["drive_gain"]
+    (candidate,) = [c for c in gain.candidates(symbolic.derive(symbolic.loads(models.arm(), "<arm>")),
+                                               _gain_log(), set()) if c.coordinate == "q2"]
+    (start,) = gain.restarts(candidate, {"Fv2": (0.4, 0.5), "Fc2": (0.2, 0.25), "I2": (1.0, 1.3)})
+    assert start == {("drive", "tau_q2", "gain"): 0.8, ("parameter", "Fv2", ""): 0.4,
+                     ("parameter", "Fc2", ""): 0.2, ("parameter", "I2", ""): 1.0}
+    assert gain.restarts(candidate, {}) == []
+    assert gain.restarts(candidate, {"Fv2": (1.0, 1.01)}) == []
+    assert gain.restarts(candidate, {"Fv2": (1.0, 10.0)}) == []
+    assert gain.restarts(candidate, {"Fv2": (1.0, -2.0)}) == []
+    assert RESPONSE_EFFECTS["sensor_bias"].restarts(candidate, {"Fv2": (0.4, 0.5)}) == []
+
+
+def _gain_log():
+    """A 2-joint log whose forces both vary, with a signal layer (a drive gain is a candidate on both joints)."""
+    from symbolic.data import Measurements
+    from symbolic.data.experiment import Experiment
+
+    t = np.arange(200) * 1e-3
+    log = Measurements.from_arrays(t, ("q1", "q2"), np.c_[np.sin(t), np.cos(t)], np.c_[np.cos(t), np.sin(3 * t)])
+    return Experiment.of(log, controller={"kind": "torque"})
+
+
 def test_help_and_list_name_the_response_effects() -> None:
     """``diagnose --help`` reads the response effects' summaries from their files' text (no import), equal to the
     registry's; ``--list-effects`` lists them with their roles."""

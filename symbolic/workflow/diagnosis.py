@@ -335,7 +335,8 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
             lap("patch and shrink")
             determined = [n for n, v in after.nominal.parameters.items() if np.isfinite(v.sigma)]
             response = _judge_response(derive(loads(patched_text, str(target))), sets, response_effects, fix,
-                                       selection.settings.min_gain, notes, determined)
+                                       selection.settings.min_gain, notes, determined,
+                                       {c["parameter"]: c["nominal"] for c in reviewed[0] if "nominal" in c})
             lap("response")
             stand_in = _stand_ins(patched_text, target, accepted, written, selection.context.coordinates, response,
                                   sets, selection.settings.min_gain)
@@ -353,6 +354,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
                 after = _fit_or_inverse(again, sets, simulate, [n for n in fix if n in again.parameter_vector.names],
                                         caveats)[0]
             corrected = response.parameter_values() if response is not None else {}
+            notes += _taken_back(reviewed[0], corrected, response)
             if corrected:
                 notes.append(f"the patched model holds the output error's values of {', '.join(sorted(corrected))} "
                              "(judged on the response), not IDIM-LS's; the gap after is measured with them")
@@ -478,20 +480,33 @@ def _held_record(sets: dict[str, DataSet]) -> tuple[Measurements, int]:
 
 
 def _judge_response(patched: DynamicModel, sets: dict[str, DataSet], effects: Sequence[Any], fix: Sequence[str],
-                    min_gain: float, notes: list[str], determined: Sequence[str]) -> Any:
+                    min_gain: float, notes: list[str], determined: Sequence[str],
+                    corrected: Mapping[str, float]) -> Any:
     """The search judged on the response (:mod:`symbolic.workflow.response`) of the patched model at the values
     it holds: fitted on the estimation data, judged on the held-out data — the tail of the record simulated
-    from the record's start when the held-out data are the record's last fifth."""
+    from the record's start when the held-out data are the record's last fifth. ``corrected``: the model file's
+    values of the parameters the equation error corrected."""
     from symbolic.workflow.response import search_response
 
     record, start = _held_record(sets)
     kept = [n for n in fix if n in {p.name for p in patched.robot.parameters}]
     try:
         return search_response(patched, sets["estimation"].measurements, record, held_from=start, effects=effects,
-                               fix=kept, min_gain=min_gain, determined=determined)
+                               fix=kept, min_gain=min_gain, determined=determined, corrected=corrected)
     except (DataError, IdentificationError, SimulationError) as error:
         notes.append(f"the search judged on the response did not run: {getattr(error, 'problem', None) or error}")
         return None
+
+
+def _taken_back(corrections: Sequence[Mapping[str, Any]], values: Mapping[str, float], response: Any) -> list[str]:
+    """A sentence for each correction of the equation error that the response's ``values`` put back within 10 % of
+    the model file's value (what a named effect — a drive gain — explained instead)."""
+    named = ", ".join(f"`{j.candidate.label()}`" for j in response.named) if response is not None else ""
+    return [f"{c['parameter']}: the equation error's correction ({c['summary']}) is taken back by the response"
+            f"{f' ({named} named)' if named else ''}: the patched model holds {values[c['parameter']]:.6g}, the "
+            f"model file's {c['nominal']:.6g}" for c in corrections
+            if c["parameter"] in values and "nominal" in c and c["nominal"]
+            and abs(values[c["parameter"]] / c["nominal"] - 1.0) < 0.1]
 
 
 def _with_response_values(text: str, values: Mapping[str, float], target: Path, source: Path,

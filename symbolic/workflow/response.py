@@ -178,12 +178,15 @@ def _name(key: Key) -> str:
 
 def search_response(model: DynamicModel, estimation: Measurements, held_out: Measurements, *,
                     held_from: int = 0, effects: Sequence[ResponseEffect] | None = None, fix: Sequence[str] = (),
-                    min_gain: float = MIN_HELD_OUT_GAIN, determined: Sequence[str] | None = None) -> ResponseSearch:
+                    min_gain: float = MIN_HELD_OUT_GAIN, determined: Sequence[str] | None = None,
+                    corrected: Mapping[str, float] | None = None) -> ResponseSearch:
     """Forward selection over the response catalogue (module docstring) for ``model`` — the patched model, at
     the values it holds — on ``estimation`` (fits) and ``held_out`` (judgement), both experiments with the
     machine's ``[controller]``. ``held_from``: the held-out data are ``held_out``'s samples from there on (the
     whole record given, simulated from its start, and compared on its held-out tail). ``determined``: the
-    parameters the data determine (the diagnosis's own re-identification); default: IDIM-LS's on ``estimation``."""
+    parameters the data determine (the diagnosis's own re-identification); default: IDIM-LS's on ``estimation``.
+    ``corrected``: the model file's values of the parameters the equation error corrected (``model`` holds the
+    corrections), for the effects' further starts (:meth:`ResponseEffect.restarts`)."""
     started = time.perf_counter()
     controller = getattr(estimation, "controller", None)
     signals = "position" if controller is None or controller.kind == "torque" else "both"
@@ -207,6 +210,7 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
     fixed = set(fix) | {p.name for p in model.robot.parameters if p.fixed} | {k[1] for k in accepted}
     chosen = list(RESPONSE_EFFECTS.values()) if effects is None else list(effects)
     remaining = [c for e in chosen for c in e.candidates(model, estimation, fixed)]
+    own_corrections = _own_corrections(model, corrected or {})
     named: list[Judged] = []
     rounds: list[tuple[Judged, ...]] = []
     notes: list[str] = ([f"local search: the data determine more than {MAX_REFIT} of the model's parameters, so the "
@@ -220,7 +224,8 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
         now = _now(model, estimation, accepted, last, source, scope)
         judged = _judge_all(remaining, lambda c: _judge(model, c, scope.split(accepted, homes, c.coordinate),
                                                         estimation, (held_out, held_from), current, signals,
-                                                        min_gain, source, now))
+                                                        min_gain, source, now,
+                                                        c.effect.restarts(c, own_corrections.get(c.coordinate, {}))))
         rounds.append(judged)
         passing = [j for j in judged if j.verdict is None]
         if not passing:
@@ -318,6 +323,15 @@ def own_rows(model: DynamicModel, names: Sequence[str]) -> dict[str, str]:
         for symbol in sp.sympify(expression).free_symbols:
             rows.setdefault(symbol.name, set()).update(acting)
     return {n: coordinates[next(iter(rows[n]))] for n in names if len(rows.get(n, ())) == 1}
+
+
+def _own_corrections(model: DynamicModel, corrected: Mapping[str, float]) -> dict[str, dict[str, tuple[float, float]]]:
+    """``{coordinate: {name: (model file's value, corrected value)}}`` of the corrected values that act on one
+    coordinate's force alone (:func:`own_rows`)."""
+    out: dict[str, dict[str, tuple[float, float]]] = {}
+    for name, coordinate in own_rows(model, list(corrected)).items() if corrected else ():
+        out.setdefault(coordinate, {})[name] = (float(corrected[name]), _value(model, name))
+    return out
 
 
 def _still_named(model: DynamicModel, named: Sequence[Judged], rate: float
@@ -422,17 +436,19 @@ def _layered(measurements: Measurements, values: Mapping[Key, float | None], sou
 
 def _judge(model: DynamicModel, candidate: ResponseCandidate, scoped: tuple[Mapping[Key, float], Mapping[Key, float]],
            estimation: Measurements, held_out: tuple[Measurements, int], current: Mapping[str, Errors], signals: str,
-           min_gain: float, source: str, now: tuple[np.ndarray, list[str]]) -> Judged:
+           min_gain: float, source: str, now: tuple[np.ndarray, list[str]],
+           restarts: Sequence[Mapping[Key, float]] = ()) -> Judged:
     """Fit ``candidate``'s values with the accepted ones ``scoped`` = (freed, kept) — the first free too, the
     second held at their values — and judge it on ``held_out``;
-    ``now``: the current model's simulation of the estimation data (where the fit starts). A scanned candidate
+    ``now``: the current model's simulation of the estimation data (where the fit starts); ``restarts``: further
+    starts (the one that lowers the estimation data's simulation error most is judged). A scanned candidate
     (:attr:`~symbolic.workflow.effects.on_response.ResponseEffect.scan`) is fitted at its values in turn, until two
     past the best, and the one that lowers the estimation data's simulation error most is judged."""
     accepted, kept = scoped
     held_values = {k[1]: v for k, v in kept.items() if k[0] == PARAMETER}
     scanned = candidate.effect.scan
     trials = [{k: value for k in candidate.frees} for value in scanned] if scanned else \
-        [{k: _start(candidate, k, estimation, now) for k in candidate.frees if k not in accepted}]
+        [{k: _start(candidate, k, estimation, now) for k in candidate.frees if k not in accepted}, *restarts]
     best: tuple[float, Any, Any, dict[Key, float | None]] | None = None
     problem = "no value fitted"
     since = 0  # trials since the best: a scan stops two values past it (the error rises away from the delay)

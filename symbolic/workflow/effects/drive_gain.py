@@ -9,9 +9,10 @@ and the search names nothing): it needs one known value (a fixed mass or inertia
 
 from __future__ import annotations
 
+import statistics
 from collections.abc import Mapping
 
-from symbolic.workflow.effects.on_response import Key, ResponseEffect, register_response
+from symbolic.workflow.effects.on_response import PARAMETER, Key, ResponseCandidate, ResponseEffect, register_response
 
 PLAUSIBLE = (0.2, 5.0)
 """A drive gain outside this range is a unit or a sign error, not a gain: refused as not physical."""
@@ -34,6 +35,22 @@ class DriveGain(ResponseEffect):
         if layer is None or signal in layer.sensors:  # the log is a force sensor's reading, not a command
             return {}
         return {("drive", signal, "gain"): 1.0}
+
+    def restarts(self, candidate: ResponseCandidate, corrected: Mapping[str, tuple[float, float]]
+                 ) -> list[dict[Key, float]]:
+        """IDIM-LS fits a joint's own values (those acting on its force alone: friction, rotor inertia) as
+        θ/g where its drive applies g × the command: the file's values over the corrected ones are g, and the
+        start there — gain at their median, the values at the file's — is where the fit finds the gain when the
+        other values are free too (a wrist's force is mostly its own values': from the corrected model the fit
+        stays at gain 1, a local minimum)."""
+        ratios = [file / now for file, now in corrected.values() if now != 0.0 and file / now > 0.0]
+        if not ratios:
+            return []
+        gain = statistics.median(ratios)
+        low, high = PLAUSIBLE
+        if not low <= gain <= high or abs(gain - 1.0) < MIN_CHANGE:
+            return []
+        return [{candidate.frees[0]: gain, **{(PARAMETER, name, ""): file for name, (file, _) in corrected.items()}}]
 
     def roles_of(self, values: Mapping[Key, object], rate: float) -> dict[str, float]:
         (value,) = values.values()

@@ -96,6 +96,15 @@ class ResponseEffect:
         here for the global one."""
         return None
 
+    def restarts(self, candidate: ResponseCandidate, corrected: Mapping[str, tuple[float, float]]
+                 ) -> list[dict[Key, float]]:
+        """Further starts of ``candidate``'s fit, beside the current model's: where this effect is what the
+        equation error's ``corrected`` values of the candidate's coordinate stand in for (``{name: (model file's
+        value, corrected value)}``, the values acting on that coordinate's force alone), a start at the effect's
+        value that explains them with those values back at the file's. The fit from there may reach a lower
+        minimum than the one the corrections sit in; the best start on the estimation data is judged."""
+        return []
+
     def roles_of(self, values: Mapping[Key, FittedParameter], rate: float) -> dict[str, float]:
         """What the report names: the fitted values by role."""
         return {key[2] or key[1]: v.value for key, v in values.items()}
