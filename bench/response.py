@@ -66,9 +66,14 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=HERE / "results" / "response.md")
     parser.add_argument("--six-axis", action="store_true", help="the 6-axis arm's cases only "
                         "(bench/results/response_six_axis.md)")
+    parser.add_argument("--panda-stand-in", action="store_true", help="the Panda log under a stand-in loop "
+                        "(bench/results/response_panda.md)")
     args = parser.parse_args()
     if args.six_axis:
         six_axis(HERE / "results" / "response_six_axis.md")
+        return
+    if args.panda_stand_in:
+        panda_stand_in(HERE / "results" / "response_panda.md")
         return
     nulls = [("axis", dict(seed=s, counts=c, force_noise=n)) for s in range(10) for c in (2**16, 2**20)
              for n in (0.01, 0.03)] + [("arm", dict(seed=s, force_noise=0.05)) for s in range(8)]
@@ -203,6 +208,67 @@ def six_axis(out: Path) -> None:
                              for label, roles in named) or "nothing"
             lines.append(f"| {'local' if local else 'whole'} | {title} | {truth} | {text} | {seconds:.0f} |")
             print("six-axis", local, title, named, file=sys.stderr)
+    out.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print(out.read_text())
+
+
+def panda_stand_in(out: Path) -> None:
+    """Whether the Franka Panda log (Gaz et al. 2019) can be judged on the response in a loop it did not run.
+    Franka's own loop and gains are not published with the log; the stand-in is a PD about the measured
+    positions (through a 25 Hz zero-phase Butterworth; q̇, q̈ their differences), kp = D_jj(q₀)·ω²,
+    kd = 2·0.7·ω·D_jj(q₀) (the built-in model's inertia at the first sample), with a feedforward plus kd·q̇: the
+    logged torque τ_J, or the built-in model's own inverse dynamics along that path (with which the model, were
+    the loop sound, would hold the path to the filter's error). The built-in model is simulated in it at
+    several RK4 sub-steps: its drift from the path, or where it diverges."""
+    import math
+
+    import numpy as np
+    import pytest
+    import scipy.signal
+
+    import shared_data
+    import symbolic
+    from symbolic.data import Measurements
+    from symbolic.data.experiment import Experiment
+    from symbolic.errors import SimulationError
+    from symbolic.numeric.statespace import numeric_model
+    from symbolic.simulation.simulator import simulate
+
+    try:
+        data = shared_data.panda_measurements(shared_data.panda_folder())
+    except pytest.skip.Exception as skipped:
+        raise SystemExit(f"the Franka Panda log is not here: {skipped.msg}") from None
+    t, tau = np.asarray(data.t), np.asarray(data.tau)
+    names = tuple(data.coordinates)
+    b, a = scipy.signal.butter(4, 25.0 * 2 * float(data.sample_period))
+    q = scipy.signal.filtfilt(b, a, np.asarray(data.q), axis=0)
+    qd = np.gradient(q, t, axis=0)
+    qdd = np.gradient(qd, t, axis=0)
+    model = symbolic.derive(symbolic.load(str(HERE.parent / "symbolic" / "robots" / "panda.toml")))
+    numeric = numeric_model(model)
+    inertia = np.diag(numeric.inertia(q[0]))
+    own = np.array([numeric.inverse_dynamics(q[k], qd[k], qdd[k]) for k in range(len(t))])
+    lines = ["# The Franka Panda log under a stand-in loop", "",
+             "`python bench/response.py --panda-stand-in` (issue 34): " + " ".join(panda_stand_in.__doc__.split()),
+             "", "| feedforward | bandwidth | RK4 sub-steps | drift from the path, RMS per joint (rad) | largest (rad) |",
+             "|---|---|---|---|---|"]
+    for label, force in (("logged τ_J", tau), ("the model's own inverse dynamics", own)):
+        for hz in (10.0, 30.0):
+            w = 2 * math.pi * hz
+            kp, kd = inertia * w**2, 2 * 0.7 * w * inertia
+            extras = {f"ff_{c}": force[:, j] + kd[j] * qd[:, j] for j, c in enumerate(names)}
+            log = Measurements.from_arrays(t, names, q, force, ref=q, extras=extras)
+            experiment = Experiment.of(log, controller={"kind": "pd", "coordinates": list(names), "kp": kp.tolist(),
+                                                        "kd": kd.tolist(), "reference": "ref",
+                                                        "disturbance": [f"ff_{c}" for c in names]})
+            for m in (4, 16):
+                try:
+                    drift = np.asarray(simulate(model, experiment, substeps=m).simulated.q) - q
+                except SimulationError as error:
+                    lines.append(f"| {label} | {hz:g} Hz | {m} | diverged: {getattr(error, 'problem', error)} | |")
+                    continue
+                rms = " ".join(f"{v:.3g}" for v in np.sqrt(np.mean(drift**2, axis=0)))
+                lines.append(f"| {label} | {hz:g} Hz | {m} | {rms} | {np.abs(drift).max():.3g} |")
     out.write_text("\n".join(lines) + "\n", encoding="utf-8")
     print(out.read_text())
 
