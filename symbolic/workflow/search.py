@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
@@ -217,14 +218,19 @@ class Search:
         if min(wanted, forked.usable_processes()) < 2 or len(items) < 2:
             return [evaluate(item) for item in items]
 
-        def work(part: Iterable[T]) -> tuple[list[J], tuple]:
+        parent = os.getpid()
+
+        def work(part: Iterable[T]) -> tuple[list[J], tuple | None]:
             known = set(self._reduced)
             done = [_named_effects(evaluate(item)) for item in part]
+            if os.getpid() == parent:  # this process's columns are in its store already: packing them is waste
+                return done, None
             return done, _packed({k: v for k, v in self._reduced.items() if k not in known})
 
         done, (_, treated) = forked.shared(work, items)
-        for key, value in _unpacked(*treated).items():
-            self._reduced.setdefault(key, value)
+        if treated is not None:  # None when the child failed and its share was evaluated here
+            for key, value in _unpacked(*treated).items():
+                self._reduced.setdefault(key, value)
         effects = {e.name: e for e in self.effects}
         return [_with_effects(c, effects) for c in done]
 
@@ -632,7 +638,10 @@ class _RoundState:
                 for j in range(self.n):
                     self.fold_of[j * self.n_samples + b] = f
             self.folds = [np.flatnonzero(self.fold_of == f) for f in range(len(blocks))]
-            self.fold_gram = [(self.X[rows].T @ self.X[rows], self.X[rows].T @ self.y[rows]) for rows in self.folds]
+            # each fold's rows of X and y, gathered once a round: every candidate predicts every fold with them
+            self.fold_X = [self.X[rows] for rows in self.folds]
+            self.fold_y = [self.y[rows] for rows in self.folds]
+            self.fold_gram = [(X.T @ X, X.T @ self.y[rows]) for X, rows in zip(self.fold_X, self.folds)]
             self.held0 = self.cross_validated(None)
         else:
             self.yv = design.weighted("validation", design.known["validation"])
@@ -685,20 +694,21 @@ class _RoundState:
             cross, zz, zy = self.X[rows].T @ Zr, Zr.T @ Zr, Zr.T @ self.y[rows]
             gram = np.block([[self.gram, cross], [cross.T, zz]])
             right = np.concatenate([self.right, zy])
+            of = self.fold_of[rows]
         for f, fold in enumerate(self.folds):
             g, b = self.fold_gram[f]
             if extra is None:
                 coef = solve_normal(self.gram - g, self.right - b)
-                e = self.y[fold] - self.X[fold] @ coef
+                e = self.fold_y[f] - self.fold_X[f] @ coef
             else:
-                inside = rows[self.fold_of[rows] == f]
-                Zf = Zr[self.fold_of[rows] == f]
+                mine = of == f
+                inside, Zf = rows[mine], Zr[mine]
                 cf = self.X[inside].T @ Zf
                 gf = np.block([[g, cf], [cf.T, Zf.T @ Zf]])
                 bf = np.concatenate([b, Zf.T @ self.y[inside]])
                 p = self.X.shape[1]
                 coef = _fold_solve(gram - gf, right - bf, p, np.diag(zz))
-                e = self.y[fold] - self.X[fold] @ coef[:p]
+                e = self.fold_y[f] - self.fold_X[f] @ coef[:p]
                 position = np.searchsorted(fold, inside)
                 e[position] -= Zf @ coef[p:]
             total += np.bincount(fold // self.n_samples, weights=e * e, minlength=self.n)
