@@ -400,21 +400,19 @@ def _states(blocks: _Blocks, driven: np.ndarray, first: np.ndarray) -> np.ndarra
     d = driven.reshape(n, groups, GROUP, width).transpose(2, 0, 1, 3).reshape(GROUP, n, groups * width)
     grouped = np.add.reduce(np.matmul(blocks.weights, d), axis=0).reshape(n, groups, width)
     # the loops below are short but run for every few columns filtered (a scan's single values): each step does
-    # the least it can, the states gathered in lists and stored once (the same numbers as stored step by step)
+    # the least it can, into arrays made beforehand (the same numbers as the plain recursion)
     carried = grouped.astype(blocks.leap.dtype).transpose(1, 0, 2)  # groups × n × width
+    starts = np.empty((groups, n, width), blocks.leap.dtype)
     state = (blocks.rest[:, None] * first).astype(blocks.leap.dtype)
-    starts = []
     for k in range(groups):
-        starts.append(state)
+        starts[k] = state
         state = blocks.leap @ state
         state += carried[k]
-    state = np.stack(starts, axis=1).astype(float).reshape(n, -1)
-    states = [state]
+    states = np.empty((GROUP, n, groups * width))
+    states[0] = starts.transpose(1, 0, 2).reshape(n, -1)
     for i in range(GROUP - 1):  # the state after a group's last block is the next group's start, carried above
-        state = blocks.transition @ state
-        state += d[i]
-        states.append(state)
-    return np.stack([state.reshape(n, groups, width) for state in states], axis=2).reshape(n, count, width)
+        np.add(blocks.transition @ states[i], d[i], out=states[i + 1])
+    return states.reshape(GROUP, n, groups, width).transpose(1, 2, 0, 3).reshape(n, count, width)
 
 
 def _put(blocks: np.ndarray, start: int, data: np.ndarray, offset: np.ndarray | float = 0.0) -> None:

@@ -120,6 +120,7 @@ class Search:
         self._reduced: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self._final: _Partial | None = None
         self._signals: dict[str, Signals] = {}
+        self._references: dict[tuple[str, int], tuple | None] = {}
         self.separability = Separability(self)
 
     def _hypotheses(self) -> list[Group]:
@@ -283,6 +284,14 @@ class Search:
         return out
 
     # -- the effects' columns, reduced once per search ----------------------------------------
+    def reference(self, effect: Effect, j: int) -> tuple[np.ndarray, np.ndarray, list[tuple[int, float]]] | None:
+        """:func:`_reference` of the effect on coordinate ``j``, computed once per search (it does not depend on the
+        round, and every round's candidate asks for it)."""
+        key = (effect.name, j)
+        if key not in self._references:
+            self._references[key] = _reference(self, effect, j)
+        return self._references[key]
+
     def signals(self, role: str) -> Signals:
         """The data set's filtered states at every sample, with time and rate (for :meth:`Effect.columns_at`)."""
         if role not in self._signals:
@@ -435,25 +444,39 @@ def _reference_value(reference_map: list[tuple[int, float]] | None, values: np.n
 def _reference_map(search: Search, design: CurrentModel, effect: Effect, j: int) -> list[tuple[int, float]] | None:
     """How the effect's reference coefficient follows from the design's coefficients: pairs (column,
     factor); a fixed column contributes (−1, its fixed value × factor). ``None`` when no column matches."""
-    data = design.sets["estimation"]
+    reference = search.reference(effect, j)
+    if reference is None:
+        return None
+    r, support, fixed = reference
+    pairs = _proportional(design.stacked(), r, support) + fixed
+    return pairs or None
+
+
+def _reference(search: Search, effect: Effect, j: int) -> tuple[np.ndarray, np.ndarray, list[tuple[int, float]]] | None:
+    """The effect's reference column on the estimation data, reduced and stacked, where it is non-zero, and its
+    pairs with the fixed terms (:func:`_reference_map`); ``None`` when it has none or it vanishes. Only the
+    coordinates it acts on are filtered (a column's treatment does not depend on the others filtered with it)."""
+    data = search.sets["estimation"]
     s = data.states
     column = effect.reference_column(s.q, s.qd, s.qdd, j)
     if column is None:
         return None
-    r = data.stack(data.reduce(column))
+    column = np.asarray(column, dtype=float)
+    acting = np.flatnonzero(np.any(column != 0, axis=0))
+    reduced = np.zeros((data.samples, column.shape[1]))
+    if acting.size:
+        reduced[:, acting] = data.reduce(column[:, acting])
+    r = data.stack(reduced)
     support = r != 0
     if not support.any():
         return None
-    pairs: list[tuple[int, float]] = []
-    for i, factor in _proportional(design.stacked(), r, support):
-        pairs.append((i, factor))
     terms = search.terms
     fixed = np.flatnonzero(~terms.free)
+    pairs: list[tuple[int, float]] = []
     if fixed.size:
         F = data.stack(terms.columns(data)[:, :, fixed])
-        for k, factor in _proportional(F, r, support):
-            pairs.append((-1, factor * terms.nominal[fixed[k]]))
-    return pairs or None
+        pairs = [(-1, factor * terms.nominal[fixed[k]]) for k, factor in _proportional(F, r, support)]
+    return r, support, pairs
 
 
 def _proportional(X: np.ndarray, r: np.ndarray, support: np.ndarray) -> list[tuple[int, float]]:
