@@ -300,6 +300,27 @@ def test_treated_columns_sent_in_one_piece_come_back_the_same() -> None:
     assert _unpacked(*_packed({})) == {}
 
 
+def test_treated_columns_written_to_shared_memory_come_back_the_same() -> None:
+    """With an arena (memory shared with the forked child) the numbers go there and only their count travels; an
+    arena too small for them leaves them in the array sent."""
+    import mmap
+
+    from symbolic.workflow.search import _packed, _unpacked
+
+    rng = np.random.default_rng(5)
+    store = {("periodic", 0, 0.5, "estimation"): (np.array([0]), rng.normal(size=(30, 1, 2))),
+             ("payload", 1, None, "estimation"): (np.array([0, 1]), rng.normal(size=(30, 2, 4)))}
+    arena = mmap.mmap(-1, 8 * 300)
+    packed = _packed(store, arena)
+    assert packed[2] == 300
+    back = _unpacked(*packed, arena=arena)
+    for key, (rows, part) in store.items():
+        assert np.array_equal(back[key][0], rows) and np.array_equal(back[key][1], part)
+    small = _packed(store, mmap.mmap(-1, 8 * 299))
+    assert isinstance(small[2], np.ndarray) and small[2].size == 300
+    assert all(np.array_equal(_unpacked(*small)[key][1], part) for key, (_, part) in store.items())
+
+
 def test_the_base_columns_are_shared_by_the_data_with_a_held_force() -> None:
     """The held-force check refits on the same states with τ treated otherwise: the model's columns are computed
     once (the same array), and equal those of a fresh computation."""

@@ -395,19 +395,24 @@ def _states(blocks: _Blocks, driven: np.ndarray, first: np.ndarray) -> np.ndarra
     """
     n, count, width = driven.shape
     groups = count // GROUP
-    d = driven.reshape(n, groups, GROUP, width)
-    grouped = sum(blocks.weights[i] @ d[:, :, i].reshape(n, -1) for i in range(GROUP)).reshape(n, groups, width)
-    starts = np.empty((n, groups, width))
+    # the inputs by their block's place in its group, each place's an n × (groups·width) matrix: one copy for all
+    # places, and one stacked product (the same products as place by place, summed in the same order)
+    d = driven.reshape(n, groups, GROUP, width).transpose(2, 0, 1, 3).reshape(GROUP, n, groups * width)
+    grouped = np.add.reduce(np.matmul(blocks.weights, d), axis=0).reshape(n, groups, width)
+    # the loops below are short but run for every few columns filtered (a scan's single values): each step does
+    # the least it can, into arrays made beforehand (the same numbers as the plain recursion)
+    carried = grouped.astype(blocks.leap.dtype).transpose(1, 0, 2)  # groups × n × width
+    starts = np.empty((groups, n, width), blocks.leap.dtype)
     state = (blocks.rest[:, None] * first).astype(blocks.leap.dtype)
     for k in range(groups):
-        starts[:, k] = state
-        state = blocks.leap @ state + grouped[:, k]
-    states = np.empty((n, groups, GROUP, width))
-    state = starts.reshape(n, -1)
-    for i in range(GROUP):
-        states[:, :, i] = state.reshape(n, groups, width)
-        state = blocks.transition @ state + d[:, :, i].reshape(n, -1)
-    return states.reshape(n, count, width)
+        starts[k] = state
+        state = blocks.leap @ state
+        state += carried[k]
+    states = np.empty((GROUP, n, groups * width))
+    states[0] = starts.transpose(1, 0, 2).reshape(n, -1)
+    for i in range(GROUP - 1):  # the state after a group's last block is the next group's start, carried above
+        np.add(blocks.transition @ states[i], d[i], out=states[i + 1])
+    return states.reshape(GROUP, n, groups, width).transpose(1, 2, 0, 3).reshape(n, count, width)
 
 
 def _put(blocks: np.ndarray, start: int, data: np.ndarray, offset: np.ndarray | float = 0.0) -> None:

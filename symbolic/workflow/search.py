@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import mmap
+import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
@@ -119,6 +121,7 @@ class Search:
         self._reduced: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self._final: _Partial | None = None
         self._signals: dict[str, Signals] = {}
+        self._references: dict[tuple[str, int], tuple | None] = {}
         self.separability = Separability(self)
 
     def _hypotheses(self) -> list[Group]:
@@ -217,14 +220,19 @@ class Search:
         if min(wanted, forked.usable_processes()) < 2 or len(items) < 2:
             return [evaluate(item) for item in items]
 
-        def work(part: Iterable[T]) -> tuple[list[J], tuple]:
+        parent, arena = os.getpid(), _arena()
+
+        def work(part: Iterable[T]) -> tuple[list[J], tuple | None]:
             known = set(self._reduced)
             done = [_named_effects(evaluate(item)) for item in part]
-            return done, _packed({k: v for k, v in self._reduced.items() if k not in known})
+            if os.getpid() == parent:  # this process's columns are in its store already: packing them is waste
+                return done, None
+            return done, _packed({k: v for k, v in self._reduced.items() if k not in known}, arena)
 
         done, (_, treated) = forked.shared(work, items)
-        for key, value in _unpacked(*treated).items():
-            self._reduced.setdefault(key, value)
+        if treated is not None:  # None when the child failed and its share was evaluated here
+            for key, value in _unpacked(*treated, arena=arena).items():
+                self._reduced.setdefault(key, value)
         effects = {e.name: e for e in self.effects}
         return [_with_effects(c, effects) for c in done]
 
@@ -277,6 +285,14 @@ class Search:
         return out
 
     # -- the effects' columns, reduced once per search ----------------------------------------
+    def reference(self, effect: Effect, j: int) -> tuple[np.ndarray, np.ndarray, list[tuple[int, float]]] | None:
+        """:func:`_reference` of the effect on coordinate ``j``, computed once per search (it does not depend on the
+        round, and every round's candidate asks for it)."""
+        key = (effect.name, j)
+        if key not in self._references:
+            self._references[key] = _reference(self, effect, j)
+        return self._references[key]
+
     def signals(self, role: str) -> Signals:
         """The data set's filtered states at every sample, with time and rate (for :meth:`Effect.columns_at`)."""
         if role not in self._signals:
@@ -342,18 +358,44 @@ def _with_effects(c: J, effects: Mapping[str, Effect]) -> J:
     return c
 
 
-def _packed(store: Mapping[tuple, tuple[np.ndarray, np.ndarray]]) -> tuple[list[tuple], list[tuple], np.ndarray]:
+ARENA = 1 << 30
+"""Bytes of the memory shared with a forked child for its treated columns (:func:`_arena`): an address range only,
+the pages the child writes alone are used (the Panda's first round: 52 MB)."""
+
+
+def _arena() -> mmap.mmap | None:
+    """Memory shared with the forked child to come (an anonymous shared mapping, made before the fork): the child
+    writes its treated columns' numbers there and the parent reads them in place, where a pipe made four copies of
+    them between the two processes (0.3 s of the Panda's search). ``None`` where it cannot be had (the columns
+    then travel through the pipe)."""
+    try:
+        return mmap.mmap(-1, ARENA)
+    except (OSError, ValueError, OverflowError):
+        return None
+
+
+def _packed(store: Mapping[tuple, tuple[np.ndarray, np.ndarray]],
+            arena: mmap.mmap | None = None) -> tuple[list[tuple], list[tuple], np.ndarray | int]:
     """Treated columns (:meth:`Search.reduced`'s store) as their keys, (rows, shape) and one array of all their
     numbers: sent from the forked child in one piece (some 40 MB in thousands of small arrays took 0.2 s to
-    pickle one by one)."""
-    parts = [part for _, part in store.values()]
+    pickle one by one). With an ``arena`` (:func:`_arena`) they fit in, the numbers are written there and only
+    their count is returned."""
+    parts = [part.reshape(-1) for _, part in store.values()]
     layout = [(tuple(int(r) for r in rows), part.shape) for rows, part in store.values()]
-    numbers = np.concatenate([p.ravel() for p in parts]) if parts else np.zeros(0)
+    total = sum(p.size for p in parts)
+    if arena is not None and total * 8 <= len(arena):
+        if parts:
+            np.concatenate(parts, out=np.frombuffer(arena, dtype=float, count=total))
+        return list(store), layout, total
+    numbers = np.concatenate(parts) if parts else np.zeros(0)
     return list(store), layout, numbers
 
 
-def _unpacked(keys: list[tuple], layout: list[tuple], numbers: np.ndarray) -> dict[tuple, tuple[np.ndarray, np.ndarray]]:
-    """The store :func:`_packed` packed (each part a view of ``numbers``)."""
+def _unpacked(keys: list[tuple], layout: list[tuple], numbers: np.ndarray | int,
+              arena: mmap.mmap | None = None) -> dict[tuple, tuple[np.ndarray, np.ndarray]]:
+    """The store :func:`_packed` packed (each part a view of ``numbers``, or of the ``arena`` they were written to)."""
+    if isinstance(numbers, int):
+        numbers = np.frombuffer(arena, dtype=float, count=numbers)
     sizes = np.cumsum([math.prod(shape) for _, shape in layout])[:-1]
     return {key: (np.array(rows, dtype=np.int64), part.reshape(shape))
             for key, (rows, shape), part in zip(keys, layout, np.split(numbers, sizes))}
@@ -429,25 +471,39 @@ def _reference_value(reference_map: list[tuple[int, float]] | None, values: np.n
 def _reference_map(search: Search, design: CurrentModel, effect: Effect, j: int) -> list[tuple[int, float]] | None:
     """How the effect's reference coefficient follows from the design's coefficients: pairs (column,
     factor); a fixed column contributes (−1, its fixed value × factor). ``None`` when no column matches."""
-    data = design.sets["estimation"]
+    reference = search.reference(effect, j)
+    if reference is None:
+        return None
+    r, support, fixed = reference
+    pairs = _proportional(design.stacked(), r, support) + fixed
+    return pairs or None
+
+
+def _reference(search: Search, effect: Effect, j: int) -> tuple[np.ndarray, np.ndarray, list[tuple[int, float]]] | None:
+    """The effect's reference column on the estimation data, reduced and stacked, where it is non-zero, and its
+    pairs with the fixed terms (:func:`_reference_map`); ``None`` when it has none or it vanishes. Only the
+    coordinates it acts on are filtered (a column's treatment does not depend on the others filtered with it)."""
+    data = search.sets["estimation"]
     s = data.states
     column = effect.reference_column(s.q, s.qd, s.qdd, j)
     if column is None:
         return None
-    r = data.stack(data.reduce(column))
+    column = np.asarray(column, dtype=float)
+    acting = np.flatnonzero(np.any(column != 0, axis=0))
+    reduced = np.zeros((data.samples, column.shape[1]))
+    if acting.size:
+        reduced[:, acting] = data.reduce(column[:, acting])
+    r = data.stack(reduced)
     support = r != 0
     if not support.any():
         return None
-    pairs: list[tuple[int, float]] = []
-    for i, factor in _proportional(design.stacked(), r, support):
-        pairs.append((i, factor))
     terms = search.terms
     fixed = np.flatnonzero(~terms.free)
+    pairs: list[tuple[int, float]] = []
     if fixed.size:
         F = data.stack(terms.columns(data)[:, :, fixed])
-        for k, factor in _proportional(F, r, support):
-            pairs.append((-1, factor * terms.nominal[fixed[k]]))
-    return pairs or None
+        pairs = [(-1, factor * terms.nominal[fixed[k]]) for k, factor in _proportional(F, r, support)]
+    return r, support, pairs
 
 
 def _proportional(X: np.ndarray, r: np.ndarray, support: np.ndarray) -> list[tuple[int, float]]:
@@ -632,7 +688,10 @@ class _RoundState:
                 for j in range(self.n):
                     self.fold_of[j * self.n_samples + b] = f
             self.folds = [np.flatnonzero(self.fold_of == f) for f in range(len(blocks))]
-            self.fold_gram = [(self.X[rows].T @ self.X[rows], self.X[rows].T @ self.y[rows]) for rows in self.folds]
+            # each fold's rows of X and y, gathered once a round: every candidate predicts every fold with them
+            self.fold_X = [self.X[rows] for rows in self.folds]
+            self.fold_y = [self.y[rows] for rows in self.folds]
+            self.fold_gram = [(X.T @ X, X.T @ self.y[rows]) for X, rows in zip(self.fold_X, self.folds)]
             self.held0 = self.cross_validated(None)
         else:
             self.yv = design.weighted("validation", design.known["validation"])
@@ -685,20 +744,21 @@ class _RoundState:
             cross, zz, zy = self.X[rows].T @ Zr, Zr.T @ Zr, Zr.T @ self.y[rows]
             gram = np.block([[self.gram, cross], [cross.T, zz]])
             right = np.concatenate([self.right, zy])
+            of = self.fold_of[rows]
         for f, fold in enumerate(self.folds):
             g, b = self.fold_gram[f]
             if extra is None:
                 coef = solve_normal(self.gram - g, self.right - b)
-                e = self.y[fold] - self.X[fold] @ coef
+                e = self.fold_y[f] - self.fold_X[f] @ coef
             else:
-                inside = rows[self.fold_of[rows] == f]
-                Zf = Zr[self.fold_of[rows] == f]
+                mine = of == f
+                inside, Zf = rows[mine], Zr[mine]
                 cf = self.X[inside].T @ Zf
                 gf = np.block([[g, cf], [cf.T, Zf.T @ Zf]])
                 bf = np.concatenate([b, Zf.T @ self.y[inside]])
                 p = self.X.shape[1]
                 coef = _fold_solve(gram - gf, right - bf, p, np.diag(zz))
-                e = self.y[fold] - self.X[fold] @ coef[:p]
+                e = self.fold_y[f] - self.fold_X[f] @ coef[:p]
                 position = np.searchsorted(fold, inside)
                 e[position] -= Zf @ coef[p:]
             total += np.bincount(fold // self.n_samples, weights=e * e, minlength=self.n)

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import weakref
 from collections.abc import Sequence
 from functools import lru_cache
 from typing import Any
@@ -149,10 +150,7 @@ class LoadBacklash(Backlash):
         if signals.record is not None:  # the load's state at the first sample is what the motion before left
             whole = self.row_columns_at(signals.record, j, value)
             return whole[signals.start:signals.start + len(signals.t)]
-        acceleration = signals.qdd[:, j]
-        ones, zeros = np.ones((len(acceleration), 1)), np.zeros((len(acceleration), 1))
-        load = LinkSide(acceleration, ones, zeros, zeros, ones[:, 0], 1.0, 0)
-        return -rattle(load, value, signals.rate)[2][:, None]
+        return -rattle(_load(signals, j), value, signals.rate)[2][:, None]
 
     def roles_of(self, c, value, reference):
         roles = super().roles_of(c, value, None)  # no motor: the coordinate's own inertia is the model's
@@ -169,6 +167,21 @@ class LoadBacklash(Backlash):
                            band=roles["width"])
 
 
+_LOADS: "weakref.WeakKeyDictionary[Any, dict[int, LinkSide]]" = weakref.WeakKeyDictionary()
+"""The loads of :class:`LoadBacklash` per signals and coordinate: a scan integrates some hundred values of one."""
+
+
+def _load(signals: Any, j: int) -> LinkSide:
+    """The load of :class:`LoadBacklash` on coordinate ``j`` as a :class:`LinkSide` driven by q̈_j alone (unit
+    inertia, no stiffness or damping of its own), made once per signals (its :attr:`LinkSide.driving` with it)."""
+    loads = _LOADS.setdefault(signals, {})
+    if j not in loads:
+        acceleration = signals.qdd[:, j]
+        ones, zeros = np.ones((len(acceleration), 1)), np.zeros((len(acceleration), 1))
+        loads[j] = LinkSide(acceleration, ones, zeros, zeros, ones[:, 0], 1.0, 0)
+    return loads[j]
+
+
 def rattle(link: LinkSide, value: tuple[float, float, float], rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """δ, δ̇, δ̈ of the link behind the joint in a dead band (module docstring) at ``value`` = (contact frequency in Hz,
     ζ, whole width b), k = D̄·ω², d = 2ζω·D̄: symplectic Euler with :func:`substeps` steps a sample, the link's torque
@@ -176,8 +189,7 @@ def rattle(link: LinkSide, value: tuple[float, float, float], rate: float) -> tu
     C (:data:`SOURCE`, called through ctypes) where a compiler is found, else the same loop in Python."""
     frequency, damping, width = value
     w = 2.0 * math.pi * frequency
-    own = link.index
-    inputs = np.ascontiguousarray(np.column_stack([link.torque, link.own, link.stiffness[:, own], link.damping[:, own]]))
+    inputs = link.driving
     parameters = np.array([w * w, 2.0 * damping * w, 0.5 * width, link.mean])
     first = link.torque[0] / (link.mean * w * w)
     start = first + math.copysign(0.5 * width, first) if first else 0.0

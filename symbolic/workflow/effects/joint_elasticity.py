@@ -48,6 +48,7 @@ offered there.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import weakref
 from collections.abc import Mapping, Sequence
@@ -640,6 +641,14 @@ class LinkSide:
     mean: float
     index: int
     """The data's row of the joint itself."""
+
+    @functools.cached_property
+    def driving(self) -> np.ndarray:
+        """T_j, D_jj, A_jj and B_jj side by side (``samples × 4``, contiguous): what drives the link's deflection
+        in :func:`~symbolic.workflow.effects.backlash.rattle`, gathered once (a scan integrates some hundred values
+        of one link; a frozen dataclass still takes the cached value in its ``__dict__``)."""
+        own = self.index
+        return np.ascontiguousarray(np.column_stack([self.torque, self.own, self.stiffness[:, own], self.damping[:, own]]))
 
 
 _LINK_SIDES: "weakref.WeakKeyDictionary[Any, dict[int, LinkSide]]" = weakref.WeakKeyDictionary()
