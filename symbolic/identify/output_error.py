@@ -25,8 +25,8 @@ that augmented sample is mapped over the log and compiled as the simulation itse
 calm sample's) are chosen at the start and kept, so that it is one function of θ, until a trial step leaves their
 stability region (:meth:`ClosedLoop.stable`): a lighter mass raises the smoothed sign's rate Fc/(M·ε), and there
 the state may stay finite while each pass through the sign's steep part multiplies the sensitivities, without
-bound (docs/simulation.md, "Calm samples"). They are then chosen again at the trial θ, never fewer, and the fit
-goes on from the current θ on the finer loop (:func:`levenberg_marquardt`). Where the loop is
+bound (docs/simulation.md, "Calm samples"). The trial is then simulated with them chosen again there, never
+fewer, and the fit goes on with that finer loop if the step is taken (:func:`levenberg_marquardt`). Where the loop is
 not smooth: friction's sign is simulated as tanh(v/ε), and the sensitivity is that of the smoothed
 simulation (large but finite within ε of zero velocity); a saturation's clip has derivative 0 where it
 holds (a saturated sample's force does not depend on θ); a sensor's quantiser, a staircase whose derivative
@@ -916,21 +916,17 @@ def _in_sigmas(step: np.ndarray, J: np.ndarray, cost: float) -> float:
     return float(ratio.max()) if ratio.size else math.inf
 
 
-def _normal_equations(J: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Jᵀr, JᵀJ, Marquardt's scaling diag(JᵀJ), kept above 1e-12 of its largest entry)."""
-    H = J.T @ J
-    return J.T @ r, H, np.maximum(np.diag(H), 1e-12 * max(np.diag(H).max(), 1e-300))
-
-
 def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndarray, lower: np.ndarray,
                         upper: np.ndarray, max_iterations: int, timings: dict[str, float],
                         tolerance: float = SIGMA_TOLERANCE):
     """Marquardt's damped Gauss–Newton on θ/scale with steps projected onto the bounds; converged (among the
     other tests) when the Gauss–Newton step is below ``tolerance`` σ of every estimate. A trial step to θ where
-    the loop's sub-steps are unstable (:meth:`ClosedLoop.stable`) has them chosen again there
-    (:meth:`ClosedLoop.restepped`), and the current θ evaluated again on the finer loop first, so that the costs
-    compared are of one simulation; where they cannot be (given, or too many), the step is refused as one into a
-    diverging simulation.
+    the loop's sub-steps are unstable (:meth:`ClosedLoop.stable`) is simulated with them chosen again there
+    (:meth:`ClosedLoop.restepped`), and the finer loop is kept from there if the step is taken: its cost is
+    compared with the current one on the coarser loop — two stable simulations of the model, apart by their
+    integration errors — and a step not taken leaves the loop as it was (the response search's wild trial steps
+    would otherwise make every later simulation dearer). Where they cannot be chosen again (given, or too many),
+    the step is refused as one into a diverging simulation.
 
     Returns (θ, J, r, y at θ₀, y at θ, iterations, converged, message, cost at θ₀); J and r at θ."""
     scale = np.where(theta0 != 0, np.abs(theta0), 1.0)
@@ -965,7 +961,8 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
     theta, y, cost0 = theta0.copy(), y0, float(r @ r)
     cost, damping = cost0, 1e-3
     for iteration in range(1, max_iterations + 1):
-        g, H, diagonal = _normal_equations(J, r)
+        g, H = J.T @ r, J.T @ J
+        diagonal = np.maximum(np.diag(H), 1e-12 * max(np.diag(H).max(), 1e-300))
         # the undamped Gauss-Newton step, projected: if even it predicts no decrease, θ is a minimum
         newton = np.clip(theta + np.linalg.lstsq(J, -r, rcond=None)[0] * scale, lower, upper)
         newton_step = (newton - theta) / scale
@@ -981,20 +978,17 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
                 delta = np.zeros_like(g)
             trial = np.clip(theta + delta * scale, lower, upper)
             step = (trial - theta) / scale
-            finer = None if loop.stable(trial) else loop.restepped(trial)
-            current = None if finer is None else evaluate(theta, on=finer)
-            if current is not None:  # the step is tried again from θ on the finer loop
-                LOG.info("output error: %d RK4 sub-steps a sample (%d when calm) would be unstable at a trial step: "
-                         "%d (%d) from here", loop.substeps, loop.calm, finer.substeps, finer.calm)
-                loop, (y, r, J) = finer, current
-                cost = float(r @ r)
-                g, H, diagonal = _normal_equations(J, r)
-                continue
-            evaluated = evaluate(trial, sensitivities=False)
+            # where the kept sub-steps are unstable the trial runs on a finer loop, kept only if the step is taken
+            on = loop if loop.stable(trial) else loop.restepped(trial)
+            evaluated = None if on is None else evaluate(trial, sensitivities=False, on=on)
             new_cost = float(evaluated[1] @ evaluated[1]) if evaluated is not None else math.inf
             if new_cost < cost:
-                evaluated = evaluate(trial)
+                evaluated = evaluate(trial, on=on)
                 if evaluated is not None:
+                    if on is not loop:
+                        LOG.info("output error: %d RK4 sub-steps a sample (%d when calm) unstable at a step taken: "
+                                 "%d (%d) from there", loop.substeps, loop.calm, on.substeps, on.calm)
+                    loop = on
                     break
                 new_cost = math.inf
             damping *= 4.0
