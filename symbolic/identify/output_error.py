@@ -21,7 +21,12 @@ file's ``min``/``max`` and the signs of the parameters' roles (:func:`symbolic.i
 a step is projected onto them). Its Jacobian is *exact*: the discrete variational equations of the very
 simulation run — one sample of the closed loop z_{k+1} = F(z_k, w_k, θ), y_k = G(z_k, w_k, θ) is
 differentiated by CasADi's forward mode, S_{k+1} = ∂F/∂z·S_k + ∂F/∂θ, ∂y_k/∂θ = ∂G/∂z·S_k + ∂G/∂θ, and
-that augmented sample is mapped over the log and compiled as the simulation itself is. Where the loop is
+that augmented sample is mapped over the log and compiled as the simulation itself is. Its RK4 sub-steps (and a
+calm sample's) are chosen at the start and kept, so that it is one function of θ, until a trial step leaves their
+stability region (:meth:`ClosedLoop.stable`): a lighter mass raises the smoothed sign's rate Fc/(M·ε), and there
+the state may stay finite while each pass through the sign's steep part multiplies the sensitivities, without
+bound (docs/simulation.md, "Calm samples"). The trial is then simulated with them chosen again there, never
+fewer, and the fit goes on with that finer loop if the step is taken (:func:`levenberg_marquardt`). Where the loop is
 not smooth: friction's sign is simulated as tanh(v/ε), and the sensitivity is that of the smoothed
 simulation (large but finite within ε of zero velocity); a saturation's clip has derivative 0 where it
 holds (a saturated sample's force does not depend on θ); a sensor's quantiser, a staircase whose derivative
@@ -49,6 +54,7 @@ lower bound of the real spread; read them as IDIM-LS's, for comparison (docs/dat
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -68,6 +74,8 @@ from symbolic.identify.known import fixed_symbols, parameter_bounds
 from symbolic.identify.least_squares import defined, percent
 from symbolic.simulation import controller as control
 from symbolic.simulation import simulator as sim
+
+LOG = logging.getLogger(__name__)
 
 SIGNALS = ("force", "position", "both")
 MAX_ITERATIONS = 30
@@ -201,7 +209,9 @@ def sensitivity_function(ctrl: control.Controller, plant: sim.Plant, names: tupl
     ``quantised``: the function takes one more input, ``c_smooth``, the controller's constants without its
     sensors' quantisation, and differentiates the sample there, at the simulated (quantised) state: the
     staircase's derivative is 0 between its steps (the force would not depend on θ at all) and its mean slope
-    is 1, so the sensor counts as the identity in the sensitivities (module docstring).
+    is 1, so the sensor counts as the identity in the sensitivities (module docstring). With ``calm`` sub-steps,
+    the branch differentiated is the one the unquantised sample's own calm test takes: an accurate, stable
+    simulation of the sample differentiated either way (docs/simulation.md, "Calm samples").
 
     ``signal_count``: θ ends with that many values of the experiment's signal layer, which act on the loop
     through its inputs and constants only: w then ends with ∂w/∂θ_s (column-major, nw × signal_count) and the
@@ -282,6 +292,8 @@ class ClosedLoop:
     initial_given: bool = False
     calm: int = 0
     """RK4 sub-steps of a calm sample (:func:`symbolic.simulation.simulator.stepping`; 0: all take ``substeps``)."""
+    substeps_given: bool = False
+    """The sub-steps were given (``substeps=``), not chosen: they are never chosen again (:meth:`restepped`)."""
     _functions: dict = field(default_factory=dict)
 
     def function(self, sensitivities: bool) -> sim.Chunked:
@@ -298,6 +310,32 @@ class ClosedLoop:
                                                           self.measurements.sample_period, self.substeps,
                                                           self.compiled, self.sensed, self.calm)
         return self._functions[sensitivities]
+
+    def stable(self, theta: np.ndarray) -> bool:
+        """Whether the loop's sub-steps are within RK4's stability bound at θ
+        (:func:`symbolic.simulation.simulator.steps_stable`): where they are not, the simulation run is not the
+        model's, and its sensitivities grow without bound (module docstring)."""
+        return sim.steps_stable(self.plant, self.initial_state(theta), self.parameters(theta), self.eps,
+                                float(self.measurements.t[0]), self.measurements.sample_period, self.substeps,
+                                self.calm)
+
+    def restepped(self, theta: np.ndarray) -> ClosedLoop | None:
+        """The loop with its sub-steps chosen again at θ as :func:`closed_loop` chose them at the start, never
+        fewer than now (so stable wherever the loop was): for a step to θ where they are not (:meth:`stable`).
+        ``None`` where they were given, or θ needs more than :data:`~symbolic.simulation.simulator.MAX_SUBSTEPS`
+        or cannot be simulated (D(Q) singular)."""
+        if self.substeps_given:
+            return None
+        try:
+            m, calm, _ = sim.stepping(self.plant, self.initial_state(theta), self.parameters(theta), self.eps,
+                                      float(self.measurements.t[0]), self.measurements.sample_period, self.names,
+                                      str(self.measurements.source))
+        except sim.Diverged:
+            return None
+        if m > sim.MAX_SUBSTEPS:
+            return None
+        return dataclasses.replace(self, substeps=max(m, self.substeps), calm=max(calm, self.calm) if calm else 0,
+                                   _functions={})
 
     def parameters(self, theta: np.ndarray) -> np.ndarray:
         p = self.p0.copy()
@@ -442,7 +480,8 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
                 signal_values: Sequence[FreeValue] = ()) -> ClosedLoop:
     """The closed loop of ``measurements``' experiment (its ``[controller]``, else torque replay) for
     :func:`output_error`: sub-steps chosen as :func:`~symbolic.simulation.simulate` chooses them at
-    ``parameters`` and kept for every θ, so that the simulation differentiated is one function of θ; the
+    ``parameters`` and kept, so that the simulation differentiated is one function of θ (until the fit steps
+    where they are unstable: :meth:`ClosedLoop.restepped`); the
     experiment's ``[drive]`` and position ``[sensors]`` in the loop as :func:`~symbolic.simulation.simulate`
     puts them, and ``signal_values`` (free values of the layer) fitted after the parameters."""
     source = str(measurements.source)
@@ -471,10 +510,6 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
     x0 = sim._initial_state(model, measurements, p, initial)
     m, calm, radius = sim.stepping(plant, x0, p, friction_velocity, float(measurements.t[0]),
                                    measurements.sample_period, names, source, substeps)
-    if np.any(ctrl.quantisation > 0):
-        # with calm samples the fit of tests/test_unmeasured.py's geared joint (its encoder quantising, Coulomb
-        # friction on the motor) overflowed its Jacobian; the cause is not found: every sample takes them all here
-        calm = 0
     if m > sim.MAX_SUBSTEPS:
         raise IdentificationError(f"the model needs {m:.3g} RK4 sub-steps per sample (spectral radius {radius:.4g} "
                                   f"1/s): too stiff for the output-error identification's fixed-step simulation")
@@ -485,7 +520,8 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
     w = sim.loop_inputs(signals, measurements)
     index = [model.parameter_vector.names.index(name) for name in free]
     return ClosedLoop(model, measurements, ctrl, plant, names, tuple(index), p, x0, c, smooth, np.ascontiguousarray(w), m,
-                      friction_velocity, compiled, sensed, layer, fitted, before, initial is not None, calm)
+                      friction_velocity, compiled, sensed, layer, fitted, before, initial is not None, calm,
+                      substeps_given=substeps is not None)
 
 
 def _signal_value(value: FreeValue, ctrl: control.Controller, measurements: Measurements) -> SignalValue:
@@ -884,26 +920,41 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
                         upper: np.ndarray, max_iterations: int, timings: dict[str, float],
                         tolerance: float = SIGMA_TOLERANCE):
     """Marquardt's damped Gauss–Newton on θ/scale with steps projected onto the bounds; converged (among the
-    other tests) when the Gauss–Newton step is below ``tolerance`` σ of every estimate.
+    other tests) when the Gauss–Newton step is below ``tolerance`` σ of every estimate. A trial step to θ where
+    the loop's sub-steps are unstable (:meth:`ClosedLoop.stable`) is simulated with them chosen again there
+    (:meth:`ClosedLoop.restepped`), and the finer loop is kept from there if the step is taken: its cost is
+    compared with the current one on the coarser loop — two stable simulations of the model, apart by their
+    integration errors — and a step not taken leaves the loop as it was (the response search's wild trial steps
+    would otherwise make every later simulation dearer). Where they cannot be chosen again (given, or too many),
+    the step is refused as one into a diverging simulation.
 
     Returns (θ, J, r, y at θ₀, y at θ, iterations, converged, message, cost at θ₀); J and r at θ."""
     scale = np.where(theta0 != 0, np.abs(theta0), 1.0)
 
-    def evaluate(theta: np.ndarray, sensitivities: bool = True):
-        """(y, r, J·scale) at θ, J only with ``sensitivities`` (a trial step needs its cost alone: about
-        1/(p + 1) of the work); ``None`` when the simulation diverges."""
+    def evaluate(theta: np.ndarray, sensitivities: bool = True, on: ClosedLoop | None = None):
+        """(y, r, J·scale) at θ on the loop (or ``on``), J only with ``sensitivities`` (a trial step needs its cost
+        alone: about 1/(p + 1) of the work); ``None`` when the simulation diverges, or would run outside RK4's
+        stability region (:meth:`ClosedLoop.stable`)."""
+        on = on or loop
+        if not on.stable(theta):
+            return None
         begun = time.perf_counter()
-        y, dy = loop.run(theta, sensitivities)
+        y, dy = on.run(theta, sensitivities)
         timings.setdefault("evaluations", 0.0)
         timings["evaluations"] += time.perf_counter() - begun
         timings["evaluation" if sensitivities else "simulation"] = time.perf_counter() - begun
         if not np.isfinite(y).all() or (dy is not None and not np.isfinite(dy).all()):
             return None
-        layer = loop.layer_at(theta)
+        layer = on.layer_at(theta)
         return y, residuals.of(y, layer), None if dy is None else residuals.jacobian(y, dy, layer) * scale
 
+    if not loop.stable(theta0):  # sub-steps given, or chosen at a start since clipped onto the bounds
+        loop = loop.restepped(theta0) or loop
     first = evaluate(theta0)
     if first is None:
+        if loop.substeps_given and not loop.stable(theta0):
+            raise IdentificationError(f"the {loop.substeps} RK4 sub-step(s) per sample given are outside RK4's "
+                                      "stability region at the start values: give more, or let them be chosen")
         raise IdentificationError("the closed loop diverges at the start values: an output-error fit needs a start "
                                   "whose simulation stays finite")
     y0, r, J = first
@@ -927,11 +978,17 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
                 delta = np.zeros_like(g)
             trial = np.clip(theta + delta * scale, lower, upper)
             step = (trial - theta) / scale
-            evaluated = evaluate(trial, sensitivities=False)
+            # where the kept sub-steps are unstable the trial runs on a finer loop, kept only if the step is taken
+            on = loop if loop.stable(trial) else loop.restepped(trial)
+            evaluated = None if on is None else evaluate(trial, sensitivities=False, on=on)
             new_cost = float(evaluated[1] @ evaluated[1]) if evaluated is not None else math.inf
             if new_cost < cost:
-                evaluated = evaluate(trial)
+                evaluated = evaluate(trial, on=on)
                 if evaluated is not None:
+                    if on is not loop:
+                        LOG.info("output error: %d RK4 sub-steps a sample (%d when calm) unstable at a step taken: "
+                                 "%d (%d) from there", loop.substeps, loop.calm, on.substeps, on.calm)
+                    loop = on
                     break
                 new_cost = math.inf
             damping *= 4.0

@@ -584,6 +584,24 @@ def stepping(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0: float,
     return (m, calm, radius) if CALM_WHEN * calm <= m else (m, 0, radius)
 
 
+def steps_stable(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0: float, period: float,
+                 substeps: int, calm: int = 0) -> bool:
+    """Whether ``substeps`` RK4 sub-steps per sample (and ``calm`` in a calm sample) keep h·ρ within RK4's
+    stability bound (:data:`RK4_REAL_BOUND`) at ``p``, ρ measured as :func:`stepping` measures it (ρ_soft for
+    the calm ones); ``False`` where ρ is not finite.
+
+    Sub-steps chosen at one p and kept for others (an output-error fit: the simulation differentiated is one
+    function of θ) can leave that region: the smoothed sign's rate Fc/(M·ε) grows as a mass falls. The simulated
+    state may stay finite there — tanh(v/ε) saturates, and the instability throws v out of the steep part — but
+    each pass through it multiplies the sensitivities (docs/simulation.md, "Calm samples")."""
+    try:
+        radius = _spectral_radius(plant, x0, p, eps, t0)
+        soft = _spectral_radius(plant, x0, p, max(eps, SOFT_FRICTION_VELOCITY), t0) if calm else 0.0
+    except Diverged:
+        return False
+    return period / substeps * radius <= RK4_REAL_BOUND and (not calm or period / calm * soft <= RK4_REAL_BOUND)
+
+
 def substeps_for(period: float, radius: float) -> int:
     """RK4 sub-steps per sample of ``period`` so that h·ρ ≤ :data:`STEP_BOUND` (``radius`` = ρ)."""
     return max(1, math.ceil(min(period * radius / STEP_BOUND, 2.0**62)))
