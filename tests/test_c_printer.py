@@ -48,3 +48,16 @@ def test_exact_decimals() -> None:
     assert c_double(sp.Rational(-1, 8)) == "-0.125"
     assert c_double(sp.Integer(3)) == "3.0"
     assert float(c_double(sp.Rational(1, 3))) == 1 / 3
+
+
+def test_outputs_are_written_right_after_the_last_statement_they_use() -> None:
+    """c_source._interleaved: an output that uses no local comes first, the others right after their last
+    local; the statements keep their order (docs/contracts.md, "Generated C": outputs written early)."""
+    from symbolic.codegen.c_source import _interleaved
+
+    v0, v1, v2 = sp.symbols("v0 v1 v2", real=True)
+    statements = ((v0, x * y), (v1, v0 + z), (v2, v1 * v0))
+    outputs = (v2 + 1, v0 * z, x + 2, v1 - v0)
+    lines = _interleaved(statements, outputs, ["o[0]", "o[1]", "o[2]", "o[3]"], str)
+    assert [line["name"] for line in lines] == ["o[2]", "v0", "o[1]", "v1", "o[3]", "v2", "o[0]"]
+    assert [line["const"] for line in lines] == [False, True, False, True, False, True, False]

@@ -241,7 +241,8 @@ def _has_avx() -> bool:
 
 
 def test_avx_copy_gives_the_same_bits(tmp_path) -> None:
-    """Built for x86-64 without AVX, a function of DISPATCH_OPERATIONS or more runs a copy compiled for AVX where the
+    """Built for x86-64 without AVX, a function of DISPATCH_OPERATIONS or more (and inertia and inverse dynamics,
+    which run alongside the derivatives) runs a copy compiled for AVX where the
     processor has it (docs/contracts.md, "Generated C"); AVX has no fused multiply-add, so the copy's results are
     the baseline copy's (SYMBOLIC_NO_DISPATCH) bit for bit. Sines and cosines from libm in both builds: the batched
     kernel's own AVX2+FMA copy may differ in the last bit (tests/test_sincos.py)."""
@@ -254,6 +255,8 @@ def test_avx_copy_gives_the_same_bits(tmp_path) -> None:
     baseline = compile_shared(source, tmp_path / "libbaseline.so", (*flags, "-DSYMBOLIC_NO_DISPATCH"))
     symbols = subprocess.run(["nm", str(dispatched)], capture_output=True, text=True, check=True).stdout
     assert "panda_inverse_dynamics_derivatives_avx" in symbols and "panda_coriolis_matrix_avx" in symbols
+    # run alongside the derivatives by forward_dynamics_derivatives, these two get the AVX copy too (c_source._dispatched)
+    assert "panda_inertia_avx" in symbols and "panda_inverse_dynamics_avx" in symbols
     a, b = (Derivatives(lib, model.name, model.n, len(model.robot.parameters)) for lib in (dispatched, baseline))
     p = a.defaults
     for q, qd, qdd in states(model, 50, seed=36):
@@ -261,5 +264,7 @@ def test_avx_copy_gives_the_same_bits(tmp_path) -> None:
             assert np.array_equal(x, y)
         assert np.array_equal(a.coriolis_matrix(q, qd, p), b.coriolis_matrix(q, qd, p))
         tau = a.inverse_dynamics(q, qd, qdd, p)
+        assert np.array_equal(tau, b.inverse_dynamics(q, qd, qdd, p))
+        assert np.array_equal(a.inertia(q, p), b.inertia(q, p))
         for x, y in zip(a.fd_derivatives(q, qd, tau, p), b.fd_derivatives(q, qd, tau, p)):
             assert np.array_equal(x, y)

@@ -111,7 +111,6 @@ void emps_regressor(const double *q, const double *qd, const double *qdd, const 
 {
     (void)q;
     (void)p;
-    const double v0 = (((qd[0]) > 0) - ((qd[0]) < 0));
     Y[0] = 0.0;
     Y[1] = 0.0;
     Y[2] = 0.0;
@@ -123,8 +122,9 @@ void emps_regressor(const double *q, const double *qd, const double *qdd, const 
     Y[8] = 0.0;
     Y[9] = qdd[0];
     Y[10] = qd[0];
-    Y[11] = v0;
     Y[12] = 1.0;
+    const double v0 = (((qd[0]) > 0) - ((qd[0]) < 0));
+    Y[11] = v0;
 }
 
 /* theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)

@@ -13,46 +13,46 @@ const char *const madill_beam_theta_names[madill_beam_NTHETA] = { "XX_e", "XY_e"
  * 52 operations. */
 void madill_beam_inertia(const double *q, const double *p, double *D)
 {
+    D[4] = 0.0;
+    D[9] = 0.0;
+    D[14] = 0.0;
+    D[19] = 0.0;
+    D[20] = 0.0;
+    D[21] = 0.0;
+    D[22] = 0.0;
+    D[23] = 0.0;
     const double v0 = (q[1]*q[1]);
     const double v1 = (q[2]*q[2]);
     const double v2 = (q[3]*q[3]);
     const double v3 = p[5]/p[2];
     const double v4 = 8.0*q[2]*v3;
     const double v5 = 4.0*v3;
+    D[7] = -v5;
+    D[8] = v5;
+    D[11] = -v5;
+    D[13] = -v5;
+    D[16] = v5;
+    D[17] = -v5;
     const double v6 = sqrt(p[2]);
     const double v7 = 2.0*p[5];
     const double v8 = p[2]*p[3];
     const double v9 = (0.3333333333333333)*(p[2]*p[2]*p[2])*p[3] + (p[2]*p[2])*p[5] + 8.0*q[1]*q[3]*v3 - q[1]*v4 - q[3]*v4 + p[3]*v0 + p[3]*v1 + p[3]*v2 + v0*v5 + v1*v5 + v2*v5;
     const double v10 = v6*(v7 + 0.5688257437099108*v8);
+    D[1] = v10;
+    D[5] = v10;
     const double v11 = v6*(-v7 + 0.09076678688638697*v8);
+    D[2] = v11;
+    D[10] = v11;
     const double v12 = v6*(v7 + 0.032416374369744434*v8);
+    D[3] = v12;
+    D[15] = v12;
     const double v13 = p[3] + v5;
+    D[6] = v13;
+    D[12] = v13;
+    D[18] = v13;
+    D[24] = v13;
     const double v14 = p[1] + v9;
     D[0] = v14;
-    D[1] = v10;
-    D[2] = v11;
-    D[3] = v12;
-    D[4] = 0.0;
-    D[5] = v10;
-    D[6] = v13;
-    D[7] = -v5;
-    D[8] = v5;
-    D[9] = 0.0;
-    D[10] = v11;
-    D[11] = -v5;
-    D[12] = v13;
-    D[13] = -v5;
-    D[14] = 0.0;
-    D[15] = v12;
-    D[16] = v5;
-    D[17] = -v5;
-    D[18] = v13;
-    D[19] = 0.0;
-    D[20] = 0.0;
-    D[21] = 0.0;
-    D[22] = 0.0;
-    D[23] = 0.0;
-    D[24] = v13;
 }
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
@@ -60,6 +60,7 @@ void madill_beam_inertia(const double *q, const double *p, double *D)
  * 41 operations. */
 void madill_beam_coriolis(const double *q, const double *qd, const double *p, double *h)
 {
+    h[4] = 0.0;
     const double v0 = 4.0*p[5]/p[2];
     const double v1 = q[2]*v0;
     const double v2 = q[1]*v0;
@@ -67,13 +68,12 @@ void madill_beam_coriolis(const double *q, const double *qd, const double *p, do
     const double v4 = -v1 + v2 + v3;
     const double v5 = (0.5)*(qd[0]*qd[0]);
     const double v6 = 2.0*q[1]*p[3] + 2.0*v4;
+    h[1] = -v5*v6;
     const double v7 = 2.0*q[2]*p[3] + 2.0*v1 - 2.0*v2 - 2.0*v3;
+    h[2] = -v5*v7;
     const double v8 = 2.0*q[3]*p[3] + 2.0*v4;
     h[0] = (0.5)*qd[0]*(2.0*qd[1]*v6 + 2.0*qd[2]*v7 + 2.0*qd[3]*v8);
-    h[1] = -v5*v6;
-    h[2] = -v5*v7;
     h[3] = -v5*v8;
-    h[4] = 0.0;
 }
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
@@ -81,34 +81,15 @@ void madill_beam_coriolis(const double *q, const double *qd, const double *p, do
  * 38 operations. */
 void madill_beam_coriolis_matrix(const double *q, const double *qd, const double *p, double *C)
 {
-    const double v0 = 4.0*p[5]/p[2];
-    const double v1 = q[2]*v0;
-    const double v2 = q[1]*v0;
-    const double v3 = q[3]*v0;
-    const double v4 = -v1 + v2 + v3;
-    const double v5 = (0.5)*qd[0];
-    const double v6 = 2.0*q[1]*p[3] + 2.0*v4;
-    const double v7 = v5*v6;
-    const double v8 = 2.0*q[2]*p[3] + 2.0*v1 - 2.0*v2 - 2.0*v3;
-    const double v9 = v5*v8;
-    const double v10 = 2.0*q[3]*p[3] + 2.0*v4;
-    const double v11 = v10*v5;
-    C[0] = (0.5)*qd[1]*v6 + (0.5)*qd[2]*v8 + (0.5)*qd[3]*v10;
-    C[1] = v7;
-    C[2] = v9;
-    C[3] = v11;
     C[4] = 0.0;
-    C[5] = -v7;
     C[6] = 0.0;
     C[7] = 0.0;
     C[8] = 0.0;
     C[9] = 0.0;
-    C[10] = -v9;
     C[11] = 0.0;
     C[12] = 0.0;
     C[13] = 0.0;
     C[14] = 0.0;
-    C[15] = -v11;
     C[16] = 0.0;
     C[17] = 0.0;
     C[18] = 0.0;
@@ -118,6 +99,25 @@ void madill_beam_coriolis_matrix(const double *q, const double *qd, const double
     C[22] = 0.0;
     C[23] = 0.0;
     C[24] = 0.0;
+    const double v0 = 4.0*p[5]/p[2];
+    const double v1 = q[2]*v0;
+    const double v2 = q[1]*v0;
+    const double v3 = q[3]*v0;
+    const double v4 = -v1 + v2 + v3;
+    const double v5 = (0.5)*qd[0];
+    const double v6 = 2.0*q[1]*p[3] + 2.0*v4;
+    const double v7 = v5*v6;
+    C[1] = v7;
+    C[5] = -v7;
+    const double v8 = 2.0*q[2]*p[3] + 2.0*v1 - 2.0*v2 - 2.0*v3;
+    const double v9 = v5*v8;
+    C[2] = v9;
+    C[10] = -v9;
+    const double v10 = 2.0*q[3]*p[3] + 2.0*v4;
+    C[0] = (0.5)*qd[1]*v6 + (0.5)*qd[2]*v8 + (0.5)*qd[3]*v10;
+    const double v11 = v10*v5;
+    C[3] = v11;
+    C[15] = -v11;
 }
 
 /* g(q) = dV_gravity/dq
@@ -126,12 +126,12 @@ void madill_beam_coriolis_matrix(const double *q, const double *qd, const double
 void madill_beam_gravity(const double *q, const double *p, double *g)
 {
     (void)q;
-    const double v0 = sqrt(p[2]);
-    const double v1 = p[0]*(2.0*p[5]/v0 + 0.7829917560396258*p[3]*v0);
     g[0] = 0.0;
     g[1] = 0.0;
     g[2] = 0.0;
     g[3] = 0.0;
+    const double v0 = sqrt(p[2]);
+    const double v1 = p[0]*(2.0*p[5]/v0 + 0.7829917560396258*p[3]*v0);
     g[4] = v1;
 }
 
@@ -140,16 +140,16 @@ void madill_beam_gravity(const double *q, const double *p, double *g)
  * 9 operations. */
 void madill_beam_stiffness(const double *q, const double *p, double *k)
 {
+    k[0] = 0.0;
     const double v0 = p[4]/(p[2]*p[2]*p[2]*p[2]);
     const double v1 = 12.362363368326191*v0;
     const double v2 = q[1]*v1;
-    const double v3 = 485.51881851337106*q[2]*v0;
-    const double v4 = 3806.546266391451*q[3]*v0;
-    const double v5 = q[4]*v1;
-    k[0] = 0.0;
     k[1] = v2;
+    const double v3 = 485.51881851337106*q[2]*v0;
     k[2] = v3;
+    const double v4 = 3806.546266391451*q[3]*v0;
     k[3] = v4;
+    const double v5 = q[4]*v1;
     k[4] = v5;
 }
 
@@ -226,14 +226,14 @@ void madill_beam_inverse_dynamics(const double *q, const double *qd, const doubl
     const double v35 = 3806.546266391451*q[3]*v13;
     const double v36 = q[4]*v14;
     const double v37 = qdd[1]*v27 + qdd[2]*v28 + qdd[3]*v29 + qdd[0]*v31 + v16*v17 + v17*v19 + v17*v21 + v17*(v16 + v19 + v21);
-    const double v38 = qdd[1]*v30 + qdd[0]*v27 - v15*v24 + v22 + v23 + v33;
-    const double v39 = -qdd[2]*v30 - qdd[0]*v28 + v18*v24 + v22 + v25 - v34;
-    const double v40 = qdd[3]*v30 + qdd[0]*v29 - v20*v24 + v23 + v25 + v35;
-    const double v41 = qdd[4]*v30 + v32 + v36;
     tau[0] = v37;
+    const double v38 = qdd[1]*v30 + qdd[0]*v27 - v15*v24 + v22 + v23 + v33;
     tau[1] = v38;
+    const double v39 = -qdd[2]*v30 - qdd[0]*v28 + v18*v24 + v22 + v25 - v34;
     tau[2] = -v39;
+    const double v40 = qdd[3]*v30 + qdd[0]*v29 - v20*v24 + v23 + v25 + v35;
     tau[3] = v40;
+    const double v41 = qdd[4]*v30 + v32 + v36;
     tau[4] = v41;
 }
 
@@ -242,6 +242,36 @@ void madill_beam_inverse_dynamics(const double *q, const double *qd, const doubl
  * 76 operations. */
 void madill_beam_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
 {
+    dtau_dq[0] = 0.0;
+    dtau_dq[4] = 0.0;
+    dtau_dq[5] = 0.0;
+    dtau_dq[9] = 0.0;
+    dtau_dq[10] = 0.0;
+    dtau_dq[14] = 0.0;
+    dtau_dq[15] = 0.0;
+    dtau_dq[19] = 0.0;
+    dtau_dq[20] = 0.0;
+    dtau_dq[21] = 0.0;
+    dtau_dq[22] = 0.0;
+    dtau_dq[23] = 0.0;
+    dtau_dqd[4] = 0.0;
+    dtau_dqd[6] = 0.0;
+    dtau_dqd[7] = 0.0;
+    dtau_dqd[8] = 0.0;
+    dtau_dqd[9] = 0.0;
+    dtau_dqd[11] = 0.0;
+    dtau_dqd[12] = 0.0;
+    dtau_dqd[13] = 0.0;
+    dtau_dqd[14] = 0.0;
+    dtau_dqd[16] = 0.0;
+    dtau_dqd[17] = 0.0;
+    dtau_dqd[18] = 0.0;
+    dtau_dqd[19] = 0.0;
+    dtau_dqd[20] = 0.0;
+    dtau_dqd[21] = 0.0;
+    dtau_dqd[22] = 0.0;
+    dtau_dqd[23] = 0.0;
+    dtau_dqd[24] = 0.0;
     const double v0 = p[5]/p[2];
     const double v1 = 4.0*v0;
     const double v2 = q[2]*v1;
@@ -262,69 +292,39 @@ void madill_beam_inverse_dynamics_derivatives(const double *q, const double *qd,
     const double v17 = 2.0*q[2]*p[3] + 2.0*v2 - 2.0*v3 - 2.0*v4;
     const double v18 = 2.0*q[3]*p[3] + 2.0*v5;
     const double v19 = qd[1]*v7 + qdd[0]*v16 + v10 + v11;
-    const double v20 = qd[2]*v7 + qdd[0]*v17 - v10 - v12;
-    const double v21 = qd[3]*v7 + qdd[0]*v18 + v11 + v12;
-    const double v22 = 12.362363368326191*v13;
-    const double v23 = v15 - v22;
-    const double v24 = v14*v8;
-    const double v25 = 485.51881851337106*v13;
-    const double v26 = v15 - v25;
-    const double v27 = 3806.546266391451*v13;
-    const double v28 = v15 - v27;
-    const double v29 = qd[1]*v16 + qd[2]*v17 + qd[3]*v18;
-    const double v30 = qd[0]*v16;
-    const double v31 = qd[0]*v17;
-    const double v32 = qd[0]*v18;
-    dtau_dq[0] = 0.0;
     dtau_dq[1] = v19;
+    const double v20 = qd[2]*v7 + qdd[0]*v17 - v10 - v12;
     dtau_dq[2] = v20;
+    const double v21 = qd[3]*v7 + qdd[0]*v18 + v11 + v12;
     dtau_dq[3] = v21;
-    dtau_dq[4] = 0.0;
-    dtau_dq[5] = 0.0;
+    const double v22 = 12.362363368326191*v13;
+    dtau_dq[24] = v22;
+    const double v23 = v15 - v22;
     dtau_dq[6] = -v23;
+    const double v24 = v14*v8;
     dtau_dq[7] = v24;
     dtau_dq[8] = -v24;
-    dtau_dq[9] = 0.0;
-    dtau_dq[10] = 0.0;
     dtau_dq[11] = v24;
-    dtau_dq[12] = -v26;
     dtau_dq[13] = v24;
-    dtau_dq[14] = 0.0;
-    dtau_dq[15] = 0.0;
     dtau_dq[16] = -v24;
     dtau_dq[17] = v24;
+    const double v25 = 485.51881851337106*v13;
+    const double v26 = v15 - v25;
+    dtau_dq[12] = -v26;
+    const double v27 = 3806.546266391451*v13;
+    const double v28 = v15 - v27;
     dtau_dq[18] = -v28;
-    dtau_dq[19] = 0.0;
-    dtau_dq[20] = 0.0;
-    dtau_dq[21] = 0.0;
-    dtau_dq[22] = 0.0;
-    dtau_dq[23] = 0.0;
-    dtau_dq[24] = v22;
+    const double v29 = qd[1]*v16 + qd[2]*v17 + qd[3]*v18;
     dtau_dqd[0] = v29;
+    const double v30 = qd[0]*v16;
     dtau_dqd[1] = v30;
-    dtau_dqd[2] = v31;
-    dtau_dqd[3] = v32;
-    dtau_dqd[4] = 0.0;
     dtau_dqd[5] = -v30;
-    dtau_dqd[6] = 0.0;
-    dtau_dqd[7] = 0.0;
-    dtau_dqd[8] = 0.0;
-    dtau_dqd[9] = 0.0;
+    const double v31 = qd[0]*v17;
+    dtau_dqd[2] = v31;
     dtau_dqd[10] = -v31;
-    dtau_dqd[11] = 0.0;
-    dtau_dqd[12] = 0.0;
-    dtau_dqd[13] = 0.0;
-    dtau_dqd[14] = 0.0;
+    const double v32 = qd[0]*v18;
+    dtau_dqd[3] = v32;
     dtau_dqd[15] = -v32;
-    dtau_dqd[16] = 0.0;
-    dtau_dqd[17] = 0.0;
-    dtau_dqd[18] = 0.0;
-    dtau_dqd[19] = 0.0;
-    dtau_dqd[20] = 0.0;
-    dtau_dqd[21] = 0.0;
-    dtau_dqd[22] = 0.0;
-    dtau_dqd[23] = 0.0;
-    dtau_dqd[24] = 0.0;
 }
 
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
@@ -332,6 +332,62 @@ void madill_beam_inverse_dynamics_derivatives(const double *q, const double *qd,
  * 116 operations. */
 void madill_beam_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y)
 {
+    Y[0] = 0.0;
+    Y[1] = 0.0;
+    Y[2] = 0.0;
+    Y[3] = 0.0;
+    Y[4] = 0.0;
+    Y[5] = qdd[0];
+    Y[6] = 0.0;
+    Y[7] = 0.0;
+    Y[8] = 0.0;
+    Y[9] = 0.0;
+    Y[11] = 0.0;
+    Y[12] = 0.0;
+    Y[14] = 0.0;
+    Y[15] = 0.0;
+    Y[16] = 0.0;
+    Y[17] = 0.0;
+    Y[18] = 0.0;
+    Y[19] = 0.0;
+    Y[20] = 0.0;
+    Y[21] = 0.0;
+    Y[22] = 0.0;
+    Y[23] = 0.0;
+    Y[26] = 0.0;
+    Y[28] = 0.0;
+    Y[29] = 0.0;
+    Y[30] = 0.0;
+    Y[31] = 0.0;
+    Y[32] = 0.0;
+    Y[33] = 0.0;
+    Y[34] = 0.0;
+    Y[35] = 0.0;
+    Y[36] = 0.0;
+    Y[37] = 0.0;
+    Y[40] = 0.0;
+    Y[42] = 0.0;
+    Y[43] = 0.0;
+    Y[44] = 0.0;
+    Y[45] = 0.0;
+    Y[46] = 0.0;
+    Y[47] = 0.0;
+    Y[48] = 0.0;
+    Y[49] = 0.0;
+    Y[50] = 0.0;
+    Y[51] = 0.0;
+    Y[54] = 0.0;
+    Y[56] = 0.0;
+    Y[57] = 0.0;
+    Y[58] = 0.0;
+    Y[59] = 0.0;
+    Y[60] = 0.0;
+    Y[61] = 0.0;
+    Y[62] = 0.0;
+    Y[63] = 0.0;
+    Y[64] = 0.0;
+    Y[65] = 0.0;
+    Y[67] = 0.0;
     const double v0 = (q[1]*q[1]);
     const double v1 = (q[2]*q[2]);
     const double v2 = (q[3]*q[3]);
@@ -354,91 +410,35 @@ void madill_beam_regressor(const double *q, const double *qd, const double *qdd,
     const double v19 = 0.09076678688638697*v3;
     const double v20 = 0.032416374369744434*v3;
     const double v21 = q[1]*qd[1]*v4 + qdd[1]*v18 + q[2]*qd[2]*v4 + qdd[2]*v19 + q[3]*qd[3]*v4 + qdd[3]*v20 + qdd[0]*v17;
+    Y[10] = v21;
     const double v22 = (p[2]*p[2]) + q[1]*q[3]*v6 - q[1]*v7 - q[3]*v7 + v0*v8 + v1*v8 + v2*v8;
     const double v23 = qdd[1]*v15 + qd[1]*v11 - qdd[2]*v15 - qd[2]*v11 + qdd[3]*v15 + qd[3]*v11 + qdd[0]*v22;
+    Y[13] = v23;
     const double v24 = -q[1]*v12 + qdd[1] + qdd[0]*v18;
+    Y[24] = v24;
     const double v25 = q[1]*v14;
+    Y[25] = v25;
     const double v26 = qdd[1]*v8 + v16 - v8*(qdd[2] - qdd[3]);
+    Y[27] = v26;
     const double v27 = -q[2]*v12 + qdd[2] + qdd[0]*v19;
+    Y[38] = v27;
     const double v28 = 485.51881851337106*q[2]*v13;
+    Y[39] = v28;
     const double v29 = qdd[2]*v8 - v16 - v8*(qdd[1] + qdd[3]);
+    Y[41] = v29;
     const double v30 = -q[3]*v12 + qdd[3] + qdd[0]*v20;
+    Y[52] = v30;
     const double v31 = 3806.546266391451*q[3]*v13;
+    Y[53] = v31;
     const double v32 = qdd[3]*v8 + v16 + v8*(qdd[1] - qdd[2]);
+    Y[55] = v32;
     const double v33 = 0.7829917560396258*p[0]*v9;
     const double v34 = qdd[4] + v33;
+    Y[66] = v34;
     const double v35 = q[4]*v14;
+    Y[68] = v35;
     const double v36 = 2.0*p[0]/v9;
     const double v37 = qdd[4]*v8 + v36;
-    Y[0] = 0.0;
-    Y[1] = 0.0;
-    Y[2] = 0.0;
-    Y[3] = 0.0;
-    Y[4] = 0.0;
-    Y[5] = qdd[0];
-    Y[6] = 0.0;
-    Y[7] = 0.0;
-    Y[8] = 0.0;
-    Y[9] = 0.0;
-    Y[10] = v21;
-    Y[11] = 0.0;
-    Y[12] = 0.0;
-    Y[13] = v23;
-    Y[14] = 0.0;
-    Y[15] = 0.0;
-    Y[16] = 0.0;
-    Y[17] = 0.0;
-    Y[18] = 0.0;
-    Y[19] = 0.0;
-    Y[20] = 0.0;
-    Y[21] = 0.0;
-    Y[22] = 0.0;
-    Y[23] = 0.0;
-    Y[24] = v24;
-    Y[25] = v25;
-    Y[26] = 0.0;
-    Y[27] = v26;
-    Y[28] = 0.0;
-    Y[29] = 0.0;
-    Y[30] = 0.0;
-    Y[31] = 0.0;
-    Y[32] = 0.0;
-    Y[33] = 0.0;
-    Y[34] = 0.0;
-    Y[35] = 0.0;
-    Y[36] = 0.0;
-    Y[37] = 0.0;
-    Y[38] = v27;
-    Y[39] = v28;
-    Y[40] = 0.0;
-    Y[41] = v29;
-    Y[42] = 0.0;
-    Y[43] = 0.0;
-    Y[44] = 0.0;
-    Y[45] = 0.0;
-    Y[46] = 0.0;
-    Y[47] = 0.0;
-    Y[48] = 0.0;
-    Y[49] = 0.0;
-    Y[50] = 0.0;
-    Y[51] = 0.0;
-    Y[52] = v30;
-    Y[53] = v31;
-    Y[54] = 0.0;
-    Y[55] = v32;
-    Y[56] = 0.0;
-    Y[57] = 0.0;
-    Y[58] = 0.0;
-    Y[59] = 0.0;
-    Y[60] = 0.0;
-    Y[61] = 0.0;
-    Y[62] = 0.0;
-    Y[63] = 0.0;
-    Y[64] = 0.0;
-    Y[65] = 0.0;
-    Y[66] = v34;
-    Y[67] = 0.0;
-    Y[68] = v35;
     Y[69] = v37;
 }
 
@@ -447,11 +447,8 @@ void madill_beam_regressor(const double *q, const double *qd, const double *qdd,
  * 1 operations. */
 void madill_beam_standard_parameters(const double *p, double *theta)
 {
-    const double v0 = (0.5)*p[1];
-    theta[0] = v0;
     theta[1] = 0.0;
     theta[2] = 0.0;
-    theta[3] = v0;
     theta[4] = 0.0;
     theta[5] = p[1];
     theta[6] = 0.0;
@@ -462,6 +459,9 @@ void madill_beam_standard_parameters(const double *p, double *theta)
     theta[11] = p[4];
     theta[12] = p[4];
     theta[13] = p[5];
+    const double v0 = (0.5)*p[1];
+    theta[0] = v0;
+    theta[3] = v0;
 }
 
 /* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).

@@ -161,6 +161,10 @@ void omni_inertia(const double *q, const double *p, double *D)
 {
     double sn[1], cs[1];
     omni_sincos(1, q + 1, sn, cs);
+    D[1] = 0.0;
+    D[2] = 0.0;
+    D[3] = 0.0;
+    D[6] = 0.0;
     const double v0 = 2.0*q[1] + q[2] + p[6];
     const double v1 = (p[2]*p[2]);
     const double v2 = (0.25)*v1;
@@ -177,8 +181,11 @@ void omni_inertia(const double *q, const double *p, double *D)
     const double v13 = (0.08333333333333333)*p[4]*v1;
     const double v14 = (0.5)*v12 + 2.0*v13;
     const double v15 = (0.5)*p[2]*v6 + v13;
+    D[8] = v15;
     const double v16 = -v15 + v8;
     const double v17 = v14 + v16;
+    D[5] = v17;
+    D[7] = v17;
     const double v18 = sin(v0);
     const double v19 = p[4]*v2 + v13;
     const double v20 = v18*v6;
@@ -208,21 +215,14 @@ void omni_inertia(const double *q, const double *p, double *D)
     const double v44 = -0.5*v41 + v43;
     const double v45 = -v41 - v44;
     const double v46 = -p[5] + v38 + v45;
+    D[0] = -v46;
     const double v47 = v11*v40 + v39;
     const double v48 = -v19 + v8;
     const double v49 = p[1]*v28 - v48;
     const double v50 = v12 + 4.0*v13;
     const double v51 = v3*v5;
     const double v52 = p[1]*v51 - v14;
-    D[0] = -v46;
-    D[1] = 0.0;
-    D[2] = 0.0;
-    D[3] = 0.0;
     D[4] = v47 + v49 + v50 + 2.0*v52;
-    D[5] = v17;
-    D[6] = 0.0;
-    D[7] = v17;
-    D[8] = v15;
 }
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
@@ -257,6 +257,7 @@ void omni_coriolis(const double *q, const double *qd, const double *p, double *h
     const double v22 = v14*v7;
     const double v23 = v12*v22;
     const double v24 = (0.5)*v21 + v23;
+    h[2] = -v24;
     const double v25 = (0.5)*p[1];
     const double v26 = (0.5)*v2;
     const double v27 = qd[1]*v1;
@@ -288,12 +289,11 @@ void omni_coriolis(const double *q, const double *qd, const double *p, double *h
     const double v53 = cs[0]*v52 + sn[0]*v49;
     const double v54 = v29*v3 + v4*v5;
     const double v55 = v28*v3;
+    h[1] = -p[1]*v51 - v21 - 2.0*v23 + v24 + v25*v36 + v55;
     const double v56 = v25*v37 + v54;
     const double v57 = cs[0]*v56 - sn[0]*v34;
     const double v58 = v53 + v57;
     h[0] = -v58;
-    h[1] = -p[1]*v51 - v21 - 2.0*v23 + v24 + v25*v36 + v55;
-    h[2] = -v24;
 }
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
@@ -303,6 +303,7 @@ void omni_coriolis_matrix(const double *q, const double *qd, const double *p, do
 {
     double sn[1], cs[1];
     omni_sincos(1, q + 1, sn, cs);
+    C[8] = 0.0;
     const double v0 = 2.0*q[1] + q[2] + p[6];
     const double v1 = cos(v0);
     const double v2 = sin(v0);
@@ -331,6 +332,7 @@ void omni_coriolis_matrix(const double *q, const double *qd, const double *p, do
     const double v25 = 2.0*v14;
     const double v26 = 2.0*v24 - v25;
     const double v27 = (0.5)*v26;
+    C[5] = -qd[1]*v27 - qd[2]*v14;
     const double v28 = (0.5)*qd[0];
     const double v29 = (0.08333333333333333)*p[4]*v3;
     const double v30 = p[4]*v4 + v29;
@@ -367,6 +369,8 @@ void omni_coriolis_matrix(const double *q, const double *qd, const double *p, do
     const double v61 = v52*v60;
     const double v62 = v57 - v61;
     const double v63 = v28*v62;
+    C[1] = v63;
+    C[3] = -v63;
     const double v64 = 4.0*v7;
     const double v65 = v31*v64;
     const double v66 = -2.0*v14 + v22 + v65;
@@ -379,21 +383,17 @@ void omni_coriolis_matrix(const double *q, const double *qd, const double *p, do
     const double v73 = v15*v72 + v41*v71;
     const double v74 = (0.5)*v68 + v73;
     const double v75 = v68 - v74;
+    C[0] = (0.5)*qd[1]*v62 + (0.5)*qd[2]*v75;
     const double v76 = v28*v75;
+    C[2] = v76;
+    C[6] = -v76;
     const double v77 = v18*v5;
     const double v78 = p[1]*v77;
     const double v79 = 2.0*v20;
     const double v80 = 2.0*v78 - v79;
-    const double v81 = v20 - v27;
-    C[0] = (0.5)*qd[1]*v62 + (0.5)*qd[2]*v75;
-    C[1] = v63;
-    C[2] = v76;
-    C[3] = -v63;
     C[4] = -0.5*qd[1]*v80 - 0.5*qd[2]*v26;
-    C[5] = -qd[1]*v27 - qd[2]*v14;
-    C[6] = -v76;
+    const double v81 = v20 - v27;
     C[7] = -qd[1]*v81;
-    C[8] = 0.0;
 }
 
 /* g(q) = dV_gravity/dq
@@ -403,6 +403,7 @@ void omni_gravity(const double *q, const double *p, double *g)
 {
     double sn[1], cs[1];
     omni_sincos(1, q + 1, sn, cs);
+    g[0] = 0.0;
     const double v0 = 2.0*q[1] + q[2] + p[6];
     const double v1 = p[2]*p[4];
     const double v2 = (0.5)*v1;
@@ -415,9 +416,8 @@ void omni_gravity(const double *q, const double *p, double *g)
     const double v9 = sn[0]*p[0];
     const double v10 = v3*v5 + v6*v9;
     const double v11 = (0.5)*p[3]*v4 + p[4]*v4 + v1*v10 - v3*v7 - v8*v9;
-    const double v12 = v10*v2;
-    g[0] = 0.0;
     g[1] = v11;
+    const double v12 = v10*v2;
     g[2] = v12;
 }
 
@@ -527,6 +527,7 @@ void omni_inverse_dynamics(const double *q, const double *qd, const double *qdd,
     const double v58 = -v15*v54 + v17*v49;
     const double v59 = v11*v53 + v57;
     const double v60 = (0.5)*v28 + v58;
+    tau[2] = v60;
     const double v61 = v13*v56 - v14*v59;
     const double v62 = v13*v59 + v14*v56;
     const double v63 = v13*v27 + v14*v52;
@@ -538,10 +539,9 @@ void omni_inverse_dynamics(const double *q, const double *qd, const double *qdd,
     const double v69 = v29*v39 + v67;
     const double v70 = cs[0]*v69 - sn[0]*v66;
     const double v71 = -p[5]*qdd[0] + v65 + v70;
-    const double v72 = p[1]*v63 + v28 + v29*v38 + 2.0*v58 - v60 + v68;
     tau[0] = -v71;
+    const double v72 = p[1]*v63 + v28 + v29*v38 + 2.0*v58 - v60 + v68;
     tau[1] = v72;
-    tau[2] = v60;
 }
 
 /* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (d tau / d q by the chain rule through the intermediates of tau; d tau / d qd = 2 C(q, qd) + d(friction - applied) / d qd; d tau / d qdd = D(q))
@@ -551,6 +551,10 @@ void omni_inverse_dynamics_derivatives(const double *q, const double *qd, const 
 {
     double sn[1], cs[1];
     omni_sincos(1, q + 1, sn, cs);
+    dtau_dq[0] = 0.0;
+    dtau_dq[3] = 0.0;
+    dtau_dq[6] = 0.0;
+    dtau_dqd[8] = 0.0;
     const double v0 = 2.0*q[1] + q[2] + p[6];
     const double v1 = cos(v0);
     const double v2 = sin(v0);
@@ -677,6 +681,8 @@ void omni_inverse_dynamics_derivatives(const double *q, const double *qd, const 
     const double v123 = v115*v122;
     const double v124 = v120 - v123;
     const double v125 = qd[0]*v124;
+    dtau_dqd[1] = v125;
+    dtau_dqd[3] = -v125;
     const double v126 = 4.0*v8;
     const double v127 = v126*v95;
     const double v128 = v127 - 2.0*v15 + v24;
@@ -689,7 +695,10 @@ void omni_inverse_dynamics_derivatives(const double *q, const double *qd, const 
     const double v135 = v104*v133 + v134*v16;
     const double v136 = (0.5)*v130 + v135;
     const double v137 = v130 - v136;
+    dtau_dqd[0] = qd[1]*v124 + qd[2]*v137;
     const double v138 = qd[0]*v137;
+    dtau_dqd[2] = v138;
+    dtau_dqd[6] = -v138;
     const double v139 = v2*v6;
     const double v140 = v20*v6;
     const double v141 = p[1]*v140;
@@ -698,7 +707,10 @@ void omni_inverse_dynamics_derivatives(const double *q, const double *qd, const 
     const double v144 = p[1]*v139;
     const double v145 = 2.0*v15;
     const double v146 = 2.0*v144 - v145;
+    dtau_dqd[4] = -qd[1]*v143 - qd[2]*v146;
+    dtau_dqd[5] = -qd[1]*v146 - qd[2]*v24;
     const double v147 = -0.5*v146 + v22;
+    dtau_dqd[7] = -v147*v36;
     const double v148 = (0.5)*v26;
     const double v149 = (0.5)*v28;
     const double v150 = -v149 + v32;
@@ -740,6 +752,7 @@ void omni_inverse_dynamics_derivatives(const double *q, const double *qd, const 
     const double v186 = v184*v76 + v185;
     const double v187 = cs[0]*v163 - cs[0]*v186 + sn[0]*v165 - sn[0]*v181;
     const double v188 = v179 + v187;
+    dtau_dq[1] = v188;
     const double v189 = v37*v4;
     const double v190 = -v189*v56 + v59;
     const double v191 = v154*v45 + v49*v64;
@@ -751,40 +764,27 @@ void omni_inverse_dynamics_derivatives(const double *q, const double *qd, const 
     const double v197 = -v1*v195 + v190*v2 + v71;
     const double v198 = p[1]*v193 + v197;
     const double v199 = cs[0]*v198 + sn[0]*v196;
+    dtau_dq[2] = v199;
     const double v200 = (0.5)*v82;
     const double v201 = -v148*v25 + v200*v30 + v34;
     const double v202 = p[3]*v201;
     const double v203 = v166*v37 + v60*v80;
     const double v204 = -v203 + (0.5)*v89;
+    dtau_dq[7] = -v204;
     const double v205 = v1*v83 + v2*v84 + v20*v47 - v48*v79 - v49*v86 - v50*v85;
     const double v206 = p[4]*v205;
     const double v207 = v1*v88 - v160*v79 + v161*v20 + v2*v206;
     const double v208 = -v152*v25 + v180*v30;
     const double v209 = p[1]*v207 + v202*v76 - 2.0*v203 - v204 + v208 + v89;
+    dtau_dq[4] = -v209;
     const double v210 = v189*v37 - v49*v60;
     const double v211 = v210 + (0.5)*v93;
+    dtau_dq[8] = -v211;
     const double v212 = v49*v90 + v52;
     const double v213 = p[4]*v212;
     const double v214 = -v1*v160 + v1*v92 + v161*v2 + v2*v213;
     const double v215 = p[1]*v214 + 2.0*v210 - v211 + v93;
-    dtau_dq[0] = 0.0;
-    dtau_dq[1] = v188;
-    dtau_dq[2] = v199;
-    dtau_dq[3] = 0.0;
-    dtau_dq[4] = -v209;
     dtau_dq[5] = -v215;
-    dtau_dq[6] = 0.0;
-    dtau_dq[7] = -v204;
-    dtau_dq[8] = -v211;
-    dtau_dqd[0] = qd[1]*v124 + qd[2]*v137;
-    dtau_dqd[1] = v125;
-    dtau_dqd[2] = v138;
-    dtau_dqd[3] = -v125;
-    dtau_dqd[4] = -qd[1]*v143 - qd[2]*v146;
-    dtau_dqd[5] = -qd[1]*v146 - qd[2]*v24;
-    dtau_dqd[6] = -v138;
-    dtau_dqd[7] = -v147*v36;
-    dtau_dqd[8] = 0.0;
 }
 
 /* J(q) of the end-effector point (Madill (3.57)), 3*N row-major, base frame: its velocity is J qd and a force F on it is tau = J^T F
@@ -794,11 +794,13 @@ void omni_end_effector_jacobian(const double *q, const double *p, double *J)
 {
     double sn[2], cs[2];
     omni_sincos(2, q, sn, cs);
+    J[6] = 0.0;
     const double v0 = 2.0*q[1] + q[2] + p[6];
     const double v1 = cos(v0);
     const double v2 = sin(v0);
     const double v3 = cs[1]*v1 + sn[1]*v2;
     const double v4 = p[2]*v3;
+    J[8] = v4;
     const double v5 = cs[0]*cs[1];
     const double v6 = cs[0]*sn[1];
     const double v7 = cs[1]*sn[0];
@@ -814,21 +816,19 @@ void omni_end_effector_jacobian(const double *q, const double *p, double *J)
     const double v17 = 2.0*p[2] + v16;
     const double v18 = v4 - v9;
     const double v19 = v10*v12 + v13*v17;
-    const double v20 = p[2]*v13;
-    const double v21 = sn[0]*v18;
-    const double v22 = v10*v14 + v15*v17;
-    const double v23 = p[2]*v15;
-    const double v24 = cs[0]*v18;
-    const double v25 = v10*v11 - v17*v3;
-    J[0] = v21;
     J[1] = -v19;
+    const double v20 = p[2]*v13;
     J[2] = -v20;
-    J[3] = -v24;
+    const double v21 = sn[0]*v18;
+    J[0] = v21;
+    const double v22 = v10*v14 + v15*v17;
     J[4] = -v22;
+    const double v23 = p[2]*v15;
     J[5] = -v23;
-    J[6] = 0.0;
+    const double v24 = cs[0]*v18;
+    J[3] = -v24;
+    const double v25 = v10*v11 - v17*v3;
     J[7] = -v25;
-    J[8] = v4;
 }
 
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
@@ -838,6 +838,47 @@ void omni_regressor(const double *q, const double *qd, const double *qdd, const 
 {
     double sn[1], cs[1];
     omni_sincos(1, q + 1, sn, cs);
+    Y[0] = 0.0;
+    Y[1] = 0.0;
+    Y[2] = 0.0;
+    Y[3] = qdd[0];
+    Y[4] = 0.0;
+    Y[5] = 0.0;
+    Y[6] = 0.0;
+    Y[7] = 0.0;
+    Y[8] = 0.0;
+    Y[9] = 0.0;
+    Y[30] = 0.0;
+    Y[31] = 0.0;
+    Y[32] = 0.0;
+    Y[33] = 0.0;
+    Y[34] = 0.0;
+    Y[35] = 0.0;
+    Y[36] = 0.0;
+    Y[37] = 0.0;
+    Y[38] = 0.0;
+    Y[39] = 0.0;
+    Y[45] = qdd[1];
+    Y[60] = 0.0;
+    Y[61] = 0.0;
+    Y[62] = 0.0;
+    Y[63] = 0.0;
+    Y[64] = 0.0;
+    Y[65] = 0.0;
+    Y[66] = 0.0;
+    Y[67] = 0.0;
+    Y[68] = 0.0;
+    Y[69] = 0.0;
+    Y[70] = 0.0;
+    Y[71] = 0.0;
+    Y[72] = 0.0;
+    Y[73] = 0.0;
+    Y[74] = 0.0;
+    Y[75] = 0.0;
+    Y[76] = 0.0;
+    Y[77] = 0.0;
+    Y[78] = 0.0;
+    Y[79] = 0.0;
     const double v0 = 2.0*q[1] + q[2] + p[6];
     const double v1 = cs[0]*qd[0];
     const double v2 = p[1]*v1;
@@ -855,6 +896,8 @@ void omni_regressor(const double *q, const double *qd, const double *qdd, const 
     const double v14 = (v8*v8);
     const double v15 = (v1*v1);
     const double v16 = v1*v8;
+    Y[40] = -v16;
+    Y[43] = v16;
     const double v17 = (0.5)*p[2];
     const double v18 = 2.0*qd[1] + qd[2];
     const double v19 = cos(v0);
@@ -867,6 +910,10 @@ void omni_regressor(const double *q, const double *qd, const double *qdd, const 
     const double v26 = -qd[1] + v18;
     const double v27 = (v26*v26);
     const double v28 = v21*v24;
+    Y[50] = v28;
+    Y[53] = -v28;
+    Y[80] = v28;
+    Y[83] = -v28;
     const double v29 = v21*v26;
     const double v30 = v24*v26;
     const double v31 = cs[0]*v9;
@@ -886,6 +933,8 @@ void omni_regressor(const double *q, const double *qd, const double *qdd, const 
     const double v45 = v17*v38 - v44;
     const double v46 = v19*v45;
     const double v47 = -qdd[1] + v38;
+    Y[55] = v47;
+    Y[85] = v47;
     const double v48 = -v28 + v47;
     const double v49 = p[2]*v48;
     const double v50 = v23 + v27;
@@ -926,181 +975,132 @@ void omni_regressor(const double *q, const double *qd, const double *qdd, const 
     const double v85 = v30 + v56;
     const double v86 = v23 + v25;
     const double v87 = sn[0]*v53 + v31;
+    Y[10] = v87;
     const double v88 = v53 + v7;
     const double v89 = v54 + v9;
     const double v90 = cs[0]*v88 - sn[0]*v89;
+    Y[11] = v90;
     const double v91 = -v10 + v14;
     const double v92 = qdd[1] + v16;
     const double v93 = cs[0]*v91 - sn[0]*v92;
+    Y[12] = -v93;
     const double v94 = cs[0]*v54 + v32;
+    Y[13] = -v94;
     const double v95 = -qdd[1] + v16;
     const double v96 = -v10 + v15;
     const double v97 = cs[0]*v95 - sn[0]*v96;
+    Y[14] = -v97;
     const double v98 = v31 - v32;
+    Y[15] = -v98;
     const double v99 = v33*v70 + v66;
     const double v100 = cs[0]*v99;
+    Y[16] = -v100;
     const double v101 = v33*v71;
     const double v102 = cs[0]*v101 - sn[0]*v66;
+    Y[17] = -v102;
     const double v103 = v33*v72 - v64;
     const double v104 = cs[0]*v103 - sn[0]*v65;
+    Y[18] = v104;
     const double v105 = v33*v66;
     const double v106 = cs[0]*v105;
+    Y[19] = -v106;
     const double v107 = v19*v56 + v34;
     const double v108 = v20*v56 - v35;
     const double v109 = -cs[0]*v108 + sn[0]*v107;
+    Y[20] = -v109;
     const double v110 = v29 - v78;
     const double v111 = v30 + v56;
     const double v112 = v110*v19 - v111*v20;
     const double v113 = v110*v20 + v111*v19;
     const double v114 = -cs[0]*v113 + sn[0]*v112;
+    Y[21] = v114;
     const double v115 = -v28 + v47;
     const double v116 = -v23 + v27;
     const double v117 = v115*v19 - v116*v20;
     const double v118 = v115*v20 + v116*v19;
     const double v119 = -cs[0]*v118 + sn[0]*v117;
+    Y[22] = v119;
     const double v120 = v20*v78 + v36;
     const double v121 = v19*v78 + v37;
     const double v122 = cs[0]*v121 + sn[0]*v120;
+    Y[23] = -v122;
     const double v123 = -v25 + v27;
     const double v124 = v28 + v47;
     const double v125 = v123*v19 + v124*v20;
     const double v126 = -v123*v20 + v124*v19;
     const double v127 = cs[0]*v126 + sn[0]*v125;
+    Y[24] = v127;
     const double v128 = v34 + v36;
     const double v129 = v35 + v37;
     const double v130 = cs[0]*v129 + sn[0]*v128;
+    Y[25] = v130;
     const double v131 = v17*v84 - v80;
     const double v132 = v131*v20;
     const double v133 = v131*v19;
     const double v134 = p[1]*v84 - v133;
     const double v135 = cs[0]*v134 - sn[0]*v132;
+    Y[26] = v135;
     const double v136 = v17*v85;
     const double v137 = -v136*v20 + v19*v80;
     const double v138 = v136*v19 + v20*v80;
     const double v139 = p[1]*v85 - v138;
     const double v140 = cs[0]*v139 + sn[0]*v137;
+    Y[27] = -v140;
     const double v141 = v17*v86 - v79;
     const double v142 = v141*v20 + v46;
     const double v143 = -v141*v19 + v20*v45;
     const double v144 = p[1]*v86 + v143;
     const double v145 = cs[0]*v144 - sn[0]*v142;
+    Y[28] = v145;
     const double v146 = v17*v80;
     const double v147 = v146*v20;
     const double v148 = v146*v19;
     const double v149 = p[1]*v80 - v148;
     const double v150 = cs[0]*v149 - sn[0]*v147;
+    Y[29] = -v150;
     const double v151 = v14 - v15;
+    Y[41] = v151;
     const double v152 = -v53 + v7;
+    Y[42] = -v152;
     const double v153 = -v54 + v9;
+    Y[44] = v153;
     const double v154 = v33*v67 + v65;
+    Y[46] = v154;
     const double v155 = v33*v68 - v64;
+    Y[47] = -v155;
     const double v156 = v33*v69;
+    Y[48] = -v156;
     const double v157 = v33*v65;
+    Y[49] = v157;
     const double v158 = v23 - v25;
+    Y[51] = -v158;
+    Y[81] = -v158;
     const double v159 = v30 - v56;
+    Y[52] = v159;
+    Y[82] = v159;
     const double v160 = v29 + v78;
+    Y[54] = -v160;
+    Y[84] = -v160;
     const double v161 = v45 + (0.5)*v49;
+    Y[86] = v161;
     const double v162 = -v19*v48 + v20*v81;
     const double v163 = p[1]*v162 + v161 - 2.0*v45 - v49;
+    Y[56] = -v163;
     const double v164 = (0.5)*v51 - v79;
+    Y[87] = v164;
     const double v165 = v19*v50 + v20*v82;
     const double v166 = p[1]*v165 - v164 + v51 - 2.0*v79;
+    Y[57] = v166;
     const double v167 = (0.5)*v58;
+    Y[88] = v167;
     const double v168 = v19*v57 + v20*v83;
     const double v169 = p[1]*v168 - v167 + v58;
+    Y[58] = v169;
     const double v170 = (0.5)*v59;
+    Y[89] = v170;
     const double v171 = v20*v79 - v46;
     const double v172 = p[1]*v171 + v170 - v59;
-    Y[0] = 0.0;
-    Y[1] = 0.0;
-    Y[2] = 0.0;
-    Y[3] = qdd[0];
-    Y[4] = 0.0;
-    Y[5] = 0.0;
-    Y[6] = 0.0;
-    Y[7] = 0.0;
-    Y[8] = 0.0;
-    Y[9] = 0.0;
-    Y[10] = v87;
-    Y[11] = v90;
-    Y[12] = -v93;
-    Y[13] = -v94;
-    Y[14] = -v97;
-    Y[15] = -v98;
-    Y[16] = -v100;
-    Y[17] = -v102;
-    Y[18] = v104;
-    Y[19] = -v106;
-    Y[20] = -v109;
-    Y[21] = v114;
-    Y[22] = v119;
-    Y[23] = -v122;
-    Y[24] = v127;
-    Y[25] = v130;
-    Y[26] = v135;
-    Y[27] = -v140;
-    Y[28] = v145;
-    Y[29] = -v150;
-    Y[30] = 0.0;
-    Y[31] = 0.0;
-    Y[32] = 0.0;
-    Y[33] = 0.0;
-    Y[34] = 0.0;
-    Y[35] = 0.0;
-    Y[36] = 0.0;
-    Y[37] = 0.0;
-    Y[38] = 0.0;
-    Y[39] = 0.0;
-    Y[40] = -v16;
-    Y[41] = v151;
-    Y[42] = -v152;
-    Y[43] = v16;
-    Y[44] = v153;
-    Y[45] = qdd[1];
-    Y[46] = v154;
-    Y[47] = -v155;
-    Y[48] = -v156;
-    Y[49] = v157;
-    Y[50] = v28;
-    Y[51] = -v158;
-    Y[52] = v159;
-    Y[53] = -v28;
-    Y[54] = -v160;
-    Y[55] = v47;
-    Y[56] = -v163;
-    Y[57] = v166;
-    Y[58] = v169;
     Y[59] = -v172;
-    Y[60] = 0.0;
-    Y[61] = 0.0;
-    Y[62] = 0.0;
-    Y[63] = 0.0;
-    Y[64] = 0.0;
-    Y[65] = 0.0;
-    Y[66] = 0.0;
-    Y[67] = 0.0;
-    Y[68] = 0.0;
-    Y[69] = 0.0;
-    Y[70] = 0.0;
-    Y[71] = 0.0;
-    Y[72] = 0.0;
-    Y[73] = 0.0;
-    Y[74] = 0.0;
-    Y[75] = 0.0;
-    Y[76] = 0.0;
-    Y[77] = 0.0;
-    Y[78] = 0.0;
-    Y[79] = 0.0;
-    Y[80] = v28;
-    Y[81] = -v158;
-    Y[82] = v159;
-    Y[83] = -v28;
-    Y[84] = -v160;
-    Y[85] = v47;
-    Y[86] = v161;
-    Y[87] = v164;
-    Y[88] = v167;
-    Y[89] = v170;
 }
 
 /* theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)
@@ -1108,15 +1108,10 @@ void omni_regressor(const double *q, const double *qd, const double *qdd, const 
  * 7 operations. */
 void omni_standard_parameters(const double *p, double *theta)
 {
-    const double v0 = (0.5)*p[5];
-    const double v1 = (0.08333333333333333)*(p[1]*p[1])*p[3];
-    const double v2 = (0.08333333333333333)*(p[2]*p[2])*p[4];
-    theta[0] = v0;
     theta[1] = 0.0;
     theta[2] = 0.0;
     theta[3] = p[5];
     theta[4] = 0.0;
-    theta[5] = v0;
     theta[6] = 0.0;
     theta[7] = 0.0;
     theta[8] = 0.0;
@@ -1124,9 +1119,7 @@ void omni_standard_parameters(const double *p, double *theta)
     theta[10] = 0.0;
     theta[11] = 0.0;
     theta[12] = 0.0;
-    theta[13] = v1;
     theta[14] = 0.0;
-    theta[15] = v1;
     theta[16] = 0.0;
     theta[17] = 0.0;
     theta[18] = 0.0;
@@ -1134,13 +1127,20 @@ void omni_standard_parameters(const double *p, double *theta)
     theta[20] = 0.0;
     theta[21] = 0.0;
     theta[22] = 0.0;
-    theta[23] = v2;
     theta[24] = 0.0;
-    theta[25] = v2;
     theta[26] = 0.0;
     theta[27] = 0.0;
     theta[28] = 0.0;
     theta[29] = p[4];
+    const double v0 = (0.5)*p[5];
+    theta[0] = v0;
+    theta[5] = v0;
+    const double v1 = (0.08333333333333333)*(p[1]*p[1])*p[3];
+    theta[13] = v1;
+    theta[15] = v1;
+    const double v2 = (0.08333333333333333)*(p[2]*p[2])*p[4];
+    theta[23] = v2;
+    theta[25] = v2;
 }
 
 /* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).

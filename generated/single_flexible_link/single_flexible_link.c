@@ -13,22 +13,12 @@ const char *const single_flexible_link_theta_names[single_flexible_link_NTHETA] 
  * 13 operations. */
 void single_flexible_link_inertia(const double *q, const double *p, double *D)
 {
-    const double v0 = pow(p[2], 1.5)*p[3];
-    const double v1 = p[3]*((0.3333333333333333)*(p[2]*p[2]*p[2]) + (q[1]*q[1]) + (q[2]*q[2]));
-    const double v2 = 0.5688257437099108*v0;
-    const double v3 = 0.09076678688638697*v0;
-    const double v4 = p[1] + v1;
-    D[0] = v4;
-    D[1] = v2;
-    D[2] = v3;
     D[3] = 0.0;
     D[4] = 0.0;
-    D[5] = v2;
     D[6] = p[3];
     D[7] = 0.0;
     D[8] = 0.0;
     D[9] = 0.0;
-    D[10] = v3;
     D[11] = 0.0;
     D[12] = p[3];
     D[13] = 0.0;
@@ -43,6 +33,16 @@ void single_flexible_link_inertia(const double *q, const double *p, double *D)
     D[22] = 0.0;
     D[23] = 0.0;
     D[24] = p[3];
+    const double v0 = pow(p[2], 1.5)*p[3];
+    const double v1 = p[3]*((0.3333333333333333)*(p[2]*p[2]*p[2]) + (q[1]*q[1]) + (q[2]*q[2]));
+    const double v2 = 0.5688257437099108*v0;
+    D[1] = v2;
+    D[5] = v2;
+    const double v3 = 0.09076678688638697*v0;
+    D[2] = v3;
+    D[10] = v3;
+    const double v4 = p[1] + v1;
+    D[0] = v4;
 }
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
@@ -50,15 +50,15 @@ void single_flexible_link_inertia(const double *q, const double *p, double *D)
  * 16 operations. */
 void single_flexible_link_coriolis(const double *q, const double *qd, const double *p, double *h)
 {
+    h[3] = 0.0;
+    h[4] = 0.0;
     const double v0 = 2.0*p[3];
     const double v1 = (0.5)*(qd[0]*qd[0]);
     const double v2 = q[1]*v0;
+    h[1] = -v1*v2;
     const double v3 = q[2]*v0;
     h[0] = (0.5)*qd[0]*(2.0*qd[1]*v2 + 2.0*qd[2]*v3);
-    h[1] = -v1*v2;
     h[2] = -v1*v3;
-    h[3] = 0.0;
-    h[4] = 0.0;
 }
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
@@ -66,23 +66,12 @@ void single_flexible_link_coriolis(const double *q, const double *qd, const doub
  * 13 operations. */
 void single_flexible_link_coriolis_matrix(const double *q, const double *qd, const double *p, double *C)
 {
-    const double v0 = 2.0*p[3];
-    const double v1 = (0.5)*qd[0];
-    const double v2 = q[1]*v0;
-    const double v3 = v1*v2;
-    const double v4 = q[2]*v0;
-    const double v5 = v1*v4;
-    C[0] = (0.5)*qd[1]*v2 + (0.5)*qd[2]*v4;
-    C[1] = v3;
-    C[2] = v5;
     C[3] = 0.0;
     C[4] = 0.0;
-    C[5] = -v3;
     C[6] = 0.0;
     C[7] = 0.0;
     C[8] = 0.0;
     C[9] = 0.0;
-    C[10] = -v5;
     C[11] = 0.0;
     C[12] = 0.0;
     C[13] = 0.0;
@@ -97,6 +86,17 @@ void single_flexible_link_coriolis_matrix(const double *q, const double *qd, con
     C[22] = 0.0;
     C[23] = 0.0;
     C[24] = 0.0;
+    const double v0 = 2.0*p[3];
+    const double v1 = (0.5)*qd[0];
+    const double v2 = q[1]*v0;
+    const double v3 = v1*v2;
+    C[1] = v3;
+    C[5] = -v3;
+    const double v4 = q[2]*v0;
+    C[0] = (0.5)*qd[1]*v2 + (0.5)*qd[2]*v4;
+    const double v5 = v1*v4;
+    C[2] = v5;
+    C[10] = -v5;
 }
 
 /* g(q) = dV_gravity/dq
@@ -105,13 +105,13 @@ void single_flexible_link_coriolis_matrix(const double *q, const double *qd, con
 void single_flexible_link_gravity(const double *q, const double *p, double *g)
 {
     (void)q;
-    const double v0 = p[0]*sqrt(p[2])*p[3];
-    const double v1 = 0.7829917560396258*v0;
-    const double v2 = 0.4339358951107193*v0;
     g[0] = 0.0;
     g[1] = 0.0;
     g[2] = 0.0;
+    const double v0 = p[0]*sqrt(p[2])*p[3];
+    const double v1 = 0.7829917560396258*v0;
     g[3] = v1;
+    const double v2 = 0.4339358951107193*v0;
     g[4] = v2;
 }
 
@@ -120,17 +120,17 @@ void single_flexible_link_gravity(const double *q, const double *p, double *g)
  * 12 operations. */
 void single_flexible_link_stiffness(const double *q, const double *p, double *k)
 {
+    k[0] = 0.0;
     const double v0 = 1.0/((p[2]*p[2]*p[2]*p[2]));
     const double v1 = p[4]*v0;
     const double v2 = p[5]*v0;
     const double v3 = 12.362363368326191*q[1]*v1;
-    const double v4 = 485.51881851337106*q[2]*v1;
-    const double v5 = 12.362363368326191*q[3]*v2;
-    const double v6 = 485.51881851337106*q[4]*v2;
-    k[0] = 0.0;
     k[1] = v3;
+    const double v4 = 485.51881851337106*q[2]*v1;
     k[2] = v4;
+    const double v5 = 12.362363368326191*q[3]*v2;
     k[3] = v5;
+    const double v6 = 485.51881851337106*q[4]*v2;
     k[4] = v6;
 }
 
@@ -192,14 +192,14 @@ void single_flexible_link_inverse_dynamics(const double *q, const double *qd, co
     const double v20 = 12.362363368326191*q[3]*v5;
     const double v21 = 485.51881851337106*q[4]*v5;
     const double v22 = qdd[1]*v13 + qdd[2]*v14 + qdd[0]*v15 + v10*v8 + v7*v8 + v8*(v10 + v7);
-    const double v23 = qdd[1]*p[3] + qdd[0]*v13 - v11*v6 + v18;
-    const double v24 = qdd[2]*p[3] + qdd[0]*v14 - v11*v9 + v19;
-    const double v25 = qdd[3]*p[3] + v16 + v20;
-    const double v26 = qdd[4]*p[3] + v17 + v21;
     tau[0] = v22;
+    const double v23 = qdd[1]*p[3] + qdd[0]*v13 - v11*v6 + v18;
     tau[1] = v23;
+    const double v24 = qdd[2]*p[3] + qdd[0]*v14 - v11*v9 + v19;
     tau[2] = v24;
+    const double v25 = qdd[3]*p[3] + v16 + v20;
     tau[3] = v25;
+    const double v26 = qdd[4]*p[3] + v17 + v21;
     tau[4] = v26;
 }
 
@@ -208,61 +208,31 @@ void single_flexible_link_inverse_dynamics(const double *q, const double *qd, co
  * 30 operations. */
 void single_flexible_link_inverse_dynamics_derivatives(const double *q, const double *qd, const double *qdd, const double *p, double *dtau_dq, double *dtau_dqd)
 {
-    const double v0 = 2.0*p[3];
-    const double v1 = qd[0]*v0;
-    const double v2 = 1.0/((p[2]*p[2]*p[2]*p[2]));
-    const double v3 = p[4]*v2;
-    const double v4 = -(qd[0]*qd[0])*p[3];
-    const double v5 = p[5]*v2;
-    const double v6 = q[1]*v0;
-    const double v7 = q[2]*v0;
-    const double v8 = qd[1]*v1 + qdd[0]*v6;
-    const double v9 = qd[2]*v1 + qdd[0]*v7;
-    const double v10 = 12.362363368326191*v3;
-    const double v11 = v10 + v4;
-    const double v12 = 485.51881851337106*v3;
-    const double v13 = v12 + v4;
-    const double v14 = 12.362363368326191*v5;
-    const double v15 = 485.51881851337106*v5;
-    const double v16 = qd[1]*v6 + qd[2]*v7;
-    const double v17 = qd[0]*v6;
-    const double v18 = qd[0]*v7;
     dtau_dq[0] = 0.0;
-    dtau_dq[1] = v8;
-    dtau_dq[2] = v9;
     dtau_dq[3] = 0.0;
     dtau_dq[4] = 0.0;
     dtau_dq[5] = 0.0;
-    dtau_dq[6] = v11;
     dtau_dq[7] = 0.0;
     dtau_dq[8] = 0.0;
     dtau_dq[9] = 0.0;
     dtau_dq[10] = 0.0;
     dtau_dq[11] = 0.0;
-    dtau_dq[12] = v13;
     dtau_dq[13] = 0.0;
     dtau_dq[14] = 0.0;
     dtau_dq[15] = 0.0;
     dtau_dq[16] = 0.0;
     dtau_dq[17] = 0.0;
-    dtau_dq[18] = v14;
     dtau_dq[19] = 0.0;
     dtau_dq[20] = 0.0;
     dtau_dq[21] = 0.0;
     dtau_dq[22] = 0.0;
     dtau_dq[23] = 0.0;
-    dtau_dq[24] = v15;
-    dtau_dqd[0] = v16;
-    dtau_dqd[1] = v17;
-    dtau_dqd[2] = v18;
     dtau_dqd[3] = 0.0;
     dtau_dqd[4] = 0.0;
-    dtau_dqd[5] = -v17;
     dtau_dqd[6] = 0.0;
     dtau_dqd[7] = 0.0;
     dtau_dqd[8] = 0.0;
     dtau_dqd[9] = 0.0;
-    dtau_dqd[10] = -v18;
     dtau_dqd[11] = 0.0;
     dtau_dqd[12] = 0.0;
     dtau_dqd[13] = 0.0;
@@ -277,6 +247,36 @@ void single_flexible_link_inverse_dynamics_derivatives(const double *q, const do
     dtau_dqd[22] = 0.0;
     dtau_dqd[23] = 0.0;
     dtau_dqd[24] = 0.0;
+    const double v0 = 2.0*p[3];
+    const double v1 = qd[0]*v0;
+    const double v2 = 1.0/((p[2]*p[2]*p[2]*p[2]));
+    const double v3 = p[4]*v2;
+    const double v4 = -(qd[0]*qd[0])*p[3];
+    const double v5 = p[5]*v2;
+    const double v6 = q[1]*v0;
+    const double v7 = q[2]*v0;
+    const double v8 = qd[1]*v1 + qdd[0]*v6;
+    dtau_dq[1] = v8;
+    const double v9 = qd[2]*v1 + qdd[0]*v7;
+    dtau_dq[2] = v9;
+    const double v10 = 12.362363368326191*v3;
+    const double v11 = v10 + v4;
+    dtau_dq[6] = v11;
+    const double v12 = 485.51881851337106*v3;
+    const double v13 = v12 + v4;
+    dtau_dq[12] = v13;
+    const double v14 = 12.362363368326191*v5;
+    dtau_dq[18] = v14;
+    const double v15 = 485.51881851337106*v5;
+    dtau_dq[24] = v15;
+    const double v16 = qd[1]*v6 + qd[2]*v7;
+    dtau_dqd[0] = v16;
+    const double v17 = qd[0]*v6;
+    dtau_dqd[1] = v17;
+    dtau_dqd[5] = -v17;
+    const double v18 = qd[0]*v7;
+    dtau_dqd[2] = v18;
+    dtau_dqd[10] = -v18;
 }
 
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
@@ -284,27 +284,6 @@ void single_flexible_link_inverse_dynamics_derivatives(const double *q, const do
  * 46 operations. */
 void single_flexible_link_regressor(const double *q, const double *qd, const double *qdd, const double *p, double *Y)
 {
-    const double v0 = pow(p[2], 1.5);
-    const double v1 = 2.0*qd[0];
-    const double v2 = (qd[0]*qd[0]);
-    const double v3 = 1.0/((p[2]*p[2]*p[2]*p[2]));
-    const double v4 = 12.362363368326191*v3;
-    const double v5 = 485.51881851337106*v3;
-    const double v6 = p[0]*sqrt(p[2]);
-    const double v7 = (0.3333333333333333)*(p[2]*p[2]*p[2]) + (q[1]*q[1]) + (q[2]*q[2]);
-    const double v8 = 0.5688257437099108*v0;
-    const double v9 = 0.09076678688638697*v0;
-    const double v10 = q[1]*qd[1]*v1 + qdd[1]*v8 + q[2]*qd[2]*v1 + qdd[2]*v9 + qdd[0]*v7;
-    const double v11 = -q[1]*v2 + qdd[1] + qdd[0]*v8;
-    const double v12 = q[1]*v4;
-    const double v13 = -q[2]*v2 + qdd[2] + qdd[0]*v9;
-    const double v14 = q[2]*v5;
-    const double v15 = 0.7829917560396258*v6;
-    const double v16 = qdd[3] + v15;
-    const double v17 = q[3]*v4;
-    const double v18 = 0.4339358951107193*v6;
-    const double v19 = qdd[4] + v18;
-    const double v20 = q[4]*v5;
     Y[0] = 0.0;
     Y[1] = 0.0;
     Y[2] = 0.0;
@@ -315,7 +294,6 @@ void single_flexible_link_regressor(const double *q, const double *qd, const dou
     Y[7] = 0.0;
     Y[8] = 0.0;
     Y[9] = 0.0;
-    Y[10] = v10;
     Y[11] = 0.0;
     Y[12] = 0.0;
     Y[13] = 0.0;
@@ -328,8 +306,6 @@ void single_flexible_link_regressor(const double *q, const double *qd, const dou
     Y[20] = 0.0;
     Y[21] = 0.0;
     Y[22] = 0.0;
-    Y[23] = v11;
-    Y[24] = v12;
     Y[25] = 0.0;
     Y[26] = 0.0;
     Y[27] = 0.0;
@@ -341,8 +317,6 @@ void single_flexible_link_regressor(const double *q, const double *qd, const dou
     Y[33] = 0.0;
     Y[34] = 0.0;
     Y[35] = 0.0;
-    Y[36] = v13;
-    Y[37] = v14;
     Y[38] = 0.0;
     Y[39] = 0.0;
     Y[40] = 0.0;
@@ -354,9 +328,7 @@ void single_flexible_link_regressor(const double *q, const double *qd, const dou
     Y[46] = 0.0;
     Y[47] = 0.0;
     Y[48] = 0.0;
-    Y[49] = v16;
     Y[50] = 0.0;
-    Y[51] = v17;
     Y[52] = 0.0;
     Y[53] = 0.0;
     Y[54] = 0.0;
@@ -367,8 +339,36 @@ void single_flexible_link_regressor(const double *q, const double *qd, const dou
     Y[59] = 0.0;
     Y[60] = 0.0;
     Y[61] = 0.0;
-    Y[62] = v19;
     Y[63] = 0.0;
+    const double v0 = pow(p[2], 1.5);
+    const double v1 = 2.0*qd[0];
+    const double v2 = (qd[0]*qd[0]);
+    const double v3 = 1.0/((p[2]*p[2]*p[2]*p[2]));
+    const double v4 = 12.362363368326191*v3;
+    const double v5 = 485.51881851337106*v3;
+    const double v6 = p[0]*sqrt(p[2]);
+    const double v7 = (0.3333333333333333)*(p[2]*p[2]*p[2]) + (q[1]*q[1]) + (q[2]*q[2]);
+    const double v8 = 0.5688257437099108*v0;
+    const double v9 = 0.09076678688638697*v0;
+    const double v10 = q[1]*qd[1]*v1 + qdd[1]*v8 + q[2]*qd[2]*v1 + qdd[2]*v9 + qdd[0]*v7;
+    Y[10] = v10;
+    const double v11 = -q[1]*v2 + qdd[1] + qdd[0]*v8;
+    Y[23] = v11;
+    const double v12 = q[1]*v4;
+    Y[24] = v12;
+    const double v13 = -q[2]*v2 + qdd[2] + qdd[0]*v9;
+    Y[36] = v13;
+    const double v14 = q[2]*v5;
+    Y[37] = v14;
+    const double v15 = 0.7829917560396258*v6;
+    const double v16 = qdd[3] + v15;
+    Y[49] = v16;
+    const double v17 = q[3]*v4;
+    Y[51] = v17;
+    const double v18 = 0.4339358951107193*v6;
+    const double v19 = qdd[4] + v18;
+    Y[62] = v19;
+    const double v20 = q[4]*v5;
     Y[64] = v20;
 }
 
@@ -377,11 +377,8 @@ void single_flexible_link_regressor(const double *q, const double *qd, const dou
  * 1 operations. */
 void single_flexible_link_standard_parameters(const double *p, double *theta)
 {
-    const double v0 = (0.5)*p[1];
-    theta[0] = v0;
     theta[1] = 0.0;
     theta[2] = 0.0;
-    theta[3] = v0;
     theta[4] = 0.0;
     theta[5] = p[1];
     theta[6] = 0.0;
@@ -391,6 +388,9 @@ void single_flexible_link_standard_parameters(const double *p, double *theta)
     theta[10] = p[3];
     theta[11] = p[4];
     theta[12] = p[5];
+    const double v0 = (0.5)*p[1];
+    theta[0] = v0;
+    theta[3] = v0;
 }
 
 /* Cholesky factor D = L L^T in place, L in the lower triangle of D (the upper one is left as it was).

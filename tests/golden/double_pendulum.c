@@ -170,12 +170,12 @@ void double_pendulum_inertia(const double *q, const double *p, double *D)
     const double v6 = v2 + v4;
     const double v7 = p[1]*v5 + v1;
     const double v8 = p[1]*v7 + v6;
-    const double v9 = p[2]*v0;
-    const double v10 = v2 + v9;
     D[0] = v8;
+    const double v9 = p[2]*v0;
+    D[3] = v9;
+    const double v10 = v2 + v9;
     D[1] = v10;
     D[2] = v10;
-    D[3] = v9;
 }
 
 /* (I (x) qd^T) C(q) qd: centripetal and Coriolis terms (Madill 3.82)
@@ -190,12 +190,12 @@ void double_pendulum_coriolis(const double *q, const double *qd, const double *p
     const double v2 = sn[0]*v1;
     const double v3 = p[4]*v2;
     const double v4 = p[2]*v3;
+    h[1] = v4;
     const double v5 = cs[0]*v1 + qd[0]*v0;
     const double v6 = p[2]*(qd[1]*qd[1]) + 2.0*qd[1]*v0 + v5;
     const double v7 = p[4]*v6;
     const double v8 = cs[0]*v3 - sn[0]*v7;
     h[0] = p[1]*v8 + v4;
-    h[1] = v4;
 }
 
 /* C(q, qd), N*N row-major, C[k][j] = sum_i c_ijk qd_i: C qd = coriolis and dD/dt - 2C skew-symmetric
@@ -205,16 +205,16 @@ void double_pendulum_coriolis_matrix(const double *q, const double *qd, const do
 {
     double sn[1], cs[1];
     double_pendulum_sincos(1, q + 1, sn, cs);
+    C[3] = 0.0;
     const double v0 = p[2]*p[4];
     const double v1 = sn[0]*v0;
     const double v2 = p[1]*v1;
     const double v3 = 2.0*v2;
     const double v4 = (0.5)*v3;
-    const double v5 = qd[0]*v4;
     C[0] = -qd[1]*v4;
+    const double v5 = qd[0]*v4;
     C[1] = -qd[1]*v2 - v5;
     C[2] = v5;
-    C[3] = 0.0;
 }
 
 /* g(q) = dV_gravity/dq
@@ -232,8 +232,8 @@ void double_pendulum_gravity(const double *q, const double *p, double *g)
     const double v5 = cs[0]*p[0];
     const double v6 = -cs[1]*v5 + sn[1]*v4;
     const double v7 = p[1]*v3*v5 + v1*v5 - v2*v4;
-    const double v8 = v0*v6;
     g[0] = v7;
+    const double v8 = v0*v6;
     g[1] = -v8;
 }
 
@@ -292,11 +292,11 @@ void double_pendulum_inverse_dynamics(const double *q, const double *qd, const d
     const double v10 = p[4]*v8;
     const double v11 = p[4]*v9;
     const double v12 = p[2]*v11;
+    tau[1] = v12;
     const double v13 = cs[1]*v11 - sn[1]*v10;
     const double v14 = v13 + v5;
     const double v15 = p[1]*v14 + v12;
     tau[0] = v15;
-    tau[1] = v12;
 }
 
 /* Derivatives of inverse dynamics, each N*N row-major: dtau_dq[i*N + j] = d tau_i / d q_j, dtau_dqd[i*N + j] = d tau_i / d qd_j (d tau / d q by the chain rule through the intermediates of tau; d tau / d qd = 2 C(q, qd) + d(friction - applied) / d qd; d tau / d qdd = D(q))
@@ -306,6 +306,7 @@ void double_pendulum_inverse_dynamics_derivatives(const double *q, const double 
 {
     double sn[2], cs[2];
     double_pendulum_sincos(2, q, sn, cs);
+    dtau_dqd[3] = 0.0;
     const double v0 = p[2]*p[4];
     const double v1 = sn[1]*v0;
     const double v2 = p[1]*v1;
@@ -318,7 +319,10 @@ void double_pendulum_inverse_dynamics_derivatives(const double *q, const double 
     const double v9 = cs[1]*v7 - sn[1]*v5;
     const double v10 = 2.0*qd[1];
     const double v11 = 2.0*v2;
+    dtau_dqd[0] = -qd[1]*v11;
     const double v12 = qd[0]*v11;
+    dtau_dqd[1] = -v10*v2 - v12;
+    dtau_dqd[2] = v12;
     const double v13 = cs[1]*v4 + sn[1]*v6;
     const double v14 = -cs[1]*v6 + sn[1]*v4;
     const double v15 = -qd[0]*v3 + v8;
@@ -329,24 +333,20 @@ void double_pendulum_inverse_dynamics_derivatives(const double *q, const double 
     const double v20 = p[4]*v18;
     const double v21 = p[4]*v13;
     const double v22 = p[2]*v21;
+    dtau_dq[2] = -v22;
     const double v23 = p[3]*v4;
     const double v24 = p[4]*v14;
     const double v25 = cs[1]*v21 + sn[1]*v24;
     const double v26 = v23 + v25;
     const double v27 = p[1]*v26 + v22;
+    dtau_dq[0] = -v27;
     const double v28 = p[4]*v8;
     const double v29 = p[2]*v28;
+    dtau_dq[3] = -v29;
     const double v30 = p[4]*v9;
     const double v31 = cs[1]*v19 + cs[1]*v28 + sn[1]*v20 - sn[1]*v30;
     const double v32 = p[1]*v31 + v29;
-    dtau_dq[0] = -v27;
     dtau_dq[1] = -v32;
-    dtau_dq[2] = -v22;
-    dtau_dq[3] = -v29;
-    dtau_dqd[0] = -qd[1]*v11;
-    dtau_dqd[1] = -v10*v2 - v12;
-    dtau_dqd[2] = v12;
-    dtau_dqd[3] = 0.0;
 }
 
 /* Y(q, qd, qdd), N*NTHETA row-major: tau = Y theta (standard parameters, see NAME_theta_names)
@@ -356,52 +356,19 @@ void double_pendulum_regressor(const double *q, const double *qd, const double *
 {
     double sn[2], cs[2];
     double_pendulum_sincos(2, q, sn, cs);
-    const double v0 = (qd[0]*qd[0]);
-    const double v1 = p[1]*qdd[0];
-    const double v2 = p[2]*qd[0];
-    const double v3 = sn[0]*p[0];
-    const double v4 = cs[0]*p[0];
-    const double v5 = -p[1]*v0 + v3;
-    const double v6 = v1 + v4;
-    const double v7 = cs[1]*v5 + sn[1]*v6 - qd[0]*v2;
-    const double v8 = cs[1]*v6 - sn[1]*v5 + p[2]*qdd[0];
-    const double v9 = qd[0] + qd[1];
-    const double v10 = qdd[0] + qdd[1];
-    const double v11 = p[2]*(qd[1]*qd[1]) + 2.0*qd[1]*v2 - v7;
-    const double v12 = p[2]*qdd[1] + v8;
-    const double v13 = (v9*v9);
-    const double v14 = v1 + v6;
-    const double v15 = p[1]*v0 + v5;
-    const double v16 = p[1]*v6;
-    const double v17 = p[2]*v10 + v12;
-    const double v18 = cs[1]*v10 - sn[1]*v13;
-    const double v19 = p[1]*v18 + v17;
-    const double v20 = -p[2]*v13 + v11;
-    const double v21 = cs[1]*v13 + sn[1]*v10;
-    const double v22 = -p[1]*v21 + v20;
-    const double v23 = p[2]*v12;
-    const double v24 = -cs[1]*v12 + sn[1]*v11;
-    const double v25 = -p[1]*v24 + v23;
     Y[0] = 0.0;
     Y[1] = 0.0;
     Y[2] = 0.0;
     Y[3] = 0.0;
     Y[4] = 0.0;
     Y[5] = qdd[0];
-    Y[6] = v14;
-    Y[7] = -v15;
     Y[8] = 0.0;
-    Y[9] = v16;
     Y[10] = 0.0;
     Y[11] = 0.0;
     Y[12] = 0.0;
     Y[13] = 0.0;
     Y[14] = 0.0;
-    Y[15] = v10;
-    Y[16] = v19;
-    Y[17] = v22;
     Y[18] = 0.0;
-    Y[19] = v25;
     Y[20] = 0.0;
     Y[21] = 0.0;
     Y[22] = 0.0;
@@ -417,11 +384,44 @@ void double_pendulum_regressor(const double *q, const double *qd, const double *
     Y[32] = 0.0;
     Y[33] = 0.0;
     Y[34] = 0.0;
-    Y[35] = v10;
-    Y[36] = v17;
-    Y[37] = v20;
     Y[38] = 0.0;
+    const double v0 = (qd[0]*qd[0]);
+    const double v1 = p[1]*qdd[0];
+    const double v2 = p[2]*qd[0];
+    const double v3 = sn[0]*p[0];
+    const double v4 = cs[0]*p[0];
+    const double v5 = -p[1]*v0 + v3;
+    const double v6 = v1 + v4;
+    const double v7 = cs[1]*v5 + sn[1]*v6 - qd[0]*v2;
+    const double v8 = cs[1]*v6 - sn[1]*v5 + p[2]*qdd[0];
+    const double v9 = qd[0] + qd[1];
+    const double v10 = qdd[0] + qdd[1];
+    Y[15] = v10;
+    Y[35] = v10;
+    const double v11 = p[2]*(qd[1]*qd[1]) + 2.0*qd[1]*v2 - v7;
+    const double v12 = p[2]*qdd[1] + v8;
+    const double v13 = (v9*v9);
+    const double v14 = v1 + v6;
+    Y[6] = v14;
+    const double v15 = p[1]*v0 + v5;
+    Y[7] = -v15;
+    const double v16 = p[1]*v6;
+    Y[9] = v16;
+    const double v17 = p[2]*v10 + v12;
+    Y[36] = v17;
+    const double v18 = cs[1]*v10 - sn[1]*v13;
+    const double v19 = p[1]*v18 + v17;
+    Y[16] = v19;
+    const double v20 = -p[2]*v13 + v11;
+    Y[37] = v20;
+    const double v21 = cs[1]*v13 + sn[1]*v10;
+    const double v22 = -p[1]*v21 + v20;
+    Y[17] = v22;
+    const double v23 = p[2]*v12;
     Y[39] = v23;
+    const double v24 = -cs[1]*v12 + sn[1]*v11;
+    const double v25 = -p[1]*v24 + v23;
+    Y[19] = v25;
 }
 
 /* theta(p): the standard parameters (Khalil's per-frame inertial parameters, rotor inertias, friction, forces)
