@@ -43,6 +43,7 @@ extern "C" {
  *
  * Equations of motion: D(q) qdd + coriolis(q, qd) + gravity(q) + stiffness(q) + friction(q, qd) - applied(q, qd) = tau.
  *
+ * Output arrays must not overlap input arrays (each output is written as soon as it is computed).
  * Matrices are row-major: entry (i, j) of an R*C output M is M[i*C + j]. A derivative dy_dx is the Jacobian
  * with rows y and columns x: dy_dx[i*N + j] = d y_i / d x_j. Derivatives (tau = ID(q, qd, qdd), qdd = FD(q, qd, tau)):
  *   inverse_dynamics_derivatives: dtau_dq, dtau_dqd (d tau / d qdd is D(q), from inertia);
