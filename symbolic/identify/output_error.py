@@ -319,6 +319,11 @@ class ClosedLoop:
                                 float(self.measurements.t[0]), self.measurements.sample_period, self.substeps,
                                 self.calm)
 
+    def stable_at(self, theta: np.ndarray) -> ClosedLoop | None:
+        """The loop to simulate θ on: this one where its sub-steps are stable there (:meth:`stable`), else
+        :meth:`restepped` (stable by construction: chosen at θ, never fewer), ``None`` where neither is."""
+        return self if self.stable(theta) else self.restepped(theta)
+
     def restepped(self, theta: np.ndarray) -> ClosedLoop | None:
         """The loop with its sub-steps chosen again at θ as :func:`closed_loop` chose them at the start, never
         fewer than now (so stable wherever the loop was): for a step to θ where they are not (:meth:`stable`).
@@ -932,12 +937,10 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
     scale = np.where(theta0 != 0, np.abs(theta0), 1.0)
 
     def evaluate(theta: np.ndarray, sensitivities: bool = True, on: ClosedLoop | None = None):
-        """(y, r, J·scale) at θ on the loop (or ``on``), J only with ``sensitivities`` (a trial step needs its cost
-        alone: about 1/(p + 1) of the work); ``None`` when the simulation diverges, or would run outside RK4's
-        stability region (:meth:`ClosedLoop.stable`)."""
+        """(y, r, J·scale) at θ on the loop (or ``on``: a loop stable at θ, :meth:`ClosedLoop.stable_at`), J only
+        with ``sensitivities`` (a trial step needs its cost alone: about 1/(p + 1) of the work); ``None`` when the
+        simulation diverges."""
         on = on or loop
-        if not on.stable(theta):
-            return None
         begun = time.perf_counter()
         y, dy = on.run(theta, sensitivities)
         timings.setdefault("evaluations", 0.0)
@@ -948,13 +951,13 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
         layer = on.layer_at(theta)
         return y, residuals.of(y, layer), None if dy is None else residuals.jacobian(y, dy, layer) * scale
 
-    if not loop.stable(theta0):  # sub-steps given, or chosen at a start since clipped onto the bounds
-        loop = loop.restepped(theta0) or loop
-    first = evaluate(theta0)
+    start = loop.stable_at(theta0)  # unstable there: sub-steps given, or chosen at a start since clipped onto the bounds
+    if start is None and loop.substeps_given:
+        raise IdentificationError(f"the {loop.substeps} RK4 sub-step(s) per sample given are outside RK4's "
+                                  "stability region at the start values: give more, or let them be chosen")
+    loop = start or loop
+    first = evaluate(theta0) if start is not None else None
     if first is None:
-        if loop.substeps_given and not loop.stable(theta0):
-            raise IdentificationError(f"the {loop.substeps} RK4 sub-step(s) per sample given are outside RK4's "
-                                      "stability region at the start values: give more, or let them be chosen")
         raise IdentificationError("the closed loop diverges at the start values: an output-error fit needs a start "
                                   "whose simulation stays finite")
     y0, r, J = first
@@ -979,7 +982,7 @@ def levenberg_marquardt(loop: ClosedLoop, residuals: _Residuals, theta0: np.ndar
             trial = np.clip(theta + delta * scale, lower, upper)
             step = (trial - theta) / scale
             # where the kept sub-steps are unstable the trial runs on a finer loop, kept only if the step is taken
-            on = loop if loop.stable(trial) else loop.restepped(trial)
+            on = loop.stable_at(trial)
             evaluated = None if on is None else evaluate(trial, sensitivities=False, on=on)
             new_cost = float(evaluated[1] @ evaluated[1]) if evaluated is not None else math.inf
             if new_cost < cost:

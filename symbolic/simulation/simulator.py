@@ -400,17 +400,13 @@ class Plant:
     bias: ca.Function
     closed_loops: dict = field(default_factory=dict, repr=False)
     """The closed loops built on this plant (compiled chunks), by controller structure (:func:`_closed_loop`)."""
-    made: dict = field(default_factory=dict, repr=False)
-    """Functions built once on this plant in this process (:meth:`state_jacobian`)."""
-
+    @functools.cached_property
     def state_jacobian(self) -> ca.Function:
-        """A(x, τ, p, ε, t) = ∂ẋ/∂x, built once (the output-error fit asks for ρ at every trial step: building it
-        each time cost 30 ms for the Panda)."""
-        if "A" not in self.made:
-            x, tau = ca.SX.sym("x", 2 * self.n), ca.SX.sym("tau", self.n)
-            p, eps, t = ca.SX.sym("p", self.rhs.size1_in(2)), ca.SX.sym("eps"), ca.SX.sym("t")
-            self.made["A"] = ca.Function("A", [x, tau, p, eps, t], [ca.jacobian(self.rhs(x, tau, p, eps, t), x)])
-        return self.made["A"]
+        """A(x, τ, p, ε, t) = ∂ẋ/∂x, built once per plant in this process (the output-error fit asks for ρ at every
+        trial step: building it each time cost 30 ms for the Panda)."""
+        x, tau = ca.SX.sym("x", 2 * self.n), ca.SX.sym("tau", self.n)
+        p, eps, t = ca.SX.sym("p", self.rhs.size1_in(2)), ca.SX.sym("eps"), ca.SX.sym("t")
+        return ca.Function("A", [x, tau, p, eps, t], [ca.jacobian(self.rhs(x, tau, p, eps, t), x)])
 
     def __reduce__(self) -> tuple:
         # pickled for the cache folder without the closed loops of this process (their libraries are
@@ -625,7 +621,7 @@ def _spectral_radius(plant: Plant, x0: np.ndarray, p: np.ndarray, eps: float, t0
     n = plant.n
     rest = np.concatenate([x0[:n], np.zeros(n)])
     hold = np.asarray(plant.bias(rest[:n], rest[n:], p, eps, t0)).ravel()
-    A = np.asarray(plant.state_jacobian()(rest, hold, p, eps, t0))
+    A = np.asarray(plant.state_jacobian(rest, hold, p, eps, t0))
     rows = np.flatnonzero(~np.isfinite(A).all(axis=1))
     if rows.size:
         coordinate = names[rows[0] % n] if names else str(rows[0] % n)

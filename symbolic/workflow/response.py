@@ -329,7 +329,9 @@ def _own_corrections(model: DynamicModel, corrected: Mapping[str, float]) -> dic
     """``{coordinate: {name: (model file's value, corrected value)}}`` of the corrected values that act on one
     coordinate's force alone (:func:`own_rows`)."""
     out: dict[str, dict[str, tuple[float, float]]] = {}
-    for name, coordinate in own_rows(model, list(corrected)).items() if corrected else ():
+    if not corrected:  # own_rows reads the regressor: not for nothing
+        return out
+    for name, coordinate in own_rows(model, list(corrected)).items():
         out.setdefault(coordinate, {})[name] = (float(corrected[name]), _value(model, name))
     return out
 
