@@ -54,18 +54,25 @@ STATE_FEEDBACK_KEYS = ("kind", "inputs", "states", "K", "gain", "saturation", "q
                        "velocity_filter")
 
 KEYS = (*COMMON_KEYS, "kp", "kd", "ki", "kv", *GAINS[CASCADE_PI], *LOOP_KEYS, *CASCADE_PI_KEYS, "inputs", "states",
-        "K")
+        "K", "restart")
 
 STATE_SIGNALS = ("q", "qd")
 """The signals a state of ``states`` may name: ``q_<c>`` (position) and ``qd_<c>`` (velocity)."""
+
+
+REPLAY_KEYS = ("restart",)
+"""The keys of ``torque`` (a replay) besides the common ones: ``restart``, the replay in windows (docs/simulation.md,
+"Replay in windows")."""
 
 
 def allowed_keys(kind: str) -> tuple[str, ...]:
     """The keys a ``[controller]`` table of ``kind`` may have."""
     if kind == STATE_FEEDBACK:
         return STATE_FEEDBACK_KEYS
+    if kind == "torque":
+        return COMMON_KEYS + REPLAY_KEYS
     extra = CASCADE_PI_KEYS if kind == CASCADE_PI else ()
-    return COMMON_KEYS + (GAINS[kind] + LOOP_KEYS + extra if kind != "torque" else ())
+    return COMMON_KEYS + GAINS[kind] + LOOP_KEYS + extra
 
 
 LINE_IN_MEMORY = 32
@@ -123,6 +130,9 @@ class Controller:
     drive_delays
         Samples each controlled coordinate's drive adds to ``delay`` (the experiment's ``[drive] tau_<c> delay``,
         set by :func:`symbolic.simulation.simulator.drive_layer`; empty: none). Never read from ``[controller]``.
+    restart
+        ``torque``: seconds between the replay's restarts from the measured state (the replay in windows), or
+        ``None``: one run over the whole log.
     """
 
     kind: str
@@ -145,6 +155,19 @@ class Controller:
     feedforward: tuple[str, ...] | None = None
     reference_velocity: tuple[str, ...] | None = None
     drive_delays: tuple[int, ...] = ()
+    restart: float | None = None
+
+    def restart_samples(self, period: float) -> int | None:
+        """Samples between the replay's restarts at a sample ``period`` (``None``: no restarts): ``restart``
+        rounded to whole samples (docs/simulation.md, "Replay in windows")."""
+        if self.restart is None:
+            return None
+        samples = round(self.restart / period)
+        if samples < 2:
+            raise DataError(self.source, "[controller] restart",
+                            f"{self.restart:g} s is {self.restart / period:.3g} sample(s) at this log's sample period "
+                            f"({period:g} s): a window needs at least 2 samples (allowed: ≥ {2 * period:g} s)")
+        return samples
 
     @property
     def longest_delay(self) -> int:
@@ -236,6 +259,8 @@ class Controller:
             parts.append("drive delays " + ", ".join(f"{c} {d}" for c, d in zip(self.coordinates, self.drive_delays)))
         if len(self.velocity_filter) > 1:
             parts.append(f"velocity filter {list(map(float, self.velocity_filter))}")
+        if self.restart is not None:
+            parts.append(f"restarted from the measured state every {self.restart:g} s")
         return "; ".join(parts)
 
 
@@ -328,6 +353,7 @@ def parse(
         delay=_delay(table, source),
         velocity_filter=_taps(table, source),
         source=source,
+        restart=_restart(table, source),
         **cascade,
     ), samples)
 
@@ -543,6 +569,17 @@ def _delay(table: Mapping[str, Any], source: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
         raise DataError(source, "[controller] delay", f"expected a whole number of samples ≥ 0, got {value!r}")
     return value
+
+
+def _restart(table: Mapping[str, Any], source: str) -> float | None:
+    value = table.get("restart")
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value <= MAX_MAGNITUDE:
+        raise DataError(source, "[controller] restart",
+                        f"expected the seconds between the replay's restarts from the measured state, a positive "
+                        f"number, got {shown(value)} (allowed: at least two sample periods)")
+    return float(value)
 
 
 def check_delay(controller: Controller, samples: int | None) -> Controller:

@@ -294,6 +294,8 @@ class ClosedLoop:
     """RK4 sub-steps of a calm sample (:func:`symbolic.simulation.simulator.stepping`; 0: all take ``substeps``)."""
     substeps_given: bool = False
     """The sub-steps were given (``substeps=``), not chosen: they are never chosen again (:meth:`restepped`)."""
+    windows: sim.Restarts | None = None
+    """The replay's restarts from the measured state (``[controller] restart``; ``None``: one run)."""
     _functions: dict = field(default_factory=dict)
 
     def function(self, sensitivities: bool) -> sim.Chunked:
@@ -407,6 +409,35 @@ class ClosedLoop:
                     dw[i, row] = -1.0
         return w, c, smooth, dw, dc, dz0
 
+    def restart_state(self, theta: np.ndarray, window: int) -> np.ndarray:
+        """The measured state set in at ``window``'s first sample (:class:`~symbolic.simulation.simulator.Restarts`),
+        its positions read through the position sensors' free biases of θ as :meth:`initial_state`'s."""
+        x = self.windows.states[window].copy()
+        k = window * self.windows.every
+        layer = self.layer_at(theta)
+        for value in self.signal_values:
+            table, signal, name = value.key
+            channel = layer.sensors.get(signal) if table == "sensors" else None
+            if channel is not None and channel.kind == "q":
+                row = list(self.windows.rows).index(self.names.index(channel.coordinate))
+                x[row] = signal_layer.correct(channel, layer.logged[signal])[k]
+        return x
+
+    def _restarted(self, z: np.ndarray, theta: np.ndarray, window: int, dz0: np.ndarray | None) -> np.ndarray:
+        """``z`` (with its sensitivities S after it where ``dz0`` is given) at ``window``'s restart: the measured
+        rows set to :meth:`restart_state`, their sensitivities to those of the measured state — zero for the
+        model's parameters, ``dz0``'s for the position sensors' free values."""
+        rows = self.windows.rows
+        z = z.copy()
+        nz = len(z) if dz0 is None else len(z) // (1 + len(theta))
+        z[rows] = self.restart_state(theta, window)
+        if dz0 is not None:
+            k, ks = len(theta), len(self.signal_values)
+            S = z[nz:].reshape(k, nz)  # one direction after the other
+            S[:, rows] = 0.0
+            S[k - ks:, rows] = dz0[:, rows]
+        return z
+
     def _reference_row(self, coordinate: str) -> int:
         if self.ctrl.kind == control.STATE_FEEDBACK:
             return list(self.ctrl.states).index(("q", coordinate))
@@ -461,13 +492,17 @@ class ClosedLoop:
         p = self.parameters(theta)
         outputs = []
         samples = self.measurements.samples
-        length = function.length(samples)
+        every = None if self.windows is None else self.windows.every
+        chunk = sim.CHUNK if every is None else min(sim.CHUNK, every)
+        length = function.length(samples) if every is None else chunk
         extra = [smooth] if sensitivities and smooth is not None else []
         if sensitivities and ks:
             extra.append(dc.ravel())  # column-major nc × ks
-        for start in range(0, samples, sim.CHUNK):
-            size = min(sim.CHUNK, samples - start)
-            z, y = function(length, z, w[:, start:start + size], p, c, self.eps, *extra)
+        for start, size, window in sim.segments(samples, chunk, every):
+            if window is not None:
+                z = self._restarted(z, theta, window, dz0 if sensitivities else None)
+            z, y = function(sim.block_length(length, start, size, samples), z, w[:, start:start + size], p, c,
+                            self.eps, *extra)
             outputs.append(y)
             if z is not None and not np.isfinite(z).all():
                 outputs.append(np.full((outputs[-1].shape[0], samples - start - size), np.nan))
@@ -526,7 +561,7 @@ def closed_loop(model: DynamicModel, measurements: Measurements, free: Sequence[
     index = [model.parameter_vector.names.index(name) for name in free]
     return ClosedLoop(model, measurements, ctrl, plant, names, tuple(index), p, x0, c, smooth, np.ascontiguousarray(w), m,
                       friction_velocity, compiled, sensed, layer, fitted, before, initial is not None, calm,
-                      substeps_given=substeps is not None)
+                      substeps_given=substeps is not None, windows=sim.restarts(ctrl, measurements, names))
 
 
 def _signal_value(value: FreeValue, ctrl: control.Controller, measurements: Measurements) -> SignalValue:

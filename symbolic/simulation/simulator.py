@@ -306,8 +306,12 @@ def simulate(
     c = control.constants(ctrl, lambda: model.by_symbol(p))
     timings = {"build": time.perf_counter() - started}
     args = (ctrl, plant, measurements, signals, x0, p, c, friction_velocity)
+    windows = restarts(ctrl, measurements, names)
     if method == "rk4":
-        outputs, used_compiled = _run_fixed_step(*args, m, names, compiled, timings, sensed, calm)
+        outputs, used_compiled = _run_fixed_step(*args, m, names, compiled, timings, sensed, calm, windows)
+    elif windows is not None:
+        raise DataError(source, "[controller] restart", f"the replay in windows runs with method 'rk4' only "
+                                                          f"(got {method!r}): leave out restart, or the method")
     else:
         outputs, used_compiled, m, calm = _run_solve_ivp(*args, names, method, rtol, atol, sensed), False, 1, 0
         timings["integrate"] = time.perf_counter() - started - timings["build"]
@@ -759,6 +763,83 @@ def _initial_state(model: DynamicModel | SimulationModel, measurements: Measurem
     return x0
 
 
+@dataclass(frozen=True)
+class Restarts:
+    """The replay in windows (docs/simulation.md, "Replay in windows"): at every ``every``-th sample after the first,
+    the measured coordinates' positions and velocities (rows ``rows`` of x) are set to the measured ones,
+    ``states[i]`` at window i's first sample (row 0, the initial state's, unused); the model's other coordinates
+    (a beam's modes) go on from the simulated state."""
+
+    every: int
+    rows: np.ndarray
+    states: np.ndarray
+
+    def state(self, window: int, z: np.ndarray) -> np.ndarray:
+        """The loop state ``z`` with window ``window``'s measured state set in."""
+        z = z.copy()
+        z[self.rows] = self.states[window]
+        return z
+
+
+def restarts(ctrl: control.Controller, measurements: Measurements, names: tuple[str, ...]) -> Restarts | None:
+    """The restarts of ``ctrl``'s replay in windows on ``measurements`` (``None``: one run over the whole log): the
+    measured positions and the velocities of :func:`velocity_at` at each window's first sample."""
+    every = ctrl.restart_samples(measurements.sample_period)
+    if every is None:
+        return None
+    n = len(names)
+    columns = [names.index(c) for c in measurements.coordinates]
+    starts = range(0, measurements.samples, every)
+    states = np.array([np.concatenate([measurements.q[k], velocity_at(measurements, k)]) for k in starts])
+    return Restarts(every, np.array(columns + [n + j for j in columns]), states)
+
+
+def segments(samples: int, chunk: int, every: int | None) -> list[tuple[int, int, int | None]]:
+    """(first sample, length, window restarted there or ``None``) of the blocks a loop runs a log in: at most
+    ``chunk`` samples, none across a restart (every ``every`` samples after the first; ``None``: none)."""
+    out, start = [], 0
+    while start < samples:
+        end = min(samples, start + chunk)
+        window = None
+        if every is not None:
+            end = min(end, (start // every + 1) * every)
+            window = start // every if start % every == 0 and start else None
+        out.append((start, end - start, window))
+        start = end
+    return out
+
+
+def block_length(length: int, start: int, size: int, samples: int) -> int:
+    """The compiled length to run a block of ``size`` samples from ``start`` on: ``length``, or the block's own
+    where it is shorter and not the log's last (a window's tail, whose last state the next window needs: a padded
+    block returns none, :class:`Chunked`)."""
+    return size if size < length and start + size < samples else length
+
+
+def velocity_at(measurements: Measurements, k: int) -> np.ndarray:
+    """Q̇ at sample ``k``: :func:`initial_velocity` at the first; elsewhere the data's ``qd`` there, else the slope
+    at t_k of a least-squares parabola through the positions within half of :func:`initial_velocity`'s width on
+    either side (centred: no edge bias)."""
+    if k == 0:
+        return initial_velocity(measurements)
+    if measurements.qd is not None:
+        return np.asarray(measurements.qd[k], dtype=float)
+    half = max(1, _velocity_width(measurements) // 2)
+    lo, hi = max(0, k - half), min(measurements.samples, k + half + 1)
+    t = measurements.t[lo:hi] - measurements.t[k]
+    if hi - lo < 3:
+        return (measurements.q[hi - 1] - measurements.q[lo]) / (t[-1] - t[0])
+    basis = np.column_stack([np.ones(hi - lo), t, t**2])
+    return np.linalg.lstsq(basis, measurements.q[lo:hi], rcond=None)[0][1]
+
+
+def _velocity_width(measurements: Measurements) -> int:
+    """Samples of :func:`initial_velocity`'s parabola: one period of the comparison's cut-off, plus one."""
+    how = treatment(measurements)
+    width = math.ceil(measurements.rate / how.cutoff) + 1 if how.cutoff is not None else 3
+    return min(max(3, width), measurements.samples)
+
+
 def initial_velocity(measurements: Measurements) -> np.ndarray:
     """Q̇ at the first sample: the data's ``qd`` there, else the slope at t_0 of a least-squares parabola
     through the first W positions, W = ⌈rate/cutoff⌉ + 1 samples (one period of the comparison's cut-off;
@@ -766,9 +847,7 @@ def initial_velocity(measurements: Measurements) -> np.ndarray:
     delay); the parabola absorbs the initial acceleration."""
     if measurements.qd is not None:
         return np.asarray(measurements.qd[0], dtype=float)
-    how = treatment(measurements)
-    width = math.ceil(measurements.rate / how.cutoff) + 1 if how.cutoff is not None else 3
-    width = min(max(3, width), measurements.samples)
+    width = _velocity_width(measurements)
     t = measurements.t[:width] - measurements.t[0]
     if width < 3:
         return (measurements.q[1] - measurements.q[0]) / (t[1] - t[0])
@@ -935,13 +1014,16 @@ def loop_inputs(signals: control.Inputs, measurements: Measurements) -> np.ndarr
 def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measurements, signals: control.Inputs,
                     x0: np.ndarray, p: np.ndarray, c: np.ndarray, eps: float, substeps: int, names: tuple[str, ...],
                     compiled: bool | None, timings: dict[str, float],
-                    sensed: PositionSensors | None = None, calm: int = 0) -> tuple[np.ndarray, bool]:
+                    sensed: PositionSensors | None = None, calm: int = 0,
+                    windows: Restarts | None = None) -> tuple[np.ndarray, bool]:
     started = time.perf_counter()
     loop = _closed_loop(ctrl, plant, names, measurements.sample_period, substeps, compiled, sensed, calm)
     line = control.DelayLine(ctrl.delay, ctrl.size) if control.line_outside(ctrl) else None
     # with a delay line, a chunk's applied outputs were computed at least `delay` samples before it
     chunk = CHUNK if line is None else min(CHUNK, ctrl.delay)
     length = loop.length(measurements.samples) if line is None else chunk
+    if windows is not None:
+        chunk = length = min(chunk, windows.every)
     loop.function(length)
     timings["compile"] = time.perf_counter() - started
     started = time.perf_counter()
@@ -949,12 +1031,13 @@ def _run_fixed_step(ctrl: control.Controller, plant: Plant, measurements: Measur
     w = loop_inputs(signals, measurements)
     outputs = []
     n4 = 4 * plant.n
-    for start in range(0, measurements.samples, chunk):
-        size = min(chunk, measurements.samples - start)
+    for start, size, window in segments(measurements.samples, chunk, None if windows is None else windows.every):
+        if window is not None:
+            z = windows.state(window, z)
         inputs = w[:, start:start + size]
         if line is not None:
             inputs = np.vstack([inputs, line.applied(start, size).T])
-        z, y = loop(length, z, inputs, p, c, eps)
+        z, y = loop(block_length(length, start, size, measurements.samples), z, inputs, p, c, eps)
         if line is not None:
             line.computed(start, y[n4:].T)
         outputs.append(y[:n4])

@@ -684,8 +684,9 @@ def simulated_path(controller: Controller | Mapping[str, Any] | None = None) -> 
         chosen = own if own is not None else controller
         if chosen is None:
             raise DataError(str(measurements.source), "[controller]",
-                            "the simulated path needs the experiment's controller (none declared); "
-                            "leave out --simulate to compare with the inverse model")
+                            "the simulated path needs the experiment's controller (none declared): declare the "
+                            "machine's loop, or replay the logged force in windows (kind = \"torque\", restart = "
+                            "seconds: docs/simulation.md), or leave out --simulate to compare with the inverse model")
         result = run(model, measurements, controller=chosen,
                      parameters=model.parameter_vector.with_array(p).by_name())
         simulated = result.simulated
