@@ -164,3 +164,16 @@ def _diagnose(tmp_path: Path, experiment: Path):
     model = tmp_path / "arm.toml"
     model.write_text(models.arm(), encoding="utf-8")  # Coulomb friction the truth lacks: the equation error's to mend
     return diagnose(str(model), str(experiment), simulate=True, out=tmp_path / "out", figures=False, response=True)
+
+
+def test_the_replays_gaps_are_the_inverse_models(tmp_path: Path) -> None:
+    """A replay's simulated force is the logged one (its gap 0 whatever the model), so ``--simulate`` on a replay
+    keeps the inverse model's gaps, says so, and judges only the response on the simulated positions."""
+    experiment = _replayed(write_arm_experiment(tmp_path, seconds=3.0, force_noise=0.05, seed=1), 0.2)
+    model = tmp_path / "arm.toml"
+    model.write_text(models.arm(), encoding="utf-8")
+    plain = diagnose(str(model), str(experiment), figures=False)
+    replayed = diagnose(str(model), str(experiment), simulate=True, figures=False, response=False)
+    assert replayed.before.detail == plain.before.detail and replayed.after.detail == plain.after.detail
+    assert min(plain.before.detail["validation"].values()) > 0.1  # % : a gap to see, not the replay's 0
+    assert any("replays the logged force" in n for n in replayed.notes)

@@ -203,11 +203,16 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
     source = Path(model.robot.source)
     log.info("diagnose %s: loading and treating the data", model.name)
     estimation, held, held_out = load_sets(model.robot, data, experiment, validation, settings)
-    if simulate is True:
-        simulate = simulated_path(_controller(estimation.measurements))
+    caveats: list[str] = []
+    controller = _controller(estimation.measurements)
+    replayed = simulate is True and controller is not None and controller.kind == "torque"
+    if replayed:  # the replay's simulated force is the logged one: its gap would be 0 whatever the model
+        simulate = None
+        caveats.append(REPLAYED)
+    elif simulate is True:
+        simulate = simulated_path(controller)
     sets = {"estimation": estimation, "validation": held}
     lap("data")
-    caveats: list[str] = []
     before, simulate = _fit_or_inverse(model, sets, simulate, fix, caveats)
     if not before.nominal.terms.free.any():
         caveats.append(NOTHING_TO_REIDENTIFY)
@@ -318,10 +323,10 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
             reviewed = ([*reviewed[0], *motor], changes, *reviewed[2:])
         before, where_before, simulate, after = _before_corrections(model, motor_sets, simulate, fix, reviewed[0], before,
                                                                     where_before, after, caveats)
-        if wanted is not False and simulate and elastic:
+        if wanted is not False and (simulate or replayed) and elastic:
             notes.append("the search judged on the response did not run: the patched model's elastic joints need their "
                          "link-side encoders as coordinates, which the simulated loop does not map yet")
-        elif wanted is not False and simulate and added and unmeasured:
+        elif wanted is not False and (simulate or replayed) and added and unmeasured:
             # tried on the geared joint of tests/elastic_reference.py seen by its motor encoder alone (k 400): it runs
             # 4 min on a 6 s log and names correction(k) 366 → 431, nothing else, the held-out simulated force gap
             # 3.84 → 2.01 %; but a sensor bias and a delay came within 4.6 and 3.9 σ of being named, and the null
@@ -331,7 +336,7 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
             # refits by IDIM-LS, which needs every coordinate)
             notes.append(f"the search judged on the response did not run: the patched model adds {', '.join(unmeasured)}, "
                          "which the data do not measure (a second mass from rest is not yet judged on the response)")
-        elif wanted is not False and simulate and _controller(estimation.measurements) is not None and response_effects:
+        elif wanted is not False and (simulate or replayed) and controller is not None and response_effects:
             lap("patch and shrink")
             determined = [n for n, v in after.nominal.parameters.items() if np.isfinite(v.sigma)]
             response = _judge_response(derive(loads(patched_text, str(target))), sets, response_effects, fix,
@@ -809,6 +814,10 @@ def _before_corrections(model: DynamicModel, sets: dict[str, DataSet], simulate:
         simulate = None
     return held_before, localise(sets["estimation"], held_before.predicted["estimation"]), simulate, after
 
+
+REPLAYED = ("the experiment replays the logged force ([controller] kind = \"torque\"), so a simulated force is the "
+            "logged one: the gaps are the inverse model's, and the search judged on the response compares the "
+            "simulated positions (docs/simulation.md, \"Replay in windows\")")
 
 NOTHING_TO_REIDENTIFY = ("every value of the model is written inline (no [parameters] entry moves its terms): "
                          "nothing to re-identify; the gap is that of the model as written, and the catalogue is "
