@@ -21,7 +21,7 @@ encoders, one joint's drive gain, one joint's force logged late. Results to benc
 
 ``--replay``: the axis and the arm whose experiments declare no loop but the replay in windows: null cases over
 seeds, encoders and windows, a drive gain, a force logged late, a position sensor's bias. Results to
-bench/results/response_replay.md.
+bench/results/response_replay.md. ``--panda-replay``: the Franka Panda log so (bench/results/response_panda_replay.md).
 """
 
 from __future__ import annotations
@@ -82,6 +82,9 @@ def main() -> None:
                         "(bench/results/response_panda.md)")
     parser.add_argument("--replay", action="store_true", help="the cases with no loop declared, replayed in windows "
                         "(bench/results/response_replay.md)")
+    parser.add_argument("--panda-replay", action="store_true", help="the Panda log replayed in windows "
+                        "(bench/results/response_panda_replay.md)")
+    parser.add_argument("--no-search", action="store_true", help="with --panda-replay: the replay's errors only")
     args = parser.parse_args()
     if args.six_axis:
         six_axis(HERE / "results" / "response_six_axis.md")
@@ -91,6 +94,9 @@ def main() -> None:
         return
     if args.replay:
         replay(HERE / "results" / "response_replay.md")
+        return
+    if args.panda_replay:
+        panda_replay(HERE / "results" / "response_panda_replay.md", search=not args.no_search)
         return
     nulls = [("axis", dict(seed=s, counts=c, force_noise=n)) for s in range(10) for c in (2**16, 2**20)
              for n in (0.01, 0.03)] + [("arm", dict(seed=s, force_noise=0.05)) for s in range(8)]
@@ -342,6 +348,80 @@ def panda_stand_in(out: Path) -> None:
                     continue
                 rms = " ".join(f"{v:.3g}" for v in np.sqrt(np.mean(drift**2, axis=0)))
                 lines.append(f"| {label} | {hz:g} Hz | {m} | {rms} | {np.abs(drift).max():.3g} |")
+    out.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print(out.read_text())
+
+
+def panda_replay(out: Path, restart: float = 0.1, search: bool = True) -> None:
+    """The Franka Panda log (Gaz et al. 2019) judged on its response without Franka's loop: the logged τ_J replayed
+    in windows of ``restart`` seconds restarted from the measured state (docs/simulation.md, "Replay in windows").
+    The built-in model and the diagnosis's patched model simulated so (position error per joint), then
+    ``diagnose("panda", ..., simulate=True)``: what the equation error names, what the response names, the
+    response's position errors before and after, estimation and held out (``search`` false: the diagnosis without
+    the search judged on the response, for its patched model)."""
+    import json
+    import logging
+
+    import numpy as np
+    import pytest
+
+    import shared_data
+    import symbolic
+    from symbolic.data.experiment import Experiment
+    from symbolic.simulation.simulator import simulate
+
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s", stream=sys.stderr)
+    logging.getLogger("symbolic").setLevel(logging.INFO)
+    try:
+        data = shared_data.panda_measurements(shared_data.panda_folder())
+    except pytest.skip.Exception as skipped:
+        raise SystemExit(f"the Franka Panda log is not here: {skipped.msg}") from None
+    names = list(data.coordinates)
+    experiment = Experiment.of(data, controller={"kind": "torque", "coordinates": names, "restart": restart})
+    lines = ["# The Franka Panda log judged on its response: the replay in windows", "",
+             "`python bench/response.py --panda-replay` (issue 34): " + " ".join(panda_replay.__doc__.split()), "",
+             "Position error of the replay, 100·‖q_sim − q‖/‖q − mean(q)‖ per joint over the whole log:", "",
+             "| model | RK4 sub-steps (calm) | seconds | " + " | ".join(names) + " |",
+             "|---|---|---|" + "---|" * len(names)]
+
+    def errors(model_file: Path, label: str) -> None:
+        started = time.perf_counter()
+        run = simulate(symbolic.derive(symbolic.load(str(model_file))), experiment)
+        seconds = time.perf_counter() - started
+        e = np.asarray(run.simulated.q) - np.asarray(data.q)
+        relative = 100 * np.linalg.norm(e, axis=0) / np.linalg.norm(data.q - data.q.mean(axis=0), axis=0)
+        lines.append(f"| {label} | {run.substeps} ({run.calm_substeps}) | {seconds:.1f} | "
+                     + " | ".join(f"{v:.3g} %" for v in relative) + " |")
+
+    errors(HERE.parent / "symbolic" / "robots" / "panda.toml", "built-in (no friction)")
+    with tempfile.TemporaryDirectory() as folder:
+        started = time.perf_counter()
+        d = diagnose("panda", experiment, simulate=True, figures=False, out=Path(folder), response=search)
+        seconds = time.perf_counter() - started
+        print(json.dumps(d.response.to_dict() if d.response is not None else list(d.notes), default=str),
+              file=sys.stderr)  # the raw result, should the table below fail
+        errors(Path(folder) / "panda_patched.toml", "diagnosis's patched model")
+    found = "; ".join(f"{f.label()} on {f.coordinate}" for f in d.found) or "nothing"
+    lines += ["", f"Named by the equation error: {found}.", ""]
+    r = d.response
+    if r is None:
+        lines.append("The search judged on the response did not run" + (": " + "; ".join(d.notes) if search else
+                                                                         " (`--no-search`)."))
+    else:
+        named = "; ".join(f"{j.candidate.label()} {json.dumps({k: round(v, 4) for k, v in j.roles.items()})}"
+                          for j in r.named) or "nothing"
+        lines += [f"Named by the response: {named} ({r.seconds:.0f} s of the diagnosis's {seconds:.0f} s).", "",
+                  "| joint | estimation before | after | held out before | after |", "|---|---|---|---|---|"]
+        for c in names:
+            cells = [r.before["estimation"]["position"].get(c), r.after["estimation"]["position"].get(c),
+                     r.before["validation"]["position"].get(c), r.after["validation"]["position"].get(c)]
+            lines.append(f"| {c} | " + " | ".join(f"{v:.3g} %" for v in cells) + " |")
+        lines += ["", "Candidates (held-out gain on the coordinate, over all, distance in σ, verdict):", ""]
+        for k, judged in enumerate(r.rounds, 1):
+            for j in judged:
+                lines.append(f"* round {k}: {j.candidate.label()} {json.dumps({a: round(v, 4) for a, v in j.roles.items()})}"
+                             f": {j.gain:.3g}, {j.stacked_gain:.3g}, {j.sigmas:.3g} σ — {j.verdict or 'passes'}")
+        lines += ["", *[f"Note: {n}" for n in r.notes]]
     out.write_text("\n".join(lines) + "\n", encoding="utf-8")
     print(out.read_text())
 
