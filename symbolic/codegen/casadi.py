@@ -17,6 +17,7 @@ import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
 from symbolic.derivation.dynamics import DynamicModel
+from symbolic.codegen.c_printer import handle_unevaluated
 from symbolic.codegen.exported import (
     SOLVED_INPUT_SIZES, FunctionSpec, function_specs, input_symbols, programs, solved_specs, timed,
 )
@@ -49,6 +50,9 @@ class _CasadiPrinter(PythonCodePrinter):
         # a large program's sums and products in the order they hold, as in its C (codegen/c_source.py)
         super().__init__({"fully_qualified_modules": False, "inline": True, "allow_unknown_functions": True,
                           "user_functions": {name: name for name in CASADI_MODULE}, **({"order": "none"} if large else {})})
+
+    def _handle_UnevaluatedExpr(self, expr: sp.Expr) -> sp.Expr:
+        return handle_unevaluated(expr, super()._handle_UnevaluatedExpr)
 
     def _print_sign(self, expr: sp.sign) -> str:
         return f"sign({self._print(expr.args[0])})"

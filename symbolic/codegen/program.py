@@ -178,7 +178,9 @@ def _unsorted(expr: sp.Basic, args: list) -> sp.Basic:
     if all(a is b for a, b in zip(args, expr.args)):
         return expr
     if expr.is_Add or expr.is_Mul:
-        return expr.func(*args, evaluate=False)
+        # what ``expr.func(*args, evaluate=False)`` builds, without its cache lookup and sympification (a
+        # sum's or product's arguments here are expressions already; no constructor postprocessor applies)
+        return expr.func._from_args(args)
     return expr.func(*args)
 
 
