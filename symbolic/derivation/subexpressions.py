@@ -184,7 +184,7 @@ class Subexpressions:
     def dependencies(self, expr: sp.Expr) -> frozenset[sp.Symbol]:
         """The variables ``expr`` depends on, through intermediates."""
         out: set[sp.Symbol] = set()
-        for s in expr.free_symbols:
+        for s in self._memo.free(expr):
             if s in self.variables:
                 out.add(s)
             elif s in self.depends:
@@ -241,7 +241,7 @@ class Subexpressions:
             if s in needed:
                 continue
             needed.add(s)
-            stack.extend(t for t in self.definition[s].free_symbols if t in self.definition and t not in needed)
+            stack.extend(t for t in self._memo.free(self.definition[s]) if t in self.definition and t not in needed)
         return sorted(needed, key=lambda s: int(s.name[len(self.prefix):]))
 
     def program(self, outputs: Sequence[sp.Expr]) -> list[tuple[sp.Symbol, sp.Expr]]:
@@ -268,15 +268,23 @@ class _Memo:
     """
 
     def __init__(self) -> None:
+        self._free: dict[sp.Expr, frozenset[sp.Symbol]] = {}
         self._symbols: dict[sp.Expr, list[sp.Symbol]] = {}
         self._partials: dict[tuple[sp.Expr, sp.Symbol], sp.Expr] = {}
         self._operations: dict[sp.Expr, int] = {}
+
+    def free(self, expr: sp.Expr) -> frozenset[sp.Symbol]:
+        """``expr.free_symbols`` (a walk of the whole expression each time SymPy is asked)."""
+        found = self._free.get(expr)
+        if found is None:
+            found = self._free[expr] = frozenset(expr.free_symbols)
+        return found
 
     def symbols(self, expr: sp.Expr) -> list[sp.Symbol]:
         """``expr``'s free symbols sorted by SymPy's default sort key."""
         found = self._symbols.get(expr)
         if found is None:
-            found = self._symbols[expr] = sorted(expr.free_symbols, key=sp.default_sort_key)
+            found = self._symbols[expr] = sorted(self.free(expr), key=sp.default_sort_key)
         return found
 
     def partial(self, expr: sp.Expr, symbol: sp.Symbol) -> sp.Expr:
