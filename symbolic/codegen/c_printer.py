@@ -184,7 +184,7 @@ class FastPrecedence:
         """SymPy's ``CodePrinter._print_Mul``, the same text, with :func:`precedence`."""
         prec = precedence(expr)
         c, e = expr.as_coeff_Mul()
-        if c < 0:
+        if c.is_extended_negative:  # SymPy's c < 0 for the number c, without sympifying 0 and building a relation
             expr = _keep_coeff(-c, e)
             sign = "-"
         else:
