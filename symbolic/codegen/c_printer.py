@@ -18,7 +18,10 @@ from fractions import Fraction
 import numpy as np
 import sympy as sp
 from sympy.codegen.ast import float32, real
+from sympy.core.mul import _keep_coeff
 from sympy.printing.c import C99CodePrinter
+from sympy.printing.precedence import PRECEDENCE, PRECEDENCE_FUNCTIONS, PRECEDENCE_VALUES
+from sympy.printing.precedence import precedence as sympy_precedence
 
 from symbolic.description.robot import C_KEYWORDS  # noqa: F401  (defined by the spec, which refuses them as model names)
 
@@ -109,7 +112,131 @@ def c_float(value: sp.Rational | sp.Float | int) -> str:
     return text + "f"
 
 
-class CPrinter(C99CodePrinter):
+_FIXED_PRECEDENCE: dict[type, int] = {}
+_MUL, _ADD = PRECEDENCE["Mul"], PRECEDENCE["Add"]
+
+
+def precedence(item: object) -> int:
+    """SymPy's ``precedence(item)``, the same value, found faster where printing asks it most.
+
+    SymPy's walks the item's class hierarchy on every call, and for a product asks ``could_extract_minus_sign``,
+    which builds the negated product to compare (a third of printing a large program). Here: for a product, the
+    same test of its factors, then whether its leading coefficient is a negative number (what
+    ``Mul.could_extract_minus_sign`` answers: the comparison with the negation only matters for ``zoo``, not
+    negative); for a class whose precedence does not depend on the item, SymPy's answer kept per class.
+    """
+    kind = type(item)
+    if kind is sp.Mul:
+        if any(hasattr(arg, "precedence") and isinstance(arg, sp.Function) and arg.precedence < _MUL for arg in item.args):
+            return _MUL
+        c = item.args[0]
+        return _ADD if c.is_Number and c.is_extended_negative else _MUL
+    fixed = _FIXED_PRECEDENCE.get(kind)
+    if fixed is not None:
+        return fixed
+    value = sympy_precedence(item)
+    if not hasattr(item, "precedence") and _fixed_by_class(kind):
+        _FIXED_PRECEDENCE[kind] = value
+    return value
+
+
+def _fixed_by_class(kind: type) -> bool:
+    """Whether SymPy's ``precedence`` of every instance of ``kind`` is one value (a table entry, not a function)."""
+    for cls in kind.mro():
+        if cls.__name__ in PRECEDENCE_FUNCTIONS:
+            return False
+        if cls.__name__ in PRECEDENCE_VALUES:
+            return True
+    return True
+
+
+class FastPrecedence:
+    """``parenthesize`` and ``_print_Add`` of SymPy's ``StrPrinter`` and ``_print_Mul`` of its ``CodePrinter`` (which
+    the C and Python code printers use), the same text, with :func:`precedence`."""
+
+    def parenthesize(self, item, level, strict=False):
+        value = precedence(item)
+        if value < level or (not strict and value <= level):
+            return "(%s)" % self._print(item)
+        return self._print(item)
+
+    def _print_Add(self, expr, order=None):
+        terms = self._as_ordered_terms(expr, order=order)
+        prec = precedence(expr)
+        out = []
+        for term in terms:
+            t = self._print(term)
+            if t.startswith("-") and not term.is_Add:
+                sign = "-"
+                t = t[1:]
+            else:
+                sign = "+"
+            if precedence(term) < prec or term.is_Add:
+                out.extend([sign, "(%s)" % t])
+            else:
+                out.extend([sign, t])
+        sign = out.pop(0)
+        if sign == "+":
+            sign = ""
+        return sign + " ".join(out)
+
+    def _fast_print_Mul(self, expr):
+        """SymPy's ``CodePrinter._print_Mul``, the same text, with :func:`precedence`."""
+        prec = precedence(expr)
+        c, e = expr.as_coeff_Mul()
+        if c.is_extended_negative:  # SymPy's c < 0 for the number c, without sympifying 0 and building a relation
+            expr = _keep_coeff(-c, e)
+            sign = "-"
+        else:
+            sign = ""
+        a = []  # items in the numerator
+        b = []  # items that are in the denominator (if any)
+        pow_paren = []  # all powers with more than one base element and exponent -1
+        if self.order not in ("old", "none"):
+            args = expr.as_ordered_factors()
+        else:
+            args = sp.Mul.make_args(expr)  # in case expr was something like -x -> x
+        for item in args:
+            if item.is_commutative and item.is_Pow and item.exp.is_Rational and item.exp.is_negative:
+                if item.exp != -1:
+                    b.append(sp.Pow(item.base, -item.exp, evaluate=False))
+                else:
+                    if len(item.args[0].args) != 1 and isinstance(item.base, sp.Mul):  # SymPy's #14160
+                        pow_paren.append(item)
+                    b.append(sp.Pow(item.base, -item.exp))
+            else:
+                a.append(item)
+        a = a or [sp.S.One]
+        if len(a) == 1 and sign == "-":
+            # unary minus: between multiplication and exponentiation
+            a_str = [self.parenthesize(a[0], 0.5 * (PRECEDENCE["Pow"] + PRECEDENCE["Mul"]))]
+        else:
+            a_str = [self.parenthesize(x, prec) for x in a]
+        b_str = [self.parenthesize(x, prec) for x in b]
+        for item in pow_paren:
+            if item.base in b:
+                b_str[b.index(item.base)] = "(%s)" % b_str[b.index(item.base)]
+        if not b:
+            return sign + "*".join(a_str)
+        if len(b) == 1:
+            return sign + "*".join(a_str) + "/" + b_str[0]
+        return sign + "*".join(a_str) + "/(%s)" % "*".join(b_str)
+
+
+def handle_unevaluated(expr: sp.Expr, handle) -> sp.Expr:
+    """SymPy's code printers' first step, ``handle(expr)``, only where it can change something: it rebuilds
+    ``expr`` bottom-up to take ``re(x)`` of a real ``UnevaluatedExpr`` x back to x (a fifth of printing a large
+    program); an expression without ``re`` comes back as it is."""
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, sp.re):
+            return handle(expr)
+        stack.extend(node.args)
+    return expr
+
+
+class CPrinter(FastPrecedence, C99CodePrinter):
     """C99 printer with array-slot symbols and cheap powers, in double or single precision.
 
     Parameters
@@ -130,6 +257,14 @@ class CPrinter(C99CodePrinter):
     def literal(self, value: sp.Rational | sp.Float | int) -> str:
         """``value`` as a literal of the printer's type, rounded once from the exact value."""
         return c_float(value) if self.single else c_double(value)
+
+    def _handle_UnevaluatedExpr(self, expr: sp.Expr) -> sp.Expr:
+        return handle_unevaluated(expr, super()._handle_UnevaluatedExpr)
+
+    def _print_Mul(self, expr: sp.Mul, **kwargs) -> str:
+        if expr in self.math_macros:  # C89CodePrinter's: a constant of <math.h>
+            return super()._print_Mul(expr, **kwargs)
+        return self._fast_print_Mul(expr)
 
     def _print_Symbol(self, expr: sp.Symbol) -> str:
         if expr in self.slots:

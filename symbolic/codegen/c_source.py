@@ -20,6 +20,7 @@ from symbolic.codegen.exported import (
     batched_programs, function_specs, input_symbols, model_regressor, programs, solved_specs,
 )
 from symbolic.codegen.naming import check_c_name, comment_text
+from symbolic.codegen.program import symbols_in
 from symbolic.codegen.templates import render
 
 
@@ -103,11 +104,11 @@ def _build_context(model: DynamicModel, precision: str) -> dict:
         # derivation's names, fixed by the expressions): sorting each again was half of printing its C
         settings = {"order": "none"} if program.large else None
         printer = CPrinter(slots | trig_slots, settings, precision=precision)
-        used = set().union(*(a.free_symbols for a in batched.angles))
+        used = set().union(*(symbols_in(a) for a in batched.angles))
         for _, e in program.statements:
-            used |= e.free_symbols
+            used |= symbols_in(e)
         for e in program.outputs:
-            used |= e.free_symbols
+            used |= symbols_in(e)
         unused = [a for a in spec.inputs if not used & set(symbols[a])]
         if not program.outputs:  # nothing to write (a massless model's regressor and theta): no unused parameter
             unused += [array for array, _, _ in spec.arrays]
@@ -201,7 +202,7 @@ def _interleaved(statements: tuple[tuple[sp.Symbol, sp.Expr], ...], outputs: tup
     position = {symbol: k for k, (symbol, _) in enumerate(statements)}
     after: dict[int, list[dict]] = {}
     for slot, expr in zip(slots, outputs):
-        last = max((position[s] for s in expr.free_symbols if s in position), default=-1)
+        last = max((position[s] for s in symbols_in(expr) if s in position), default=-1)
         after.setdefault(last, []).append({"name": slot, "value": doprint(expr), "const": False})
     lines = list(after.get(-1, []))
     for k, (symbol, expr) in enumerate(statements):

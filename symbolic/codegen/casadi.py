@@ -17,6 +17,7 @@ import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
 from symbolic.derivation.dynamics import DynamicModel
+from symbolic.codegen.c_printer import FastPrecedence, handle_unevaluated
 from symbolic.codegen.exported import (
     SOLVED_INPUT_SIZES, FunctionSpec, function_specs, input_symbols, programs, solved_specs, timed,
 )
@@ -41,7 +42,7 @@ CASADI_MODULE = {
 }
 
 
-class _CasadiPrinter(PythonCodePrinter):
+class _CasadiPrinter(FastPrecedence, PythonCodePrinter):
     """lambdify's default printer for a module dictionary, except that sign(x) is a call (the default
     writes a Python conditional, which needs a number, not a CasADi expression)."""
 
@@ -49,6 +50,12 @@ class _CasadiPrinter(PythonCodePrinter):
         # a large program's sums and products in the order they hold, as in its C (codegen/c_source.py)
         super().__init__({"fully_qualified_modules": False, "inline": True, "allow_unknown_functions": True,
                           "user_functions": {name: name for name in CASADI_MODULE}, **({"order": "none"} if large else {})})
+
+    def _handle_UnevaluatedExpr(self, expr: sp.Expr) -> sp.Expr:
+        return handle_unevaluated(expr, super()._handle_UnevaluatedExpr)
+
+    def _print_Mul(self, expr: sp.Mul) -> str:
+        return self._fast_print_Mul(expr)
 
     def _print_sign(self, expr: sp.sign) -> str:
         return f"sign({self._print(expr.args[0])})"

@@ -92,20 +92,49 @@ def build_program(sub: Subexpressions, outputs: Sequence[sp.Expr], local_prefix:
     reduced_outputs = list(reduced[len(definitions) :])
     statements, order, reduced_outputs = _inline_aliases(statements, order, reduced_outputs)
 
+    uses = {s: [t for t in symbols_in(e) if t in statements] for s, e in statements.items()}  # walked once
     needed: set[sp.Symbol] = set()
-    stack = [t for e in reduced_outputs for t in e.free_symbols if t in statements]
+    stack = [t for e in reduced_outputs for t in symbols_in(e) if t in statements]
     while stack:
         s = stack.pop()
         if s not in needed:
             needed.add(s)
-            stack.extend(t for t in statements[s].free_symbols if t in statements)
+            stack.extend(uses[s])
 
     # the derivation's order where dependencies allow
-    emitted = [s for s in _topological(statements, order) if s in needed]
-    rename = {s: sp.Symbol(f"{local_prefix}{k}", real=True) for k, s in enumerate(emitted)}
+    emitted = [s for s in _topological(statements, order, uses) if s in needed]
+    rename = {s: local_symbol(f"{local_prefix}{k}") for k, s in enumerate(emitted)}
     substitute = _substitution(large)
     final = tuple((rename[s], substitute(statements[s], rename)) for s in emitted)
     return Program(final, tuple(substitute(e, rename) for e in reduced_outputs), large)
+
+
+def symbols_in(expr: sp.Basic) -> set[sp.Symbol]:
+    """``expr.free_symbols``, collected by one walk instead of SymPy's union of sets at every node (sums, products,
+    powers and functions hold no bound symbols; anything else answers for itself)."""
+    out: set[sp.Symbol] = set()
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        if node.is_Symbol:
+            out.add(node)
+        elif node.is_Add or node.is_Mul or node.is_Pow or node.is_Function:
+            stack.extend(node.args)
+        elif not node.is_Atom:
+            out |= node.free_symbols
+    return out
+
+
+_LOCALS: dict[str, sp.Symbol] = {}
+
+
+def local_symbol(name: str) -> sp.Symbol:
+    """``sp.Symbol(name, real=True)``, made once per name: every program names its locals v0, v1, … again, and
+    SymPy's own cache of symbols (the last thousand made) is smaller than a large program."""
+    found = _LOCALS.get(name)
+    if found is None:
+        found = _LOCALS[name] = sp.Symbol(name, real=True)
+    return found
 
 
 def shared_subtrees(exprs: Sequence[sp.Expr], symbols) -> tuple[list[tuple[sp.Symbol, sp.Expr]], list[sp.Expr]]:
@@ -169,16 +198,28 @@ def replaced(expr: sp.Expr, mapping: dict) -> sp.Expr:
         return found
     if expr.is_Atom:
         return expr
-    args = [replaced(a, mapping) for a in expr.args]
-    return _unsorted(expr, args)
+    args = []
+    changed = False
+    for a in expr.args:
+        b = replaced(a, mapping)
+        changed = changed or b is not a
+        args.append(b)
+    return _rebuilt(expr, args) if changed else expr
 
 
 def _unsorted(expr: sp.Basic, args: list) -> sp.Basic:
     """``expr`` with ``args``: itself when they are its own, a sum or product as given, other heads evaluated."""
     if all(a is b for a, b in zip(args, expr.args)):
         return expr
+    return _rebuilt(expr, args)
+
+
+def _rebuilt(expr: sp.Basic, args: list) -> sp.Basic:
+    """``expr`` with other ``args``: a sum or product as given, other heads evaluated."""
     if expr.is_Add or expr.is_Mul:
-        return expr.func(*args, evaluate=False)
+        # what ``expr.func(*args, evaluate=False)`` builds, without its cache lookup and sympification (a
+        # sum's or product's arguments here are expressions already; no constructor postprocessor applies)
+        return expr.func._from_args(args)
     return expr.func(*args)
 
 
@@ -192,7 +233,9 @@ def _inline_aliases(statements: dict, order: list, outputs: list) -> tuple[dict,
     alias: dict[sp.Symbol, sp.Expr] = {}
     kept: dict[sp.Symbol, sp.Expr] = {}
     for s in _topological(statements, order):
-        expr = statements[s].xreplace(alias)
+        expr = statements[s]
+        if alias and _mentions(expr, alias):  # the walk xreplace would make, without rebuilding what it leaves
+            expr = expr.xreplace(alias)
         if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1 and expr.args[1].is_Atom):
             alias[s] = expr
         else:
@@ -201,7 +244,22 @@ def _inline_aliases(statements: dict, order: list, outputs: list) -> tuple[dict,
     return kept, new_order, [e.xreplace(alias) for e in outputs]
 
 
-def _topological(statements: dict, order: list) -> list:
+def _mentions(expr: sp.Basic, names: dict) -> bool:
+    """Whether a node of ``expr`` (``expr`` itself included) is a key of ``names``."""
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        if node in names:
+            return True
+        stack.extend(node.args)
+    return False
+
+
+def _topological(statements: dict, order: list, uses: dict | None = None) -> list:
+    """``order``'s symbols with each after the statements it uses (``uses``: symbol → the statements' symbols it
+    holds, computed here when not given)."""
+    if uses is None:
+        uses = {s: [t for t in symbols_in(e) if t in statements] for s, e in statements.items()}
     position = {s: k for k, s in enumerate(order)}
     out, done = [], set()
     for root in order:
@@ -215,7 +273,7 @@ def _topological(statements: dict, order: list) -> list:
                 out.append(s)
                 continue
             todo.append((s, True))
-            deps = [t for t in statements[s].free_symbols if t in statements and t not in done]
+            deps = [t for t in uses[s] if t not in done]
             todo.extend((t, False) for t in sorted(deps, key=position.__getitem__, reverse=True))
     return out
 
@@ -264,7 +322,7 @@ def batch_trig(
         statements[symbol] = substitute(expr, table)
         order.append(symbol)
     statements, order, outputs = _inline_aliases(statements, order, [substitute(e, table) for e in program.outputs])
-    rename = {s: sp.Symbol(f"{local_prefix}{k}", real=True) for k, s in enumerate(order)}
+    rename = {s: local_symbol(f"{local_prefix}{k}") for k, s in enumerate(order)}
     final = tuple((rename[s], substitute(statements[s], rename)) for s in order)
     return BatchedTrig(tuple(angles), sines, cosines,
                        Program(final, tuple(substitute(e, rename) for e in outputs), program.large))

@@ -70,11 +70,13 @@ def block(C: sp.Matrix, k: int) -> sp.Matrix:
     return C[k * n : (k + 1) * n, :]
 
 
-def coriolis_vector(C: sp.Matrix, qd: Sequence[sp.Symbol]) -> sp.Matrix:
-    """(I_N ⊗ Q̇ᵀ) C Q̇ of (3.82): entry k is Q̇ᵀ C_k Q̇."""
+def coriolis_vector(C: sp.Matrix, qd: Sequence[sp.Symbol], matrix: sp.Matrix | None = None) -> sp.Matrix:
+    """(I_N ⊗ Q̇ᵀ) C Q̇ of (3.82): entry k is Q̇ᵀ C_k Q̇, (Q̇ᵀ C_k) Q̇ with Q̇ᵀ C_k row k of the Coriolis matrix
+    (:func:`coriolis_matrix`; given as ``matrix``, its rows are not multiplied out again)."""
     n = C.shape[1]
     v = sp.Matrix(qd)
-    return sp.Matrix([(v.T * block(C, k) * v)[0] for k in range(n)])
+    rows = [matrix[k, :] if matrix is not None else v.T * block(C, k) for k in range(n)]
+    return sp.Matrix([(row * v)[0] for row in rows])
 
 
 def coriolis_matrix(C: sp.Matrix, qd: Sequence[sp.Symbol]) -> sp.Matrix:

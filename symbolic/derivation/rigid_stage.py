@@ -161,8 +161,8 @@ def _compute(robot: Robot, step: Steps) -> RigidStage:
             D[i, i] = sub.add(D[i, i] + rotors[i, i])
     dD = step("dD/dQ", lambda: ch.inertia_derivatives(D, q, sub))
     C = step("christoffel", lambda: ch.christoffel_symbols(dD, sub))
-    coriolis = step("coriolis", lambda: ch.coriolis_vector(C, qd))
     cmat = step("coriolis matrix", lambda: ch.coriolis_matrix(C, qd))
+    coriolis = step("coriolis", lambda: ch.coriolis_vector(C, qd, cmat))  # its rows, times Q̇
     zero = {x: sp.Integer(0) for x in rigid}
     g_rigid = step("gravity", lambda: gravity_forces(kin))
     potential = step("potential", lambda: potential_energy(kin))

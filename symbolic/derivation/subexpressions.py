@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 
 import sympy as sp
+from sympy.core.exprtools import decompose_power
 from sympy.core.function import _coeff_isneg
 from sympy.core.operations import LatticeOp
 from sympy.simplify.radsimp import fraction
@@ -51,6 +52,64 @@ def partial(expr: sp.Expr, symbol: sp.Symbol) -> sp.Expr:
     return expr.diff(symbol)
 
 
+def extracts_minus_sign(expr: sp.Expr) -> bool:
+    """``expr.could_extract_minus_sign()``, the same answer, without building ``-expr`` and sort keys where it can.
+
+    SymPy answers for a product by comparing it with its negation (``self == -self``, only ever true with a
+    ``zoo`` or ``nan`` coefficient, which is not negative), so: whether its leading coefficient is a negative number.
+    For a sum it counts the terms that could extract one; on a tie it compares the sort keys of the sum and its
+    negation (``_could_extract_minus_sign``), which is what costs: a third of differentiating a chain's ∂D/∂Q.
+    Those keys list the terms in the order of ``as_ordered_terms``, the greatest monomial first (lexicographic
+    over the factors' bases in SymPy's default order), and negating a sum negates each term in place, so the two
+    keys differ first at the leading term's coefficient c, compared with −c: the sum extracts a minus sign when
+    c < 0. That holds when no term is a number and no factor is a number beyond the leading coefficient (SymPy
+    orders such sums by a special case or folds the numbers into the coefficients) and the monomials are
+    distinct (no tie left to the coefficients); anything else is left to SymPy.
+    """
+    if expr.is_Mul:
+        c = expr.args[0]
+        return bool(c.is_Number and c.is_extended_negative)
+    if not expr.is_Add:
+        return expr.could_extract_minus_sign()
+    negative = 0
+    for term in expr.args:
+        if term.is_Mul:
+            c = term.args[0]
+            negative += bool(c.is_Number and c.is_extended_negative)
+        elif not term.is_Symbol:
+            negative += bool(term.could_extract_minus_sign())
+    positive = len(expr.args) - negative
+    if positive != negative:
+        return negative > positive
+    leading = _leading_coefficient(expr)
+    if leading is None:
+        return expr.could_extract_minus_sign()
+    return bool(leading < 0)
+
+
+def _leading_coefficient(expr: sp.Add) -> sp.Number | None:
+    """The numeric coefficient of ``expr.as_ordered_terms()[0]`` where :func:`extracts_minus_sign` may use it."""
+    monomials = []
+    bases: set[sp.Expr] = set()
+    for term in expr.args:
+        if term.is_Number or term.is_NumberSymbol or not term.is_commutative:
+            return None
+        coeff, rest = term.as_coeff_Mul()
+        powers = {}
+        for factor in sp.Mul.make_args(rest):
+            if factor.is_number or not factor.is_commutative:
+                return None
+            base, exponent = decompose_power(factor)
+            powers[base] = exponent
+            bases.add(base)
+        monomials.append((coeff, powers))
+    order = sorted(bases, key=sp.default_sort_key)
+    keyed = [(tuple(powers.get(b, 0) for b in order), coeff) for coeff, powers in monomials]
+    if len({k for k, _ in keyed}) != len(keyed):
+        return None
+    return max(keyed, key=lambda kc: kc[0])[1]
+
+
 class Subexpressions:
     """An ordered registry of intermediate symbols and their definitions.
 
@@ -72,6 +131,17 @@ class Subexpressions:
         self._index: dict[sp.Expr, sp.Symbol] = {}
         self._derivatives: dict[tuple[sp.Symbol, sp.Symbol], sp.Expr] = {}
         self._expanded: dict[sp.Symbol, sp.Expr] = {}
+        self._memo = _Memo()
+
+    def __getstate__(self) -> dict:
+        """Everything but the memo of partial derivatives and operation counts (rebuilt on use)."""
+        state = dict(self.__dict__)
+        state.pop("_memo", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._memo = _Memo()
 
     def __len__(self) -> int:
         return len(self.symbols)
@@ -86,6 +156,7 @@ class Subexpressions:
         other._index = dict(self._index)
         other._derivatives = dict(self._derivatives)
         other._expanded = dict(self._expanded)
+        other._memo = self._memo  # facts about expressions, whichever registry holds them
         return other
 
     def __contains__(self, symbol: object) -> bool:
@@ -97,7 +168,7 @@ class Subexpressions:
         expr = sp.sympify(expr)
         if _is_trivial(expr):
             return expr
-        if expr.could_extract_minus_sign():
+        if extracts_minus_sign(expr):
             # store −a·b as a·b used negated: the sign folds into the sums that use it for free
             return -self.add(-expr)
         existing = self._index.get(expr)
@@ -113,7 +184,7 @@ class Subexpressions:
     def dependencies(self, expr: sp.Expr) -> frozenset[sp.Symbol]:
         """The variables ``expr`` depends on, through intermediates."""
         out: set[sp.Symbol] = set()
-        for s in expr.free_symbols:
+        for s in self._memo.free(expr):
             if s in self.variables:
                 out.add(s)
             elif s in self.depends:
@@ -125,7 +196,7 @@ class Subexpressions:
         """∂expr/∂variable by the chain rule through intermediate definitions."""
         expr = sp.sympify(expr)
         terms = []
-        for s in sorted(expr.free_symbols, key=sp.default_sort_key):
+        for s in self._memo.symbols(expr):
             if s == variable:
                 ds: sp.Expr = sp.Integer(1)
             elif s in self.definition:
@@ -133,7 +204,7 @@ class Subexpressions:
             else:
                 continue
             if ds != 0:
-                terms.append(partial(expr, s) * ds)
+                terms.append(self._memo.partial(expr, s) * ds)
         result = sp.Add(*terms)
         if result.has(sp.DiracDelta):
             # d sign(v)/dv = 2δ(v): friction laws are differentiated away from v = 0, where it vanishes
@@ -170,7 +241,7 @@ class Subexpressions:
             if s in needed:
                 continue
             needed.add(s)
-            stack.extend(t for t in self.definition[s].free_symbols if t in self.definition and t not in needed)
+            stack.extend(t for t in self._memo.free(self.definition[s]) if t in self.definition and t not in needed)
         return sorted(needed, key=lambda s: int(s.name[len(self.prefix):]))
 
     def program(self, outputs: Sequence[sp.Expr]) -> list[tuple[sp.Symbol, sp.Expr]]:
@@ -182,8 +253,54 @@ class Subexpressions:
 
     def count_ops(self, outputs: Sequence[sp.Expr]) -> int:
         """Arithmetic operations (SymPy's ``count_ops``, :func:`count_operations`) of the program computing ``outputs``."""
-        total = sum(count_operations(d) for _, d in self.program(outputs))
+        total = sum(self._memo.operations(d) for _, d in self.program(outputs))
         return int(total + sum(count_operations(sp.sympify(e)) for e in outputs))
+
+
+class _Memo:
+    """What a derivation asks again and again of the same expressions: their free symbols in SymPy's order, their
+    partial derivatives by one symbol, their operation counts. Each depends on the expression alone (SymPy's are
+    immutable), so registries that share expressions share it (:meth:`Subexpressions.copy`).
+
+    A definition is differentiated by up to 2N variables, each time by the chain rule through the same free
+    symbols: the partial derivatives by those symbols are taken once (∂τ/∂(q, q̇) of a 20-axis chain asks for
+    each about 20 times); ∂τ/∂q̇'s two forms are compared by the counts of programs that share most definitions.
+    """
+
+    def __init__(self) -> None:
+        self._free: dict[sp.Expr, frozenset[sp.Symbol]] = {}
+        self._symbols: dict[sp.Expr, list[sp.Symbol]] = {}
+        self._partials: dict[tuple[sp.Expr, sp.Symbol], sp.Expr] = {}
+        self._operations: dict[sp.Expr, int] = {}
+
+    def free(self, expr: sp.Expr) -> frozenset[sp.Symbol]:
+        """``expr.free_symbols`` (a walk of the whole expression each time SymPy is asked)."""
+        found = self._free.get(expr)
+        if found is None:
+            found = self._free[expr] = frozenset(expr.free_symbols)
+        return found
+
+    def symbols(self, expr: sp.Expr) -> list[sp.Symbol]:
+        """``expr``'s free symbols sorted by SymPy's default sort key."""
+        found = self._symbols.get(expr)
+        if found is None:
+            found = self._symbols[expr] = sorted(self.free(expr), key=sp.default_sort_key)
+        return found
+
+    def partial(self, expr: sp.Expr, symbol: sp.Symbol) -> sp.Expr:
+        """:func:`partial` (``expr.diff(symbol)``)."""
+        key = (expr, symbol)
+        found = self._partials.get(key)
+        if found is None:
+            found = self._partials[key] = partial(expr, symbol)
+        return found
+
+    def operations(self, expr: sp.Expr) -> int:
+        """:func:`count_operations`."""
+        found = self._operations.get(expr)
+        if found is None:
+            found = self._operations[expr] = count_operations(expr)
+        return found
 
 
 def count_operations(expr: sp.Expr) -> int:
@@ -208,7 +325,7 @@ def count_operations(expr: sp.Expr) -> int:
             if _coeff_isneg(a):
                 total += 1  # NEG
                 a = a.as_two_terms()[1] if a.args[0] is sp.S.NegativeOne else -a
-            n, d = fraction(a)
+            n, d = _fraction(a)
             if n.is_Integer:
                 total += 1 + bool(n < 0)  # DIV (and NEG)
                 args.append(d)
@@ -248,3 +365,16 @@ def count_operations(expr: sp.Expr) -> int:
         if not a.is_Symbol:
             args.extend(a.args)
     return total
+
+
+def _fraction(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
+    """SymPy's ``fraction(expr)``, without its rebuilding of a product that has no denominator.
+
+    ``fraction`` sorts every factor into numerator or denominator and multiplies each list again; a factor goes
+    to the denominator only if it is a power (or ``exp``) or a non-integer rational, so a product without such a
+    factor is its own numerator over 1 (``Mul(*expr.args)`` is ``expr``), the same answer without building it.
+    """
+    for term in (expr.args if expr.is_Mul else (expr,)):
+        if term.is_Pow or isinstance(term, sp.exp) or (term.is_Rational and not term.is_Integer):
+            return fraction(expr)
+    return expr, sp.S.One
