@@ -157,6 +157,29 @@ def test_the_compiled_rattle_and_the_python_loop_agree():
     assert np.ptp(compiled[:, 0]) > 2 * 0.002  # it crossed the band
 
 
+def test_a_free_load_rattles_the_same_without_its_zero_terms():
+    """A free unit load (LoadBacklash's: D = 1, A = B = 0) runs the C loop without those terms and the division by
+    1 (issue 38: the division is most of the loop's latency): the same numbers as the general loop, sub-steps or
+    not; a link with any term of its own is not free."""
+    from symbolic.workflow.effects import backlash
+    from symbolic.workflow.effects.joint_elasticity import LinkSide
+
+    assert backlash._compiled_free() is not None, "gcc is needed for this test (the C loop)"
+    rate, n = 1000.0, 3000
+    t = np.arange(n) / rate
+    ones, zeros = np.ones((n, 1)), np.zeros((n, 1))
+    link = LinkSide(0.6 * np.sin(2 * np.pi * 1.5 * t), ones, zeros, zeros, ones[:, 0], 1.0, 0)
+    assert link.free
+    assert not LinkSide(link.torque, ones, zeros + 0.1, zeros, ones[:, 0], 1.0, 0).free
+    assert not LinkSide(link.torque, 2 * ones, zeros, zeros, 2 * ones[:, 0], 2.0, 0).free
+    for w, steps in [(120.0, 1), (750.0, 4)]:
+        parameters = np.array([w**2, 2 * 0.1 * w, 0.002, 1.0])
+        general, free = np.empty((n, 3)), np.empty((n, 3))
+        backlash._compiled()(link.driving, parameters, steps, 1 / rate, 0.003, general)
+        backlash._compiled_free()(link.driving, parameters, steps, 1 / rate, 0.003, free)
+        assert np.array_equal(general, free) and np.ptp(free[:, 0]) > 2 * 0.002
+
+
 def test_a_quantised_loop_s_hunting_is_not_a_dead_band(tmp_path):
     """The tests' axis under PD with a 12-bit encoder and nothing missing: its loop hunts about the quantised reading,
     which the second mass's rattle fitted as a band of 2.2 counts (18 % of the residual, held out too) before a band

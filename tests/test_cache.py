@@ -325,3 +325,27 @@ def test_a_warm_simulation_reads_the_plant_and_integrates_the_same(folder: Path,
     monkeypatch.setattr(simulator, "plant_product", lambda: failing)
     warm = simulator.simulate(symbolic.derive(robot), log, controller=table, initial=(np.zeros(2), np.zeros(2)))
     assert np.array_equal(warm.simulated.q, first.simulated.q) and np.array_equal(warm.simulated.tau, first.simulated.tau)
+
+
+def test_base_parameter_bounds_are_read_back_from_the_cache(folder: Path, tmp_path: Path, monkeypatch) -> None:
+    """beta_bounds' SymPy work is kept on disk (issue 38): a second model of the same description reads the bounds,
+    the same numbers; other names bounded or other parameters known are another entry."""
+    from symbolic.identify import known as known_module
+    from symbolic.identify.model import model_base
+
+    def bounds(model, names=None, known=frozenset()):
+        reg, base = model_base(model)
+        return known_module.beta_bounds(model, reg, base, base.names if names is None else names, set(known))
+
+    model = symbolic.derive(symbolic.load(arm(tmp_path)))
+    first = bounds(model)
+    assert first and len(entries(folder, "base_parameter_bounds")) == 1
+    monkeypatch.setattr(known_module, "_beta_bounds", fail)
+    again = symbolic.derive(symbolic.load(arm(tmp_path)))
+    assert again is not model and bounds(again) == first
+    monkeypatch.undo()
+    monkeypatch.setenv("SYMBOLIC_CACHE_DIR", str(folder))
+    model = symbolic.derive(symbolic.load(arm(tmp_path)))
+    some = model_base(model)[1].names[:1]
+    assert bounds(model, some) == {k: v for k, v in first.items() if k in some}
+    assert len(entries(folder, "base_parameter_bounds")) == 2

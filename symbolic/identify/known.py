@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
+import json
 import weakref
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -15,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from symbolic import cache as disk
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.derivation.regressor import Regressor
 from symbolic.description.robot import Directional, Robot, coordinate_symbol, velocity_symbol
@@ -188,13 +191,34 @@ def beta_bounds(model: DynamicModel, reg: Regressor, base: BaseParameters, names
     upper_u) and likewise the upper bound (a sum of masses with positive coefficients is ≥ its known part);
     the bounded least squares of :func:`symbolic.identify.least_squares.solve` enforces them. Bases with a
     product of unknowns get none. Computed once per
-    model, base and sets (0.4 s of SymPy for the Panda's 43 base parameters; the workflow fits several times).
+    model, base and sets (0.4 s of SymPy for the Panda's 43 base parameters; the workflow fits several times),
+    and kept in the cache folder (:mod:`symbolic.cache`) under :func:`_bounds_key`: a diagnosis in a second
+    process reads them (0.08 s a model for the Panda) instead.
     """
     key = (base.names, tuple(names), frozenset(known))
     cache = _BOUNDS.setdefault(model, {})
     if key not in cache:
-        cache[key] = _beta_bounds(model, reg, base, names, known)
+        stored = _bounds_key(model, base, names, known)
+        found = disk.load(BOUNDS_ENTRY, stored)
+        if found is not None and isinstance(found[0], dict):
+            cache[key] = found[0]
+        else:
+            cache[key] = _beta_bounds(model, reg, base, names, known)
+            disk.save(BOUNDS_ENTRY, stored, cache[key])
     return dict(cache[key])
+
+
+BOUNDS_ENTRY = "base parameter bounds"
+"""The kind of :func:`beta_bounds`' entries in the cache folder."""
+
+
+def _bounds_key(model: DynamicModel, base: BaseParameters, names: Sequence[str], known: set[sp.Symbol]) -> str:
+    """What :func:`beta_bounds` is a function of, as the key of its cache entry: the robot description's digest
+    (its parameters, their values and bounds; the regressor and its θ follow from it), the base (its names, the
+    columns kept and the regrouping K: β = θ_b + K·θ_d), the names bounded and the parameters known."""
+    text = json.dumps([model.products.digest, list(base.names), list(base.independent), list(base.dependent),
+                       np.asarray(base.K, dtype=float).tobytes().hex(), list(names), sorted(map(str, known))])
+    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def _beta_bounds(model: DynamicModel, reg: Regressor, base: BaseParameters, names: Sequence[str],

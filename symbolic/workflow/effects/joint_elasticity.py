@@ -650,6 +650,14 @@ class LinkSide:
         own = self.index
         return np.ascontiguousarray(np.column_stack([self.torque, self.own, self.stiffness[:, own], self.damping[:, own]]))
 
+    @functools.cached_property
+    def free(self) -> bool:
+        """Whether the link is a free unit load: D_jj = 1 at every sample, A_jj = B_jj = 0 and ``mean`` 1 (the load
+        of :class:`~symbolic.workflow.effects.backlash.LoadBacklash`), which :func:`~symbolic.workflow.effects.backlash.rattle`
+        integrates without those terms."""
+        driving = self.driving
+        return self.mean == 1.0 and bool(np.all(driving[:, 1] == 1.0)) and not driving[:, 2:].any()
+
 
 _LINK_SIDES: "weakref.WeakKeyDictionary[Any, dict[int, LinkSide]]" = weakref.WeakKeyDictionary()
 """The link sides per signals and coordinate: a grid scan asks for them at every value."""
