@@ -148,24 +148,6 @@ def test_every_length_and_column_count_around_the_blocks(monkeypatch: pytest.Mon
                                    atol=1e-12 * np.abs(reference).max())
 
 
-@pytest.mark.parametrize("factor", [2, 3, 5, 7, 10, 13, 20, 30, 48, 49, 97])
-def test_decimation_around_its_blocks(factor: int, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Decimating by d ≤ BLOCK runs blocks of the multiple of d nearest to BLOCK and computes the backward pass
-    on the kept samples' rows only (:func:`~symbolic.data.filters.block_size`): signals ending anywhere in such a
-    block and around a group of them, columns in several lots, against SciPy (a factor above BLOCK, and one no
-    multiple fits, take the full pass)."""
-    monkeypatch.setattr(filters, "COLUMNS", 3)
-    size = filters.block_size(factor)
-    assert size % factor == 0 if factor <= filters.BLOCK else size == filters.BLOCK
-    sos = scipy.signal.cheby1(8, 0.05, 0.8 / factor, output="sos")
-    group = size * filters.GROUP
-    lengths = [*range(25, 25 + size + 2, 3), *range(group - 26, group - 22), *range(2 * group - 2, 2 * group + 2)]
-    for samples in lengths:
-        x = _walk(samples, 7, seed=samples) + 10.0
-        reference = _scipy_filtfilt(sos, x, 24, 0)[filters.kept_indices(samples, factor)]
-        np.testing.assert_allclose(filters.decimate(x, factor), reference, rtol=0, atol=1e-10 * np.abs(reference).max())
-
-
 def test_arrays_of_any_shape_along_any_axis() -> None:
     x = _walk(600, 12, seed=3).reshape(600, 3, 4).transpose(1, 0, 2)  # samples on axis 1, not contiguous
     reference = _scipy_filtfilt(scipy.signal.butter(2, 0.05, output="sos"), x, 6, 1)

@@ -183,8 +183,7 @@ def _digital_lowpass(poles: np.ndarray, gain: float, cutoff: float) -> np.ndarra
 
 BLOCK = 48
 """Samples per block of :func:`_filtfilt`'s block state-space filter: the Toeplitz product costs
-``BLOCK`` multiply-adds per sample and column, the sequential loop runs over ``samples/BLOCK`` blocks. When it
-decimates by d ≤ BLOCK, the blocks are the multiple of d nearest to it (:func:`block_size`)."""
+``BLOCK`` multiply-adds per sample and column, the sequential loop runs over ``samples/BLOCK`` blocks."""
 
 GROUP = 16
 """Blocks per group: the states at the groups' starts are carried from group to group in extended precision
@@ -225,19 +224,10 @@ class _Blocks:
     """State of the sections at rest under a constant unit input (``scipy.signal.sosfilt_zi``), n."""
     gain: float
     """Gain at DC, ``Π Σb/Σa`` over the sections."""
-    size: int = BLOCK
-    """Samples per block (``BLOCK`` above)."""
-
-
-def block_size(step: int) -> int:
-    """The samples per block of :func:`_filtfilt` keeping every ``step``-th sample: the multiple of ``step`` nearest
-    to :data:`BLOCK` for 2 ≤ step ≤ BLOCK (10 → 50), so that the kept samples fall on the same rows of every block
-    and the backward pass computes those rows only (a tenth of its products when decimating by 10); else BLOCK."""
-    return step * max(1, round(BLOCK / step)) if 2 <= step <= BLOCK else BLOCK
 
 
 @functools.lru_cache(maxsize=32)
-def _blocks(sos: bytes, sections: int, size: int = BLOCK) -> _Blocks:
+def _blocks(sos: bytes, sections: int) -> _Blocks:
     """:class:`_Blocks` of the sections whose float64 bytes are ``sos`` (a hashable key), n = 2·sections.
 
     ``T``, ``O``, ``A`` and ``C`` are measured by running the sections sample by sample (the recursion
@@ -248,19 +238,19 @@ def _blocks(sos: bytes, sections: int, size: int = BLOCK) -> _Blocks:
     """
     coefficients = np.frombuffer(sos).reshape(sections, 6)
     n = 2 * sections
-    impulses = np.zeros((size, size + n))
-    impulses[:, :size] = np.eye(size)
-    states = np.zeros((n, size + n))
-    states[:, size:] = np.eye(n)
+    impulses = np.zeros((BLOCK, BLOCK + n))
+    impulses[:, :BLOCK] = np.eye(BLOCK)
+    states = np.zeros((n, BLOCK + n))
+    states[:, BLOCK:] = np.eye(n)
     y, end = _recursion(*(m.astype(np.longdouble) for m in (coefficients, impulses, states)))
-    toeplitz, free, transition = y[:, :size].astype(float), y[:, size:].astype(float), end[:, size:]
+    toeplitz, free, transition = y[:, :BLOCK].astype(float), y[:, BLOCK:].astype(float), end[:, BLOCK:]
     powers = [np.eye(n, dtype=np.longdouble)]
     for _ in range(GROUP):
         powers.append(transition @ powers[-1])
     return _Blocks(np.hstack((toeplitz, free)), np.hstack((toeplitz[::-1, ::-1], free[::-1])),
-                   np.ascontiguousarray(end[:, :size], dtype=float),
-                   np.ascontiguousarray(end[:, size - 1 :: -1], dtype=float), transition.astype(float),
-                   np.array(powers[GROUP - 1 :: -1], dtype=float), powers[GROUP], *_rest(coefficients), size)
+                   np.ascontiguousarray(end[:, :BLOCK], dtype=float),
+                   np.ascontiguousarray(end[:, BLOCK - 1 :: -1], dtype=float), transition.astype(float),
+                   np.array(powers[GROUP - 1 :: -1], dtype=float), powers[GROUP], *_rest(coefficients))
 
 
 def _recursion(sos: np.ndarray, u: np.ndarray, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -320,25 +310,16 @@ def _filtfilt(sos: np.ndarray, x: np.ndarray, padlen: int, axis: int, keep: np.n
     x = np.moveaxis(x, axis, 0)
     shape = x.shape
     x = x.reshape(shape[0], -1)
+    blocks = _blocks(np.ascontiguousarray(sos, dtype=float).tobytes(), len(sos))
     keep = np.arange(shape[0]) if keep is None else keep
-    step = _step(keep) if len(keep) < shape[0] else 1
-    blocks = _blocks(np.ascontiguousarray(sos, dtype=float).tobytes(), len(sos), block_size(step))
     out = np.empty((len(keep), x.shape[1]))
     # one working memory for every lot of columns: fresh pages cost as much as the filtering
-    count = _layout(shape[0], padlen, blocks.size)[2]
-    work = np.empty(2 * (blocks.size + len(blocks.rest)) * count * min(COLUMNS, x.shape[1]))
+    count = _layout(shape[0], padlen)[2]
+    work = np.empty(2 * (BLOCK + len(blocks.rest)) * count * min(COLUMNS, x.shape[1]))
     for first in range(0, x.shape[1], COLUMNS):
         columns = slice(first, first + COLUMNS)
         _filtfilt_columns(blocks, x[:, columns], padlen, keep, out[:, columns], work)
     return np.moveaxis(out.reshape((len(keep),) + shape[1:]), 0, axis)
-
-
-def _step(keep: np.ndarray) -> int:
-    """The common step of the increasing indices ``keep`` (every ``step``-th sample), or 0 when there is none."""
-    if len(keep) < 2:
-        return 0
-    step = int(keep[1] - keep[0])
-    return step if np.array_equal(np.diff(keep), np.full(len(keep) - 1, step)) else 0
 
 
 def _filtfilt_columns(blocks: _Blocks, x: np.ndarray, padlen: int, keep: np.ndarray, out: np.ndarray,
@@ -356,53 +337,38 @@ def _filtfilt_columns(blocks: _Blocks, x: np.ndarray, padlen: int, keep: np.ndar
     then reaches that sample still at rest on it).
     """
     samples, width = x.shape
-    n, size = len(blocks.rest), blocks.size
-    lead, total, count = _layout(samples, padlen, size)
+    n = len(blocks.rest)
+    lead, total, count = _layout(samples, padlen)
     head = 2 * x[0] - x[padlen:0:-1]
     tail = 2 * x[-1] - x[-2 : -(padlen + 2) : -1]
     start = head[0].copy()
-    room = (size + n) * count * width
-    one, two = work[:room].reshape(size + n, count, width), work[room : 2 * room].reshape(size + n, count, width)
-    data = one[:size].transpose(1, 0, 2)  # count × size × width view, sample order
+    size = (BLOCK + n) * count * width
+    one, two = work[:size].reshape(BLOCK + n, count, width), work[size : 2 * size].reshape(BLOCK + n, count, width)
+    data = one[:BLOCK].transpose(1, 0, 2)  # count × BLOCK × width view, sample order
     data[0] = 0.0  # the lead: the first sample less itself
-    data[total // size :] = 0.0  # after the end: any value (the forward outputs there are replaced)
+    data[total // BLOCK :] = 0.0  # after the end: any value (the forward outputs there are replaced)
     _put(data, lead, head, start)
     _put(data, lead + padlen, x, start)
     _put(data, lead + padlen + samples, tail, start)
     _pass(blocks, blocks.forward, blocks.inputs, one, two, False, 0.0 * start)
-    data = two[:size].transpose(1, 0, 2)
-    end = data[(total - 1) // size, (total - 1) % size].copy()
-    _put(data, total, np.broadcast_to(end, (count * size - total, width)))
-    offset = -blocks.gain**2 * start
+    data = two[:BLOCK].transpose(1, 0, 2)
+    end = data[(total - 1) // BLOCK, (total - 1) % BLOCK].copy()
+    _put(data, total, np.broadcast_to(end, (count * BLOCK - total, width)))
+    _pass(blocks, blocks.backward, blocks.inputs_reversed, two, one, True, end)
+    data, offset = one[:BLOCK].transpose(1, 0, 2), -blocks.gain**2 * start
     if len(keep) == samples:
-        _pass(blocks, blocks.backward, blocks.inputs_reversed, two, one, True, end)
-        _get(one[:size].transpose(1, 0, 2), lead + padlen, out, offset)
-        return
-    index = lead + padlen + keep
-    step = _step(keep)
-    if step < 2 or size % step:
-        _pass(blocks, blocks.backward, blocks.inputs_reversed, two, one, True, end)
-        data = one[:size].transpose(1, 0, 2)
-        np.subtract(data[index // size, index % size], offset, out=out)
-        return
-    # every kept sample on the rows ``rows`` of its block (size a multiple of the step): the backward pass's
-    # outputs on those rows only, one product of its rows of [T | O] (the same dot products as the full pass)
-    _pass(blocks, blocks.backward, blocks.inputs_reversed, two, None, True, end)
-    first = int(index[0])
-    rows = np.arange(first % size % step, size, step)
-    kept = np.matmul(blocks.backward[rows], two.reshape(size + n, count * width))
-    kept = kept.reshape(len(rows), count, width).transpose(1, 0, 2).reshape(count * len(rows), width)
-    at = first // size * len(rows) + (first % size) // step
-    np.subtract(kept[at : at + len(keep)], offset, out=out)
+        _get(data, lead + padlen, out, offset)
+    else:
+        index = lead + padlen + keep
+        np.subtract(data[index // BLOCK, index % BLOCK], offset, out=out)
 
 
-def _layout(samples: int, padlen: int, size: int = BLOCK) -> tuple[int, int, int]:
+def _layout(samples: int, padlen: int) -> tuple[int, int, int]:
     """The lead (zeros before the extended signal, to start it on a block boundary), the samples to the
-    extended signal's end, and the blocks (a whole number of groups) of :func:`_filtfilt_columns`, blocks of
-    ``size`` samples."""
-    lead = -padlen % size
+    extended signal's end, and the blocks (a whole number of groups) of :func:`_filtfilt_columns`."""
+    lead = -padlen % BLOCK
     total = lead + samples + 2 * padlen
-    return lead, total, -(-total // (size * GROUP)) * GROUP
+    return lead, total, -(-total // (BLOCK * GROUP)) * GROUP
 
 
 def _pass(blocks: _Blocks, matrix: np.ndarray, inputs: np.ndarray, source: np.ndarray, target: np.ndarray,
@@ -411,13 +377,11 @@ def _pass(blocks: _Blocks, matrix: np.ndarray, inputs: np.ndarray, source: np.nd
     ``source[:BLOCK]`` (BLOCK × blocks × columns), the blocks taken from the last if ``reverse``, starting
     at rest on ``first``; the states go to ``source[BLOCK:]`` and the outputs to ``target[:BLOCK]``."""
     _, count, width = source.shape
-    size = blocks.size
     flat = source.reshape(source.shape[0], count * width)
-    driven = (inputs @ flat[:size]).reshape(-1, count, width)
+    driven = (inputs @ flat[:BLOCK]).reshape(-1, count, width)
     order = slice(None, None, -1 if reverse else 1)
-    source[size:, order] = _states(blocks, driven[:, order], first)
-    if target is not None:  # None: the states only (the caller computes the outputs it keeps)
-        np.matmul(matrix, flat, out=target[:size].reshape(size, count * width))
+    source[BLOCK:, order] = _states(blocks, driven[:, order], first)
+    np.matmul(matrix, flat, out=target[:BLOCK].reshape(BLOCK, count * width))
 
 
 def _states(blocks: _Blocks, driven: np.ndarray, first: np.ndarray) -> np.ndarray:
@@ -454,15 +418,15 @@ def _states(blocks: _Blocks, driven: np.ndarray, first: np.ndarray) -> np.ndarra
 def _put(blocks: np.ndarray, start: int, data: np.ndarray, offset: np.ndarray | float = 0.0) -> None:
     """Write ``data − offset`` (samples × columns) from sample ``start`` into ``blocks`` (blocks × BLOCK ×
     columns)."""
-    done, size = 0, blocks.shape[1]
+    done = 0
     while done < len(data):
-        k, i = divmod(start + done, size)
-        whole = (len(data) - done) // size if i == 0 else 0
+        k, i = divmod(start + done, BLOCK)
+        whole = (len(data) - done) // BLOCK if i == 0 else 0
         if whole:
-            np.subtract(data[done : done + whole * size].reshape(whole, size, -1), offset, out=blocks[k : k + whole])
-            done += whole * size
+            np.subtract(data[done : done + whole * BLOCK].reshape(whole, BLOCK, -1), offset, out=blocks[k : k + whole])
+            done += whole * BLOCK
         else:
-            step = min(size - i, len(data) - done)
+            step = min(BLOCK - i, len(data) - done)
             np.subtract(data[done : done + step], offset, out=blocks[k, i : i + step])
             done += step
 
@@ -470,14 +434,14 @@ def _put(blocks: np.ndarray, start: int, data: np.ndarray, offset: np.ndarray | 
 def _get(blocks: np.ndarray, start: int, out: np.ndarray, offset: np.ndarray) -> None:
     """Write ``len(out)`` samples from sample ``start`` of ``blocks`` (blocks × BLOCK × columns), minus
     ``offset``, to ``out``."""
-    done, samples, size = 0, len(out), blocks.shape[1]
+    done, samples = 0, len(out)
     while done < samples:
-        k, i = divmod(start + done, size)
-        whole = (samples - done) // size if i == 0 else 0
+        k, i = divmod(start + done, BLOCK)
+        whole = (samples - done) // BLOCK if i == 0 else 0
         if whole:
-            np.subtract(blocks[k : k + whole], offset, out=out[done : done + whole * size].reshape(whole, size, -1))
-            done += whole * size
+            np.subtract(blocks[k : k + whole], offset, out=out[done : done + whole * BLOCK].reshape(whole, BLOCK, -1))
+            done += whole * BLOCK
         else:
-            step = min(size - i, samples - done)
+            step = min(BLOCK - i, samples - done)
             np.subtract(blocks[k, i : i + step], offset, out=out[done : done + step])
             done += step
