@@ -23,6 +23,7 @@ from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import PRECEDENCE, PRECEDENCE_FUNCTIONS, PRECEDENCE_VALUES
 from sympy.printing.precedence import precedence as sympy_precedence
 
+from symbolic.derivation.subexpressions import extracts_minus_sign
 from symbolic.description.robot import C_KEYWORDS  # noqa: F401  (defined by the spec, which refuses them as model names)
 
 
@@ -121,16 +122,14 @@ def precedence(item: object) -> int:
 
     SymPy's walks the item's class hierarchy on every call, and for a product asks ``could_extract_minus_sign``,
     which builds the negated product to compare (a third of printing a large program). Here: for a product, the
-    same test of its factors, then whether its leading coefficient is a negative number (what
-    ``Mul.could_extract_minus_sign`` answers: the comparison with the negation only matters for ``zoo``, not
-    negative); for a class whose precedence does not depend on the item, SymPy's answer kept per class.
+    same test of its factors, then the derivation's sign test (:func:`~symbolic.derivation.subexpressions.extracts_minus_sign`:
+    whether its leading coefficient is a negative number); for a class whose precedence does not depend on the item, SymPy's answer kept per class.
     """
     kind = type(item)
     if kind is sp.Mul:
         if any(hasattr(arg, "precedence") and isinstance(arg, sp.Function) and arg.precedence < _MUL for arg in item.args):
             return _MUL
-        c = item.args[0]
-        return _ADD if c.is_Number and c.is_extended_negative else _MUL
+        return _ADD if extracts_minus_sign(item) else _MUL
     fixed = _FIXED_PRECEDENCE.get(kind)
     if fixed is not None:
         return fixed

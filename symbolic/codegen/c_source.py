@@ -15,12 +15,12 @@ import sympy as sp
 
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.derivation.products import Product
+from symbolic.derivation.subexpressions import symbols_in
 from symbolic.codegen.c_printer import PRECISIONS, CPrinter, c_double, c_float, check_precision
 from symbolic.codegen.exported import (
     batched_programs, function_specs, input_symbols, model_regressor, programs, solved_specs,
 )
 from symbolic.codegen.naming import check_c_name, comment_text
-from symbolic.codegen.program import symbols_in
 from symbolic.codegen.templates import render
 
 

@@ -27,7 +27,7 @@ from functools import cached_property
 
 import sympy as sp
 
-from symbolic.derivation.subexpressions import Subexpressions, count_operations
+from symbolic.derivation.subexpressions import Subexpressions, count_operations, symbols_in
 
 LARGE_PROGRAM = 2500
 """Definitions and outputs above which a program is large (:func:`build_program`'s ``large``): only repeated
@@ -107,22 +107,6 @@ def build_program(sub: Subexpressions, outputs: Sequence[sp.Expr], local_prefix:
     substitute = _substitution(large)
     final = tuple((rename[s], substitute(statements[s], rename)) for s in emitted)
     return Program(final, tuple(substitute(e, rename) for e in reduced_outputs), large)
-
-
-def symbols_in(expr: sp.Basic) -> set[sp.Symbol]:
-    """``expr.free_symbols``, collected by one walk instead of SymPy's union of sets at every node (sums, products,
-    powers and functions hold no bound symbols; anything else answers for itself)."""
-    out: set[sp.Symbol] = set()
-    stack = [expr]
-    while stack:
-        node = stack.pop()
-        if node.is_Symbol:
-            out.add(node)
-        elif node.is_Add or node.is_Mul or node.is_Pow or node.is_Function:
-            stack.extend(node.args)
-        elif not node.is_Atom:
-            out |= node.free_symbols
-    return out
 
 
 _LOCALS: dict[str, sp.Symbol] = {}

@@ -52,6 +52,22 @@ def partial(expr: sp.Expr, symbol: sp.Symbol) -> sp.Expr:
     return expr.diff(symbol)
 
 
+def symbols_in(expr: sp.Basic) -> set[sp.Symbol]:
+    """``expr.free_symbols``, collected by one walk instead of SymPy's union of sets at every node (sums, products,
+    powers and functions hold no bound symbols; anything else answers for itself)."""
+    out: set[sp.Symbol] = set()
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        if node.is_Symbol:
+            out.add(node)
+        elif node.is_Add or node.is_Mul or node.is_Pow or node.is_Function:
+            stack.extend(node.args)
+        elif not node.is_Atom:
+            out |= node.free_symbols
+    return out
+
+
 def extracts_minus_sign(expr: sp.Expr) -> bool:
     """``expr.could_extract_minus_sign()``, the same answer, without building ``-expr`` and sort keys where it can.
 
@@ -274,10 +290,10 @@ class _Memo:
         self._operations: dict[sp.Expr, int] = {}
 
     def free(self, expr: sp.Expr) -> frozenset[sp.Symbol]:
-        """``expr.free_symbols`` (a walk of the whole expression each time SymPy is asked)."""
+        """``expr.free_symbols`` (:func:`symbols_in`; SymPy's walks the whole expression each time it is asked)."""
         found = self._free.get(expr)
         if found is None:
-            found = self._free[expr] = frozenset(expr.free_symbols)
+            found = self._free[expr] = frozenset(symbols_in(expr))
         return found
 
     def symbols(self, expr: sp.Expr) -> list[sp.Symbol]:
