@@ -402,6 +402,8 @@ class Plant:
     n: int
     rhs: ca.Function
     bias: ca.Function
+    mass: ca.Function
+    """D(q, p), the inertia matrix: the linearly implicit sub-steps' matrix (:func:`_implicit_sample`)."""
     closed_loops: dict = field(default_factory=dict, repr=False)
     """The closed loops built on this plant (compiled chunks), by controller structure (:func:`_closed_loop`)."""
     @functools.cached_property
@@ -424,7 +426,19 @@ class Plant:
     def __reduce__(self) -> tuple:
         # pickled for the cache folder without the closed loops of this process (their libraries are
         # files of their own there); CasADi functions pickle through their serialisation
-        return Plant, (self.n, self.rhs, self.bias)
+        return Plant, (self.n, self.rhs, self.bias, self.mass)
+
+    @functools.cached_property
+    def linearised(self) -> ca.Function:
+        """``(x, p, eps, t) -> (D, B, K)``: the inertia matrix, B = ∂bias/∂q̇ at x (friction's smoothed sign, the
+        Coriolis terms) and K = ∂bias/∂q at rest (gravity, springs, the elastic forces): ∂q̈/∂x ≈ −D⁻¹[K B]
+        without the terms of ∂D/∂q, for the linearly implicit sub-steps (:func:`_implicit_sample`)."""
+        n = self.n
+        x, p, eps, t = ca.SX.sym("x", 2 * n), ca.SX.sym("p", self.rhs.size1_in(2)), ca.SX.sym("eps"), ca.SX.sym("t")
+        q, qd = x[:n], x[n:]
+        B = ca.jacobian(self.bias(q, qd, p, eps, t), qd)
+        K = ca.jacobian(self.bias(q, ca.SX.zeros(n), p, eps, t), q)
+        return ca.Function("linearised", [x, p, eps, t], [self.mass(q, p), B, K])
 
 
 def _plant(model: DynamicModel) -> Plant:
@@ -440,7 +454,7 @@ def plant_product() -> Product[Plant]:
     :class:`~symbolic.derivation.products.Product` comes with SymPy."""
     from symbolic.derivation.products import Product
 
-    return Product(f"simulation plant (CasADi {ca.__version__})", _build_plant, persist=True)
+    return Product(f"simulation plant with its inertia matrix (CasADi {ca.__version__})", _build_plant, persist=True)
 
 
 def _build_plant(model: DynamicModel) -> Plant:
@@ -460,7 +474,8 @@ def _build_plant(model: DynamicModel) -> Plant:
     qdd = cholesky_solve(D, tau - bias)
     rhs = ca.Function("rhs", [ca.vertcat(q, qd), tau, p, eps, t], [ca.vertcat(qd, qdd)], ["x", "tau", "p", "eps", "t"],
                       ["xdot"])
-    return Plant(n, rhs, ca.Function("bias", [q, qd, p, eps, t], [bias], ["q", "qd", "p", "eps", "t"], ["bias"]))
+    return Plant(n, rhs, ca.Function("bias", [q, qd, p, eps, t], [bias], ["q", "qd", "p", "eps", "t"], ["bias"]),
+                 ca.Function("mass", [q, p], [D], ["q", "p"], ["D"]))
 
 
 # -- what a simulation reads of a model, kept apart from its expressions ------------------------------------
@@ -907,8 +922,9 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     if signed:
         v, a = x[n:][signed], xdot[n:][signed]
         clear = ca.mmin(ca.fabs(v) - 2 * period * ca.fabs(a)) > CALM_MARGIN * E
-        x_next = ca.Function.conditional("rk4_sample", [steps], _rk4_sample(plant, period, calm))(
-            clear, x, xdot, tau, P, E, t_k)  # index 0 (not clear): every sub-step; 1: the calm ones
+        x_next = ca.Function.conditional("sample", [_stiff_sample(plant, period, substeps, calm)],
+                                         _rk4_sample(plant, period, calm))(
+            clear, x, xdot, tau, P, E, t_k)  # index 0 (not clear): a stiff sample; 1: the calm sub-steps
     else:
         x_next = steps(x, xdot, tau, P, E, t_k)
     return ca.Function("closed_loop_sample", [Z, W, P, C, E], [ca.vertcat(x_next, m_next, *history[:depth]),
@@ -931,6 +947,68 @@ def _rk4_sample(plant: Plant, period: float, substeps: int) -> ca.Function:
     x_next = x_first if substeps == 1 else \
         _repeat(rk4, substeps - 1, x_first, T, P, E, starts=S + h * ca.DM(range(1, substeps)).T)
     return ca.Function(f"rk4_sample_{substeps}", [X, K1, T, P, E, S], [x_next])
+
+
+IMPLICIT_PER_CALM = 8
+"""Linearly implicit sub-steps a stiff sample tries first, per sub-step of a calm sample (:func:`_stiff_sample`)."""
+
+IMPLICIT_TOLERANCE = 1.0
+"""A stiff sample keeps its linearly implicit sub-steps where every velocity's local error estimate is within
+this many ε (the smoothed sign's velocity scale, below which the model does not define friction's force); else it
+takes all the RK4 sub-steps (:func:`_stiff_sample`)."""
+
+ROS2_GAMMA = 1.0 + 1.0 / math.sqrt(2.0)
+"""γ of ROS2 (Verwer et al. 1999, eq. 2.3): L-stable, second order whatever the matrix J of its linear systems."""
+
+
+def _linearly_implicit_sample(plant: Plant, period: float, substeps: int) -> ca.Function:
+    """``(x, ẋ(x), tau, p, eps, t_k) -> (x after one sample, largest velocity error estimate)``: ``substeps``
+    steps of ROS2 (Verwer, Spee, Blom, Hundsdorfer 1999, eq. 2.3), W·k₁ = f(x), W·k₂ = f(x + h·k₁) − 2k₁,
+    x⁺ = x + h(3k₁ + k₂)/2, W = I − γhJ. J = [[0, I], [−D⁻¹K, −D⁻¹B]] (:attr:`Plant.linearised`): the sign's
+    steep damper and the springs are in it, the terms of ∂D/∂q are not — ROS2 is a W-method, second order for
+    any J, and stable where J holds the stiff part. W·[a; b] = [r₁; r₂] is solved as
+    (D + γhB + γ²h²K)·b = D·r₂ − γhK·r₁, a = r₁ + γh·b. The error estimate of a step is the velocity part of
+    x⁺ − (x + h·k₁) = h(k₁ + k₂)/2 (its embedded first-order solution)."""
+    n, h = plant.n, period / substeps
+    g = ROS2_GAMMA * h
+    X, T, K1 = ca.SX.sym("x", 2 * n), ca.SX.sym("tau", n), ca.SX.sym("k1", 2 * n)
+    P, E, S, R = ca.SX.sym("p", plant.rhs.size1_in(2)), ca.SX.sym("eps"), ca.SX.sym("t"), ca.SX.sym("r")
+    D, B, K = plant.linearised(X, P, E, S)
+    W = D + g * B + g * g * K
+
+    def solve(r: ca.SX) -> ca.SX:
+        b = ca.solve(W, ca.mtimes(D, r[n:]) - g * ca.mtimes(K, r[:n]))
+        return ca.vertcat(r[:n] + g * b, b)
+
+    k1 = solve(K1)
+    k2 = solve(plant.rhs(X + h * k1, T, P, E, S + h) - 2 * k1)
+    error = ca.mmax(ca.fabs(h / 2 * (k1 + k2)[n:]))
+    XR = ca.vertcat(X, R)  # the state and the largest error so far
+    after = ca.Function("ros2_stages", [XR, K1, T, P, E, S], [ca.vertcat(X + h / 2 * (3 * k1 + k2), ca.fmax(R, error))])
+    step = ca.Function("ros2", [XR, T, P, E, S], [after(XR, plant.rhs(X, T, P, E, S), T, P, E, S)])
+    x, k, tau, p, eps, t = (ca.MX.sym(name, v.sparsity()) for name, v in zip(("x", "k1", "tau", "p", "eps", "t"),
+                                                                           (X, K1, T, P, E, S)))
+    first = after(ca.vertcat(x, 0), k, tau, p, eps, t)
+    last = first if substeps == 1 else \
+        _repeat(step, substeps - 1, first, tau, p, eps, starts=t + h * ca.DM(range(1, substeps)).T)
+    return ca.Function(f"ros2_sample_{substeps}", [x, k, tau, p, eps, t], [last[:2 * n], last[2 * n]])
+
+
+def _stiff_sample(plant: Plant, period: float, substeps: int, calm: int) -> ca.Function:
+    """A sample that is not calm (:func:`sample_function`): :data:`IMPLICIT_PER_CALM`·``calm`` linearly implicit
+    sub-steps (:func:`_linearly_implicit_sample`), kept where their error estimate is within
+    :data:`IMPLICIT_TOLERANCE`·ε, else ``substeps`` RK4 sub-steps (a conditional: one branch runs). Where a
+    velocity sits in the sign's steep part — a joint held by its friction — the implicit steps follow the
+    stiff damper's equilibrium (the creep velocity) that RK4 resolves with hundreds of steps; where it crosses
+    or leaves it, their estimate is large and RK4 takes the sample."""
+    implicit, rk4 = _linearly_implicit_sample(plant, period, IMPLICIT_PER_CALM * calm), _rk4_sample(plant, period, substeps)
+    inputs = [ca.MX.sym(rk4.name_in(i), rk4.sparsity_in(i)) for i in range(rk4.n_in())]
+    x_implicit, error = implicit(*inputs)
+    y = ca.MX.sym("y", 2 * plant.n)
+    keep, redo = ca.Function("keep", [y, *inputs], [y]), ca.Function("redo", [y, *inputs], [rk4(*inputs)])
+    x_next = ca.Function.conditional("stiff", [redo], keep)(error <= IMPLICIT_TOLERANCE * inputs[4], x_implicit,
+                                                            *inputs)
+    return ca.Function(f"stiff_sample_{substeps}", inputs, [x_next])
 
 
 def _repeat(step: ca.Function, count: int, x: ca.MX, *args: ca.MX, starts: ca.MX) -> ca.MX:
