@@ -222,10 +222,17 @@ def search_response(model: DynamicModel, estimation: Measurements, held_out: Mea
             break
         log.info("diagnose %s: response round %d, %d candidate(s)", model.name, round_number, len(remaining))
         now = _now(model, estimation, accepted, last, source, scope)
-        judged = _judge_all(remaining, lambda c: _judge(model, c, scope.split(accepted, homes, c.coordinate),
-                                                        estimation, (held_out, held_from), current, signals,
-                                                        min_gain, source, now,
-                                                        c.effect.restarts(c, own_corrections.get(c.coordinate, {}))))
+
+        def judge(c: ResponseCandidate) -> Judged:
+            began = time.perf_counter()
+            out = _judge(model, c, scope.split(accepted, homes, c.coordinate), estimation, (held_out, held_from),
+                         current, signals, min_gain, source, now,
+                         c.effect.restarts(c, own_corrections.get(c.coordinate, {})))
+            log.info("diagnose %s: %s judged in %.1f s: %s", model.name, c.label(), time.perf_counter() - began,
+                     out.verdict or "passes")
+            return out
+
+        judged = _judge_all(remaining, judge)
         rounds.append(judged)
         passing = [j for j in judged if j.verdict is None]
         if not passing:
@@ -410,6 +417,7 @@ def _refit(model: DynamicModel, estimation: Measurements, held_out: tuple[Measur
     start = {n: _value(model, n) for n in scope.refitted}
     if not start:
         return None, None
+    log.info("diagnose %s: response refit of %d value(s) by the output error", model.name, len(start))
     try:
         fit = output_error(model, estimation, start=start, signals=signals, fix=fix, max_iterations=MAX_ITERATIONS,
                            tolerance=TOLERANCE)
@@ -420,6 +428,8 @@ def _refit(model: DynamicModel, estimation: Measurements, held_out: tuple[Measur
     moved = [{"parameter": n, "idim_ls": p.start, "output_error": p.value, "sigma": p.sigma}
              for n, p in fit.parameters.items()
              if abs(p.value - p.start) > max(3 * p.sigma, 0.1 * abs(p.start))]
+    log.info("diagnose %s: response refit done in %d iteration(s), held-out gain %.3g %%", model.name, fit.iterations,
+             100 * gain)
     return {"gain": gain, "accepted": bool(gain >= min_gain), "moved": moved, "held_out": held,
             "estimation": fit.errors, "converged": fit.converged}, fit
 

@@ -123,6 +123,18 @@ class Search:
         self._signals: dict[str, Signals] = {}
         self._references: dict[tuple[str, int], tuple | None] = {}
         self.separability = Separability(self)
+        self._floors: dict[int, np.ndarray | None] = {}
+
+    def quantisation_floor(self, j: int) -> np.ndarray | None:
+        """The encoders' rounding in the estimation residual's spectrum on coordinate ``j``, in force units
+        (:func:`~symbolic.workflow.where.quantisation_floor`), computed once."""
+        if j not in self._floors:
+            from symbolic.numeric import numeric_model
+            from symbolic.workflow.where import quantisation_floor
+
+            self._floors[j] = quantisation_floor(self.sets["estimation"], self.context.position_step,
+                                                 numeric_model(self.terms.model).inertia, j)
+        return self._floors[j]
 
     def _hypotheses(self) -> list[Group]:
         """The grouped hypotheses offered every round: each groupable effect, and those declared together
@@ -906,7 +918,7 @@ class _RoundState:
         # dominate it; on its own coordinate the 14-bit arm's null fit explained 55 % of q1's residual, the
         # 14-bit axis's real 8 Hz load 59 % (docs/workflow.md, "Name")
         c.invalid = effect.check(c.roles, c.reference, search.context, j) or \
-            effect.check_residual(c.roles, *self.residual_spectrum(j), c.stacked_share)
+            effect.check_residual(c.roles, *self.residual_spectrum(j), c.stacked_share, floor=self.residual_floor(j))
         if c.invalid is None and effect.nonlinear and scanned is not None:
             c.invalid = effect.scan_verdict(*scanned, search.context)
         return c
@@ -1069,6 +1081,12 @@ class _RoundState:
             residual = self.r0.reshape(self.n, self.n_samples)[j]
             self._spectra[j] = spectrum(residual, p.rate / p.decimation)
         return self._spectra[j]
+
+    def residual_floor(self, j: int) -> np.ndarray | None:
+        """The encoders' rounding in the residual's spectrum on coordinate ``j``, weighted as the residual is
+        (:meth:`Search.quantisation_floor`); ``None`` where there is none."""
+        floor = self.search.quantisation_floor(j)
+        return None if floor is None else floor * float(self.design.weights[j]) ** 2
 
     def scan(self, effect: Effect, j: int, values: np.ndarray) -> float | tuple[float, ...]:
         """The nonlinear parameter explaining most: the best grid value, refined between its neighbours

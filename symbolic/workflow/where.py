@@ -11,6 +11,7 @@ dependence significant at ``alpha``/(number of tests). The rules and why: docs/w
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -25,6 +26,39 @@ BINS = 10
 WINDOWS = 10
 REVERSAL = 0.05
 PEAK_RATIO = 10.0
+
+
+QUANTISATION_DRAWS = 8
+"""Draws of the encoders' rounding averaged in :func:`quantisation_floor` (seeded: the floor is the same each run)."""
+
+
+def quantisation_floor(data: DataSet, steps: Sequence[float], inertia: Callable[[np.ndarray], np.ndarray],
+                       j: int) -> np.ndarray | None:
+    """Welch spectrum (as :func:`spectrum` of coordinate ``j``'s residual) of the force error that encoders of
+    quanta ``steps`` leave in the inverse dynamics through q̈: each position's rounding, uniform on ±step/2 and
+    white at the log's rate, through the data's own treatment — the zero-phase low-pass, the two central
+    differences, the border and the decimation (:mod:`symbolic.data.treatment`) — times D_ji(q) at the kept
+    samples; the mean over :data:`QUANTISATION_DRAWS` seeded draws. Differentiated twice, the rounding's power
+    grows as f⁴ up to the decimation's edge, where the decimation filter cuts it: a hump just below the kept
+    band's edge, which a spectrum's median does not anticipate. ``None`` where nothing is quantised or the log
+    gives its own velocities (their errors are not the rounding's)."""
+    from symbolic.data.filters import central_difference, lowpass
+
+    steps = np.asarray(steps, dtype=float)
+    measurements, p = data.measurements, data.states.processing
+    if not np.any(steps > 0) or measurements.qd is not None or measurements.qdd is not None:
+        return None
+    h, rate = measurements.sample_period, measurements.rate
+    D = np.array([np.asarray(inertia(q))[j] for q in data.q])  # row j of D at each kept sample
+    rng = np.random.default_rng(0)
+    total = 0.0
+    for _ in range(QUANTISATION_DRAWS):
+        e = rng.uniform(-0.5, 0.5, (measurements.samples, len(steps))) * steps
+        if p.cutoff is not None:
+            e = lowpass(e, p.cutoff, rate, p.order)
+        qdd = p.reduce(central_difference(central_difference(e, h), h))
+        total = total + spectrum(np.einsum("ki,ki->k", D, qdd), rate / p.decimation)[1]
+    return total / QUANTISATION_DRAWS
 
 
 def _binned(state: np.ndarray, r: np.ndarray, tau: float) -> dict[str, Any]:

@@ -253,11 +253,13 @@ class Effect:
         every one 0 (a coefficient, a mass, an added inertia)."""
         return {name: 0.0 for name in written}
 
-    def check_residual(self, roles: Roles, frequency: np.ndarray, psd: np.ndarray, share: float) -> str | None:
+    def check_residual(self, roles: Roles, frequency: np.ndarray, psd: np.ndarray, share: float,
+                       floor: np.ndarray | None = None) -> str | None:
         """``None`` when the residual the effect is fitted to shows what it claims, else why not; ``frequency``
         and ``psd`` are the Welch spectrum of that residual on the effect's coordinate, ``share`` the part
-        of the whole (stacked) residual's power the effect explains. Default: nothing to check (a resonance
-        overrides this: it must ring)."""
+        of the whole (stacked) residual's power the effect explains, ``floor`` the part of ``psd`` the encoders'
+        rounding accounts for (:func:`~symbolic.workflow.where.quantisation_floor`; ``None``: none). Default:
+        nothing to check (a resonance overrides this: it must ring)."""
         return None
 
     def as_measured(self, patched: DynamicModel, parameters: Mapping[str, float], context: Context, j: int,
