@@ -164,7 +164,7 @@ class FlexibleMode(Effect):
     """A ringing's peak must stand this many times above the encoders' rounding at its frequency
     (:func:`~symbolic.workflow.where.quantisation_floor`): the 2-link arm under PD with a 14-bit encoder and nothing
     missing had a 15.8 Hz peak 1.9× above it, named as a resonance before this rule; the tests' real loads stand
-    10⁴–10⁵× above it."""
+    9·10⁴–5·10⁵× above it."""
 
     def as_measured(self, patched, parameters, context, j, roles, controller, period):
         from symbolic.workflow.modes import closed_loop_modes
