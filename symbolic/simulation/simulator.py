@@ -949,7 +949,7 @@ def _rk4_sample(plant: Plant, period: float, substeps: int) -> ca.Function:
     return ca.Function(f"rk4_sample_{substeps}", [X, K1, T, P, E, S], [x_next])
 
 
-IMPLICIT_PER_CALM = 8
+IMPLICIT_PER_CALM = 32
 """Linearly implicit sub-steps a stiff sample tries first, per sub-step of a calm sample (:func:`_stiff_sample`)."""
 
 IMPLICIT_TOLERANCE = 1.0
