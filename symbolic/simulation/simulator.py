@@ -9,7 +9,8 @@ canonical columns (t, q_c, qd_c, qdd_c, tau_c), so that it can be compared sampl
 
 How it integrates — the right-hand side in CasADi from the same straight-line program as the generated
 code, compiled and mapped over the samples; friction's sign smoothed as tanh(v/ε); m = ⌈T·ρ⌉ fixed RK4
-sub-steps per sample (ρ the spectral radius of ∂ẋ/∂x at rest) or SciPy's stiff methods on request; the
+sub-steps per sample (ρ the spectral radius of ∂ẋ/∂x at rest; fewer where every velocity is clear of the sign's
+steep part, linearly implicit ones where a joint is held by its friction) or SciPy's stiff methods on request; the
 initial state from the first samples — and why, with the measured effects of each choice, is
 docs/simulation.md ("Integration").
 """
@@ -403,7 +404,7 @@ class Plant:
     rhs: ca.Function
     bias: ca.Function
     mass: ca.Function
-    """D(q, p), the inertia matrix: the linearly implicit sub-steps' matrix (:func:`_implicit_sample`)."""
+    """D(q, p), the inertia matrix: the linearly implicit sub-steps' matrix (:func:`_linearly_implicit_sample`)."""
     closed_loops: dict = field(default_factory=dict, repr=False)
     """The closed loops built on this plant (compiled chunks), by controller structure (:func:`_closed_loop`)."""
     @functools.cached_property
@@ -432,7 +433,7 @@ class Plant:
     def linearised(self) -> ca.Function:
         """``(x, p, eps, t) -> (D, B, K)``: the inertia matrix, B = ∂bias/∂q̇ at x (friction's smoothed sign, the
         Coriolis terms) and K = ∂bias/∂q at rest (gravity, springs, the elastic forces): ∂q̈/∂x ≈ −D⁻¹[K B]
-        without the terms of ∂D/∂q, for the linearly implicit sub-steps (:func:`_implicit_sample`)."""
+        without the terms of ∂D/∂q, for the linearly implicit sub-steps (:func:`_linearly_implicit_sample`)."""
         n = self.n
         x, p, eps, t = ca.SX.sym("x", 2 * n), ca.SX.sym("p", self.rhs.size1_in(2)), ca.SX.sym("eps"), ca.SX.sym("t")
         q, qd = x[:n], x[n:]
@@ -905,7 +906,6 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     nc, nr = ctrl.size, ctrl.reference_size
     step_controller = control.controller_function(ctrl, names, period, external)
     P, E = ca.MX.sym("p", plant.rhs.size1_in(2)), ca.MX.sym("eps")
-    steps = _rk4_sample(plant, period, substeps)
     Z, W = ca.MX.sym("z", 2 * n + memory + depth * n), ca.MX.sym("w", nr + nc + n + 1 + (nc if external else 0))
     C = ca.MX.sym("c", step_controller.size1_in(5))
     x, m = Z[: 2 * n], Z[2 * n:2 * n + memory]
@@ -926,7 +926,7 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
                                          _rk4_sample(plant, period, calm))(
             clear, x, xdot, tau, P, E, t_k)  # index 0 (not clear): a stiff sample; 1: the calm sub-steps
     else:
-        x_next = steps(x, xdot, tau, P, E, t_k)
+        x_next = _rk4_sample(plant, period, substeps)(x, xdot, tau, P, E, t_k)
     return ca.Function("closed_loop_sample", [Z, W, P, C, E], [ca.vertcat(x_next, m_next, *history[:depth]),
                                                                  ca.vertcat(x, xdot[n:], tau, u)],
                        ["z", "w", "p", "c", "eps"], ["z_next", "y"])
