@@ -177,3 +177,21 @@ def test_the_replays_gaps_are_the_inverse_models(tmp_path: Path) -> None:
     assert replayed.before.detail == plain.before.detail and replayed.after.detail == plain.after.detail
     assert min(plain.before.detail["validation"].values()) > 0.1  # % : a gap to see, not the replay's 0
     assert any("replays the logged force" in n for n in replayed.notes)
+
+
+def test_held_out_data_without_a_controller_are_driven_as_the_estimation_experiment(tmp_path: Path) -> None:
+    """A ``--validate`` log that declares no ``[controller]`` is judged on its response under the estimation
+    experiment's (here the replay in windows: before, it was replayed in one run), with a note; a held-out log with
+    its own controller, or an estimation without one, is left as it is."""
+    from symbolic.workflow.diagnosis import carried_controller
+
+    estimation = load(_replayed(write_arm_experiment(tmp_path / "e", seconds=0.4, counts=0), 0.1))
+    plain = Measurements(t=estimation.t, q=estimation.q, qd=None, qdd=None, tau=estimation.tau,
+                         coordinates=estimation.coordinates, source="held.csv")
+    notes: list[str] = []
+    held = carried_controller(plain, estimation, notes)
+    assert held.controller is estimation.controller and held.controller.restart == 0.1
+    assert notes == ['the held-out data (held.csv) declare no [controller]: the search judged on the response drives '
+                     'them with the estimation experiment\'s (kind "torque")']
+    assert carried_controller(estimation, estimation, notes) is estimation
+    assert carried_controller(plain, plain, notes) is plain and len(notes) == 1

@@ -494,6 +494,7 @@ def _judge_response(patched: DynamicModel, sets: dict[str, DataSet], effects: Se
     from symbolic.workflow.response import search_response
 
     record, start = _held_record(sets)
+    record = carried_controller(record, sets["estimation"].measurements, notes)
     kept = [n for n in fix if n in {p.name for p in patched.robot.parameters}]
     try:
         return search_response(patched, sets["estimation"].measurements, record, held_from=start, effects=effects,
@@ -501,6 +502,18 @@ def _judge_response(patched: DynamicModel, sets: dict[str, DataSet], effects: Se
     except (DataError, IdentificationError, SimulationError) as error:
         notes.append(f"the search judged on the response did not run: {getattr(error, 'problem', None) or error}")
         return None
+
+
+def carried_controller(held: Measurements, estimation: Measurements, notes: list[str]) -> Measurements:
+    """``held`` driven as the estimation experiment is where it declares no ``[controller]`` of its own (a
+    ``--validate`` file of the same machine), with a note; the gaps' simulated path does the same
+    (:func:`simulated_path`). Unchanged where it declares one, or where the estimation data declare none."""
+    own, theirs = _controller(held), _controller(estimation)
+    if own is not None or theirs is None:
+        return held
+    notes.append(f"the held-out data ({held.source}) declare no [controller]: the search judged on the response "
+                 f"drives them with the estimation experiment's (kind \"{theirs.kind}\")")
+    return Experiment.of(held, controller=theirs)
 
 
 def _taken_back(corrections: Sequence[Mapping[str, Any]], values: Mapping[str, float], response: Any) -> list[str]:
