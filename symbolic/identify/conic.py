@@ -647,14 +647,20 @@ class Certificate:
 
     @property
     def ratio(self) -> float:
-        """cost / lower bound (≥ 1 up to the dual point's rounding)."""
-        return self.cost / self.lower_bound if self.lower_bound > 0 else (1.0 if self.cost <= 0 else float("inf"))
+        """cost / lower bound (≥ 1 up to the dual point's rounding); 1 where the cost is within its rounding."""
+        if self.cost <= self.floor:
+            return 1.0
+        return self.cost / self.lower_bound if self.lower_bound > 0 else float("inf")
 
     @property
     def guaranteed_ratio(self) -> float:
         """cost / (lower bound less what the dual point's rounding may take from it): the written parameters
         cost at most this times the global optimum; ∞ where a solve did not end (solved, or solved to
-        Clarabel's reduced tolerances) or the rounding may take more than :data:`DUAL_TOLERANCE` of the bound."""
+        Clarabel's reduced tolerances) or the rounding may take more than :data:`DUAL_TOLERANCE` of the bound.
+        1 where the cost itself is within the costs' rounding (``floor``): a cost is never below 0, the bound that
+        needs no dual point (noise-free data, where the dual point's rounding is all there is to its bound)."""
+        if self.cost <= self.floor:
+            return 1.0
         ended = ("Solved", "AlmostSolved")
         if self.status not in ended or self.dual_status not in ended or self.dual_error > DUAL_TOLERANCE * max(
                 self.lower_bound, self.floor):
