@@ -518,12 +518,15 @@ def test_a_changed_model_file_is_not_simulated_from_its_old_numbers(tmp_path: Pa
 def test_calm_and_stiff_samples_follow_the_exact_path(tmp_path: Path) -> None:
     """The 2-link arm with Coulomb friction on both joints under PD (exact encoder): RK4 needs hundreds of
     sub-steps a sample for the smoothed sign's damper and one without it, so a calm sample — every velocity clear
-    of zero over it — takes one, and a stiff one tries linearly implicit sub-steps before RK4's hundreds
-    (docs/simulation.md, "Calm samples"). Against the same run with four times the sub-steps everywhere, RK4's
-    hundreds in every sample are within 1e-7 rad; the calm and stiff samples within 1e-5 rad — the distance of
-    the smoothed sign itself to the exact stick/slip: on the axis (tests/reference_integrator.py), both runs are
-    within 1e-5 rad of the exact motion, and the calm and stiff one no farther than 1.05 times the other."""
+    of zero over it — takes one (docs/simulation.md, "Calm samples"). Against the same run with four times the
+    sub-steps everywhere, its positions are as close as those of the run with all the sub-steps in every sample
+    (1e-9 rad more allowed), and so are its forces; against the exact stick/slip axis
+    (tests/reference_integrator.py), the positions are within 1e-5 rad. With ε = 1e-5 the axis needs 801 RK4
+    sub-steps, enough for a stiff sample to try linearly implicit ones first ("Stiff samples"): its distance to the
+    exact motion is within 2e-6 rad and no more than 1.05 times that of RK4's 801 sub-steps in every sample."""
     from reference_integrator import axis_pd_run, reference_motion, write_arm_experiment, write_axis_experiment
+
+    from symbolic.simulation.simulator import IMPLICIT_PER_CALM, IMPLICIT_WORTH
 
     experiment = write_arm_experiment(tmp_path / "arm", seconds=3.0, counts=0)
     arm = symbolic.derive(symbolic.loads(models.arm(), "<arm>"))
@@ -536,17 +539,20 @@ def test_calm_and_stiff_samples_follow_the_exact_path(tmp_path: Path) -> None:
     def apart(run, signal: str) -> float:
         return float(np.abs(np.asarray(getattr(run.simulated, signal)) - np.asarray(getattr(finer.simulated, signal))).max())
 
-    assert apart(every, "q") < 1e-7
-    assert apart(calm, "q") < 1e-5
+    assert apart(calm, "q") <= 1.5 * apart(every, "q") + 1e-9
+    assert apart(calm, "tau") <= 1.5 * apart(every, "tau") + 1e-9
     path = write_axis_experiment(tmp_path / "axis", counts=0, seconds=4.0)
     axis = symbolic.derive(symbolic.loads(models.axis(), "<axis>"))
-    run = simulate(axis, path)
-    rk4 = simulate(axis, path, substeps=run.substeps)
     t = np.arange(4000) / 1000.0
     true, _, _ = axis_pd_run(t, reference_motion(t), 0.05, 0.3, 0.4, 20.0, 1.0, 0.0)
-    assert run.calm_substeps == 1 and rk4.calm_substeps == 0
-    distance = {name: np.abs(np.asarray(r.simulated.q)[:, 0] - true).max() for name, r in (("calm", run), ("rk4", rk4))}
-    assert max(distance.values()) < 1e-5 and distance["calm"] <= 1.05 * distance["rk4"]
+    run = simulate(axis, path)
+    assert run.calm_substeps == 1
+    assert np.abs(np.asarray(run.simulated.q)[:, 0] - true).max() < 1e-5
+    stiff = simulate(axis, path, friction_velocity=1e-5)
+    rk4 = simulate(axis, path, friction_velocity=1e-5, substeps=stiff.substeps)
+    assert stiff.calm_substeps == 1 and stiff.substeps >= IMPLICIT_WORTH * IMPLICIT_PER_CALM
+    distance = {name: np.abs(np.asarray(r.simulated.q)[:, 0] - true).max() for name, r in (("stiff", stiff), ("rk4", rk4))}
+    assert max(distance.values()) < 2e-6 and distance["stiff"] <= 1.05 * distance["rk4"]
 
 
 def test_linearly_implicit_steps_are_second_order_and_stable_where_rk4_is_not() -> None:

@@ -922,8 +922,9 @@ def sample_function(ctrl: control.Controller, plant: Plant, names: tuple[str, ..
     if signed:
         v, a = x[n:][signed], xdot[n:][signed]
         clear = ca.mmin(ca.fabs(v) - 2 * period * ca.fabs(a)) > CALM_MARGIN * E
-        x_next = ca.Function.conditional("sample", [_stiff_sample(plant, period, substeps, calm)],
-                                         _rk4_sample(plant, period, calm))(
+        stiff = _stiff_sample(plant, period, substeps, calm) if substeps >= IMPLICIT_WORTH * IMPLICIT_PER_CALM * calm \
+            else _rk4_sample(plant, period, substeps)
+        x_next = ca.Function.conditional("sample", [stiff], _rk4_sample(plant, period, calm))(
             clear, x, xdot, tau, P, E, t_k)  # index 0 (not clear): a stiff sample; 1: the calm sub-steps
     else:
         x_next = _rk4_sample(plant, period, substeps)(x, xdot, tau, P, E, t_k)
@@ -951,6 +952,12 @@ def _rk4_sample(plant: Plant, period: float, substeps: int) -> ca.Function:
 
 IMPLICIT_PER_CALM = 32
 """Linearly implicit sub-steps a stiff sample tries first, per sub-step of a calm sample (:func:`_stiff_sample`)."""
+
+IMPLICIT_WORTH = 8
+"""A stiff sample tries the implicit sub-steps only where RK4 takes at least this many times as many (m ≥
+8·32·m_soft): each costs about three evaluations of the dynamics and a solve, and its code a few seconds more of
+the compiler per closed loop (the 6-axis arm of tests/workflow_cases.py: 5.6 → 8.4 s for its first simulation
+from an empty cache), which a run of fewer RK4 sub-steps does not win back."""
 
 IMPLICIT_TOLERANCE = 1.0
 """A stiff sample keeps its linearly implicit sub-steps where every velocity's local error estimate is within
