@@ -349,14 +349,14 @@ def test_quantisation_floor_is_the_differentiated_rounding() -> None:
     data = treat(cases.measurements(models.axis(), 1, 0.01), "estimation")
     p, fs = data.states.processing, data.measurements.rate
     delta, J = 2 * np.pi / 2**14, 0.05
-    floor = quantisation_floor(data, [delta], lambda q: np.array([[J]]), 0)
+    floor = quantisation_floor(data, [delta], lambda q: np.array([[J]]))[0]
     f, _ = spectrum(data.tau[:, 0], p.rate / p.decimation)
     closed = J**2 * 2 * delta**2 / 12 / fs * (fs * np.sin(2 * np.pi * f / fs)) ** 4 / (1 + (f / p.cutoff) ** (2 * p.order)) ** 2
     edge = 0.8 * fs / 2 / p.decimation
     band = (f > 0.2 * edge) & (f < 0.8 * edge)
     ratio = floor[band] / closed[band]
     assert band.sum() > 40 and abs(ratio.mean() - 1) < 0.05 and 0.7 < ratio.min() and ratio.max() < 1.4
-    assert quantisation_floor(data, [0.0], lambda q: np.array([[J]]), 0) is None
+    assert quantisation_floor(data, [0.0], lambda q: np.array([[J]])) is None
 
 
 def test_a_14_bit_arm_with_nothing_missing_names_no_resonance(tmp_path: Path) -> None:

@@ -62,13 +62,14 @@ def lowpass(x: np.ndarray, cutoff: float, rate: float, order: int = 4, axis: int
     return _filtfilt(_butterworth(order, cutoff / nyquist), np.asarray(x, dtype=float), 3 * order, axis)
 
 
-def spectrum(r: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray]:
-    """Welch power spectral density of ``r`` (segments of up to 256 samples): the residual spectra of the
-    diagnosis and of the HTML reports."""
+def spectrum(r: np.ndarray, rate: float, axis: int = -1) -> tuple[np.ndarray, np.ndarray]:
+    """Welch power spectral density of ``r`` along ``axis`` (segments of up to 256 samples): the residual spectra
+    of the diagnosis and of the HTML reports."""
     import scipy.signal
 
-    segment = int(min(256, max(16, len(r) // 4)))
-    return scipy.signal.welch(r, fs=rate, nperseg=min(segment, len(r)), detrend="constant")
+    length = np.shape(r)[axis]
+    segment = int(min(256, max(16, length // 4)))
+    return scipy.signal.welch(r, fs=rate, nperseg=min(segment, length), detrend="constant", axis=axis)
 
 
 def central_difference(x: np.ndarray, step: float, axis: int = 0) -> np.ndarray:

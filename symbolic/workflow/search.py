@@ -123,18 +123,18 @@ class Search:
         self._signals: dict[str, Signals] = {}
         self._references: dict[tuple[str, int], tuple | None] = {}
         self.separability = Separability(self)
-        self._floors: dict[int, np.ndarray | None] = {}
+        self._floors: list[np.ndarray] | None = None
 
     def quantisation_floor(self, j: int) -> np.ndarray | None:
         """The encoders' rounding in the estimation residual's spectrum on coordinate ``j``, in force units
         (:func:`~symbolic.workflow.where.quantisation_floor`), computed once."""
-        if j not in self._floors:
+        if self._floors is None:
             from symbolic.numeric import numeric_model
             from symbolic.workflow.where import quantisation_floor
 
-            self._floors[j] = quantisation_floor(self.sets["estimation"], self.context.position_step,
-                                                 numeric_model(self.terms.model).inertia, j)
-        return self._floors[j]
+            self._floors = quantisation_floor(self.sets["estimation"], self.context.position_step,
+                                              numeric_model(self.terms.model).inertia) or []
+        return self._floors[j] if self._floors else None
 
     def _hypotheses(self) -> list[Group]:
         """The grouped hypotheses offered every round: each groupable effect, and those declared together

@@ -32,10 +32,10 @@ QUANTISATION_DRAWS = 8
 """Draws of the encoders' rounding averaged in :func:`quantisation_floor` (seeded: the floor is the same each run)."""
 
 
-def quantisation_floor(data: DataSet, steps: Sequence[float], inertia: Callable[[np.ndarray], np.ndarray],
-                       j: int) -> np.ndarray | None:
-    """Welch spectrum (as :func:`spectrum` of coordinate ``j``'s residual) of the force error that encoders of
-    quanta ``steps`` leave in the inverse dynamics through q̈: each position's rounding, uniform on ±step/2 and
+def quantisation_floor(data: DataSet, steps: Sequence[float], inertia: Callable[[np.ndarray], np.ndarray]
+                       ) -> list[np.ndarray] | None:
+    """Per coordinate j, the Welch spectrum (as :func:`spectrum` of j's residual) of the force error that encoders
+    of quanta ``steps`` leave in the inverse dynamics through q̈: each position's rounding, uniform on ±step/2 and
     white at the log's rate, through the data's own treatment — the zero-phase low-pass, the two central
     differences, the border and the decimation (:mod:`symbolic.data.treatment`) — times D_ji(q) at the kept
     samples; the mean over :data:`QUANTISATION_DRAWS` seeded draws. Differentiated twice, the rounding's power
@@ -49,7 +49,7 @@ def quantisation_floor(data: DataSet, steps: Sequence[float], inertia: Callable[
     if not np.any(steps > 0) or measurements.qd is not None or measurements.qdd is not None:
         return None
     h, rate = measurements.sample_period, measurements.rate
-    D = np.array([np.asarray(inertia(q))[j] for q in data.q])  # row j of D at each kept sample
+    D = np.array([np.asarray(inertia(q)) for q in data.q])  # D at each kept sample
     rng = np.random.default_rng(0)
     total = 0.0
     for _ in range(QUANTISATION_DRAWS):
@@ -57,8 +57,8 @@ def quantisation_floor(data: DataSet, steps: Sequence[float], inertia: Callable[
         if p.cutoff is not None:
             e = lowpass(e, p.cutoff, rate, p.order)
         qdd = p.reduce(central_difference(central_difference(e, h), h))
-        total = total + spectrum(np.einsum("ki,ki->k", D, qdd), rate / p.decimation)[1]
-    return total / QUANTISATION_DRAWS
+        total = total + spectrum(np.einsum("kji,ki->kj", D, qdd), rate / p.decimation, axis=0)[1]
+    return list((total / QUANTISATION_DRAWS).T)
 
 
 def _binned(state: np.ndarray, r: np.ndarray, tau: float) -> dict[str, Any]:
