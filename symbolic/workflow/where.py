@@ -18,6 +18,7 @@ import numpy as np
 import scipy.signal
 import scipy.stats
 
+from symbolic.data.filters import central_difference, lowpass
 from symbolic.data.filters import spectrum  # noqa: F401  (here since the search and the figures import it from here)
 from symbolic.workflow.dataset import DataSet
 from symbolic.workflow.statistics import ALPHA, autocorrelation_time, ljung_box
@@ -42,8 +43,6 @@ def quantisation_floor(data: DataSet, steps: Sequence[float], inertia: Callable[
     grows as f⁴ up to the decimation's edge, where the decimation filter cuts it: a hump just below the kept
     band's edge, which a spectrum's median does not anticipate. ``None`` where nothing is quantised or the log
     gives its own velocities (their errors are not the rounding's)."""
-    from symbolic.data.filters import central_difference, lowpass
-
     steps = np.asarray(steps, dtype=float)
     measurements, p = data.measurements, data.states.processing
     if not np.any(steps > 0) or measurements.qd is not None or measurements.qdd is not None:
