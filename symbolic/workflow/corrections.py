@@ -37,13 +37,13 @@ import sympy as sp
 
 from symbolic.derivation.dynamics import DynamicModel
 from symbolic.data import DataError
-from symbolic.data.treatment import Processing, Settings
 from symbolic.description.modelfile import loads, with_parameter_values
 from symbolic.description.robot import Directional, Robot, coordinate_symbol, velocity_symbol
 from symbolic.errors import ModelError, ModelWarning
 from symbolic.identify.known import beta_bounds, parameter_bounds, polynomial_lower_bound
 from symbolic.identify.least_squares import Identification, RankDeficient
 from symbolic.identify.model import geometric_parameters
+from symbolic.workflow.bandwidth import LOWERED, lowered_settings
 from symbolic.workflow.dataset import DataSet, treat
 from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN, pooled_autocorrelation_time
 from symbolic.workflow.terms import ModelTerms, fit_nominal, inseparable, relative_gap, wls
@@ -57,11 +57,9 @@ power, 1 − (gap/gap at the file's value)², the search's effect size. Without 
 behind a 14-bit encoder "corrected" ZZR2 by 10.04 % at 14σ (the quantisation left in q̈ biases the inertias
 beyond their σ, docs/workflow.md), while keeping the file's value cost 2.9 % of the held-out power; the rig's
 stiffness costs 99 %, EMPS's offset 16 % ..."""
-LOWERED = 0.5
-"""... and it holds when the data are treated again with the bandwidth, the cut-off and the decimation's
-pass band all multiplied by this factor (:func:`lowered_settings`, :meth:`Value.holds_with`) ..."""
 AGREEMENT = 0.25
-"""... the two estimates agreeing within SIGMAS·√(σ² + σ_low²) or within this fraction of the change."""
+"""... and it holds with the data treated at the lowered band (:data:`~symbolic.workflow.bandwidth.LOWERED`,
+:meth:`Value.holds_with`), the two estimates agreeing within SIGMAS·√(σ² + σ_low²) or within this fraction of the change."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -254,18 +252,6 @@ def corrections(fit: FinalFit, values: Sequence[Value], robot: Robot, min_gain: 
         else:
             named.append(entry)
     return named, moved
-
-
-def lowered_settings(p: Processing, factor: float = LOWERED) -> Settings:
-    """The treatment ``p`` with its band multiplied by ``factor`` (< 1): bandwidth and cut-off × factor,
-    decimation ÷ factor (its anti-alias pass band, 0.4·rate/decimation, scales alike), the border at
-    least the rule's five periods of the new cut-off; order, position filtering and held force kept."""
-    cutoff = None if p.cutoff is None else p.cutoff * factor
-    rule = math.ceil(5.0 * p.rate / cutoff) if cutoff is not None else 2
-    return Settings(bandwidth=p.bandwidth * factor, cutoff=cutoff, order=p.order,
-                    decimation=max(1, int(round(p.decimation / factor))),
-                    border=(max(p.border[0], rule), max(p.border[1], rule)),
-                    filter_positions=cutoff is not None, held_force=p.held_force)
 
 
 def lowered_values(fit: FinalFit, names: Sequence[str], notes: list[str]) -> list[Value] | None:

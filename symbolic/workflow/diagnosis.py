@@ -39,6 +39,7 @@ from symbolic.numeric.blas import on_one_blas_thread
 from symbolic.data.treatment import Settings, settings_for
 from symbolic.description.modelfile import loads
 from symbolic.description.robot import Robot
+from symbolic.workflow.bandwidth import LOWERED
 from symbolic.workflow.corrections import FinalFit, check_loads, physical_values, review
 from symbolic.workflow.dataset import DataSet, load_sets, with_held_force
 from symbolic.workflow.effects import EFFECTS, NOT_SUPPORTED, Effect
@@ -386,6 +387,11 @@ def _diagnose(model: DynamicModel, data: str | Path | Measurements, *, experimen
         c = gone.candidate
         notes.append(f"{c.label()} was accepted at round {gone.round} ({_roles_text(c.roles)}) and removed at the end: "
                      f"with {others} in the model it is not significant any more (p = {p_value:.3g})")
+    for gone, p_value in selection.unconfirmed:
+        c = gone.candidate
+        notes.append(f"{c.label()} was accepted at round {gone.round} ({_roles_text(c.roles)}) and removed at the end: "
+                     f"it does not hold with the data treated at {LOWERED:g}× the bandwidth (p = {p_value:.3g} there), "
+                     "an artefact of differentiating the logged positions (their rounding or noise in q̈)")
     notes += [c for c in caveats if c not in notes]  # a divergence of the patched model, found after the notes began
     diagnosis = Diagnosis(model, sets, held_out, before, where_before, selection, tuple(found), patched_text,
                           patched_path, after, where_after, bool(simulate), seconds, tuple(notes), (), tuple(findings),
