@@ -119,6 +119,9 @@ def test_a_coarse_encoder_makes_no_correction(tmp_path: Path) -> None:
         d = diagnose(cases.model_file(tmp_path, cases.arm()), data, figures=False)
     assert d.found == () and d.corrections == ()
     assert any("ZZR2" in note and "not named a correction" in note for note in d.notes), d.notes
+    # whatever the search accepted and then removed at half the bandwidth is listed with its p there
+    removed = d.to_dict()["removed_at_lowered_band"]
+    assert all(r["lowered_band_p_value"] >= 1e-3 for r in removed) and len(removed) == len(d.search.unconfirmed)
 
 
 @pytest.mark.slow

@@ -158,6 +158,10 @@ class Diagnosis:
                          "coordinate": a.candidate.coordinate, "round": a.round,
                          "parameters": dict(a.candidate.roles), "final_p_value": p, "explained_by": others}
                         for a, p, others in self.search.removed],
+            "removed_at_lowered_band": [{"effect": a.candidate.effect.identifier, **variant_of(a.candidate.effect),
+                                         "coordinate": a.candidate.coordinate, "round": a.round,
+                                         "parameters": dict(a.candidate.roles), "lowered_band_p_value": p}
+                                        for a, p in self.search.unconfirmed],
             "not_supported": dict(NOT_SUPPORTED),
             "data_findings": [dict(f) for f in self.data_findings],
             "corrections": _plain(list(self.corrections)),

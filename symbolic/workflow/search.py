@@ -24,10 +24,10 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
+from symbolic.data import DataError
 from symbolic.errors import ModelError
 from symbolic.identify.least_squares import Identification, RankDeficient
 from symbolic.workflow import forked
-from symbolic.data import DataError
 from symbolic.workflow.bandwidth import lowered_settings
 from symbolic.workflow.dataset import DataSet, position_steps, treat
 from symbolic.workflow.effects import EFFECTS, Context, Effect, Signals, excluded, groups
