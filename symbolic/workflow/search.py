@@ -288,14 +288,14 @@ class Search:
             self.removed += [(a, tests[worst], others) for a in gone]
 
     def confirm(self) -> bool:
-        """Remove, one at a time, the accepted unit least significant in the joint fit of all of them on the
-        estimation data treated at half the bandwidth (:mod:`symbolic.workflow.bandwidth`) while its p there is
-        not below ``alpha`` / (number of units), as :meth:`eliminate` does at the search's own band; a unit whose
-        columns keep less than :data:`KEPT_AT_LOWER_BAND` of their power per sample there (a resonance above
+        """Remove, one at a time, the accepted unit furthest from significance in the joint fit of all of them on
+        the estimation data treated at half the bandwidth (:mod:`symbolic.workflow.bandwidth`) while its p there is
+        not below the threshold of the round that accepted it (the same test, repeated at the lowered band); a unit
+        whose columns keep less than :data:`KEPT_AT_LOWER_BAND` of their power per sample there (a resonance above
         the lowered band) is not asked. Why: the 2-link arm with nothing missing behind a 12-bit encoder named a
         gravity term on q2 that removed 19.5 % of the held-out residual at p = 3.9e-7 (threshold 4.5e-7), fitted
         to the rounding's errors in q̈ and in the loop's force, which the held-out blocks share; at half the band
-        p = 0.0025 (alpha 1e-3). Returns whether anything was removed (:attr:`unconfirmed`)."""
+        p = 0.0025. Returns whether anything was removed (:attr:`unconfirmed`)."""
         if not self.accepted:
             return False
         data = self.sets["estimation"]
@@ -318,8 +318,9 @@ class Search:
             if not units:
                 break
             tests = [partial.p_value(unit) for unit in units]
-            worst = int(np.argmax(tests))
-            if tests[worst] < self.settings.alpha / len(lowered.units()):
+            thresholds = [min(lowered.accepted[k].threshold for k in unit) for unit in units]
+            worst = int(np.argmax([p / t for p, t in zip(tests, thresholds)]))
+            if tests[worst] < thresholds[worst]:
                 break
             gone = set(units[worst])
             self.unconfirmed += [(self.accepted[k], tests[worst]) for k in sorted(gone)]
