@@ -18,7 +18,7 @@ from symbolic.derivation.dynamics import DynamicModel
 from symbolic.workflow.dataset import DataSet
 from symbolic.workflow.effects import NOT_SUPPORTED
 from symbolic.workflow.effects.base import labelled
-from symbolic.workflow.records import variant_of
+from symbolic.workflow.records import Accepted, variant_of
 from symbolic.workflow.search import Search
 from symbolic.workflow.terms import NominalFit
 
@@ -154,14 +154,9 @@ class Diagnosis:
             "rejected_groups": [] if last is None else [g.summary(self.search.context.coordinates) for g in last.groups],
             "not_identifiable": [] if last is None else [c.summary(self.search.context.coordinates) for c in last.candidates
                                                          if c.status == "not identifiable"],
-            "removed": [{"effect": a.candidate.effect.identifier, **variant_of(a.candidate.effect),
-                         "coordinate": a.candidate.coordinate, "round": a.round,
-                         "parameters": dict(a.candidate.roles), "final_p_value": p, "explained_by": others}
+            "removed": [{**_removed(a), "final_p_value": p, "explained_by": others}
                         for a, p, others in self.search.removed],
-            "removed_at_lowered_band": [{"effect": a.candidate.effect.identifier, **variant_of(a.candidate.effect),
-                                         "coordinate": a.candidate.coordinate, "round": a.round,
-                                         "parameters": dict(a.candidate.roles), "lowered_band_p_value": p}
-                                        for a, p in self.search.unconfirmed],
+            "removed_at_lowered_band": [{**_removed(a), "lowered_band_p_value": p} for a, p in self.search.unconfirmed],
             "not_supported": dict(NOT_SUPPORTED),
             "data_findings": [dict(f) for f in self.data_findings],
             "corrections": _plain(list(self.corrections)),
@@ -173,6 +168,13 @@ class Diagnosis:
             "notes": list(self.notes),
             "figures": [str(p) for p in self.figures],
         }
+
+
+def _removed(a: Accepted) -> dict[str, Any]:
+    """An accepted effect the search removed at the end, as the JSON lists it (with the test that removed it)."""
+    c = a.candidate
+    return {"effect": c.effect.identifier, **variant_of(c.effect), "coordinate": c.coordinate, "round": a.round,
+            "parameters": dict(c.roles)}
 
 
 def _plain(value: Any) -> Any:

@@ -305,16 +305,17 @@ class Search:
                              elastic=self.context.elastic)
         except (DataError, ValueError):  # too few samples for the longer border: nothing to ask
             return False
-        lowered.accepted = [dataclasses.replace(a, columns={"estimation": lowered.columns_of(a)}) for a in self.accepted]
-        asked = [k for k, (a, b) in enumerate(zip(self.accepted, lowered.accepted))
-                 if _power(b.columns["estimation"]) >= KEPT_AT_LOWER_BAND * _power(a.columns["estimation"])]
+        lowered.accepted = [dataclasses.replace(a, columns={"estimation": lowered.columns(
+            a.effect, a.candidate.j, a.candidate.value, "estimation")[:, :, list(a.candidate.kept)]}) for a in self.accepted]
+        asked = [_power(b.columns["estimation"]) >= KEPT_AT_LOWER_BAND * _power(a.columns["estimation"])
+                 for a, b in zip(self.accepted, lowered.accepted)]
         removed = False
         while lowered.accepted:
             try:
                 partial = _Partial(lowered, CurrentModel(self.terms, {"estimation": low}, lowered.accepted))
             except RankDeficient:  # what the full band separates may not be separable there: nothing to ask
                 break
-            units = [u for u in lowered.units() if all(k in asked for k in u)]
+            units = [u for u in lowered.units() if all(asked[k] for k in u)]
             if not units:
                 break
             tests = [partial.p_value(unit) for unit in units]
@@ -324,19 +325,10 @@ class Search:
                 break
             gone = set(units[worst])
             self.unconfirmed += [(self.accepted[k], tests[worst]) for k in sorted(gone)]
-            self.accepted = [a for k, a in enumerate(self.accepted) if k not in gone]
-            lowered.accepted = [a for k, a in enumerate(lowered.accepted) if k not in gone]
-            asked = [k - sum(g < k for g in gone) for k in asked if k not in gone]
+            self.accepted, lowered.accepted, asked = ([x for k, x in enumerate(xs) if k not in gone]
+                                                      for xs in (self.accepted, lowered.accepted, asked))
             self._final, removed = None, True
         return removed
-
-    def columns_of(self, accepted: Accepted) -> np.ndarray:
-        """The accepted effect's kept columns on this search's estimation data (``samples × N × k``)."""
-        c = accepted.candidate
-        rows, part = self.reduced(c.effect, c.j, [c.value], "estimation")[0]
-        out = np.zeros((part.shape[0], len(self.context.coordinates), part.shape[2]))
-        out[:, rows, :] = part
-        return out[:, :, list(c.kept)]
 
     def block(self, k: int) -> list[int]:
         """Columns of accepted effect ``k`` in the design."""
@@ -407,6 +399,10 @@ class Search:
                     store[key] = (rows, part)
         return [store[k] for k in keys]
 
+    def columns(self, effect: Effect, j: int, value: Any, role: str) -> np.ndarray:
+        """The effect's full columns at ``value`` on a data set (``samples × N × k``; :meth:`reduced`'s, expanded)."""
+        return _expanded(*self.reduced(effect, j, [value], role)[0], len(self.context.coordinates))
+
     def _reduced_on_row(self, effect: Effect, j: int, values: Sequence[Any], role: str) -> list[tuple[np.ndarray, np.ndarray]]:
         """:meth:`reduced` of an :attr:`~symbolic.workflow.effects.base.Effect.own_row` effect: its columns on row
         ``j`` alone. Gathered column by column (``columns × samples``: copying each contiguous column into a
@@ -416,6 +412,13 @@ class Search:
         reduced = self.sets[role].reduce(np.concatenate(raw, axis=0).T)
         widths = np.cumsum([r.shape[0] for r in raw])[:-1]
         return [(np.array([j]), part[:, None, :]) for part in np.split(reduced, widths, axis=1)]
+
+
+def _expanded(rows: np.ndarray, part: np.ndarray, n: int) -> np.ndarray:
+    """Columns kept on ``rows`` only (``samples × len(rows) × k``) as the full ``samples × n × k``."""
+    out = np.zeros((part.shape[0], n, part.shape[2]))
+    out[:, rows, :] = part
+    return out
 
 
 def _power(columns: np.ndarray) -> float:
@@ -807,16 +810,14 @@ class _RoundState:
     def columns(self, effect: Effect, j: int, value: Any, role: str) -> np.ndarray:
         """Full columns (``samples × N × k``), kept for the whole search: a refinement that starts from the
         same grid value in a later round mostly visits the same values again."""
-        return self.expand(*self.search.reduced(effect, j, [value], role)[0])
+        return self.search.columns(effect, j, value, role)
 
     def batch(self, effect: Effect, j: int, values: Sequence[Any], role: str) -> list[tuple[np.ndarray, np.ndarray]]:
         """Columns of a grid of values as (rows, columns on those rows), kept for the whole search."""
         return self.search.reduced(effect, j, values, role)
 
     def expand(self, rows: np.ndarray, part: np.ndarray) -> np.ndarray:
-        out = np.zeros((part.shape[0], self.n, part.shape[2]))
-        out[:, rows, :] = part
-        return out
+        return _expanded(rows, part, self.n)
 
     def cross_validated(self, extra: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
         """Residual power of the held-out blocks per coordinate, each block predicted by the fit on the others
