@@ -66,7 +66,7 @@ def run(kind: str, restart: float | None = None, model_text: str | None = None,
         seconds = time.perf_counter() - started
     response = result.response
     named = [] if response is None else [(j.candidate.label(), j.roles) for j in response.named]
-    named += [(f["effect"], f["coordinate"]) for f in result.to_dict()["found"]]
+    named += [(f"{f.label()}({f.coordinate})", dict(f.parameters)) for f in result.found]
     return named, seconds
 
 
@@ -84,6 +84,8 @@ def main() -> None:
                         "(bench/results/response_replay.md)")
     parser.add_argument("--panda-replay", action="store_true", help="the Panda log replayed in windows "
                         "(bench/results/response_panda_replay.md)")
+    parser.add_argument("--variety", action="store_true", help="effects beyond the tests' cases: other joints, "
+                        "magnitudes, seeds and encoders (bench/results/response_variety.md)")
     parser.add_argument("--no-search", action="store_true", help="with --panda-replay: the replay's errors only")
     args = parser.parse_args()
     if args.six_axis:
@@ -94,6 +96,9 @@ def main() -> None:
         return
     if args.replay:
         replay(HERE / "results" / "response_replay.md")
+        return
+    if args.variety:
+        variety(HERE / "results" / "response_variety.md")
         return
     if args.panda_replay:
         panda_replay(HERE / "results" / "response_panda_replay.md", search=not args.no_search)
@@ -173,6 +178,56 @@ def rig_case() -> list[str]:
             f"{result.modes['summary']}.", "", "| value | truth | written | error |", "|---|---|---|---|", *rows]
 
 
+
+
+VARIETY = [
+    ("arm, joint 1's drive gain 0.8", "arm", "drive_gain(q1)", ("gain", 0.8),
+     dict(drive=((0.8, 0.0), (1.0, 0.0)), force_noise=0.05, seed=4)),
+    ("arm, joint 2's drive gain 1.15", "arm", "drive_gain(q2)", ("gain", 1.15),
+     dict(drive=((1.0, 0.0), (1.15, 0.0)), force_noise=0.05, seed=5)),
+    ("arm, joint 1's drive gain 1.2, 2^14 encoders", "arm", "drive_gain(q1)", ("gain", 1.2),
+     dict(drive=((1.2, 0.0), (1.0, 0.0)), force_noise=0.03, seed=6, counts=2**14)),
+    ("arm, joint 1's force logged 2 samples late", "arm", "delay(q1)", ("delay", 2.0),
+     dict(log_delay=(2, 0), force_noise=0.05, seed=7)),
+    ("arm, joint 2's force logged 4 samples late", "arm", "delay(q2)", ("delay", 4.0),
+     dict(log_delay=(0, 4), force_noise=0.03, seed=8)),
+    ("arm, joint 1's drive 1 sample late", "arm", "drive_delay(q1)", ("delay", 1.0),
+     dict(drive_delay=(1, 0), force_noise=0.05, seed=9)),
+    ("arm, joint 1's drive 2 samples late", "arm", "drive_delay(q1)", ("delay", 2.0),
+     dict(drive_delay=(2, 0), force_noise=0.05, seed=10)),
+    ("arm, joint 1's position read 0.03 rad high", "arm", "sensor_bias(q1)", ("bias", 0.03),
+     dict(position_bias=(0.03, 0.0), force_noise=0.05, seed=11)),
+    ("axis, drive gain 0.85", "axis", "drive_gain(q)", ("gain", 0.85), dict(drive=(0.85, 0.0), force_noise=0.02, seed=12)),
+    ("axis, force logged 2 samples late", "axis", "delay(q)", ("delay", 2.0), dict(log_delay=2, force_noise=0.02, seed=13)),
+    ("axis, force logged 5 samples late, 2^20 encoder", "axis", "delay(q)", ("delay", 5.0),
+     dict(log_delay=5, force_noise=0.01, seed=14, counts=2**20)),
+    ("axis, drive 1 sample late", "axis", "drive_delay(q)", ("delay", 1.0), dict(drive_delay=1, force_noise=0.02, seed=15)),
+    ("axis, drive 3 samples late", "axis", "drive_delay(q)", ("delay", 3.0), dict(drive_delay=3, force_noise=0.03, seed=16)),
+    ("axis, drive bias 0.05 N·m (a constant force the log does not hold)", "axis", "offset(q)", ("offset", -0.05),
+     dict(drive=(1.0, 0.05), force_noise=0.02, seed=17)),
+]
+"""Cases beyond the tests' (other joints, magnitudes, seeds and encoders): (title, log, the label and the value
+expected, ``run``'s options). A delay counts as named within one sample, any other value within 10 %."""
+
+
+def variety(out: Path) -> None:
+    """:data:`VARIETY`: each case diagnosed on the simulated path; what is named against what was made."""
+    lines = ["# The response's effects beyond the tests' cases", "",
+             "`python bench/response.py --variety` (issue 34); truth from tests/reference_integrator.py, the search "
+             "given the model without the effect. Named right: the expected label alone, its value within 10 % "
+             "(a delay within one sample).", "", "| case | expected | named | right | seconds |", "|---|---|---|---|---|"]
+    right = 0
+    for title, kind, label, (key, value), options in VARIETY:
+        named, seconds = run(kind, **options)
+        values = [roles.get(key) for got, roles in named if got == label and isinstance(roles, dict)]
+        close = len(named) == 1 and len(values) == 1 and values[0] is not None and (
+            abs(values[0] - value) <= 1.0 if "delay" in label else abs(values[0] / value - 1.0) <= 0.10)
+        right += close
+        lines.append(f"| {title} | {label} {key} {value:g} | {_shown(named)} | {'yes' if close else '**no**'} | {seconds:.0f} |")
+        print(title, named, f"{seconds:.0f} s", file=sys.stderr)
+    lines += ["", f"Named right: {right} of {len(VARIETY)}.", ""]
+    out.write_text("\n".join(lines), encoding="utf-8")
+    print(out.read_text(encoding="utf-8"))
 
 
 def six_axis_run(local: bool, seed: int, **options) -> tuple[list[tuple[str, dict]], float, bool]:

@@ -424,7 +424,7 @@ def _refit(model: DynamicModel, estimation: Measurements, held_out: tuple[Measur
         held = simulation_errors(model, held_out[0], fit, signals=signals, start=held_out[1])
     except (DataError, IdentificationError, SimulationError, np.linalg.LinAlgError):
         return None, None
-    gain = _gain(base["validation"], held, None)
+    gain = simulation_gain(base["validation"], held, None)
     moved = [{"parameter": n, "idim_ls": p.start, "output_error": p.value, "sigma": p.sigma}
              for n, p in fit.parameters.items()
              if abs(p.value - p.start) > max(3 * p.sigma, 0.1 * abs(p.start))]
@@ -480,7 +480,7 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, scoped: tuple[Mapp
             continue
         # compared by the estimation errors (% of each signal), not the costs: each fit weighs its columns by its
         # own start's residual, so costs of different trials are on different scales
-        score = _gain(current["estimation"], fit.errors, candidate.coordinate or None)
+        score = simulation_gain(current["estimation"], fit.errors, candidate.coordinate or None)
         if best is None or score > best[0]:
             best, since = (score, fit, held, trial), 0
     if best is None:
@@ -494,8 +494,8 @@ def _judge(model: DynamicModel, candidate: ResponseCandidate, scoped: tuple[Mapp
     values = {k: v for k, v in _all_values_of(fit).items() if k in candidate.frees}
     if scanned:  # held fixed in the fit: its value is the trial's, without a σ (module docstring of on_response)
         values = {k: FittedParameter(_name(k), float(v), 0.0, 0.0, 0.0, None) for k, v in trial.items()}
-    gain = _gain(current["validation"], after_held, candidate.coordinate or None)
-    stacked = _gain(current["validation"], after_held, None)
+    gain = simulation_gain(current["validation"], after_held, candidate.coordinate or None)
+    stacked = simulation_gain(current["validation"], after_held, None)
     # the Jacobian's σ assume a white residual; a simulation error is coloured (a slow drift spans many samples):
     # σ × √τ_int, as the equation-error search corrects its own (statistics.autocorrelation_time)
     colour = math.sqrt(pooled_autocorrelation_time(fit.residual)) if fit.residual is not None else 1.0
@@ -583,7 +583,7 @@ def _removed(before: Errors, after: Errors, coordinate: str | None) -> float:
     return math.sqrt(max(float(np.mean(drops)), 0.0)) if drops else 0.0
 
 
-def _gain(before: Errors, after: Errors, coordinate: str | None) -> float:
+def simulation_gain(before: Errors, after: Errors, coordinate: str | None) -> float:
     """1 − the mean of (e_after/e_before)² over the signals of ``coordinate`` (all coordinates: ``None``)."""
     ratios = [(a / b) ** 2 for b, a in _pairs(before, after, coordinate) if b > 0]
     return 1.0 - float(np.mean(ratios)) if ratios else -math.inf

@@ -31,7 +31,7 @@ from symbolic.errors import IdentificationError, ModelError, SimulationError
 from symbolic.identify.output_error import OutputErrorFit, output_error, simulation_errors
 from symbolic.workflow.effects.on_response import fixed_key
 from symbolic.workflow.response import (MAX_ITERATIONS, TOLERANCE, Errors, ResponseSearch, _all_values_of, _at,
-                                        _gain, _layered, _removed)
+                                        simulation_gain, _layered, _removed)
 from symbolic.workflow.statistics import MIN_FORCE_SHARE, MIN_HELD_OUT_GAIN
 
 log = logging.getLogger("symbolic")
@@ -91,7 +91,7 @@ def review(text: str, source: str, findings: Sequence[Finding], response: Respon
                 notes.append(f"{finding.label} was not judged again on the response ({tried}); it is kept")
                 continue
             fit, held = tried
-            gain = _gain(held, current, finding.coordinate)
+            gain = simulation_gain(held, current, finding.coordinate)
             size = _removed(held, current, finding.coordinate)
             log.info("stand-ins: %s removes %.3g %% of the held-out simulation error's power (%.2g %% of the spread)",
                      finding.label, 100 * gain, size)
