@@ -328,7 +328,7 @@ def test_beyond_max_refit_the_search_is_local_and_beyond_max_local_not_run(tmp_p
 def test_own_rows_are_the_values_acting_on_one_coordinates_force_alone() -> None:
     """On the 2-link arm: the friction values act on their own joint's row, link 1's inertial values on joint 1's
     alone; link 2's on both (joint 1 carries link 2) and a length is in Y itself: neither is own-row."""
-    from symbolic.workflow.response import own_rows
+    from symbolic.workflow.terms import own_rows
 
     model = symbolic.derive(symbolic.loads(models.arm(), "<arm>"))
     own = own_rows(model, [p.name for p in model.robot.parameters])

@@ -267,3 +267,22 @@ def test_modes_of_unphysical_patched_values_are_a_note_not_a_crash() -> None:
     assert modes(model, model, {**RIG, "Jl": -0.05}, data, None, 1e-3, notes) is None  # M = [[Jh+Jl, Jl], [Jl, Jl]]
     assert notes == ["modes not computed: D(Q) is not positive definite at the data's mean position with the "
                      "patched values"]
+
+
+def test_one_factor_on_an_axis_s_own_values_is_said_to_be_a_drive_gain(tmp_path: Path) -> None:
+    """The axis of tests/reference_integrator.py whose drive applies 0.85 × its logged command (truth made apart
+    from the product): IDIM-LS fits J, Fv and Fc as θ/0.85, three corrections by one factor, which a note reads as
+    the drive gain (symbolic.workflow.corrections.common_factor_notes); the file with only J wrong (0.06 for the
+    truth's 0.05) gets its one correction and no such note."""
+    from reference_integrator import write_axis_experiment
+
+    experiment = write_axis_experiment(tmp_path / "gain", seconds=4.0, drive=(0.85, 0.0), force_noise=0.02, seed=12)
+    d = diagnose(cases.model_file(tmp_path / "gain", cases.axis()), experiment, figures=False)
+    assert sorted(c["parameter"] for c in d.corrections) == ["Fc", "Fv", "J"]
+    (note,) = [n for n in d.notes if "move by one factor" in n]
+    gain = float(note.split("gain = ")[1].split(" }")[0])
+    assert gain == pytest.approx(0.85, rel=0.02) and note.startswith("J, Fv, Fc") and "on q" in note
+    experiment = write_axis_experiment(tmp_path / "J", seconds=4.0, force_noise=0.02, seed=12)
+    d = diagnose(cases.model_file(tmp_path / "J", cases.axis(J=0.06)), experiment, figures=False)
+    assert [c["parameter"] for c in d.corrections] == ["J"]
+    assert not [n for n in d.notes if "move by one factor" in n]

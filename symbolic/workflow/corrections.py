@@ -46,7 +46,7 @@ from symbolic.identify.model import geometric_parameters
 from symbolic.workflow.bandwidth import LOWERED, lowered_settings
 from symbolic.workflow.dataset import DataSet, treat
 from symbolic.workflow.statistics import MIN_HELD_OUT_GAIN, pooled_autocorrelation_time
-from symbolic.workflow.terms import ModelTerms, fit_nominal, inseparable, relative_gap, wls
+from symbolic.workflow.terms import ModelTerms, fit_nominal, inseparable, own_rows, relative_gap, wls
 
 SIGMAS = 3.0
 """A value is a correction when it moves by more than this many standard deviations ..."""
@@ -384,6 +384,7 @@ def review(model: DynamicModel, patched: DynamicModel, patched_values: Mapping[s
         found = [c for c in found if not on_elastic_row(c["parameter"])]
         moved = [m for m in moved if not on_elastic_row(m["parameter"])]
     notes += [moved_note(m, min_gain) for m in moved]
+    notes += common_factor_notes(model, found)
     sigma = {v.parameter: v.sigma for v in values if v.expression is None}
     flagged = {c["parameter"] for c in found}
     why = {k["parameter"]: k["reason"] for k in kept}
@@ -413,6 +414,39 @@ def review(model: DynamicModel, patched: DynamicModel, patched_values: Mapping[s
             dynamic[0]["summary"] += f": {found_modes['summary']}"
             dynamic[0]["evidence"]["modes"] = found_modes["summary"]
     return found, changes, found_modes
+
+
+COMMON_FACTOR = 0.05
+"""Corrections of one coordinate's own values whose ratios to the file's differ by less than this (relative) share
+one factor: the signature of a drive gain (:func:`common_factor_notes`)."""
+
+
+def common_factor_notes(model: DynamicModel, found: Sequence[Mapping[str, Any]]) -> list[str]:
+    """A note per coordinate where two or more corrections of values acting on its force alone (friction, rotor
+    or first-link inertia: :func:`symbolic.workflow.terms.own_rows`) move them by one factor: a drive applying
+    g × its logged command makes IDIM-LS fit each such value as θ/g, so one gain explains them all at once. On an
+    axis whose every value is its own the data cannot tell the two apart (the search judged on the response then
+    leaves the gain's σ unbounded); where a link couples the joints, that search names the gain. Measured: the
+    axis of tests/reference_integrator.py whose drive applies 0.85 × its command: J, Fv and Fc each 1.18× the
+    file's (1.177, 1.179, 1.171)."""
+    ratios = {c["parameter"]: c["value"] / c["nominal"] for c in found if c.get("nominal") and c.get("value")}
+    if len(ratios) < 2:
+        return []
+    by_coordinate: dict[str, list[str]] = {}
+    for name, coordinate in own_rows(model, list(ratios)).items():
+        by_coordinate.setdefault(coordinate, []).append(name)
+    notes = []
+    for coordinate, names in by_coordinate.items():
+        values = [ratios[n] for n in names]
+        if len(names) < 2 or min(values) <= 0 or max(values) / min(values) - 1 > COMMON_FACTOR:
+            continue
+        factor = float(np.median(values))
+        notes.append(f"{', '.join(names)} — every corrected value acting on {coordinate}'s force alone — move by one "
+                     f"factor, {factor:.3g}× the file's ({', '.join(f'{r:.4g}' for r in values)}): a drive applying "
+                     f"{1 / factor:.3g} × its logged command on {coordinate} (`[drive] tau_{coordinate} = {{ gain = "
+                     f"{1 / factor:.4g} }}` in the experiment) would explain them all at once; where these are the "
+                     "coordinate's only values the data cannot tell the two apart")
+    return notes
 
 
 # -- a patched model file always loads -------------------------------------------------------------------

@@ -46,6 +46,7 @@ from symbolic.workflow import forked
 from symbolic.workflow.effects.on_response import (PARAMETER, RESPONSE_EFFECTS, Key, ResponseCandidate, fixed_key,
                                                    ResponseEffect)
 from symbolic.workflow.statistics import MIN_FORCE_SHARE, MIN_HELD_OUT_GAIN, MIN_SIGMAS, pooled_autocorrelation_time
+from symbolic.workflow.terms import own_rows
 
 log = logging.getLogger("symbolic")
 
@@ -309,27 +310,6 @@ class Scope:
             return dict(accepted), {}
         free = {k: v for k, v in accepted.items() if homes.get(k, "") == coordinate}
         return free, {k: v for k, v in accepted.items() if k not in free}
-
-
-def own_rows(model: DynamicModel, names: Sequence[str]) -> dict[str, str]:
-    """``{name: coordinate}`` for those of ``names`` whose every standard parameter θ acts on one row of τ = Y·θ
-    alone (Y's column structurally zero elsewhere) and that Y does not depend on: a joint's friction, its rotor
-    inertia, a spring of its own, the first link's inertial values — not a later link's, which the joints before
-    it feel too, nor a length."""
-    import sympy as sp
-
-    from symbolic.identify.model import geometric_parameters
-
-    reg = model.regressor()
-    coordinates = list(model.robot.generalized_coordinates)
-    geometric = {s.name for s in geometric_parameters(model, reg)}
-    names = [n for n in names if n not in geometric]
-    rows: dict[str, set[int]] = {}
-    for k, expression in enumerate(reg.theta_expressions):
-        acting = {i for i in range(reg.Y.rows) if reg.Y[i, k] != 0}
-        for symbol in sp.sympify(expression).free_symbols:
-            rows.setdefault(symbol.name, set()).update(acting)
-    return {n: coordinates[next(iter(rows[n]))] for n in names if len(rows.get(n, ())) == 1}
 
 
 def _own_corrections(model: DynamicModel, corrected: Mapping[str, float]) -> dict[str, dict[str, tuple[float, float]]]:

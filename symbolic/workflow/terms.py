@@ -288,3 +288,24 @@ def solve_normal(gram: np.ndarray, right: np.ndarray) -> np.ndarray:
         except np.linalg.LinAlgError:  # the SVD did not converge: nothing to take from this system
             return np.zeros(len(right))
     return x / scale
+
+
+def own_rows(model: DynamicModel, names: Sequence[str]) -> dict[str, str]:
+    """``{name: coordinate}`` for those of ``names`` whose every standard parameter θ acts on one row of τ = Y·θ
+    alone (Y's column structurally zero elsewhere) and that Y does not depend on: a joint's friction, its rotor
+    inertia, a spring of its own, the first link's inertial values — not a later link's, which the joints before
+    it feel too, nor a length."""
+    import sympy as sp
+
+    from symbolic.identify.model import geometric_parameters
+
+    reg = model.regressor()
+    coordinates = list(model.robot.generalized_coordinates)
+    geometric = {s.name for s in geometric_parameters(model, reg)}
+    names = [n for n in names if n not in geometric]
+    rows: dict[str, set[int]] = {}
+    for k, expression in enumerate(reg.theta_expressions):
+        acting = {i for i in range(reg.Y.rows) if reg.Y[i, k] != 0}
+        for symbol in sp.sympify(expression).free_symbols:
+            rows.setdefault(symbol.name, set()).update(acting)
+    return {n: coordinates[next(iter(rows[n]))] for n in names if len(rows.get(n, ())) == 1}
