@@ -41,6 +41,7 @@ bench:
 	$(PYTHON) bench/consistent.py --out bench/results/consistent.md
 	$(PYTHON) bench/output_error.py --out bench/results/output_error.md
 	$(PYTHON) bench/response.py --out bench/results/response.md
+	$(PYTHON) bench/response.py --variety
 	$(PYTHON) bench/joint_elasticity.py --out bench/results/joint_elasticity.md
 	$(PYTHON) bench/unmeasured.py --out bench/results/unmeasured.md
 	$(PYTHON) bench/fleet.py --out bench/results/fleet.md

@@ -19,6 +19,9 @@ Results to bench/results/response.md (``python bench/response.py``; ``--quick`` 
 its own PD loop), whole and local (MAX_REFIT forced below what the data determine): null cases over seeds and
 encoders, one joint's drive gain, one joint's force logged late. Results to bench/results/response_six_axis.md.
 
+``--variety``: the response's effects beyond the tests' cases — other joints, magnitudes, seeds and encoders, a
+drive bias — each diagnosed once, what is named against what was made (bench/results/response_variety.md).
+
 ``--replay``: the axis and the arm whose experiments declare no loop but the replay in windows: null cases over
 seeds, encoders and windows, a drive gain, a force logged late, a position sensor's bias. Results to
 bench/results/response_replay.md. ``--panda-replay``: the Franka Panda log so (bench/results/response_panda_replay.md).
@@ -225,7 +228,10 @@ def variety(out: Path) -> None:
         right += close
         lines.append(f"| {title} | {label} {key} {value:g} | {_shown(named)} | {'yes' if close else '**no**'} | {seconds:.0f} |")
         print(title, named, f"{seconds:.0f} s", file=sys.stderr)
-    lines += ["", f"Named right: {right} of {len(VARIETY)}.", ""]
+    lines += ["", f"Named right: {right} of {len(VARIETY)}.", "",
+              "An axis's drive gain is not identifiable where its every value (J, Fv, Fc) is free: IDIM-LS fits each as "
+              "θ/g, the diagnosis corrects all three by one factor and a note gives the gain it implies "
+              "(`corrections.common_factor_notes`; tests/test_workflow_corrections.py), but nothing is named.", ""]
     out.write_text("\n".join(lines), encoding="utf-8")
     print(out.read_text(encoding="utf-8"))
 

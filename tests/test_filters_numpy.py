@@ -227,15 +227,17 @@ def test_decimate_scales_a_constant_by_the_ripple_floor(factor: int, value: floa
 
 
 @settings(deadline=None, max_examples=40)
-@given(order=st.integers(1, 16), cutoff=st.floats(1e-2, 0.95), a=st.floats(-1e3, 1e3), b=st.floats(-1e3, 1e3),
-       seed=st.integers(0, 1000))
+@given(order=st.integers(1, 16), cutoff=st.floats(1e-2, 0.95), a=st.floats(-1e3, 1e3, allow_subnormal=False),
+       b=st.floats(-1e3, 1e3, allow_subnormal=False), seed=st.integers(0, 1000))
 def test_lowpass_is_linear(order: int, cutoff: float, a: float, b: float, seed: int) -> None:
     x, y = _walk(300, 1, seed)[:, 0], _walk(300, 1, seed + 1)[:, 0] + 10.0
     both = filters.lowpass(a * x + b * y, cutoff * 500.0, 1000.0, order)
     apart = (a * filters.lowpass(x, cutoff * 500.0, 1000.0, order)
              + b * filters.lowpass(y, cutoff * 500.0, 1000.0, order))
     scale = abs(a) * np.abs(x).max() + abs(b) * np.abs(y).max()
-    assert np.abs(both - apart).max() <= 1e-12 * scale
+    # relative to the signals' size, above the range where doubles lose relative precision (a = 2.2e-311 differed
+    # by 9.5e-322: subnormal numbers hold a few digits)
+    assert np.abs(both - apart).max() <= max(1e-12 * scale, 1e-290)
 
 
 def test_too_short_a_signal_is_refused() -> None:
