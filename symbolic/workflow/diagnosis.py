@@ -205,6 +205,7 @@ def _second_masses_or_response(diagnosis: Diagnosis, model: DynamicModel, data: 
              "response", model.name, named)
     other = _diagnose(model, data, settings=settings, **{**given, "effects": [e for e in catalogue if not isinstance(e, FlexibleMode)]})
     seconds = {"without second masses": sum(other.seconds.values())}
+    cpu_seconds = {"without second masses": sum(other.cpu_seconds.values())}
     what = ", ".join(j.candidate.label() for j in other.response.named) if other.response is not None else ""
     compared = (f"without {named} (a second mass the data do not measure, which keeps the search judged on the response "
                 f"from running) the search judged on the response names {what or 'nothing'}")
@@ -223,7 +224,8 @@ def _second_masses_or_response(diagnosis: Diagnosis, model: DynamicModel, data: 
                          f"{named} (at least {100 * (search or SearchSettings()).min_gain:.3g} % needed)")
     if removed < (search or SearchSettings()).min_gain:
         return dataclasses.replace(diagnosis, notes=(*diagnosis.notes, compared + f": {named} kept"),
-                                   seconds={**diagnosis.seconds, **seconds})
+                                   seconds={**diagnosis.seconds, **seconds},
+                                   cpu_seconds={**diagnosis.cpu_seconds, **cpu_seconds})
     return dataclasses.replace(other, notes=(*other.notes, compared + ": the equation error cannot tell a lag from a "
                                              f"damped second mass, so {named} is not named"),
                                data_findings=diagnosis.data_findings or other.data_findings,

@@ -31,7 +31,7 @@ from symbolic.errors import IdentificationError, ModelError, SimulationError
 from symbolic.identify.output_error import OutputErrorFit, output_error, simulation_errors
 from symbolic.workflow.effects.on_response import fixed_key
 from symbolic.workflow.response import (MAX_ITERATIONS, TOLERANCE, Errors, ResponseSearch, _all_values_of, _at,
-                                        simulation_gain, _layered, _removed)
+                                        _layered, _removed, simulation_gain)
 from symbolic.workflow.statistics import MIN_FORCE_SHARE, MIN_HELD_OUT_GAIN
 
 log = logging.getLogger("symbolic")
