@@ -209,7 +209,7 @@ def _second_masses_or_response(diagnosis: Diagnosis, model: DynamicModel, data: 
     what = ", ".join(j.candidate.label() for j in other.response.named) if other.response is not None else ""
     compared = (f"without {named} (a second mass the data do not measure, which keeps the search judged on the response "
                 f"from running) the search judged on the response names {what or 'nothing'}")
-    removed = -np.inf
+    removed, min_gain = -np.inf, (search or SearchSettings()).min_gain
     if what:
         record, start = _held_record(diagnosis.sets)
         first = diagnosis.after.model if diagnosis.patched_text is None else \
@@ -221,8 +221,8 @@ def _second_masses_or_response(diagnosis: Diagnosis, model: DynamicModel, data: 
         else:
             removed = simulation_gain(errors, other.response.after["validation"], None)
             compared += (f", which removes {100 * removed:.3g} % of the held-out simulation error's power left with "
-                         f"{named} (at least {100 * (search or SearchSettings()).min_gain:.3g} % needed)")
-    if removed < (search or SearchSettings()).min_gain:
+                         f"{named} (at least {100 * min_gain:.3g} % needed)")
+    if removed < min_gain:
         return dataclasses.replace(diagnosis, notes=(*diagnosis.notes, compared + f": {named} kept"),
                                    seconds={**diagnosis.seconds, **seconds},
                                    cpu_seconds={**diagnosis.cpu_seconds, **cpu_seconds})
